@@ -1,0 +1,27 @@
+//! # agvsim
+//!
+//! Simulates a wire-guided differential-drive AGV (the UOC AGV Mk II of a 1996 thesis)
+//! with real physics, so that wheel slip and backlash-induced loss of traction emerge.
+//!
+//! The crate reads like the thesis's block diagram:
+//!
+//! - [`scene`]: the TOML scene schema, presets (tyre compounds, floors), validation.
+//! - [`model`]: the physical blocks, free of rapier and I/O: battery, DCMC, motor,
+//!   gearbox (backlash), drivetrain, tyre, chassis (loads, no-slip chassis).
+//! - [`sensing`]: guide wire (parry2d), pick-up coils and ADC, bumper.
+//! - [`firmware`]: the 80C552's fixed-point P-D law, sample and hold, PWM, Open Day.
+//! - [`world`]: floor surfaces and the rapier engine (chassis and castor bodies).
+//! - [`sim`]: `Sim::step` in a fixed order, fidelity levels, snapshots, metrics.
+//! - [`record`]: the exchange format for recordings.
+//! - [`viz`]: the Rerun recorder (an observer of snapshots).
+//! - [`run`]: running a scene with its observers, as the CLI does.
+
+pub mod firmware;
+pub mod model;
+pub mod record;
+pub mod run;
+pub mod scene;
+pub mod sensing;
+pub mod sim;
+pub mod viz;
+pub mod world;

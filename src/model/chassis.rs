@@ -1,0 +1,213 @@
+//! The chassis as a rigid body: mass properties with payload, static normal loads on the
+//! wheels and castors, and the thesis's no-slip chassis (wheels rolling without slip,
+//! castor drag lumped into linear and angular viscous damping as Johnson & Aylor did).
+//! The rapier version of the chassis lives in `world`.
+
+use super::GRAVITY_M_S2;
+
+/// Rigid-body and geometry parameters of the vehicle (payload included).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ChassisParams {
+    pub mass_kg: f64,
+    /// Yaw inertia about the centre of gravity, kg m^2.
+    pub yaw_inertia_kg_m2: f64,
+    /// Centre of gravity in the body frame (origin at the drive-axle midpoint), m.
+    pub cg_m: [f64; 2],
+    pub track_width_m: f64,
+    pub drive_load_fraction: f64,
+    /// Castor swivel axes: x of the front and rear pairs and their half spacing, m.
+    pub castor_front_x_m: f64,
+    pub castor_rear_x_m: f64,
+    pub castor_half_spacing_m: f64,
+}
+
+/// Normal loads, N: drive wheels (left, right) and castors (front-left, front-right,
+/// rear-left, rear-right).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NormalLoads {
+    pub drive_n: [f64; 2],
+    pub castor_n: [f64; 4],
+}
+
+impl ChassisParams {
+    /// Combines the bare vehicle and a payload (parallel-axis theorem for the yaw inertia).
+    pub fn with_payload(
+        mass_kg: f64,
+        yaw_inertia_kg_m2: f64,
+        cg_m: [f64; 2],
+        payload_kg: f64,
+        payload_inertia_kg_m2: f64,
+        payload_cg_m: [f64; 2],
+    ) -> ([f64; 2], f64, f64) {
+        let m = mass_kg + payload_kg;
+        let cg = [
+            (mass_kg * cg_m[0] + payload_kg * payload_cg_m[0]) / m,
+            (mass_kg * cg_m[1] + payload_kg * payload_cg_m[1]) / m,
+        ];
+        let d2 = |p: [f64; 2]| (p[0] - cg[0]).powi(2) + (p[1] - cg[1]).powi(2);
+        let inertia = yaw_inertia_kg_m2 + mass_kg * d2(cg_m) + payload_inertia_kg_m2 + payload_kg * d2(payload_cg_m);
+        (cg, m, inertia)
+    }
+
+    /// Static normal loads from the CG position. The hinged chassis puts a set share of
+    /// the weight on the drive wheels (split left/right by the lever rule); the castors
+    /// carry the rest, shared bilinearly so that the moments about both axes balance.
+    /// A static distribution: load transfer under acceleration is not modelled.
+    pub fn normal_loads(&self) -> NormalLoads {
+        let w = self.mass_kg * GRAVITY_M_S2;
+        let f = self.drive_load_fraction;
+        let t = self.track_width_m;
+        let left_share = 0.5 + self.cg_m[1] / t;
+        let drive = [f * w * left_share, f * w * (1.0 - left_share)];
+        // Where the castors' share must act for the moments to balance.
+        let rest = (1.0 - f) * w;
+        let cx = self.cg_m[0] / (1.0 - f);
+        let cy = self.cg_m[1] / (1.0 - f);
+        let (xf, xr, hy) = (self.castor_front_x_m, self.castor_rear_x_m, self.castor_half_spacing_m);
+        let front = (cx - xr) / (xf - xr);
+        let left = 0.5 + cy / (2.0 * hy);
+        let castor = [
+            rest * front * left,
+            rest * front * (1.0 - left),
+            rest * (1.0 - front) * left,
+            rest * (1.0 - front) * (1.0 - left),
+        ];
+        NormalLoads { drive_n: drive, castor_n: castor }
+    }
+
+    /// Castor swivel points in the body frame, in the order of [`NormalLoads::castor_n`].
+    pub fn castor_points_m(&self) -> [[f64; 2]; 4] {
+        let (xf, xr, hy) = (self.castor_front_x_m, self.castor_rear_x_m, self.castor_half_spacing_m);
+        [[xf, hy], [xf, -hy], [xr, hy], [xr, -hy]]
+    }
+
+    /// Drive-wheel contact points in the body frame (left, right).
+    pub fn wheel_points_m(&self) -> [[f64; 2]; 2] {
+        let h = 0.5 * self.track_width_m;
+        [[0.0, h], [0.0, -h]]
+    }
+}
+
+/// Pose of the drive-axle midpoint, world frame.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Pose {
+    pub x_m: f64,
+    pub y_m: f64,
+    /// Heading, rad, unwrapped.
+    pub heading_rad: f64,
+}
+
+impl Pose {
+    /// A body-frame point in the world frame.
+    pub fn to_world(&self, p: [f64; 2]) -> [f64; 2] {
+        let (s, c) = self.heading_rad.sin_cos();
+        [self.x_m + c * p[0] - s * p[1], self.y_m + s * p[0] + c * p[1]]
+    }
+
+    /// A body-frame direction in the world frame.
+    pub fn rotate(&self, v: [f64; 2]) -> [f64; 2] {
+        let (s, c) = self.heading_rad.sin_cos();
+        [c * v[0] - s * v[1], s * v[0] + c * v[1]]
+    }
+
+    /// A world-frame direction in the body frame.
+    pub fn unrotate(&self, v: [f64; 2]) -> [f64; 2] {
+        let (s, c) = self.heading_rad.sin_cos();
+        [c * v[0] + s * v[1], -s * v[0] + c * v[1]]
+    }
+}
+
+/// Parameters of the no-slip chassis (thesis levels 1-3).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NoSlipParams {
+    pub chassis: ChassisParams,
+    pub wheel_radius_m: f64,
+    pub wheel_inertia_kg_m2: f64,
+    pub linear_drag_n_s_m: f64,
+    pub angular_drag_nm_s_rad: f64,
+}
+
+/// What is integrated: pose, forward speed of the axle midpoint and yaw rate.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct NoSlipState {
+    pub pose: Pose,
+    pub speed_m_s: f64,
+    pub yaw_rate_rad_s: f64,
+}
+
+impl NoSlipParams {
+    /// Wheel angular speeds (left, right) that roll without slip at this motion, rad/s.
+    pub fn wheel_speeds_rad_s(&self, s: &NoSlipState) -> [f64; 2] {
+        let h = 0.5 * self.chassis.track_width_m;
+        let r = self.wheel_radius_m;
+        [(s.speed_m_s - h * s.yaw_rate_rad_s) / r, (s.speed_m_s + h * s.yaw_rate_rad_s) / r]
+    }
+
+    /// One sub-step under the wheel torques (N m, left and right, from the gear teeth).
+    /// Differential-drive dynamics with the CG a distance `a` ahead of the axle:
+    /// `m_eff dv/dt = F + m a w^2`, `I_eff dw/dt = M - m a v w`, the wheel inertias folded
+    /// into the effective mass and inertia since the wheels cannot slip.
+    pub fn step(&self, s: &mut NoSlipState, wheel_torque_nm: [f64; 2], h: f64) {
+        let c = &self.chassis;
+        let r = self.wheel_radius_m;
+        let half = 0.5 * c.track_width_m;
+        let a = c.cg_m[0];
+        let jw = self.wheel_inertia_kg_m2;
+        let m_eff = c.mass_kg + 2.0 * jw / (r * r);
+        let i_axle = c.yaw_inertia_kg_m2 + c.mass_kg * a * a;
+        let i_eff = i_axle + 2.0 * jw * half * half / (r * r);
+        let force = (wheel_torque_nm[0] + wheel_torque_nm[1]) / r;
+        let moment = (wheel_torque_nm[1] - wheel_torque_nm[0]) * half / r;
+        let (v, w) = (s.speed_m_s, s.yaw_rate_rad_s);
+        // Drag implicit, so a large lumped drag cannot destabilise the step.
+        let v_new = (v + h * (force + c.mass_kg * a * w * w) / m_eff) / (1.0 + h * self.linear_drag_n_s_m / m_eff);
+        let w_new =
+            (w + h * (moment - c.mass_kg * a * v * w) / i_eff) / (1.0 + h * self.angular_drag_nm_s_rad / i_eff);
+        s.speed_m_s = v_new;
+        s.yaw_rate_rad_s = w_new;
+        // Midpoint heading for the position update keeps arcs on their circle.
+        let mid = s.pose.heading_rad + 0.5 * h * w_new;
+        s.pose.x_m += h * v_new * mid.cos();
+        s.pose.y_m += h * v_new * mid.sin();
+        s.pose.heading_rad += h * w_new;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn params(cg: [f64; 2]) -> ChassisParams {
+        ChassisParams {
+            mass_kg: 120.0,
+            yaw_inertia_kg_m2: 14.0,
+            cg_m: cg,
+            track_width_m: 0.5,
+            drive_load_fraction: 0.6,
+            castor_front_x_m: 0.4,
+            castor_rear_x_m: -0.35,
+            castor_half_spacing_m: 0.24,
+        }
+    }
+
+    #[test]
+    fn static_loads_carry_the_weight_and_balance_the_moments() {
+        let c = params([0.07, 0.03]);
+        let l = c.normal_loads();
+        let w = 120.0 * GRAVITY_M_S2;
+        let total: f64 = l.drive_n.iter().chain(l.castor_n.iter()).sum();
+        assert!((total - w).abs() < 1e-9);
+        let mut mx = 0.0;
+        let mut my = 0.0;
+        for (p, f) in c.wheel_points_m().iter().zip(l.drive_n) {
+            mx += p[0] * f;
+            my += p[1] * f;
+        }
+        for (p, f) in c.castor_points_m().iter().zip(l.castor_n) {
+            mx += p[0] * f;
+            my += p[1] * f;
+        }
+        assert!((mx - w * 0.07).abs() < 1e-9 && (my - w * 0.03).abs() < 1e-9);
+        assert!(l.castor_n.iter().all(|&f| f > 0.0));
+    }
+}

@@ -1,0 +1,82 @@
+//! One side's drivetrain: motor, gearbox (with backlash) and wheel, and the sub-step that
+//! keeps the stiff tooth contact stable.
+
+use super::gearbox::GearboxParams;
+use super::motor::{MotorParams, MotorState, Terminal};
+
+/// Motor, gearbox and wheel of one side.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DrivetrainParams {
+    pub motor: MotorParams,
+    pub gearbox: GearboxParams,
+    /// Wheel plus output gear about its axle, kg m^2.
+    pub wheel_inertia_kg_m2: f64,
+    pub wheel_radius_m: f64,
+}
+
+/// What is integrated: the motor and the wheel (the gear output angle is motor angle / ratio).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct DrivetrainState {
+    pub motor: MotorState,
+    pub wheel_speed_rad_s: f64,
+    pub wheel_angle_rad: f64,
+}
+
+impl DrivetrainState {
+    /// Both sides of the play centred (teeth not touching) and at rest.
+    pub fn at_rest() -> Self {
+        DrivetrainState::default()
+    }
+}
+
+impl DrivetrainParams {
+    /// Gear output angle minus wheel angle, rad, and its rate.
+    pub fn twist(&self, s: &DrivetrainState) -> (f64, f64) {
+        let n = self.gearbox.ratio;
+        (
+            s.motor.angle_rad / n - s.wheel_angle_rad,
+            s.motor.speed_rad_s / n - s.wheel_speed_rad_s,
+        )
+    }
+
+    /// Torque the teeth pass to the wheel now, N m.
+    pub fn tooth_torque_nm(&self, s: &DrivetrainState) -> f64 {
+        let (twist, rate) = self.twist(s);
+        self.gearbox.tooth_contact_torque(twist, rate)
+    }
+
+    /// Motor inertia seen at the wheel, kg m^2.
+    pub fn reflected_motor_inertia(&self) -> f64 {
+        self.motor.rotor_inertia_kg_m2 * self.gearbox.ratio.powi(2)
+    }
+
+    /// Sub-steps needed in a step of `dt`: the semi-implicit update of a spring-damper of
+    /// natural frequency w and damping rate c/J is stable for h (w + c/J) < 2; we take
+    /// h (w + c/J) <= 0.3 for the tooth mesh and for any extra ground stiffness (the tyre)
+    /// acting on the wheel, which also keeps the phase error of the mesh ringing small.
+    /// `ground_stiffness_n_m` and `ground_damping_n_s_m` are the tyre's at the rim.
+    pub fn substeps(&self, dt: f64, ground_stiffness_n_m: f64, ground_damping_n_s_m: f64) -> usize {
+        let jw = self.wheel_inertia_kg_m2;
+        let jm = self.reflected_motor_inertia();
+        let j_red = jw * jm / (jw + jm);
+        let g = &self.gearbox;
+        let mesh_rate = (g.tooth_stiffness_nm_rad / j_red).sqrt() + g.tooth_damping_nm_s_rad / j_red;
+        let r2 = self.wheel_radius_m.powi(2);
+        let ground_rate = (ground_stiffness_n_m * r2 / jw).sqrt() + ground_damping_n_s_m * r2 / jw;
+        let rate = mesh_rate.max(ground_rate);
+        ((dt * rate / 0.3).ceil() as usize).max(1)
+    }
+
+    /// Motor half of a sub-step: the armature and rotor, loaded by the teeth.
+    pub fn motor_substep(&self, s: &mut DrivetrainState, terminal: Terminal, tooth_torque_nm: f64, h: f64) {
+        self.motor
+            .step(&mut s.motor, terminal, tooth_torque_nm / self.gearbox.ratio, h);
+    }
+
+    /// Wheel half of a sub-step when the wheel turns on its own (lifted, or on a tyre whose
+    /// torque about the axle is `ground_torque_nm`, positive forward).
+    pub fn wheel_substep(&self, s: &mut DrivetrainState, tooth_torque_nm: f64, ground_torque_nm: f64, h: f64) {
+        s.wheel_speed_rad_s += h * (tooth_torque_nm + ground_torque_nm) / self.wheel_inertia_kg_m2;
+        s.wheel_angle_rad += h * s.wheel_speed_rad_s;
+    }
+}

@@ -1,0 +1,142 @@
+//! Permanent-magnet DC motor: armature circuit and rotor, with viscous and Coulomb friction.
+//!
+//! `L di/dt = V - R i - Kv w`, `J dw/dt = Kt i - b w - Tc sign(w) - T_load`, Kt = Kv.
+
+/// Motor parameters (SI, at the motor shaft).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MotorParams {
+    pub resistance_ohm: f64,
+    pub inductance_h: f64,
+    /// Torque constant, N m/A; equal to the back-EMF constant in V s/rad.
+    pub torque_constant_nm_a: f64,
+    pub rotor_inertia_kg_m2: f64,
+    pub viscous_nm_s_rad: f64,
+    pub coulomb_nm: f64,
+}
+
+/// What is integrated.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct MotorState {
+    pub current_a: f64,
+    pub speed_rad_s: f64,
+    pub angle_rad: f64,
+}
+
+/// What drives the armature terminals.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Terminal {
+    /// Terminal voltage, V.
+    Voltage(f64),
+    /// Open circuit (power cut): no armature current.
+    Open,
+}
+
+impl MotorParams {
+    /// Back-EMF at a shaft speed, V.
+    pub fn back_emf_v(&self, speed_rad_s: f64) -> f64 {
+        self.torque_constant_nm_a * speed_rad_s
+    }
+
+    /// Electrical time constant L/R, s.
+    pub fn electrical_time_constant_s(&self) -> f64 {
+        self.inductance_h / self.resistance_ohm
+    }
+
+    /// Armature current after `h` seconds with the terminal voltage and back-EMF held.
+    /// The exact solution of the first-order circuit, so stable for any `h`.
+    pub fn current_after(&self, current_a: f64, terminal: Terminal, speed_rad_s: f64, h: f64) -> f64 {
+        match terminal {
+            Terminal::Open => 0.0,
+            Terminal::Voltage(v) => {
+                let steady = (v - self.back_emf_v(speed_rad_s)) / self.resistance_ohm;
+                let decay = (-h / self.electrical_time_constant_s()).exp();
+                steady + (current_a - steady) * decay
+            }
+        }
+    }
+
+    /// Steady speed of an unloaded motor at a terminal voltage (w > 0 branch), rad/s:
+    /// `Kt (V - Kv w)/R = b w + Tc`.
+    pub fn steady_speed_rad_s(&self, voltage_v: f64, load_nm: f64) -> f64 {
+        let k = self.torque_constant_nm_a;
+        let drive = k * voltage_v / self.resistance_ohm - load_nm;
+        let stall = self.coulomb_nm;
+        if drive.abs() <= stall {
+            return 0.0;
+        }
+        (drive - stall * drive.signum()) / (k * k / self.resistance_ohm + self.viscous_nm_s_rad)
+    }
+
+    /// One sub-step of the rotor: electrical, then mechanical with the load torque
+    /// (N m at the motor shaft, opposing positive rotation when positive).
+    pub fn step(&self, s: &mut MotorState, terminal: Terminal, load_nm: f64, h: f64) {
+        s.current_a = self.current_after(s.current_a, terminal, s.speed_rad_s, h);
+        let driving = self.torque_constant_nm_a * s.current_a - load_nm;
+        s.speed_rad_s = coulomb_viscous_update(
+            s.speed_rad_s,
+            driving,
+            self.viscous_nm_s_rad,
+            self.coulomb_nm,
+            self.rotor_inertia_kg_m2,
+            h,
+        );
+        s.angle_rad += s.speed_rad_s * h;
+    }
+}
+
+/// Speed after a step of `J dw/dt = T - b w - Tc sign(w)`: viscous implicit, Coulomb as a
+/// set-valued law (the rotor sticks when the friction impulse could stop it), so that
+/// friction never reverses the motion and standstill is exact.
+pub fn coulomb_viscous_update(
+    speed: f64,
+    torque: f64,
+    viscous: f64,
+    coulomb: f64,
+    inertia: f64,
+    h: f64,
+) -> f64 {
+    let trial = speed + h * torque / inertia;
+    let friction_dv = h * coulomb / inertia;
+    let slid = if trial.abs() <= friction_dv {
+        0.0
+    } else {
+        trial - friction_dv * trial.signum()
+    };
+    slid / (1.0 + h * viscous / inertia)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn motor() -> MotorParams {
+        MotorParams {
+            resistance_ohm: 0.35,
+            inductance_h: 0.0008,
+            torque_constant_nm_a: 0.063,
+            rotor_inertia_kg_m2: 2e-4,
+            viscous_nm_s_rad: 1e-4,
+            coulomb_nm: 0.02,
+        }
+    }
+
+    #[test]
+    fn coulomb_friction_holds_a_rotor_below_breakaway() {
+        // A torque below the Coulomb level must not move a stationary rotor.
+        let w = coulomb_viscous_update(0.0, 0.019, 0.0, 0.02, 2e-4, 1e-3);
+        assert_eq!(w, 0.0);
+        let w = coulomb_viscous_update(0.0, 0.03, 0.0, 0.02, 2e-4, 1e-3);
+        assert!((w - 0.01 * 1e-3 / 2e-4).abs() < 1e-12);
+    }
+
+    #[test]
+    fn free_spin_reaches_the_steady_speed_of_the_motor_equations() {
+        let m = motor();
+        let mut s = MotorState::default();
+        for _ in 0..20000 {
+            m.step(&mut s, Terminal::Voltage(12.0), 0.0, 1e-4);
+        }
+        let expect = m.steady_speed_rad_s(12.0, 0.0);
+        assert!((s.speed_rad_s - expect).abs() / expect < 1e-6, "{} vs {}", s.speed_rad_s, expect);
+    }
+}

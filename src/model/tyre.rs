@@ -1,0 +1,217 @@
+#![allow(non_snake_case)]
+//! Tyre force law: a bristle (brush) model with relaxation length, so that it is
+//! well-behaved at zero and crawling speed.
+//!
+//! The contact patch carries a deflection `d` (m, wheel frame: x along the rolling
+//! direction, y to the left). It grows with the patch's sliding velocity `s` and relaxes
+//! over the relaxation length `sigma` as the wheel rolls:
+//! `dd/dt = s - |V| d / sigma`, with `|V| = max(|v_x|, |w r|)`.
+//! The ground pushes the wheel with `F = -(k d + c dd/dt)`, `k = C / sigma` where C is the
+//! slip stiffness (proportional to the normal load). In steady rolling this gives
+//! `F = C * slip` (slip ratio and slip angle); at standstill the bristles are a damped
+//! spring, so a parked wheel holds instead of chattering between signs. The force is
+//! limited to a friction circle `mu(|s|) Fz`, where mu falls from its peak to the sliding
+//! value as the sliding speed grows (the Stribeck drop that makes a spinning wheel keep
+//! spinning: "the spinning wheels have less tractive effort").
+
+/// Tyre parameters on a given floor (compound x surface, see `scene::presets`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TyreParams {
+    /// Peak (static) friction coefficient.
+    pub peak_mu: f64,
+    /// Friction coefficient at full sliding.
+    pub sliding_mu: f64,
+    /// Sliding speed over which friction falls from peak to sliding, m/s.
+    pub stribeck_speed_m_s: f64,
+    /// Longitudinal slip stiffness per newton of normal load (per unit slip ratio).
+    pub long_stiffness_per_N: f64,
+    /// Cornering stiffness per newton of normal load (per rad of slip angle).
+    pub lat_stiffness_per_N: f64,
+    /// Relaxation length, m.
+    pub relaxation_length_m: f64,
+    /// Damping ratio of the bristle spring against the mass it carries.
+    pub damping_ratio: f64,
+}
+
+/// What is integrated: the contact-patch deflection, m (wheel frame).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct TyreState {
+    pub deflection_m: [f64; 2],
+}
+
+/// Motion of the wheel centre over the ground, in the wheel frame.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ContactKinematics {
+    /// Wheel-centre velocity along the wheel's rolling direction, m/s.
+    pub forward_m_s: f64,
+    /// Wheel-centre velocity to the wheel's left, m/s.
+    pub lateral_m_s: f64,
+    /// Rim speed `w r`, m/s (zero for a wheel that is not driven... or free-rolling: pass forward_m_s).
+    pub rim_m_s: f64,
+}
+
+/// Force and slip measures of one step.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct TyreOutput {
+    /// Force of the ground on the wheel, wheel frame, N.
+    pub force_n: [f64; 2],
+    /// Slip ratio `(w r - v_x) / max(|w r|, |v_x|)`, 0 at standstill.
+    pub slip_ratio: f64,
+    /// Slip angle, rad (positive when the wheel centre moves to the left of its heading).
+    pub slip_angle_rad: f64,
+    /// Patch sliding velocity over the ground, m/s.
+    pub sliding_speed_m_s: f64,
+    /// The friction limit is active.
+    pub sliding: bool,
+    /// The friction limit, N.
+    pub limit_n: f64,
+}
+
+/// Below this speed, slip measures are reported as zero (m/s).
+const SLIP_REPORT_FLOOR_M_S: f64 = 1e-3;
+
+impl TyreParams {
+    /// Friction coefficient at a sliding speed.
+    pub fn mu_at(&self, sliding_speed_m_s: f64) -> f64 {
+        let r = sliding_speed_m_s / self.stribeck_speed_m_s;
+        self.sliding_mu + (self.peak_mu - self.sliding_mu) * (-r * r).exp()
+    }
+
+    /// Bristle stiffness (x, y) at a normal load, N/m.
+    pub fn bristle_stiffness_n_m(&self, normal_load_n: f64) -> [f64; 2] {
+        [
+            self.long_stiffness_per_N * normal_load_n / self.relaxation_length_m,
+            self.lat_stiffness_per_N * normal_load_n / self.relaxation_length_m,
+        ]
+    }
+
+    /// Bristle damping (x, y) at a normal load, N s/m: the damping ratio against the mass
+    /// the wheel carries.
+    pub fn bristle_damping_n_s_m(&self, normal_load_n: f64) -> [f64; 2] {
+        let m = normal_load_n / crate::model::GRAVITY_M_S2;
+        let k = self.bristle_stiffness_n_m(normal_load_n);
+        [
+            2.0 * self.damping_ratio * (k[0] * m).sqrt(),
+            2.0 * self.damping_ratio * (k[1] * m).sqrt(),
+        ]
+    }
+
+    /// Slip ratio at which the linear range meets the peak friction (the tyre's peak slip).
+    pub fn peak_slip_ratio(&self) -> f64 {
+        self.peak_mu / self.long_stiffness_per_N
+    }
+
+    /// Advances the patch deflection by `h` and returns the force on the wheel.
+    pub fn step(&self, s: &mut TyreState, kin: ContactKinematics, normal_load_n: f64, h: f64) -> TyreOutput {
+        if normal_load_n <= 0.0 {
+            s.deflection_m = [0.0, 0.0];
+            return TyreOutput::default();
+        }
+        let slide = [kin.forward_m_s - kin.rim_m_s, kin.lateral_m_s];
+        let speed = kin.forward_m_s.abs().max(kin.rim_m_s.abs());
+        let k = self.bristle_stiffness_n_m(normal_load_n);
+        let c = self.bristle_damping_n_s_m(normal_load_n);
+        // Implicit in the relaxation term: stable however fast the wheel rolls.
+        let relax = 1.0 + h * speed / self.relaxation_length_m;
+        let mut d = [0.0; 2];
+        let mut f = [0.0; 2];
+        for i in 0..2 {
+            d[i] = (s.deflection_m[i] + h * slide[i]) / relax;
+            let rate = (d[i] - s.deflection_m[i]) / h;
+            f[i] = -(k[i] * d[i] + c[i] * rate);
+        }
+        let sliding_speed = (slide[0] * slide[0] + slide[1] * slide[1]).sqrt();
+        let limit = self.mu_at(sliding_speed) * normal_load_n;
+        let mag = (f[0] * f[0] + f[1] * f[1]).sqrt();
+        let sliding = mag > limit;
+        if sliding {
+            // On the friction circle the bristles carry exactly the friction force.
+            let scale = limit / mag;
+            for i in 0..2 {
+                f[i] *= scale;
+                d[i] = -f[i] / k[i];
+            }
+        }
+        s.deflection_m = d;
+        let (slip_ratio, slip_angle_rad) = if speed < SLIP_REPORT_FLOOR_M_S {
+            (0.0, 0.0)
+        } else {
+            (
+                (kin.rim_m_s - kin.forward_m_s) / speed,
+                kin.lateral_m_s.atan2(kin.forward_m_s.abs().max(SLIP_REPORT_FLOOR_M_S)),
+            )
+        };
+        TyreOutput {
+            force_n: f,
+            slip_ratio,
+            slip_angle_rad,
+            sliding_speed_m_s: sliding_speed,
+            sliding,
+            limit_n: limit,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tyre() -> TyreParams {
+        TyreParams {
+            peak_mu: 0.5,
+            sliding_mu: 0.35,
+            stribeck_speed_m_s: 0.05,
+            long_stiffness_per_N: 20.0,
+            lat_stiffness_per_N: 15.0,
+            relaxation_length_m: 0.01,
+            damping_ratio: 0.0,
+        }
+    }
+
+    fn settle(t: &TyreParams, kin: ContactKinematics, fz: f64) -> TyreOutput {
+        let mut s = TyreState::default();
+        let mut out = TyreOutput::default();
+        for _ in 0..20000 {
+            out = t.step(&mut s, kin, fz, 1e-4);
+        }
+        out
+    }
+
+    #[test]
+    fn steady_small_slip_gives_slip_stiffness_times_slip() {
+        let t = tyre();
+        // 1 % traction slip at 0.5 m/s: F = C kappa = 20 * 300 * 0.01 = 60 N.
+        let out = settle(&t, ContactKinematics { forward_m_s: 0.5, lateral_m_s: 0.0, rim_m_s: 0.5 / 0.99 }, 300.0);
+        let kappa = 1.0 - 0.99;
+        assert!((out.slip_ratio - kappa).abs() < 1e-9);
+        assert!((out.force_n[0] - 20.0 * 300.0 * kappa).abs() < 0.5, "{:?}", out);
+        assert!(!out.sliding);
+    }
+
+    #[test]
+    fn spinning_wheel_is_limited_to_sliding_friction() {
+        let t = tyre();
+        let out = settle(&t, ContactKinematics { forward_m_s: 0.0, lateral_m_s: 0.0, rim_m_s: 1.0 }, 300.0);
+        assert!(out.sliding);
+        assert!((out.force_n[0] - 0.35 * 300.0).abs() < 1e-6);
+        assert!((out.slip_ratio - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn standstill_is_a_spring_not_a_singularity() {
+        let t = tyre();
+        let mut s = TyreState { deflection_m: [-1e-5, 0.0] };
+        let out = t.step(&mut s, ContactKinematics::default(), 300.0, 1e-3);
+        assert!(out.force_n[0].is_finite() && out.force_n[0] > 0.0);
+        assert_eq!(out.slip_ratio, 0.0);
+    }
+
+    #[test]
+    fn combined_slip_stays_inside_the_friction_circle() {
+        let t = tyre();
+        let out = settle(&t, ContactKinematics { forward_m_s: 0.5, lateral_m_s: 0.3, rim_m_s: 1.5 }, 300.0);
+        let mag = out.force_n[0].hypot(out.force_n[1]);
+        assert!(mag <= t.peak_mu * 300.0 + 1e-9);
+        assert!(out.force_n[1] < 0.0, "lateral force opposes lateral motion");
+    }
+}

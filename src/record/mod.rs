@@ -1,0 +1,5 @@
+//! The exchange format (`shared/spec/recording-format.md`): recordings written by runs.
+
+mod writer;
+
+pub use writer::{vehicle_columns, RecordingWriter};

@@ -1,0 +1,91 @@
+//! Writes a vehicle recording in the exchange format: `#` metadata lines, a header of
+//! unit-suffixed column names, one row per sample. Numbers are printed with a fixed
+//! number of decimals so that the same run gives the same bytes.
+
+use std::io::Write;
+
+use crate::sim::Snapshot;
+
+/// A column: name (ending in its unit) and how to read it from a snapshot.
+pub struct Column {
+    pub name: &'static str,
+    pub decimals: usize,
+    pub value: fn(&Snapshot) -> f64,
+}
+
+/// The vehicle rig's columns (inputs, outputs), then our extra ones.
+pub fn vehicle_columns() -> Vec<Column> {
+    fn c(name: &'static str, decimals: usize, value: fn(&Snapshot) -> f64) -> Column {
+        Column { name, decimals, value }
+    }
+    vec![
+        c("t_s", 4, |s| s.t_s),
+        c("demand_fwd_pct", 3, |s| s.demand_pct[0]),
+        c("demand_turn_pct", 3, |s| s.demand_pct[1]),
+        c("left_voltage_V", 4, |s| s.sides[0].voltage_v),
+        c("right_voltage_V", 4, |s| s.sides[1].voltage_v),
+        c("x_m", 6, |s| s.pose.x_m),
+        c("y_m", 6, |s| s.pose.y_m),
+        c("heading_rad", 6, |s| s.pose.heading_rad),
+        c("left_motor_speed_rad_s", 4, |s| s.sides[0].motor_speed_rad_s),
+        c("right_motor_speed_rad_s", 4, |s| s.sides[1].motor_speed_rad_s),
+        c("sensor_left_adc", 2, |s| s.sensors_adc[0]),
+        c("sensor_right_adc", 2, |s| s.sensors_adc[1]),
+        c("left_wheel_speed_m_s", 5, |s| s.sides[0].wheel_rim_m_s),
+        c("right_wheel_speed_m_s", 5, |s| s.sides[1].wheel_rim_m_s),
+        c("yaw_rate_rad_s", 5, |s| s.yaw_rate_rad_s),
+        c("lateral_error_m", 6, |s| s.lateral_error_m),
+        c("left_current_A", 3, |s| s.sides[0].current_a),
+        c("right_current_A", 3, |s| s.sides[1].current_a),
+        c("left_slip_ratio", 5, |s| s.sides[0].slip_ratio),
+        c("right_slip_ratio", 5, |s| s.sides[1].slip_ratio),
+        c("left_tyre_force_N", 3, |s| s.sides[0].tyre_force_n[0]),
+        c("right_tyre_force_N", 3, |s| s.sides[1].tyre_force_n[0]),
+        c("left_backlash_gap_rad", 5, |s| s.sides[0].backlash_gap_rad),
+        c("right_backlash_gap_rad", 5, |s| s.sides[1].backlash_gap_rad),
+        c("turn_command_counts", 3, |s| s.command_counts[1]),
+        c("battery_V", 4, |s| s.battery_v),
+    ]
+}
+
+/// Streams rows to any writer.
+pub struct RecordingWriter<W: Write> {
+    out: W,
+    columns: Vec<Column>,
+    line: String,
+}
+
+impl<W: Write> RecordingWriter<W> {
+    /// Writes the metadata and header. `meta` are extra `key: value` lines.
+    pub fn new(mut out: W, rig: &str, meta: &[(&str, String)], columns: Vec<Column>) -> std::io::Result<Self> {
+        writeln!(out, "# agvsim-recording: 1")?;
+        writeln!(out, "# rig: {rig}")?;
+        for (k, v) in meta {
+            writeln!(out, "# {k}: {}", v.replace('\n', " "))?;
+        }
+        let header: Vec<&str> = columns.iter().map(|c| c.name).collect();
+        writeln!(out, "{}", header.join(","))?;
+        Ok(RecordingWriter { out, columns, line: String::new() })
+    }
+
+    pub fn row(&mut self, s: &Snapshot) -> std::io::Result<()> {
+        use std::fmt::Write as _;
+        self.line.clear();
+        for (i, c) in self.columns.iter().enumerate() {
+            if i > 0 {
+                self.line.push(',');
+            }
+            let v = (c.value)(s);
+            // "-0.000" and "0.000" must not differ between otherwise equal runs.
+            let v = if v == 0.0 { 0.0 } else { v };
+            let _ = write!(self.line, "{:.*}", c.decimals, v);
+        }
+        self.line.push('\n');
+        self.out.write_all(self.line.as_bytes())
+    }
+
+    pub fn finish(mut self) -> std::io::Result<W> {
+        self.out.flush()?;
+        Ok(self.out)
+    }
+}

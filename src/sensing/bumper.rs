@@ -1,0 +1,59 @@
+//! The bumper: a strip along the front edge of the body (normally-closed microswitch);
+//! contact with an obstacle is a parry2d intersection test.
+
+use parry2d_f64::math::{Pose, Vector};
+use parry2d_f64::query;
+use parry2d_f64::shape::{Ball, Cuboid, SharedShape};
+
+use crate::model::chassis::Pose as BodyPose;
+use crate::scene::ObstacleSpec;
+
+/// A fixed obstacle on the floor.
+#[derive(Clone)]
+pub struct Obstacle {
+    pub shape: SharedShape,
+    pub pose: Pose,
+    pub spec: ObstacleSpec,
+}
+
+impl Obstacle {
+    pub fn from_spec(o: &ObstacleSpec) -> Obstacle {
+        let shape = match (o.half_extents_m, o.radius_m) {
+            (Some(h), _) => SharedShape::new(Cuboid::new(Vector::new(h[0], h[1]))),
+            (None, Some(r)) => SharedShape::new(Ball::new(r)),
+            (None, None) => SharedShape::new(Ball::new(0.0)),
+        };
+        Obstacle {
+            shape,
+            pose: Pose::new(Vector::new(o.center_m[0], o.center_m[1]), o.angle_rad),
+            spec: o.clone(),
+        }
+    }
+}
+
+/// The bumper strip, body frame.
+#[derive(Debug, Clone, Copy)]
+pub struct Bumper {
+    /// Centre of the strip ahead of the drive axle, m.
+    pub x_m: f64,
+    pub half_width_m: f64,
+    /// Half depth of the strip, m (the switch travel).
+    pub half_depth_m: f64,
+}
+
+impl Bumper {
+    /// Whether the bumper touches any obstacle with the body at `pose`.
+    pub fn touches(&self, pose: &BodyPose, obstacles: &[Obstacle]) -> bool {
+        if obstacles.is_empty() {
+            return false;
+        }
+        let c = pose.to_world([self.x_m, 0.0]);
+        let bp = Pose::new(Vector::new(c[0], c[1]), pose.heading_rad);
+        let strip = Cuboid::new(Vector::new(self.half_depth_m, self.half_width_m));
+        obstacles.iter().any(|o| {
+            query::intersection_test(&bp, &strip, &o.pose, o.shape.as_ref())
+                .map(|r| r.intersecting)
+                .unwrap_or(false)
+        })
+    }
+}

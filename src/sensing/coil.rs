@@ -1,0 +1,81 @@
+//! The pick-up coils and their 8-bit ADC. A tuned coil with a horizontal axis across the
+//! vehicle reads the field component along its axis: proportional to 1/distance and to
+//! the cosine of the angle between axis and field, so zero with the axis along the wire.
+
+/// One coil pair's sensing law.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CoilParams {
+    /// Height above the floor (the wire), m.
+    pub height_m: f64,
+    /// Reading over a straight wire with the axis across it, counts.
+    pub full_scale_adc: f64,
+}
+
+impl CoilParams {
+    /// Analogue reading (before noise and quantisation), counts, from the scaled field
+    /// (`Wire::horizontal_field`) and the coil axis (world-frame unit vector).
+    pub fn reading(&self, field: [f64; 2], axis: [f64; 2]) -> f64 {
+        self.full_scale_adc * (field[0] * axis[0] + field[1] * axis[1]).abs()
+    }
+
+    /// Reading of a coil `lateral_m` off an infinite straight wire, axis across it.
+    pub fn straight_wire_reading(&self, lateral_m: f64) -> f64 {
+        let h2 = self.height_m * self.height_m;
+        self.full_scale_adc * h2 / (h2 + lateral_m * lateral_m)
+    }
+
+    /// Slope of the difference (left minus right) near the wire, counts per metre of the
+    /// pair's lateral offset (left positive): the "ideal position feedback" gain of the
+    /// thesis's linear model.
+    pub fn difference_slope_counts_per_m(&self, half_spacing_m: f64) -> f64 {
+        let (h, a) = (self.height_m, half_spacing_m);
+        -4.0 * self.full_scale_adc * h * h * a / (h * h + a * a).powi(2)
+    }
+}
+
+/// The 8-bit ADC: rounds and clips to 0..255.
+pub fn adc_counts(analogue: f64) -> f64 {
+    analogue.round().clamp(0.0, 255.0)
+}
+
+/// Clips without rounding (the thesis's level 2 has infinite resolution).
+pub fn adc_unquantised(analogue: f64) -> f64 {
+    analogue.clamp(0.0, 255.0)
+}
+
+/// Fits coil half spacing and height to the thesis's calibration table (the only free
+/// parameters), by grid refinement on the RMS error. Returns (half_spacing_m, height_m,
+/// rms_counts). `x_mm` is the table's position column, `s_near`/`s_far` the coil over
+/// which the wire passes at larger x and the other.
+pub fn fit_calibration_table(x_mm: &[f64], s_near: &[f64], s_far: &[f64], full_scale: f64) -> (f64, f64, f64) {
+    let rms = |a: f64, h: f64| {
+        let c = CoilParams { height_m: h, full_scale_adc: full_scale };
+        let mut e2 = 0.0;
+        for i in 0..x_mm.len() {
+            let x = x_mm[i] / 1000.0;
+            // The table's x = 0 is midway between the coils.
+            let near = adc_counts(c.straight_wire_reading(x - a));
+            let far = adc_counts(c.straight_wire_reading(x + a));
+            e2 += (near - s_near[i]).powi(2) + (far - s_far[i]).powi(2);
+        }
+        (e2 / (2 * x_mm.len()) as f64).sqrt()
+    };
+    let (mut best_a, mut best_h, mut best) = (0.03, 0.03, f64::INFINITY);
+    let (mut lo_a, mut hi_a, mut lo_h, mut hi_h) = (0.005, 0.15, 0.005, 0.15);
+    for _ in 0..6 {
+        let n = 40;
+        for i in 0..=n {
+            for j in 0..=n {
+                let a = lo_a + (hi_a - lo_a) * i as f64 / n as f64;
+                let h = lo_h + (hi_h - lo_h) * j as f64 / n as f64;
+                let e = rms(a, h);
+                if e < best {
+                    (best_a, best_h, best) = (a, h, e);
+                }
+            }
+        }
+        let (da, dh) = ((hi_a - lo_a) / 10.0, (hi_h - lo_h) / 10.0);
+        (lo_a, hi_a, lo_h, hi_h) = ((best_a - da).max(1e-4), best_a + da, (best_h - dh).max(1e-4), best_h + dh);
+    }
+    (best_a, best_h, best)
+}

@@ -1,0 +1,167 @@
+//! The simulator: one `Sim` runs every fidelity level; `Sim::step` fixes the order in which
+//! the blocks act (see its doc comment). Observers (CSV, Rerun, metrics) read
+//! [`Snapshot`]s; the physics knows nothing of them.
+
+mod params;
+mod snapshot;
+mod step;
+pub mod metrics;
+
+pub use params::{Features, SimParams};
+pub use snapshot::{CastorSnapshot, SideSnapshot, Snapshot};
+
+use rand::SeedableRng;
+use rand_pcg::Pcg64;
+
+use crate::firmware::FirmwareState;
+use crate::model::chassis::{NoSlipState, Pose};
+use crate::model::dcmc::{DcmcOutput, DcmcState};
+use crate::model::drivetrain::DrivetrainState;
+use crate::model::tyre::{TyreOutput, TyreState};
+use crate::scene::Scene;
+use crate::world::engine::Engine;
+
+/// Errors a run can stop with.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    #[error("cannot set up the simulation: {message}")]
+    Setup { message: String },
+    #[error("the simulation diverged at t = {t_s:.4} s: {what} is {value} (not finite or beyond any physical range); try a smaller sim.dt_s or check the scene's stiffness and gains")]
+    Diverged { t_s: f64, what: String, value: f64 },
+}
+
+/// How the motors are driven in a run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Actuation {
+    /// The firmware (P-D, Open Day or open loop) through the PWM filter and the DCMC.
+    Firmware,
+    /// Forward and turn demand straight into the DCMC, pct.
+    Demand { forward_pct: f64, turn_pct: f64 },
+    /// Motor terminal voltages (left, right), V, bypassing the DCMC (still clipped to what
+    /// the battery can give).
+    Voltage([f64; 2]),
+    /// Both motors open-circuited (power cut).
+    Open,
+}
+
+/// The chassis in whichever form the fidelity level uses.
+enum Body {
+    /// Wheels lifted off the floor: the chassis stays where it is.
+    Lifted(Pose),
+    /// Thesis levels: rolls without slip.
+    NoSlip(NoSlipState),
+    /// Our level: rapier chassis with tyres and castors.
+    Rapier(Box<Engine>),
+}
+
+/// What the last step computed, kept for snapshots.
+#[derive(Debug, Clone, Copy, Default)]
+struct LastStep {
+    sensors_adc: [f64; 2],
+    rear_sensors_adc: [f64; 2],
+    demand_pct: [f64; 2],
+    dcmc: DcmcOutput,
+    /// Motor terminal voltages actually applied (left, right), V.
+    motor_v: [f64; 2],
+    battery_v: f64,
+    battery_current_a: f64,
+    tyre: [TyreOutput; 2],
+    castor_force_n: [[f64; 2]; 4],
+    bumper: bool,
+}
+
+/// A running simulation: the parameters (immutable) and everything that evolves.
+pub struct Sim {
+    params: SimParams,
+    actuation: Actuation,
+    t_s: f64,
+    steps: u64,
+    drive: [DrivetrainState; 2],
+    tyres: [TyreState; 2],
+    castor_tyres: [TyreState; 4],
+    body: Body,
+    dcmc: DcmcState,
+    firmware: FirmwareState,
+    /// PWM filter outputs (forward, turn), duty counts.
+    pwm_filtered: [f64; 2],
+    rng: Pcg64,
+    last: LastStep,
+}
+
+impl Sim {
+    /// A simulation of a validated scene, at rest at the scene's start pose.
+    pub fn new(scene: &Scene) -> Result<Sim, SimError> {
+        Sim::from_params(SimParams::from_scene(scene)?)
+    }
+
+    pub fn from_params(params: SimParams) -> Result<Sim, SimError> {
+        let body = if params.wheels_lifted {
+            Body::Lifted(params.start)
+        } else if params.features.tyres_and_castors {
+            Body::Rapier(Box::new(Engine::new(
+                &params.chassis,
+                params.castor,
+                params.outline_m,
+                params.start,
+                params.dt_s,
+                &params.obstacles,
+            )))
+        } else {
+            Body::NoSlip(NoSlipState { pose: params.start, speed_m_s: 0.0, yaw_rate_rad_s: 0.0 })
+        };
+        let firmware = params.firmware.initial_state();
+        let half = crate::firmware::HALF_DUTY as f64;
+        Ok(Sim {
+            rng: Pcg64::seed_from_u64(params.seed),
+            actuation: Actuation::Firmware,
+            t_s: 0.0,
+            steps: 0,
+            drive: [DrivetrainState::at_rest(); 2],
+            tyres: [TyreState::default(); 2],
+            castor_tyres: [TyreState::default(); 4],
+            body,
+            dcmc: DcmcState::default(),
+            firmware,
+            pwm_filtered: [half, half],
+            last: LastStep { battery_v: params.battery.open_circuit_v, ..LastStep::default() },
+            params,
+        })
+    }
+
+    pub fn params(&self) -> &SimParams {
+        &self.params
+    }
+
+    /// Changes how the motors are driven from the next step on.
+    pub fn set_actuation(&mut self, a: Actuation) {
+        self.actuation = a;
+    }
+
+    pub fn time_s(&self) -> f64 {
+        self.t_s
+    }
+
+    /// Pose of the drive-axle midpoint.
+    pub fn pose(&self) -> Pose {
+        match &self.body {
+            Body::Lifted(p) => *p,
+            Body::NoSlip(s) => s.pose,
+            Body::Rapier(e) => e.pose(),
+        }
+    }
+
+    /// Drivetrain states (left, right).
+    pub fn drivetrains(&self) -> &[DrivetrainState; 2] {
+        &self.drive
+    }
+
+    /// Runs until `duration_s`, calling `observe` after every step.
+    pub fn run_for(&mut self, duration_s: f64, mut observe: impl FnMut(&Sim)) -> Result<(), SimError> {
+        let steps = (duration_s / self.params.dt_s).round() as u64;
+        for _ in 0..steps {
+            self.step()?;
+            observe(self);
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,158 @@
+//! A snapshot: everything an observer (CSV writer, Rerun recorder, metrics) may want to see
+//! of the simulation at one instant. Built on request, so observers that sample at a
+//! lower rate cost nothing in between.
+
+use super::{Body, Sim};
+use crate::model::chassis::Pose;
+
+/// One drive side.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SideSnapshot {
+    pub voltage_v: f64,
+    pub current_a: f64,
+    pub motor_speed_rad_s: f64,
+    pub motor_angle_rad: f64,
+    pub wheel_speed_rad_s: f64,
+    pub wheel_angle_rad: f64,
+    /// Wheel rim speed, m/s.
+    pub wheel_rim_m_s: f64,
+    /// Gear output angle minus wheel angle, rad (inside +/- half the play: teeth apart).
+    pub backlash_gap_rad: f64,
+    /// Torque through the gear teeth, N m at the wheel.
+    pub tooth_torque_nm: f64,
+    /// Tyre force on the wheel, wheel frame (forward, left), N.
+    pub tyre_force_n: [f64; 2],
+    pub slip_ratio: f64,
+    pub slip_angle_rad: f64,
+    pub sliding: bool,
+    /// Wheel contact point, world frame, m.
+    pub contact_m: [f64; 2],
+}
+
+/// One castor.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CastorSnapshot {
+    pub swivel_m: [f64; 2],
+    pub patch_m: [f64; 2],
+    pub heading_rad: f64,
+    /// Swivel angle relative to the body, rad (0: trailing straight).
+    pub swivel_rad: f64,
+    pub force_n: [f64; 2],
+}
+
+/// The state of the whole simulation at an instant.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Snapshot {
+    pub t_s: f64,
+    pub pose: Pose,
+    /// Velocity of the axle midpoint, body frame (forward, left), m/s.
+    pub velocity_m_s: [f64; 2],
+    pub yaw_rate_rad_s: f64,
+    /// (left, right).
+    pub sides: [SideSnapshot; 2],
+    /// Empty on the no-slip levels (castors are lumped there).
+    pub castors: Vec<CastorSnapshot>,
+    /// Coil readings (left, right), counts.
+    pub sensors_adc: [f64; 2],
+    pub rear_sensors_adc: [f64; 2],
+    /// Coil positions, world frame.
+    pub coils_m: [[f64; 2]; 2],
+    /// Sensor-pair midpoint offset from the wire, m (left of the wire positive).
+    pub lateral_error_m: f64,
+    /// Axle-midpoint offset from the wire, m.
+    pub axle_offset_m: f64,
+    /// Demand into the DCMC (forward, turn), pct.
+    pub demand_pct: [f64; 2],
+    /// PWM registers (forward, turn), counts.
+    pub duty_counts: [f64; 2],
+    /// Firmware demand before the duty limits (forward, turn), counts.
+    pub command_counts: [f64; 2],
+    pub battery_v: f64,
+    pub battery_current_a: f64,
+    pub dcmc_braking: bool,
+    pub dcmc_fault: Option<&'static str>,
+    pub controller_phase: &'static str,
+    pub lost_wire: bool,
+    pub bumper: bool,
+}
+
+impl Sim {
+    /// What the simulation looks like now.
+    pub fn snapshot(&self) -> Snapshot {
+        let p = &self.params;
+        let pose = self.pose();
+        let (velocity_m_s, yaw_rate_rad_s) = match &self.body {
+            Body::Lifted(_) => ([0.0, 0.0], 0.0),
+            Body::NoSlip(s) => ([s.speed_m_s, 0.0], s.yaw_rate_rad_s),
+            Body::Rapier(e) => {
+                let v = e.body_velocity();
+                (v.axle_m_s, v.yaw_rate_rad_s)
+            }
+        };
+        let wheels = p.chassis.wheel_points_m();
+        let mut sides = [SideSnapshot::default(); 2];
+        for i in 0..2 {
+            let d = &self.drive[i];
+            let (gap, _) = p.drivetrain.twist(d);
+            let t = &self.last.tyre[i];
+            sides[i] = SideSnapshot {
+                voltage_v: self.last.motor_v[i],
+                current_a: d.motor.current_a,
+                motor_speed_rad_s: d.motor.speed_rad_s,
+                motor_angle_rad: d.motor.angle_rad,
+                wheel_speed_rad_s: d.wheel_speed_rad_s,
+                wheel_angle_rad: d.wheel_angle_rad,
+                wheel_rim_m_s: d.wheel_speed_rad_s * p.drivetrain.wheel_radius_m,
+                backlash_gap_rad: gap,
+                tooth_torque_nm: p.drivetrain.tooth_torque_nm(d),
+                tyre_force_n: t.force_n,
+                slip_ratio: t.slip_ratio,
+                slip_angle_rad: t.slip_angle_rad,
+                sliding: t.sliding,
+                contact_m: pose.to_world(wheels[i]),
+            };
+        }
+        let castors = match &self.body {
+            Body::Rapier(e) => {
+                let points = p.chassis.castor_points_m();
+                e.castor_motion()
+                    .iter()
+                    .enumerate()
+                    .map(|(k, m)| CastorSnapshot {
+                        swivel_m: pose.to_world(points[k]),
+                        patch_m: m.patch_m,
+                        heading_rad: m.heading_rad,
+                        swivel_rad: m.swivel_rad,
+                        force_n: self.last.castor_force_n[k],
+                    })
+                    .collect()
+            }
+            _ => Vec::new(),
+        };
+        let coils_m = [pose.to_world(p.coils_m[0]), pose.to_world(p.coils_m[1])];
+        let mid = [0.5 * (coils_m[0][0] + coils_m[1][0]), 0.5 * (coils_m[0][1] + coils_m[1][1])];
+        Snapshot {
+            t_s: self.t_s,
+            pose,
+            velocity_m_s,
+            yaw_rate_rad_s,
+            sides,
+            castors,
+            sensors_adc: self.last.sensors_adc,
+            rear_sensors_adc: self.last.rear_sensors_adc,
+            coils_m,
+            lateral_error_m: p.wire.offset(mid).lateral_m,
+            axle_offset_m: p.wire.offset([pose.x_m, pose.y_m]).lateral_m,
+            demand_pct: self.last.demand_pct,
+            duty_counts: [self.firmware.duty[0] as f64, self.firmware.duty[1] as f64],
+            command_counts: self.firmware.command_counts,
+            battery_v: self.last.battery_v,
+            battery_current_a: self.last.battery_current_a,
+            dcmc_braking: self.last.dcmc.braking,
+            dcmc_fault: self.dcmc.fault.map(|f| f.name()),
+            controller_phase: self.firmware.phase.name(),
+            lost_wire: self.firmware.lost_wire,
+            bumper: self.last.bumper,
+        }
+    }
+}

@@ -1,0 +1,267 @@
+//! `Sim::step`: one physics step, in a fixed order.
+
+use rand_distr::{Distribution, StandardNormal};
+
+use super::{Actuation, Body, Sim, SimError};
+use crate::firmware::pwm::duty_to_pct;
+use crate::firmware::FirmwareInput;
+use crate::model::chassis::Pose;
+use crate::model::dcmc::DcmcInput;
+use crate::model::motor::Terminal;
+use crate::model::tyre::{ContactKinematics, TyreOutput};
+use crate::sensing::coil::{adc_counts, adc_unquantised};
+
+/// Speeds beyond this are not physical for this machine: a diverging run, rad/s.
+const MAX_SPEED_RAD_S: f64 = 1.0e4;
+
+impl Sim {
+    /// Advances the simulation by one physics step `dt`. The order is fixed:
+    ///
+    /// 1. **Sensors**: coil readings at the current pose (field, noise, ADC), bumper contact.
+    /// 2. **Controller**: the firmware runs its interrupt if one is due (sample and hold),
+    ///    and writes PWM values whose computation delay has elapsed.
+    /// 3. **PWM filter and DCMC**: duty to demand, demand to motor voltage, with the
+    ///    battery's available voltage from the last step's current draw.
+    /// 4. **Drivetrain and tyres**: `substeps` sub-steps of motor, gear mesh and wheel;
+    ///    on the floor each wheel's tyre sub-steps with it against the chassis velocity of
+    ///    the step's start; on the no-slip levels the chassis sub-steps with the wheels.
+    /// 5. **Forces into rapier**: mean tyre forces at the wheel contacts, castor tyre and
+    ///    rolling-resistance forces at the castor patches (forces reset first).
+    /// 6. **Rapier step**.
+    /// 7. **Finiteness check**: any non-finite or unphysical state stops the run with
+    ///    [`SimError::Diverged`].
+    pub fn step(&mut self) -> Result<(), SimError> {
+        let dt = self.params.dt_s;
+        let pose = self.pose();
+
+        // 1. Sensors.
+        let sensors = self.read_coils(&pose, self.params.coils_m);
+        let rear = self.params.rear_coils_m.map(|c| self.read_coils(&pose, c));
+        let bumper = self.params.bumper.touches(&pose, &self.params.obstacles);
+        let steer_on = match (self.params.firmware.reverse, rear) {
+            (true, Some(r)) => r,
+            _ => sensors,
+        };
+        let ideal = self.params.features.ideal_feedback.then(|| {
+            let coils = match (self.params.firmware.reverse, self.params.rear_coils_m) {
+                (true, Some(r)) => r,
+                _ => self.params.coils_m,
+            };
+            let mid = [0.5 * (coils[0][0] + coils[1][0]), 0.5 * (coils[0][1] + coils[1][1])];
+            self.params.ideal_slope_counts_per_m * self.params.wire.offset(pose.to_world(mid)).lateral_m
+        });
+
+        // 2. Controller.
+        let duty = self.params.firmware.step(
+            &mut self.firmware,
+            &FirmwareInput { t_s: self.t_s, sensors_adc: steer_on, ideal_difference: ideal, bumper },
+        );
+
+        // 3. PWM filter and DCMC.
+        for (f, d) in self.pwm_filtered.iter_mut().zip(duty) {
+            *f = if self.params.features.pwm_filter {
+                self.params.pwm.step(*f, d as f64, dt)
+            } else {
+                d as f64
+            };
+        }
+        let firmware_demand = [duty_to_pct(self.pwm_filtered[0]), duty_to_pct(self.pwm_filtered[1])];
+        let battery = self.params.battery;
+        let battery_v = battery.terminal_voltage_v(self.last.battery_current_a);
+        let available_v = battery.available_drive_v(battery_v);
+        let speeds = [self.drive[0].motor.speed_rad_s, self.drive[1].motor.speed_rad_s];
+        let (demand, enabled) = match self.actuation {
+            Actuation::Demand { forward_pct, turn_pct } => ([forward_pct, turn_pct], true),
+            _ => (firmware_demand, self.firmware.drive_enabled),
+        };
+        let dcmc = self.params.dcmc.step(
+            &mut self.dcmc,
+            &DcmcInput {
+                t_s: self.t_s,
+                enabled,
+                forward_pct: demand[0],
+                turn_pct: demand[1],
+                motor_speed_rad_s: speeds,
+                back_emf_v: speeds.map(|w| self.params.drivetrain.motor.back_emf_v(w)),
+                low_battery: battery.below_fault(battery_v),
+                available_v,
+            },
+            dt,
+        );
+        let terminals = match self.actuation {
+            Actuation::Firmware | Actuation::Demand { .. } => dcmc.voltage_v.map(Terminal::Voltage),
+            Actuation::Voltage(v) => v.map(|x| Terminal::Voltage(x.clamp(-available_v, available_v))),
+            Actuation::Open => [Terminal::Open; 2],
+        };
+
+        // 4-6. Drivetrain and tyres, forces into rapier, rapier step.
+        let tyre = self.advance_drivetrains_and_body(terminals, dt);
+
+        // Battery current for the next step's terminal voltage (ideal bridges).
+        let power: f64 = (0..2)
+            .map(|i| match terminals[i] {
+                Terminal::Voltage(v) => v * self.drive[i].motor.current_a,
+                Terminal::Open => 0.0,
+            })
+            .sum();
+        let current = battery.current_for_power_a(power);
+
+        self.last.sensors_adc = sensors;
+        self.last.rear_sensors_adc = rear.unwrap_or([0.0; 2]);
+        self.last.demand_pct = demand;
+        self.last.dcmc = dcmc;
+        self.last.motor_v = terminals.map(|t| match t {
+            Terminal::Voltage(v) => v,
+            Terminal::Open => 0.0,
+        });
+        self.last.battery_v = battery_v;
+        self.last.battery_current_a = current;
+        self.last.tyre = tyre;
+        self.last.bumper = bumper;
+        self.t_s = (self.steps + 1) as f64 * dt;
+        self.steps += 1;
+
+        // 7. Finiteness check.
+        self.check_finite()
+    }
+
+    /// Readings of a coil pair (left, right) at a pose: field, noise, ADC.
+    fn read_coils(&mut self, pose: &Pose, coils: [[f64; 2]; 2]) -> [f64; 2] {
+        let axis = pose.rotate([0.0, 1.0]);
+        let mut out = [0.0; 2];
+        for (i, c) in coils.iter().enumerate() {
+            let field = self.params.wire.horizontal_field(pose.to_world(*c), self.params.coil.height_m);
+            let mut s = self.params.coil.reading(field, axis);
+            if self.params.noise_adc > 0.0 {
+                let n: f64 = StandardNormal.sample(&mut self.rng);
+                s += self.params.noise_adc * n;
+            }
+            out[i] = if self.params.features.quantisation { adc_counts(s) } else { adc_unquantised(s) };
+        }
+        out
+    }
+
+    /// Sub-steps the drivetrains together with whatever carries the wheels, then (on the
+    /// floor) applies the forces and steps rapier. Returns the drive tyres' mean output.
+    fn advance_drivetrains_and_body(&mut self, terminals: [Terminal; 2], dt: f64) -> [TyreOutput; 2] {
+        let p = &self.params;
+        let dtp = p.drivetrain;
+        let n = p.substeps;
+        let h = dt / n as f64;
+        let mut mean = [TyreOutput::default(); 2];
+        match &mut self.body {
+            Body::Lifted(_) => {
+                for _ in 0..n {
+                    for i in 0..2 {
+                        let t = dtp.tooth_torque_nm(&self.drive[i]);
+                        dtp.motor_substep(&mut self.drive[i], terminals[i], t, h);
+                        dtp.wheel_substep(&mut self.drive[i], t, 0.0, h);
+                    }
+                }
+            }
+            Body::NoSlip(state) => {
+                for _ in 0..n {
+                    let mut torque = [0.0; 2];
+                    for i in 0..2 {
+                        torque[i] = dtp.tooth_torque_nm(&self.drive[i]);
+                        dtp.motor_substep(&mut self.drive[i], terminals[i], torque[i], h);
+                    }
+                    p.noslip.step(state, torque, h);
+                    let w = p.noslip.wheel_speeds_rad_s(state);
+                    for i in 0..2 {
+                        self.drive[i].wheel_speed_rad_s = w[i];
+                        self.drive[i].wheel_angle_rad += h * w[i];
+                    }
+                }
+            }
+            Body::Rapier(engine) => {
+                let pose = engine.pose();
+                let wheels = p.chassis.wheel_points_m();
+                let r = dtp.wheel_radius_m;
+                let mut kin = [ContactKinematics::default(); 2];
+                let mut tyre_params = [p.drive_tyre(p.floor.default); 2];
+                for i in 0..2 {
+                    let v = engine.point_velocity_body(wheels[i]);
+                    kin[i] = ContactKinematics { forward_m_s: v[0], lateral_m_s: v[1], rim_m_s: 0.0 };
+                    tyre_params[i] = p.drive_tyre(p.floor.surface_at(pose.to_world(wheels[i])));
+                }
+                let mut force_sum = [[0.0; 2]; 2];
+                let inv_n = 1.0 / n as f64;
+                for _ in 0..n {
+                    for i in 0..2 {
+                        let t = dtp.tooth_torque_nm(&self.drive[i]);
+                        dtp.motor_substep(&mut self.drive[i], terminals[i], t, h);
+                        kin[i].rim_m_s = self.drive[i].wheel_speed_rad_s * r;
+                        let out = tyre_params[i].step(&mut self.tyres[i], kin[i], p.loads.drive_n[i], h);
+                        dtp.wheel_substep(&mut self.drive[i], t, -r * out.force_n[0], h);
+                        force_sum[i][0] += out.force_n[0];
+                        force_sum[i][1] += out.force_n[1];
+                        // Keep slip measures of the last sub-step, mean of the forces.
+                        mean[i] = TyreOutput { force_n: [0.0; 2], ..out };
+                    }
+                }
+                for i in 0..2 {
+                    mean[i].force_n = [force_sum[i][0] * inv_n, force_sum[i][1] * inv_n];
+                }
+                let wheel_forces = [
+                    (wheels[0], pose.rotate(mean[0].force_n)),
+                    (wheels[1], pose.rotate(mean[1].force_n)),
+                ];
+                let motion = engine.castor_motion();
+                let mut castor_forces = [[0.0; 2]; 4];
+                for (k, m) in motion.iter().enumerate() {
+                    let load = p.loads.castor_n[k];
+                    let tp = p.castor_tyre(p.floor.surface_at(m.patch_m));
+                    let roll = m.velocity_m_s[0];
+                    // A free-rolling wheel: rim speed equals forward speed, only lateral slip.
+                    let out = tp.step(
+                        &mut self.castor_tyres[k],
+                        ContactKinematics { forward_m_s: roll, lateral_m_s: m.velocity_m_s[1], rim_m_s: roll },
+                        load,
+                        dt,
+                    );
+                    // Rolling resistance, smoothed through zero speed over 5 mm/s.
+                    let rr = -p.castor_rolling_resistance * load * roll / roll.hypot(0.005);
+                    let local = [rr, out.force_n[1]];
+                    let (s, c) = m.heading_rad.sin_cos();
+                    castor_forces[k] = [c * local[0] - s * local[1], s * local[0] + c * local[1]];
+                }
+                self.last.castor_force_n = castor_forces;
+                engine.step(&wheel_forces, &castor_forces);
+            }
+        }
+        mean
+    }
+
+    fn check_finite(&self) -> Result<(), SimError> {
+        let bad = |what: &str, value: f64| SimError::Diverged { t_s: self.t_s, what: what.to_string(), value };
+        for (i, d) in self.drive.iter().enumerate() {
+            let side = if i == 0 { "left" } else { "right" };
+            for (name, v, limit) in [
+                ("motor speed (rad/s)", d.motor.speed_rad_s, MAX_SPEED_RAD_S),
+                ("wheel speed (rad/s)", d.wheel_speed_rad_s, MAX_SPEED_RAD_S),
+                ("armature current (A)", d.motor.current_a, 1.0e4),
+                ("motor angle (rad)", d.motor.angle_rad, f64::MAX),
+                ("wheel angle (rad)", d.wheel_angle_rad, f64::MAX),
+            ] {
+                if !v.is_finite() || v.abs() > limit {
+                    return Err(bad(&format!("{side} {name}"), v));
+                }
+            }
+        }
+        let pose = self.pose();
+        for (name, v) in [("x (m)", pose.x_m), ("y (m)", pose.y_m), ("heading (rad)", pose.heading_rad)] {
+            if !v.is_finite() {
+                return Err(bad(name, v));
+            }
+        }
+        if let Body::Rapier(e) = &self.body {
+            let v = e.body_velocity();
+            let speed = v.axle_m_s[0].hypot(v.axle_m_s[1]);
+            if !speed.is_finite() || speed > 100.0 {
+                return Err(bad("chassis speed (m/s)", speed));
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,285 @@
+//! The Rerun recorder: an observer of snapshots that logs the floor scene and time series
+//! at a decimated rate, with a default layout (blueprint) a newcomer can read: the floor
+//! view on the left, four stacked plots on the right.
+//!
+//! The 2-D view draws y downwards, so world y is negated when logged: a left turn on the
+//! floor looks like one on the screen.
+
+use std::path::PathBuf;
+
+use rerun::blueprint::{Blueprint, Horizontal, Spatial2DView, TimeSeriesView, Vertical};
+use rerun::{RecordingStream, RecordingStreamBuilder};
+
+use crate::sim::{SimParams, Snapshot};
+
+/// Where the recording goes.
+#[derive(Debug, Clone)]
+pub enum RerunTarget {
+    /// Write an `.rrd` file.
+    Save(PathBuf),
+    /// Start the viewer (the `rerun` binary on PATH) and stream to it.
+    Spawn,
+    /// Stream to a running viewer (default address).
+    Connect,
+}
+
+/// Errors from the Rerun SDK, as text (the SDK's error types differ per sink).
+#[derive(Debug, thiserror::Error)]
+#[error("rerun: {0}")]
+pub struct VizError(pub String);
+
+const GREY: [u8; 4] = [120, 120, 120, 255];
+const WIRE: [u8; 4] = [255, 170, 0, 255];
+const BODY: [u8; 4] = [80, 160, 255, 255];
+const CASTOR: [u8; 4] = [200, 200, 200, 255];
+const PATH: [u8; 4] = [120, 220, 120, 255];
+const LEFT: [u8; 4] = [230, 90, 90, 255];
+const RIGHT: [u8; 4] = [90, 140, 230, 255];
+
+fn w(p: [f64; 2]) -> [f32; 2] {
+    [p[0] as f32, -p[1] as f32]
+}
+
+/// Logs snapshots to Rerun every `every` physics steps.
+pub struct RerunRecorder {
+    rec: RecordingStream,
+    every: u64,
+    count: u64,
+    path: Vec<[f32; 2]>,
+    path_every: u64,
+}
+
+fn err(e: impl std::fmt::Display) -> VizError {
+    VizError(e.to_string())
+}
+
+/// The default layout.
+pub fn blueprint() -> Blueprint {
+    let floor = Spatial2DView::new("Floor (top view)").with_origin("/world");
+    let tracking = TimeSeriesView::new("Tracking: lateral error (m)").with_origin("/plots/tracking");
+    let sensors = TimeSeriesView::new("Guide-wire sensors (ADC counts)").with_origin("/plots/sensors");
+    let drive = TimeSeriesView::new("Drive: demand (pct), voltage (V), motor speed (rad/s)").with_origin("/plots/drive");
+    let wheels = TimeSeriesView::new("Wheels: slip ratio, backlash gap (rad)").with_origin("/plots/wheels");
+    Blueprint::new(
+        Horizontal::new([floor.into(), Vertical::new([tracking.into(), sensors.into(), drive.into(), wheels.into()]).into()])
+            .with_column_shares([0.55, 0.45]),
+    )
+}
+
+impl RerunRecorder {
+    /// Opens the target and logs the static scene (floor regions, wire, obstacles).
+    pub fn new(target: &RerunTarget, name: &str, params: &SimParams, log_interval_s: f64) -> Result<Self, VizError> {
+        let builder = RecordingStreamBuilder::new("agvsim")
+            .recording_id(format!("agvsim-{name}-seed{}", params.seed))
+            .with_blueprint(blueprint());
+        let rec = match target {
+            RerunTarget::Save(p) => builder.save(p).map_err(err)?,
+            RerunTarget::Spawn => builder.spawn().map_err(err)?,
+            RerunTarget::Connect => builder.connect_grpc().map_err(err)?,
+        };
+        let every = ((log_interval_s / params.dt_s).round() as u64).max(1);
+        let mut r = RerunRecorder { rec, every, count: 0, path: Vec::new(), path_every: 5 };
+        r.log_static(params)?;
+        Ok(r)
+    }
+
+    fn log_static(&mut self, p: &SimParams) -> Result<(), VizError> {
+        let rec = &self.rec;
+        let mut wire: Vec<[f32; 2]> = p.wire.points().iter().map(|q| w(*q)).collect();
+        if p.wire.is_closed() {
+            wire.push(wire[0]);
+        }
+        // Floor extent: the wire's bounding box with a margin.
+        let (mut lo, mut hi) = ([f64::MAX; 2], [f64::MIN; 2]);
+        for q in p.wire.points().iter().chain(std::iter::once(&[p.start.x_m, p.start.y_m])) {
+            for k in 0..2 {
+                lo[k] = lo[k].min(q[k]);
+                hi[k] = hi[k].max(q[k]);
+            }
+        }
+        let floor = vec![
+            w([lo[0] - 1.0, lo[1] - 1.0]),
+            w([hi[0] + 1.0, lo[1] - 1.0]),
+            w([hi[0] + 1.0, hi[1] + 1.0]),
+            w([lo[0] - 1.0, hi[1] + 1.0]),
+            w([lo[0] - 1.0, lo[1] - 1.0]),
+        ];
+        rec.log_static(
+            "world/floor",
+            &rerun::LineStrips2D::new([floor])
+                .with_colors([GREY])
+                .with_labels([p.floor.default.name]),
+        )
+        .map_err(err)?;
+        for (i, (_, surface, pts)) in p.floor.regions.iter().enumerate() {
+            let mut strip: Vec<[f32; 2]> = pts.iter().map(|q| w(*q)).collect();
+            strip.push(strip[0]);
+            rec.log_static(
+                format!("world/floor/region_{i}"),
+                &rerun::LineStrips2D::new([strip]).with_colors([[180, 140, 90, 255]]).with_labels([surface.name]),
+            )
+            .map_err(err)?;
+        }
+        rec.log_static("world/wire", &rerun::LineStrips2D::new([wire]).with_colors([WIRE]).with_radii([0.006f32]))
+            .map_err(err)?;
+        for (i, o) in p.obstacles.iter().enumerate() {
+            let c = o.spec.center_m;
+            let strip: Vec<[f32; 2]> = match (o.spec.half_extents_m, o.spec.radius_m) {
+                (Some(h), _) => {
+                    let (s, co) = o.spec.angle_rad.sin_cos();
+                    let mut v: Vec<[f32; 2]> = [[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0]]
+                        .iter()
+                        .map(|k| {
+                            let (x, y) = (k[0] * h[0], k[1] * h[1]);
+                            w([c[0] + co * x - s * y, c[1] + s * x + co * y])
+                        })
+                        .collect();
+                    v.shrink_to_fit();
+                    v
+                }
+                (None, Some(r)) => (0..=32)
+                    .map(|k| {
+                        let a = k as f64 / 32.0 * std::f64::consts::TAU;
+                        w([c[0] + r * a.cos(), c[1] + r * a.sin()])
+                    })
+                    .collect(),
+                _ => continue,
+            };
+            rec.log_static(
+                format!("world/obstacles/{i}"),
+                &rerun::LineStrips2D::new([strip]).with_colors([[255, 60, 60, 255]]),
+            )
+            .map_err(err)?;
+        }
+        let series = |names: &[&str], colors: &[[u8; 4]]| {
+            rerun::SeriesLines::new()
+                .with_names(names.iter().map(|s| s.to_string()))
+                .with_colors(colors.to_vec())
+        };
+        rec.log_static("plots/tracking/lateral_error_m", &series(&["sensor pair off the wire (m)"], &[PATH]))
+            .map_err(err)?;
+        rec.log_static("plots/sensors/adc", &series(&["left coil", "right coil"], &[LEFT, RIGHT]))
+            .map_err(err)?;
+        rec.log_static("plots/drive/demand_pct", &series(&["forward demand (pct)", "turn demand (pct)"], &[GREY, WIRE]))
+            .map_err(err)?;
+        rec.log_static("plots/drive/voltage_V", &series(&["left voltage (V)", "right voltage (V)"], &[LEFT, RIGHT]))
+            .map_err(err)?;
+        rec.log_static(
+            "plots/drive/motor_speed_rad_s",
+            &series(&["left motor (rad/s)", "right motor (rad/s)"], &[[255, 150, 150, 255], [150, 190, 255, 255]]),
+        )
+        .map_err(err)?;
+        rec.log_static("plots/wheels/slip_ratio", &series(&["left slip", "right slip"], &[LEFT, RIGHT]))
+            .map_err(err)?;
+        rec.log_static(
+            "plots/wheels/backlash_gap_rad",
+            &series(&["left gap (rad)", "right gap (rad)"], &[[255, 200, 120, 255], [120, 220, 255, 255]]),
+        )
+        .map_err(err)?;
+        Ok(())
+    }
+
+    /// Called after every physics step; logs every `every`-th.
+    pub fn observe(&mut self, s: &Snapshot, p: &SimParams) -> Result<(), VizError> {
+        let due = self.count % self.every == 0;
+        self.count += 1;
+        if !due {
+            return Ok(());
+        }
+        let rec = &self.rec;
+        rec.set_duration_secs("sim_time", s.t_s);
+        let pose = s.pose;
+        let (front, rear, width) = p.outline_m;
+        let outline: Vec<[f32; 2]> =
+            [[front, width / 2.0], [-rear, width / 2.0], [-rear, -width / 2.0], [front, -width / 2.0], [front, width / 2.0]]
+                .iter()
+                .map(|q| w(pose.to_world(*q)))
+                .collect();
+        let nose = vec![w(pose.to_world([0.0, 0.0])), w(pose.to_world([front * 0.8, 0.0]))];
+        rec.log("world/agv/body", &rerun::LineStrips2D::new([outline, nose]).with_colors([BODY]))
+            .map_err(err)?;
+        let coil_colors: Vec<[u8; 4]> = s
+            .sensors_adc
+            .iter()
+            .map(|v| {
+                let k = (v / 255.0).clamp(0.0, 1.0);
+                [255, (255.0 * (1.0 - k)) as u8, 0, 255]
+            })
+            .collect();
+        rec.log(
+            "world/agv/coils",
+            &rerun::Points2D::new(s.coils_m.map(w))
+                .with_radii([0.015f32])
+                .with_colors(coil_colors)
+                .with_labels([format!("L {:.0}", s.sensors_adc[0]), format!("R {:.0}", s.sensors_adc[1])]),
+        )
+        .map_err(err)?;
+        // Tyre forces (N -> m at 1 mm/N) and slip (the sliding velocity direction).
+        let contacts: Vec<[f32; 2]> = s.sides.iter().map(|x| w(x.contact_m)).collect();
+        let forces: Vec<[f32; 2]> = s
+            .sides
+            .iter()
+            .map(|x| {
+                let f = pose.rotate(x.tyre_force_n);
+                [0.001 * f[0] as f32, -0.001 * f[1] as f32]
+            })
+            .collect();
+        rec.log(
+            "world/agv/tyre_force",
+            &rerun::Arrows2D::from_vectors(forces).with_origins(contacts.clone()).with_colors([[255, 80, 200, 255]]),
+        )
+        .map_err(err)?;
+        let slips: Vec<[f32; 2]> = s
+            .sides
+            .iter()
+            .map(|x| {
+                let v = pose.rotate([0.3 * x.slip_ratio, 0.3 * x.slip_angle_rad]);
+                [v[0] as f32, -v[1] as f32]
+            })
+            .collect();
+        rec.log(
+            "world/agv/slip",
+            &rerun::Arrows2D::from_vectors(slips).with_origins(contacts).with_colors([[255, 255, 0, 255]]),
+        )
+        .map_err(err)?;
+        if !s.castors.is_empty() {
+            let strips: Vec<Vec<[f32; 2]>> = s.castors.iter().map(|c| vec![w(c.swivel_m), w(c.patch_m)]).collect();
+            rec.log("world/agv/castors", &rerun::LineStrips2D::new(strips).with_colors([CASTOR]).with_radii([0.01f32]))
+                .map_err(err)?;
+        }
+        if self.count / self.every % self.path_every == 1 || self.path.is_empty() {
+            self.path.push(w([pose.x_m, pose.y_m]));
+            if self.path.len() > 4000 {
+                // Thin the trace rather than grow without bound.
+                self.path = self.path.iter().step_by(2).cloned().collect();
+                self.path_every *= 2;
+            }
+        }
+        rec.log("world/path", &rerun::LineStrips2D::new([self.path.clone()]).with_colors([PATH]))
+            .map_err(err)?;
+        rec.log("plots/tracking/lateral_error_m", &rerun::Scalars::new([s.lateral_error_m]))
+            .map_err(err)?;
+        rec.log("plots/sensors/adc", &rerun::Scalars::new(s.sensors_adc)).map_err(err)?;
+        rec.log("plots/drive/demand_pct", &rerun::Scalars::new(s.demand_pct)).map_err(err)?;
+        rec.log("plots/drive/voltage_V", &rerun::Scalars::new([s.sides[0].voltage_v, s.sides[1].voltage_v]))
+            .map_err(err)?;
+        rec.log(
+            "plots/drive/motor_speed_rad_s",
+            &rerun::Scalars::new([s.sides[0].motor_speed_rad_s, s.sides[1].motor_speed_rad_s]),
+        )
+        .map_err(err)?;
+        rec.log("plots/wheels/slip_ratio", &rerun::Scalars::new([s.sides[0].slip_ratio, s.sides[1].slip_ratio]))
+            .map_err(err)?;
+        rec.log(
+            "plots/wheels/backlash_gap_rad",
+            &rerun::Scalars::new([s.sides[0].backlash_gap_rad, s.sides[1].backlash_gap_rad]),
+        )
+        .map_err(err)?;
+        Ok(())
+    }
+
+    /// Flushes everything to the sink.
+    pub fn finish(self) -> Result<(), VizError> {
+        self.rec.flush_blocking().map_err(err)
+    }
+}
