@@ -62,7 +62,9 @@ impl ChassisParams {
         // Where the castors' share must act for the moments to balance.
         let rest = (1.0 - f) * w;
         let cx = self.cg_m[0] / (1.0 - f);
-        let cy = self.cg_m[1] / (1.0 - f);
+        // The drive pair already splits its share about the CG's y, so the castors'
+        // share must be centred on it too; along x the drive axle sits at x = 0.
+        let cy = self.cg_m[1];
         let (xf, xr, hy) = (self.castor_front_x_m, self.castor_rear_x_m, self.castor_half_spacing_m);
         let front = (cx - xr) / (xf - xr);
         let left = 0.5 + cy / (2.0 * hy);

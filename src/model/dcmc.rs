@@ -21,6 +21,8 @@ pub struct DcmcParams {
     /// measures and the armature resistance it is set up for).
     pub current_limit_a: f64,
     pub armature_resistance_ohm: f64,
+    /// Whether the unit's faults are modelled at all.
+    pub faults: bool,
 }
 
 /// Why the DCMC stopped driving (latched until it is disabled and enabled again).
@@ -106,7 +108,7 @@ impl DcmcParams {
             return self.brake(u);
         }
         let since = *s.enabled_since_s.get_or_insert(u.t_s);
-        if s.fault.is_none() {
+        if s.fault.is_none() && self.faults {
             let demanding = u.forward_pct.abs() > ZERO_DEMAND_PCT || u.turn_pct.abs() > ZERO_DEMAND_PCT;
             if demanding && u.t_s - since < self.enable_delay_s {
                 s.fault = Some(DcmcFault::EnableDelay);
@@ -204,6 +206,7 @@ mod tests {
             brake_gain_v_s_rad: 0.3,
             current_limit_a: 1000.0,
             armature_resistance_ohm: 0.35,
+            faults: true,
         }
     }
 

@@ -106,7 +106,7 @@ impl Scene {
         let _ = m;
         let f = c.drive_load_fraction;
         let cx = cgx / (1.0 - f);
-        if !(cx > k.rear_x_m && cx < k.front_x_m) || cgy.abs() / (1.0 - f) >= k.half_spacing_m {
+        if !(cx > k.rear_x_m && cx < k.front_x_m) || cgy.abs() >= k.half_spacing_m {
             return Err(bad(
                 "chassis.cg_x_m / payload.cg_x_m",
                 format!("{cgx:.3} m (combined CG)"),

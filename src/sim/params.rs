@@ -37,6 +37,9 @@ pub struct Features {
     pub pwm_filter: bool,
     /// Rapier chassis with tyres (slip) and castor bodies; otherwise the no-slip chassis.
     pub tyres_and_castors: bool,
+    /// The DCMC's faults (enable delay, combined demand, low battery), which the thesis's
+    /// Simulink levels did not model.
+    pub dcmc_faults: bool,
 }
 
 impl Features {
@@ -49,6 +52,7 @@ impl Features {
                 backlash: false,
                 pwm_filter: false,
                 tyres_and_castors: false,
+                dcmc_faults: false,
             },
             Fidelity::Nonlinear => Features {
                 ideal_feedback: false,
@@ -57,6 +61,7 @@ impl Features {
                 backlash: false,
                 pwm_filter: true,
                 tyres_and_castors: false,
+                dcmc_faults: false,
             },
             Fidelity::Complex => Features {
                 ideal_feedback: false,
@@ -65,6 +70,7 @@ impl Features {
                 backlash: true,
                 pwm_filter: true,
                 tyres_and_castors: false,
+                dcmc_faults: false,
             },
             Fidelity::Full => Features {
                 ideal_feedback: false,
@@ -73,6 +79,7 @@ impl Features {
                 backlash: true,
                 pwm_filter: true,
                 tyres_and_castors: true,
+                dcmc_faults: true,
             },
         }
     }
@@ -202,6 +209,7 @@ impl SimParams {
             turn_priority: d.turn_priority,
             brake_gain_v_s_rad: d.brake_gain_V_s_rad,
             current_limit_a: d.current_limit_A,
+            faults: features.dcmc_faults,
             armature_resistance_ohm: m.resistance_ohm,
         };
         let c = &scene.controller;
