@@ -47,6 +47,11 @@ pub struct RerunRecorder {
     count: u64,
     path: Vec<[f32; 2]>,
     path_every: u64,
+    /// Travelled region (min, max), world frame, for framing the floor at the end.
+    seen: ([f64; 2], [f64; 2]),
+    wire: Vec<[f64; 2]>,
+    wire_closed: bool,
+    floor_name: &'static str,
 }
 
 fn err(e: impl std::fmt::Display) -> VizError {
@@ -58,11 +63,15 @@ pub fn blueprint() -> Blueprint {
     let floor = Spatial2DView::new("Floor (top view)").with_origin("/world");
     let tracking = TimeSeriesView::new("Tracking: lateral error (m)").with_origin("/plots/tracking");
     let sensors = TimeSeriesView::new("Guide-wire sensors (ADC counts)").with_origin("/plots/sensors");
-    let drive = TimeSeriesView::new("Drive: demand (pct), voltage (V), motor speed (rad/s)").with_origin("/plots/drive");
+    let drive = TimeSeriesView::new("DCMC: demand (pct) and motor voltage (V)").with_origin("/plots/drive");
+    let motors = TimeSeriesView::new("Motor speed (rad/s)").with_origin("/plots/motors");
     let wheels = TimeSeriesView::new("Wheels: slip ratio, backlash gap (rad)").with_origin("/plots/wheels");
     Blueprint::new(
-        Horizontal::new([floor.into(), Vertical::new([tracking.into(), sensors.into(), drive.into(), wheels.into()]).into()])
-            .with_column_shares([0.55, 0.45]),
+        Horizontal::new([
+            floor.into(),
+            Vertical::new([tracking.into(), sensors.into(), drive.into(), motors.into(), wheels.into()]).into(),
+        ])
+        .with_column_shares([0.55, 0.45]),
     )
 }
 
@@ -78,39 +87,23 @@ impl RerunRecorder {
             RerunTarget::Connect => builder.connect_grpc().map_err(err)?,
         };
         let every = ((log_interval_s / params.dt_s).round() as u64).max(1);
-        let mut r = RerunRecorder { rec, every, count: 0, path: Vec::new(), path_every: 5 };
+        let mut r = RerunRecorder {
+            rec,
+            every,
+            count: 0,
+            path: Vec::new(),
+            path_every: 5,
+            seen: ([params.start.x_m, params.start.y_m], [params.start.x_m, params.start.y_m]),
+            wire: params.wire.points().to_vec(),
+            wire_closed: params.wire.is_closed(),
+            floor_name: params.floor.default.name,
+        };
         r.log_static(params)?;
         Ok(r)
     }
 
     fn log_static(&mut self, p: &SimParams) -> Result<(), VizError> {
         let rec = &self.rec;
-        let mut wire: Vec<[f32; 2]> = p.wire.points().iter().map(|q| w(*q)).collect();
-        if p.wire.is_closed() {
-            wire.push(wire[0]);
-        }
-        // Floor extent: the wire's bounding box with a margin.
-        let (mut lo, mut hi) = ([f64::MAX; 2], [f64::MIN; 2]);
-        for q in p.wire.points().iter().chain(std::iter::once(&[p.start.x_m, p.start.y_m])) {
-            for k in 0..2 {
-                lo[k] = lo[k].min(q[k]);
-                hi[k] = hi[k].max(q[k]);
-            }
-        }
-        let floor = vec![
-            w([lo[0] - 1.0, lo[1] - 1.0]),
-            w([hi[0] + 1.0, lo[1] - 1.0]),
-            w([hi[0] + 1.0, hi[1] + 1.0]),
-            w([lo[0] - 1.0, hi[1] + 1.0]),
-            w([lo[0] - 1.0, lo[1] - 1.0]),
-        ];
-        rec.log_static(
-            "world/floor",
-            &rerun::LineStrips2D::new([floor])
-                .with_colors([GREY])
-                .with_labels([p.floor.default.name]),
-        )
-        .map_err(err)?;
         for (i, (_, surface, pts)) in p.floor.regions.iter().enumerate() {
             let mut strip: Vec<[f32; 2]> = pts.iter().map(|q| w(*q)).collect();
             strip.push(strip[0]);
@@ -120,8 +113,6 @@ impl RerunRecorder {
             )
             .map_err(err)?;
         }
-        rec.log_static("world/wire", &rerun::LineStrips2D::new([wire]).with_colors([WIRE]).with_radii([0.006f32]))
-            .map_err(err)?;
         for (i, o) in p.obstacles.iter().enumerate() {
             let c = o.spec.center_m;
             let strip: Vec<[f32; 2]> = match (o.spec.half_extents_m, o.spec.radius_m) {
@@ -165,7 +156,7 @@ impl RerunRecorder {
         rec.log_static("plots/drive/voltage_V", &series(&["left voltage (V)", "right voltage (V)"], &[LEFT, RIGHT]))
             .map_err(err)?;
         rec.log_static(
-            "plots/drive/motor_speed_rad_s",
+            "plots/motors/motor_speed_rad_s",
             &series(&["left motor (rad/s)", "right motor (rad/s)"], &[[255, 150, 150, 255], [150, 190, 255, 255]]),
         )
         .map_err(err)?;
@@ -189,6 +180,11 @@ impl RerunRecorder {
         let rec = &self.rec;
         rec.set_duration_secs("sim_time", s.t_s);
         let pose = s.pose;
+        for k in 0..2 {
+            let v = [pose.x_m, pose.y_m][k];
+            self.seen.0[k] = self.seen.0[k].min(v);
+            self.seen.1[k] = self.seen.1[k].max(v);
+        }
         let (front, rear, width) = p.outline_m;
         let outline: Vec<[f32; 2]> =
             [[front, width / 2.0], [-rear, width / 2.0], [-rear, -width / 2.0], [front, -width / 2.0], [front, width / 2.0]]
@@ -264,7 +260,7 @@ impl RerunRecorder {
         rec.log("plots/drive/voltage_V", &rerun::Scalars::new([s.sides[0].voltage_v, s.sides[1].voltage_v]))
             .map_err(err)?;
         rec.log(
-            "plots/drive/motor_speed_rad_s",
+            "plots/motors/motor_speed_rad_s",
             &rerun::Scalars::new([s.sides[0].motor_speed_rad_s, s.sides[1].motor_speed_rad_s]),
         )
         .map_err(err)?;
@@ -278,8 +274,54 @@ impl RerunRecorder {
         Ok(())
     }
 
-    /// Flushes everything to the sink.
+    /// Logs the floor and the wire, framed on the travelled region (a long wire would
+    /// otherwise shrink the vehicle to a dot), and flushes everything to the sink.
     pub fn finish(self) -> Result<(), VizError> {
+        let margin = 1.0;
+        let lo = [self.seen.0[0] - margin, self.seen.0[1] - margin];
+        let hi = [self.seen.1[0] + margin, self.seen.1[1] + margin];
+        let floor = vec![w(lo), w([hi[0], lo[1]]), w(hi), w([lo[0], hi[1]]), w(lo)];
+        self.rec
+            .log_static("world/floor", &rerun::LineStrips2D::new([floor]).with_colors([GREY]).with_labels([self.floor_name]))
+            .map_err(err)?;
+        let mut pts = self.wire.clone();
+        if self.wire_closed {
+            pts.push(pts[0]);
+        }
+        let strips: Vec<Vec<[f32; 2]>> = pts
+            .windows(2)
+            .filter_map(|s| clip_segment(s[0], s[1], lo, hi))
+            .map(|(a, b)| vec![w(a), w(b)])
+            .collect();
+        self.rec
+            .log_static("world/wire", &rerun::LineStrips2D::new(strips).with_colors([WIRE]).with_radii([0.006f32]))
+            .map_err(err)?;
         self.rec.flush_blocking().map_err(err)
     }
+}
+
+/// The part of a segment inside an axis-aligned box (Liang-Barsky), if any.
+fn clip_segment(a: [f64; 2], b: [f64; 2], lo: [f64; 2], hi: [f64; 2]) -> Option<([f64; 2], [f64; 2])> {
+    let d = [b[0] - a[0], b[1] - a[1]];
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    for k in 0..2 {
+        for (p, q) in [(-d[k], a[k] - lo[k]), (d[k], hi[k] - a[k])] {
+            if p == 0.0 {
+                if q < 0.0 {
+                    return None;
+                }
+            } else {
+                let r = q / p;
+                if p < 0.0 {
+                    t0 = t0.max(r);
+                } else {
+                    t1 = t1.min(r);
+                }
+            }
+        }
+    }
+    (t0 <= t1).then(|| ([a[0] + t0 * d[0], a[1] + t0 * d[1]], [a[0] + t1 * d[0], a[1] + t1 * d[1]]))
+}
+
+impl RerunRecorder {
 }
