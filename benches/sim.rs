@@ -16,7 +16,10 @@ fn levels(c: &mut Criterion) {
     for level in Fidelity::ALL {
         let scene = Scene::load(
             Path::new("scenes/lab_offset_120mm.toml"),
-            &[format!("sim.fidelity={}", level.name()), "sim.duration_s=10".to_string()],
+            &[
+                format!("sim.fidelity={}", level.name()),
+                "sim.duration_s=10".to_string(),
+            ],
         )
         .expect("lab scene");
         group.bench_function(level.name(), |b| {

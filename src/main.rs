@@ -10,7 +10,11 @@ use agvsim::scene::{presets, Scene};
 use agvsim::viz::RerunTarget;
 
 #[derive(Parser)]
-#[command(name = "agvsim", version, about = "Simulate, identify and diagnose wire-guided AGVs")]
+#[command(
+    name = "agvsim",
+    version,
+    about = "Simulate, identify and diagnose wire-guided AGVs"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -52,7 +56,9 @@ enum Command {
 }
 
 fn positive_seconds(s: &str) -> Result<f64, String> {
-    let v: f64 = s.parse().map_err(|_| format!("`{s}` is not a number of seconds"))?;
+    let v: f64 = s
+        .parse()
+        .map_err(|_| format!("`{s}` is not a number of seconds"))?;
     if v.is_finite() && v > 0.0 {
         Ok(v)
     } else {
@@ -63,7 +69,17 @@ fn positive_seconds(s: &str) -> Result<f64, String> {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
-        Command::Run { scene, out, mut set, duration, seed, save, spawn, connect, rerun_interval } => {
+        Command::Run {
+            scene,
+            out,
+            mut set,
+            duration,
+            seed,
+            save,
+            spawn,
+            connect,
+            rerun_interval,
+        } => {
             if let Some(d) = duration {
                 set.push(format!("sim.duration_s={d}"));
             }
@@ -77,7 +93,10 @@ fn main() -> ExitCode {
                     return ExitCode::from(2);
                 }
             };
-            let name = scene.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "run".into());
+            let name = scene
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "run".into());
             let rerun = match (save, spawn, connect) {
                 (Some(p), _, _) => Some(RerunTarget::Save(p)),
                 (None, true, _) => Some(RerunTarget::Spawn),
@@ -93,14 +112,37 @@ fn main() -> ExitCode {
             match run_scene(&loaded, &opts) {
                 Ok(o) => {
                     let s = &o.summary;
-                    println!("scene      {} ({}, fidelity {})", scene.display(), loaded.description, loaded.sim.fidelity.name());
-                    println!("simulated  {:.2} s, {:.2} m travelled", s.duration_s, s.distance_m);
+                    println!(
+                        "scene      {} ({}, fidelity {})",
+                        scene.display(),
+                        loaded.description,
+                        loaded.sim.fidelity.name()
+                    );
+                    println!(
+                        "simulated  {:.2} s, {:.2} m travelled",
+                        s.duration_s, s.distance_m
+                    );
                     match s.settling_distance_m {
-                        Some(d) => println!("settled    after {:.2} m (lateral error within {:.0} mm from then on)", d, 1000.0 * agvsim::sim::metrics::SETTLED_BAND_M),
-                        None => println!("settled    no (lateral error never stayed within {:.0} mm)", 1000.0 * agvsim::sim::metrics::SETTLED_BAND_M),
+                        Some(d) => println!(
+                            "settled    after {:.2} m (lateral error within {:.0} mm from then on)",
+                            d,
+                            1000.0 * agvsim::sim::metrics::SETTLED_BAND_M
+                        ),
+                        None => println!(
+                            "settled    no (lateral error never stayed within {:.0} mm)",
+                            1000.0 * agvsim::sim::metrics::SETTLED_BAND_M
+                        ),
                     }
-                    println!("RMS error  {:.1} mm lateral (after settling), peak {:.1} mm", 1000.0 * s.rms_lateral_error_m, 1000.0 * s.peak_lateral_error_after_settling_m);
-                    println!("peak slip  {:.3} (slip ratio), sliding {:.1} % of the time", s.peak_abs_slip_ratio, 100.0 * s.sliding_fraction);
+                    println!(
+                        "RMS error  {:.1} mm lateral (after settling), peak {:.1} mm",
+                        1000.0 * s.rms_lateral_error_m,
+                        1000.0 * s.peak_lateral_error_after_settling_m
+                    );
+                    println!(
+                        "peak slip  {:.3} (slip ratio), sliding {:.1} % of the time",
+                        s.peak_abs_slip_ratio,
+                        100.0 * s.sliding_fraction
+                    );
                     println!("energy     {:.0} J from the battery", s.battery_energy_j);
                     if !s.faults.is_empty() {
                         println!("DCMC fault {}", s.faults.join(", "));
@@ -118,7 +160,10 @@ fn main() -> ExitCode {
             }
         }
         Command::Presets => {
-            println!("{:<20} {:>8} {:>8} {:>10} {:>10} {:>9}", "compound / surface", "peak_mu", "slide_mu", "Cx per N", "Cy per N", "sigma_m");
+            println!(
+                "{:<20} {:>8} {:>8} {:>10} {:>10} {:>9}",
+                "compound / surface", "peak_mu", "slide_mu", "Cx per N", "Cy per N", "sigma_m"
+            );
             for c in &presets::COMPOUNDS {
                 for s in &presets::SURFACES {
                     let t = presets::combine(c, s);

@@ -19,7 +19,10 @@ pub enum RunError {
     #[error(transparent)]
     Viz(#[from] VizError),
     #[error("{path}: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
 }
 
 /// What to write.
@@ -43,7 +46,10 @@ pub struct RunOutput {
 }
 
 fn io(path: &Path) -> impl Fn(std::io::Error) -> RunError + '_ {
-    move |source| RunError::Io { path: path.to_owned(), source }
+    move |source| RunError::Io {
+        path: path.to_owned(),
+        source,
+    }
 }
 
 /// Runs a scene for its duration, writing `NAME.csv` and `NAME.scene.toml` (the scene as
@@ -56,16 +62,39 @@ pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutput, RunError
     std::fs::write(&scene_used, scene.to_toml()).map_err(io(&scene_used))?;
     let file = File::create(&recording).map_err(io(&recording))?;
     let meta = [
-        ("description", if scene.description.is_empty() { opts.name.clone() } else { scene.description.clone() }),
+        (
+            "description",
+            if scene.description.is_empty() {
+                opts.name.clone()
+            } else {
+                scene.description.clone()
+            },
+        ),
         ("sample_time_s", format!("{}", scene.sim.record_interval_s)),
-        ("source", format!("agvsim {} simulation, fidelity {}", env!("CARGO_PKG_VERSION"), params.fidelity.name())),
+        (
+            "source",
+            format!(
+                "agvsim {} simulation, fidelity {}",
+                env!("CARGO_PKG_VERSION"),
+                params.fidelity.name()
+            ),
+        ),
         ("seed", format!("{}", params.seed)),
-        ("heading", "rad, counter-clockwise from world x, unwrapped".to_string()),
+        (
+            "heading",
+            "rad, counter-clockwise from world x, unwrapped".to_string(),
+        ),
     ];
     let mut writer =
-        RecordingWriter::new(BufWriter::new(file), "vehicle", &meta, vehicle_columns()).map_err(io(&recording))?;
+        RecordingWriter::new(BufWriter::new(file), "vehicle", &meta, vehicle_columns())
+            .map_err(io(&recording))?;
     let mut viz = match &opts.rerun {
-        Some(t) => Some(RerunRecorder::new(t, &opts.name, &params, opts.rerun_interval_s)?),
+        Some(t) => Some(RerunRecorder::new(
+            t,
+            &opts.name,
+            &params,
+            opts.rerun_interval_s,
+        )?),
         None => None,
     };
     let record_every = ((scene.sim.record_interval_s / params.dt_s).round() as u64).max(1);
@@ -104,5 +133,9 @@ pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutput, RunError
     if let Some(v) = viz {
         v.finish()?;
     }
-    Ok(RunOutput { summary: metrics.summary(), recording, scene_used })
+    Ok(RunOutput {
+        summary: metrics.summary(),
+        recording,
+        scene_used,
+    })
 }

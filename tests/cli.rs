@@ -18,13 +18,26 @@ fn tmp(name: &str) -> PathBuf {
 fn run_writes_a_recording_in_the_exchange_format() {
     let out = tmp("run");
     let st = agvsim()
-        .args(["run", "scenes/lab_offset_120mm.toml", "--duration", "3", "--out"])
+        .args([
+            "run",
+            "scenes/lab_offset_120mm.toml",
+            "--duration",
+            "3",
+            "--out",
+        ])
         .arg(&out)
         .output()
         .unwrap();
-    assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
     let stdout = String::from_utf8_lossy(&st.stdout);
-    assert!(stdout.contains("RMS error") && stdout.contains("peak slip"), "{stdout}");
+    assert!(
+        stdout.contains("RMS error") && stdout.contains("peak slip"),
+        "{stdout}"
+    );
     let csv = std::fs::read_to_string(out.join("lab_offset_120mm.csv")).unwrap();
     let mut lines = csv.lines();
     assert_eq!(lines.next(), Some("# agvsim-recording: 1"));
@@ -48,10 +61,20 @@ fn run_writes_a_recording_in_the_exchange_format() {
         assert!(cols.contains(&c), "missing column {c}");
     }
     // 3 s at the default 10 ms interval, plus the t = 0 row.
-    let rows: Vec<&str> = csv.lines().filter(|l| !l.starts_with('#')).skip(1).collect();
+    let rows: Vec<&str> = csv
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .skip(1)
+        .collect();
     assert_eq!(rows.len(), 301);
-    let times: Vec<f64> = rows.iter().map(|r| r.split(',').next().unwrap().parse().unwrap()).collect();
-    assert!(times.windows(2).all(|w| w[1] > w[0]), "time must increase strictly");
+    let times: Vec<f64> = rows
+        .iter()
+        .map(|r| r.split(',').next().unwrap().parse().unwrap())
+        .collect();
+    assert!(
+        times.windows(2).all(|w| w[1] > w[0]),
+        "time must increase strictly"
+    );
 }
 
 #[test]
@@ -60,7 +83,17 @@ fn same_scene_and_seed_give_identical_bytes() {
     let b = tmp("det-b");
     for d in [&a, &b] {
         let st = agvsim()
-            .args(["run", "scenes/lab_offset_120mm.toml", "--duration", "2", "--seed", "7", "--set", "sensors.noise_adc=2.0", "--out"])
+            .args([
+                "run",
+                "scenes/lab_offset_120mm.toml",
+                "--duration",
+                "2",
+                "--seed",
+                "7",
+                "--set",
+                "sensors.noise_adc=2.0",
+                "--out",
+            ])
             .arg(d)
             .output()
             .unwrap();
@@ -72,7 +105,17 @@ fn same_scene_and_seed_give_identical_bytes() {
     // And the seed matters when there is noise.
     let c = tmp("det-c");
     agvsim()
-        .args(["run", "scenes/lab_offset_120mm.toml", "--duration", "2", "--seed", "8", "--set", "sensors.noise_adc=2.0", "--out"])
+        .args([
+            "run",
+            "scenes/lab_offset_120mm.toml",
+            "--duration",
+            "2",
+            "--seed",
+            "8",
+            "--set",
+            "sensors.noise_adc=2.0",
+            "--out",
+        ])
         .arg(&c)
         .output()
         .unwrap();
@@ -85,11 +128,20 @@ fn bad_scene(name: &str, text: &str) -> String {
     let d = tmp(name);
     let f = d.join(format!("{name}.toml"));
     std::fs::write(&f, text).unwrap();
-    let st = agvsim().arg("run").arg(&f).arg("--out").arg(&d).output().unwrap();
+    let st = agvsim()
+        .arg("run")
+        .arg(&f)
+        .arg("--out")
+        .arg(&d)
+        .output()
+        .unwrap();
     let err = String::from_utf8_lossy(&st.stderr).into_owned();
     assert!(!st.status.success(), "{name}: a bad scene was accepted");
     assert!(!err.contains("panicked"), "{name}: panicked: {err}");
-    assert!(err.contains(&format!("{name}.toml")), "{name}: the error does not name the file: {err}");
+    assert!(
+        err.contains(&format!("{name}.toml")),
+        "{name}: the error does not name the file: {err}"
+    );
     err
 }
 
@@ -98,28 +150,63 @@ fn bad_scenes_are_rejected_with_file_key_and_expectation() {
     let e = bad_scene("unknown_key", "[chassis]\nmass_kgg = 100.0\n");
     assert!(e.contains("mass_kgg") && e.contains("expected"), "{e}");
     let e = bad_scene("negative_mass", "[chassis]\nmass_kg = -5.0\n");
-    assert!(e.contains("chassis.mass_kg") && e.contains("expected"), "{e}");
+    assert!(
+        e.contains("chassis.mass_kg") && e.contains("expected"),
+        "{e}"
+    );
     let e = bad_scene("negative_backlash", "[gearbox]\nbacklash_rad = -0.1\n");
-    assert!(e.contains("gearbox.backlash_rad") && e.contains("expected"), "{e}");
+    assert!(
+        e.contains("gearbox.backlash_rad") && e.contains("expected"),
+        "{e}"
+    );
     let e = bad_scene("one_point_wire", "[wire]\npoints_m = [[0.0, 0.0]]\n");
-    assert!(e.contains("wire.points_m") && e.contains("at least 2"), "{e}");
+    assert!(
+        e.contains("wire.points_m") && e.contains("at least 2"),
+        "{e}"
+    );
     let e = bad_scene("wrong_type", "[motor]\nresistance_ohm = \"low\"\n");
-    assert!(e.contains("resistance_ohm") && e.contains("expected"), "{e}");
+    assert!(
+        e.contains("resistance_ohm") && e.contains("expected"),
+        "{e}"
+    );
     let e = bad_scene("unknown_compound", "[tyre]\ncompound = \"marshmallow\"\n");
-    assert!(e.contains("tyre.compound") && e.contains("soft_rubber"), "{e}");
+    assert!(
+        e.contains("tyre.compound") && e.contains("soft_rubber"),
+        "{e}"
+    );
 }
 
 #[test]
 fn bad_command_line_values_are_rejected() {
-    let st = agvsim().args(["run", "scenes/lab_offset_120mm.toml", "--duration=-3"]).output().unwrap();
+    let st = agvsim()
+        .args(["run", "scenes/lab_offset_120mm.toml", "--duration=-3"])
+        .output()
+        .unwrap();
     assert!(!st.status.success());
     assert!(String::from_utf8_lossy(&st.stderr).contains("positive number of seconds"));
-    let st = agvsim().args(["run", "scenes/lab_offset_120mm.toml", "--set", "motor.nonsense_ohm=1"]).output().unwrap();
+    let st = agvsim()
+        .args([
+            "run",
+            "scenes/lab_offset_120mm.toml",
+            "--set",
+            "motor.nonsense_ohm=1",
+        ])
+        .output()
+        .unwrap();
     let err = String::from_utf8_lossy(&st.stderr);
-    assert!(!st.status.success() && err.contains("nonsense_ohm"), "{err}");
-    let st = agvsim().args(["run", "no/such/scene.toml"]).output().unwrap();
+    assert!(
+        !st.status.success() && err.contains("nonsense_ohm"),
+        "{err}"
+    );
+    let st = agvsim()
+        .args(["run", "no/such/scene.toml"])
+        .output()
+        .unwrap();
     let err = String::from_utf8_lossy(&st.stderr);
-    assert!(!st.status.success() && err.contains("no/such/scene.toml"), "{err}");
+    assert!(
+        !st.status.success() && err.contains("no/such/scene.toml"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -131,8 +218,19 @@ fn every_shipped_scene_loads_and_runs_briefly() {
             continue;
         }
         let out = tmp(&format!("scene-{n}"));
-        let st = agvsim().arg("run").arg(&p).args(["--duration", "0.5", "--out"]).arg(&out).output().unwrap();
-        assert!(st.status.success(), "{}: {}", p.display(), String::from_utf8_lossy(&st.stderr));
+        let st = agvsim()
+            .arg("run")
+            .arg(&p)
+            .args(["--duration", "0.5", "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(
+            st.status.success(),
+            "{}: {}",
+            p.display(),
+            String::from_utf8_lossy(&st.stderr)
+        );
         n += 1;
     }
     assert!(n >= 9, "expected the shipped scenes, found {n}");
@@ -143,16 +241,30 @@ fn saves_a_rerun_recording() {
     let out = tmp("rrd");
     let rrd = out.join("run.rrd");
     let st = agvsim()
-        .args(["run", "scenes/lab_offset_120mm.toml", "--duration", "1", "--out"])
+        .args([
+            "run",
+            "scenes/lab_offset_120mm.toml",
+            "--duration",
+            "1",
+            "--out",
+        ])
         .arg(&out)
         .arg("--save")
         .arg(&rrd)
         .output()
         .unwrap();
-    assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
     let bytes = std::fs::read(&rrd).unwrap();
     // The RRD stream header starts with the magic "RRF2" (the real viewer check,
     // `rerun rrd verify`, runs in .ci/run).
-    assert!(bytes.len() > 1000 && &bytes[..4] == b"RRF2", "not an rrd file ({} bytes)", bytes.len());
+    assert!(
+        bytes.len() > 1000 && &bytes[..4] == b"RRF2",
+        "not an rrd file ({} bytes)",
+        bytes.len()
+    );
     let _ = Path::new(&rrd);
 }

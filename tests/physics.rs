@@ -44,7 +44,11 @@ fn no_slip_limit_matches_wheel_kinematics() {
     for k in 0..steps {
         let t = k as f64 * dt;
         // A gentle S: both wheels forward, the difference swapping sign every 2.5 s.
-        let turn = if (t / 2.5) as usize % 2 == 0 { 0.6 } else { -0.6 };
+        let turn = if (t / 2.5) as usize % 2 == 0 {
+            0.6
+        } else {
+            -0.6
+        };
         sim.set_actuation(Actuation::Voltage([3.0 - turn, 3.0 + turn]));
         sim.step().unwrap();
         let d = sim.drivetrains();
@@ -59,9 +63,19 @@ fn no_slip_limit_matches_wheel_kinematics() {
         max_err = max_err.max((p.x_m - x).hypot(p.y_m - y));
     }
     let travelled = sim.pose().x_m.hypot(sim.pose().y_m);
-    println!("no-slip limit: travelled {travelled:.2} m, max position error {:.3} mm", max_err * 1000.0);
-    assert!(travelled > 1.0, "the test must actually drive somewhere ({travelled} m)");
-    assert!(max_err < 1.0e-3, "rapier path departs from wheel kinematics by {:.3} mm", max_err * 1e3);
+    println!(
+        "no-slip limit: travelled {travelled:.2} m, max position error {:.3} mm",
+        max_err * 1000.0
+    );
+    assert!(
+        travelled > 1.0,
+        "the test must actually drive somewhere ({travelled} m)"
+    );
+    assert!(
+        max_err < 1.0e-3,
+        "rapier path departs from wheel kinematics by {:.3} mm",
+        max_err * 1e3
+    );
 }
 
 /// Acceptance 2: a constant voltage on a lifted wheel gives the speed the DC motor
@@ -75,7 +89,8 @@ fn lifted_wheel_reaches_dc_motor_steady_speed() {
     run(&mut sim, 4.0);
     let m = &sc.motor;
     let k = m.torque_constant_Nm_A;
-    let expect = (k * v / m.resistance_ohm - m.coulomb_Nm) / (k * k / m.resistance_ohm + m.viscous_Nm_s_rad);
+    let expect =
+        (k * v / m.resistance_ohm - m.coulomb_Nm) / (k * k / m.resistance_ohm + m.viscous_Nm_s_rad);
     let got = sim.drivetrains()[0].motor.speed_rad_s;
     println!("lifted wheel at {v} V: {got:.3} rad/s, DC motor equations {expect:.3} rad/s");
     assert!((got - expect).abs() / expect < 0.01);
@@ -88,7 +103,14 @@ fn lifted_wheel_reaches_dc_motor_steady_speed() {
 #[test]
 fn backlash_reversal_shows_the_configured_play() {
     let play = 0.1745;
-    let sc = scene("", &["controller.kind=open_loop", "sim.fidelity=complex", &format!("gearbox.backlash_rad={play}")]);
+    let sc = scene(
+        "",
+        &[
+            "controller.kind=open_loop",
+            "sim.fidelity=complex",
+            &format!("gearbox.backlash_rad={play}"),
+        ],
+    );
     let mut sim = Sim::new(&sc).unwrap();
     let n = sc.gearbox.ratio;
     let twist = |s: &Sim| {
@@ -112,12 +134,23 @@ fn backlash_reversal_shows_the_configured_play() {
 fn hard_start(compound: &str) -> (f64, f64, f64, f64) {
     let sc = scene(
         "",
-        &["sim.fidelity=full", &format!("tyre.compound={compound}"), "floor.surface=painted_concrete", "controller.kind=open_loop"],
+        &[
+            "sim.fidelity=full",
+            &format!("tyre.compound={compound}"),
+            "floor.surface=painted_concrete",
+            "controller.kind=open_loop",
+        ],
     );
     let mut sim = Sim::new(&sc).unwrap();
-    sim.set_actuation(Actuation::Demand { forward_pct: 0.0, turn_pct: 0.0 });
+    sim.set_actuation(Actuation::Demand {
+        forward_pct: 0.0,
+        turn_pct: 0.0,
+    });
     run(&mut sim, 0.6);
-    sim.set_actuation(Actuation::Demand { forward_pct: 100.0, turn_pct: 0.0 });
+    sim.set_actuation(Actuation::Demand {
+        forward_pct: 100.0,
+        turn_pct: 0.0,
+    });
     let dt = sc.sim.dt_s;
     let window = 20; // 20 ms: averages over the tooth and tyre ringing
     let mut speeds = vec![];
@@ -127,7 +160,9 @@ fn hard_start(compound: &str) -> (f64, f64, f64, f64) {
         sim.step().unwrap();
         let s = sim.snapshot();
         speeds.push(s.velocity_m_s[0]);
-        peak_slip = peak_slip.max(s.sides[0].slip_ratio.abs()).max(s.sides[1].slip_ratio.abs());
+        peak_slip = peak_slip
+            .max(s.sides[0].slip_ratio.abs())
+            .max(s.sides[1].slip_ratio.abs());
         sum_slip += 0.5 * (s.sides[0].slip_ratio.abs() + s.sides[1].slip_ratio.abs());
     }
     let peak_acc = speeds
@@ -160,7 +195,14 @@ fn hard_start_slips_and_friction_bounds_acceleration() {
 /// Acceptance 5: castors swing round to trail the motion within a few castor lengths.
 #[test]
 fn castors_swing_to_trail_the_motion() {
-    let sc = scene("", &["sim.fidelity=full", "controller.kind=open_loop", "castors.initial_angle_rad=1.2"]);
+    let sc = scene(
+        "",
+        &[
+            "sim.fidelity=full",
+            "controller.kind=open_loop",
+            "castors.initial_angle_rad=1.2",
+        ],
+    );
     let mut sim = Sim::new(&sc).unwrap();
     sim.set_actuation(Actuation::Voltage([6.0, 6.0]));
     let trail = sc.castors.trail_m;
@@ -169,7 +211,11 @@ fn castors_swing_to_trail_the_motion() {
     for _ in 0..4000 {
         sim.step().unwrap();
         let s = sim.snapshot();
-        let worst = s.castors.iter().map(|c| c.swivel_rad.abs()).fold(0.0, f64::max);
+        let worst = s
+            .castors
+            .iter()
+            .map(|c| c.swivel_rad.abs())
+            .fold(0.0, f64::max);
         let travelled = (s.pose.x_m - start.x_m).hypot(s.pose.y_m - start.y_m);
         if worst < 0.1 && aligned_at.is_none() {
             aligned_at = Some(travelled);
@@ -179,7 +225,11 @@ fn castors_swing_to_trail_the_motion() {
         }
     }
     let d = aligned_at.expect("castors never settled trailing the motion");
-    println!("castors: aligned within 0.1 rad after {:.3} m = {:.1} trail lengths", d, d / trail);
+    println!(
+        "castors: aligned within 0.1 rad after {:.3} m = {:.1} trail lengths",
+        d,
+        d / trail
+    );
     assert!(d < 8.0 * trail, "took {:.1} trail lengths", d / trail);
 }
 
@@ -187,7 +237,11 @@ fn castors_swing_to_trail_the_motion() {
 /// coil axis along it.
 #[test]
 fn coil_readings_are_symmetric_full_scale_and_zero_along_the_wire() {
-    let base = ["sim.fidelity=complex", "controller.kind=open_loop", "wire.points_m=[[-30.0, 0.0], [30.0, 0.0]]"];
+    let base = [
+        "sim.fidelity=complex",
+        "controller.kind=open_loop",
+        "wire.points_m=[[-30.0, 0.0], [30.0, 0.0]]",
+    ];
     let read = |y: f64, heading: f64| {
         let mut o: Vec<String> = base.iter().map(|s| s.to_string()).collect();
         o.push(format!("start.y_m={y}"));

@@ -31,7 +31,11 @@ fn rms(v: &[(f64, f64)]) -> f64 {
 }
 
 fn peak_to_peak_after(v: &[(f64, f64)], t0: f64) -> f64 {
-    let tail: Vec<f64> = v.iter().filter(|(t, _)| *t >= t0).map(|(_, e)| *e).collect();
+    let tail: Vec<f64> = v
+        .iter()
+        .filter(|(t, _)| *t >= t0)
+        .map(|(_, e)| *e)
+        .collect();
     tail.iter().cloned().fold(f64::MIN, f64::max) - tail.iter().cloned().fold(f64::MAX, f64::min)
 }
 
@@ -41,11 +45,19 @@ fn lab_scene_converges_to_the_wire() {
     let start = run[0].1.abs();
     let tail: Vec<(f64, f64)> = run.iter().filter(|(t, _)| *t >= 10.0).cloned().collect();
     let tail_rms = rms(&tail);
-    println!("lab scene (full level): start offset {:.0} mm, RMS over the last 6 s {:.1} mm", start * 1e3, tail_rms * 1e3);
+    println!(
+        "lab scene (full level): start offset {:.0} mm, RMS over the last 6 s {:.1} mm",
+        start * 1e3,
+        tail_rms * 1e3
+    );
     // From 120 mm off to circling the wire: the backlash limit cycle stays within the
     // coils' strong-signal zone (about one coil height, 38 mm) of the wire.
     assert!(start > 0.11);
-    assert!(tail_rms < 0.038, "did not converge: {:.1} mm RMS", tail_rms * 1e3);
+    assert!(
+        tail_rms < 0.038,
+        "did not converge: {:.1} mm RMS",
+        tail_rms * 1e3
+    );
 }
 
 #[test]
@@ -54,12 +66,18 @@ fn linear_level_error_falls_towards_an_asymptote_over_a_20_to_1_gain_range() {
     let errors: Vec<f64> = gains
         .iter()
         .map(|g| {
-            let o = vec!["sim.fidelity=linear".to_string(), format!("controller.gain_scale={g}")];
+            let o = vec![
+                "sim.fidelity=linear".to_string(),
+                format!("controller.gain_scale={g}"),
+            ];
             rms(&lab_run(&o, 12.0))
         })
         .collect();
     for (g, e) in gains.iter().zip(&errors) {
-        println!("linear level, gain {g}: whole-run RMS lateral error {:.1} mm", e * 1e3);
+        println!(
+            "linear level, gain {g}: whole-run RMS lateral error {:.1} mm",
+            e * 1e3
+        );
     }
     // Error falls with gain...
     for w in errors.windows(2) {
@@ -79,20 +97,35 @@ fn complex_level_limit_cycles_grow_with_gain() {
     let amps: Vec<f64> = gains
         .iter()
         .map(|g| {
-            let o = vec!["sim.fidelity=complex".to_string(), format!("controller.gain_scale={g}")];
+            let o = vec![
+                "sim.fidelity=complex".to_string(),
+                format!("controller.gain_scale={g}"),
+            ];
             peak_to_peak_after(&lab_run(&o, 20.0), 10.0)
         })
         .collect();
     // Without backlash (nonlinear level) the loop settles at gain 4, where backlash gives a
     // large cycle: those cycles are the backlash's. (By gain 6 the sampling period and
     // computation delay alone make the no-backlash loop oscillate too.)
-    let o = vec!["sim.fidelity=nonlinear".to_string(), "controller.gain_scale=4".to_string()];
+    let o = vec![
+        "sim.fidelity=nonlinear".to_string(),
+        "controller.gain_scale=4".to_string(),
+    ];
     let no_backlash = peak_to_peak_after(&lab_run(&o, 20.0), 10.0);
     for (g, a) in gains.iter().zip(&amps) {
-        println!("complex level, gain {g}: limit cycle {:.1} mm peak to peak", a * 1e3);
+        println!(
+            "complex level, gain {g}: limit cycle {:.1} mm peak to peak",
+            a * 1e3
+        );
     }
-    println!("nonlinear level (no backlash), gain 4: {:.1} mm peak to peak", no_backlash * 1e3);
+    println!(
+        "nonlinear level (no backlash), gain 4: {:.1} mm peak to peak",
+        no_backlash * 1e3
+    );
     assert!(amps[0] > 0.005, "no limit cycle at gain 2");
-    assert!(amps[1] > amps[0] && amps[2] > amps[1], "amplitude does not grow with gain: {amps:?}");
+    assert!(
+        amps[1] > amps[0] && amps[2] > amps[1],
+        "amplitude does not grow with gain: {amps:?}"
+    );
     assert!(no_backlash < 0.2 * amps[1]);
 }

@@ -135,14 +135,23 @@ impl FirmwareParams {
 
     /// `Ut = Kp (R - X[1]) + Kd (X[0] - X[1])`.
     fn pd_turn(&self, s: &FirmwareState, kp_den: i32) -> f64 {
-        let p = self.gain_times(self.kp_num, kp_den, self.gain_scale, self.reference_counts as f64 - s.x_hist[1]);
+        let p = self.gain_times(
+            self.kp_num,
+            kp_den,
+            self.gain_scale,
+            self.reference_counts as f64 - s.x_hist[1],
+        );
         let d = self.gain_times(self.kd_num, self.kd_den, 1.0, s.x_hist[0] - s.x_hist[1]);
         p + d
     }
 
     /// `Drive(Forward, Turn)`: offsets from half duty, clipped to the accepted range.
     fn duties(&self, forward: f64, turn: f64) -> [i32; 2] {
-        let q = |v: f64| (HALF_DUTY as f64 + v).round().clamp(self.duty_min as f64, self.duty_max as f64) as i32;
+        let q = |v: f64| {
+            (HALF_DUTY as f64 + v)
+                .round()
+                .clamp(self.duty_min as f64, self.duty_max as f64) as i32
+        };
         [q(forward), q(turn)]
     }
 
@@ -204,7 +213,10 @@ impl FirmwareParams {
                 self.open_loop_forward_pct * crate::firmware::pwm::COUNTS_PER_PCT,
                 self.open_loop_turn_pct * crate::firmware::pwm::COUNTS_PER_PCT,
             ],
-            ControllerKind::Pd => [sign * self.forward_counts as f64, sign * self.pd_turn(s, self.kp_den)],
+            ControllerKind::Pd => [
+                sign * self.forward_counts as f64,
+                sign * self.pd_turn(s, self.kp_den),
+            ],
             ControllerKind::OpenDay => match s.phase {
                 Phase::Follow => {
                     if s.lost_wire {
@@ -238,7 +250,11 @@ impl FirmwareParams {
 
     /// Spin on the spot towards the side the wire was last seen (positive turn = left).
     fn spin(&self, s: &FirmwareState) -> [f64; 2] {
-        let turn = if s.last_seen_right { -self.spin_counts } else { self.spin_counts };
+        let turn = if s.last_seen_right {
+            -self.spin_counts
+        } else {
+            self.spin_counts
+        };
         [0.0, turn as f64]
     }
 }

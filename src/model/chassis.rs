@@ -45,7 +45,10 @@ impl ChassisParams {
             (mass_kg * cg_m[1] + payload_kg * payload_cg_m[1]) / m,
         ];
         let d2 = |p: [f64; 2]| (p[0] - cg[0]).powi(2) + (p[1] - cg[1]).powi(2);
-        let inertia = yaw_inertia_kg_m2 + mass_kg * d2(cg_m) + payload_inertia_kg_m2 + payload_kg * d2(payload_cg_m);
+        let inertia = yaw_inertia_kg_m2
+            + mass_kg * d2(cg_m)
+            + payload_inertia_kg_m2
+            + payload_kg * d2(payload_cg_m);
         (cg, m, inertia)
     }
 
@@ -65,7 +68,11 @@ impl ChassisParams {
         // The drive pair already splits its share about the CG's y, so the castors'
         // share must be centred on it too; along x the drive axle sits at x = 0.
         let cy = self.cg_m[1];
-        let (xf, xr, hy) = (self.castor_front_x_m, self.castor_rear_x_m, self.castor_half_spacing_m);
+        let (xf, xr, hy) = (
+            self.castor_front_x_m,
+            self.castor_rear_x_m,
+            self.castor_half_spacing_m,
+        );
         let front = (cx - xr) / (xf - xr);
         let left = 0.5 + cy / (2.0 * hy);
         let castor = [
@@ -74,12 +81,19 @@ impl ChassisParams {
             rest * (1.0 - front) * left,
             rest * (1.0 - front) * (1.0 - left),
         ];
-        NormalLoads { drive_n: drive, castor_n: castor }
+        NormalLoads {
+            drive_n: drive,
+            castor_n: castor,
+        }
     }
 
     /// Castor swivel points in the body frame, in the order of [`NormalLoads::castor_n`].
     pub fn castor_points_m(&self) -> [[f64; 2]; 4] {
-        let (xf, xr, hy) = (self.castor_front_x_m, self.castor_rear_x_m, self.castor_half_spacing_m);
+        let (xf, xr, hy) = (
+            self.castor_front_x_m,
+            self.castor_rear_x_m,
+            self.castor_half_spacing_m,
+        );
         [[xf, hy], [xf, -hy], [xr, hy], [xr, -hy]]
     }
 
@@ -103,7 +117,10 @@ impl Pose {
     /// A body-frame point in the world frame.
     pub fn to_world(&self, p: [f64; 2]) -> [f64; 2] {
         let (s, c) = self.heading_rad.sin_cos();
-        [self.x_m + c * p[0] - s * p[1], self.y_m + s * p[0] + c * p[1]]
+        [
+            self.x_m + c * p[0] - s * p[1],
+            self.y_m + s * p[0] + c * p[1],
+        ]
     }
 
     /// A body-frame direction in the world frame.
@@ -142,7 +159,10 @@ impl NoSlipParams {
     pub fn wheel_speeds_rad_s(&self, s: &NoSlipState) -> [f64; 2] {
         let h = 0.5 * self.chassis.track_width_m;
         let r = self.wheel_radius_m;
-        [(s.speed_m_s - h * s.yaw_rate_rad_s) / r, (s.speed_m_s + h * s.yaw_rate_rad_s) / r]
+        [
+            (s.speed_m_s - h * s.yaw_rate_rad_s) / r,
+            (s.speed_m_s + h * s.yaw_rate_rad_s) / r,
+        ]
     }
 
     /// One sub-step under the wheel torques (N m, left and right, from the gear teeth).
@@ -162,9 +182,10 @@ impl NoSlipParams {
         let moment = (wheel_torque_nm[1] - wheel_torque_nm[0]) * half / r;
         let (v, w) = (s.speed_m_s, s.yaw_rate_rad_s);
         // Drag implicit, so a large lumped drag cannot destabilise the step.
-        let v_new = (v + h * (force + c.mass_kg * a * w * w) / m_eff) / (1.0 + h * self.linear_drag_n_s_m / m_eff);
-        let w_new =
-            (w + h * (moment - c.mass_kg * a * v * w) / i_eff) / (1.0 + h * self.angular_drag_nm_s_rad / i_eff);
+        let v_new = (v + h * (force + c.mass_kg * a * w * w) / m_eff)
+            / (1.0 + h * self.linear_drag_n_s_m / m_eff);
+        let w_new = (w + h * (moment - c.mass_kg * a * v * w) / i_eff)
+            / (1.0 + h * self.angular_drag_nm_s_rad / i_eff);
         s.speed_m_s = v_new;
         s.yaw_rate_rad_s = w_new;
         // Midpoint heading for the position update keeps arcs on their circle.

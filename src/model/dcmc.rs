@@ -109,7 +109,8 @@ impl DcmcParams {
         }
         let since = *s.enabled_since_s.get_or_insert(u.t_s);
         if s.fault.is_none() && self.faults {
-            let demanding = u.forward_pct.abs() > ZERO_DEMAND_PCT || u.turn_pct.abs() > ZERO_DEMAND_PCT;
+            let demanding =
+                u.forward_pct.abs() > ZERO_DEMAND_PCT || u.turn_pct.abs() > ZERO_DEMAND_PCT;
             if demanding && u.t_s - since < self.enable_delay_s {
                 s.fault = Some(DcmcFault::EnableDelay);
             } else if u.forward_pct.abs() + u.turn_pct.abs() > self.combined_fault_pct {
@@ -147,7 +148,10 @@ impl DcmcParams {
                 }
             }
         }
-        DcmcOutput { voltage_v: limited, braking: false }
+        DcmcOutput {
+            voltage_v: limited,
+            braking: false,
+        }
     }
 
     /// Clips a voltage request to the bridges; with turn priority the difference between
@@ -184,7 +188,10 @@ impl DcmcParams {
             (-self.brake_gain_v_s_rad * u.motor_speed_rad_s[0]).clamp(-a, a),
             (-self.brake_gain_v_s_rad * u.motor_speed_rad_s[1]).clamp(-a, a),
         ];
-        DcmcOutput { voltage_v: self.limit_current(v, u.back_emf_v), braking: true }
+        DcmcOutput {
+            voltage_v: self.limit_current(v, u.back_emf_v),
+            braking: true,
+        }
     }
 }
 

@@ -60,7 +60,8 @@ impl DrivetrainParams {
         let jm = self.reflected_motor_inertia();
         let j_red = jw * jm / (jw + jm);
         let g = &self.gearbox;
-        let mesh_rate = (g.tooth_stiffness_nm_rad / j_red).sqrt() + g.tooth_damping_nm_s_rad / j_red;
+        let mesh_rate =
+            (g.tooth_stiffness_nm_rad / j_red).sqrt() + g.tooth_damping_nm_s_rad / j_red;
         let r2 = self.wheel_radius_m.powi(2);
         let ground_rate = (ground_stiffness_n_m * r2 / jw).sqrt() + ground_damping_n_s_m * r2 / jw;
         let rate = mesh_rate.max(ground_rate);
@@ -68,14 +69,30 @@ impl DrivetrainParams {
     }
 
     /// Motor half of a sub-step: the armature and rotor, loaded by the teeth.
-    pub fn motor_substep(&self, s: &mut DrivetrainState, terminal: Terminal, tooth_torque_nm: f64, h: f64) {
-        self.motor
-            .step(&mut s.motor, terminal, tooth_torque_nm / self.gearbox.ratio, h);
+    pub fn motor_substep(
+        &self,
+        s: &mut DrivetrainState,
+        terminal: Terminal,
+        tooth_torque_nm: f64,
+        h: f64,
+    ) {
+        self.motor.step(
+            &mut s.motor,
+            terminal,
+            tooth_torque_nm / self.gearbox.ratio,
+            h,
+        );
     }
 
     /// Wheel half of a sub-step when the wheel turns on its own (lifted, or on a tyre whose
     /// torque about the axle is `ground_torque_nm`, positive forward).
-    pub fn wheel_substep(&self, s: &mut DrivetrainState, tooth_torque_nm: f64, ground_torque_nm: f64, h: f64) {
+    pub fn wheel_substep(
+        &self,
+        s: &mut DrivetrainState,
+        tooth_torque_nm: f64,
+        ground_torque_nm: f64,
+        h: f64,
+    ) {
         s.wheel_speed_rad_s += h * (tooth_torque_nm + ground_torque_nm) / self.wheel_inertia_kg_m2;
         s.wheel_angle_rad += h * s.wheel_speed_rad_s;
     }

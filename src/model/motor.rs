@@ -44,7 +44,13 @@ impl MotorParams {
 
     /// Armature current after `h` seconds with the terminal voltage and back-EMF held.
     /// The exact solution of the first-order circuit, so stable for any `h`.
-    pub fn current_after(&self, current_a: f64, terminal: Terminal, speed_rad_s: f64, h: f64) -> f64 {
+    pub fn current_after(
+        &self,
+        current_a: f64,
+        terminal: Terminal,
+        speed_rad_s: f64,
+        h: f64,
+    ) -> f64 {
         match terminal {
             Terminal::Open => 0.0,
             Terminal::Voltage(v) => {
@@ -137,6 +143,11 @@ mod tests {
             m.step(&mut s, Terminal::Voltage(12.0), 0.0, 1e-4);
         }
         let expect = m.steady_speed_rad_s(12.0, 0.0);
-        assert!((s.speed_rad_s - expect).abs() / expect < 1e-6, "{} vs {}", s.speed_rad_s, expect);
+        assert!(
+            (s.speed_rad_s - expect).abs() / expect < 1e-6,
+            "{} vs {}",
+            s.speed_rad_s,
+            expect
+        );
     }
 }

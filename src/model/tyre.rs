@@ -102,7 +102,13 @@ impl TyreParams {
     }
 
     /// Advances the patch deflection by `h` and returns the force on the wheel.
-    pub fn step(&self, s: &mut TyreState, kin: ContactKinematics, normal_load_n: f64, h: f64) -> TyreOutput {
+    pub fn step(
+        &self,
+        s: &mut TyreState,
+        kin: ContactKinematics,
+        normal_load_n: f64,
+        h: f64,
+    ) -> TyreOutput {
         if normal_load_n <= 0.0 {
             s.deflection_m = [0.0, 0.0];
             return TyreOutput::default();
@@ -138,7 +144,8 @@ impl TyreParams {
         } else {
             (
                 (kin.rim_m_s - kin.forward_m_s) / speed,
-                kin.lateral_m_s.atan2(kin.forward_m_s.abs().max(SLIP_REPORT_FLOOR_M_S)),
+                kin.lateral_m_s
+                    .atan2(kin.forward_m_s.abs().max(SLIP_REPORT_FLOOR_M_S)),
             )
         };
         TyreOutput {
@@ -181,17 +188,37 @@ mod tests {
     fn steady_small_slip_gives_slip_stiffness_times_slip() {
         let t = tyre();
         // 1 % traction slip at 0.5 m/s: F = C kappa = 20 * 300 * 0.01 = 60 N.
-        let out = settle(&t, ContactKinematics { forward_m_s: 0.5, lateral_m_s: 0.0, rim_m_s: 0.5 / 0.99 }, 300.0);
+        let out = settle(
+            &t,
+            ContactKinematics {
+                forward_m_s: 0.5,
+                lateral_m_s: 0.0,
+                rim_m_s: 0.5 / 0.99,
+            },
+            300.0,
+        );
         let kappa = 1.0 - 0.99;
         assert!((out.slip_ratio - kappa).abs() < 1e-9);
-        assert!((out.force_n[0] - 20.0 * 300.0 * kappa).abs() < 0.5, "{:?}", out);
+        assert!(
+            (out.force_n[0] - 20.0 * 300.0 * kappa).abs() < 0.5,
+            "{:?}",
+            out
+        );
         assert!(!out.sliding);
     }
 
     #[test]
     fn spinning_wheel_is_limited_to_sliding_friction() {
         let t = tyre();
-        let out = settle(&t, ContactKinematics { forward_m_s: 0.0, lateral_m_s: 0.0, rim_m_s: 1.0 }, 300.0);
+        let out = settle(
+            &t,
+            ContactKinematics {
+                forward_m_s: 0.0,
+                lateral_m_s: 0.0,
+                rim_m_s: 1.0,
+            },
+            300.0,
+        );
         assert!(out.sliding);
         assert!((out.force_n[0] - 0.35 * 300.0).abs() < 1e-6);
         assert!((out.slip_ratio - 1.0).abs() < 1e-12);
@@ -200,7 +227,9 @@ mod tests {
     #[test]
     fn standstill_is_a_spring_not_a_singularity() {
         let t = tyre();
-        let mut s = TyreState { deflection_m: [-1e-5, 0.0] };
+        let mut s = TyreState {
+            deflection_m: [-1e-5, 0.0],
+        };
         let out = t.step(&mut s, ContactKinematics::default(), 300.0, 1e-3);
         assert!(out.force_n[0].is_finite() && out.force_n[0] > 0.0);
         assert_eq!(out.slip_ratio, 0.0);
@@ -209,7 +238,15 @@ mod tests {
     #[test]
     fn combined_slip_stays_inside_the_friction_circle() {
         let t = tyre();
-        let out = settle(&t, ContactKinematics { forward_m_s: 0.5, lateral_m_s: 0.3, rim_m_s: 1.5 }, 300.0);
+        let out = settle(
+            &t,
+            ContactKinematics {
+                forward_m_s: 0.5,
+                lateral_m_s: 0.3,
+                rim_m_s: 1.5,
+            },
+            300.0,
+        );
         let mag = out.force_n[0].hypot(out.force_n[1]);
         assert!(mag <= t.peak_mu * 300.0 + 1e-9);
         assert!(out.force_n[1] < 0.0, "lateral force opposes lateral motion");

@@ -16,7 +16,11 @@ pub struct Column {
 /// The vehicle rig's columns (inputs, outputs), then our extra ones.
 pub fn vehicle_columns() -> Vec<Column> {
     fn c(name: &'static str, decimals: usize, value: fn(&Snapshot) -> f64) -> Column {
-        Column { name, decimals, value }
+        Column {
+            name,
+            decimals,
+            value,
+        }
     }
     vec![
         c("t_s", 4, |s| s.t_s),
@@ -27,8 +31,12 @@ pub fn vehicle_columns() -> Vec<Column> {
         c("x_m", 6, |s| s.pose.x_m),
         c("y_m", 6, |s| s.pose.y_m),
         c("heading_rad", 6, |s| s.pose.heading_rad),
-        c("left_motor_speed_rad_s", 4, |s| s.sides[0].motor_speed_rad_s),
-        c("right_motor_speed_rad_s", 4, |s| s.sides[1].motor_speed_rad_s),
+        c("left_motor_speed_rad_s", 4, |s| {
+            s.sides[0].motor_speed_rad_s
+        }),
+        c("right_motor_speed_rad_s", 4, |s| {
+            s.sides[1].motor_speed_rad_s
+        }),
         c("sensor_left_adc", 2, |s| s.sensors_adc[0]),
         c("sensor_right_adc", 2, |s| s.sensors_adc[1]),
         c("left_wheel_speed_m_s", 5, |s| s.sides[0].wheel_rim_m_s),
@@ -57,7 +65,12 @@ pub struct RecordingWriter<W: Write> {
 
 impl<W: Write> RecordingWriter<W> {
     /// Writes the metadata and header. `meta` are extra `key: value` lines.
-    pub fn new(mut out: W, rig: &str, meta: &[(&str, String)], columns: Vec<Column>) -> std::io::Result<Self> {
+    pub fn new(
+        mut out: W,
+        rig: &str,
+        meta: &[(&str, String)],
+        columns: Vec<Column>,
+    ) -> std::io::Result<Self> {
         writeln!(out, "# agvsim-recording: 1")?;
         writeln!(out, "# rig: {rig}")?;
         for (k, v) in meta {
@@ -65,7 +78,11 @@ impl<W: Write> RecordingWriter<W> {
         }
         let header: Vec<&str> = columns.iter().map(|c| c.name).collect();
         writeln!(out, "{}", header.join(","))?;
-        Ok(RecordingWriter { out, columns, line: String::new() })
+        Ok(RecordingWriter {
+            out,
+            columns,
+            line: String::new(),
+        })
     }
 
     pub fn row(&mut self, s: &Snapshot) -> std::io::Result<()> {

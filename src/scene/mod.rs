@@ -105,7 +105,9 @@ fn apply_override(table: &mut toml::Table, arg: &str) -> Result<(), SceneError> 
     let key = key.trim();
     let raw = raw.trim();
     if key.is_empty() || key.split('.').any(|p| p.is_empty()) {
-        return Err(err("the key is empty; expected a dotted scene key like motor.resistance_ohm"));
+        return Err(err(
+            "the key is empty; expected a dotted scene key like motor.resistance_ohm",
+        ));
     }
     let value = parse_value(raw);
     let parts: Vec<&str> = key.split('.').collect();

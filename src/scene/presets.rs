@@ -105,11 +105,19 @@ pub fn surface(name: &str) -> Option<&'static Surface> {
 
 /// Names, for error messages.
 pub fn compound_names() -> String {
-    COMPOUNDS.iter().map(|c| c.name).collect::<Vec<_>>().join(", ")
+    COMPOUNDS
+        .iter()
+        .map(|c| c.name)
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 pub fn surface_names() -> String {
-    SURFACES.iter().map(|s| s.name).collect::<Vec<_>>().join(", ")
+    SURFACES
+        .iter()
+        .map(|s| s.name)
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// Tyre parameters of a compound on a surface. Stiffness scales with normal load in the

@@ -88,7 +88,10 @@ impl Scene {
         non_negative("castors.swivel_friction_Nm", k.swivel_friction_Nm)?;
         non_negative("castors.rolling_resistance", k.rolling_resistance)?;
         finite("castors.initial_angle_rad", k.initial_angle_rad)?;
-        non_negative("castors.lumped_linear_drag_N_s_m", k.lumped_linear_drag_N_s_m)?;
+        non_negative(
+            "castors.lumped_linear_drag_N_s_m",
+            k.lumped_linear_drag_N_s_m,
+        )?;
         non_negative(
             "castors.lumped_angular_drag_Nm_s_rad",
             k.lumped_angular_drag_Nm_s_rad,
@@ -180,7 +183,16 @@ impl Scene {
                     &format!("one of {}", presets::surface_names()),
                 ));
             }
-            if r.polygon_m.len() < 3 || r.polygon_m.iter().flatten().any(|v| !v.is_finite()) {
+            let area2: f64 = (0..r.polygon_m.len())
+                .map(|k| {
+                    let (a, b) = (r.polygon_m[k], r.polygon_m[(k + 1) % r.polygon_m.len()]);
+                    a[0] * b[1] - b[0] * a[1]
+                })
+                .sum();
+            if r.polygon_m.len() < 3
+                || r.polygon_m.iter().flatten().any(|v| !v.is_finite())
+                || area2.abs() < 1e-9
+            {
                 return Err(bad(
                     &format!("floor.regions[{i}].polygon_m"),
                     format!("{} points", r.polygon_m.len()),
@@ -260,11 +272,19 @@ impl Scene {
             ));
         }
         if w.closed && w.points_m.len() < 3 {
-            return Err(bad("wire.points_m", "2 points", "at least 3 points for a closed loop"));
+            return Err(bad(
+                "wire.points_m",
+                "2 points",
+                "at least 3 points for a closed loop",
+            ));
         }
         for (i, p) in w.points_m.iter().enumerate() {
             if !p[0].is_finite() || !p[1].is_finite() {
-                return Err(bad(&format!("wire.points_m[{i}]"), format!("{p:?}"), "finite coordinates"));
+                return Err(bad(
+                    &format!("wire.points_m[{i}]"),
+                    format!("{p:?}"),
+                    "finite coordinates",
+                ));
             }
         }
         for (i, pair) in w.points_m.windows(2).enumerate() {
@@ -282,12 +302,20 @@ impl Scene {
         for (i, o) in self.obstacles.iter().enumerate() {
             let key = format!("obstacles[{i}]");
             if !o.center_m.iter().all(|v| v.is_finite()) || !o.angle_rad.is_finite() {
-                return Err(bad(&format!("{key}.center_m"), format!("{:?}", o.center_m), "finite coordinates"));
+                return Err(bad(
+                    &format!("{key}.center_m"),
+                    format!("{:?}", o.center_m),
+                    "finite coordinates",
+                ));
             }
             match (o.half_extents_m, o.radius_m) {
                 (Some(h), None) => {
                     if !(h[0] > 0.0 && h[1] > 0.0 && h[0].is_finite() && h[1].is_finite()) {
-                        return Err(bad(&format!("{key}.half_extents_m"), format!("{h:?}"), "two positive half extents"));
+                        return Err(bad(
+                            &format!("{key}.half_extents_m"),
+                            format!("{h:?}"),
+                            "two positive half extents",
+                        ));
                     }
                 }
                 (None, Some(r)) => positive(&format!("{key}.radius_m"), r)?,

@@ -47,9 +47,17 @@ pub fn adc_unquantised(analogue: f64) -> f64 {
 /// parameters), by grid refinement on the RMS error. Returns (half_spacing_m, height_m,
 /// rms_counts). `x_mm` is the table's position column, `s_near`/`s_far` the coil over
 /// which the wire passes at larger x and the other.
-pub fn fit_calibration_table(x_mm: &[f64], s_near: &[f64], s_far: &[f64], full_scale: f64) -> (f64, f64, f64) {
+pub fn fit_calibration_table(
+    x_mm: &[f64],
+    s_near: &[f64],
+    s_far: &[f64],
+    full_scale: f64,
+) -> (f64, f64, f64) {
     let rms = |a: f64, h: f64| {
-        let c = CoilParams { height_m: h, full_scale_adc: full_scale };
+        let c = CoilParams {
+            height_m: h,
+            full_scale_adc: full_scale,
+        };
         let mut e2 = 0.0;
         for i in 0..x_mm.len() {
             let x = x_mm[i] / 1000.0;
@@ -75,7 +83,12 @@ pub fn fit_calibration_table(x_mm: &[f64], s_near: &[f64], s_far: &[f64], full_s
             }
         }
         let (da, dh) = ((hi_a - lo_a) / 10.0, (hi_h - lo_h) / 10.0);
-        (lo_a, hi_a, lo_h, hi_h) = ((best_a - da).max(1e-4), best_a + da, (best_h - dh).max(1e-4), best_h + dh);
+        (lo_a, hi_a, lo_h, hi_h) = (
+            (best_a - da).max(1e-4),
+            best_a + da,
+            (best_h - dh).max(1e-4),
+            best_h + dh,
+        );
     }
     (best_a, best_h, best)
 }

@@ -15,7 +15,10 @@ pub struct Wire {
 
 impl std::fmt::Debug for Wire {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Wire").field("points", &self.points).field("closed", &self.closed).finish()
+        f.debug_struct("Wire")
+            .field("points", &self.points)
+            .field("closed", &self.closed)
+            .finish()
     }
 }
 
@@ -39,7 +42,11 @@ impl Wire {
         if closed {
             idx.push([n - 1, 0]);
         }
-        Wire { shape: Polyline::new(verts, Some(idx)), points, closed }
+        Wire {
+            shape: Polyline::new(verts, Some(idx)),
+            points,
+            closed,
+        }
     }
 
     pub fn points(&self) -> &[[f64; 2]] {
@@ -59,8 +66,12 @@ impl Wire {
 
     /// Signed lateral offset of a floor point from the nearest segment.
     pub fn offset(&self, p: [f64; 2]) -> WireOffset {
-        let (proj, _) = self.shape.project_local_point_and_get_feature(Vector::new(p[0], p[1]));
-        let seg = self.shape.segment(proj.subshape.min(self.shape.num_segments() as u32 - 1));
+        let (proj, _) = self
+            .shape
+            .project_local_point_and_get_feature(Vector::new(p[0], p[1]));
+        let seg = self
+            .shape
+            .segment(proj.subshape.min(self.shape.num_segments() as u32 - 1));
         let dir = [seg.b.x - seg.a.x, seg.b.y - seg.a.y];
         let rel = [p[0] - proj.point.x, p[1] - proj.point.y];
         let dist = rel[0].hypot(rel[1]);
@@ -130,7 +141,10 @@ mod tests {
         for y in [0.0, 0.02, 0.05, 0.1] {
             let b = w.horizontal_field([0.0, y], h);
             let expect = h * h / (h * h + y * y);
-            assert!((b[1].abs() - expect).abs() < 1e-6, "y={y}: {b:?} vs {expect}");
+            assert!(
+                (b[1].abs() - expect).abs() < 1e-6,
+                "y={y}: {b:?} vs {expect}"
+            );
             assert!(b[0].abs() < 1e-9);
         }
     }

@@ -77,14 +77,19 @@ impl MetricsObserver {
             .map(|i| i + 1)
             .unwrap_or(0);
         let settled = settle_idx < self.samples.len() && self.samples.len() - settle_idx >= 2;
-        let tail = if settled { &self.samples[settle_idx..] } else { &self.samples[..] };
+        let tail = if settled {
+            &self.samples[settle_idx..]
+        } else {
+            &self.samples[..]
+        };
         let n = tail.len().max(1) as f64;
         let rms = (tail.iter().map(|(_, e)| e * e).sum::<f64>() / n).sqrt();
         let peak = tail.iter().map(|(_, e)| e.abs()).fold(0.0, f64::max);
         RunSummary {
             duration_s: self.last_t,
             distance_m: self.distance_m,
-            settling_distance_m: settled.then(|| self.samples.get(settle_idx).map(|s| s.0).unwrap_or(0.0)),
+            settling_distance_m: settled
+                .then(|| self.samples.get(settle_idx).map(|s| s.0).unwrap_or(0.0)),
             rms_lateral_error_m: rms,
             peak_lateral_error_after_settling_m: peak,
             peak_abs_slip_ratio: self.peak_slip,

@@ -2,10 +2,10 @@
 //! the blocks act (see its doc comment). Observers (CSV, Rerun, metrics) read
 //! [`Snapshot`]s; the physics knows nothing of them.
 
+pub mod metrics;
 mod params;
 mod snapshot;
 mod step;
-pub mod metrics;
 
 pub use params::{Features, SimParams};
 pub use snapshot::{CastorSnapshot, SideSnapshot, Snapshot};
@@ -107,7 +107,11 @@ impl Sim {
                 &params.obstacles,
             )))
         } else {
-            Body::NoSlip(NoSlipState { pose: params.start, speed_m_s: 0.0, yaw_rate_rad_s: 0.0 })
+            Body::NoSlip(NoSlipState {
+                pose: params.start,
+                speed_m_s: 0.0,
+                yaw_rate_rad_s: 0.0,
+            })
         };
         let firmware = params.firmware.initial_state();
         let half = crate::firmware::HALF_DUTY as f64;
@@ -123,7 +127,10 @@ impl Sim {
             dcmc: DcmcState::default(),
             firmware,
             pwm_filtered: [half, half],
-            last: LastStep { battery_v: params.battery.open_circuit_v, ..LastStep::default() },
+            last: LastStep {
+                battery_v: params.battery.open_circuit_v,
+                ..LastStep::default()
+            },
             params,
         })
     }
@@ -156,7 +163,11 @@ impl Sim {
     }
 
     /// Runs until `duration_s`, calling `observe` after every step.
-    pub fn run_for(&mut self, duration_s: f64, mut observe: impl FnMut(&Sim)) -> Result<(), SimError> {
+    pub fn run_for(
+        &mut self,
+        duration_s: f64,
+        mut observe: impl FnMut(&Sim),
+    ) -> Result<(), SimError> {
         let steps = (duration_s / self.params.dt_s).round() as u64;
         for _ in 0..steps {
             self.step()?;

@@ -165,7 +165,11 @@ impl SimParams {
         let g = &scene.gearbox;
         let gearbox = GearboxParams {
             ratio: g.ratio,
-            backlash_rad: if features.backlash { g.backlash_rad } else { 0.0 },
+            backlash_rad: if features.backlash {
+                g.backlash_rad
+            } else {
+                0.0
+            },
             tooth_stiffness_nm_rad: g.tooth_stiffness_Nm_rad,
             tooth_damping_nm_s_rad: g.tooth_damping_Nm_s_rad,
         };
@@ -182,12 +186,14 @@ impl SimParams {
             linear_drag_n_s_m: scene.castors.lumped_linear_drag_N_s_m,
             angular_drag_nm_s_rad: scene.castors.lumped_angular_drag_Nm_s_rad,
         };
-        let drive_compound = presets::compound(&scene.tyre.compound).ok_or_else(|| SimError::Setup {
-            message: format!("unknown tyre compound {:?}", scene.tyre.compound),
-        })?;
-        let castor_compound = presets::compound(&scene.castors.compound).ok_or_else(|| SimError::Setup {
-            message: format!("unknown castor compound {:?}", scene.castors.compound),
-        })?;
+        let drive_compound =
+            presets::compound(&scene.tyre.compound).ok_or_else(|| SimError::Setup {
+                message: format!("unknown tyre compound {:?}", scene.tyre.compound),
+            })?;
+        let castor_compound =
+            presets::compound(&scene.castors.compound).ok_or_else(|| SimError::Setup {
+                message: format!("unknown castor compound {:?}", scene.castors.compound),
+            })?;
         let floor = Floor::from_spec(&scene.floor);
         let b = &scene.battery;
         let battery = BatteryParams {
@@ -221,7 +227,11 @@ impl SimParams {
             kd_den: c.kd_den,
             gain_scale: c.gain_scale,
             period_s: features.sample_and_hold.then_some(c.period_s),
-            compute_delay_s: if features.sample_and_hold { c.compute_delay_s } else { 0.0 },
+            compute_delay_s: if features.sample_and_hold {
+                c.compute_delay_s
+            } else {
+                0.0
+            },
             integer_math: features.quantisation,
             forward_counts: c.forward_counts,
             reverse: c.reverse,
@@ -240,9 +250,14 @@ impl SimParams {
             bumper: c.bumper,
         };
         let s = &scene.sensors;
-        let coil = CoilParams { height_m: s.height_m, full_scale_adc: s.full_scale_adc };
+        let coil = CoilParams {
+            height_m: s.height_m,
+            full_scale_adc: s.full_scale_adc,
+        };
         let coils_m = [[s.x_m, s.half_spacing_m], [s.x_m, -s.half_spacing_m]];
-        let rear_coils_m = s.rear_x_m.map(|x| [[x, s.half_spacing_m], [x, -s.half_spacing_m]]);
+        let rear_coils_m = s
+            .rear_x_m
+            .map(|x| [[x, s.half_spacing_m], [x, -s.half_spacing_m]]);
         let castor = CastorParams {
             trail_m: scene.castors.trail_m,
             mass_kg: scene.castors.mass_kg,
@@ -259,7 +274,11 @@ impl SimParams {
             wheels_lifted: scene.sim.wheels_lifted,
             chassis,
             loads,
-            outline_m: (scene.chassis.front_m, scene.chassis.rear_m, scene.chassis.width_m),
+            outline_m: (
+                scene.chassis.front_m,
+                scene.chassis.rear_m,
+                scene.chassis.width_m,
+            ),
             drivetrain,
             noslip,
             castor,
@@ -271,7 +290,9 @@ impl SimParams {
             battery,
             dcmc,
             firmware,
-            pwm: PwmFilter { corner_hz: c.pwm_filter_hz },
+            pwm: PwmFilter {
+                corner_hz: c.pwm_filter_hz,
+            },
             coil,
             coils_m,
             rear_coils_m,

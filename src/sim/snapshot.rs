@@ -130,7 +130,10 @@ impl Sim {
             _ => Vec::new(),
         };
         let coils_m = [pose.to_world(p.coils_m[0]), pose.to_world(p.coils_m[1])];
-        let mid = [0.5 * (coils_m[0][0] + coils_m[1][0]), 0.5 * (coils_m[0][1] + coils_m[1][1])];
+        let mid = [
+            0.5 * (coils_m[0][0] + coils_m[1][0]),
+            0.5 * (coils_m[0][1] + coils_m[1][1]),
+        ];
         Snapshot {
             t_s: self.t_s,
             pose,

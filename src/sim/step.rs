@@ -47,14 +47,23 @@ impl Sim {
                 (true, Some(r)) => r,
                 _ => self.params.coils_m,
             };
-            let mid = [0.5 * (coils[0][0] + coils[1][0]), 0.5 * (coils[0][1] + coils[1][1])];
-            self.params.ideal_slope_counts_per_m * self.params.wire.offset(pose.to_world(mid)).lateral_m
+            let mid = [
+                0.5 * (coils[0][0] + coils[1][0]),
+                0.5 * (coils[0][1] + coils[1][1]),
+            ];
+            self.params.ideal_slope_counts_per_m
+                * self.params.wire.offset(pose.to_world(mid)).lateral_m
         });
 
         // 2. Controller.
         let duty = self.params.firmware.step(
             &mut self.firmware,
-            &FirmwareInput { t_s: self.t_s, sensors_adc: steer_on, ideal_difference: ideal, bumper },
+            &FirmwareInput {
+                t_s: self.t_s,
+                sensors_adc: steer_on,
+                ideal_difference: ideal,
+                bumper,
+            },
         );
 
         // 3. PWM filter and DCMC.
@@ -65,13 +74,22 @@ impl Sim {
                 d as f64
             };
         }
-        let firmware_demand = [duty_to_pct(self.pwm_filtered[0]), duty_to_pct(self.pwm_filtered[1])];
+        let firmware_demand = [
+            duty_to_pct(self.pwm_filtered[0]),
+            duty_to_pct(self.pwm_filtered[1]),
+        ];
         let battery = self.params.battery;
         let battery_v = battery.terminal_voltage_v(self.last.battery_current_a);
         let available_v = battery.available_drive_v(battery_v);
-        let speeds = [self.drive[0].motor.speed_rad_s, self.drive[1].motor.speed_rad_s];
+        let speeds = [
+            self.drive[0].motor.speed_rad_s,
+            self.drive[1].motor.speed_rad_s,
+        ];
         let (demand, enabled) = match self.actuation {
-            Actuation::Demand { forward_pct, turn_pct } => ([forward_pct, turn_pct], true),
+            Actuation::Demand {
+                forward_pct,
+                turn_pct,
+            } => ([forward_pct, turn_pct], true),
             _ => (firmware_demand, self.firmware.drive_enabled),
         };
         let dcmc = self.params.dcmc.step(
@@ -90,7 +108,9 @@ impl Sim {
         );
         let terminals = match self.actuation {
             Actuation::Firmware | Actuation::Demand { .. } => dcmc.voltage_v.map(Terminal::Voltage),
-            Actuation::Voltage(v) => v.map(|x| Terminal::Voltage(x.clamp(-available_v, available_v))),
+            Actuation::Voltage(v) => {
+                v.map(|x| Terminal::Voltage(x.clamp(-available_v, available_v)))
+            }
             Actuation::Open => [Terminal::Open; 2],
         };
 
@@ -130,20 +150,31 @@ impl Sim {
         let axis = pose.rotate([0.0, 1.0]);
         let mut out = [0.0; 2];
         for (i, c) in coils.iter().enumerate() {
-            let field = self.params.wire.horizontal_field(pose.to_world(*c), self.params.coil.height_m);
+            let field = self
+                .params
+                .wire
+                .horizontal_field(pose.to_world(*c), self.params.coil.height_m);
             let mut s = self.params.coil.reading(field, axis);
             if self.params.noise_adc > 0.0 {
                 let n: f64 = StandardNormal.sample(&mut self.rng);
                 s += self.params.noise_adc * n;
             }
-            out[i] = if self.params.features.quantisation { adc_counts(s) } else { adc_unquantised(s) };
+            out[i] = if self.params.features.quantisation {
+                adc_counts(s)
+            } else {
+                adc_unquantised(s)
+            };
         }
         out
     }
 
     /// Sub-steps the drivetrains together with whatever carries the wheels, then (on the
     /// floor) applies the forces and steps rapier. Returns the drive tyres' mean output.
-    fn advance_drivetrains_and_body(&mut self, terminals: [Terminal; 2], dt: f64) -> [TyreOutput; 2] {
+    fn advance_drivetrains_and_body(
+        &mut self,
+        terminals: [Terminal; 2],
+        dt: f64,
+    ) -> [TyreOutput; 2] {
         let p = &self.params;
         let dtp = p.drivetrain;
         let n = p.substeps;
@@ -182,7 +213,11 @@ impl Sim {
                 let mut tyre_params = [p.drive_tyre(p.floor.default); 2];
                 for i in 0..2 {
                     let v = engine.point_velocity_body(wheels[i]);
-                    kin[i] = ContactKinematics { forward_m_s: v[0], lateral_m_s: v[1], rim_m_s: 0.0 };
+                    kin[i] = ContactKinematics {
+                        forward_m_s: v[0],
+                        lateral_m_s: v[1],
+                        rim_m_s: 0.0,
+                    };
                     tyre_params[i] = p.drive_tyre(p.floor.surface_at(pose.to_world(wheels[i])));
                 }
                 let mut force_sum = [[0.0; 2]; 2];
@@ -192,12 +227,16 @@ impl Sim {
                         let t = dtp.tooth_torque_nm(&self.drive[i]);
                         dtp.motor_substep(&mut self.drive[i], terminals[i], t, h);
                         kin[i].rim_m_s = self.drive[i].wheel_speed_rad_s * r;
-                        let out = tyre_params[i].step(&mut self.tyres[i], kin[i], p.loads.drive_n[i], h);
+                        let out =
+                            tyre_params[i].step(&mut self.tyres[i], kin[i], p.loads.drive_n[i], h);
                         dtp.wheel_substep(&mut self.drive[i], t, -r * out.force_n[0], h);
                         force_sum[i][0] += out.force_n[0];
                         force_sum[i][1] += out.force_n[1];
                         // Keep slip measures of the last sub-step, mean of the forces.
-                        mean[i] = TyreOutput { force_n: [0.0; 2], ..out };
+                        mean[i] = TyreOutput {
+                            force_n: [0.0; 2],
+                            ..out
+                        };
                     }
                 }
                 for i in 0..2 {
@@ -216,7 +255,11 @@ impl Sim {
                     // A free-rolling wheel: rim speed equals forward speed, only lateral slip.
                     let out = tp.step(
                         &mut self.castor_tyres[k],
-                        ContactKinematics { forward_m_s: roll, lateral_m_s: m.velocity_m_s[1], rim_m_s: roll },
+                        ContactKinematics {
+                            forward_m_s: roll,
+                            lateral_m_s: m.velocity_m_s[1],
+                            rim_m_s: roll,
+                        },
                         load,
                         dt,
                     );
@@ -234,7 +277,11 @@ impl Sim {
     }
 
     fn check_finite(&self) -> Result<(), SimError> {
-        let bad = |what: &str, value: f64| SimError::Diverged { t_s: self.t_s, what: what.to_string(), value };
+        let bad = |what: &str, value: f64| SimError::Diverged {
+            t_s: self.t_s,
+            what: what.to_string(),
+            value,
+        };
         for (i, d) in self.drive.iter().enumerate() {
             let side = if i == 0 { "left" } else { "right" };
             for (name, v, limit) in [
@@ -250,7 +297,11 @@ impl Sim {
             }
         }
         let pose = self.pose();
-        for (name, v) in [("x (m)", pose.x_m), ("y (m)", pose.y_m), ("heading (rad)", pose.heading_rad)] {
+        for (name, v) in [
+            ("x (m)", pose.x_m),
+            ("y (m)", pose.y_m),
+            ("heading (rad)", pose.heading_rad),
+        ] {
             if !v.is_finite() {
                 return Err(bad(name, v));
             }

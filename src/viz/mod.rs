@@ -61,15 +61,26 @@ fn err(e: impl std::fmt::Display) -> VizError {
 /// The default layout.
 pub fn blueprint() -> Blueprint {
     let floor = Spatial2DView::new("Floor (top view)").with_origin("/world");
-    let tracking = TimeSeriesView::new("Tracking: lateral error (m)").with_origin("/plots/tracking");
-    let sensors = TimeSeriesView::new("Guide-wire sensors (ADC counts)").with_origin("/plots/sensors");
-    let drive = TimeSeriesView::new("DCMC: demand (pct) and motor voltage (V)").with_origin("/plots/drive");
+    let tracking =
+        TimeSeriesView::new("Tracking: lateral error (m)").with_origin("/plots/tracking");
+    let sensors =
+        TimeSeriesView::new("Guide-wire sensors (ADC counts)").with_origin("/plots/sensors");
+    let drive =
+        TimeSeriesView::new("DCMC: demand (pct) and motor voltage (V)").with_origin("/plots/drive");
     let motors = TimeSeriesView::new("Motor speed (rad/s)").with_origin("/plots/motors");
-    let wheels = TimeSeriesView::new("Wheels: slip ratio, backlash gap (rad)").with_origin("/plots/wheels");
+    let wheels =
+        TimeSeriesView::new("Wheels: slip ratio, backlash gap (rad)").with_origin("/plots/wheels");
     Blueprint::new(
         Horizontal::new([
             floor.into(),
-            Vertical::new([tracking.into(), sensors.into(), drive.into(), motors.into(), wheels.into()]).into(),
+            Vertical::new([
+                tracking.into(),
+                sensors.into(),
+                drive.into(),
+                motors.into(),
+                wheels.into(),
+            ])
+            .into(),
         ])
         .with_column_shares([0.55, 0.45]),
     )
@@ -77,7 +88,12 @@ pub fn blueprint() -> Blueprint {
 
 impl RerunRecorder {
     /// Opens the target and logs the static scene (floor regions, wire, obstacles).
-    pub fn new(target: &RerunTarget, name: &str, params: &SimParams, log_interval_s: f64) -> Result<Self, VizError> {
+    pub fn new(
+        target: &RerunTarget,
+        name: &str,
+        params: &SimParams,
+        log_interval_s: f64,
+    ) -> Result<Self, VizError> {
         let builder = RecordingStreamBuilder::new("agvsim")
             .recording_id(format!("agvsim-{name}-seed{}", params.seed))
             .with_blueprint(blueprint());
@@ -93,7 +109,10 @@ impl RerunRecorder {
             count: 0,
             path: Vec::new(),
             path_every: 5,
-            seen: ([params.start.x_m, params.start.y_m], [params.start.x_m, params.start.y_m]),
+            seen: (
+                [params.start.x_m, params.start.y_m],
+                [params.start.x_m, params.start.y_m],
+            ),
             wire: params.wire.points().to_vec(),
             wire_closed: params.wire.is_closed(),
             floor_name: params.floor.default.name,
@@ -109,7 +128,9 @@ impl RerunRecorder {
             strip.push(strip[0]);
             rec.log_static(
                 format!("world/floor/region_{i}"),
-                &rerun::LineStrips2D::new([strip]).with_colors([[180, 140, 90, 255]]).with_labels([surface.name]),
+                &rerun::LineStrips2D::new([strip])
+                    .with_colors([[180, 140, 90, 255]])
+                    .with_labels([surface.name]),
             )
             .map_err(err)?;
         }
@@ -118,13 +139,19 @@ impl RerunRecorder {
             let strip: Vec<[f32; 2]> = match (o.spec.half_extents_m, o.spec.radius_m) {
                 (Some(h), _) => {
                     let (s, co) = o.spec.angle_rad.sin_cos();
-                    let mut v: Vec<[f32; 2]> = [[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0]]
-                        .iter()
-                        .map(|k| {
-                            let (x, y) = (k[0] * h[0], k[1] * h[1]);
-                            w([c[0] + co * x - s * y, c[1] + s * x + co * y])
-                        })
-                        .collect();
+                    let mut v: Vec<[f32; 2]> = [
+                        [-1.0, -1.0],
+                        [1.0, -1.0],
+                        [1.0, 1.0],
+                        [-1.0, 1.0],
+                        [-1.0, -1.0],
+                    ]
+                    .iter()
+                    .map(|k| {
+                        let (x, y) = (k[0] * h[0], k[1] * h[1]);
+                        w([c[0] + co * x - s * y, c[1] + s * x + co * y])
+                    })
+                    .collect();
                     v.shrink_to_fit();
                     v
                 }
@@ -147,24 +174,48 @@ impl RerunRecorder {
                 .with_names(names.iter().map(|s| s.to_string()))
                 .with_colors(colors.to_vec())
         };
-        rec.log_static("plots/tracking/lateral_error_m", &series(&["sensor pair off the wire (m)"], &[PATH]))
-            .map_err(err)?;
-        rec.log_static("plots/sensors/adc", &series(&["left coil", "right coil"], &[LEFT, RIGHT]))
-            .map_err(err)?;
-        rec.log_static("plots/drive/demand_pct", &series(&["forward demand (pct)", "turn demand (pct)"], &[GREY, WIRE]))
-            .map_err(err)?;
-        rec.log_static("plots/drive/voltage_V", &series(&["left voltage (V)", "right voltage (V)"], &[LEFT, RIGHT]))
-            .map_err(err)?;
         rec.log_static(
-            "plots/motors/motor_speed_rad_s",
-            &series(&["left motor (rad/s)", "right motor (rad/s)"], &[[255, 150, 150, 255], [150, 190, 255, 255]]),
+            "plots/tracking/lateral_error_m",
+            &series(&["sensor pair off the wire (m)"], &[PATH]),
         )
         .map_err(err)?;
-        rec.log_static("plots/wheels/slip_ratio", &series(&["left slip", "right slip"], &[LEFT, RIGHT]))
-            .map_err(err)?;
+        rec.log_static(
+            "plots/sensors/adc",
+            &series(&["left coil", "right coil"], &[LEFT, RIGHT]),
+        )
+        .map_err(err)?;
+        rec.log_static(
+            "plots/drive/demand_pct",
+            &series(
+                &["forward demand (pct)", "turn demand (pct)"],
+                &[GREY, WIRE],
+            ),
+        )
+        .map_err(err)?;
+        rec.log_static(
+            "plots/drive/voltage_V",
+            &series(&["left voltage (V)", "right voltage (V)"], &[LEFT, RIGHT]),
+        )
+        .map_err(err)?;
+        rec.log_static(
+            "plots/motors/motor_speed_rad_s",
+            &series(
+                &["left motor (rad/s)", "right motor (rad/s)"],
+                &[[255, 150, 150, 255], [150, 190, 255, 255]],
+            ),
+        )
+        .map_err(err)?;
+        rec.log_static(
+            "plots/wheels/slip_ratio",
+            &series(&["left slip", "right slip"], &[LEFT, RIGHT]),
+        )
+        .map_err(err)?;
         rec.log_static(
             "plots/wheels/backlash_gap_rad",
-            &series(&["left gap (rad)", "right gap (rad)"], &[[255, 200, 120, 255], [120, 220, 255, 255]]),
+            &series(
+                &["left gap (rad)", "right gap (rad)"],
+                &[[255, 200, 120, 255], [120, 220, 255, 255]],
+            ),
         )
         .map_err(err)?;
         Ok(())
@@ -186,14 +237,25 @@ impl RerunRecorder {
             self.seen.1[k] = self.seen.1[k].max(v);
         }
         let (front, rear, width) = p.outline_m;
-        let outline: Vec<[f32; 2]> =
-            [[front, width / 2.0], [-rear, width / 2.0], [-rear, -width / 2.0], [front, -width / 2.0], [front, width / 2.0]]
-                .iter()
-                .map(|q| w(pose.to_world(*q)))
-                .collect();
-        let nose = vec![w(pose.to_world([0.0, 0.0])), w(pose.to_world([front * 0.8, 0.0]))];
-        rec.log("world/agv/body", &rerun::LineStrips2D::new([outline, nose]).with_colors([BODY]))
-            .map_err(err)?;
+        let outline: Vec<[f32; 2]> = [
+            [front, width / 2.0],
+            [-rear, width / 2.0],
+            [-rear, -width / 2.0],
+            [front, -width / 2.0],
+            [front, width / 2.0],
+        ]
+        .iter()
+        .map(|q| w(pose.to_world(*q)))
+        .collect();
+        let nose = vec![
+            w(pose.to_world([0.0, 0.0])),
+            w(pose.to_world([front * 0.8, 0.0])),
+        ];
+        rec.log(
+            "world/agv/body",
+            &rerun::LineStrips2D::new([outline, nose]).with_colors([BODY]),
+        )
+        .map_err(err)?;
         let coil_colors: Vec<[u8; 4]> = s
             .sensors_adc
             .iter()
@@ -207,7 +269,10 @@ impl RerunRecorder {
             &rerun::Points2D::new(s.coils_m.map(w))
                 .with_radii([0.015f32])
                 .with_colors(coil_colors)
-                .with_labels([format!("L {:.0}", s.sensors_adc[0]), format!("R {:.0}", s.sensors_adc[1])]),
+                .with_labels([
+                    format!("L {:.0}", s.sensors_adc[0]),
+                    format!("R {:.0}", s.sensors_adc[1]),
+                ]),
         )
         .map_err(err)?;
         // Tyre forces (N -> m at 1 mm/N) and slip (the sliding velocity direction).
@@ -222,7 +287,9 @@ impl RerunRecorder {
             .collect();
         rec.log(
             "world/agv/tyre_force",
-            &rerun::Arrows2D::from_vectors(forces).with_origins(contacts.clone()).with_colors([[255, 80, 200, 255]]),
+            &rerun::Arrows2D::from_vectors(forces)
+                .with_origins(contacts.clone())
+                .with_colors([[255, 80, 200, 255]]),
         )
         .map_err(err)?;
         let slips: Vec<[f32; 2]> = s
@@ -235,13 +302,24 @@ impl RerunRecorder {
             .collect();
         rec.log(
             "world/agv/slip",
-            &rerun::Arrows2D::from_vectors(slips).with_origins(contacts).with_colors([[255, 255, 0, 255]]),
+            &rerun::Arrows2D::from_vectors(slips)
+                .with_origins(contacts)
+                .with_colors([[255, 255, 0, 255]]),
         )
         .map_err(err)?;
         if !s.castors.is_empty() {
-            let strips: Vec<Vec<[f32; 2]>> = s.castors.iter().map(|c| vec![w(c.swivel_m), w(c.patch_m)]).collect();
-            rec.log("world/agv/castors", &rerun::LineStrips2D::new(strips).with_colors([CASTOR]).with_radii([0.01f32]))
-                .map_err(err)?;
+            let strips: Vec<Vec<[f32; 2]>> = s
+                .castors
+                .iter()
+                .map(|c| vec![w(c.swivel_m), w(c.patch_m)])
+                .collect();
+            rec.log(
+                "world/agv/castors",
+                &rerun::LineStrips2D::new(strips)
+                    .with_colors([CASTOR])
+                    .with_radii([0.01f32]),
+            )
+            .map_err(err)?;
         }
         if self.count / self.every % self.path_every == 1 || self.path.is_empty() {
             self.path.push(w([pose.x_m, pose.y_m]));
@@ -251,21 +329,35 @@ impl RerunRecorder {
                 self.path_every *= 2;
             }
         }
-        rec.log("world/path", &rerun::LineStrips2D::new([self.path.clone()]).with_colors([PATH]))
+        rec.log(
+            "world/path",
+            &rerun::LineStrips2D::new([self.path.clone()]).with_colors([PATH]),
+        )
+        .map_err(err)?;
+        rec.log(
+            "plots/tracking/lateral_error_m",
+            &rerun::Scalars::new([s.lateral_error_m]),
+        )
+        .map_err(err)?;
+        rec.log("plots/sensors/adc", &rerun::Scalars::new(s.sensors_adc))
             .map_err(err)?;
-        rec.log("plots/tracking/lateral_error_m", &rerun::Scalars::new([s.lateral_error_m]))
+        rec.log("plots/drive/demand_pct", &rerun::Scalars::new(s.demand_pct))
             .map_err(err)?;
-        rec.log("plots/sensors/adc", &rerun::Scalars::new(s.sensors_adc)).map_err(err)?;
-        rec.log("plots/drive/demand_pct", &rerun::Scalars::new(s.demand_pct)).map_err(err)?;
-        rec.log("plots/drive/voltage_V", &rerun::Scalars::new([s.sides[0].voltage_v, s.sides[1].voltage_v]))
-            .map_err(err)?;
+        rec.log(
+            "plots/drive/voltage_V",
+            &rerun::Scalars::new([s.sides[0].voltage_v, s.sides[1].voltage_v]),
+        )
+        .map_err(err)?;
         rec.log(
             "plots/motors/motor_speed_rad_s",
             &rerun::Scalars::new([s.sides[0].motor_speed_rad_s, s.sides[1].motor_speed_rad_s]),
         )
         .map_err(err)?;
-        rec.log("plots/wheels/slip_ratio", &rerun::Scalars::new([s.sides[0].slip_ratio, s.sides[1].slip_ratio]))
-            .map_err(err)?;
+        rec.log(
+            "plots/wheels/slip_ratio",
+            &rerun::Scalars::new([s.sides[0].slip_ratio, s.sides[1].slip_ratio]),
+        )
+        .map_err(err)?;
         rec.log(
             "plots/wheels/backlash_gap_rad",
             &rerun::Scalars::new([s.sides[0].backlash_gap_rad, s.sides[1].backlash_gap_rad]),
@@ -282,7 +374,12 @@ impl RerunRecorder {
         let hi = [self.seen.1[0] + margin, self.seen.1[1] + margin];
         let floor = vec![w(lo), w([hi[0], lo[1]]), w(hi), w([lo[0], hi[1]]), w(lo)];
         self.rec
-            .log_static("world/floor", &rerun::LineStrips2D::new([floor]).with_colors([GREY]).with_labels([self.floor_name]))
+            .log_static(
+                "world/floor",
+                &rerun::LineStrips2D::new([floor])
+                    .with_colors([GREY])
+                    .with_labels([self.floor_name]),
+            )
             .map_err(err)?;
         let mut pts = self.wire.clone();
         if self.wire_closed {
@@ -294,14 +391,24 @@ impl RerunRecorder {
             .map(|(a, b)| vec![w(a), w(b)])
             .collect();
         self.rec
-            .log_static("world/wire", &rerun::LineStrips2D::new(strips).with_colors([WIRE]).with_radii([0.006f32]))
+            .log_static(
+                "world/wire",
+                &rerun::LineStrips2D::new(strips)
+                    .with_colors([WIRE])
+                    .with_radii([0.006f32]),
+            )
             .map_err(err)?;
         self.rec.flush_blocking().map_err(err)
     }
 }
 
 /// The part of a segment inside an axis-aligned box (Liang-Barsky), if any.
-fn clip_segment(a: [f64; 2], b: [f64; 2], lo: [f64; 2], hi: [f64; 2]) -> Option<([f64; 2], [f64; 2])> {
+fn clip_segment(
+    a: [f64; 2],
+    b: [f64; 2],
+    lo: [f64; 2],
+    hi: [f64; 2],
+) -> Option<([f64; 2], [f64; 2])> {
     let d = [b[0] - a[0], b[1] - a[1]];
     let (mut t0, mut t1) = (0.0f64, 1.0f64);
     for k in 0..2 {
@@ -320,8 +427,12 @@ fn clip_segment(a: [f64; 2], b: [f64; 2], lo: [f64; 2], hi: [f64; 2]) -> Option<
             }
         }
     }
-    (t0 <= t1).then(|| ([a[0] + t0 * d[0], a[1] + t0 * d[1]], [a[0] + t1 * d[0], a[1] + t1 * d[1]]))
+    (t0 <= t1).then(|| {
+        (
+            [a[0] + t0 * d[0], a[1] + t0 * d[1]],
+            [a[0] + t1 * d[0], a[1] + t1 * d[1]],
+        )
+    })
 }
 
-impl RerunRecorder {
-}
+impl RerunRecorder {}

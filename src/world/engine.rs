@@ -92,7 +92,10 @@ impl Engine {
             let at = start.to_world(*p);
             let t = castor.trail_m;
             let b = RigidBodyBuilder::dynamic()
-                .pose(Pose2::new(v(at), start.heading_rad + castor.initial_angle_rad))
+                .pose(Pose2::new(
+                    v(at),
+                    start.heading_rad + castor.initial_angle_rad,
+                ))
                 .additional_mass_properties(MassProperties::new(
                     Vector::new(-0.5 * t, 0.0),
                     castor.mass_kg,
@@ -115,7 +118,9 @@ impl Engine {
             castors[i] = h;
         }
         for o in obstacles {
-            let c = ColliderBuilder::new(o.shape.clone()).position(o.pose).build();
+            let c = ColliderBuilder::new(o.shape.clone())
+                .position(o.pose)
+                .build();
             world.colliders.insert(c);
         }
         Engine {
@@ -131,7 +136,11 @@ impl Engine {
     pub fn pose(&self) -> Pose {
         let b = &self.world.bodies[self.chassis];
         let t = b.translation();
-        Pose { x_m: t.x, y_m: t.y, heading_rad: self.heading_rad }
+        Pose {
+            x_m: t.x,
+            y_m: t.y,
+            heading_rad: self.heading_rad,
+        }
     }
 
     /// Chassis velocity (axle midpoint in the body frame, and yaw rate).

@@ -25,9 +25,17 @@ impl Floor {
             .regions
             .iter()
             .filter_map(|r| {
-                let pts: Vec<Vector> = r.polygon_m.iter().map(|p| Vector::new(p[0], p[1])).collect();
+                let pts: Vec<Vector> = r
+                    .polygon_m
+                    .iter()
+                    .map(|p| Vector::new(p[0], p[1]))
+                    .collect();
                 let poly = ConvexPolygon::from_convex_hull(&pts)?;
-                Some((poly, presets::surface(&r.surface).unwrap_or(default), r.polygon_m.clone()))
+                Some((
+                    poly,
+                    presets::surface(&r.surface).unwrap_or(default),
+                    r.polygon_m.clone(),
+                ))
             })
             .collect();
         Floor { default, regions }
