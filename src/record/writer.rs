@@ -52,6 +52,7 @@ pub fn vehicle_columns() -> Vec<Column> {
         c("left_backlash_gap_rad", 5, |s| s.sides[0].backlash_gap_rad),
         c("right_backlash_gap_rad", 5, |s| s.sides[1].backlash_gap_rad),
         c("turn_command_counts", 3, |s| s.command_counts[1]),
+        c("castor_drag_N", 3, |s| s.castor_drag_n),
         c("battery_V", 4, |s| s.battery_v),
     ]
 }

@@ -52,6 +52,9 @@ pub struct Snapshot {
     pub sides: [SideSnapshot; 2],
     /// Empty on the no-slip levels (castors are lumped there).
     pub castors: Vec<CastorSnapshot>,
+    /// Castor drag: the castor forces resolved against the body's forward axis, N
+    /// (positive when they hold the vehicle back; lumped drag on the no-slip levels).
+    pub castor_drag_n: f64,
     /// Coil readings (left, right), counts.
     pub sensors_adc: [f64; 2],
     pub rear_sensors_adc: [f64; 2],
@@ -129,6 +132,14 @@ impl Sim {
             }
             _ => Vec::new(),
         };
+        let castor_drag_n = if castors.is_empty() {
+            p.noslip.linear_drag_n_s_m * velocity_m_s[0]
+        } else {
+            -castors
+                .iter()
+                .map(|c| pose.unrotate(c.force_n)[0])
+                .sum::<f64>()
+        };
         let coils_m = [pose.to_world(p.coils_m[0]), pose.to_world(p.coils_m[1])];
         let mid = [
             0.5 * (coils_m[0][0] + coils_m[1][0]),
@@ -141,6 +152,7 @@ impl Sim {
             yaw_rate_rad_s,
             sides,
             castors,
+            castor_drag_n,
             sensors_adc: self.last.sensors_adc,
             rear_sensors_adc: self.last.rear_sensors_adc,
             coils_m,
