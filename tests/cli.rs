@@ -268,3 +268,26 @@ fn saves_a_rerun_recording() {
     );
     let _ = Path::new(&rrd);
 }
+
+/// What we write, we read back: our recordings meet the exchange-format contract, and the
+/// shared real and development recordings parse too.
+#[test]
+fn recordings_round_trip_and_shared_data_parses() {
+    use agvsim::record::Recording;
+    let out = tmp("roundtrip");
+    let st = agvsim().args(["run", "scenes/lab_offset_120mm.toml", "--duration", "1", "--out"]).arg(&out).output().unwrap();
+    assert!(st.status.success());
+    let r = Recording::load(&out.join("lab_offset_120mm.csv")).unwrap();
+    assert_eq!(r.rig, "vehicle");
+    assert_eq!(r.t_s.len(), 101);
+    assert!(r.require_complete("left_voltage_V").is_ok());
+    let shared = Path::new("../shared/data");
+    if shared.exists() {
+        let emps = Recording::load(&shared.join("real/emps/data_emps.csv")).unwrap();
+        assert_eq!(emps.rig, "drive_axis");
+        assert!(emps.t_s.len() > 20000);
+        let v = Recording::load(&shared.join("dev/dev_vehicle_01.csv")).unwrap();
+        let x = v.column("x_m").expect("tracker column");
+        assert!(x.iter().any(|c| c.is_none()), "tracker rows without samples must read as missing");
+    }
+}

@@ -1,0 +1,289 @@
+//! Reads a recording in the exchange format (`shared/spec/recording-format.md`): `#`
+//! metadata lines, a header of unit-suffixed column names, then rows. Empty cells are
+//! missing values (`None`), never zero. Every contract breach is reported with the file,
+//! the line and the column.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// A recording as read.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Recording {
+    pub path: PathBuf,
+    /// Metadata (`key: value` lines), in file order of keys.
+    pub meta: BTreeMap<String, String>,
+    /// `drive_axis` or `vehicle`.
+    pub rig: String,
+    /// Sample times, s (strictly increasing).
+    pub t_s: Vec<f64>,
+    /// Column names after `t_s`, in file order.
+    pub names: Vec<String>,
+    /// Columns after `t_s`; `None` where the cell was empty.
+    pub columns: Vec<Vec<Option<f64>>>,
+}
+
+/// A breach of the contract, located.
+#[derive(Debug, thiserror::Error)]
+pub enum RecordingError {
+    #[error("{file}: cannot read: {source}")]
+    Read {
+        file: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{file}: {message}")]
+    File { file: PathBuf, message: String },
+    #[error("{file}:{line}: {message}")]
+    Line {
+        file: PathBuf,
+        line: usize,
+        message: String,
+    },
+}
+
+/// Units a column name may end in.
+pub const KNOWN_UNITS: [&str; 12] = [
+    "s", "m", "rad", "rad_s", "m_s", "V", "A", "Nm", "N", "pct", "adc", "counts",
+];
+
+impl Recording {
+    pub fn load(path: &Path) -> Result<Recording, RecordingError> {
+        let text = std::fs::read_to_string(path).map_err(|source| RecordingError::Read {
+            file: path.to_owned(),
+            source,
+        })?;
+        Recording::parse(&text, path)
+    }
+
+    /// Parses text; `path` is used in messages.
+    pub fn parse(text: &str, path: &Path) -> Result<Recording, RecordingError> {
+        let file = || path.to_owned();
+        let at = |line: usize, message: String| RecordingError::Line {
+            file: file(),
+            line,
+            message,
+        };
+        let mut meta = BTreeMap::new();
+        let mut lines = text
+            .lines()
+            .enumerate()
+            .map(|(i, l)| (i + 1, l.trim_end_matches('\r')));
+        let mut header = None;
+        for (n, l) in lines.by_ref() {
+            if let Some(rest) = l.strip_prefix('#') {
+                if let Some((k, v)) = rest.split_once(':') {
+                    meta.insert(k.trim().to_string(), v.trim().to_string());
+                }
+                continue;
+            }
+            if l.trim().is_empty() {
+                continue;
+            }
+            header = Some((n, l));
+            break;
+        }
+        let (hline, header) = header.ok_or_else(|| RecordingError::File {
+            file: file(),
+            message: "empty recording: no header line and no samples".into(),
+        })?;
+        match meta.get("agvsim-recording").map(String::as_str) {
+            Some("1") => {}
+            Some(v) => {
+                return Err(at(
+                    1,
+                    format!("format version `{v}`: expected `# agvsim-recording: 1`"),
+                ))
+            }
+            None => {
+                return Err(RecordingError::File {
+                    file: file(),
+                    message: "missing metadata `# agvsim-recording: 1` before the header".into(),
+                })
+            }
+        }
+        let rig = meta
+            .get("rig")
+            .cloned()
+            .ok_or_else(|| RecordingError::File {
+                file: file(),
+                message: "missing metadata `# rig: drive_axis` or `# rig: vehicle`".into(),
+            })?;
+        if rig != "drive_axis" && rig != "vehicle" {
+            return Err(RecordingError::File {
+                file: file(),
+                message: format!("rig `{rig}`: expected `drive_axis` or `vehicle`"),
+            });
+        }
+        let cols: Vec<String> = header.split(',').map(|c| c.trim().to_string()).collect();
+        if cols.first().map(String::as_str) != Some("t_s") {
+            return Err(at(
+                hline,
+                format!("first column is `{}`: expected `t_s`", cols[0]),
+            ));
+        }
+        for (i, c) in cols.iter().enumerate() {
+            if c.is_empty() {
+                return Err(at(hline, format!("column {} has no name", i + 1)));
+            }
+            if cols[..i].contains(c) {
+                return Err(at(hline, format!("column `{c}` appears twice")));
+            }
+        }
+        let names: Vec<String> = cols[1..].to_vec();
+        let mut t_s = Vec::new();
+        let mut columns: Vec<Vec<Option<f64>>> = vec![Vec::new(); names.len()];
+        for (n, l) in lines {
+            if l.trim().is_empty() || l.starts_with('#') {
+                continue;
+            }
+            let cells: Vec<&str> = l.split(',').collect();
+            if cells.len() != cols.len() {
+                return Err(at(
+                    n,
+                    format!(
+                        "{} cells: expected {} (one per header column)",
+                        cells.len(),
+                        cols.len()
+                    ),
+                ));
+            }
+            let t = cells[0].trim();
+            let t: f64 = t
+                .parse()
+                .map_err(|_| at(n, format!("column `t_s`: `{t}` is not a number")))?;
+            if !t.is_finite() {
+                return Err(at(n, format!("column `t_s`: {t} is not finite")));
+            }
+            if let Some(&prev) = t_s.last() {
+                if t <= prev {
+                    return Err(at(
+                        n,
+                        format!("column `t_s`: time {t} does not increase (previous row {prev})"),
+                    ));
+                }
+            }
+            t_s.push(t);
+            for (k, cell) in cells[1..].iter().enumerate() {
+                let cell = cell.trim();
+                let v = if cell.is_empty() {
+                    None
+                } else {
+                    let v: f64 = cell.parse().map_err(|_| {
+                        at(
+                            n,
+                            format!("column `{}`: `{cell}` is not a number", names[k]),
+                        )
+                    })?;
+                    if !v.is_finite() {
+                        return Err(at(
+                            n,
+                            format!("column `{}`: {cell} is not finite (leave the cell empty for a missing value)", names[k]),
+                        ));
+                    }
+                    Some(v)
+                };
+                columns[k].push(v);
+            }
+        }
+        if t_s.is_empty() {
+            return Err(RecordingError::File {
+                file: file(),
+                message: "no samples after the header".into(),
+            });
+        }
+        Ok(Recording {
+            path: path.to_owned(),
+            meta,
+            rig,
+            t_s,
+            names,
+            columns,
+        })
+    }
+
+    /// A column by name.
+    pub fn column(&self, name: &str) -> Option<&[Option<f64>]> {
+        self.names
+            .iter()
+            .position(|n| n == name)
+            .map(|i| self.columns[i].as_slice())
+    }
+
+    /// A column that must be present and complete (an input), or an error naming it.
+    pub fn require_complete(&self, name: &str) -> Result<Vec<f64>, RecordingError> {
+        let col = self.column(name).ok_or_else(|| RecordingError::File {
+            file: self.path.clone(),
+            message: format!("column `{name}` is missing (the rig needs it as an input)"),
+        })?;
+        col.iter()
+            .enumerate()
+            .map(|(i, v)| {
+                v.ok_or_else(|| RecordingError::File {
+                    file: self.path.clone(),
+                    message: format!("column `{name}` is empty at t = {} s (an input must be given on every row)", self.t_s[i]),
+                })
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str) -> Result<Recording, RecordingError> {
+        Recording::parse(text, Path::new("r.csv"))
+    }
+
+    const HEAD: &str = "# agvsim-recording: 1\n# rig: drive_axis\n";
+
+    #[test]
+    fn reads_values_and_keeps_missing_cells_missing() {
+        let r = parse(&format!(
+            "{HEAD}t_s,voltage_V,motor_speed_rad_s\n0.0,1.0,\n0.001,1.5,2.0\n"
+        ))
+        .unwrap();
+        assert_eq!(r.t_s, vec![0.0, 0.001]);
+        assert_eq!(r.column("motor_speed_rad_s").unwrap(), &[None, Some(2.0)]);
+        assert_eq!(r.require_complete("voltage_V").unwrap(), vec![1.0, 1.5]);
+        assert!(r
+            .require_complete("motor_speed_rad_s")
+            .unwrap_err()
+            .to_string()
+            .contains("empty at t = 0"));
+    }
+
+    #[test]
+    fn contract_breaches_name_the_line_and_column() {
+        let e = parse(&format!("{HEAD}voltage_V,t_s\n1,0\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("r.csv:3") && e.contains("expected `t_s`"), "{e}");
+        let e = parse(&format!("{HEAD}t_s,voltage_V\n0.0,1\n0.002,1\n0.001,1\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("r.csv:6") && e.contains("does not increase"),
+            "{e}"
+        );
+        let e = parse(&format!("{HEAD}t_s,voltage_V\n0.0,NaN\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("r.csv:4") && e.contains("voltage_V") && e.contains("not finite"),
+            "{e}"
+        );
+        let e = parse("").unwrap_err().to_string();
+        assert!(e.contains("r.csv") && e.contains("empty"), "{e}");
+        let e = parse(&format!("{HEAD}t_s,voltage_V\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("no samples"), "{e}");
+        let e = parse(&format!("{HEAD}t_s,voltage_V\n0.0,1\n"))
+            .unwrap()
+            .require_complete("demand_pct")
+            .unwrap_err();
+        assert!(e.to_string().contains("`demand_pct` is missing"));
+        let e = parse("# rig: vehicle\nt_s\n0\n").unwrap_err().to_string();
+        assert!(e.contains("agvsim-recording"), "{e}");
+    }
+}
