@@ -275,7 +275,17 @@ fn saves_a_rerun_recording() {
 fn recordings_round_trip_and_shared_data_parses() {
     use agvsim::record::Recording;
     let out = tmp("roundtrip");
-    let st = agvsim().args(["run", "scenes/lab_offset_120mm.toml", "--duration", "1", "--out"]).arg(&out).output().unwrap();
+    let st = agvsim()
+        .args([
+            "run",
+            "scenes/lab_offset_120mm.toml",
+            "--duration",
+            "1",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
     assert!(st.status.success());
     let r = Recording::load(&out.join("lab_offset_120mm.csv")).unwrap();
     assert_eq!(r.rig, "vehicle");
@@ -288,6 +298,9 @@ fn recordings_round_trip_and_shared_data_parses() {
         assert!(emps.t_s.len() > 20000);
         let v = Recording::load(&shared.join("dev/dev_vehicle_01.csv")).unwrap();
         let x = v.column("x_m").expect("tracker column");
-        assert!(x.iter().any(|c| c.is_none()), "tracker rows without samples must read as missing");
+        assert!(
+            x.iter().any(|c| c.is_none()),
+            "tracker rows without samples must read as missing"
+        );
     }
 }
