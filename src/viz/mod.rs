@@ -434,5 +434,3 @@ fn clip_segment(
         )
     })
 }
-
-impl RerunRecorder {}
