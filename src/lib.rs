@@ -16,9 +16,12 @@
 //! - [`viz`]: the Rerun recorder (an observer of snapshots).
 //! - [`run`]: running a scene with its observers, as the CLI does.
 
+pub mod experiment;
 pub mod firmware;
+pub mod ident;
 pub mod model;
 pub mod record;
+pub mod rig;
 pub mod run;
 pub mod scene;
 pub mod sensing;

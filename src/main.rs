@@ -5,6 +5,9 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+use agvsim::experiment::{run_experiment, DemandPattern, ExperimentKind, ExperimentOptions};
+use agvsim::ident::job::{self, IdentifyJob};
+use agvsim::ident::{report, IdentifyOptions, ModelChoice};
 use agvsim::run::{run_scene, RunOptions};
 use agvsim::scene::{presets, Scene};
 use agvsim::viz::RerunTarget;
@@ -53,6 +56,78 @@ enum Command {
     },
     /// List the tyre compounds and floor surfaces and the tyre values they combine into.
     Presets,
+    /// Run one of the thesis's lab experiments on a simulated AGV; write the recording and
+    /// its rig file (exchange format).
+    Experiment {
+        /// lifted-random-demand, falling-weight, coast-down or floor-run.
+        #[arg(value_parser = |s: &str| s.parse::<ExperimentKind>())]
+        kind: ExperimentKind,
+        /// Scene file (TOML) giving the machine, e.g. scenes/lab_offset_120mm.toml.
+        scene: PathBuf,
+        /// Output folder.
+        #[arg(long, default_value = "runs/experiments")]
+        out: PathBuf,
+        /// File stem of the outputs [default: the experiment's name].
+        #[arg(long)]
+        name: Option<String>,
+        /// Seed of noise and random demands (overrides sim.seed).
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Sample interval, s (floor-run: dash interval) [default: 0.025 lifted, 0.002
+        /// falling weight, 0.005 coast-down, 0.25 floor-run].
+        #[arg(long, value_parser = positive_seconds)]
+        interval: Option<f64>,
+        /// Length of a lifted-wheel run, s.
+        #[arg(long, default_value_t = 15.0, value_parser = positive_seconds)]
+        duration: f64,
+        /// Lifted-wheel demand: pulses (microcontroller pattern) or walk (joystick-like).
+        #[arg(long, default_value = "pulses", value_parser = |s: &str| s.parse::<DemandPattern>())]
+        pattern: DemandPattern,
+        /// Peak forward demand, pct (turn peaks at half).
+        #[arg(long, default_value_t = 40.0, value_parser = demand_pct)]
+        peak_demand: f64,
+        /// RMS white noise on encoder speeds, rad/s.
+        #[arg(long, default_value_t = 0.5, value_parser = non_negative)]
+        speed_noise: f64,
+        /// Largest relative error of the rig file's beliefs, e.g. 0.2 for up to 20 %.
+        #[arg(long, default_value_t = 0.0, value_parser = non_negative)]
+        rig_error: f64,
+    },
+    /// Fit a rig's model to a recording: parameters with standard deviations, loss, FPE,
+    /// AIC, fit per output and residual checks.
+    Identify {
+        /// Rig file (NAME.rig.toml).
+        #[arg(long)]
+        rig: PathBuf,
+        /// Recording (NAME.csv, exchange format).
+        #[arg(long)]
+        recording: PathBuf,
+        /// Model structure: drive-axis, falling-weight, coast-down, gain, p or pi
+        /// [default: from the recording's experiment, else the rig kind].
+        #[arg(long, value_parser = |s: &str| s.parse::<ModelChoice>())]
+        model: Option<ModelChoice>,
+        /// Comma-separated parameters to fit [default: the structure's identifiable set].
+        #[arg(long, value_delimiter = ',')]
+        free: Option<Vec<String>>,
+        /// A second recording to check the identified model on.
+        #[arg(long)]
+        validate: Option<PathBuf>,
+        /// Write the report as JSON here.
+        #[arg(long)]
+        json: Option<PathBuf>,
+        /// Write SVG plots (fit, residual checks) into this folder.
+        #[arg(long)]
+        plot: Option<PathBuf>,
+        /// Save measured and simulated outputs to a Rerun .rrd file.
+        #[arg(long, value_name = "FILE.rrd")]
+        save: Option<PathBuf>,
+        /// Number of solver starts (rig values, then perturbed within a factor 2).
+        #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=50))]
+        starts: u32,
+        /// Iteration limit of each start.
+        #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u32).range(1..=10000))]
+        max_iterations: u32,
+    },
 }
 
 fn positive_seconds(s: &str) -> Result<f64, String> {
@@ -63,6 +138,20 @@ fn positive_seconds(s: &str) -> Result<f64, String> {
         Ok(v)
     } else {
         Err(format!("`{s}`: expected a positive number of seconds"))
+    }
+}
+
+fn non_negative(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!("`{s}`: expected a number >= 0")),
+    }
+}
+
+fn demand_pct(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v > 0.0 && v <= 100.0 => Ok(v),
+        _ => Err(format!("`{s}`: expected a demand in percent, 0 < d <= 100")),
     }
 }
 
@@ -151,6 +240,95 @@ fn main() -> ExitCode {
                         println!("bumper     stopped on contact with an obstacle");
                     }
                     println!("recording  {}", o.recording.display());
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
+        Command::Experiment {
+            kind,
+            scene,
+            out,
+            name,
+            seed,
+            interval,
+            duration,
+            pattern,
+            peak_demand,
+            speed_noise,
+            rig_error,
+        } => {
+            let loaded = match Scene::load(&scene, &[]) {
+                Ok(s) => s,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return ExitCode::from(2);
+                }
+            };
+            let opts = ExperimentOptions {
+                out_dir: out,
+                name,
+                seed,
+                interval_s: interval,
+                duration_s: duration,
+                pattern,
+                peak_demand_pct: peak_demand,
+                speed_noise_rad_s: speed_noise,
+                rig_error,
+                ..ExperimentOptions::default()
+            };
+            match run_experiment(kind, &loaded, &opts) {
+                Ok(o) => {
+                    println!("experiment {} on {}: {} samples", kind.name(), scene.display(), o.samples);
+                    println!("recording  {}", o.recording.display());
+                    println!("rig        {}", o.rig.display());
+                    for f in &o.extra {
+                        println!("also       {}", f.display());
+                    }
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
+        Command::Identify {
+            rig,
+            recording,
+            model,
+            free,
+            validate,
+            json,
+            plot,
+            save,
+            starts,
+            max_iterations,
+        } => {
+            let job = IdentifyJob {
+                rig,
+                recording,
+                validate,
+                options: IdentifyOptions {
+                    model,
+                    free,
+                    starts: starts as usize,
+                    max_iterations: max_iterations as usize,
+                    ..IdentifyOptions::default()
+                },
+                json,
+                plot_dir: plot,
+                save_rrd: save,
+            };
+            match job::run(&job) {
+                Ok(o) => {
+                    print!("{}", report::render(&o.identification));
+                    for f in &o.written {
+                        println!("wrote      {}", f.display());
+                    }
                     ExitCode::SUCCESS
                 }
                 Err(e) => {

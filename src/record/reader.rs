@@ -12,7 +12,7 @@ pub struct Recording {
     pub path: PathBuf,
     /// Metadata (`key: value` lines), in file order of keys.
     pub meta: BTreeMap<String, String>,
-    /// `drive_axis` or `vehicle`.
+    /// `drive_axis`, `vehicle` or (this project's) `drive_pair`.
     pub rig: String,
     /// Sample times, s (strictly increasing).
     pub t_s: Vec<f64>,
@@ -107,10 +107,13 @@ impl Recording {
                 file: file(),
                 message: "missing metadata `# rig: drive_axis` or `# rig: vehicle`".into(),
             })?;
-        if rig != "drive_axis" && rig != "vehicle" {
+        if !crate::rig::RIG_KINDS.contains(&rig.as_str()) {
             return Err(RecordingError::File {
                 file: file(),
-                message: format!("rig `{rig}`: expected `drive_axis` or `vehicle`"),
+                message: format!(
+                    "rig `{rig}`: expected one of {}",
+                    crate::rig::RIG_KINDS.join(", ")
+                ),
             });
         }
         let cols: Vec<String> = header.split(',').map(|c| c.trim().to_string()).collect();

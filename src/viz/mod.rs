@@ -434,3 +434,43 @@ fn clip_segment(
         )
     })
 }
+
+/// Saves an identification's measured and simulated outputs (estimation and validation) as
+/// time series, and its residuals, to a `.rrd` file.
+pub fn save_identification(
+    path: &std::path::Path,
+    id: &crate::ident::Identification,
+) -> Result<(), VizError> {
+    let rec = RecordingStreamBuilder::new("agvsim")
+        .recording_id(format!("agvsim-identify-{}", id.estimation.recording))
+        .save(path)
+        .map_err(err)?;
+    let mut evals = vec![("estimation", &id.estimation)];
+    if let Some(v) = &id.validation {
+        evals.push(("validation", v));
+    }
+    for (label, e) in evals {
+        let Some(data) = e.data.as_ref() else { continue };
+        for (j, name) in data.output_names.iter().enumerate() {
+            for (k, t) in data.t_s.iter().enumerate() {
+                rec.set_duration_secs("t", *t);
+                rec.log(
+                    format!("{label}/{name}/simulated"),
+                    &rerun::Scalars::new([e.predicted[j][k]]),
+                )
+                .map_err(err)?;
+                if let Some(y) = data.outputs[j][k] {
+                    rec.log(format!("{label}/{name}/measured"), &rerun::Scalars::new([y]))
+                        .map_err(err)?;
+                    rec.log(
+                        format!("{label}/{name}/residual"),
+                        &rerun::Scalars::new([y - e.predicted[j][k]]),
+                    )
+                    .map_err(err)?;
+                }
+            }
+        }
+    }
+    rec.flush_blocking().map_err(err)?;
+    Ok(())
+}

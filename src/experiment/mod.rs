@@ -1,0 +1,638 @@
+//! The thesis's laboratory experiments, run on the simulated AGV, written as recordings and
+//! rig files in the exchange format so that `identify` treats them like anyone's data.
+//!
+//! - `lifted-random-demand`: wheels lifted, random forward and turn demands into the DCMC,
+//!   motor speeds through 1024-count encoders at a chosen interval.
+//! - `falling-weight`: motor off the vehicle, a weight on a pulley; speed and open-circuit
+//!   back-EMF until the weight lands and the rotor coasts to rest.
+//! - `coast-down`: wheels lifted, full voltage, power cut; speed from the cut.
+//! - `floor-run`: the scene as run, plus the pen trace (dash starts at a fixed rate).
+//!
+//! The rig file states the scene's values as the experimenter's beliefs, optionally off by
+//! a seeded random error of up to `rig_error` (a fraction) in every uncertain value.
+
+use std::f64::consts::TAU;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+
+use rand::{Rng, SeedableRng};
+use rand_distr::{Distribution, StandardNormal};
+use rand_pcg::Pcg64;
+
+use crate::model::motor::{MotorParams, MotorState, Terminal};
+use crate::model::GRAVITY_M_S2;
+use crate::record::Recording;
+use crate::rig::{
+    ChassisRig, ControllerRig, FallingWeightRig, GearboxRig, MotorRig, Rig, SensorsRig, SupplyRig,
+    WheelRig,
+};
+use crate::run::{run_scene, RunError, RunOptions};
+use crate::scene::{DcmcKind, Scene};
+use crate::sim::{Actuation, Sim, SimError};
+
+/// Which experiment.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ExperimentKind {
+    LiftedRandomDemand,
+    FallingWeight,
+    CoastDown,
+    FloorRun,
+}
+
+impl ExperimentKind {
+    pub const NAMES: [&'static str; 4] =
+        ["lifted-random-demand", "falling-weight", "coast-down", "floor-run"];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            ExperimentKind::LiftedRandomDemand => Self::NAMES[0],
+            ExperimentKind::FallingWeight => Self::NAMES[1],
+            ExperimentKind::CoastDown => Self::NAMES[2],
+            ExperimentKind::FloorRun => Self::NAMES[3],
+        }
+    }
+
+    /// Default sample interval, s.
+    pub fn default_interval_s(self) -> f64 {
+        match self {
+            ExperimentKind::LiftedRandomDemand => 0.025,
+            ExperimentKind::FallingWeight => 0.002,
+            ExperimentKind::CoastDown => 0.005,
+            ExperimentKind::FloorRun => 0.25,
+        }
+    }
+}
+
+impl FromStr for ExperimentKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        ExperimentKind::NAMES
+            .iter()
+            .position(|n| *n == s)
+            .map(|i| {
+                [
+                    ExperimentKind::LiftedRandomDemand,
+                    ExperimentKind::FallingWeight,
+                    ExperimentKind::CoastDown,
+                    ExperimentKind::FloorRun,
+                ][i]
+            })
+            .ok_or_else(|| {
+                format!(
+                    "unknown experiment `{s}`: expected one of {}",
+                    ExperimentKind::NAMES.join(", ")
+                )
+            })
+    }
+}
+
+/// Demand signal of the lifted-wheel runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DemandPattern {
+    /// The microcontroller's pulses: random levels held for random whole numbers of
+    /// intervals (4 to 16).
+    Pulses,
+    /// A joystick-like random walk, bounded by the peak demand.
+    Walk,
+}
+
+impl FromStr for DemandPattern {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "pulses" => Ok(DemandPattern::Pulses),
+            "walk" => Ok(DemandPattern::Walk),
+            _ => Err(format!("unknown demand pattern `{s}`: expected pulses or walk")),
+        }
+    }
+}
+
+/// Settings of an experiment; `None` takes the experiment's default.
+#[derive(Debug, Clone)]
+pub struct ExperimentOptions {
+    pub out_dir: PathBuf,
+    /// File stem [default: the experiment's name].
+    pub name: Option<String>,
+    pub seed: Option<u64>,
+    /// Sample (or, for floor runs, dash) interval, s.
+    pub interval_s: Option<f64>,
+    /// Length of a lifted-wheel run, s.
+    pub duration_s: f64,
+    pub pattern: DemandPattern,
+    /// Peak forward demand, pct (turn demand peaks at half of it).
+    pub peak_demand_pct: f64,
+    /// RMS of white noise on encoder speeds (electrical noise, timing jitter), rad/s.
+    pub speed_noise_rad_s: f64,
+    /// RMS noise of the back-EMF voltage reading, V.
+    pub voltage_noise_v: f64,
+    /// Largest relative error of the rig's beliefs (0: the scene's values).
+    pub rig_error: f64,
+    pub weight_mass_kg: f64,
+    pub pulley_radius_m: f64,
+    pub drop_m: f64,
+    /// Peak-to-peak pen play of a floor run, m.
+    pub pen_play_m: f64,
+}
+
+impl Default for ExperimentOptions {
+    fn default() -> Self {
+        ExperimentOptions {
+            out_dir: PathBuf::from("runs/experiments"),
+            name: None,
+            seed: None,
+            interval_s: None,
+            duration_s: 15.0,
+            pattern: DemandPattern::Pulses,
+            peak_demand_pct: 40.0,
+            speed_noise_rad_s: 0.5,
+            voltage_noise_v: 0.01,
+            rig_error: 0.0,
+            weight_mass_kg: 0.5,
+            pulley_radius_m: 0.015,
+            drop_m: 1.0,
+            pen_play_m: 0.002,
+        }
+    }
+}
+
+/// What an experiment wrote.
+#[derive(Debug, Clone)]
+pub struct ExperimentOutput {
+    pub recording: PathBuf,
+    pub rig: PathBuf,
+    /// Further files (the pen trace of a floor run).
+    pub extra: Vec<PathBuf>,
+    pub samples: usize,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum ExperimentError {
+    #[error(transparent)]
+    Sim(#[from] SimError),
+    #[error(transparent)]
+    Run(#[from] RunError),
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{0}")]
+    Setup(String),
+}
+
+fn write(path: &Path, text: &str) -> Result<(), ExperimentError> {
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(|source| ExperimentError::Io {
+            path: dir.to_owned(),
+            source,
+        })?;
+    }
+    std::fs::write(path, text).map_err(|source| ExperimentError::Io {
+        path: path.to_owned(),
+        source,
+    })
+}
+
+/// 1024-count quadrature encoder: whole counts of a shaft angle.
+fn encoder_counts(angle_rad: f64, counts_per_rev: f64) -> f64 {
+    (angle_rad * counts_per_rev / TAU).floor()
+}
+
+const ENCODER_COUNTS: f64 = 1024.0;
+
+/// Header of a recording in the exchange format.
+fn header(rig: &str, meta: &[(&str, String)], columns: &[&str]) -> String {
+    let mut s = format!("# agvsim-recording: 1\n# rig: {rig}\n");
+    for (k, v) in meta {
+        let _ = writeln!(s, "# {k}: {v}");
+    }
+    s.push_str(&columns.join(","));
+    s.push('\n');
+    s
+}
+
+/// Runs an experiment on a scene.
+pub fn run_experiment(
+    kind: ExperimentKind,
+    scene: &Scene,
+    opts: &ExperimentOptions,
+) -> Result<ExperimentOutput, ExperimentError> {
+    let interval = opts.interval_s.unwrap_or(kind.default_interval_s());
+    if !(interval > 0.0 && interval.is_finite()) {
+        return Err(ExperimentError::Setup(format!(
+            "--interval {interval}: expected a positive number of seconds"
+        )));
+    }
+    let mut scene = scene.clone();
+    if let Some(seed) = opts.seed {
+        scene.sim.seed = seed;
+    }
+    let name = opts.name.clone().unwrap_or_else(|| kind.name().replace('-', "_"));
+    let recording = opts.out_dir.join(format!("{name}.csv"));
+    let rig_path = opts.out_dir.join(format!("{name}.rig.toml"));
+    let mut rng = Pcg64::seed_from_u64(scene.sim.seed ^ 0xe4e1);
+    let (csv, rig, extra, samples) = match kind {
+        ExperimentKind::LiftedRandomDemand => {
+            let (csv, n) = lifted_random_demand(&scene, opts, interval, &mut rng)?;
+            (csv, pair_rig(&scene), vec![], n)
+        }
+        ExperimentKind::FallingWeight => {
+            let (csv, n) = falling_weight(&scene, opts, interval, &mut rng);
+            (csv, falling_weight_rig(&scene, opts), vec![], n)
+        }
+        ExperimentKind::CoastDown => {
+            let (csv, n) = coast_down(&scene, opts, interval, &mut rng)?;
+            (csv, axis_rig(&scene), vec![], n)
+        }
+        ExperimentKind::FloorRun => {
+            let out = run_scene(
+                &scene,
+                &RunOptions {
+                    out_dir: opts.out_dir.clone(),
+                    name: name.clone(),
+                    rerun: None,
+                    rerun_interval_s: 0.02,
+                },
+            )?;
+            let (dashes, n) = pen_trace(&out.recording, interval, opts.pen_play_m, &mut rng)?;
+            let dash_path = opts.out_dir.join(format!("{name}.dashes.csv"));
+            write(&dash_path, &dashes)?;
+            let csv = std::fs::read_to_string(&out.recording).map_err(|source| ExperimentError::Io {
+                path: out.recording.clone(),
+                source,
+            })?;
+            (csv, vehicle_rig(&scene), vec![dash_path, out.scene_used], n)
+        }
+    };
+    let rig = perturb(rig, opts.rig_error, &mut rng);
+    write(&recording, &csv)?;
+    let mut rig_text = format!(
+        "# Written by `agvsim experiment {}` from scene values{}.\n",
+        kind.name(),
+        if opts.rig_error > 0.0 {
+            format!(", each uncertain value off by up to {:.0} %", 100.0 * opts.rig_error)
+        } else {
+            String::new()
+        }
+    );
+    rig_text.push_str(&rig.to_toml());
+    write(&rig_path, &rig_text)?;
+    Ok(ExperimentOutput {
+        recording,
+        rig: rig_path,
+        extra,
+        samples,
+    })
+}
+
+fn lifted_scene(scene: &Scene) -> Scene {
+    let mut s = scene.clone();
+    s.sim.wheels_lifted = true;
+    s
+}
+
+fn steps_per(interval: f64, dt: f64) -> Result<u64, ExperimentError> {
+    let n = (interval / dt).round();
+    if n < 1.0 || ((n * dt) - interval).abs() > 1e-9 * interval.max(1.0) {
+        return Err(ExperimentError::Setup(format!(
+            "the sample interval {interval} s must be a whole number of simulation steps (sim.dt_s = {dt} s)"
+        )));
+    }
+    Ok(n as u64)
+}
+
+fn lifted_random_demand(
+    scene: &Scene,
+    opts: &ExperimentOptions,
+    interval: f64,
+    rng: &mut Pcg64,
+) -> Result<(String, usize), ExperimentError> {
+    let scene = lifted_scene(scene);
+    let mut sim = Sim::new(&scene)?;
+    let per = steps_per(interval, sim.params().dt_s)?;
+    let n = (opts.duration_s / interval).round() as usize;
+    // Zero demand for the DCMC's enable delay, so that the unit does not fault.
+    let quiet = ((scene.dcmc.enable_delay_s + 0.1) / interval).ceil() as usize;
+    let peak = opts.peak_demand_pct;
+    let mut demand = [0.0, 0.0];
+    let mut hold_left = 0usize;
+    let mut csv = header(
+        "drive_pair",
+        &[
+            ("description", format!("wheels lifted, {:?} forward and turn demands into the DCMC, motor encoders ({} counts/rev)", opts.pattern, ENCODER_COUNTS).to_lowercase()),
+            ("sample_time_s", format!("{interval}")),
+            ("source", format!("agvsim {} simulation, fidelity {}", env!("CARGO_PKG_VERSION"), sim.params().fidelity.name())),
+            ("experiment", "lifted-random-demand".into()),
+            ("seed", format!("{}", scene.sim.seed)),
+        ],
+        &["t_s", "demand_fwd_pct", "demand_turn_pct", "left_motor_speed_rad_s", "right_motor_speed_rad_s"],
+    );
+    let mut counts = [0.0; 2];
+    for k in 0..=n {
+        let t = k as f64 * interval;
+        // Demand applied from this row to the next (zero-order hold).
+        if k >= quiet {
+            match opts.pattern {
+                DemandPattern::Pulses => {
+                    if hold_left == 0 {
+                        demand = [rng.random_range(-peak..=peak), rng.random_range(-0.5 * peak..=0.5 * peak)];
+                        hold_left = rng.random_range(4..=16);
+                    }
+                    hold_left -= 1;
+                }
+                DemandPattern::Walk => {
+                    for (i, d) in demand.iter_mut().enumerate() {
+                        let lim = peak * [1.0, 0.5][i];
+                        let step: f64 = StandardNormal.sample(rng);
+                        *d = (*d + 0.1 * lim * step).clamp(-lim, lim);
+                    }
+                }
+            }
+        }
+        let mut speed = [0.0; 2];
+        let new_counts = [0, 1].map(|i| encoder_counts(sim.drivetrains()[i].motor.angle_rad, ENCODER_COUNTS));
+        if k > 0 {
+            for i in 0..2 {
+                let noise: f64 = StandardNormal.sample(rng);
+                speed[i] = (new_counts[i] - counts[i]) * TAU / ENCODER_COUNTS / interval
+                    + opts.speed_noise_rad_s * noise;
+            }
+        }
+        counts = new_counts;
+        let _ = writeln!(csv, "{t:.6},{:.4},{:.4},{:.5},{:.5}", demand[0], demand[1], speed[0], speed[1]);
+        if k == n {
+            break;
+        }
+        sim.set_actuation(Actuation::Demand { forward_pct: demand[0], turn_pct: demand[1] });
+        for _ in 0..per {
+            sim.step()?;
+        }
+    }
+    Ok((csv, n + 1))
+}
+
+fn motor_params(scene: &Scene) -> MotorParams {
+    let m = &scene.motor;
+    MotorParams {
+        resistance_ohm: m.resistance_ohm,
+        inductance_h: m.inductance_H,
+        torque_constant_nm_a: m.torque_constant_Nm_A,
+        rotor_inertia_kg_m2: m.rotor_inertia_kg_m2,
+        viscous_nm_s_rad: m.viscous_Nm_s_rad,
+        coulomb_nm: m.coulomb_Nm,
+    }
+}
+
+fn falling_weight(scene: &Scene, opts: &ExperimentOptions, interval: f64, rng: &mut Pcg64) -> (String, usize) {
+    let motor = motor_params(scene);
+    let (m, r) = (opts.weight_mass_kg, opts.pulley_radius_m);
+    // While the cord is taut the weight's inertia rides on the rotor.
+    let loaded = MotorParams {
+        rotor_inertia_kg_m2: motor.rotor_inertia_kg_m2 + m * r * r,
+        ..motor
+    };
+    let weight_torque = m * GRAVITY_M_S2 * r;
+    let h = 1e-4;
+    let per = ((interval / h).round() as u64).max(1);
+    let mut s = MotorState::default();
+    let mut csv = header(
+        "drive_axis",
+        &[
+            ("description", format!("falling weight: {m} kg on a {r} m pulley, {} m drop, motor open-circuited", opts.drop_m)),
+            ("sample_time_s", format!("{}", per as f64 * h)),
+            ("source", format!("agvsim {} motor model", env!("CARGO_PKG_VERSION"))),
+            ("experiment", "falling-weight".into()),
+        ],
+        &["t_s", "motor_speed_rad_s", "back_emf_V"],
+    );
+    let mut counts = 0.0;
+    let mut rows = 0;
+    let mut at_rest_since = None;
+    let max_rows = (60.0 / (per as f64 * h)) as usize;
+    for k in 0..max_rows {
+        let t = k as f64 * per as f64 * h;
+        let c = encoder_counts(s.angle_rad, ENCODER_COUNTS);
+        let speed = if k == 0 { 0.0 } else { (c - counts) * TAU / ENCODER_COUNTS / (per as f64 * h) };
+        counts = c;
+        let n: f64 = StandardNormal.sample(rng);
+        let emf = motor.back_emf_v(s.speed_rad_s) + opts.voltage_noise_v * n;
+        let _ = writeln!(csv, "{t:.6},{speed:.5},{emf:.5}");
+        rows += 1;
+        let falling = s.angle_rad * r < opts.drop_m;
+        if !falling && s.speed_rad_s == 0.0 {
+            let since = *at_rest_since.get_or_insert(t);
+            if t - since > 0.2 {
+                break;
+            }
+        }
+        for _ in 0..per {
+            if s.angle_rad * r < opts.drop_m {
+                loaded.step(&mut s, Terminal::Open, -weight_torque, h);
+            } else {
+                motor.step(&mut s, Terminal::Open, 0.0, h);
+            }
+        }
+    }
+    (csv, rows)
+}
+
+fn coast_down(scene: &Scene, opts: &ExperimentOptions, interval: f64, rng: &mut Pcg64) -> Result<(String, usize), ExperimentError> {
+    let scene = lifted_scene(scene);
+    let mut sim = Sim::new(&scene)?;
+    let per = steps_per(interval, sim.params().dt_s)?;
+    let full = scene.battery.drive_limit_V;
+    sim.set_actuation(Actuation::Voltage([full, full]));
+    // Run up until the speed has settled (five mechanical time constants, at least 2 s).
+    let m = motor_params(&scene);
+    let j = m.rotor_inertia_kg_m2 + scene.wheel.inertia_kg_m2 / scene.gearbox.ratio.powi(2);
+    let tau = j / (m.viscous_nm_s_rad + m.torque_constant_nm_a.powi(2) / m.resistance_ohm);
+    sim.run_for((5.0 * tau).max(2.0), |_| {})?;
+    sim.set_actuation(Actuation::Open);
+    let mut csv = header(
+        "drive_axis",
+        &[
+            ("description", format!("coast-down: left wheel lifted, run up at {full} V, power cut at t = 0")),
+            ("sample_time_s", format!("{interval}")),
+            ("source", format!("agvsim {} simulation, fidelity {}", env!("CARGO_PKG_VERSION"), sim.params().fidelity.name())),
+            ("experiment", "coast-down".into()),
+        ],
+        &["t_s", "motor_speed_rad_s"],
+    );
+    let angle0 = sim.drivetrains()[0].motor.angle_rad;
+    let mut counts = encoder_counts(angle0, ENCODER_COUNTS);
+    let mut rows = 0;
+    let mut at_rest_since = None;
+    for k in 0..(60.0 / interval) as usize {
+        let t = k as f64 * interval;
+        let w = sim.drivetrains()[0].motor.speed_rad_s;
+        let speed = if k == 0 {
+            w
+        } else {
+            let c = encoder_counts(sim.drivetrains()[0].motor.angle_rad, ENCODER_COUNTS);
+            let v = (c - counts) * TAU / ENCODER_COUNTS / interval;
+            counts = c;
+            v
+        };
+        let n: f64 = StandardNormal.sample(rng);
+        let _ = writeln!(csv, "{t:.6},{:.5}", speed + opts.speed_noise_rad_s * n);
+        rows += 1;
+        if w == 0.0 {
+            let since = *at_rest_since.get_or_insert(t);
+            if t - since > 0.2 {
+                break;
+            }
+        }
+        for _ in 0..per {
+            sim.step()?;
+        }
+    }
+    Ok((csv, rows))
+}
+
+/// Pen dashes from a floor-run recording: `t_s, x_m, y_m` of each dash start, with the
+/// pen's play as a uniform error.
+fn pen_trace(recording: &Path, interval: f64, play_m: f64, rng: &mut Pcg64) -> Result<(String, usize), ExperimentError> {
+    let rec = Recording::load(recording).map_err(|e| ExperimentError::Setup(e.to_string()))?;
+    let col = |n: &str| -> Result<Vec<f64>, ExperimentError> {
+        rec.require_complete(n).map_err(|e| ExperimentError::Setup(e.to_string()))
+    };
+    let (x, y) = (col("x_m")?, col("y_m")?);
+    let mut out = String::from("# agvsim-pen-trace: 1\n# description: pen dash starts (drive-axle midpoint), with pen play\nt_s,x_m,y_m\n");
+    let mut n = 0;
+    let mut next = 0.0;
+    for k in 0..rec.t_s.len() {
+        if rec.t_s[k] + 1e-9 >= next {
+            let jitter = |rng: &mut Pcg64| play_m * (rng.random::<f64>() - 0.5);
+            let _ = writeln!(out, "{:.4},{:.5},{:.5}", rec.t_s[k], x[k] + jitter(rng), y[k] + jitter(rng));
+            n += 1;
+            next += interval;
+        }
+    }
+    Ok((out, n))
+}
+
+fn motor_rig(scene: &Scene) -> MotorRig {
+    let m = &scene.motor;
+    MotorRig {
+        resistance_ohm: Some(m.resistance_ohm),
+        inductance_H: Some(m.inductance_H),
+        torque_constant_Nm_A: Some(m.torque_constant_Nm_A),
+        rotor_inertia_kg_m2: Some(m.rotor_inertia_kg_m2),
+        viscous_Nm_s_rad: Some(m.viscous_Nm_s_rad),
+        coulomb_Nm: Some(m.coulomb_Nm),
+    }
+}
+
+fn encoder() -> Option<SensorsRig> {
+    Some(SensorsRig {
+        motor_encoder_counts_per_rev: Some(ENCODER_COUNTS),
+        ..SensorsRig::default()
+    })
+}
+
+fn axis_rig(scene: &Scene) -> Rig {
+    Rig {
+        rig: "drive_axis".into(),
+        motor: Some(motor_rig(scene)),
+        gearbox: Some(GearboxRig { ratio: Some(scene.gearbox.ratio) }),
+        wheel: Some(WheelRig {
+            radius_m: Some(scene.wheel.radius_m),
+            inertia_kg_m2: Some(scene.wheel.inertia_kg_m2),
+        }),
+        supply: Some(SupplyRig { voltage_V: Some(scene.battery.open_circuit_V) }),
+        sensors: encoder(),
+        ..Rig::default()
+    }
+}
+
+fn controller_rig(scene: &Scene) -> ControllerRig {
+    let d = &scene.dcmc;
+    ControllerRig {
+        kind: Some(match d.kind {
+            DcmcKind::Gain => "gain",
+            DcmcKind::P => "p",
+            DcmcKind::Pi => "pi",
+        }
+        .into()),
+        gain_V_pct: Some(d.forward_gain_V_pct),
+        turn_gain_V_pct: Some(d.turn_gain_V_pct),
+        speed_per_pct_rad_s: (d.kind != DcmcKind::Gain).then_some(d.speed_per_pct_rad_s),
+        kp_V_s_rad: (d.kind != DcmcKind::Gain).then_some(d.kp_V_s_rad),
+        ki_V_rad: (d.kind == DcmcKind::Pi).then_some(d.ki_V_rad),
+    }
+}
+
+fn pair_rig(scene: &Scene) -> Rig {
+    Rig {
+        rig: "drive_pair".into(),
+        controller: Some(controller_rig(scene)),
+        ..axis_rig(scene)
+    }
+}
+
+fn falling_weight_rig(scene: &Scene, opts: &ExperimentOptions) -> Rig {
+    Rig {
+        rig: "drive_axis".into(),
+        motor: Some(motor_rig(scene)),
+        falling_weight: Some(FallingWeightRig {
+            mass_kg: Some(opts.weight_mass_kg),
+            pulley_radius_m: Some(opts.pulley_radius_m),
+            drop_m: Some(opts.drop_m),
+        }),
+        sensors: encoder(),
+        ..Rig::default()
+    }
+}
+
+fn vehicle_rig(scene: &Scene) -> Rig {
+    let c = &scene.chassis;
+    Rig {
+        rig: "vehicle".into(),
+        controller: Some(controller_rig(scene)),
+        chassis: Some(ChassisRig {
+            mass_kg: Some(c.mass_kg + scene.payload.mass_kg),
+            yaw_inertia_kg_m2: Some(c.yaw_inertia_kg_m2),
+            track_width_m: Some(c.track_width_m),
+            drive_load_fraction: Some(c.drive_load_fraction),
+        }),
+        ..axis_rig(scene)
+    }
+}
+
+/// Multiplies each uncertain value by a factor uniform in [1 - e, 1 + e]. Gear ratio,
+/// wheel radius, track and the test set-up (weight, pulley, drop) are measured, not believed.
+fn perturb(rig: Rig, e: f64, rng: &mut Pcg64) -> Rig {
+    if e <= 0.0 {
+        return rig;
+    }
+    let mut f = |v: &mut Option<f64>| {
+        if let Some(x) = v {
+            *x *= 1.0 + e * rng.random_range(-1.0..=1.0);
+        }
+    };
+    let mut rig = rig;
+    if let Some(m) = rig.motor.as_mut() {
+        f(&mut m.resistance_ohm);
+        f(&mut m.inductance_H);
+        f(&mut m.torque_constant_Nm_A);
+        f(&mut m.rotor_inertia_kg_m2);
+        f(&mut m.viscous_Nm_s_rad);
+        f(&mut m.coulomb_Nm);
+    }
+    if let Some(w) = rig.wheel.as_mut() {
+        f(&mut w.inertia_kg_m2);
+    }
+    if let Some(c) = rig.controller.as_mut() {
+        f(&mut c.gain_V_pct);
+        f(&mut c.turn_gain_V_pct);
+        f(&mut c.speed_per_pct_rad_s);
+        f(&mut c.kp_V_s_rad);
+        f(&mut c.ki_V_rad);
+    }
+    if let Some(c) = rig.chassis.as_mut() {
+        f(&mut c.mass_kg);
+        f(&mut c.yaw_inertia_kg_m2);
+    }
+    rig
+}

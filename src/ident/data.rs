@@ -1,0 +1,99 @@
+//! The samples an identification works on: a recording's inputs (complete, zero-order held)
+//! and outputs (possibly with missing cells), picked by the model's column names.
+
+use crate::record::{Recording, RecordingError};
+
+/// Inputs and outputs of one recording, row-aligned.
+#[derive(Debug, Clone)]
+pub struct Dataset {
+    /// Recording file name, for reports.
+    pub name: String,
+    /// Sample times, s (strictly increasing, possibly irregular).
+    pub t_s: Vec<f64>,
+    pub input_names: Vec<String>,
+    /// `inputs[i][k]`: input i on row k, held from t_k to t_k+1.
+    pub inputs: Vec<Vec<f64>>,
+    pub output_names: Vec<String>,
+    /// `outputs[j][k]`: output j on row k, `None` where not measured.
+    pub outputs: Vec<Vec<Option<f64>>>,
+}
+
+impl Dataset {
+    /// Picks the model's inputs (all required, complete) and those of its outputs the
+    /// recording has (at least one, with at least two measured cells).
+    pub fn from_recording(
+        rec: &Recording,
+        inputs: &[String],
+        outputs: &[String],
+    ) -> Result<Dataset, RecordingError> {
+        let input_cols = inputs
+            .iter()
+            .map(|n| rec.require_complete(n))
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut output_names = Vec::new();
+        let mut output_cols = Vec::new();
+        for n in outputs {
+            if let Some(c) = rec.column(n) {
+                if c.iter().filter(|v| v.is_some()).count() >= 2 {
+                    output_names.push(n.clone());
+                    output_cols.push(c.to_vec());
+                }
+            }
+        }
+        if output_names.is_empty() {
+            return Err(RecordingError::File {
+                file: rec.path.clone(),
+                message: format!(
+                    "no output column the model can compare with: expected one of {}",
+                    outputs.join(", ")
+                ),
+            });
+        }
+        Ok(Dataset {
+            name: rec
+                .path
+                .file_name()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default(),
+            t_s: rec.t_s.clone(),
+            input_names: inputs.to_vec(),
+            inputs: input_cols,
+            output_names,
+            outputs: output_cols,
+        })
+    }
+
+    pub fn len(&self) -> usize {
+        self.t_s.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.t_s.is_empty()
+    }
+
+    /// Index of an output by column name.
+    pub fn output_index(&self, name: &str) -> Option<usize> {
+        self.output_names.iter().position(|n| n == name)
+    }
+
+    /// The first measured value of an output.
+    pub fn first_measured(&self, name: &str) -> Option<f64> {
+        self.output_index(name)
+            .and_then(|j| self.outputs[j].iter().flatten().next().copied())
+    }
+
+    /// Input values on row k.
+    pub fn input_row(&self, k: usize, u: &mut [f64]) {
+        for (i, col) in self.inputs.iter().enumerate() {
+            u[i] = col[k];
+        }
+    }
+
+    /// Number of measured output cells.
+    pub fn measured_cells(&self) -> usize {
+        self.outputs
+            .iter()
+            .map(|c| c.iter().filter(|v| v.is_some()).count())
+            .sum()
+    }
+}

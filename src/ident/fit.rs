@@ -1,0 +1,346 @@
+//! Output-error fitting: Levenberg-Marquardt on the simulated outputs of a grey-box model,
+//! within physical bounds, with the parameter covariance from the Jacobian and the residual
+//! variance.
+//!
+//! Positive-bounded parameters are searched on a log scale (so a step can never make a
+//! resistance negative and relative precision is uniform); others on a linear scale
+//! normalised by their nominal magnitude. The Jacobian is by forward differences, one
+//! simulation per free parameter, in parallel.
+
+use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
+
+use super::data::Dataset;
+use super::model::{simulate, GreyBox};
+
+/// How a free parameter is searched.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Coord {
+    Log,
+    Linear { scale: f64 },
+}
+
+/// Settings of one fit.
+#[derive(Debug, Clone)]
+pub struct FitSettings {
+    /// Indices of the free parameters.
+    pub free: Vec<usize>,
+    /// Per-output weights (1 / expected residual RMS), in the dataset's output order.
+    pub weights: Vec<f64>,
+    pub max_iterations: usize,
+    /// Full parameter vectors to start from; the best result wins.
+    pub starts: Vec<Vec<f64>>,
+}
+
+/// The result of a fit.
+#[derive(Debug, Clone)]
+pub struct Fit {
+    /// All parameters, fitted where free.
+    pub params: Vec<f64>,
+    pub free: Vec<usize>,
+    /// Standard deviation of each free parameter; `None` where the data do not determine
+    /// it (a direction of the Fisher information that is numerically zero).
+    pub std: Vec<Option<f64>>,
+    /// Covariance of the free parameters (physical units).
+    pub covariance: DMatrix<f64>,
+    /// Weighted residual sum of squares.
+    pub cost: f64,
+    /// Number of residuals (measured output cells).
+    pub n_residuals: usize,
+    pub iterations: usize,
+    pub evaluations: usize,
+    pub converged: bool,
+    /// Index of the start that won.
+    pub start_index: usize,
+    pub predicted: Vec<Vec<f64>>,
+    pub weights: Vec<f64>,
+}
+
+/// Why a fit could not be done.
+#[derive(Debug, thiserror::Error)]
+pub enum FitError {
+    #[error("the model diverges at its starting parameters (t = {t_s} s); check the rig's values")]
+    DivergesAtStart { t_s: f64 },
+    #[error("{free} free parameters but only {residuals} measured output values")]
+    TooFewData { free: usize, residuals: usize },
+}
+
+/// Weighted residuals `w_j (y - yhat)` over every measured cell, output by output.
+pub fn residuals(data: &Dataset, predicted: &[Vec<f64>], weights: &[f64]) -> Vec<f64> {
+    let mut r = Vec::with_capacity(data.measured_cells());
+    for (j, col) in data.outputs.iter().enumerate() {
+        for (k, y) in col.iter().enumerate() {
+            if let Some(y) = y {
+                r.push(weights[j] * (y - predicted[j][k]));
+            }
+        }
+    }
+    r
+}
+
+struct Problem<'a> {
+    model: &'a dyn GreyBox,
+    data: &'a Dataset,
+    base: Vec<f64>,
+    free: Vec<usize>,
+    coords: Vec<Coord>,
+    weights: &'a [f64],
+}
+
+impl Problem<'_> {
+    fn to_z(&self, p: &[f64]) -> Vec<f64> {
+        self.free
+            .iter()
+            .zip(&self.coords)
+            .map(|(&i, c)| match c {
+                Coord::Log => p[i].ln(),
+                Coord::Linear { scale } => p[i] / scale,
+            })
+            .collect()
+    }
+
+    fn to_p(&self, z: &[f64]) -> Vec<f64> {
+        let specs = self.model.params();
+        let mut p = self.base.clone();
+        for ((&i, c), zi) in self.free.iter().zip(&self.coords).zip(z) {
+            let v = match c {
+                Coord::Log => zi.exp(),
+                Coord::Linear { scale } => zi * scale,
+            };
+            p[i] = v.clamp(specs[i].lo, specs[i].hi);
+        }
+        p
+    }
+
+    /// dp/dz for each free parameter at p.
+    fn dp_dz(&self, p: &[f64]) -> Vec<f64> {
+        self.free
+            .iter()
+            .zip(&self.coords)
+            .map(|(&i, c)| match c {
+                Coord::Log => p[i],
+                Coord::Linear { scale } => *scale,
+            })
+            .collect()
+    }
+
+    fn residuals(&self, z: &[f64]) -> Option<Vec<f64>> {
+        let p = self.to_p(z);
+        let y = simulate(self.model, &p, self.data).ok()?;
+        let r = residuals(self.data, &y, self.weights);
+        r.iter().all(|v| v.is_finite()).then_some(r)
+    }
+
+    fn jacobian(&self, z: &[f64], r0: &[f64]) -> DMatrix<f64> {
+        let cols: Vec<Vec<f64>> = (0..z.len())
+            .into_par_iter()
+            .map(|c| {
+                let h = 1e-6 * z[c].abs().max(1.0);
+                let mut zc = z.to_vec();
+                zc[c] += h;
+                let (h, r) = match self.residuals(&zc) {
+                    Some(r) => (h, r),
+                    None => {
+                        // At a bound or a divergence edge, difference backwards.
+                        zc[c] = z[c] - h;
+                        match self.residuals(&zc) {
+                            Some(r) => (-h, r),
+                            None => return vec![0.0; r0.len()],
+                        }
+                    }
+                };
+                r.iter().zip(r0).map(|(a, b)| (a - b) / h).collect()
+            })
+            .collect();
+        DMatrix::from_fn(r0.len(), z.len(), |i, j| cols[j][i])
+    }
+}
+
+fn sum_sq(r: &[f64]) -> f64 {
+    r.iter().map(|v| v * v).sum()
+}
+
+/// Fits the free parameters from each start and keeps the best.
+pub fn fit(model: &dyn GreyBox, data: &Dataset, s: &FitSettings) -> Result<Fit, FitError> {
+    let n_res = data.measured_cells();
+    if n_res <= s.free.len() {
+        return Err(FitError::TooFewData {
+            free: s.free.len(),
+            residuals: n_res,
+        });
+    }
+    let specs = model.params();
+    let mut best: Option<Fit> = None;
+    let mut first_error = None;
+    for (si, start) in s.starts.iter().enumerate() {
+        let coords = s
+            .free
+            .iter()
+            .map(|&i| {
+                if specs[i].lo > 0.0 {
+                    Coord::Log
+                } else {
+                    Coord::Linear {
+                        scale: specs[i].nominal.abs().max(1e-9),
+                    }
+                }
+            })
+            .collect();
+        let problem = Problem {
+            model,
+            data,
+            base: start.clone(),
+            free: s.free.clone(),
+            coords,
+            weights: &s.weights,
+        };
+        match run_lm(&problem, s.max_iterations) {
+            Ok(mut f) => {
+                f.start_index = si;
+                if best.as_ref().is_none_or(|b| f.cost < b.cost) {
+                    best = Some(f);
+                }
+            }
+            Err(e) => {
+                first_error.get_or_insert(e);
+            }
+        }
+    }
+    best.ok_or_else(|| first_error.expect("at least one start"))
+}
+
+fn run_lm(pb: &Problem, max_iterations: usize) -> Result<Fit, FitError> {
+    let start_p = pb.to_p(&pb.to_z(&pb.base));
+    let mut z = pb.to_z(&start_p);
+    let mut r = match pb.residuals(&z) {
+        Some(r) => r,
+        None => {
+            let t_s = simulate(pb.model, &start_p, pb.data)
+                .err()
+                .map(|d| d.t_s)
+                .unwrap_or(f64::NAN);
+            return Err(FitError::DivergesAtStart { t_s });
+        }
+    };
+    let mut cost = sum_sq(&r);
+    let mut lambda = 1e-3;
+    let mut evaluations = 1;
+    let mut iterations = 0;
+    let mut converged = z.is_empty();
+    let n = z.len();
+    while iterations < max_iterations && !converged {
+        iterations += 1;
+        let jac = pb.jacobian(&z, &r);
+        evaluations += n;
+        let h = jac.transpose() * &jac;
+        let g = jac.transpose() * DVector::from_vec(r.clone());
+        let mut improved = false;
+        for _ in 0..12 {
+            let mut a = h.clone();
+            for i in 0..n {
+                a[(i, i)] += lambda * h[(i, i)].max(1e-12);
+            }
+            // Damped Gauss-Newton: dz = -(J'J + lambda diag(J'J))^-1 J'r.
+            let step = match a.clone().cholesky() {
+                Some(c) => c.solve(&g),
+                None => match a.lu().solve(&g) {
+                    Some(x) => x,
+                    None => {
+                        lambda *= 10.0;
+                        continue;
+                    }
+                },
+            };
+            let z_new: Vec<f64> = z.iter().zip(step.iter()).map(|(a, b)| a - b).collect();
+            // Keep z inside the bounds so the clamp does not hide a wasted step.
+            let z_new = pb.to_z(&pb.to_p(&z_new));
+            evaluations += 1;
+            if let Some(r_new) = pb.residuals(&z_new) {
+                let c_new = sum_sq(&r_new);
+                if c_new < cost {
+                    let rel = (cost - c_new) / cost.max(1e-300);
+                    let moved = z_new
+                        .iter()
+                        .zip(&z)
+                        .map(|(a, b)| (a - b).abs())
+                        .fold(0.0, f64::max);
+                    z = z_new;
+                    r = r_new;
+                    cost = c_new;
+                    lambda = (lambda * 0.2).max(1e-12);
+                    improved = true;
+                    if rel < 1e-10 || moved < 1e-9 {
+                        converged = true;
+                    }
+                    break;
+                }
+            }
+            lambda *= 8.0;
+            if lambda > 1e12 {
+                break;
+            }
+        }
+        if !improved {
+            // No step lowers the cost: a (local) minimum to the solver's precision.
+            converged = true;
+        }
+    }
+    let p = pb.to_p(&z);
+    let predicted = simulate(pb.model, &p, pb.data).expect("accepted parameters simulate");
+    let jac = pb.jacobian(&z, &r);
+    let (std, covariance) = covariance(pb, &p, &jac, cost, r.len());
+    Ok(Fit {
+        params: p,
+        free: pb.free.clone(),
+        std,
+        covariance,
+        cost,
+        n_residuals: r.len(),
+        iterations,
+        evaluations: evaluations + n,
+        converged,
+        start_index: 0,
+        predicted,
+        weights: pb.weights.to_vec(),
+    })
+}
+
+/// Covariance of the free parameters: sigma^2 (J'J)^-1 with sigma^2 = RSS / (N - d),
+/// through the SVD so that directions the data do not determine are reported, not inverted.
+fn covariance(
+    pb: &Problem,
+    p: &[f64],
+    jac: &DMatrix<f64>,
+    cost: f64,
+    n_res: usize,
+) -> (Vec<Option<f64>>, DMatrix<f64>) {
+    let d = jac.ncols();
+    if d == 0 {
+        return (vec![], DMatrix::zeros(0, 0));
+    }
+    let sigma2 = cost / (n_res - d).max(1) as f64;
+    let svd = jac.clone().svd(false, true);
+    let v_t = svd.v_t.expect("asked for V");
+    let s_max = svd.singular_values.max();
+    let mut cov_z = DMatrix::zeros(d, d);
+    let mut undetermined = vec![false; d];
+    for (k, &s) in svd.singular_values.iter().enumerate() {
+        let row = v_t.row(k);
+        if s > 1e-9 * s_max && s > 0.0 {
+            cov_z += row.transpose() * row / (s * s);
+        } else {
+            for i in 0..d {
+                if row[i].abs() > 1e-3 {
+                    undetermined[i] = true;
+                }
+            }
+        }
+    }
+    cov_z *= sigma2;
+    let scale = pb.dp_dz(p);
+    let cov = DMatrix::from_fn(d, d, |i, j| scale[i] * scale[j] * cov_z[(i, j)]);
+    let std = (0..d)
+        .map(|i| (!undetermined[i]).then(|| cov[(i, i)].max(0.0).sqrt()))
+        .collect();
+    (std, cov)
+}

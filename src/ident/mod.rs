@@ -1,0 +1,618 @@
+//! Grey-box identification from recordings: pick a model structure for the rig, fit its free
+//! parameters by output error (Levenberg-Marquardt, `fit`), and report each parameter with
+//! its standard deviation, the loss, FPE and AIC, the fit per output and the residual
+//! checks (`resid`), on the estimation recording and optionally on a validation one.
+
+pub mod data;
+pub mod fit;
+pub mod job;
+pub mod model;
+pub mod models;
+pub mod plot;
+pub mod report;
+pub mod resid;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+
+use nalgebra::DMatrix;
+use rand::{Rng, SeedableRng};
+use serde::Serialize;
+
+use crate::record::{Recording, RecordingError};
+use crate::rig::{Rig, RigError};
+use data::Dataset;
+use fit::{Fit, FitError, FitSettings};
+use model::{simulate, GreyBox};
+use models::coast_down::CoastDown;
+use models::dcmc_pair::{Case, DcmcPair};
+use models::falling_weight::FallingWeight;
+use models::linear_axis::LinearAxis;
+use models::rotary_axis::{AxisInput, RotaryAxis};
+use resid::CorrelationCheck;
+
+/// The model structures `identify` offers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ModelChoice {
+    /// The rig's drive axis (rotary or linear, voltage-, demand- or current-driven, open or
+    /// closed loop).
+    DriveAxis,
+    FallingWeight,
+    CoastDown,
+    /// Thesis case 1.
+    Gain,
+    /// Thesis case 2-I.
+    P,
+    /// Thesis case 2-II.
+    Pi,
+}
+
+impl ModelChoice {
+    pub const NAMES: [&'static str; 6] = ["drive-axis", "falling-weight", "coast-down", "gain", "p", "pi"];
+}
+
+impl FromStr for ModelChoice {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Ok(match s {
+            "drive-axis" => ModelChoice::DriveAxis,
+            "falling-weight" => ModelChoice::FallingWeight,
+            "coast-down" => ModelChoice::CoastDown,
+            "gain" => ModelChoice::Gain,
+            "p" => ModelChoice::P,
+            "pi" => ModelChoice::Pi,
+            _ => {
+                return Err(format!(
+                    "unknown model `{s}`: expected one of {}",
+                    ModelChoice::NAMES.join(", ")
+                ))
+            }
+        })
+    }
+}
+
+/// A concrete model structure.
+#[derive(Debug, Clone)]
+pub enum Structure {
+    Rotary(RotaryAxis),
+    Linear(LinearAxis),
+    Pair(DcmcPair),
+    Falling(FallingWeight),
+    Coast(CoastDown),
+}
+
+impl Structure {
+    pub fn model(&self) -> &dyn GreyBox {
+        match self {
+            Structure::Rotary(m) => m,
+            Structure::Linear(m) => m,
+            Structure::Pair(m) => m,
+            Structure::Falling(m) => m,
+            Structure::Coast(m) => m,
+        }
+    }
+}
+
+/// Why an identification could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum IdentError {
+    #[error(transparent)]
+    Rig(#[from] RigError),
+    #[error(transparent)]
+    Recording(#[from] RecordingError),
+    #[error(transparent)]
+    Fit(#[from] FitError),
+    #[error("{0}")]
+    Setup(String),
+    #[error("{file}: {message}")]
+    Mismatch { file: PathBuf, message: String },
+}
+
+/// Choices for one identification.
+#[derive(Debug, Clone)]
+pub struct IdentifyOptions {
+    /// Model structure; by default from the recording's `experiment` metadata, else the
+    /// rig's kind.
+    pub model: Option<ModelChoice>,
+    /// Free parameters by name; by default the structure's identifiable set.
+    pub free: Option<Vec<String>>,
+    pub max_iterations: usize,
+    /// Number of starts (the rig's values, then seeded log-uniform perturbations within a
+    /// factor of 2).
+    pub starts: usize,
+    /// Largest lag of the residual checks, samples.
+    pub max_lag: usize,
+}
+
+impl Default for IdentifyOptions {
+    fn default() -> Self {
+        IdentifyOptions {
+            model: None,
+            free: None,
+            max_iterations: 100,
+            starts: 3,
+            max_lag: 25,
+        }
+    }
+}
+
+/// Chooses and builds the model structure for a rig and a recording.
+pub fn build_structure(
+    rig: &Rig,
+    rig_path: &Path,
+    rec: &Recording,
+    choice: Option<ModelChoice>,
+) -> Result<Structure, IdentError> {
+    let choice = match choice {
+        Some(c) => c,
+        None => match rec.meta.get("experiment").map(String::as_str) {
+            Some("falling-weight") => ModelChoice::FallingWeight,
+            Some("coast-down") => ModelChoice::CoastDown,
+            _ => match rig.rig.as_str() {
+                "drive_pair" => match rig.controller.as_ref().and_then(|c| c.kind.as_deref()) {
+                    Some("p") => ModelChoice::P,
+                    Some("pi") => ModelChoice::Pi,
+                    _ => ModelChoice::Gain,
+                },
+                _ => ModelChoice::DriveAxis,
+            },
+        },
+    };
+    if rec.rig != rig.rig {
+        return Err(IdentError::Mismatch {
+            file: rec.path.clone(),
+            message: format!(
+                "the recording is for rig `{}` but {} describes a `{}`",
+                rec.rig,
+                rig_path.display(),
+                rig.rig
+            ),
+        });
+    }
+    let wrong_rig = |want: &str| {
+        IdentError::Setup(format!(
+            "model `{}` needs a `{want}` rig; {} is a `{}` rig",
+            format!("{choice:?}").to_lowercase(),
+            rig_path.display(),
+            rig.rig
+        ))
+    };
+    Ok(match choice {
+        ModelChoice::DriveAxis => {
+            if rig.rig != "drive_axis" {
+                return Err(if rig.rig == "vehicle" {
+                    IdentError::Setup(format!(
+                        "{}: whole-vehicle identification is not available yet; identify each drive axis from lifted-wheel recordings",
+                        rig_path.display()
+                    ))
+                } else {
+                    wrong_rig("drive_axis")
+                });
+            }
+            if rig.is_linear() {
+                Structure::Linear(LinearAxis::from_rig(rig, rig_path)?)
+            } else {
+                let input = if rec.column("voltage_V").is_some() {
+                    AxisInput::Voltage
+                } else if rec.column("demand_pct").is_some() {
+                    AxisInput::Demand
+                } else {
+                    return Err(IdentError::Mismatch {
+                        file: rec.path.clone(),
+                        message: "neither `voltage_V` nor `demand_pct` is a column: a rotary drive axis needs one of them as its input".into(),
+                    });
+                };
+                Structure::Rotary(RotaryAxis::from_rig(rig, rig_path, input)?)
+            }
+        }
+        ModelChoice::FallingWeight => {
+            if rig.rig != "drive_axis" {
+                return Err(wrong_rig("drive_axis"));
+            }
+            Structure::Falling(FallingWeight::from_rig(rig, rig_path)?)
+        }
+        ModelChoice::CoastDown => {
+            if rig.rig != "drive_axis" {
+                return Err(wrong_rig("drive_axis"));
+            }
+            let w0 = rec
+                .column("motor_speed_rad_s")
+                .and_then(|c| c.iter().flatten().next().copied())
+                .unwrap_or(1.0);
+            Structure::Coast(CoastDown::from_rig(rig, rig_path, w0)?)
+        }
+        ModelChoice::Gain | ModelChoice::P | ModelChoice::Pi => {
+            if rig.rig != "drive_pair" {
+                return Err(wrong_rig("drive_pair"));
+            }
+            let case = match choice {
+                ModelChoice::Gain => Case::Gain,
+                ModelChoice::P => Case::P,
+                _ => Case::Pi,
+            };
+            Structure::Pair(DcmcPair::from_rig(rig, rig_path, case)?)
+        }
+    })
+}
+
+/// One parameter as reported.
+#[derive(Debug, Clone, Serialize)]
+pub struct ParamReport {
+    pub name: String,
+    pub nominal: f64,
+    pub value: f64,
+    /// Standard deviation (free parameters); `null` when the data do not determine it.
+    pub std: Option<f64>,
+    pub free: bool,
+}
+
+/// Residual checks of one output.
+#[derive(Debug, Clone, Serialize)]
+pub struct OutputChecks {
+    pub output: String,
+    pub whiteness: CorrelationCheck,
+    /// Cross-correlation with each input.
+    pub independence: Vec<(String, CorrelationCheck)>,
+}
+
+/// How a model with given parameters matches one recording.
+#[derive(Debug, Clone, Serialize)]
+pub struct Evaluation {
+    pub recording: String,
+    pub n_samples: usize,
+    /// Normalised fit per output, %: 100 (1 - |y - yhat| / |y - mean y|).
+    pub fit_pct: BTreeMap<String, f64>,
+    /// Mean of the per-output fits, %.
+    pub fit_pct_mean: f64,
+    /// RMS of the residual per output (output units).
+    pub rms: BTreeMap<String, f64>,
+    /// Loss V: determinant of the residual covariance (the mean square for one output).
+    pub loss: f64,
+    pub checks: Vec<OutputChecks>,
+    /// Simulated outputs, `[output][row]` (not serialised).
+    #[serde(skip)]
+    pub predicted: Vec<Vec<f64>>,
+    #[serde(skip)]
+    pub data: Option<Dataset>,
+}
+
+/// A continuous-time state-space model with standard deviations (thesis-style tables).
+#[derive(Debug, Clone, Serialize)]
+pub struct StateSpaceReport {
+    pub a: Vec<Vec<f64>>,
+    pub a_std: Vec<Vec<Option<f64>>>,
+    pub b: Vec<Vec<f64>>,
+    pub b_std: Vec<Vec<Option<f64>>>,
+}
+
+/// The result of `identify`.
+#[derive(Debug, Clone, Serialize)]
+pub struct Identification {
+    pub model: String,
+    pub rig: String,
+    pub params: Vec<ParamReport>,
+    pub n_free: usize,
+    pub n_residuals: usize,
+    /// Akaike's final prediction error: V (1 + d/N) / (1 - d/N).
+    pub fpe: f64,
+    /// N ln V + 2 d (constants of the Gaussian likelihood dropped).
+    pub aic: f64,
+    pub iterations: usize,
+    pub evaluations: usize,
+    pub converged: bool,
+    pub starts: usize,
+    pub estimation: Evaluation,
+    pub validation: Option<Evaluation>,
+    pub state_space: Option<StateSpaceReport>,
+    #[serde(skip)]
+    pub fitted: Vec<f64>,
+}
+
+impl Identification {
+    /// A fitted parameter value by name.
+    pub fn value(&self, name: &str) -> Option<f64> {
+        self.params.iter().find(|p| p.name == name).map(|p| p.value)
+    }
+
+    /// A parameter's standard deviation by name.
+    pub fn std(&self, name: &str) -> Option<f64> {
+        self.params.iter().find(|p| p.name == name).and_then(|p| p.std)
+    }
+}
+
+/// Normalised fit, %, over the measured cells.
+pub fn fit_pct(measured: &[Option<f64>], predicted: &[f64]) -> f64 {
+    let pairs: Vec<(f64, f64)> = measured
+        .iter()
+        .zip(predicted)
+        .filter_map(|(y, p)| y.map(|y| (y, *p)))
+        .collect();
+    let mean = pairs.iter().map(|p| p.0).sum::<f64>() / pairs.len().max(1) as f64;
+    let err: f64 = pairs.iter().map(|(y, p)| (y - p).powi(2)).sum::<f64>().sqrt();
+    let spread: f64 = pairs.iter().map(|(y, _)| (y - mean).powi(2)).sum::<f64>().sqrt();
+    if spread == 0.0 {
+        return if err == 0.0 { 100.0 } else { f64::NEG_INFINITY };
+    }
+    100.0 * (1.0 - err / spread)
+}
+
+/// Loss V: determinant of the residual covariance over rows where all outputs are measured
+/// (the product of per-output mean squares where no row has them all).
+fn loss(data: &Dataset, predicted: &[Vec<f64>]) -> f64 {
+    let m = data.outputs.len();
+    let rows: Vec<usize> = (0..data.len())
+        .filter(|&k| data.outputs.iter().all(|c| c[k].is_some()))
+        .collect();
+    let e = |j: usize, k: usize| data.outputs[j][k].map(|y| y - predicted[j][k]);
+    if rows.len() > m {
+        let cov = DMatrix::from_fn(m, m, |i, j| {
+            rows.iter().map(|&k| e(i, k).unwrap() * e(j, k).unwrap()).sum::<f64>() / rows.len() as f64
+        });
+        cov.determinant()
+    } else {
+        (0..m)
+            .map(|j| {
+                let v: Vec<f64> = (0..data.len()).filter_map(|k| e(j, k)).collect();
+                v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64
+            })
+            .product()
+    }
+}
+
+/// Fit, loss and residual checks of predicted outputs against a dataset.
+pub fn evaluate(data: &Dataset, predicted: Vec<Vec<f64>>, max_lag: usize) -> Evaluation {
+    let mut fit = BTreeMap::new();
+    let mut rms = BTreeMap::new();
+    let mut checks = Vec::new();
+    for (j, name) in data.output_names.iter().enumerate() {
+        fit.insert(name.clone(), fit_pct(&data.outputs[j], &predicted[j]));
+        let rows: Vec<usize> = (0..data.len()).filter(|&k| data.outputs[j][k].is_some()).collect();
+        let e: Vec<f64> = rows
+            .iter()
+            .map(|&k| data.outputs[j][k].unwrap() - predicted[j][k])
+            .collect();
+        rms.insert(
+            name.clone(),
+            (e.iter().map(|v| v * v).sum::<f64>() / e.len().max(1) as f64).sqrt(),
+        );
+        let lag = max_lag.min(e.len() / 4).max(1);
+        let independence = data
+            .input_names
+            .iter()
+            .enumerate()
+            .map(|(i, n)| {
+                let u: Vec<f64> = rows.iter().map(|&k| data.inputs[i][k]).collect();
+                (n.clone(), resid::independence(&u, &e, lag))
+            })
+            .collect();
+        checks.push(OutputChecks {
+            output: name.clone(),
+            whiteness: resid::whiteness(&e, lag),
+            independence,
+        });
+    }
+    let mean = fit.values().sum::<f64>() / fit.len().max(1) as f64;
+    Evaluation {
+        recording: data.name.clone(),
+        n_samples: data.len(),
+        fit_pct: fit,
+        fit_pct_mean: mean,
+        rms,
+        loss: loss(data, &predicted),
+        checks,
+        predicted,
+        data: Some(data.clone()),
+    }
+}
+
+/// Resolves `--free` names against the model's parameters.
+fn free_indices(model: &dyn GreyBox, names: &Option<Vec<String>>, outputs: &[String]) -> Result<Vec<usize>, IdentError> {
+    match names {
+        None => Ok(model.default_free(outputs)),
+        Some(names) => names
+            .iter()
+            .map(|n| {
+                model.param_index(n).ok_or_else(|| {
+                    IdentError::Setup(format!(
+                        "--free: `{n}` is not a parameter of the {} model; its parameters are: {}",
+                        model.name(),
+                        model.params().iter().map(|p| p.name.as_str()).collect::<Vec<_>>().join(", ")
+                    ))
+                })
+            })
+            .collect(),
+    }
+}
+
+/// Starting points: the nominal values, then perturbations of the free parameters by
+/// log-uniform factors in [1/2, 2] (seeded, so runs repeat).
+pub fn starts(nominal: &[f64], free: &[usize], count: usize) -> Vec<Vec<f64>> {
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(0x5eed);
+    let mut out = vec![nominal.to_vec()];
+    for _ in 1..count.max(1) {
+        let mut p = nominal.to_vec();
+        for &i in free {
+            let f: f64 = rng.random_range(-1.0..1.0);
+            p[i] *= 2f64.powf(f);
+        }
+        out.push(p);
+    }
+    out
+}
+
+/// Fits a structure's parameters to a dataset: per-output weights from the data's spread,
+/// then (several outputs) re-weighted by each output's residual RMS and refitted, which
+/// approximates the maximum-likelihood fit with unknown noise levels.
+pub fn fit_structure(
+    model: &dyn GreyBox,
+    data: &Dataset,
+    free: &[usize],
+    opts: &IdentifyOptions,
+    start_from: &[f64],
+) -> Result<Fit, IdentError> {
+    let spread = |j: usize| {
+        let v: Vec<f64> = data.outputs[j].iter().flatten().copied().collect();
+        let m = v.iter().sum::<f64>() / v.len() as f64;
+        (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / v.len() as f64).sqrt().max(1e-12)
+    };
+    let weights: Vec<f64> = (0..data.outputs.len()).map(|j| 1.0 / spread(j)).collect();
+    let settings = FitSettings {
+        free: free.to_vec(),
+        weights,
+        max_iterations: opts.max_iterations,
+        starts: starts(start_from, free, opts.starts),
+    };
+    let mut f = fit::fit(model, data, &settings)?;
+    if data.outputs.len() > 1 {
+        let e = evaluate(data, f.predicted.clone(), 1);
+        let weights = data
+            .output_names
+            .iter()
+            .map(|n| 1.0 / e.rms[n].max(1e-12))
+            .collect();
+        let second = fit::fit(
+            model,
+            data,
+            &FitSettings {
+                free: free.to_vec(),
+                weights,
+                max_iterations: opts.max_iterations,
+                starts: vec![f.params.clone()],
+            },
+        )?;
+        let (iterations, evaluations) = (f.iterations, f.evaluations);
+        f = second;
+        f.iterations += iterations;
+        f.evaluations += evaluations;
+    }
+    Ok(f)
+}
+
+/// Identifies the rig's model from a recording (and checks it on a validation recording).
+pub fn identify(
+    rig: &Rig,
+    rig_path: &Path,
+    rec: &Recording,
+    validation: Option<&Recording>,
+    opts: &IdentifyOptions,
+) -> Result<Identification, IdentError> {
+    let structure = build_structure(rig, rig_path, rec, opts.model)?;
+    let model = structure.model();
+    let data = Dataset::from_recording(rec, &model.input_names(), &model.output_names())?;
+    let free = free_indices(model, &opts.free, &data.output_names)?;
+    let f = fit_structure(model, &data, &free, opts, &model.nominal())?;
+    let estimation = evaluate(&data, f.predicted.clone(), opts.max_lag);
+    let validation = match validation {
+        Some(v) => {
+            let vdata = Dataset::from_recording(v, &model.input_names(), &model.output_names())?;
+            let y = simulate(model, &f.params, &vdata).map_err(|d| IdentError::Mismatch {
+                file: v.path.clone(),
+                message: format!("the identified model {d} on the validation recording"),
+            })?;
+            Some(evaluate(&vdata, y, opts.max_lag))
+        }
+        None => None,
+    };
+    Ok(assemble(&structure, &f, estimation, validation, opts.starts))
+}
+
+fn assemble(
+    structure: &Structure,
+    f: &Fit,
+    estimation: Evaluation,
+    validation: Option<Evaluation>,
+    starts: usize,
+) -> Identification {
+    let model = structure.model();
+    let params = model
+        .params()
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            let slot = f.free.iter().position(|&j| j == i);
+            ParamReport {
+                name: s.name.clone(),
+                nominal: s.nominal,
+                value: f.params[i],
+                std: slot.and_then(|k| f.std[k]),
+                free: slot.is_some(),
+            }
+        })
+        .collect();
+    let d = f.free.len() as f64;
+    let n = estimation.n_samples as f64;
+    let v = estimation.loss;
+    let state_space = match structure {
+        Structure::Pair(pair) => Some(state_space_report(pair, f)),
+        _ => None,
+    };
+    Identification {
+        model: model.name(),
+        rig: String::new(),
+        params,
+        n_free: f.free.len(),
+        n_residuals: f.n_residuals,
+        fpe: v * (1.0 + d / n) / (1.0 - d / n),
+        aic: n * v.ln() + 2.0 * d,
+        iterations: f.iterations,
+        evaluations: f.evaluations,
+        converged: f.converged,
+        starts,
+        estimation,
+        validation,
+        state_space,
+        fitted: f.params.clone(),
+    }
+}
+
+/// A and B of a DCMC pair with standard deviations by the delta method (A and B are
+/// functions of the parameters; their covariance is G Cov G').
+fn state_space_report(pair: &DcmcPair, f: &Fit) -> StateSpaceReport {
+    let flatten = |p: &[f64]| {
+        let (a, b) = pair.state_space(p);
+        a.iter().chain(b.iter()).copied().collect::<Vec<f64>>()
+    };
+    let base = flatten(&f.params);
+    let d = f.free.len();
+    let undetermined = f.std.iter().any(|s| s.is_none());
+    let mut g = DMatrix::zeros(base.len(), d);
+    for (c, &i) in f.free.iter().enumerate() {
+        let h = 1e-7 * f.params[i].abs().max(1e-9);
+        let mut p = f.params.clone();
+        p[i] += h;
+        for (r, v) in flatten(&p).iter().enumerate() {
+            g[(r, c)] = (v - base[r]) / h;
+        }
+    }
+    let cov = &g * &f.covariance * g.transpose();
+    let (a, b) = pair.state_space(&f.params);
+    let nx = a.nrows();
+    let std_of = |flat: usize| {
+        // An entry that depends on an undetermined parameter is itself undetermined.
+        let depends_on_undetermined = f
+            .std
+            .iter()
+            .enumerate()
+            .any(|(c, s)| s.is_none() && g[(flat, c)].abs() > 0.0);
+        (!(undetermined && depends_on_undetermined)).then(|| cov[(flat, flat)].max(0.0).sqrt())
+    };
+    // nalgebra stores column-major: entry (r, c) of A is flat index c * nx + r.
+    StateSpaceReport {
+        a: (0..nx).map(|r| (0..nx).map(|c| a[(r, c)]).collect()).collect(),
+        a_std: (0..nx).map(|r| (0..nx).map(|c| std_of(c * nx + r)).collect()).collect(),
+        b: (0..nx).map(|r| (0..2).map(|c| b[(r, c)]).collect()).collect(),
+        b_std: (0..nx).map(|r| (0..2).map(|c| std_of(nx * nx + c * nx + r)).collect()).collect(),
+    }
+}
+
+/// Simulates a structure at given parameters on a recording (for diagnosis and checks).
+pub fn predict(structure: &Structure, params: &[f64], rec: &Recording) -> Result<(Dataset, Vec<Vec<f64>>), IdentError> {
+    let model = structure.model();
+    let data = Dataset::from_recording(rec, &model.input_names(), &model.output_names())?;
+    let y = simulate(model, params, &data).map_err(|d| IdentError::Mismatch {
+        file: rec.path.clone(),
+        message: format!("the model {d}"),
+    })?;
+    Ok((data, y))
+}

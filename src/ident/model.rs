@@ -1,0 +1,165 @@
+//! Grey-box models: continuous-time state equations with named, bounded parameters, and
+//! their simulation over a recording's time base (inputs zero-order held, outputs compared
+//! where measured).
+
+use super::data::Dataset;
+
+/// One model parameter.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParamSpec {
+    /// Rig key or vocabulary name, e.g. `motor.resistance_ohm`.
+    pub name: String,
+    /// Starting (nominal) value.
+    pub nominal: f64,
+    /// Physical bounds.
+    pub lo: f64,
+    pub hi: f64,
+}
+
+impl ParamSpec {
+    pub fn new(name: &str, nominal: f64, lo: f64, hi: f64) -> ParamSpec {
+        ParamSpec {
+            name: name.to_string(),
+            nominal,
+            lo,
+            hi,
+        }
+    }
+
+    /// A strictly positive physical quantity, searched on a log scale.
+    pub fn positive(name: &str, nominal: f64) -> ParamSpec {
+        ParamSpec::new(name, nominal, nominal.abs() * 1e-4, nominal.abs() * 1e4)
+    }
+}
+
+/// How a model output relates to its states.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum OutputKind {
+    /// The value at the sample instant.
+    Instant,
+    /// The mean rate of a state over the interval ending at the sample (an encoder speed:
+    /// count difference over the sample interval). The state's index.
+    IntervalRate(usize),
+}
+
+/// A grey-box model. Parameters are immutable during a simulation; everything that evolves
+/// is in the state vector or the held vector.
+pub trait GreyBox: Sync {
+    /// Model name for reports.
+    fn name(&self) -> String;
+    /// All parameters, free or fixed.
+    fn params(&self) -> &[ParamSpec];
+    /// Parameters freed by default (indices into `params`), given the outputs measured.
+    fn default_free(&self, outputs: &[String]) -> Vec<usize>;
+    /// Input columns (all required).
+    fn input_names(&self) -> Vec<String>;
+    /// Output columns the model can predict (those present in a recording are used).
+    fn output_names(&self) -> Vec<String>;
+    fn n_states(&self) -> usize;
+    /// Number of values computed at each sample instant and held until the next (a
+    /// digital controller's command, a delay line's output...).
+    fn n_held(&self) -> usize {
+        0
+    }
+    fn initial_state(&self, p: &[f64], data: &Dataset) -> Vec<f64>;
+    /// Longest integration step the dynamics allow at these parameters, s.
+    fn max_step_s(&self, p: &[f64]) -> f64;
+    /// Called at each sample instant before integrating over the next interval.
+    fn hold(&self, _p: &[f64], _t_s: f64, _x: &[f64], _u: &[f64], _held: &mut [f64]) {}
+    fn derivatives(&self, p: &[f64], x: &[f64], u: &[f64], held: &[f64], dx: &mut [f64]);
+    /// After each integration step: set-valued laws (stiction) act here.
+    fn after_step(&self, _p: &[f64], _x_before: &[f64], _x: &mut [f64]) {}
+    /// How output `name` is formed.
+    fn output_kind(&self, name: &str) -> OutputKind;
+    /// Instantaneous value of output `name`.
+    fn output(&self, p: &[f64], name: &str, x: &[f64], u: &[f64], held: &[f64]) -> f64;
+
+    /// Index of a parameter by name.
+    fn param_index(&self, name: &str) -> Option<usize> {
+        self.params().iter().position(|s| s.name == name)
+    }
+
+    fn nominal(&self) -> Vec<f64> {
+        self.params().iter().map(|s| s.nominal).collect()
+    }
+}
+
+/// A simulation that left the physical range.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("the model diverged at t = {t_s} s (state not finite)")]
+pub struct Diverged {
+    pub t_s: f64,
+}
+
+/// Predicted outputs, `[output][row]`, in the dataset's output order.
+pub fn simulate(model: &dyn GreyBox, p: &[f64], data: &Dataset) -> Result<Vec<Vec<f64>>, Diverged> {
+    let n = data.len();
+    let nx = model.n_states();
+    let kinds: Vec<OutputKind> = data
+        .output_names
+        .iter()
+        .map(|o| model.output_kind(o))
+        .collect();
+    let mut x = model.initial_state(p, data);
+    let mut held = vec![0.0; model.n_held()];
+    let mut u = vec![0.0; data.inputs.len()];
+    let mut y = vec![vec![0.0; n]; data.output_names.len()];
+    let max_h = model.max_step_s(p).max(1e-7);
+    let (mut k1, mut k2, mut k3, mut k4) = (vec![0.0; nx], vec![0.0; nx], vec![0.0; nx], vec![0.0; nx]);
+    let mut tmp = vec![0.0; nx];
+    let mut before = vec![0.0; nx];
+    for k in 0..n {
+        data.input_row(k, &mut u);
+        let t = data.t_s[k];
+        if k == 0 {
+            model.hold(p, t, &x, &u, &mut held);
+        }
+        // Outputs at t_k (the held values are those computed at t_k).
+        for (j, name) in data.output_names.iter().enumerate() {
+            y[j][k] = match kinds[j] {
+                OutputKind::Instant => model.output(p, name, &x, &u, &held),
+                // No interval before the first sample: its instantaneous rate.
+                OutputKind::IntervalRate(_) if k == 0 => model.output(p, name, &x, &u, &held),
+                OutputKind::IntervalRate(_) => y[j][k], // set at the end of the interval
+            };
+        }
+        if k + 1 == n {
+            break;
+        }
+        let interval = data.t_s[k + 1] - t;
+        let steps = (interval / max_h).ceil().max(1.0) as usize;
+        let h = interval / steps as f64;
+        let start = x.clone();
+        for _ in 0..steps {
+            before.copy_from_slice(&x);
+            model.derivatives(p, &x, &u, &held, &mut k1);
+            for i in 0..nx {
+                tmp[i] = x[i] + 0.5 * h * k1[i];
+            }
+            model.derivatives(p, &tmp, &u, &held, &mut k2);
+            for i in 0..nx {
+                tmp[i] = x[i] + 0.5 * h * k2[i];
+            }
+            model.derivatives(p, &tmp, &u, &held, &mut k3);
+            for i in 0..nx {
+                tmp[i] = x[i] + h * k3[i];
+            }
+            model.derivatives(p, &tmp, &u, &held, &mut k4);
+            for i in 0..nx {
+                x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+            }
+            model.after_step(p, &before, &mut x);
+        }
+        if x.iter().any(|v| !v.is_finite() || v.abs() > 1e12) {
+            return Err(Diverged { t_s: data.t_s[k + 1] });
+        }
+        for (j, kind) in kinds.iter().enumerate() {
+            if let OutputKind::IntervalRate(s) = kind {
+                y[j][k + 1] = (x[*s] - start[*s]) / interval;
+            }
+        }
+        data.input_row(k + 1, &mut u);
+        model.hold(p, data.t_s[k + 1], &x, &u, &mut held);
+    }
+    Ok(y)
+}

@@ -1,0 +1,150 @@
+//! A linear drive axis behind a current amplifier (force = gain x command), a rigid mass
+//! with viscous friction, open loop or in the closed loop the rig's `[feedback]` describes.
+//! In closed loop the command is computed at each sample instant from the simulated state
+//! and held, as the real digital controller does, and the recorded command becomes an
+//! output to compare with.
+
+use std::path::Path;
+
+use crate::ident::data::Dataset;
+use crate::ident::model::{GreyBox, OutputKind, ParamSpec};
+use crate::rig::{Rig, RigError};
+
+pub const MASS: usize = 0;
+pub const VISCOUS: usize = 1;
+
+/// The loop that produced the command.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Loop {
+    /// `command_V` is given.
+    Open,
+    /// command = kv (kp (reference - position) - speed), clipped to the drive limit.
+    PositionVelocityCascade { kp_1_s: f64, kv_v_s_m: f64 },
+}
+
+#[derive(Debug, Clone)]
+pub struct LinearAxis {
+    specs: Vec<ParamSpec>,
+    /// Force per volt of command, N/V.
+    pub force_per_volt: f64,
+    /// Command limit, V (infinite when the rig gives none).
+    pub limit_v: f64,
+    pub feedback: Loop,
+}
+
+impl LinearAxis {
+    pub fn from_rig(rig: &Rig, path: &Path) -> Result<LinearAxis, RigError> {
+        let need = |k: &str, why: &str| rig.require(k, path, why);
+        let specs = vec![
+            ParamSpec::positive("load.mass_kg", need("load.mass_kg", "the linear axis's moving mass")?),
+            ParamSpec::positive("load.viscous_N_s_m", need("load.viscous_N_s_m", "the linear axis's viscous friction")?),
+        ];
+        let feedback = match rig.feedback.as_ref().and_then(|f| f.kind.as_deref()) {
+            None => Loop::Open,
+            Some("position_velocity_cascade") => Loop::PositionVelocityCascade {
+                kp_1_s: need("feedback.kp_1_s", "the position loop gain")?,
+                kv_v_s_m: need("feedback.kv_V_s_m", "the velocity loop gain")?,
+            },
+            Some(other) => {
+                return Err(RigError::Invalid {
+                    file: path.to_owned(),
+                    message: format!(
+                        "feedback.kind = \"{other}\": expected \"position_velocity_cascade\""
+                    ),
+                })
+            }
+        };
+        Ok(LinearAxis {
+            specs,
+            force_per_volt: need("drive.force_per_volt_N_V", "force = gain x command_V")?,
+            limit_v: rig.get("drive.limit_V").unwrap_or(f64::INFINITY),
+            feedback,
+        })
+    }
+
+    /// The controller's command at a state, V.
+    pub fn command_v(&self, x: &[f64], reference_m: f64) -> f64 {
+        match self.feedback {
+            Loop::Open => f64::NAN,
+            Loop::PositionVelocityCascade { kp_1_s, kv_v_s_m } => {
+                (kv_v_s_m * (kp_1_s * (reference_m - x[0]) - x[1])).clamp(-self.limit_v, self.limit_v)
+            }
+        }
+    }
+}
+
+impl GreyBox for LinearAxis {
+    fn name(&self) -> String {
+        match self.feedback {
+            Loop::Open => "linear drive axis, current amplifier, open loop".into(),
+            Loop::PositionVelocityCascade { .. } => {
+                "linear drive axis, current amplifier, position-velocity cascade".into()
+            }
+        }
+    }
+
+    fn params(&self) -> &[ParamSpec] {
+        &self.specs
+    }
+
+    fn default_free(&self, _outputs: &[String]) -> Vec<usize> {
+        vec![MASS, VISCOUS]
+    }
+
+    fn input_names(&self) -> Vec<String> {
+        match self.feedback {
+            Loop::Open => vec!["command_V".into()],
+            Loop::PositionVelocityCascade { .. } => vec!["reference_m".into()],
+        }
+    }
+
+    fn output_names(&self) -> Vec<String> {
+        let mut o = vec!["position_m".to_string(), "speed_m_s".to_string()];
+        if self.feedback != Loop::Open {
+            o.push("command_V".into());
+        }
+        o
+    }
+
+    fn n_states(&self) -> usize {
+        2
+    }
+
+    fn n_held(&self) -> usize {
+        1
+    }
+
+    fn initial_state(&self, _p: &[f64], data: &Dataset) -> Vec<f64> {
+        vec![data.first_measured("position_m").unwrap_or(0.0), 0.0]
+    }
+
+    fn max_step_s(&self, p: &[f64]) -> f64 {
+        0.2 * p[MASS] / p[VISCOUS]
+    }
+
+    fn hold(&self, _p: &[f64], _t_s: f64, x: &[f64], u: &[f64], held: &mut [f64]) {
+        held[0] = match self.feedback {
+            Loop::Open => u[0].clamp(-self.limit_v, self.limit_v),
+            Loop::PositionVelocityCascade { .. } => self.command_v(x, u[0]),
+        };
+    }
+
+    fn derivatives(&self, p: &[f64], x: &[f64], _u: &[f64], held: &[f64], dx: &mut [f64]) {
+        let force = self.force_per_volt * held[0];
+        dx[0] = x[1];
+        dx[1] = (force - p[VISCOUS] * x[1]) / p[MASS];
+    }
+
+    fn output_kind(&self, _name: &str) -> OutputKind {
+        OutputKind::Instant
+    }
+
+    fn output(&self, _p: &[f64], name: &str, x: &[f64], _u: &[f64], held: &[f64]) -> f64 {
+        match name {
+            "position_m" => x[0],
+            "speed_m_s" => x[1],
+            "command_V" => held[0],
+            _ => f64::NAN,
+        }
+    }
+}

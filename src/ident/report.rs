@@ -1,0 +1,106 @@
+//! Text reports of an identification, in the spirit of the thesis's MATLAB printouts.
+
+use std::fmt::Write;
+
+use super::{Evaluation, Identification, StateSpaceReport};
+
+fn pm(v: f64, s: Option<f64>) -> String {
+    match s {
+        Some(s) => format!("{v:>11.4} ± {s:<9.4}"),
+        None => format!("{v:>11.4} ± {:<9}", "undet."),
+    }
+}
+
+/// Relative standard deviation as a percentage, or a mark when undetermined.
+fn rel(v: f64, s: Option<f64>) -> String {
+    match s {
+        Some(s) if v != 0.0 => format!("{:.2} %", 100.0 * s / v.abs()),
+        Some(_) => "-".into(),
+        None => "not determined by the data".into(),
+    }
+}
+
+fn matrix(out: &mut String, name: &str, m: &[Vec<f64>], s: &[Vec<Option<f64>>]) {
+    for (r, row) in m.iter().enumerate() {
+        let label = if r == 0 { format!("{name} =") } else { String::new() };
+        let cells: Vec<String> = row.iter().zip(&s[r]).map(|(v, s)| pm(*v, *s)).collect();
+        let _ = writeln!(out, "  {label:<4} [ {} ]", cells.join("  "));
+    }
+}
+
+/// The thesis-style A and B table.
+pub fn state_space_table(ss: &StateSpaceReport) -> String {
+    let mut out = String::new();
+    let _ = writeln!(out, "Continuous-time state-space model, states = motor speeds (left, right){}:",
+        if ss.a.len() > 2 { ", then the speed-loop integrators" } else { "" });
+    matrix(&mut out, "A", &ss.a, &ss.a_std);
+    matrix(&mut out, "B", &ss.b, &ss.b_std);
+    let _ = writeln!(out, "  (inputs: forward, turn demand in pct; A in 1/s, B in rad/s^2 per pct)");
+    out
+}
+
+fn evaluation(out: &mut String, title: &str, e: &Evaluation) {
+    let _ = writeln!(out, "{title}: {} ({} samples)", e.recording, e.n_samples);
+    for (name, fit) in &e.fit_pct {
+        let _ = writeln!(out, "  fit {name:<26} {fit:8.2} %   residual RMS {:.4e}", e.rms[name]);
+    }
+    let _ = writeln!(out, "  loss V = {:.5e}", e.loss);
+    for c in &e.checks {
+        let w = &c.whiteness;
+        let _ = writeln!(
+            out,
+            "  residual {}: whiteness {} ({} of {} lags outside the 99 % band ±{:.3})",
+            c.output,
+            if w.passes { "ok" } else { "FAILS" },
+            w.outside,
+            w.lags.len(),
+            w.band
+        );
+        for (input, x) in &c.independence {
+            let _ = writeln!(
+                out,
+                "    vs input {input}: independence {} ({} of {} lags outside ±{:.3})",
+                if x.passes { "ok" } else { "FAILS" },
+                x.outside,
+                x.lags.len(),
+                x.band
+            );
+        }
+    }
+}
+
+/// The full report.
+pub fn render(id: &Identification) -> String {
+    let mut out = String::new();
+    let _ = writeln!(out, "Model: {}", id.model);
+    let _ = writeln!(
+        out,
+        "Solver: Levenberg-Marquardt, {} start(s), {} iterations, {} simulations, {}",
+        id.starts,
+        id.iterations,
+        id.evaluations,
+        if id.converged { "converged" } else { "stopped at the iteration limit" }
+    );
+    let _ = writeln!(out, "\n{:<34} {:>12} {:>24} {:>10}", "parameter", "nominal", "estimate ± 1 std", "rel. std");
+    for p in &id.params {
+        if p.free {
+            let _ = writeln!(out, "{:<34} {:>12.5e} {:>13.6e} ± {:<9.3e} {:>10}", p.name, p.nominal, p.value, p.std.unwrap_or(f64::NAN), rel(p.value, p.std));
+        } else {
+            let _ = writeln!(out, "{:<34} {:>12.5e} {:>13.6e}   (fixed)", p.name, p.nominal, p.value);
+        }
+    }
+    if let Some(ss) = &id.state_space {
+        let _ = writeln!(out);
+        out.push_str(&state_space_table(ss));
+    }
+    let _ = writeln!(
+        out,
+        "\nLoss function V = {:.5e}   Akaike FPE = {:.5e}   AIC = {:.2}   ({} free parameters, {} residuals)",
+        id.estimation.loss, id.fpe, id.aic, id.n_free, id.n_residuals
+    );
+    evaluation(&mut out, "\nEstimation", &id.estimation);
+    if let Some(v) = &id.validation {
+        evaluation(&mut out, "\nValidation", v);
+    }
+    out
+}
