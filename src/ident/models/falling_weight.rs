@@ -69,13 +69,14 @@ impl GreyBox for FallingWeight {
         &self.specs
     }
 
-    /// Inertia, Coulomb friction and Kv; the viscous term is too small over a short fall
-    /// to separate from Coulomb, so it stays at the rig's value.
+    /// Inertia, Coulomb and viscous friction, and Kv when the back-EMF is recorded. The
+    /// viscous term must be free: over the speeds of a fall it is comparable with the
+    /// Coulomb level, and a wrong fixed value biases the Coulomb estimate.
     fn default_free(&self, outputs: &[String]) -> Vec<usize> {
         if outputs.iter().any(|o| o == "back_emf_V") {
-            vec![J, TC, K]
+            vec![J, TC, K, B]
         } else {
-            vec![J, TC]
+            vec![J, TC, B]
         }
     }
 
