@@ -282,7 +282,12 @@ fn main() -> ExitCode {
             };
             match run_experiment(kind, &loaded, &opts) {
                 Ok(o) => {
-                    println!("experiment {} on {}: {} samples", kind.name(), scene.display(), o.samples);
+                    println!(
+                        "experiment {} on {}: {} samples",
+                        kind.name(),
+                        scene.display(),
+                        o.samples
+                    );
                     println!("recording  {}", o.recording.display());
                     println!("rig        {}", o.rig.display());
                     for f in &o.extra {

@@ -308,12 +308,32 @@ fn identify_rejects_contract_breaches_with_located_errors() {
     .unwrap();
     let head = "# agvsim-recording: 1\n# rig: drive_axis\n";
     let cases: [(&str, String, &[&str]); 6] = [
-        ("no_t.csv", format!("{head}voltage_V,motor_speed_rad_s\n1,2\n"), &["no_t.csv:3", "t_s"]),
-        ("backwards.csv", format!("{head}t_s,voltage_V,motor_speed_rad_s\n0,1,0\n0.002,1,1\n0.001,1,2\n"), &["backwards.csv:6", "increase"]),
-        ("nan.csv", format!("{head}t_s,voltage_V,motor_speed_rad_s\n0,1,0\n0.001,NaN,1\n"), &["nan.csv:5", "voltage_V"]),
-        ("no_input.csv", format!("{head}t_s,motor_speed_rad_s\n0,0\n0.001,1\n"), &["no_input.csv", "voltage_V"]),
+        (
+            "no_t.csv",
+            format!("{head}voltage_V,motor_speed_rad_s\n1,2\n"),
+            &["no_t.csv:3", "t_s"],
+        ),
+        (
+            "backwards.csv",
+            format!("{head}t_s,voltage_V,motor_speed_rad_s\n0,1,0\n0.002,1,1\n0.001,1,2\n"),
+            &["backwards.csv:6", "increase"],
+        ),
+        (
+            "nan.csv",
+            format!("{head}t_s,voltage_V,motor_speed_rad_s\n0,1,0\n0.001,NaN,1\n"),
+            &["nan.csv:5", "voltage_V"],
+        ),
+        (
+            "no_input.csv",
+            format!("{head}t_s,motor_speed_rad_s\n0,0\n0.001,1\n"),
+            &["no_input.csv", "voltage_V"],
+        ),
         ("empty.csv", String::new(), &["empty.csv", "empty"]),
-        ("gap.csv", format!("{head}t_s,voltage_V,motor_speed_rad_s\n0,1,0\n0.001,,1\n0.002,1,1\n"), &["gap.csv", "voltage_V", "t = 0.001"]),
+        (
+            "gap.csv",
+            format!("{head}t_s,voltage_V,motor_speed_rad_s\n0,1,0\n0.001,,1\n0.002,1,1\n"),
+            &["gap.csv", "voltage_V", "t = 0.001"],
+        ),
     ];
     for (name, text, expect) in cases {
         let rec = dir.join(name);
@@ -334,9 +354,17 @@ fn identify_rejects_contract_breaches_with_located_errors() {
     }
     // A rig file with a key the format does not define.
     let bad_rig = dir.join("bad.rig.toml");
-    std::fs::write(&bad_rig, "rig = \"drive_axis\"\n[motor]\nresistance_ohm = 0.35\nbrush_drop_V = 1.0\n").unwrap();
+    std::fs::write(
+        &bad_rig,
+        "rig = \"drive_axis\"\n[motor]\nresistance_ohm = 0.35\nbrush_drop_V = 1.0\n",
+    )
+    .unwrap();
     let rec = dir.join("ok.csv");
-    std::fs::write(&rec, format!("{head}t_s,voltage_V,motor_speed_rad_s\n0,1,0\n0.001,1,1\n")).unwrap();
+    std::fs::write(
+        &rec,
+        format!("{head}t_s,voltage_V,motor_speed_rad_s\n0,1,0\n0.001,1,1\n"),
+    )
+    .unwrap();
     let out = agvsim()
         .args(["identify", "--rig"])
         .arg(&bad_rig)
@@ -346,7 +374,10 @@ fn identify_rejects_contract_breaches_with_located_errors() {
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && !err.contains("panicked"));
-    assert!(err.contains("bad.rig.toml") && err.contains("brush_drop_V") && err.contains("line 4"), "{err}");
+    assert!(
+        err.contains("bad.rig.toml") && err.contains("brush_drop_V") && err.contains("line 4"),
+        "{err}"
+    );
     // An unknown --free name lists the model's parameters.
     let out = agvsim()
         .args(["identify", "--rig"])
@@ -357,7 +388,10 @@ fn identify_rejects_contract_breaches_with_located_errors() {
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success() && err.contains("motor.resistance_ohm"), "{err}");
+    assert!(
+        !out.status.success() && err.contains("motor.resistance_ohm"),
+        "{err}"
+    );
 }
 
 /// `experiment` then `identify` from the command line, with JSON and SVG plots written.
@@ -365,11 +399,24 @@ fn identify_rejects_contract_breaches_with_located_errors() {
 fn experiment_then_identify_writes_report_json_and_plots() {
     let dir = tmp("exp-ident");
     let out = agvsim()
-        .args(["experiment", "lifted-random-demand", "scenes/lab_offset_120mm.toml", "--duration", "5", "--rig-error", "0.2", "--out"])
+        .args([
+            "experiment",
+            "lifted-random-demand",
+            "scenes/lab_offset_120mm.toml",
+            "--duration",
+            "5",
+            "--rig-error",
+            "0.2",
+            "--out",
+        ])
         .arg(&dir)
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let json = dir.join("id.json");
     let plots = dir.join("plots");
     let out = agvsim()
@@ -384,20 +431,48 @@ fn experiment_then_identify_writes_report_json_and_plots() {
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    assert!(stdout.contains("A =") && stdout.contains("Akaike FPE"), "{stdout}");
-    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-    let fit = v["estimation"]["fit_pct"]["left_motor_speed_rad_s"].as_f64().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.contains("A =") && stdout.contains("Akaike FPE"),
+        "{stdout}"
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let fit = v["estimation"]["fit_pct"]["left_motor_speed_rad_s"]
+        .as_f64()
+        .unwrap();
     // The full-fidelity lab machine has backlash and Coulomb friction the linear structure
     // lacks, so the fit is good but not perfect.
     assert!(fit > 80.0 && fit < 100.0, "{fit}");
-    let svg = std::fs::read_to_string(plots.join("estimation_left_motor_speed_rad_s_fit.svg")).unwrap();
+    let svg =
+        std::fs::read_to_string(plots.join("estimation_left_motor_speed_rad_s_fit.svg")).unwrap();
     assert!(svg.starts_with("<svg") && svg.contains("<polyline"));
     // Bad CLI values are refused by name.
-    let out = agvsim().args(["experiment", "spin-test", "scenes/lab_offset_120mm.toml"]).output().unwrap();
+    let out = agvsim()
+        .args(["experiment", "spin-test", "scenes/lab_offset_120mm.toml"])
+        .output()
+        .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success() && err.contains("lifted-random-demand"), "{err}");
-    let out = agvsim().args(["identify", "--rig", "x", "--recording", "y", "--model", "pid"]).output().unwrap();
+    assert!(
+        !out.status.success() && err.contains("lifted-random-demand"),
+        "{err}"
+    );
+    let out = agvsim()
+        .args([
+            "identify",
+            "--rig",
+            "x",
+            "--recording",
+            "y",
+            "--model",
+            "pid",
+        ])
+        .output()
+        .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.contains("drive-axis"), "{err}");
 }

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use agvsim::experiment::{run_experiment, ExperimentKind, ExperimentOptions};
-use agvsim::ident::{identify, IdentifyOptions, Identification, ModelChoice};
+use agvsim::ident::{identify, Identification, IdentifyOptions, ModelChoice};
 use agvsim::record::Recording;
 use agvsim::rig::Rig;
 use agvsim::scene::Scene;
@@ -16,7 +16,14 @@ fn tmp(name: &str) -> PathBuf {
     d
 }
 
-fn experiment(kind: ExperimentKind, scene: &Scene, dir: &Path, name: &str, seed: u64, rig_error: f64) -> (Rig, PathBuf, Recording) {
+fn experiment(
+    kind: ExperimentKind,
+    scene: &Scene,
+    dir: &Path,
+    name: &str,
+    seed: u64,
+    rig_error: f64,
+) -> (Rig, PathBuf, Recording) {
     let out = run_experiment(
         kind,
         scene,
@@ -36,7 +43,12 @@ fn experiment(kind: ExperimentKind, scene: &Scene, dir: &Path, name: &str, seed:
     )
 }
 
-fn ident(rig: &Rig, rig_path: &Path, rec: &Recording, model: Option<ModelChoice>) -> Identification {
+fn ident(
+    rig: &Rig,
+    rig_path: &Path,
+    rec: &Recording,
+    model: Option<ModelChoice>,
+) -> Identification {
     identify(
         rig,
         rig_path,
@@ -80,7 +92,14 @@ fn lifted_random_demand_recovers_the_scene_and_its_intervals_are_honest() {
     let (mut inside, mut total) = (0, 0);
     let mut worst_rel: f64 = 0.0;
     for seed in 0..20u64 {
-        let (rig, rig_path, rec) = experiment(ExperimentKind::LiftedRandomDemand, &scene, &dir, &format!("s{seed}"), seed, 0.2);
+        let (rig, rig_path, rec) = experiment(
+            ExperimentKind::LiftedRandomDemand,
+            &scene,
+            &dir,
+            &format!("s{seed}"),
+            seed,
+            0.2,
+        );
         let id = ident(&rig, &rig_path, &rec, Some(ModelChoice::Gain));
         for (name, t) in &truth {
             let v = id.value(name).unwrap();
@@ -111,13 +130,26 @@ fn lifted_random_demand_recovers_the_scene_and_its_intervals_are_honest() {
 fn thesis_cases_one_and_two_i_agree_and_two_ii_is_poorly_determined() {
     let scene = Scene::load(Path::new("scenes/lifted_identification.toml"), &[]).unwrap();
     let dir = tmp("cases");
-    let (rig, rig_path, rec) = experiment(ExperimentKind::LiftedRandomDemand, &scene, &dir, "cases", 7, 0.2);
+    let (rig, rig_path, rec) = experiment(
+        ExperimentKind::LiftedRandomDemand,
+        &scene,
+        &dir,
+        "cases",
+        7,
+        0.2,
+    );
     let gain = ident(&rig, &rig_path, &rec, Some(ModelChoice::Gain));
     let p = ident(&rig, &rig_path, &rec, Some(ModelChoice::P));
     let pi = ident(&rig, &rig_path, &rec, Some(ModelChoice::Pi));
     println!("{}", agvsim::ident::report::render(&gain));
-    println!("case 2-I:\n{}", agvsim::ident::report::state_space_table(p.state_space.as_ref().unwrap()));
-    println!("case 2-II:\n{}", agvsim::ident::report::state_space_table(pi.state_space.as_ref().unwrap()));
+    println!(
+        "case 2-I:\n{}",
+        agvsim::ident::report::state_space_table(p.state_space.as_ref().unwrap())
+    );
+    println!(
+        "case 2-II:\n{}",
+        agvsim::ident::report::state_space_table(pi.state_space.as_ref().unwrap())
+    );
     println!(
         "loss: case 1 {:.6e}, case 2-I {:.6e}, case 2-II {:.6e}; FPE {:.6e} / {:.6e} / {:.6e}",
         gain.estimation.loss, p.estimation.loss, pi.estimation.loss, gain.fpe, p.fpe, pi.fpe
@@ -125,7 +157,10 @@ fn thesis_cases_one_and_two_i_agree_and_two_ii_is_poorly_determined() {
     // Same structure: the same minimum, to the solver's precision.
     let rel = (gain.estimation.loss - p.estimation.loss).abs() / gain.estimation.loss;
     assert!(rel < 1e-6, "case 1 and 2-I losses differ by {rel}");
-    let (g, q) = (gain.state_space.as_ref().unwrap(), p.state_space.as_ref().unwrap());
+    let (g, q) = (
+        gain.state_space.as_ref().unwrap(),
+        p.state_space.as_ref().unwrap(),
+    );
     for r in 0..2 {
         for c in 0..2 {
             let (a, b) = (g.b[r][c], q.b[r][c]);
@@ -142,7 +177,11 @@ fn thesis_cases_one_and_two_i_agree_and_two_ii_is_poorly_determined() {
             .fold(0.0, f64::max)
     };
     let (worst_gain, worst_pi) = (rel_std(&gain), rel_std(&pi));
-    println!("largest relative std: case 1 {:.3} %, case 2-II {:.1} %", 100.0 * worst_gain, 100.0 * worst_pi);
+    println!(
+        "largest relative std: case 1 {:.3} %, case 2-II {:.1} %",
+        100.0 * worst_gain,
+        100.0 * worst_pi
+    );
     assert!(worst_pi > 10.0 * worst_gain);
     // The extra parameters buy no prediction: FPE does not improve on case 1's.
     assert!(pi.fpe > gain.fpe);
@@ -156,16 +195,32 @@ fn falling_weight_and_coast_down_recover_the_motor() {
     let scene = Scene::load(Path::new("scenes/lab_offset_120mm.toml"), &[]).unwrap();
     let m = &scene.motor;
     let dir = tmp("bench-tests");
-    let (rig, rig_path, rec) = experiment(ExperimentKind::FallingWeight, &scene, &dir, "fw", 3, 0.2);
+    let (rig, rig_path, rec) =
+        experiment(ExperimentKind::FallingWeight, &scene, &dir, "fw", 3, 0.2);
     let fw = ident(&rig, &rig_path, &rec, None);
     let check = |what: &str, got: f64, truth: f64| {
         let e = (got - truth) / truth;
-        println!("{what}: {got:.6e} against {truth:.6e} ({:+.2} %)", 100.0 * e);
+        println!(
+            "{what}: {got:.6e} against {truth:.6e} ({:+.2} %)",
+            100.0 * e
+        );
         assert!(e.abs() < 0.05, "{what}");
     };
-    check("falling weight: rotor inertia", fw.value("motor.rotor_inertia_kg_m2").unwrap(), m.rotor_inertia_kg_m2);
-    check("falling weight: Coulomb friction", fw.value("motor.coulomb_Nm").unwrap(), m.coulomb_Nm);
-    check("falling weight: Kv", fw.value("motor.torque_constant_Nm_A").unwrap(), m.torque_constant_Nm_A);
+    check(
+        "falling weight: rotor inertia",
+        fw.value("motor.rotor_inertia_kg_m2").unwrap(),
+        m.rotor_inertia_kg_m2,
+    );
+    check(
+        "falling weight: Coulomb friction",
+        fw.value("motor.coulomb_Nm").unwrap(),
+        m.coulomb_Nm,
+    );
+    check(
+        "falling weight: Kv",
+        fw.value("motor.torque_constant_Nm_A").unwrap(),
+        m.torque_constant_Nm_A,
+    );
 
     // Coast-down: the rig knows the wheel's inertia and takes the rotor's from the falling
     // weight; its friction beliefs are off by +30 % and -30 %.
@@ -177,7 +232,11 @@ fn falling_weight_and_coast_down_recover_the_motor() {
     let cd_rig = dir.join("cd_from_fw.rig.toml");
     std::fs::write(&cd_rig, rig.to_toml()).unwrap();
     let cd = ident(&rig, &cd_rig, &rec, None);
-    check("coast-down: viscous damping", cd.value("motor.viscous_Nm_s_rad").unwrap(), m.viscous_Nm_s_rad);
+    check(
+        "coast-down: viscous damping",
+        cd.value("motor.viscous_Nm_s_rad").unwrap(),
+        m.viscous_Nm_s_rad,
+    );
 }
 
 /// Acceptance 4: the real EMPS record, nominal rig (rigid mass, viscous friction) in the
@@ -202,5 +261,13 @@ fn emps_nominal_structure_runs_in_closed_loop_and_shows_its_gap() {
     let cmd = id.estimation.fit_pct["command_V"];
     assert!(cmd > 50.0 && cmd < 95.0, "command fit {cmd}");
     assert!(id.estimation.fit_pct["position_m"] > 99.0);
-    assert!(!id.estimation.checks.iter().find(|c| c.output == "command_V").unwrap().whiteness.passes);
+    assert!(
+        !id.estimation
+            .checks
+            .iter()
+            .find(|c| c.output == "command_V")
+            .unwrap()
+            .whiteness
+            .passes
+    );
 }

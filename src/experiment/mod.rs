@@ -41,8 +41,12 @@ pub enum ExperimentKind {
 }
 
 impl ExperimentKind {
-    pub const NAMES: [&'static str; 4] =
-        ["lifted-random-demand", "falling-weight", "coast-down", "floor-run"];
+    pub const NAMES: [&'static str; 4] = [
+        "lifted-random-demand",
+        "falling-weight",
+        "coast-down",
+        "floor-run",
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -103,7 +107,9 @@ impl FromStr for DemandPattern {
         match s {
             "pulses" => Ok(DemandPattern::Pulses),
             "walk" => Ok(DemandPattern::Walk),
-            _ => Err(format!("unknown demand pattern `{s}`: expected pulses or walk")),
+            _ => Err(format!(
+                "unknown demand pattern `{s}`: expected pulses or walk"
+            )),
         }
     }
 }
@@ -228,7 +234,10 @@ pub fn run_experiment(
     if let Some(seed) = opts.seed {
         scene.sim.seed = seed;
     }
-    let name = opts.name.clone().unwrap_or_else(|| kind.name().replace('-', "_"));
+    let name = opts
+        .name
+        .clone()
+        .unwrap_or_else(|| kind.name().replace('-', "_"));
     let recording = opts.out_dir.join(format!("{name}.csv"));
     let rig_path = opts.out_dir.join(format!("{name}.rig.toml"));
     let mut rng = Pcg64::seed_from_u64(scene.sim.seed ^ 0xe4e1);
@@ -258,10 +267,11 @@ pub fn run_experiment(
             let (dashes, n) = pen_trace(&out.recording, interval, opts.pen_play_m, &mut rng)?;
             let dash_path = opts.out_dir.join(format!("{name}.dashes.csv"));
             write(&dash_path, &dashes)?;
-            let csv = std::fs::read_to_string(&out.recording).map_err(|source| ExperimentError::Io {
-                path: out.recording.clone(),
-                source,
-            })?;
+            let csv =
+                std::fs::read_to_string(&out.recording).map_err(|source| ExperimentError::Io {
+                    path: out.recording.clone(),
+                    source,
+                })?;
             (csv, vehicle_rig(&scene), vec![dash_path, out.scene_used], n)
         }
     };
@@ -271,7 +281,10 @@ pub fn run_experiment(
         "# Written by `agvsim experiment {}` from scene values{}.\n",
         kind.name(),
         if opts.rig_error > 0.0 {
-            format!(", each uncertain value off by up to {:.0} %", 100.0 * opts.rig_error)
+            format!(
+                ", each uncertain value off by up to {:.0} %",
+                100.0 * opts.rig_error
+            )
         } else {
             String::new()
         }
@@ -336,7 +349,10 @@ fn lifted_random_demand(
             match opts.pattern {
                 DemandPattern::Pulses => {
                     if hold_left == 0 {
-                        demand = [rng.random_range(-peak..=peak), rng.random_range(-0.5 * peak..=0.5 * peak)];
+                        demand = [
+                            rng.random_range(-peak..=peak),
+                            rng.random_range(-0.5 * peak..=0.5 * peak),
+                        ];
                         hold_left = rng.random_range(4..=16);
                     }
                     hold_left -= 1;
@@ -351,7 +367,8 @@ fn lifted_random_demand(
             }
         }
         let mut speed = [0.0; 2];
-        let new_counts = [0, 1].map(|i| encoder_counts(sim.drivetrains()[i].motor.angle_rad, ENCODER_COUNTS));
+        let new_counts =
+            [0, 1].map(|i| encoder_counts(sim.drivetrains()[i].motor.angle_rad, ENCODER_COUNTS));
         if k > 0 {
             for i in 0..2 {
                 let noise: f64 = StandardNormal.sample(rng);
@@ -360,11 +377,18 @@ fn lifted_random_demand(
             }
         }
         counts = new_counts;
-        let _ = writeln!(csv, "{t:.6},{:.4},{:.4},{:.5},{:.5}", demand[0], demand[1], speed[0], speed[1]);
+        let _ = writeln!(
+            csv,
+            "{t:.6},{:.4},{:.4},{:.5},{:.5}",
+            demand[0], demand[1], speed[0], speed[1]
+        );
         if k == n {
             break;
         }
-        sim.set_actuation(Actuation::Demand { forward_pct: demand[0], turn_pct: demand[1] });
+        sim.set_actuation(Actuation::Demand {
+            forward_pct: demand[0],
+            turn_pct: demand[1],
+        });
         for _ in 0..per {
             sim.step()?;
         }
@@ -384,7 +408,12 @@ fn motor_params(scene: &Scene) -> MotorParams {
     }
 }
 
-fn falling_weight(scene: &Scene, opts: &ExperimentOptions, interval: f64, rng: &mut Pcg64) -> (String, usize) {
+fn falling_weight(
+    scene: &Scene,
+    opts: &ExperimentOptions,
+    interval: f64,
+    rng: &mut Pcg64,
+) -> (String, usize) {
     let motor = motor_params(scene);
     let (m, r) = (opts.weight_mass_kg, opts.pulley_radius_m);
     // While the cord is taut the weight's inertia rides on the rotor.
@@ -399,9 +428,18 @@ fn falling_weight(scene: &Scene, opts: &ExperimentOptions, interval: f64, rng: &
     let mut csv = header(
         "drive_axis",
         &[
-            ("description", format!("falling weight: {m} kg on a {r} m pulley, {} m drop, motor open-circuited", opts.drop_m)),
+            (
+                "description",
+                format!(
+                    "falling weight: {m} kg on a {r} m pulley, {} m drop, motor open-circuited",
+                    opts.drop_m
+                ),
+            ),
             ("sample_time_s", format!("{}", per as f64 * h)),
-            ("source", format!("agvsim {} motor model", env!("CARGO_PKG_VERSION"))),
+            (
+                "source",
+                format!("agvsim {} motor model", env!("CARGO_PKG_VERSION")),
+            ),
             ("experiment", "falling-weight".into()),
         ],
         &["t_s", "motor_speed_rad_s", "back_emf_V"],
@@ -413,7 +451,11 @@ fn falling_weight(scene: &Scene, opts: &ExperimentOptions, interval: f64, rng: &
     for k in 0..max_rows {
         let t = k as f64 * per as f64 * h;
         let c = encoder_counts(s.angle_rad, ENCODER_COUNTS);
-        let speed = if k == 0 { 0.0 } else { (c - counts) * TAU / ENCODER_COUNTS / (per as f64 * h) };
+        let speed = if k == 0 {
+            0.0
+        } else {
+            (c - counts) * TAU / ENCODER_COUNTS / (per as f64 * h)
+        };
         counts = c;
         let n: f64 = StandardNormal.sample(rng);
         let emf = motor.back_emf_v(s.speed_rad_s) + opts.voltage_noise_v * n;
@@ -437,7 +479,12 @@ fn falling_weight(scene: &Scene, opts: &ExperimentOptions, interval: f64, rng: &
     (csv, rows)
 }
 
-fn coast_down(scene: &Scene, opts: &ExperimentOptions, interval: f64, rng: &mut Pcg64) -> Result<(String, usize), ExperimentError> {
+fn coast_down(
+    scene: &Scene,
+    opts: &ExperimentOptions,
+    interval: f64,
+    rng: &mut Pcg64,
+) -> Result<(String, usize), ExperimentError> {
     let scene = lifted_scene(scene);
     let mut sim = Sim::new(&scene)?;
     let per = steps_per(interval, sim.params().dt_s)?;
@@ -452,9 +499,19 @@ fn coast_down(scene: &Scene, opts: &ExperimentOptions, interval: f64, rng: &mut 
     let mut csv = header(
         "drive_axis",
         &[
-            ("description", format!("coast-down: left wheel lifted, run up at {full} V, power cut at t = 0")),
+            (
+                "description",
+                format!("coast-down: left wheel lifted, run up at {full} V, power cut at t = 0"),
+            ),
             ("sample_time_s", format!("{interval}")),
-            ("source", format!("agvsim {} simulation, fidelity {}", env!("CARGO_PKG_VERSION"), sim.params().fidelity.name())),
+            (
+                "source",
+                format!(
+                    "agvsim {} simulation, fidelity {}",
+                    env!("CARGO_PKG_VERSION"),
+                    sim.params().fidelity.name()
+                ),
+            ),
             ("experiment", "coast-down".into()),
         ],
         &["t_s", "motor_speed_rad_s"],
@@ -492,10 +549,16 @@ fn coast_down(scene: &Scene, opts: &ExperimentOptions, interval: f64, rng: &mut 
 
 /// Pen dashes from a floor-run recording: `t_s, x_m, y_m` of each dash start, with the
 /// pen's play as a uniform error.
-fn pen_trace(recording: &Path, interval: f64, play_m: f64, rng: &mut Pcg64) -> Result<(String, usize), ExperimentError> {
+fn pen_trace(
+    recording: &Path,
+    interval: f64,
+    play_m: f64,
+    rng: &mut Pcg64,
+) -> Result<(String, usize), ExperimentError> {
     let rec = Recording::load(recording).map_err(|e| ExperimentError::Setup(e.to_string()))?;
     let col = |n: &str| -> Result<Vec<f64>, ExperimentError> {
-        rec.require_complete(n).map_err(|e| ExperimentError::Setup(e.to_string()))
+        rec.require_complete(n)
+            .map_err(|e| ExperimentError::Setup(e.to_string()))
     };
     let (x, y) = (col("x_m")?, col("y_m")?);
     let mut out = String::from("# agvsim-pen-trace: 1\n# description: pen dash starts (drive-axle midpoint), with pen play\nt_s,x_m,y_m\n");
@@ -504,7 +567,13 @@ fn pen_trace(recording: &Path, interval: f64, play_m: f64, rng: &mut Pcg64) -> R
     for k in 0..rec.t_s.len() {
         if rec.t_s[k] + 1e-9 >= next {
             let jitter = |rng: &mut Pcg64| play_m * (rng.random::<f64>() - 0.5);
-            let _ = writeln!(out, "{:.4},{:.5},{:.5}", rec.t_s[k], x[k] + jitter(rng), y[k] + jitter(rng));
+            let _ = writeln!(
+                out,
+                "{:.4},{:.5},{:.5}",
+                rec.t_s[k],
+                x[k] + jitter(rng),
+                y[k] + jitter(rng)
+            );
             n += 1;
             next += interval;
         }
@@ -535,12 +604,16 @@ fn axis_rig(scene: &Scene) -> Rig {
     Rig {
         rig: "drive_axis".into(),
         motor: Some(motor_rig(scene)),
-        gearbox: Some(GearboxRig { ratio: Some(scene.gearbox.ratio) }),
+        gearbox: Some(GearboxRig {
+            ratio: Some(scene.gearbox.ratio),
+        }),
         wheel: Some(WheelRig {
             radius_m: Some(scene.wheel.radius_m),
             inertia_kg_m2: Some(scene.wheel.inertia_kg_m2),
         }),
-        supply: Some(SupplyRig { voltage_V: Some(scene.battery.open_circuit_V) }),
+        supply: Some(SupplyRig {
+            voltage_V: Some(scene.battery.open_circuit_V),
+        }),
         sensors: encoder(),
         ..Rig::default()
     }
@@ -549,12 +622,14 @@ fn axis_rig(scene: &Scene) -> Rig {
 fn controller_rig(scene: &Scene) -> ControllerRig {
     let d = &scene.dcmc;
     ControllerRig {
-        kind: Some(match d.kind {
-            DcmcKind::Gain => "gain",
-            DcmcKind::P => "p",
-            DcmcKind::Pi => "pi",
-        }
-        .into()),
+        kind: Some(
+            match d.kind {
+                DcmcKind::Gain => "gain",
+                DcmcKind::P => "p",
+                DcmcKind::Pi => "pi",
+            }
+            .into(),
+        ),
         gain_V_pct: Some(d.forward_gain_V_pct),
         turn_gain_V_pct: Some(d.turn_gain_V_pct),
         speed_per_pct_rad_s: (d.kind != DcmcKind::Gain).then_some(d.speed_per_pct_rad_s),

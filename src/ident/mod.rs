@@ -49,7 +49,14 @@ pub enum ModelChoice {
 }
 
 impl ModelChoice {
-    pub const NAMES: [&'static str; 6] = ["drive-axis", "falling-weight", "coast-down", "gain", "p", "pi"];
+    pub const NAMES: [&'static str; 6] = [
+        "drive-axis",
+        "falling-weight",
+        "coast-down",
+        "gain",
+        "p",
+        "pi",
+    ];
 }
 
 impl FromStr for ModelChoice {
@@ -317,7 +324,10 @@ impl Identification {
 
     /// A parameter's standard deviation by name.
     pub fn std(&self, name: &str) -> Option<f64> {
-        self.params.iter().find(|p| p.name == name).and_then(|p| p.std)
+        self.params
+            .iter()
+            .find(|p| p.name == name)
+            .and_then(|p| p.std)
     }
 }
 
@@ -329,8 +339,16 @@ pub fn fit_pct(measured: &[Option<f64>], predicted: &[f64]) -> f64 {
         .filter_map(|(y, p)| y.map(|y| (y, *p)))
         .collect();
     let mean = pairs.iter().map(|p| p.0).sum::<f64>() / pairs.len().max(1) as f64;
-    let err: f64 = pairs.iter().map(|(y, p)| (y - p).powi(2)).sum::<f64>().sqrt();
-    let spread: f64 = pairs.iter().map(|(y, _)| (y - mean).powi(2)).sum::<f64>().sqrt();
+    let err: f64 = pairs
+        .iter()
+        .map(|(y, p)| (y - p).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    let spread: f64 = pairs
+        .iter()
+        .map(|(y, _)| (y - mean).powi(2))
+        .sum::<f64>()
+        .sqrt();
     if spread == 0.0 {
         return if err == 0.0 { 100.0 } else { f64::NEG_INFINITY };
     }
@@ -347,7 +365,10 @@ fn loss(data: &Dataset, predicted: &[Vec<f64>]) -> f64 {
     let e = |j: usize, k: usize| data.outputs[j][k].map(|y| y - predicted[j][k]);
     if rows.len() > m {
         let cov = DMatrix::from_fn(m, m, |i, j| {
-            rows.iter().map(|&k| e(i, k).unwrap() * e(j, k).unwrap()).sum::<f64>() / rows.len() as f64
+            rows.iter()
+                .map(|&k| e(i, k).unwrap() * e(j, k).unwrap())
+                .sum::<f64>()
+                / rows.len() as f64
         });
         cov.determinant()
     } else {
@@ -367,7 +388,9 @@ pub fn evaluate(data: &Dataset, predicted: Vec<Vec<f64>>, max_lag: usize) -> Eva
     let mut checks = Vec::new();
     for (j, name) in data.output_names.iter().enumerate() {
         fit.insert(name.clone(), fit_pct(&data.outputs[j], &predicted[j]));
-        let rows: Vec<usize> = (0..data.len()).filter(|&k| data.outputs[j][k].is_some()).collect();
+        let rows: Vec<usize> = (0..data.len())
+            .filter(|&k| data.outputs[j][k].is_some())
+            .collect();
         let e: Vec<f64> = rows
             .iter()
             .map(|&k| data.outputs[j][k].unwrap() - predicted[j][k])
@@ -407,7 +430,11 @@ pub fn evaluate(data: &Dataset, predicted: Vec<Vec<f64>>, max_lag: usize) -> Eva
 }
 
 /// Resolves `--free` names against the model's parameters.
-fn free_indices(model: &dyn GreyBox, names: &Option<Vec<String>>, outputs: &[String]) -> Result<Vec<usize>, IdentError> {
+fn free_indices(
+    model: &dyn GreyBox,
+    names: &Option<Vec<String>>,
+    outputs: &[String],
+) -> Result<Vec<usize>, IdentError> {
     match names {
         None => Ok(model.default_free(outputs)),
         Some(names) => names
@@ -417,7 +444,12 @@ fn free_indices(model: &dyn GreyBox, names: &Option<Vec<String>>, outputs: &[Str
                     IdentError::Setup(format!(
                         "--free: `{n}` is not a parameter of the {} model; its parameters are: {}",
                         model.name(),
-                        model.params().iter().map(|p| p.name.as_str()).collect::<Vec<_>>().join(", ")
+                        model
+                            .params()
+                            .iter()
+                            .map(|p| p.name.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", ")
                     ))
                 })
             })
@@ -454,7 +486,9 @@ pub fn fit_structure(
     let spread = |j: usize| {
         let v: Vec<f64> = data.outputs[j].iter().flatten().copied().collect();
         let m = v.iter().sum::<f64>() / v.len() as f64;
-        (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / v.len() as f64).sqrt().max(1e-12)
+        (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / v.len() as f64)
+            .sqrt()
+            .max(1e-12)
     };
     let weights: Vec<f64> = (0..data.outputs.len()).map(|j| 1.0 / spread(j)).collect();
     let settings = FitSettings {
@@ -514,7 +548,13 @@ pub fn identify(
         }
         None => None,
     };
-    Ok(assemble(&structure, &f, estimation, validation, opts.starts))
+    Ok(assemble(
+        &structure,
+        &f,
+        estimation,
+        validation,
+        opts.starts,
+    ))
 }
 
 fn assemble(
@@ -599,15 +639,27 @@ fn state_space_report(pair: &DcmcPair, f: &Fit) -> StateSpaceReport {
     };
     // nalgebra stores column-major: entry (r, c) of A is flat index c * nx + r.
     StateSpaceReport {
-        a: (0..nx).map(|r| (0..nx).map(|c| a[(r, c)]).collect()).collect(),
-        a_std: (0..nx).map(|r| (0..nx).map(|c| std_of(c * nx + r)).collect()).collect(),
-        b: (0..nx).map(|r| (0..2).map(|c| b[(r, c)]).collect()).collect(),
-        b_std: (0..nx).map(|r| (0..2).map(|c| std_of(nx * nx + c * nx + r)).collect()).collect(),
+        a: (0..nx)
+            .map(|r| (0..nx).map(|c| a[(r, c)]).collect())
+            .collect(),
+        a_std: (0..nx)
+            .map(|r| (0..nx).map(|c| std_of(c * nx + r)).collect())
+            .collect(),
+        b: (0..nx)
+            .map(|r| (0..2).map(|c| b[(r, c)]).collect())
+            .collect(),
+        b_std: (0..nx)
+            .map(|r| (0..2).map(|c| std_of(nx * nx + c * nx + r)).collect())
+            .collect(),
     }
 }
 
 /// Simulates a structure at given parameters on a recording (for diagnosis and checks).
-pub fn predict(structure: &Structure, params: &[f64], rec: &Recording) -> Result<(Dataset, Vec<Vec<f64>>), IdentError> {
+pub fn predict(
+    structure: &Structure,
+    params: &[f64],
+    rec: &Recording,
+) -> Result<(Dataset, Vec<Vec<f64>>), IdentError> {
     let model = structure.model();
     let data = Dataset::from_recording(rec, &model.input_names(), &model.output_names())?;
     let y = simulate(model, params, &data).map_err(|d| IdentError::Mismatch {

@@ -105,7 +105,8 @@ pub fn simulate(model: &dyn GreyBox, p: &[f64], data: &Dataset) -> Result<Vec<Ve
     let mut u = vec![0.0; data.inputs.len()];
     let mut y = vec![vec![0.0; n]; data.output_names.len()];
     let max_h = model.max_step_s(p).max(1e-7);
-    let (mut k1, mut k2, mut k3, mut k4) = (vec![0.0; nx], vec![0.0; nx], vec![0.0; nx], vec![0.0; nx]);
+    let (mut k1, mut k2, mut k3, mut k4) =
+        (vec![0.0; nx], vec![0.0; nx], vec![0.0; nx], vec![0.0; nx]);
     let mut tmp = vec![0.0; nx];
     let mut before = vec![0.0; nx];
     for k in 0..n {
@@ -151,7 +152,9 @@ pub fn simulate(model: &dyn GreyBox, p: &[f64], data: &Dataset) -> Result<Vec<Ve
             model.after_step(p, &before, &mut x);
         }
         if x.iter().any(|v| !v.is_finite() || v.abs() > 1e12) {
-            return Err(Diverged { t_s: data.t_s[k + 1] });
+            return Err(Diverged {
+                t_s: data.t_s[k + 1],
+            });
         }
         for (j, kind) in kinds.iter().enumerate() {
             if let OutputKind::IntervalRate(s) = kind {

@@ -22,7 +22,11 @@ fn rel(v: f64, s: Option<f64>) -> String {
 
 fn matrix(out: &mut String, name: &str, m: &[Vec<f64>], s: &[Vec<Option<f64>>]) {
     for (r, row) in m.iter().enumerate() {
-        let label = if r == 0 { format!("{name} =") } else { String::new() };
+        let label = if r == 0 {
+            format!("{name} =")
+        } else {
+            String::new()
+        };
         let cells: Vec<String> = row.iter().zip(&s[r]).map(|(v, s)| pm(*v, *s)).collect();
         let _ = writeln!(out, "  {label:<4} [ {} ]", cells.join("  "));
     }
@@ -31,18 +35,32 @@ fn matrix(out: &mut String, name: &str, m: &[Vec<f64>], s: &[Vec<Option<f64>>]) 
 /// The thesis-style A and B table.
 pub fn state_space_table(ss: &StateSpaceReport) -> String {
     let mut out = String::new();
-    let _ = writeln!(out, "Continuous-time state-space model, states = motor speeds (left, right){}:",
-        if ss.a.len() > 2 { ", then the speed-loop integrators" } else { "" });
+    let _ = writeln!(
+        out,
+        "Continuous-time state-space model, states = motor speeds (left, right){}:",
+        if ss.a.len() > 2 {
+            ", then the speed-loop integrators"
+        } else {
+            ""
+        }
+    );
     matrix(&mut out, "A", &ss.a, &ss.a_std);
     matrix(&mut out, "B", &ss.b, &ss.b_std);
-    let _ = writeln!(out, "  (inputs: forward, turn demand in pct; A in 1/s, B in rad/s^2 per pct)");
+    let _ = writeln!(
+        out,
+        "  (inputs: forward, turn demand in pct; A in 1/s, B in rad/s^2 per pct)"
+    );
     out
 }
 
 fn evaluation(out: &mut String, title: &str, e: &Evaluation) {
     let _ = writeln!(out, "{title}: {} ({} samples)", e.recording, e.n_samples);
     for (name, fit) in &e.fit_pct {
-        let _ = writeln!(out, "  fit {name:<26} {fit:8.2} %   residual RMS {:.4e}", e.rms[name]);
+        let _ = writeln!(
+            out,
+            "  fit {name:<26} {fit:8.2} %   residual RMS {:.4e}",
+            e.rms[name]
+        );
     }
     let _ = writeln!(out, "  loss V = {:.5e}", e.loss);
     for c in &e.checks {
@@ -79,14 +97,34 @@ pub fn render(id: &Identification) -> String {
         id.starts,
         id.iterations,
         id.evaluations,
-        if id.converged { "converged" } else { "stopped at the iteration limit" }
+        if id.converged {
+            "converged"
+        } else {
+            "stopped at the iteration limit"
+        }
     );
-    let _ = writeln!(out, "\n{:<34} {:>12} {:>24} {:>10}", "parameter", "nominal", "estimate ± 1 std", "rel. std");
+    let _ = writeln!(
+        out,
+        "\n{:<34} {:>12} {:>24} {:>10}",
+        "parameter", "nominal", "estimate ± 1 std", "rel. std"
+    );
     for p in &id.params {
         if p.free {
-            let _ = writeln!(out, "{:<34} {:>12.5e} {:>13.6e} ± {:<9.3e} {:>10}", p.name, p.nominal, p.value, p.std.unwrap_or(f64::NAN), rel(p.value, p.std));
+            let _ = writeln!(
+                out,
+                "{:<34} {:>12.5e} {:>13.6e} ± {:<9.3e} {:>10}",
+                p.name,
+                p.nominal,
+                p.value,
+                p.std.unwrap_or(f64::NAN),
+                rel(p.value, p.std)
+            );
         } else {
-            let _ = writeln!(out, "{:<34} {:>12.5e} {:>13.6e}   (fixed)", p.name, p.nominal, p.value);
+            let _ = writeln!(
+                out,
+                "{:<34} {:>12.5e} {:>13.6e}   (fixed)",
+                p.name, p.nominal, p.value
+            );
         }
     }
     if let Some(ss) = &id.state_space {

@@ -218,9 +218,12 @@ impl Rig {
         }
         for (key, value) in rig.numbers() {
             if !value.is_finite() {
-                return Err(invalid(format!("`{key}` = {value}: expected a finite number")));
+                return Err(invalid(format!(
+                    "`{key}` = {value}: expected a finite number"
+                )));
             }
-            let may_be_zero_or_negative = key.starts_with("controller.") || key == "motor.coulomb_Nm";
+            let may_be_zero_or_negative =
+                key.starts_with("controller.") || key == "motor.coulomb_Nm";
             if !may_be_zero_or_negative && value <= 0.0 {
                 return Err(invalid(format!(
                     "`{key}` = {value}: expected a positive value (SI units, see the key's suffix)"
@@ -347,14 +350,22 @@ tracker_rate_hz = 50
         let e = parse("rig = \"drive_axis\"\n[motor]\nresistance_ohms = 0.3\n")
             .unwrap_err()
             .to_string();
-        assert!(e.contains("x.rig.toml") && e.contains("resistance_ohms") && e.contains("line 3"), "{e}");
+        assert!(
+            e.contains("x.rig.toml") && e.contains("resistance_ohms") && e.contains("line 3"),
+            "{e}"
+        );
         let e = parse("rig = \"boat\"\n").unwrap_err().to_string();
         assert!(e.contains("boat") && e.contains("drive_axis"), "{e}");
         let e = parse("rig = \"drive_axis\"\n[motor]\nresistance_ohm = -1\n")
             .unwrap_err()
             .to_string();
-        assert!(e.contains("motor.resistance_ohm") && e.contains("positive"), "{e}");
-        let e = parse("[motor]\nresistance_ohm = 1\n").unwrap_err().to_string();
+        assert!(
+            e.contains("motor.resistance_ohm") && e.contains("positive"),
+            "{e}"
+        );
+        let e = parse("[motor]\nresistance_ohm = 1\n")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("rig"), "{e}");
     }
 }

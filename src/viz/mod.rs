@@ -450,7 +450,9 @@ pub fn save_identification(
         evals.push(("validation", v));
     }
     for (label, e) in evals {
-        let Some(data) = e.data.as_ref() else { continue };
+        let Some(data) = e.data.as_ref() else {
+            continue;
+        };
         for (j, name) in data.output_names.iter().enumerate() {
             for (k, t) in data.t_s.iter().enumerate() {
                 rec.set_duration_secs("t", *t);
@@ -460,8 +462,11 @@ pub fn save_identification(
                 )
                 .map_err(err)?;
                 if let Some(y) = data.outputs[j][k] {
-                    rec.log(format!("{label}/{name}/measured"), &rerun::Scalars::new([y]))
-                        .map_err(err)?;
+                    rec.log(
+                        format!("{label}/{name}/measured"),
+                        &rerun::Scalars::new([y]),
+                    )
+                    .map_err(err)?;
                     rec.log(
                         format!("{label}/{name}/residual"),
                         &rerun::Scalars::new([y - e.predicted[j][k]]),

@@ -30,10 +30,21 @@ impl CoastDown {
         Ok(CoastDown {
             specs: vec![
                 ParamSpec::positive("motor.viscous_Nm_s_rad", need("motor.viscous_Nm_s_rad")?),
-                ParamSpec::positive("motor.coulomb_Nm", rig.get("motor.coulomb_Nm").filter(|v| *v > 0.0).unwrap_or(0.01)),
+                ParamSpec::positive(
+                    "motor.coulomb_Nm",
+                    rig.get("motor.coulomb_Nm")
+                        .filter(|v| *v > 0.0)
+                        .unwrap_or(0.01),
+                ),
                 ParamSpec::positive("initial_speed_rad_s", initial_speed.abs().max(1e-3)),
-                ParamSpec::positive("motor.rotor_inertia_kg_m2", need("motor.rotor_inertia_kg_m2")?),
-                ParamSpec::positive("wheel.inertia_kg_m2", rig.get("wheel.inertia_kg_m2").unwrap_or(0.0).max(1e-12)),
+                ParamSpec::positive(
+                    "motor.rotor_inertia_kg_m2",
+                    need("motor.rotor_inertia_kg_m2")?,
+                ),
+                ParamSpec::positive(
+                    "wheel.inertia_kg_m2",
+                    rig.get("wheel.inertia_kg_m2").unwrap_or(0.0).max(1e-12),
+                ),
             ],
             ratio: rig.get("gearbox.ratio").unwrap_or(1.0),
             encoder: rig.get("sensors.motor_encoder_counts_per_rev").is_some(),

@@ -59,9 +59,13 @@ impl DcmcPair {
     pub fn from_rig(rig: &Rig, path: &Path, case: Case) -> Result<DcmcPair, RigError> {
         let why = "the DCMC pair model takes its starting values from the motor";
         let need = |k: &str| rig.require(k, path, why);
-        let (r, k) = (need("motor.resistance_ohm")?, need("motor.torque_constant_Nm_A")?);
+        let (r, k) = (
+            need("motor.resistance_ohm")?,
+            need("motor.torque_constant_Nm_A")?,
+        );
         let n = rig.get("gearbox.ratio").unwrap_or(1.0);
-        let j = need("motor.rotor_inertia_kg_m2")? + rig.get("wheel.inertia_kg_m2").unwrap_or(0.0) / (n * n);
+        let j = need("motor.rotor_inertia_kg_m2")?
+            + rig.get("wheel.inertia_kg_m2").unwrap_or(0.0) / (n * n);
         let b = rig.get("motor.viscous_Nm_s_rad").unwrap_or(0.0);
         let m = MotorLag {
             alpha: (b + k * k / r) / j,
@@ -92,11 +96,15 @@ impl DcmcPair {
             other => {
                 return Err(RigError::Invalid {
                     file: path.to_owned(),
-                    message: format!("controller.kind = \"{other}\": expected \"gain\", \"p\" or \"pi\""),
+                    message: format!(
+                        "controller.kind = \"{other}\": expected \"gain\", \"p\" or \"pi\""
+                    ),
                 })
             }
         };
-        let signed = |name: String, v: f64| ParamSpec::new(&name, v, -1e6 * v.abs().max(1e-9), 1e6 * v.abs().max(1e-9));
+        let signed = |name: String, v: f64| {
+            ParamSpec::new(&name, v, -1e6 * v.abs().max(1e-9), 1e6 * v.abs().max(1e-9))
+        };
         let rate = |name: String, v: f64| ParamSpec::new(&name, v, -1e5, -1e-6);
         let mut specs = Vec::new();
         match case {
@@ -202,7 +210,10 @@ impl GreyBox for DcmcPair {
     }
 
     fn output_names(&self) -> Vec<String> {
-        vec!["left_motor_speed_rad_s".into(), "right_motor_speed_rad_s".into()]
+        vec![
+            "left_motor_speed_rad_s".into(),
+            "right_motor_speed_rad_s".into(),
+        ]
     }
 
     /// Speeds (left, right), angles (left, right), then the integrators in case 2-II.
@@ -235,7 +246,10 @@ impl GreyBox for DcmcPair {
             }
             Case::Pi => {
                 for i in 0..2 {
-                    dx[i] = p[i] * x[i] + p[2 + 2 * i] * u[0] + p[3 + 2 * i] * u[1] + p[6 + i] * x[4 + i];
+                    dx[i] = p[i] * x[i]
+                        + p[2 + 2 * i] * u[0]
+                        + p[3 + 2 * i] * u[1]
+                        + p[6 + i] * x[4 + i];
                     dx[4 + i] = p[8 + 2 * i] * u[0] + p[9 + 2 * i] * u[1] - x[i];
                 }
             }

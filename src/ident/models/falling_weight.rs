@@ -31,9 +31,20 @@ impl FallingWeight {
         let need = |k: &str| rig.require(k, path, why);
         Ok(FallingWeight {
             specs: vec![
-                ParamSpec::positive("motor.rotor_inertia_kg_m2", need("motor.rotor_inertia_kg_m2")?),
-                ParamSpec::positive("motor.coulomb_Nm", rig.get("motor.coulomb_Nm").filter(|v| *v > 0.0).unwrap_or(0.01)),
-                ParamSpec::positive("motor.torque_constant_Nm_A", need("motor.torque_constant_Nm_A")?),
+                ParamSpec::positive(
+                    "motor.rotor_inertia_kg_m2",
+                    need("motor.rotor_inertia_kg_m2")?,
+                ),
+                ParamSpec::positive(
+                    "motor.coulomb_Nm",
+                    rig.get("motor.coulomb_Nm")
+                        .filter(|v| *v > 0.0)
+                        .unwrap_or(0.01),
+                ),
+                ParamSpec::positive(
+                    "motor.torque_constant_Nm_A",
+                    need("motor.torque_constant_Nm_A")?,
+                ),
                 ParamSpec::positive("motor.viscous_Nm_s_rad", need("motor.viscous_Nm_s_rad")?),
             ],
             mass_kg: need("falling_weight.mass_kg")?,

@@ -36,8 +36,14 @@ impl LinearAxis {
     pub fn from_rig(rig: &Rig, path: &Path) -> Result<LinearAxis, RigError> {
         let need = |k: &str, why: &str| rig.require(k, path, why);
         let specs = vec![
-            ParamSpec::positive("load.mass_kg", need("load.mass_kg", "the linear axis's moving mass")?),
-            ParamSpec::positive("load.viscous_N_s_m", need("load.viscous_N_s_m", "the linear axis's viscous friction")?),
+            ParamSpec::positive(
+                "load.mass_kg",
+                need("load.mass_kg", "the linear axis's moving mass")?,
+            ),
+            ParamSpec::positive(
+                "load.viscous_N_s_m",
+                need("load.viscous_N_s_m", "the linear axis's viscous friction")?,
+            ),
         ];
         let feedback = match rig.feedback.as_ref().and_then(|f| f.kind.as_deref()) {
             None => Loop::Open,
@@ -66,9 +72,9 @@ impl LinearAxis {
     pub fn command_v(&self, x: &[f64], reference_m: f64) -> f64 {
         match self.feedback {
             Loop::Open => f64::NAN,
-            Loop::PositionVelocityCascade { kp_1_s, kv_v_s_m } => {
-                (kv_v_s_m * (kp_1_s * (reference_m - x[0]) - x[1])).clamp(-self.limit_v, self.limit_v)
-            }
+            Loop::PositionVelocityCascade { kp_1_s, kv_v_s_m } => (kv_v_s_m
+                * (kp_1_s * (reference_m - x[0]) - x[1]))
+                .clamp(-self.limit_v, self.limit_v),
         }
     }
 }

@@ -44,9 +44,18 @@ impl RotaryAxis {
         let mut specs = vec![
             ParamSpec::positive("motor.resistance_ohm", need("motor.resistance_ohm")?),
             ParamSpec::positive("motor.inductance_H", need("motor.inductance_H")?),
-            ParamSpec::positive("motor.torque_constant_Nm_A", need("motor.torque_constant_Nm_A")?),
-            ParamSpec::positive("motor.rotor_inertia_kg_m2", need("motor.rotor_inertia_kg_m2")?),
-            ParamSpec::positive("wheel.inertia_kg_m2", rig.get("wheel.inertia_kg_m2").unwrap_or(0.0).max(1e-12)),
+            ParamSpec::positive(
+                "motor.torque_constant_Nm_A",
+                need("motor.torque_constant_Nm_A")?,
+            ),
+            ParamSpec::positive(
+                "motor.rotor_inertia_kg_m2",
+                need("motor.rotor_inertia_kg_m2")?,
+            ),
+            ParamSpec::positive(
+                "wheel.inertia_kg_m2",
+                rig.get("wheel.inertia_kg_m2").unwrap_or(0.0).max(1e-12),
+            ),
             ParamSpec::positive("motor.viscous_Nm_s_rad", need("motor.viscous_Nm_s_rad")?),
         ];
         if input == AxisInput::Demand {
@@ -117,9 +126,14 @@ impl GreyBox for RotaryAxis {
     }
 
     fn output_names(&self) -> Vec<String> {
-        ["motor_speed_rad_s", "current_A", "motor_angle_rad", "wheel_angle_rad"]
-            .map(String::from)
-            .to_vec()
+        [
+            "motor_speed_rad_s",
+            "current_A",
+            "motor_angle_rad",
+            "wheel_angle_rad",
+        ]
+        .map(String::from)
+        .to_vec()
     }
 
     fn n_states(&self) -> usize {
@@ -129,7 +143,10 @@ impl GreyBox for RotaryAxis {
     fn initial_state(&self, _p: &[f64], data: &Dataset) -> Vec<f64> {
         let angle = data
             .first_measured("motor_angle_rad")
-            .or_else(|| data.first_measured("wheel_angle_rad").map(|a| a * self.ratio))
+            .or_else(|| {
+                data.first_measured("wheel_angle_rad")
+                    .map(|a| a * self.ratio)
+            })
             .unwrap_or(0.0);
         vec![0.0, 0.0, angle]
     }
