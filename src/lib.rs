@@ -16,6 +16,7 @@
 //! - [`viz`]: the Rerun recorder (an observer of snapshots).
 //! - [`run`]: running a scene with its observers, as the CLI does.
 
+pub mod diagnose;
 pub mod experiment;
 pub mod firmware;
 pub mod ident;

@@ -93,6 +93,25 @@ enum Command {
         #[arg(long, default_value_t = 0.0, value_parser = non_negative)]
         rig_error: f64,
     },
+    /// Find what physics the rig's model leaves out: fit the nominal model, locate the
+    /// residual by regime, fit each candidate effect, keep what is significant.
+    Diagnose {
+        /// Rig file (NAME.rig.toml).
+        #[arg(long)]
+        rig: PathBuf,
+        /// Recording (NAME.csv, exchange format).
+        #[arg(long)]
+        recording: PathBuf,
+        /// A second recording to check the diagnosed model on.
+        #[arg(long)]
+        validate: Option<PathBuf>,
+        /// Write the diagnosis JSON (contract format) here.
+        #[arg(long)]
+        json: Option<PathBuf>,
+        /// Write a report folder (text, SVG plots of baseline and diagnosed fits).
+        #[arg(long)]
+        report: Option<PathBuf>,
+    },
     /// Fit a rig's model to a recording: parameters with standard deviations, loss, FPE,
     /// AIC, fit per output and residual checks.
     Identify {
@@ -292,6 +311,35 @@ fn main() -> ExitCode {
                     println!("rig        {}", o.rig.display());
                     for f in &o.extra {
                         println!("also       {}", f.display());
+                    }
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
+        Command::Diagnose {
+            rig,
+            recording,
+            validate,
+            json,
+            report,
+        } => {
+            let job = agvsim::diagnose::job::DiagnoseJob {
+                rig,
+                recording,
+                validate,
+                json,
+                report_dir: report,
+                options: Default::default(),
+            };
+            match agvsim::diagnose::job::run(&job) {
+                Ok((d, written)) => {
+                    print!("{}", agvsim::diagnose::job::render(&d));
+                    for f in &written {
+                        println!("wrote      {}", f.display());
                     }
                     ExitCode::SUCCESS
                 }

@@ -89,6 +89,12 @@ impl Dataset {
         }
     }
 
+    /// Input values at time t (zero-order held; the first row's before the record).
+    pub fn input_at(&self, t: f64, u: &mut [f64]) {
+        let k = self.t_s.partition_point(|&x| x <= t).saturating_sub(1);
+        self.input_row(k, u);
+    }
+
     /// Number of measured output cells.
     pub fn measured_cells(&self) -> usize {
         self.outputs

@@ -227,6 +227,7 @@ fn run_lm(pb: &Problem, max_iterations: usize) -> Result<Fit, FitError> {
     let mut evaluations = 1;
     let mut iterations = 0;
     let mut converged = z.is_empty();
+    let mut small_steps = 0;
     let n = z.len();
     while iterations < max_iterations && !converged {
         iterations += 1;
@@ -269,7 +270,10 @@ fn run_lm(pb: &Problem, max_iterations: usize) -> Result<Fit, FitError> {
                     cost = c_new;
                     lambda = (lambda * 0.2).max(1e-12);
                     improved = true;
-                    if rel < 1e-10 || moved < 1e-9 {
+                    // Improvements far below any statistical meaning, several in a row,
+                    // end the search as surely as a zero step does.
+                    small_steps = if rel < 1e-6 { small_steps + 1 } else { 0 };
+                    if rel < 1e-10 || moved < 1e-9 || small_steps >= 3 {
                         converged = true;
                     }
                     break;

@@ -4,6 +4,7 @@
 //! checks (`resid`), on the estimation recording and optionally on a validation one.
 
 pub mod data;
+pub mod effects;
 pub mod fit;
 pub mod job;
 pub mod model;
@@ -353,6 +354,17 @@ pub fn fit_pct(measured: &[Option<f64>], predicted: &[f64]) -> f64 {
         return if err == 0.0 { 100.0 } else { f64::NEG_INFINITY };
     }
     100.0 * (1.0 - err / spread)
+}
+
+/// Mean over outputs of the normalised fit, %.
+pub fn fit_pct_mean(data: &Dataset, predicted: &[Vec<f64>]) -> f64 {
+    let f: Vec<f64> = data
+        .outputs
+        .iter()
+        .zip(predicted)
+        .map(|(y, p)| fit_pct(y, p))
+        .collect();
+    f.iter().sum::<f64>() / f.len().max(1) as f64
 }
 
 /// Loss V: determinant of the residual covariance over rows where all outputs are measured

@@ -26,9 +26,11 @@ impl ParamSpec {
         }
     }
 
-    /// A strictly positive physical quantity, searched on a log scale.
+    /// A strictly positive physical quantity, searched on a log scale within a factor of 10
+    /// of the rig's belief (beliefs are tens of percent off, not orders of magnitude; the
+    /// bound also keeps the search out of absurdly stiff corners).
     pub fn positive(name: &str, nominal: f64) -> ParamSpec {
-        ParamSpec::new(name, nominal, nominal.abs() * 1e-4, nominal.abs() * 1e4)
+        ParamSpec::new(name, nominal, nominal.abs() * 0.1, nominal.abs() * 10.0)
     }
 }
 
@@ -64,6 +66,11 @@ pub trait GreyBox: Sync {
     fn initial_state(&self, p: &[f64], data: &Dataset) -> Vec<f64>;
     /// Longest integration step the dynamics allow at these parameters, s.
     fn max_step_s(&self, p: &[f64]) -> f64;
+    /// Dead time between the recorded input and its action, s (inputs are then looked up,
+    /// zero-order held, at t - delay at every integration stage).
+    fn input_delay_s(&self, _p: &[f64]) -> f64 {
+        0.0
+    }
     /// Called at each sample instant before integrating over the next interval.
     fn hold(&self, _p: &[f64], _t_s: f64, _x: &[f64], _u: &[f64], _held: &mut [f64]) {}
     fn derivatives(&self, p: &[f64], x: &[f64], u: &[f64], held: &[f64], dx: &mut [f64]);
@@ -91,6 +98,9 @@ pub struct Diverged {
     pub t_s: f64,
 }
 
+/// Most integration steps a model may take between two samples.
+pub const MAX_SUBSTEPS: usize = 2000;
+
 /// Predicted outputs, `[output][row]`, in the dataset's output order.
 pub fn simulate(model: &dyn GreyBox, p: &[f64], data: &Dataset) -> Result<Vec<Vec<f64>>, Diverged> {
     let n = data.len();
@@ -105,6 +115,7 @@ pub fn simulate(model: &dyn GreyBox, p: &[f64], data: &Dataset) -> Result<Vec<Ve
     let mut u = vec![0.0; data.inputs.len()];
     let mut y = vec![vec![0.0; n]; data.output_names.len()];
     let max_h = model.max_step_s(p).max(1e-7);
+    let delay = model.input_delay_s(p);
     let (mut k1, mut k2, mut k3, mut k4) =
         (vec![0.0; nx], vec![0.0; nx], vec![0.0; nx], vec![0.0; nx]);
     let mut tmp = vec![0.0; nx];
@@ -128,15 +139,33 @@ pub fn simulate(model: &dyn GreyBox, p: &[f64], data: &Dataset) -> Result<Vec<Ve
             break;
         }
         let interval = data.t_s[k + 1] - t;
-        let steps = (interval / max_h).ceil().max(1.0) as usize;
+        // A delay moves input changes inside intervals: step finely enough to place them.
+        let h_max = if delay > 0.0 {
+            max_h.min(interval / 4.0)
+        } else {
+            max_h
+        };
+        let steps = (interval / h_max).ceil().max(1.0) as usize;
+        if steps > MAX_SUBSTEPS {
+            // Parameters this stiff are outside any physical reading of the record.
+            return Err(Diverged { t_s: t });
+        }
         let h = interval / steps as f64;
         let start = x.clone();
-        for _ in 0..steps {
+        for step in 0..steps {
             before.copy_from_slice(&x);
+            let t0 = t + step as f64 * h;
+            let at = |tau: f64, u: &mut Vec<f64>| {
+                if delay > 0.0 {
+                    data.input_at(tau - delay, u);
+                }
+            };
+            at(t0, &mut u);
             model.derivatives(p, &x, &u, &held, &mut k1);
             for i in 0..nx {
                 tmp[i] = x[i] + 0.5 * h * k1[i];
             }
+            at(t0 + 0.5 * h, &mut u);
             model.derivatives(p, &tmp, &u, &held, &mut k2);
             for i in 0..nx {
                 tmp[i] = x[i] + 0.5 * h * k2[i];
@@ -145,6 +174,7 @@ pub fn simulate(model: &dyn GreyBox, p: &[f64], data: &Dataset) -> Result<Vec<Ve
             for i in 0..nx {
                 tmp[i] = x[i] + h * k3[i];
             }
+            at(t0 + h, &mut u);
             model.derivatives(p, &tmp, &u, &held, &mut k4);
             for i in 0..nx {
                 x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);

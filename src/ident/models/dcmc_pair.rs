@@ -132,7 +132,12 @@ impl DcmcPair {
         }
         if case == Case::Pi {
             for side in SIDES {
-                specs.push(ParamSpec::positive(&format!("e_{side}_1_s2"), e_nom));
+                specs.push(ParamSpec::new(
+                    &format!("e_{side}_1_s2"),
+                    e_nom,
+                    1e-4 * e_nom,
+                    1e4 * e_nom,
+                ));
             }
             for (i, side) in SIDES.iter().enumerate() {
                 for (jj, d) in DEMANDS.iter().enumerate() {

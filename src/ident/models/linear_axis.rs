@@ -7,6 +7,7 @@
 use std::path::Path;
 
 use crate::ident::data::Dataset;
+use crate::ident::effects::{self, Effect};
 use crate::ident::model::{GreyBox, OutputKind, ParamSpec};
 use crate::rig::{Rig, RigError};
 
@@ -30,6 +31,10 @@ pub struct LinearAxis {
     /// Command limit, V (infinite when the rig gives none).
     pub limit_v: f64,
     pub feedback: Loop,
+    /// Effects switched on, with the index of each one's parameter.
+    pub effects: Vec<(Effect, usize)>,
+    /// Smoothing speed of Coulomb friction, m/s.
+    pub coulomb_eps_m_s: f64,
 }
 
 impl LinearAxis {
@@ -65,7 +70,45 @@ impl LinearAxis {
             force_per_volt: need("drive.force_per_volt_N_V", "force = gain x command_V")?,
             limit_v: rig.get("drive.limit_V").unwrap_or(f64::INFINITY),
             feedback,
+            effects: vec![],
+            coulomb_eps_m_s: 1e-3,
         })
+    }
+
+    /// Effects that can act on a linear axis behind a current amplifier.
+    pub fn applicable(&self) -> Vec<Effect> {
+        let mut e = vec![
+            Effect::CoulombFriction,
+            Effect::Offset,
+            Effect::FrictionAsymmetry,
+        ];
+        // In closed loop the input is the reference, not the actuation: a dead time of the
+        // amplifier would have to sit inside the loop, which this model does not place.
+        if self.feedback == Loop::Open {
+            e.push(Effect::TransportDelay);
+        }
+        e
+    }
+
+    /// This model with one more effect (see `RotaryAxis::with_effect`).
+    pub fn with_effect(
+        &self,
+        effect: Effect,
+        start: f64,
+        lo: f64,
+        hi: f64,
+        max_speed: f64,
+    ) -> LinearAxis {
+        let mut m = self.clone();
+        m.specs
+            .push(ParamSpec::new(effect.param_name(true), start, lo, hi));
+        m.effects.push((effect, m.specs.len() - 1));
+        m.coulomb_eps_m_s = (effects::COULOMB_SMOOTHING_FRACTION * max_speed).max(1e-6);
+        m
+    }
+
+    fn effect(&self, e: Effect) -> Option<usize> {
+        self.effects.iter().find(|(x, _)| *x == e).map(|(_, i)| *i)
     }
 
     /// The controller's command at a state, V.
@@ -135,10 +178,26 @@ impl GreyBox for LinearAxis {
         };
     }
 
+    fn input_delay_s(&self, p: &[f64]) -> f64 {
+        self.effect(Effect::TransportDelay).map_or(0.0, |i| p[i])
+    }
+
     fn derivatives(&self, p: &[f64], x: &[f64], _u: &[f64], held: &[f64], dx: &mut [f64]) {
-        let force = self.force_per_volt * held[0];
+        let mut force = self.force_per_volt * held[0];
+        let v = x[1];
+        let viscous = match self.effect(Effect::FrictionAsymmetry) {
+            Some(i) => effects::asymmetric_viscous(p[VISCOUS], p[i], v),
+            None => p[VISCOUS] * v,
+        };
+        force -= viscous;
+        if let Some(i) = self.effect(Effect::CoulombFriction) {
+            force -= effects::smooth_coulomb(p[i], v, self.coulomb_eps_m_s);
+        }
+        if let Some(i) = self.effect(Effect::Offset) {
+            force += p[i];
+        }
         dx[0] = x[1];
-        dx[1] = (force - p[VISCOUS] * x[1]) / p[MASS];
+        dx[1] = force / p[MASS];
     }
 
     fn output_kind(&self, _name: &str) -> OutputKind {

@@ -7,7 +7,9 @@
 use std::path::Path;
 
 use crate::ident::data::Dataset;
+use crate::ident::effects::{self, Effect};
 use crate::ident::model::{GreyBox, OutputKind, ParamSpec};
+use crate::model::gearbox::GearboxParams;
 use crate::rig::{Rig, RigError};
 
 /// What drives the armature.
@@ -27,7 +29,15 @@ pub const JW: usize = 4;
 pub const B: usize = 5;
 pub const GAIN: usize = 6;
 
-/// The nominal rotary axis.
+/// Tooth contact of the backlash block, referred to the wheel (not in the rig; the fit
+/// is insensitive to it once it is stiff against the sample rate).
+pub const TOOTH_STIFFNESS_NM_RAD: f64 = 5000.0;
+pub const TOOTH_DAMPING_NM_S_RAD: f64 = 3.0;
+/// Share of the viscous friction on the wheel side of the play when the backlash block is
+/// on (the rig gives only the total).
+pub const WHEEL_SIDE_VISCOUS_SHARE: f64 = 0.3;
+
+/// The rotary axis with any effects switched on.
 #[derive(Debug, Clone)]
 pub struct RotaryAxis {
     specs: Vec<ParamSpec>,
@@ -36,6 +46,12 @@ pub struct RotaryAxis {
     pub ratio: f64,
     /// Speeds come from an encoder (count difference over the sample interval).
     pub encoder: bool,
+    /// Supply voltage the rig states, V (PWM reference of the battery-sag block).
+    pub supply_v: f64,
+    /// Effects switched on, with the index of each one's parameter.
+    pub effects: Vec<(Effect, usize)>,
+    /// Smoothing speed of Coulomb friction, rad/s.
+    pub coulomb_eps_rad_s: f64,
 }
 
 impl RotaryAxis {
@@ -69,7 +85,77 @@ impl RotaryAxis {
             input,
             ratio: rig.get("gearbox.ratio").unwrap_or(1.0),
             encoder: rig.get("sensors.motor_encoder_counts_per_rev").is_some(),
+            supply_v: rig.get("supply.voltage_V").unwrap_or(24.0),
+            effects: vec![],
+            coulomb_eps_rad_s: 1.0,
         })
+    }
+
+    /// Effects that can act on a lifted rotary axis with this input.
+    pub fn applicable(&self) -> Vec<Effect> {
+        let mut e = vec![
+            Effect::Backlash,
+            Effect::CoulombFriction,
+            Effect::FrictionAsymmetry,
+            Effect::Offset,
+            Effect::VoltageSaturation,
+            Effect::BatterySag,
+            Effect::TransportDelay,
+        ];
+        if self.input == AxisInput::Demand {
+            e.push(Effect::SpeedFeedback);
+        }
+        e
+    }
+
+    /// This model with one more effect, its parameter starting at `start` within
+    /// `[lo, hi]`. `max_speed` sets the Coulomb smoothing.
+    pub fn with_effect(
+        &self,
+        effect: Effect,
+        start: f64,
+        lo: f64,
+        hi: f64,
+        max_speed: f64,
+    ) -> RotaryAxis {
+        let mut m = self.clone();
+        m.specs
+            .push(ParamSpec::new(effect.param_name(false), start, lo, hi));
+        m.effects.push((effect, m.specs.len() - 1));
+        m.coulomb_eps_rad_s = (effects::COULOMB_SMOOTHING_FRACTION * max_speed).max(1e-3);
+        m
+    }
+
+    fn effect(&self, e: Effect) -> Option<usize> {
+        self.effects.iter().find(|(x, _)| *x == e).map(|(_, i)| *i)
+    }
+
+    fn gearbox(&self, p: &[f64], play: usize) -> GearboxParams {
+        GearboxParams {
+            ratio: self.ratio,
+            backlash_rad: p[play],
+            tooth_stiffness_nm_rad: TOOTH_STIFFNESS_NM_RAD,
+            tooth_damping_nm_s_rad: TOOTH_DAMPING_NM_S_RAD,
+        }
+    }
+
+    /// Friction torque at the motor shaft besides its viscous part, N m.
+    fn extra_friction(&self, p: &[f64], w: f64) -> f64 {
+        let mut t = 0.0;
+        if let Some(i) = self.effect(Effect::CoulombFriction) {
+            t += effects::smooth_coulomb(p[i], w, self.coulomb_eps_rad_s);
+        }
+        if let Some(i) = self.effect(Effect::Offset) {
+            t -= p[i];
+        }
+        t
+    }
+
+    fn viscous(&self, p: &[f64], b: f64, w: f64) -> f64 {
+        match self.effect(Effect::FrictionAsymmetry) {
+            Some(i) => effects::asymmetric_viscous(b, p[i], w),
+            None => b * w,
+        }
     }
 
     /// Total inertia at the motor shaft, kg m^2.
@@ -136,8 +222,10 @@ impl GreyBox for RotaryAxis {
         .to_vec()
     }
 
+    /// Current, motor speed, motor angle, wheel speed and angle (backlash block), and the
+    /// speed-loop integral (speed-feedback block).
     fn n_states(&self) -> usize {
-        3
+        6
     }
 
     fn initial_state(&self, _p: &[f64], data: &Dataset) -> Vec<f64> {
@@ -148,17 +236,58 @@ impl GreyBox for RotaryAxis {
                     .map(|a| a * self.ratio)
             })
             .unwrap_or(0.0);
-        vec![0.0, 0.0, angle]
+        vec![0.0, 0.0, angle, 0.0, angle / self.ratio, 0.0]
     }
 
     fn max_step_s(&self, p: &[f64]) -> f64 {
-        (0.5 * p[L] / p[R]).min(0.2 * self.mechanical_time_constant_s(p))
+        let mut h = (0.5 * p[L] / p[R]).min(0.2 * self.mechanical_time_constant_s(p));
+        if self.effect(Effect::Backlash).is_some() {
+            let n2 = self.ratio * self.ratio;
+            let j_red = p[JW] * p[JM] * n2 / (p[JW] + p[JM] * n2);
+            let rate = (TOOTH_STIFFNESS_NM_RAD / j_red).sqrt() + TOOTH_DAMPING_NM_S_RAD / j_red;
+            h = h.min(0.3 / rate);
+        }
+        h
+    }
+
+    fn input_delay_s(&self, p: &[f64]) -> f64 {
+        self.effect(Effect::TransportDelay).map_or(0.0, |i| p[i])
     }
 
     fn derivatives(&self, p: &[f64], x: &[f64], u: &[f64], _held: &[f64], dx: &mut [f64]) {
-        let v = self.voltage(p, u[0]);
+        let mut v = self.voltage(p, u[0]);
+        dx[5] = 0.0;
+        if let Some(i) = self.effect(Effect::SpeedFeedback) {
+            // The DCMC's own loop: set-point from the demand, calibrated to the motor.
+            let w_ref = v / p[K];
+            v += p[i] * x[5];
+            dx[5] = w_ref - x[1];
+        }
+        if let Some(i) = self.effect(Effect::VoltageSaturation) {
+            v = v.clamp(-p[i], p[i]);
+        }
+        if let Some(i) = self.effect(Effect::BatterySag) {
+            v = effects::bridge_voltage(v, self.supply_v, self.supply_v, p[i], x[0]);
+        }
         dx[0] = (v - p[R] * x[0] - p[K] * x[1]) / p[L];
-        dx[1] = (p[K] * x[0] - p[B] * x[1]) / self.inertia_at_motor(p);
+        let drive = p[K] * x[0] - self.extra_friction(p, x[1]);
+        match self.effect(Effect::Backlash) {
+            None => {
+                dx[1] = (drive - self.viscous(p, p[B], x[1])) / self.inertia_at_motor(p);
+                dx[3] = 0.0;
+                dx[4] = x[1] / self.ratio;
+            }
+            Some(play) => {
+                let n = self.ratio;
+                let g = self.gearbox(p, play);
+                let tooth = g.tooth_contact_torque(x[2] / n - x[4], x[1] / n - x[3]);
+                let b_motor = p[B] * (1.0 - WHEEL_SIDE_VISCOUS_SHARE);
+                let b_wheel = p[B] * WHEEL_SIDE_VISCOUS_SHARE * n * n;
+                dx[1] = (drive - self.viscous(p, b_motor, x[1]) - tooth / n) / p[JM];
+                dx[3] = (tooth - self.viscous(p, b_wheel, x[3])) / p[JW];
+                dx[4] = x[3];
+            }
+        }
         dx[2] = x[1];
     }
 
@@ -175,7 +304,7 @@ impl GreyBox for RotaryAxis {
             "motor_speed_rad_s" => x[1],
             "current_A" => x[0],
             "motor_angle_rad" => x[2],
-            "wheel_angle_rad" => x[2] / self.ratio,
+            "wheel_angle_rad" => x[4],
             _ => f64::NAN,
         }
     }

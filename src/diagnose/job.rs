@@ -1,0 +1,118 @@
+//! `agvsim diagnose` as a library call: load, diagnose, write the contract JSON, a report
+//! folder (text and SVG plots) and a Rerun file when asked.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use super::{diagnose, DiagnoseOptions, Diagnosis};
+use crate::ident::{plot, IdentError};
+use crate::record::Recording;
+use crate::rig::Rig;
+
+#[derive(Debug, Clone, Default)]
+pub struct DiagnoseJob {
+    pub rig: PathBuf,
+    pub recording: PathBuf,
+    pub validate: Option<PathBuf>,
+    pub json: Option<PathBuf>,
+    pub report_dir: Option<PathBuf>,
+    pub options: DiagnoseOptions,
+}
+
+fn io(path: &Path) -> impl Fn(std::io::Error) -> IdentError + '_ {
+    move |e| IdentError::Setup(format!("{}: {e}", path.display()))
+}
+
+/// The diagnosis in plain words.
+pub fn render(d: &Diagnosis) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "Recording: {}   model: {}", d.recording, d.model);
+    let _ = writeln!(
+        s,
+        "Baseline (nominal model, parameters fitted): fit {:.2} %",
+        d.baseline_fit_pct
+    );
+    let _ = writeln!(
+        s,
+        "Where the baseline residual lives (energy share against share of samples):"
+    );
+    for r in d.where_before.iter().take(4) {
+        let _ = writeln!(
+            s,
+            "  {:5.1} % of the energy in {:5.1} % of samples {}",
+            r.energy_pct, r.samples_pct, r.regime
+        );
+    }
+    for (i, round) in d.rounds.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "Candidates, round {} (effective residual count {:.0}):",
+            i + 1,
+            d.effective_n
+        );
+        for c in round {
+            let _ = writeln!(
+                s,
+                "  {:<20} {} = {:<12.5e} RSS -{:5.1} %  dAIC {:9.1}  {}",
+                c.name,
+                c.param,
+                c.value,
+                c.rss_reduction_pct,
+                c.delta_aic,
+                if c.significant { "significant" } else { "" }
+            );
+        }
+    }
+    if d.findings.is_empty() {
+        let _ = writeln!(s, "Verdict: nothing is missing; no effect explains enough of the residual to be told from noise.");
+    }
+    for f in &d.findings {
+        let std = f.std.map(|v| format!(" ± {v:.3e}")).unwrap_or_default();
+        let _ = writeln!(
+            s,
+            "Found: {} — {} ({} = {:.5e}{std})",
+            f.effect.name(),
+            f.description,
+            f.param,
+            f.value
+        );
+        let _ = writeln!(s, "  evidence: {}", f.evidence);
+        let _ = writeln!(s, "  fit {:.2} % -> {:.2} %", d.baseline_fit_pct, f.fit_pct);
+    }
+    if let Some((b, a)) = &d.validation {
+        let _ = writeln!(
+            s,
+            "Validation {}: fit {:.2} % (baseline) -> {:.2} % (diagnosed)",
+            b.recording, b.fit_pct_mean, a.fit_pct_mean
+        );
+    }
+    s
+}
+
+pub fn run(job: &DiagnoseJob) -> Result<(Diagnosis, Vec<PathBuf>), IdentError> {
+    let rig = Rig::load(&job.rig)?;
+    let rec = Recording::load(&job.recording)?;
+    let val = job.validate.as_deref().map(Recording::load).transpose()?;
+    let d = diagnose(&rig, &job.rig, &rec, val.as_ref(), &job.options)?;
+    let mut written = Vec::new();
+    if let Some(p) = &job.json {
+        if let Some(dir) = p.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(io(dir))?;
+        }
+        std::fs::write(
+            p,
+            serde_json::to_string_pretty(&d.contract_json()).expect("json"),
+        )
+        .map_err(io(p))?;
+        written.push(p.clone());
+    }
+    if let Some(dir) = &job.report_dir {
+        std::fs::create_dir_all(dir).map_err(io(dir))?;
+        let txt = dir.join("diagnosis.txt");
+        std::fs::write(&txt, render(&d)).map_err(io(&txt))?;
+        written.push(txt);
+        written.extend(plot::write_evaluation(dir, "baseline", &d.baseline).map_err(io(dir))?);
+        written.extend(plot::write_evaluation(dir, "diagnosed", &d.diagnosed).map_err(io(dir))?);
+    }
+    Ok((d, written))
+}

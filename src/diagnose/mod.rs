@@ -1,0 +1,584 @@
+//! Diagnosis: when the nominal model, its parameters fitted, still disagrees with a
+//! recording, locate where, name the missing physics from the contract's vocabulary, fit
+//! it, and show the improvement.
+//!
+//! 1. **Baseline**: identify the rig's nominal model (its default free parameters).
+//! 2. **Locate**: the baseline residual's energy by operating regime (`regimes`).
+//! 3. **Hypothesise**: every vocabulary effect that applies to the structure, as an
+//!    optional block of the same model.
+//! 4. **Fit and select**: each candidate is fitted with the nominal free parameters, from
+//!    two starting values of its own parameter, with the baseline's output weights. A
+//!    candidate is significant when its AIC gain, computed with the *effective* number of
+//!    independent residuals (the baseline residual is coloured, so N overstates the
+//!    evidence), exceeds [`MIN_DELTA_AIC`] and it removes at least [`MIN_RSS_REDUCTION`] of
+//!    the residual. The most significant is accepted and the search repeats once for a
+//!    second effect.
+
+pub mod job;
+pub mod regimes;
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::ident::data::Dataset;
+use crate::ident::effects::Effect;
+use crate::ident::fit::{self, Fit, FitSettings};
+use crate::ident::model::simulate;
+use crate::ident::{
+    build_structure, evaluate, fit_structure, Evaluation, IdentError, IdentifyOptions, Structure,
+};
+use crate::record::Recording;
+use crate::rig::Rig;
+use regimes::RegimeShare;
+
+/// Smallest gain in AIC (with the effective sample count) that counts as evidence.
+pub const MIN_DELTA_AIC: f64 = 10.0;
+/// Smallest share of the baseline's residual sum of squares an effect must remove.
+pub const MIN_RSS_REDUCTION: f64 = 0.03;
+/// Fewest samples a diagnosis will decide on.
+pub const MIN_SAMPLES: usize = 100;
+
+/// One candidate effect as fitted.
+#[derive(Debug, Clone, Serialize)]
+pub struct Candidate {
+    pub name: String,
+    pub param: String,
+    pub value: f64,
+    pub std: Option<f64>,
+    pub fit_pct: f64,
+    /// Share of the residual sum of squares removed, %.
+    pub rss_reduction_pct: f64,
+    /// AIC gain with the effective number of residuals.
+    pub delta_aic: f64,
+    pub significant: bool,
+}
+
+/// An accepted effect.
+#[derive(Debug, Clone)]
+pub struct Finding {
+    pub effect: Effect,
+    pub param: String,
+    pub value: f64,
+    pub std: Option<f64>,
+    pub fit_pct: f64,
+    pub evidence: String,
+    /// The physics in words.
+    pub description: String,
+}
+
+/// The result of a diagnosis.
+#[derive(Debug, Clone)]
+pub struct Diagnosis {
+    pub recording: String,
+    pub model: String,
+    pub baseline_fit_pct: f64,
+    pub baseline_params: BTreeMap<String, f64>,
+    /// Baseline residual energy by regime.
+    pub where_before: Vec<RegimeShare>,
+    /// Residual energy by regime after the accepted effects.
+    pub where_after: Vec<RegimeShare>,
+    /// Every candidate of each round.
+    pub rounds: Vec<Vec<Candidate>>,
+    pub findings: Vec<Finding>,
+    pub final_fit_pct: f64,
+    pub final_params: BTreeMap<String, f64>,
+    /// Effective number of independent residuals used in the AIC comparison.
+    pub effective_n: f64,
+    pub baseline: Evaluation,
+    pub diagnosed: Evaluation,
+    pub validation: Option<(Evaluation, Evaluation)>,
+}
+
+impl Diagnosis {
+    /// The contract's JSON object.
+    pub fn contract_json(&self) -> serde_json::Value {
+        let effects: Vec<serde_json::Value> = self
+            .findings
+            .iter()
+            .map(|f| {
+                serde_json::json!({
+                    "name": f.effect.name(),
+                    "params": { f.param.clone(): f.value },
+                    "std": { f.param.clone(): f.std },
+                    "fit_pct": f.fit_pct,
+                    "evidence": f.evidence,
+                    "description": f.description,
+                })
+            })
+            .collect();
+        let mut v = serde_json::json!({
+            "recording": self.recording,
+            "model": self.model,
+            "baseline": {"fit_pct": self.baseline_fit_pct, "params": self.baseline_params},
+            "effects": effects,
+            "final": {"fit_pct": self.final_fit_pct, "params": self.final_params},
+            "where_before": self.where_before,
+            "where_after": self.where_after,
+            "candidates": self.rounds,
+            "effective_n": self.effective_n,
+        });
+        if let Some((b, d)) = &self.validation {
+            v["validation"] = serde_json::json!({
+                "recording": b.recording,
+                "baseline_fit_pct": b.fit_pct_mean,
+                "final_fit_pct": d.fit_pct_mean,
+            });
+        }
+        v
+    }
+}
+
+/// Scales of a record that set effect starting values and bounds.
+struct Scales {
+    /// Largest actuation voltage (or force command), V.
+    v_max: f64,
+    /// Largest measured speed.
+    speed_max: f64,
+    /// Typical sample interval, s.
+    dt: f64,
+    /// Stall torque K V / R (rotary), N m, or largest force (linear), N.
+    effort: f64,
+    /// Mechanical time constant, s.
+    tau: f64,
+}
+
+impl Structure {
+    fn applicable(&self) -> Vec<Effect> {
+        match self {
+            Structure::Rotary(m) => m.applicable(),
+            Structure::Linear(m) => m.applicable(),
+            _ => vec![],
+        }
+    }
+
+    fn with_effect(&self, e: Effect, start: f64, lo: f64, hi: f64, speed_max: f64) -> Structure {
+        match self {
+            Structure::Rotary(m) => Structure::Rotary(m.with_effect(e, start, lo, hi, speed_max)),
+            Structure::Linear(m) => Structure::Linear(m.with_effect(e, start, lo, hi, speed_max)),
+            other => other.clone(),
+        }
+    }
+}
+
+/// A scan grid and the bounds of an effect's parameter. Effects like backlash have narrow
+/// basins (a wrong play shifts every engagement), so a local solver needs a start found by
+/// scanning the parameter with the baseline's other values.
+fn effect_grid(e: Effect, s: &Scales) -> (Vec<f64>, f64, f64) {
+    let log = |a: f64, b: f64, n: usize| -> Vec<f64> {
+        (0..n)
+            .map(|i| a * (b / a).powf(i as f64 / (n - 1) as f64))
+            .collect()
+    };
+    let lin = |a: f64, b: f64, n: usize| -> Vec<f64> {
+        (0..n)
+            .map(|i| a + (b - a) * i as f64 / (n - 1) as f64)
+            .collect()
+    };
+    match e {
+        Effect::Backlash => (log(0.002, 0.4, 24), 1e-4, 1.0),
+        Effect::CoulombFriction => (
+            log(1e-3 * s.effort, 0.2 * s.effort, 16),
+            1e-6 * s.effort,
+            s.effort,
+        ),
+        Effect::FrictionAsymmetry => (log(0.4, 2.5, 13), 0.1, 10.0),
+        Effect::Offset => (
+            lin(-0.05 * s.effort, 0.05 * s.effort, 13),
+            -s.effort,
+            s.effort,
+        ),
+        Effect::VoltageSaturation => (
+            lin(0.4 * s.v_max, 1.0 * s.v_max, 13),
+            0.2 * s.v_max,
+            2.0 * s.v_max,
+        ),
+        Effect::BatterySag => (log(0.003, 2.0, 14), 1e-5, 5.0),
+        Effect::TransportDelay => (log(0.1 * s.dt, 30.0 * s.dt.max(1e-3), 16), 1e-6, 0.5),
+        Effect::SpeedFeedback => {
+            let k = s.v_max / s.speed_max.max(1e-9) / s.tau.max(1e-6);
+            (log(1e-5 * k, 0.3 * k, 16), 1e-7 * k, 10.0 * k)
+        }
+        Effect::WheelSlip | Effect::CastorDrag => (vec![1.0], 0.0, 1.0),
+    }
+}
+
+/// The two best grid values of an effect's parameter, the others held at `params`.
+fn scan(
+    cand: &Structure,
+    params: &[f64],
+    grid: &[f64],
+    data: &Dataset,
+    weights: &[f64],
+) -> Vec<f64> {
+    let m = cand.model();
+    let mut scored: Vec<(f64, f64)> = grid
+        .iter()
+        .filter_map(|&g| {
+            let mut p = params.to_vec();
+            p.push(g);
+            let y = simulate(m, &p, data).ok()?;
+            let r = fit::residuals(data, &y, weights);
+            Some((r.iter().map(|v| v * v).sum::<f64>(), g))
+        })
+        .collect();
+    scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+    scored.iter().take(2).map(|s| s.1).collect()
+}
+
+fn describe(e: Effect, v: f64, linear: bool) -> String {
+    match e {
+        Effect::Backlash => format!(
+            "gear backlash of about {:.1} degrees ({v:.4} rad) of total play at the wheel",
+            v.to_degrees()
+        ),
+        Effect::CoulombFriction if linear => {
+            format!("Coulomb friction of about {v:.2} N opposing the motion")
+        }
+        Effect::CoulombFriction => format!(
+            "Coulomb friction of about {:.1} mN m at the motor shaft (brushes, bearings)",
+            1000.0 * v
+        ),
+        Effect::FrictionAsymmetry => {
+            format!("viscous friction {v:.2} times stronger forwards than backwards")
+        }
+        Effect::Offset if linear => {
+            format!("a constant bias force of {v:.2} N (gravity component, cable, sensor bias)")
+        }
+        Effect::Offset => format!(
+            "a constant bias torque of {:.1} mN m at the motor shaft",
+            1000.0 * v
+        ),
+        Effect::VoltageSaturation => {
+            format!("the drive voltage clipped at about {v:.2} V by the supply")
+        }
+        Effect::BatterySag => format!(
+            "the supply sagging with current through about {:.0} mohm of internal resistance",
+            1000.0 * v
+        ),
+        Effect::TransportDelay => format!(
+            "a dead time of about {:.1} ms between command and actuation",
+            1000.0 * v
+        ),
+        Effect::SpeedFeedback => format!(
+            "the motor controller closing its own speed loop with integral gain {v:.4} V/rad"
+        ),
+        Effect::WheelSlip => {
+            format!("tyre force limited by a floor friction coefficient of {v:.2}")
+        }
+        Effect::CastorDrag => format!("castor drag of {v:.1} N"),
+    }
+}
+
+/// Effective number of independent residuals: N / (1 + 2 sum of the residual's
+/// autocorrelation over lags until it first falls below 0.05).
+fn effective_n(data: &Dataset, predicted: &[Vec<f64>]) -> f64 {
+    let mut best = f64::INFINITY;
+    for (j, col) in data.outputs.iter().enumerate() {
+        let e: Vec<f64> = col
+            .iter()
+            .zip(&predicted[j])
+            .filter_map(|(y, p)| y.map(|y| y - p))
+            .collect();
+        let n = e.len() as f64;
+        let m = e.iter().sum::<f64>() / n;
+        let var: f64 = e.iter().map(|v| (v - m).powi(2)).sum();
+        if var == 0.0 {
+            continue;
+        }
+        let mut sum = 0.0;
+        for lag in 1..(e.len() / 4).min(500) {
+            let r: f64 = (0..e.len() - lag)
+                .map(|k| (e[k] - m) * (e[k + lag] - m))
+                .sum::<f64>()
+                / var;
+            if r < 0.05 {
+                break;
+            }
+            sum += r;
+        }
+        best = best.min(n / (1.0 + 2.0 * sum));
+    }
+    best.max(1.0)
+}
+
+/// Options of a diagnosis.
+#[derive(Debug, Clone, Default)]
+pub struct DiagnoseOptions {
+    pub ident: IdentifyOptions,
+}
+
+struct Stage {
+    structure: Structure,
+    fit: Fit,
+}
+
+/// Diagnoses a recording against its rig.
+pub fn diagnose(
+    rig: &Rig,
+    rig_path: &Path,
+    rec: &Recording,
+    validation: Option<&Recording>,
+    opts: &DiagnoseOptions,
+) -> Result<Diagnosis, IdentError> {
+    let structure = build_structure(rig, rig_path, rec, opts.ident.model)?;
+    if !matches!(structure, Structure::Rotary(_) | Structure::Linear(_)) {
+        return Err(IdentError::Setup(format!(
+            "{}: diagnosis works on drive-axis recordings (rotary or linear); this is a {} experiment",
+            rec.path.display(),
+            structure.model().name()
+        )));
+    }
+    let model = structure.model();
+    let data = Dataset::from_recording(rec, &model.input_names(), &model.output_names())?;
+    check_decidable(&data, rec)?;
+    let free = model.default_free(&data.output_names);
+    let base_fit = fit_structure(model, &data, &free, &opts.ident, &model.nominal())?;
+    let weights = base_fit.weights.clone();
+    let n_eff = effective_n(&data, &base_fit.predicted);
+    let speed = regimes::measured_speed(&data);
+    let regs = regimes::regimes(&data, &speed);
+    let base_energy = regimes::energy_per_sample(&data, &base_fit.predicted, &weights);
+    let scales = scales(&structure, &base_fit.params, &data, &speed);
+    let baseline_eval = evaluate(&data, base_fit.predicted.clone(), opts.ident.max_lag);
+    let mut stage = Stage {
+        structure: structure.clone(),
+        fit: base_fit.clone(),
+    };
+    let mut findings = Vec::new();
+    let mut rounds = Vec::new();
+    let linear = matches!(structure, Structure::Linear(_));
+    for _round in 0..2 {
+        let tried: Vec<Effect> = findings.iter().map(|f: &Finding| f.effect).collect();
+        let candidates: Vec<Effect> = structure
+            .applicable()
+            .into_iter()
+            .filter(|e| !tried.contains(e))
+            .collect();
+        let results: Vec<(Effect, Structure, Option<Fit>)> = candidates
+            .par_iter()
+            .map(|&e| {
+                let (grid, lo, hi) = effect_grid(e, &scales);
+                let probe = stage
+                    .structure
+                    .with_effect(e, grid[0], lo, hi, scales.speed_max);
+                let best = scan(&probe, &stage.fit.params, &grid, &data, &weights);
+                let s1 = best.first().copied().unwrap_or(grid[0]);
+                let cand = stage.structure.with_effect(e, s1, lo, hi, scales.speed_max);
+                let m = cand.model();
+                let idx = m.params().len() - 1;
+                let starts: Vec<Vec<f64>> = best
+                    .iter()
+                    .map(|&g| {
+                        let mut p = stage.fit.params.clone();
+                        p.push(g);
+                        p
+                    })
+                    .collect();
+                let mut free = stage.fit.free.clone();
+                free.push(idx);
+                let f = fit::fit(
+                    m,
+                    &data,
+                    &FitSettings {
+                        free,
+                        weights: weights.clone(),
+                        max_iterations: opts.ident.max_iterations,
+                        starts,
+                    },
+                )
+                .ok();
+                (e, cand, f)
+            })
+            .collect();
+        let mut round = Vec::new();
+        let mut best: Option<(f64, Effect, Structure, Fit)> = None;
+        for (e, cand, f) in results {
+            let Some(f) = f else { continue };
+            let reduction = 1.0 - f.cost / stage.fit.cost;
+            let delta_aic = n_eff * (stage.fit.cost / f.cost).ln() - 2.0;
+            let significant = delta_aic > MIN_DELTA_AIC && reduction >= MIN_RSS_REDUCTION;
+            let idx = f.params.len() - 1;
+            let slot = f.free.len() - 1;
+            let eval = crate::ident::fit_pct_mean(&data, &f.predicted);
+            round.push(Candidate {
+                name: e.name().into(),
+                param: e.param_name(linear).into(),
+                value: f.params[idx],
+                std: f.std[slot],
+                fit_pct: eval,
+                rss_reduction_pct: 100.0 * reduction,
+                delta_aic,
+                significant,
+            });
+            if significant && best.as_ref().is_none_or(|b| delta_aic > b.0) {
+                best = Some((delta_aic, e, cand, f));
+            }
+        }
+        round.sort_by(|a, b| b.delta_aic.total_cmp(&a.delta_aic));
+        rounds.push(round);
+        let Some((_, e, cand, f)) = best else { break };
+        let after = regimes::energy_per_sample(&data, &f.predicted, &weights);
+        let removed: Vec<f64> = base_energy
+            .iter()
+            .zip(&after)
+            .map(|(a, b)| (a - b).max(0.0))
+            .collect();
+        let evidence = evidence(
+            &regimes::shares(&regs, &removed),
+            100.0 * (1.0 - f.cost / stage.fit.cost),
+        );
+        let idx = f.params.len() - 1;
+        findings.push(Finding {
+            effect: e,
+            param: e.param_name(linear).into(),
+            value: f.params[idx],
+            std: f.std[f.free.len() - 1],
+            fit_pct: crate::ident::fit_pct_mean(&data, &f.predicted),
+            evidence,
+            description: describe(e, f.params[idx], linear),
+        });
+        stage = Stage {
+            structure: cand,
+            fit: f,
+        };
+    }
+    let final_energy = regimes::energy_per_sample(&data, &stage.fit.predicted, &weights);
+    let diagnosed_eval = evaluate(&data, stage.fit.predicted.clone(), opts.ident.max_lag);
+    let params_of = |s: &Structure, p: &[f64]| -> BTreeMap<String, f64> {
+        s.model()
+            .params()
+            .iter()
+            .zip(p)
+            .map(|(s, v)| (s.name.clone(), *v))
+            .collect()
+    };
+    let validation = match validation {
+        Some(v) => {
+            let vd = Dataset::from_recording(v, &model.input_names(), &model.output_names())?;
+            let sim = |s: &Structure, p: &[f64]| {
+                simulate(s.model(), p, &vd).map_err(|d| IdentError::Mismatch {
+                    file: v.path.clone(),
+                    message: format!("the model {d} on the validation recording"),
+                })
+            };
+            let b = evaluate(&vd, sim(&structure, &base_fit.params)?, opts.ident.max_lag);
+            let d = evaluate(
+                &vd,
+                sim(&stage.structure, &stage.fit.params)?,
+                opts.ident.max_lag,
+            );
+            Some((b, d))
+        }
+        None => None,
+    };
+    Ok(Diagnosis {
+        recording: data.name.clone(),
+        model: model.name(),
+        baseline_fit_pct: baseline_eval.fit_pct_mean,
+        baseline_params: params_of(&structure, &base_fit.params),
+        where_before: regimes::shares(&regs, &base_energy),
+        where_after: regimes::shares(&regs, &final_energy),
+        rounds,
+        final_fit_pct: diagnosed_eval.fit_pct_mean,
+        final_params: params_of(&stage.structure, &stage.fit.params),
+        findings,
+        effective_n: n_eff,
+        baseline: baseline_eval,
+        diagnosed: diagnosed_eval,
+        validation,
+    })
+}
+
+fn evidence(shares: &[RegimeShare], reduction_pct: f64) -> String {
+    match shares.first() {
+        Some(s) if s.concentration() > 1.5 => format!(
+            "{:.0}% of the residual energy the effect removes lies in the {:.0}% of samples {} (RSS down {reduction_pct:.0}%)",
+            s.energy_pct, s.samples_pct, s.regime
+        ),
+        _ => format!("the fit improves throughout the record, in no regime more than elsewhere (RSS down {reduction_pct:.0}%)"),
+    }
+}
+
+fn scales(structure: &Structure, p: &[f64], data: &Dataset, speed: &[f64]) -> Scales {
+    let speed_max = speed.iter().map(|v| v.abs()).fold(0.0, f64::max).max(1e-9);
+    let mut dts: Vec<f64> = data.t_s.windows(2).map(|w| w[1] - w[0]).collect();
+    dts.sort_by(f64::total_cmp);
+    let dt = dts.get(dts.len() / 2).copied().unwrap_or(1e-3);
+    let u_max = data
+        .inputs
+        .first()
+        .map(|u| u.iter().map(|v| v.abs()).fold(0.0, f64::max))
+        .unwrap_or(1.0);
+    match structure {
+        Structure::Rotary(m) => {
+            use crate::ident::models::rotary_axis::{K, R};
+            let v_max = m.voltage(p, u_max).abs().max(1e-6);
+            Scales {
+                v_max,
+                speed_max,
+                dt,
+                effort: p[K] * v_max / p[R],
+                tau: m.mechanical_time_constant_s(p),
+            }
+        }
+        Structure::Linear(m) => {
+            use crate::ident::models::linear_axis::{MASS, VISCOUS};
+            let cmd = data
+                .output_index("command_V")
+                .map(|j| {
+                    data.outputs[j]
+                        .iter()
+                        .flatten()
+                        .map(|v| v.abs())
+                        .fold(0.0, f64::max)
+                })
+                .unwrap_or(u_max);
+            Scales {
+                v_max: cmd,
+                speed_max,
+                dt,
+                effort: (m.force_per_volt * cmd).max(1e-6),
+                tau: p[MASS] / p[VISCOUS],
+            }
+        }
+        _ => Scales {
+            v_max: 1.0,
+            speed_max,
+            dt,
+            effort: 1.0,
+            tau: 1.0,
+        },
+    }
+}
+
+/// Refuses records that cannot support a decision.
+fn check_decidable(data: &Dataset, rec: &Recording) -> Result<(), IdentError> {
+    let refuse = |why: String| IdentError::Mismatch {
+        file: rec.path.clone(),
+        message: why,
+    };
+    if data.len() < MIN_SAMPLES {
+        return Err(refuse(format!(
+            "{} samples is too short to decide whether physics is missing (at least {MIN_SAMPLES} needed)",
+            data.len()
+        )));
+    }
+    for (i, u) in data.inputs.iter().enumerate() {
+        let (lo, hi) = u
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(*v), b.max(*v))
+            });
+        let changes = u.windows(2).filter(|w| w[0] != w[1]).count();
+        if hi - lo <= 0.0 || changes < 3 {
+            return Err(refuse(format!(
+                "input `{}` is not excited (range {lo}..{hi}, {changes} changes): the record cannot tell the model's parameters from missing physics",
+                data.input_names[i]
+            )));
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,104 @@
+//! The contract's vocabulary of missing physics, as optional blocks of the identification
+//! models. Each effect brings its parameter (named as the contract names it) and, where
+//! needed, its own state; the physical laws are the simulator's own (`crate::model`).
+
+/// One effect of the vocabulary.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Effect {
+    Backlash,
+    CoulombFriction,
+    FrictionAsymmetry,
+    Offset,
+    WheelSlip,
+    VoltageSaturation,
+    BatterySag,
+    TransportDelay,
+    SpeedFeedback,
+    CastorDrag,
+}
+
+impl Effect {
+    pub const ALL: [Effect; 10] = [
+        Effect::Backlash,
+        Effect::CoulombFriction,
+        Effect::FrictionAsymmetry,
+        Effect::Offset,
+        Effect::WheelSlip,
+        Effect::VoltageSaturation,
+        Effect::BatterySag,
+        Effect::TransportDelay,
+        Effect::SpeedFeedback,
+        Effect::CastorDrag,
+    ];
+
+    /// The contract's name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Effect::Backlash => "backlash",
+            Effect::CoulombFriction => "coulomb_friction",
+            Effect::FrictionAsymmetry => "friction_asymmetry",
+            Effect::Offset => "offset",
+            Effect::WheelSlip => "wheel_slip",
+            Effect::VoltageSaturation => "voltage_saturation",
+            Effect::BatterySag => "battery_sag",
+            Effect::TransportDelay => "transport_delay",
+            Effect::SpeedFeedback => "speed_feedback",
+            Effect::CastorDrag => "castor_drag",
+        }
+    }
+
+    /// The contract's parameter name (rotary or linear axis).
+    pub fn param_name(self, linear: bool) -> &'static str {
+        match self {
+            Effect::Backlash => "backlash_rad",
+            Effect::CoulombFriction if linear => "coulomb_force_N",
+            Effect::CoulombFriction => "coulomb_torque_Nm",
+            Effect::FrictionAsymmetry => "viscous_ratio",
+            Effect::Offset if linear => "offset_N",
+            Effect::Offset => "offset_Nm",
+            Effect::WheelSlip => "peak_mu",
+            Effect::VoltageSaturation => "limit_V",
+            Effect::BatterySag => "internal_resistance_ohm",
+            Effect::TransportDelay => "delay_s",
+            Effect::SpeedFeedback => "integral_gain",
+            Effect::CastorDrag => "drag_N",
+        }
+    }
+
+    pub fn from_name(s: &str) -> Option<Effect> {
+        Effect::ALL.into_iter().find(|e| e.name() == s)
+    }
+}
+
+/// Speed below which Coulomb friction is ramped (tanh) rather than switched, as a fraction
+/// of the record's largest speed: a set-valued law cannot be differentiated for fitting.
+pub const COULOMB_SMOOTHING_FRACTION: f64 = 0.005;
+
+/// Coulomb friction, smoothed: `Tc tanh(w / eps)`.
+pub fn smooth_coulomb(level: f64, speed: f64, eps: f64) -> f64 {
+    level * (speed / eps).tanh()
+}
+
+/// Viscous friction that differs by direction: `b+ / b- = ratio`, with the mean of the two
+/// equal to `b` so that the ratio does not also rescale the nominal coefficient.
+pub fn asymmetric_viscous(b: f64, ratio: f64, speed: f64) -> f64 {
+    let (pos, neg) = (2.0 * b * ratio / (1.0 + ratio), 2.0 * b / (1.0 + ratio));
+    if speed >= 0.0 {
+        pos * speed
+    } else {
+        neg * speed
+    }
+}
+
+/// Terminal voltage of a PWM bridge on a sagging battery: duty `d = clip(V_cmd / V_rated)`,
+/// applied `d (V_oc - R_int d i)`.
+pub fn bridge_voltage(
+    command_v: f64,
+    rated_v: f64,
+    open_circuit_v: f64,
+    r_int: f64,
+    current_a: f64,
+) -> f64 {
+    let d = (command_v / rated_v).clamp(-1.0, 1.0);
+    d * (open_circuit_v - r_int * d * current_a)
+}
