@@ -178,7 +178,7 @@ fn effect_grid(e: Effect, s: &Scales) -> (Vec<f64>, f64, f64) {
             .collect()
     };
     match e {
-        Effect::Backlash => (log(0.002, 0.4, 24), 1e-4, 1.0),
+        Effect::Backlash => (log(0.002, 0.4, 48), 1e-4, 1.0),
         Effect::CoulombFriction => (
             log(1e-3 * s.effort, 0.2 * s.effort, 16),
             1e-6 * s.effort,
@@ -205,7 +205,8 @@ fn effect_grid(e: Effect, s: &Scales) -> (Vec<f64>, f64, f64) {
     }
 }
 
-/// The two best grid values of an effect's parameter, the others held at `params`.
+/// The best grid values of an effect's parameter (up to three, no two neighbours on the
+/// grid), the others held at `params`.
 fn scan(
     cand: &Structure,
     params: &[f64],
@@ -214,7 +215,7 @@ fn scan(
     weights: &[f64],
 ) -> Vec<f64> {
     let m = cand.model();
-    let mut scored: Vec<(f64, f64)> = grid
+    let scored: Vec<(f64, f64)> = grid
         .iter()
         .filter_map(|&g| {
             let mut p = params.to_vec();
@@ -224,8 +225,21 @@ fn scan(
             Some((r.iter().map(|v| v * v).sum::<f64>(), g))
         })
         .collect();
-    scored.sort_by(|a, b| a.0.total_cmp(&b.0));
-    scored.iter().take(2).map(|s| s.1).collect()
+    let order: Vec<usize> = {
+        let mut idx: Vec<usize> = (0..scored.len()).collect();
+        idx.sort_by(|&a, &b| scored[a].0.total_cmp(&scored[b].0));
+        idx
+    };
+    let mut picked: Vec<usize> = Vec::new();
+    for i in order {
+        if picked.iter().all(|&j| i.abs_diff(j) > 1) {
+            picked.push(i);
+        }
+        if picked.len() == 3 {
+            break;
+        }
+    }
+    picked.iter().map(|&i| scored[i].1).collect()
 }
 
 fn describe(e: Effect, v: f64, linear: bool) -> String {
@@ -398,7 +412,10 @@ pub fn diagnose(
         for (e, cand, f) in results {
             let Some(f) = f else { continue };
             let reduction = 1.0 - f.cost / stage.fit.cost;
-            let delta_aic = n_eff * (stage.fit.cost / f.cost).ln() - 2.0;
+            // The evidence counts independent residuals of the richer model: when the effect
+            // is what colours the baseline residual, the candidate's residual is whiter.
+            let n_c = effective_n(&data, &f.predicted).max(n_eff);
+            let delta_aic = n_c * (stage.fit.cost / f.cost).ln() - 2.0;
             let significant = delta_aic > MIN_DELTA_AIC && reduction >= MIN_RSS_REDUCTION;
             let idx = f.params.len() - 1;
             let slot = f.free.len() - 1;

@@ -272,8 +272,8 @@ fn run_lm(pb: &Problem, max_iterations: usize) -> Result<Fit, FitError> {
                     improved = true;
                     // Improvements far below any statistical meaning, several in a row,
                     // end the search as surely as a zero step does.
-                    small_steps = if rel < 1e-6 { small_steps + 1 } else { 0 };
-                    if rel < 1e-10 || moved < 1e-9 || small_steps >= 3 {
+                    small_steps = if rel < 1e-5 { small_steps + 1 } else { 0 };
+                    if rel < 1e-10 || moved < 1e-9 || small_steps >= 2 {
                         converged = true;
                     }
                     break;

@@ -59,7 +59,13 @@ impl RotaryAxis {
         let need = |k: &str| rig.require(k, path, "the rotary drive-axis model needs it");
         let mut specs = vec![
             ParamSpec::positive("motor.resistance_ohm", need("motor.resistance_ohm")?),
-            ParamSpec::positive("motor.inductance_H", need("motor.inductance_H")?),
+            // The inductance is weakly seen at sample rates far below R/L; a fit left free
+            // would chase it towards zero, and the integration with it. Beliefs are tens of
+            // percent off, so a factor of 3 is a generous physical bound.
+            {
+                let l = need("motor.inductance_H")?;
+                ParamSpec::new("motor.inductance_H", l, l / 3.0, 3.0 * l)
+            },
             ParamSpec::positive(
                 "motor.torque_constant_Nm_A",
                 need("motor.torque_constant_Nm_A")?,
@@ -240,7 +246,8 @@ impl GreyBox for RotaryAxis {
     }
 
     fn max_step_s(&self, p: &[f64]) -> f64 {
-        let mut h = (0.5 * p[L] / p[R]).min(0.2 * self.mechanical_time_constant_s(p));
+        // RK4 is accurate to 2 % on a decaying mode at h = its time constant.
+        let mut h = (p[L] / p[R]).min(0.2 * self.mechanical_time_constant_s(p));
         if self.effect(Effect::Backlash).is_some() {
             let n2 = self.ratio * self.ratio;
             let j_red = p[JW] * p[JM] * n2 / (p[JW] + p[JM] * n2);
