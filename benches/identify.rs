@@ -1,6 +1,7 @@
-//! One identification of a 30 s, 1 kHz drive-axis recording: a lifted wheel of the lab
-//! scene driven by a random voltage, motor speed through a 1024-count encoder and a noisy
-//! current, fitted from rig beliefs 20 % off (five free parameters, three starts).
+//! One identification, and one full diagnosis, of a 30 s, 1 kHz drive-axis recording: a
+//! lifted wheel of the lab scene (nonlinear level: Coulomb friction, no backlash) driven by
+//! a random voltage, motor speed through a 1024-count encoder and a noisy current, from rig
+//! beliefs about 20 % off (five free parameters, three starts).
 
 use std::f64::consts::TAU;
 use std::fmt::Write;
@@ -9,6 +10,7 @@ use std::path::Path;
 use criterion::{criterion_group, criterion_main, Criterion};
 use rand::{Rng, SeedableRng};
 
+use agvsim::diagnose::{diagnose, DiagnoseOptions};
 use agvsim::ident::{identify, IdentifyOptions};
 use agvsim::record::Recording;
 use agvsim::rig::Rig;
@@ -65,6 +67,40 @@ fn bench(c: &mut Criterion) {
             identify(&rig, Path::new("bench.rig.toml"), &rec, None, &opts)
                 .unwrap()
                 .iterations
+        })
+    });
+    g.finish();
+    let d = diagnose(
+        &rig,
+        Path::new("bench.rig.toml"),
+        &rec,
+        None,
+        &DiagnoseOptions::default(),
+    )
+    .unwrap();
+    println!(
+        "diagnose 30 s at 1 kHz: found {:?}, fit {:.2} % -> {:.2} %",
+        d.findings
+            .iter()
+            .map(|f| (f.effect.name(), f.value))
+            .collect::<Vec<_>>(),
+        d.baseline_fit_pct,
+        d.final_fit_pct
+    );
+    let mut g = c.benchmark_group("diagnose_drive_axis_30s_1khz");
+    g.sample_size(10);
+    g.bench_function("rotary_voltage_all_effects", |b| {
+        b.iter(|| {
+            diagnose(
+                &rig,
+                Path::new("bench.rig.toml"),
+                &rec,
+                None,
+                &DiagnoseOptions::default(),
+            )
+            .unwrap()
+            .findings
+            .len()
         })
     });
     g.finish();

@@ -112,6 +112,19 @@ enum Command {
         #[arg(long)]
         report: Option<PathBuf>,
     },
+    /// Prove the diagnosis on agvsim's own recordings with concealed effects (and a clean
+    /// one): each effect must be found within 15 % and nothing on the clean case.
+    Prove {
+        /// Output folder for the recordings, rigs and diagnoses.
+        #[arg(long, default_value = "runs/prove")]
+        out: PathBuf,
+        /// The small version (clean, Coulomb friction, voltage saturation; 8 s records).
+        #[arg(long)]
+        quick: bool,
+        /// Seed of inputs, noise and rig errors.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+    },
     /// Fit a rig's model to a recording: parameters with standard deviations, loss, FPE,
     /// AIC, fit per output and residual checks.
     Identify {
@@ -342,6 +355,49 @@ fn main() -> ExitCode {
                         println!("wrote      {}", f.display());
                     }
                     ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
+        Command::Prove { out, quick, seed } => {
+            match agvsim::diagnose::prove::prove(&out, quick, seed) {
+                Ok(cases) => {
+                    println!(
+                        "{:<20} {:<20} {:>10} {:<34} {:>8} {:>15}  result",
+                        "case", "truth", "value", "found", "error", "fit"
+                    );
+                    for c in &cases {
+                        let found = c
+                            .found
+                            .iter()
+                            .map(|(e, v)| format!("{} {v:.4}", e.name()))
+                            .collect::<Vec<_>>()
+                            .join(", ");
+                        println!(
+                            "{:<20} {:<20} {:>10.4} {:<34} {:>8} {:>6.2}->{:>6.2} %  {}",
+                            c.name,
+                            c.effect.map_or("none", |e| e.name()),
+                            c.truth,
+                            if found.is_empty() {
+                                "(none)".into()
+                            } else {
+                                found
+                            },
+                            c.relative_error()
+                                .map_or("-".into(), |e| format!("{:+.1}%", 100.0 * e)),
+                            c.baseline_fit_pct,
+                            c.final_fit_pct,
+                            if c.passed { "pass" } else { "FAIL" }
+                        );
+                    }
+                    if cases.iter().all(|c| c.passed) {
+                        ExitCode::SUCCESS
+                    } else {
+                        ExitCode::FAILURE
+                    }
                 }
                 Err(e) => {
                     eprintln!("error: {e}");

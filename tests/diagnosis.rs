@@ -43,3 +43,27 @@ fn emps_coulomb_friction_matches_the_published_value() {
     assert!((f.value - 20.3935).abs() / 20.3935 < 0.10, "{}", f.value);
     assert!(d.final_fit_pct > d.baseline_fit_pct + 2.0);
 }
+
+/// Acceptance 1 (small version): agvsim's own recordings with a concealed effect, against
+/// rigs 5-25 % off that omit it. Clean: nothing found. Coulomb friction and the bridges'
+/// voltage limit: found within 15 %.
+#[test]
+fn quick_proof_on_concealed_effects_from_the_simulator() {
+    let dir = std::env::temp_dir().join(format!("agvsim-prove-{}", std::process::id()));
+    let cases = agvsim::diagnose::prove::prove(&dir, true, 1).unwrap();
+    for c in &cases {
+        println!(
+            "{}: truth {:?} {} found {:?} (fit {:.2} -> {:.2} %)",
+            c.name,
+            c.effect.map(|e| e.name()),
+            c.truth,
+            c.found,
+            c.baseline_fit_pct,
+            c.final_fit_pct
+        );
+    }
+    assert_eq!(cases.len(), 3);
+    for c in &cases {
+        assert!(c.passed, "{}: {:?}", c.name, c.found);
+    }
+}

@@ -79,6 +79,17 @@ pub fn render(d: &Diagnosis) -> String {
         let _ = writeln!(s, "  evidence: {}", f.evidence);
         let _ = writeln!(s, "  fit {:.2} % -> {:.2} %", d.baseline_fit_pct, f.fit_pct);
     }
+    let _ = writeln!(
+        s,
+        "Relative simulation error |y - yhat| / |y| (baseline -> diagnosed):"
+    );
+    for (k, before) in &d.relative_error_before_pct {
+        let _ = writeln!(
+            s,
+            "  {k:<40} {before:9.4} % -> {:9.4} %",
+            d.relative_error_after_pct[k]
+        );
+    }
     if let Some((b, a)) = &d.validation {
         let _ = writeln!(
             s,

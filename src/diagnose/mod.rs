@@ -15,6 +15,7 @@
 //!    second effect.
 
 pub mod job;
+pub mod prove;
 pub mod regimes;
 
 use std::collections::BTreeMap;
@@ -89,6 +90,10 @@ pub struct Diagnosis {
     pub effective_n: f64,
     pub baseline: Evaluation,
     pub diagnosed: Evaluation,
+    /// Relative simulation errors `|y - yhat| / |y|`, %, per output (and the speed by
+    /// differencing a position), of the baseline and the diagnosed model.
+    pub relative_error_before_pct: BTreeMap<String, f64>,
+    pub relative_error_after_pct: BTreeMap<String, f64>,
     pub validation: Option<(Evaluation, Evaluation)>,
 }
 
@@ -119,6 +124,7 @@ impl Diagnosis {
             "where_after": self.where_after,
             "candidates": self.rounds,
             "effective_n": self.effective_n,
+            "relative_error_pct": {"baseline": self.relative_error_before_pct, "final": self.relative_error_after_pct},
         });
         if let Some((b, d)) = &self.validation {
             v["validation"] = serde_json::json!({
@@ -205,8 +211,11 @@ fn effect_grid(e: Effect, s: &Scales) -> (Vec<f64>, f64, f64) {
     }
 }
 
-/// The best grid values of an effect's parameter (up to three, no two neighbours on the
-/// grid), the others held at `params`.
+/// The best values of an effect's parameter, the others held at `params` (a block's
+/// nuisance parameters at their starts): a grid scan, then a golden-section search between
+/// the neighbours of each of the (up to three, non-adjacent) best grid points. Parameters
+/// that switch at events (backlash) leave a cost too rough for derivatives on small
+/// scales, so this search, not the local solver, places them.
 fn scan(
     cand: &Structure,
     params: &[f64],
@@ -215,21 +224,26 @@ fn scan(
     weights: &[f64],
 ) -> Vec<f64> {
     let m = cand.model();
-    let scored: Vec<(f64, f64)> = grid
-        .iter()
-        .filter_map(|&g| {
-            let mut p = params.to_vec();
-            p.push(g);
-            let y = simulate(m, &p, data).ok()?;
-            let r = fit::residuals(data, &y, weights);
-            Some((r.iter().map(|v| v * v).sum::<f64>(), g))
-        })
-        .collect();
-    let order: Vec<usize> = {
-        let mut idx: Vec<usize> = (0..scored.len()).collect();
-        idx.sort_by(|&a, &b| scored[a].0.total_cmp(&scored[b].0));
-        idx
+    let specs = m.params();
+    let cost = |g: f64| -> f64 {
+        let mut p = params.to_vec();
+        p.extend(
+            specs[params.len()..specs.len() - 1]
+                .iter()
+                .map(|s| s.nominal),
+        );
+        p.push(g);
+        match simulate(m, &p, data) {
+            Ok(y) => fit::residuals(data, &y, weights)
+                .iter()
+                .map(|v| v * v)
+                .sum(),
+            Err(_) => f64::INFINITY,
+        }
     };
+    let scored: Vec<f64> = grid.iter().map(|&g| cost(g)).collect();
+    let mut order: Vec<usize> = (0..grid.len()).filter(|&i| scored[i].is_finite()).collect();
+    order.sort_by(|&a, &b| scored[a].total_cmp(&scored[b]));
     let mut picked: Vec<usize> = Vec::new();
     for i in order {
         if picked.iter().all(|&j| i.abs_diff(j) > 1) {
@@ -239,7 +253,47 @@ fn scan(
             break;
         }
     }
-    picked.iter().map(|&i| scored[i].1).collect()
+    picked
+        .iter()
+        .map(|&i| {
+            let lo = grid[i.saturating_sub(1)];
+            let hi = grid[(i + 1).min(grid.len() - 1)];
+            golden(&cost, lo, hi, 14).unwrap_or(grid[i])
+        })
+        .collect()
+}
+
+/// Golden-section minimum of `f` on [a, b] (on a log scale when both are positive).
+fn golden(f: &dyn Fn(f64) -> f64, a: f64, b: f64, iterations: usize) -> Option<f64> {
+    let log = a > 0.0 && b > 0.0;
+    let (to, from) = (
+        move |x: f64| if log { x.ln() } else { x },
+        move |x: f64| if log { x.exp() } else { x },
+    );
+    let (mut lo, mut hi) = (to(a.min(b)), to(a.max(b)));
+    if hi <= lo {
+        return None;
+    }
+    let r = 0.5 * (5f64.sqrt() - 1.0);
+    let mut x1 = hi - r * (hi - lo);
+    let mut x2 = lo + r * (hi - lo);
+    let (mut f1, mut f2) = (f(from(x1)), f(from(x2)));
+    for _ in 0..iterations {
+        if f1 < f2 {
+            hi = x2;
+            x2 = x1;
+            f2 = f1;
+            x1 = hi - r * (hi - lo);
+            f1 = f(from(x1));
+        } else {
+            lo = x1;
+            x1 = x2;
+            f1 = f2;
+            x2 = lo + r * (hi - lo);
+            f2 = f(from(x2));
+        }
+    }
+    Some(from(if f1 < f2 { x1 } else { x2 }))
 }
 
 fn describe(e: Effect, v: f64, linear: bool) -> String {
@@ -383,27 +437,63 @@ pub fn diagnose(
                 let cand = stage.structure.with_effect(e, s1, lo, hi, scales.speed_max);
                 let m = cand.model();
                 let idx = m.params().len() - 1;
+                let added = stage.fit.params.len()..m.params().len();
                 let starts: Vec<Vec<f64>> = best
                     .iter()
                     .map(|&g| {
                         let mut p = stage.fit.params.clone();
-                        p.push(g);
+                        p.extend(m.params()[added.clone()].iter().map(|s| s.nominal));
+                        p[idx] = g;
                         p
                     })
                     .collect();
-                let mut free = stage.fit.free.clone();
+                // The block's nuisance parameters are fitted with the nominal ones.
+                let nuisance: Vec<usize> = (stage.fit.params.len()..idx).collect();
+                let mut others = stage.fit.free.clone();
+                others.extend(nuisance.iter().copied());
+                let mut free = others.clone();
                 free.push(idx);
-                let f = fit::fit(
-                    m,
-                    &data,
-                    &FitSettings {
-                        free,
-                        weights: weights.clone(),
-                        max_iterations: opts.ident.max_iterations,
-                        starts,
-                    },
-                )
-                .ok();
+                let settings = |free: Vec<usize>, starts: Vec<Vec<f64>>| FitSettings {
+                    free,
+                    weights: weights.clone(),
+                    max_iterations: opts.ident.max_iterations,
+                    starts,
+                };
+                let starts = if m.params()[idx].fd_step > 1e-6 {
+                    // A rough parameter: alternate fitting the others with it held and
+                    // placing it by a line search with the others held.
+                    starts
+                        .into_iter()
+                        .map(|mut p| {
+                            for _ in 0..3 {
+                                let Ok(f) =
+                                    fit::fit(m, &data, &settings(others.clone(), vec![p.clone()]))
+                                else {
+                                    break;
+                                };
+                                p = f.params;
+                                let at = |g: f64| {
+                                    let mut q = p.clone();
+                                    q[idx] = g;
+                                    simulate(m, &q, &data)
+                                        .map(|y| {
+                                            fit::residuals(&data, &y, &weights)
+                                                .iter()
+                                                .map(|v| v * v)
+                                                .sum()
+                                        })
+                                        .unwrap_or(f64::INFINITY)
+                                };
+                                p[idx] =
+                                    golden(&at, p[idx] / 1.5, p[idx] * 1.5, 16).unwrap_or(p[idx]);
+                            }
+                            p
+                        })
+                        .collect()
+                } else {
+                    starts
+                };
+                let f = fit::fit(m, &data, &settings(free, starts)).ok();
                 (e, cand, f)
             })
             .collect();
@@ -415,7 +505,8 @@ pub fn diagnose(
             // The evidence counts independent residuals of the richer model: when the effect
             // is what colours the baseline residual, the candidate's residual is whiter.
             let n_c = effective_n(&data, &f.predicted).max(n_eff);
-            let delta_aic = n_c * (stage.fit.cost / f.cost).ln() - 2.0;
+            let added = (f.free.len() - stage.fit.free.len()) as f64;
+            let delta_aic = n_c * (stage.fit.cost / f.cost).ln() - 2.0 * added;
             let significant = delta_aic > MIN_DELTA_AIC && reduction >= MIN_RSS_REDUCTION;
             let idx = f.params.len() - 1;
             let slot = f.free.len() - 1;
@@ -491,7 +582,11 @@ pub fn diagnose(
         }
         None => None,
     };
+    let relative_error_before_pct = relative_errors(&data, &base_fit.predicted);
+    let relative_error_after_pct = relative_errors(&data, &stage.fit.predicted);
     Ok(Diagnosis {
+        relative_error_before_pct,
+        relative_error_after_pct,
         recording: data.name.clone(),
         model: model.name(),
         baseline_fit_pct: baseline_eval.fit_pct_mean,
@@ -507,6 +602,43 @@ pub fn diagnose(
         diagnosed: diagnosed_eval,
         validation,
     })
+}
+
+/// `|y - yhat| / |y|` in % per output over measured cells; for a position output also its
+/// speed, both differenced over the same rows (the way benchmark papers report speed).
+pub fn relative_errors(data: &Dataset, predicted: &[Vec<f64>]) -> BTreeMap<String, f64> {
+    let mut out = BTreeMap::new();
+    let rel = |pairs: &[(f64, f64)]| {
+        let e: f64 = pairs
+            .iter()
+            .map(|(y, p)| (y - p).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        let n: f64 = pairs.iter().map(|(y, _)| y * y).sum::<f64>().sqrt();
+        100.0 * e / n.max(1e-300)
+    };
+    for (j, name) in data.output_names.iter().enumerate() {
+        let pairs: Vec<(f64, f64)> = data.outputs[j]
+            .iter()
+            .zip(&predicted[j])
+            .filter_map(|(y, p)| y.map(|y| (y, *p)))
+            .collect();
+        out.insert(name.clone(), rel(&pairs));
+        if let Some(stem) = name.strip_suffix("position_m") {
+            let mut speed = Vec::new();
+            for k in 1..data.len() {
+                if let (Some(a), Some(b)) = (data.outputs[j][k - 1], data.outputs[j][k]) {
+                    let dt = data.t_s[k] - data.t_s[k - 1];
+                    speed.push(((b - a) / dt, (predicted[j][k] - predicted[j][k - 1]) / dt));
+                }
+            }
+            out.insert(
+                format!("{stem}speed_m_s (differenced position)"),
+                rel(&speed),
+            );
+        }
+    }
+    out
 }
 
 fn evidence(shares: &[RegimeShare], reduction_pct: f64) -> String {

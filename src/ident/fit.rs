@@ -135,7 +135,8 @@ impl Problem<'_> {
         let cols: Vec<Vec<f64>> = (0..z.len())
             .into_par_iter()
             .map(|c| {
-                let h = 1e-6 * z[c].abs().max(1.0);
+                let step = self.model.params()[self.free[c]].fd_step;
+                let h = step * z[c].abs().max(1.0);
                 let mut zc = z.to_vec();
                 zc[c] += h;
                 let (h, r) = match self.residuals(&zc) {

@@ -14,6 +14,10 @@ pub struct ParamSpec {
     /// Physical bounds.
     pub lo: f64,
     pub hi: f64,
+    /// Finite-difference step of the Jacobian in the search coordinate. Parameters whose
+    /// effect switches at events (a backlash play decides when teeth meet) make the cost
+    /// rough on the scale of an integration step; a wider difference sees the trend.
+    pub fd_step: f64,
 }
 
 impl ParamSpec {
@@ -23,7 +27,14 @@ impl ParamSpec {
             nominal,
             lo,
             hi,
+            fd_step: 1e-6,
         }
+    }
+
+    /// The same parameter with a wider finite-difference step.
+    pub fn with_fd_step(mut self, step: f64) -> ParamSpec {
+        self.fd_step = step;
+        self
     }
 
     /// A strictly positive physical quantity, searched on a log scale within a factor of 10

@@ -34,8 +34,10 @@ pub const GAIN: usize = 6;
 pub const TOOTH_STIFFNESS_NM_RAD: f64 = 5000.0;
 pub const TOOTH_DAMPING_NM_S_RAD: f64 = 3.0;
 /// Share of the viscous friction on the wheel side of the play when the backlash block is
-/// on (the rig gives only the total).
+/// on (the rig gives only the total); a parameter of the block, held at this value.
 pub const WHEEL_SIDE_VISCOUS_SHARE: f64 = 0.3;
+/// Name of the backlash block's nuisance parameter.
+pub const WHEEL_SHARE_PARAM: &str = "backlash.wheel_viscous_share";
 
 /// The rotary axis with any effects switched on.
 #[derive(Debug, Clone)]
@@ -125,8 +127,19 @@ impl RotaryAxis {
         max_speed: f64,
     ) -> RotaryAxis {
         let mut m = self.clone();
-        m.specs
-            .push(ParamSpec::new(effect.param_name(false), start, lo, hi));
+        let spec = ParamSpec::new(effect.param_name(false), start, lo, hi);
+        if effect == Effect::Backlash {
+            // The block's nuisance parameter comes first; the play is always the last.
+            m.specs.push(ParamSpec::new(
+                WHEEL_SHARE_PARAM,
+                WHEEL_SIDE_VISCOUS_SHARE,
+                0.0,
+                0.95,
+            ));
+            m.specs.push(spec.with_fd_step(2e-3));
+        } else {
+            m.specs.push(spec);
+        }
         m.effects.push((effect, m.specs.len() - 1));
         m.coulomb_eps_rad_s = (effects::COULOMB_SMOOTHING_FRACTION * max_speed).max(1e-3);
         m
@@ -288,8 +301,9 @@ impl GreyBox for RotaryAxis {
                 let n = self.ratio;
                 let g = self.gearbox(p, play);
                 let tooth = g.tooth_contact_torque(x[2] / n - x[4], x[1] / n - x[3]);
-                let b_motor = p[B] * (1.0 - WHEEL_SIDE_VISCOUS_SHARE);
-                let b_wheel = p[B] * WHEEL_SIDE_VISCOUS_SHARE * n * n;
+                let share = p[play - 1];
+                let b_motor = p[B] * (1.0 - share);
+                let b_wheel = p[B] * share * n * n;
                 dx[1] = (drive - self.viscous(p, b_motor, x[1]) - tooth / n) / p[JM];
                 dx[3] = (tooth - self.viscous(p, b_wheel, x[3])) / p[JW];
                 dx[4] = x[3];
