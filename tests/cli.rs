@@ -476,3 +476,43 @@ fn experiment_then_identify_writes_report_json_and_plots() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.contains("drive-axis"), "{err}");
 }
+
+/// Diagnosis acceptance 4: a record too short, or whose input never moves, is refused with
+/// the reason instead of a guess.
+#[test]
+fn diagnose_refuses_records_that_cannot_decide() {
+    let dir = tmp("diagnose-undecidable");
+    let rig = dir.join("axis.rig.toml");
+    std::fs::write(
+        &rig,
+        "rig = \"drive_axis\"\n[motor]\nresistance_ohm = 0.35\ninductance_H = 0.0008\ntorque_constant_Nm_A = 0.063\nrotor_inertia_kg_m2 = 2e-4\nviscous_Nm_s_rad = 1e-4\n[gearbox]\nratio = 23.41\n[wheel]\ninertia_kg_m2 = 0.02\n",
+    )
+    .unwrap();
+    let head = "# agvsim-recording: 1\n# rig: drive_axis\nt_s,voltage_V,motor_speed_rad_s\n";
+    let short: String = (0..20)
+        .map(|k| format!("{},{},{}\n", k as f64 * 0.01, (k % 3) as f64, k))
+        .collect();
+    let flat: String = (0..500)
+        .map(|k| format!("{},12,{}\n", k as f64 * 0.01, 100.0))
+        .collect();
+    for (name, body, expect) in [
+        ("short.csv", short, "too short"),
+        ("flat.csv", flat, "not excited"),
+    ] {
+        let rec = dir.join(name);
+        std::fs::write(&rec, format!("{head}{body}")).unwrap();
+        let out = agvsim()
+            .args(["diagnose", "--rig"])
+            .arg(&rig)
+            .arg("--recording")
+            .arg(&rec)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success() && !err.contains("panicked"),
+            "{name}: {err}"
+        );
+        assert!(err.contains(name) && err.contains(expect), "{name}: {err}");
+    }
+}
