@@ -418,6 +418,7 @@ pub fn diagnose(
     let mut findings = Vec::new();
     let mut rounds = Vec::new();
     let linear = matches!(structure, Structure::Linear(_));
+    let free_nominal = free.clone();
     for _round in 0..2 {
         let tried: Vec<Effect> = findings.iter().map(|f: &Finding| f.effect).collect();
         let candidates: Vec<Effect> = structure
@@ -432,20 +433,31 @@ pub fn diagnose(
                 let probe = stage
                     .structure
                     .with_effect(e, grid[0], lo, hi, scales.speed_max);
-                let best = scan(&probe, &stage.fit.params, &grid, &data, &weights);
-                let s1 = best.first().copied().unwrap_or(grid[0]);
+                // Scan from the baseline fit, and from the rig's beliefs: a baseline can
+                // absorb an effect into a nominal parameter (a delay into an inflated
+                // inductance), which hides the effect's true value from a scan there.
+                let mut believed = stage.fit.params.clone();
+                for &i in &free_nominal {
+                    believed[i] = model.params()[i].nominal;
+                }
+                let from_fit = scan(&probe, &stage.fit.params, &grid, &data, &weights);
+                let from_rig = scan(&probe, &believed, &grid, &data, &weights);
+                let s1 = from_fit.first().copied().unwrap_or(grid[0]);
                 let cand = stage.structure.with_effect(e, s1, lo, hi, scales.speed_max);
                 let m = cand.model();
                 let idx = m.params().len() - 1;
                 let added = stage.fit.params.len()..m.params().len();
-                let starts: Vec<Vec<f64>> = best
+                let start_at = |base: &[f64], g: f64| {
+                    let mut p = base.to_vec();
+                    p.extend(m.params()[added.clone()].iter().map(|s| s.nominal));
+                    p[idx] = g;
+                    p
+                };
+                let starts: Vec<Vec<f64>> = from_fit
                     .iter()
-                    .map(|&g| {
-                        let mut p = stage.fit.params.clone();
-                        p.extend(m.params()[added.clone()].iter().map(|s| s.nominal));
-                        p[idx] = g;
-                        p
-                    })
+                    .take(2)
+                    .map(|&g| start_at(&stage.fit.params, g))
+                    .chain(from_rig.iter().take(1).map(|&g| start_at(&believed, g)))
                     .collect();
                 // The block's nuisance parameters are fitted with the nominal ones.
                 let nuisance: Vec<usize> = (stage.fit.params.len()..idx).collect();
