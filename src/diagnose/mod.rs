@@ -519,7 +519,17 @@ pub fn diagnose(
             let n_c = effective_n(&data, &f.predicted).max(n_eff);
             let added = (f.free.len() - stage.fit.free.len()) as f64;
             let delta_aic = n_c * (stage.fit.cost / f.cost).ln() - 2.0 * added;
-            let significant = delta_aic > MIN_DELTA_AIC && reduction >= MIN_RSS_REDUCTION;
+            // An effect whose own parameter sits at the bound where the effect vanishes
+            // (a play of 0.1 mrad) did not earn the gain: its block's other physics did.
+            let lo = cand.model().params()[f.params.len() - 1].lo;
+            let vanishes_at_zero = !matches!(
+                e,
+                Effect::VoltageSaturation | Effect::FrictionAsymmetry | Effect::Offset
+            );
+            let at_null_bound =
+                vanishes_at_zero && lo > 0.0 && f.params[f.params.len() - 1] < 1.5 * lo;
+            let significant =
+                delta_aic > MIN_DELTA_AIC && reduction >= MIN_RSS_REDUCTION && !at_null_bound;
             let idx = f.params.len() - 1;
             let slot = f.free.len() - 1;
             let eval = crate::ident::fit_pct_mean(&data, &f.predicted);
