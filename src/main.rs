@@ -111,6 +111,9 @@ enum Command {
         /// Write a report folder (text, SVG plots of baseline and diagnosed fits).
         #[arg(long)]
         report: Option<PathBuf>,
+        /// Save measured, baseline and diagnosed outputs to a Rerun .rrd file.
+        #[arg(long, value_name = "FILE.rrd")]
+        save: Option<PathBuf>,
     },
     /// Prove the diagnosis on agvsim's own recordings with concealed effects (and a clean
     /// one): each effect must be found within 15 % and nothing on the clean case.
@@ -339,6 +342,7 @@ fn main() -> ExitCode {
             validate,
             json,
             report,
+            save,
         } => {
             let job = agvsim::diagnose::job::DiagnoseJob {
                 rig,
@@ -346,6 +350,7 @@ fn main() -> ExitCode {
                 validate,
                 json,
                 report_dir: report,
+                save_rrd: save,
                 options: Default::default(),
             };
             match agvsim::diagnose::job::run(&job) {

@@ -516,3 +516,54 @@ fn diagnose_refuses_records_that_cannot_decide() {
         assert!(err.contains(name) && err.contains(expect), "{name}: {err}");
     }
 }
+
+/// `diagnose` writes the contract's JSON (baseline, effects, final), a report folder and a
+/// Rerun file; on a clean record the effect list is empty.
+#[test]
+fn diagnose_writes_contract_json_report_and_rerun() {
+    let dir = tmp("diagnose-out");
+    let json = dir.join("dev_axis_11.json");
+    let report = dir.join("report");
+    let rrd = dir.join("d.rrd");
+    let out = agvsim()
+        .args([
+            "diagnose",
+            "--rig",
+            "../shared/data/dev/dev_axis_11.rig.toml",
+            "--recording",
+            "../shared/data/dev/dev_axis_11.csv",
+            "--json",
+        ])
+        .arg(&json)
+        .arg("--report")
+        .arg(&report)
+        .arg("--save")
+        .arg(&rrd)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(v["recording"], "dev_axis_11.csv");
+    assert!(v["effects"].as_array().unwrap().is_empty());
+    let (b, f) = (
+        v["baseline"]["fit_pct"].as_f64().unwrap(),
+        v["final"]["fit_pct"].as_f64().unwrap(),
+    );
+    assert!(b > 90.0 && (b - f).abs() < 1e-9, "{b} {f}");
+    assert!(
+        v["baseline"]["params"]["motor.resistance_ohm"]
+            .as_f64()
+            .unwrap()
+            > 0.0
+    );
+    assert!(std::fs::read_to_string(report.join("diagnosis.txt"))
+        .unwrap()
+        .contains("nothing is missing"));
+    assert!(report.join("diagnosed_motor_speed_rad_s_fit.svg").exists());
+    assert!(std::fs::metadata(&rrd).unwrap().len() > 1000);
+}

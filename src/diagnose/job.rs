@@ -16,6 +16,7 @@ pub struct DiagnoseJob {
     pub validate: Option<PathBuf>,
     pub json: Option<PathBuf>,
     pub report_dir: Option<PathBuf>,
+    pub save_rrd: Option<PathBuf>,
     pub options: DiagnoseOptions,
 }
 
@@ -124,6 +125,11 @@ pub fn run(job: &DiagnoseJob) -> Result<(Diagnosis, Vec<PathBuf>), IdentError> {
         written.push(txt);
         written.extend(plot::write_evaluation(dir, "baseline", &d.baseline).map_err(io(dir))?);
         written.extend(plot::write_evaluation(dir, "diagnosed", &d.diagnosed).map_err(io(dir))?);
+    }
+    if let Some(path) = &job.save_rrd {
+        crate::viz::save_diagnosis(path, &d)
+            .map_err(|e| IdentError::Setup(format!("{}: {}", path.display(), e.0)))?;
+        written.push(path.clone());
     }
     Ok((d, written))
 }

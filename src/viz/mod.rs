@@ -435,6 +435,52 @@ fn clip_segment(
     })
 }
 
+/// Saves a diagnosis: measured outputs with the baseline's and the diagnosed model's
+/// simulations and residuals, as time series in a `.rrd` file.
+pub fn save_diagnosis(
+    path: &std::path::Path,
+    d: &crate::diagnose::Diagnosis,
+) -> Result<(), VizError> {
+    let rec = RecordingStreamBuilder::new("agvsim")
+        .recording_id(format!("agvsim-diagnose-{}", d.recording))
+        .save(path)
+        .map_err(err)?;
+    let Some(data) = d.baseline.data.as_ref() else {
+        return Ok(());
+    };
+    for (j, name) in data.output_names.iter().enumerate() {
+        for (k, t) in data.t_s.iter().enumerate() {
+            rec.set_duration_secs("t", *t);
+            rec.log(
+                format!("{name}/baseline"),
+                &rerun::Scalars::new([d.baseline.predicted[j][k]]),
+            )
+            .map_err(err)?;
+            rec.log(
+                format!("{name}/diagnosed"),
+                &rerun::Scalars::new([d.diagnosed.predicted[j][k]]),
+            )
+            .map_err(err)?;
+            if let Some(y) = data.outputs[j][k] {
+                rec.log(format!("{name}/measured"), &rerun::Scalars::new([y]))
+                    .map_err(err)?;
+                rec.log(
+                    format!("{name}/residual/baseline"),
+                    &rerun::Scalars::new([y - d.baseline.predicted[j][k]]),
+                )
+                .map_err(err)?;
+                rec.log(
+                    format!("{name}/residual/diagnosed"),
+                    &rerun::Scalars::new([y - d.diagnosed.predicted[j][k]]),
+                )
+                .map_err(err)?;
+            }
+        }
+    }
+    rec.flush_blocking().map_err(err)?;
+    Ok(())
+}
+
 /// Saves an identification's measured and simulated outputs (estimation and validation) as
 /// time series, and its residuals, to a `.rrd` file.
 pub fn save_identification(
