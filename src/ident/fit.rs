@@ -63,6 +63,8 @@ pub enum FitError {
     DivergesAtStart { t_s: f64 },
     #[error("{free} free parameters but only {residuals} measured output values")]
     TooFewData { free: usize, residuals: usize },
+    #[error("no starting point simulates over the record")]
+    NoStart,
 }
 
 /// Weighted residuals `w_j (y - yhat)` over every measured cell, output by output.
@@ -207,7 +209,7 @@ pub fn fit(model: &dyn GreyBox, data: &Dataset, s: &FitSettings) -> Result<Fit, 
             }
         }
     }
-    best.ok_or_else(|| first_error.expect("at least one start"))
+    best.ok_or_else(|| first_error.unwrap_or(FitError::NoStart))
 }
 
 fn run_lm(pb: &Problem, max_iterations: usize) -> Result<Fit, FitError> {
