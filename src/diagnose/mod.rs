@@ -17,6 +17,7 @@
 pub mod job;
 pub mod prove;
 pub mod regimes;
+mod search;
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -34,6 +35,7 @@ use crate::ident::{
 use crate::record::Recording;
 use crate::rig::Rig;
 use regimes::RegimeShare;
+use search::{effect_grid, golden, scan};
 
 /// Smallest gain in AIC (with the effective sample count) that counts as evidence.
 pub const MIN_DELTA_AIC: f64 = 10.0;
@@ -167,133 +169,6 @@ impl Structure {
             other => other.clone(),
         }
     }
-}
-
-/// A scan grid and the bounds of an effect's parameter. Effects like backlash have narrow
-/// basins (a wrong play shifts every engagement), so a local solver needs a start found by
-/// scanning the parameter with the baseline's other values.
-fn effect_grid(e: Effect, s: &Scales) -> (Vec<f64>, f64, f64) {
-    let log = |a: f64, b: f64, n: usize| -> Vec<f64> {
-        (0..n)
-            .map(|i| a * (b / a).powf(i as f64 / (n - 1) as f64))
-            .collect()
-    };
-    let lin = |a: f64, b: f64, n: usize| -> Vec<f64> {
-        (0..n)
-            .map(|i| a + (b - a) * i as f64 / (n - 1) as f64)
-            .collect()
-    };
-    match e {
-        Effect::Backlash => (log(0.002, 0.4, 48), 1e-4, 1.0),
-        Effect::CoulombFriction => (
-            log(1e-3 * s.effort, 0.2 * s.effort, 16),
-            1e-6 * s.effort,
-            s.effort,
-        ),
-        Effect::FrictionAsymmetry => (log(0.4, 2.5, 13), 0.1, 10.0),
-        Effect::Offset => (
-            lin(-0.05 * s.effort, 0.05 * s.effort, 13),
-            -s.effort,
-            s.effort,
-        ),
-        Effect::VoltageSaturation => (
-            lin(0.4 * s.v_max, 1.0 * s.v_max, 13),
-            0.2 * s.v_max,
-            2.0 * s.v_max,
-        ),
-        Effect::BatterySag => (log(0.003, 2.0, 14), 1e-5, 5.0),
-        Effect::TransportDelay => (log(0.1 * s.dt, 30.0 * s.dt.max(1e-3), 16), 1e-6, 0.5),
-        Effect::SpeedFeedback => {
-            let k = s.v_max / s.speed_max.max(1e-9) / s.tau.max(1e-6);
-            (log(1e-5 * k, 0.3 * k, 16), 1e-7 * k, 10.0 * k)
-        }
-        Effect::WheelSlip | Effect::CastorDrag => (vec![1.0], 0.0, 1.0),
-    }
-}
-
-/// The best values of an effect's parameter, the others held at `params` (a block's
-/// nuisance parameters at their starts): a grid scan, then a golden-section search between
-/// the neighbours of each of the (up to three, non-adjacent) best grid points. Parameters
-/// that switch at events (backlash) leave a cost too rough for derivatives on small
-/// scales, so this search, not the local solver, places them.
-fn scan(
-    cand: &Structure,
-    params: &[f64],
-    grid: &[f64],
-    data: &Dataset,
-    weights: &[f64],
-) -> Vec<f64> {
-    let m = cand.model();
-    let specs = m.params();
-    let cost = |g: f64| -> f64 {
-        let mut p = params.to_vec();
-        p.extend(
-            specs[params.len()..specs.len() - 1]
-                .iter()
-                .map(|s| s.nominal),
-        );
-        p.push(g);
-        match simulate(m, &p, data) {
-            Ok(y) => fit::residuals(data, &y, weights)
-                .iter()
-                .map(|v| v * v)
-                .sum(),
-            Err(_) => f64::INFINITY,
-        }
-    };
-    let scored: Vec<f64> = grid.iter().map(|&g| cost(g)).collect();
-    let mut order: Vec<usize> = (0..grid.len()).filter(|&i| scored[i].is_finite()).collect();
-    order.sort_by(|&a, &b| scored[a].total_cmp(&scored[b]));
-    let mut picked: Vec<usize> = Vec::new();
-    for i in order {
-        if picked.iter().all(|&j| i.abs_diff(j) > 1) {
-            picked.push(i);
-        }
-        if picked.len() == 3 {
-            break;
-        }
-    }
-    picked
-        .iter()
-        .map(|&i| {
-            let lo = grid[i.saturating_sub(1)];
-            let hi = grid[(i + 1).min(grid.len() - 1)];
-            golden(&cost, lo, hi, 14).unwrap_or(grid[i])
-        })
-        .collect()
-}
-
-/// Golden-section minimum of `f` on [a, b] (on a log scale when both are positive).
-fn golden(f: &dyn Fn(f64) -> f64, a: f64, b: f64, iterations: usize) -> Option<f64> {
-    let log = a > 0.0 && b > 0.0;
-    let (to, from) = (
-        move |x: f64| if log { x.ln() } else { x },
-        move |x: f64| if log { x.exp() } else { x },
-    );
-    let (mut lo, mut hi) = (to(a.min(b)), to(a.max(b)));
-    if hi <= lo {
-        return None;
-    }
-    let r = 0.5 * (5f64.sqrt() - 1.0);
-    let mut x1 = hi - r * (hi - lo);
-    let mut x2 = lo + r * (hi - lo);
-    let (mut f1, mut f2) = (f(from(x1)), f(from(x2)));
-    for _ in 0..iterations {
-        if f1 < f2 {
-            hi = x2;
-            x2 = x1;
-            f2 = f1;
-            x1 = hi - r * (hi - lo);
-            f1 = f(from(x1));
-        } else {
-            lo = x1;
-            x1 = x2;
-            f1 = f2;
-            x2 = lo + r * (hi - lo);
-            f2 = f(from(x2));
-        }
-    }
-    Some(from(if f1 < f2 { x1 } else { x2 }))
 }
 
 fn describe(e: Effect, v: f64, linear: bool) -> String {

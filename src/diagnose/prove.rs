@@ -18,6 +18,7 @@ use rand_distr::{Distribution, StandardNormal};
 use rand_pcg::Pcg64;
 
 use super::{diagnose, DiagnoseOptions};
+use crate::experiment::{encoder_counts, ENCODER_COUNTS};
 use crate::ident::effects::Effect;
 use crate::ident::IdentError;
 use crate::record::Recording;
@@ -136,11 +137,11 @@ fn record(
         }
         hold -= 1;
         let m = sim.drivetrains()[0].motor;
-        let counts = (m.angle_rad * 1024.0 / TAU).floor();
+        let counts = encoder_counts(m.angle_rad, ENCODER_COUNTS);
         let speed = if k == 0 {
             0.0
         } else {
-            (counts - last) * TAU / 1024.0 / interval
+            (counts - last) * TAU / ENCODER_COUNTS / interval
         };
         last = counts;
         let noise: f64 = StandardNormal.sample(rng);
@@ -183,7 +184,7 @@ fn nominal_rig(scene: &Scene, rng: &mut Pcg64) -> Rig {
             voltage_V: Some(scene.battery.open_circuit_V),
         }),
         sensors: Some(SensorsRig {
-            motor_encoder_counts_per_rev: Some(1024.0),
+            motor_encoder_counts_per_rev: Some(ENCODER_COUNTS),
             current_noise_A: Some(0.2),
             ..SensorsRig::default()
         }),

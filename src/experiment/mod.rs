@@ -11,6 +11,8 @@
 //! The rig file states the scene's values as the experimenter's beliefs, optionally off by
 //! a seeded random error of up to `rig_error` (a fraction) in every uncertain value.
 
+mod rigs;
+
 use std::f64::consts::TAU;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -23,13 +25,10 @@ use rand_pcg::Pcg64;
 use crate::model::motor::{MotorParams, MotorState, Terminal};
 use crate::model::GRAVITY_M_S2;
 use crate::record::Recording;
-use crate::rig::{
-    ChassisRig, ControllerRig, FallingWeightRig, GearboxRig, MotorRig, Rig, SensorsRig, SupplyRig,
-    WheelRig,
-};
 use crate::run::{run_scene, RunError, RunOptions};
-use crate::scene::{DcmcKind, Scene};
-use crate::sim::{Actuation, Sim, SimError};
+use crate::scene::Scene;
+use crate::sim::{motor_params, Actuation, Sim, SimError};
+use rigs::{axis_rig, falling_weight_rig, pair_rig, perturb, vehicle_rig};
 
 /// Which experiment.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -201,11 +200,11 @@ fn write(path: &Path, text: &str) -> Result<(), ExperimentError> {
 }
 
 /// 1024-count quadrature encoder: whole counts of a shaft angle.
-fn encoder_counts(angle_rad: f64, counts_per_rev: f64) -> f64 {
+pub(crate) fn encoder_counts(angle_rad: f64, counts_per_rev: f64) -> f64 {
     (angle_rad * counts_per_rev / TAU).floor()
 }
 
-const ENCODER_COUNTS: f64 = 1024.0;
+pub(crate) const ENCODER_COUNTS: f64 = 1024.0;
 
 /// Header of a recording in the exchange format.
 fn header(rig: &str, meta: &[(&str, String)], columns: &[&str]) -> String {
@@ -396,25 +395,13 @@ fn lifted_random_demand(
     Ok((csv, n + 1))
 }
 
-fn motor_params(scene: &Scene) -> MotorParams {
-    let m = &scene.motor;
-    MotorParams {
-        resistance_ohm: m.resistance_ohm,
-        inductance_h: m.inductance_H,
-        torque_constant_nm_a: m.torque_constant_Nm_A,
-        rotor_inertia_kg_m2: m.rotor_inertia_kg_m2,
-        viscous_nm_s_rad: m.viscous_Nm_s_rad,
-        coulomb_nm: m.coulomb_Nm,
-    }
-}
-
 fn falling_weight(
     scene: &Scene,
     opts: &ExperimentOptions,
     interval: f64,
     rng: &mut Pcg64,
 ) -> (String, usize) {
-    let motor = motor_params(scene);
+    let motor = motor_params(&scene.motor);
     let (m, r) = (opts.weight_mass_kg, opts.pulley_radius_m);
     // While the cord is taut the weight's inertia rides on the rotor.
     let loaded = MotorParams {
@@ -491,7 +478,7 @@ fn coast_down(
     let full = scene.battery.drive_limit_V;
     sim.set_actuation(Actuation::Voltage([full, full]));
     // Run up until the speed has settled (five mechanical time constants, at least 2 s).
-    let m = motor_params(&scene);
+    let m = motor_params(&scene.motor);
     let j = m.rotor_inertia_kg_m2 + scene.wheel.inertia_kg_m2 / scene.gearbox.ratio.powi(2);
     let tau = j / (m.viscous_nm_s_rad + m.torque_constant_nm_a.powi(2) / m.resistance_ohm);
     sim.run_for((5.0 * tau).max(2.0), |_| {})?;
@@ -579,135 +566,4 @@ fn pen_trace(
         }
     }
     Ok((out, n))
-}
-
-fn motor_rig(scene: &Scene) -> MotorRig {
-    let m = &scene.motor;
-    MotorRig {
-        resistance_ohm: Some(m.resistance_ohm),
-        inductance_H: Some(m.inductance_H),
-        torque_constant_Nm_A: Some(m.torque_constant_Nm_A),
-        rotor_inertia_kg_m2: Some(m.rotor_inertia_kg_m2),
-        viscous_Nm_s_rad: Some(m.viscous_Nm_s_rad),
-        coulomb_Nm: Some(m.coulomb_Nm),
-    }
-}
-
-fn encoder() -> Option<SensorsRig> {
-    Some(SensorsRig {
-        motor_encoder_counts_per_rev: Some(ENCODER_COUNTS),
-        ..SensorsRig::default()
-    })
-}
-
-fn axis_rig(scene: &Scene) -> Rig {
-    Rig {
-        rig: "drive_axis".into(),
-        motor: Some(motor_rig(scene)),
-        gearbox: Some(GearboxRig {
-            ratio: Some(scene.gearbox.ratio),
-        }),
-        wheel: Some(WheelRig {
-            radius_m: Some(scene.wheel.radius_m),
-            inertia_kg_m2: Some(scene.wheel.inertia_kg_m2),
-        }),
-        supply: Some(SupplyRig {
-            voltage_V: Some(scene.battery.open_circuit_V),
-        }),
-        sensors: encoder(),
-        ..Rig::default()
-    }
-}
-
-fn controller_rig(scene: &Scene) -> ControllerRig {
-    let d = &scene.dcmc;
-    ControllerRig {
-        kind: Some(
-            match d.kind {
-                DcmcKind::Gain => "gain",
-                DcmcKind::P => "p",
-                DcmcKind::Pi => "pi",
-            }
-            .into(),
-        ),
-        gain_V_pct: Some(d.forward_gain_V_pct),
-        turn_gain_V_pct: Some(d.turn_gain_V_pct),
-        speed_per_pct_rad_s: (d.kind != DcmcKind::Gain).then_some(d.speed_per_pct_rad_s),
-        kp_V_s_rad: (d.kind != DcmcKind::Gain).then_some(d.kp_V_s_rad),
-        ki_V_rad: (d.kind == DcmcKind::Pi).then_some(d.ki_V_rad),
-    }
-}
-
-fn pair_rig(scene: &Scene) -> Rig {
-    Rig {
-        rig: "drive_pair".into(),
-        controller: Some(controller_rig(scene)),
-        ..axis_rig(scene)
-    }
-}
-
-fn falling_weight_rig(scene: &Scene, opts: &ExperimentOptions) -> Rig {
-    Rig {
-        rig: "drive_axis".into(),
-        motor: Some(motor_rig(scene)),
-        falling_weight: Some(FallingWeightRig {
-            mass_kg: Some(opts.weight_mass_kg),
-            pulley_radius_m: Some(opts.pulley_radius_m),
-            drop_m: Some(opts.drop_m),
-        }),
-        sensors: encoder(),
-        ..Rig::default()
-    }
-}
-
-fn vehicle_rig(scene: &Scene) -> Rig {
-    let c = &scene.chassis;
-    Rig {
-        rig: "vehicle".into(),
-        controller: Some(controller_rig(scene)),
-        chassis: Some(ChassisRig {
-            mass_kg: Some(c.mass_kg + scene.payload.mass_kg),
-            yaw_inertia_kg_m2: Some(c.yaw_inertia_kg_m2),
-            track_width_m: Some(c.track_width_m),
-            drive_load_fraction: Some(c.drive_load_fraction),
-        }),
-        ..axis_rig(scene)
-    }
-}
-
-/// Multiplies each uncertain value by a factor uniform in [1 - e, 1 + e]. Gear ratio,
-/// wheel radius, track and the test set-up (weight, pulley, drop) are measured, not believed.
-fn perturb(rig: Rig, e: f64, rng: &mut Pcg64) -> Rig {
-    if e <= 0.0 {
-        return rig;
-    }
-    let mut f = |v: &mut Option<f64>| {
-        if let Some(x) = v {
-            *x *= 1.0 + e * rng.random_range(-1.0..=1.0);
-        }
-    };
-    let mut rig = rig;
-    if let Some(m) = rig.motor.as_mut() {
-        f(&mut m.resistance_ohm);
-        f(&mut m.inductance_H);
-        f(&mut m.torque_constant_Nm_A);
-        f(&mut m.rotor_inertia_kg_m2);
-        f(&mut m.viscous_Nm_s_rad);
-        f(&mut m.coulomb_Nm);
-    }
-    if let Some(w) = rig.wheel.as_mut() {
-        f(&mut w.inertia_kg_m2);
-    }
-    if let Some(c) = rig.controller.as_mut() {
-        f(&mut c.gain_V_pct);
-        f(&mut c.turn_gain_V_pct);
-        f(&mut c.speed_per_pct_rad_s);
-        f(&mut c.kp_V_s_rad);
-        f(&mut c.ki_V_rad);
-    }
-    if let Some(c) = rig.chassis.as_mut() {
-        f(&mut c.mass_kg);
-        f(&mut c.yaw_inertia_kg_m2);
-    }
-    rig
 }

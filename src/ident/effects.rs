@@ -70,6 +70,21 @@ impl Effect {
     }
 }
 
+/// The effects switched on in a model, each with the index of its parameter.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct EffectSlots(Vec<(Effect, usize)>);
+
+impl EffectSlots {
+    pub fn add(&mut self, effect: Effect, param_index: usize) {
+        self.0.push((effect, param_index));
+    }
+
+    /// The parameter index of an effect, if it is on.
+    pub fn get(&self, effect: Effect) -> Option<usize> {
+        self.0.iter().find(|(e, _)| *e == effect).map(|(_, i)| *i)
+    }
+}
+
 /// Speed below which Coulomb friction is ramped (tanh) rather than switched, as a fraction
 /// of the record's largest speed: a set-valued law cannot be differentiated for fitting.
 pub const COULOMB_SMOOTHING_FRACTION: f64 = 0.005;

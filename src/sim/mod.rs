@@ -7,7 +7,7 @@ mod params;
 mod snapshot;
 mod step;
 
-pub use params::{Features, SimParams};
+pub use params::{motor_params, Features, SimParams};
 pub use snapshot::{CastorSnapshot, SideSnapshot, Snapshot};
 
 use rand::SeedableRng;

@@ -90,6 +90,18 @@ impl Features {
 const CASTOR_LAT_STIFFNESS_PER_N: f64 = 6.0;
 const CASTOR_RELAXATION_M: f64 = 0.03;
 
+/// The motor block's parameters from a scene's `[motor]` section.
+pub fn motor_params(m: &crate::scene::MotorSpec) -> MotorParams {
+    MotorParams {
+        resistance_ohm: m.resistance_ohm,
+        inductance_h: m.inductance_H,
+        torque_constant_nm_a: m.torque_constant_Nm_A,
+        rotor_inertia_kg_m2: m.rotor_inertia_kg_m2,
+        viscous_nm_s_rad: m.viscous_Nm_s_rad,
+        coulomb_nm: m.coulomb_Nm,
+    }
+}
+
 /// Immutable run parameters.
 #[derive(Clone)]
 pub struct SimParams {
@@ -153,15 +165,7 @@ impl SimParams {
             castor_half_spacing_m: scene.castors.half_spacing_m,
         };
         let loads = chassis.normal_loads();
-        let m = &scene.motor;
-        let motor = MotorParams {
-            resistance_ohm: m.resistance_ohm,
-            inductance_h: m.inductance_H,
-            torque_constant_nm_a: m.torque_constant_Nm_A,
-            rotor_inertia_kg_m2: m.rotor_inertia_kg_m2,
-            viscous_nm_s_rad: m.viscous_Nm_s_rad,
-            coulomb_nm: m.coulomb_Nm,
-        };
+        let motor = motor_params(&scene.motor);
         let g = &scene.gearbox;
         let gearbox = GearboxParams {
             ratio: g.ratio,
@@ -216,7 +220,7 @@ impl SimParams {
             brake_gain_v_s_rad: d.brake_gain_V_s_rad,
             current_limit_a: d.current_limit_A,
             faults: features.dcmc_faults,
-            armature_resistance_ohm: m.resistance_ohm,
+            armature_resistance_ohm: motor.resistance_ohm,
         };
         let c = &scene.controller;
         let firmware = FirmwareParams {

@@ -32,7 +32,7 @@ pub struct LinearAxis {
     pub limit_v: f64,
     pub feedback: Loop,
     /// Effects switched on, with the index of each one's parameter.
-    pub effects: Vec<(Effect, usize)>,
+    pub effects: effects::EffectSlots,
     /// Smoothing speed of Coulomb friction, m/s.
     pub coulomb_eps_m_s: f64,
 }
@@ -70,7 +70,7 @@ impl LinearAxis {
             force_per_volt: need("drive.force_per_volt_N_V", "force = gain x command_V")?,
             limit_v: rig.get("drive.limit_V").unwrap_or(f64::INFINITY),
             feedback,
-            effects: vec![],
+            effects: effects::EffectSlots::default(),
             coulomb_eps_m_s: 1e-3,
         })
     }
@@ -102,13 +102,13 @@ impl LinearAxis {
         let mut m = self.clone();
         m.specs
             .push(ParamSpec::new(effect.param_name(true), start, lo, hi));
-        m.effects.push((effect, m.specs.len() - 1));
+        m.effects.add(effect, m.specs.len() - 1);
         m.coulomb_eps_m_s = (effects::COULOMB_SMOOTHING_FRACTION * max_speed).max(1e-6);
         m
     }
 
     fn effect(&self, e: Effect) -> Option<usize> {
-        self.effects.iter().find(|(x, _)| *x == e).map(|(_, i)| *i)
+        self.effects.get(e)
     }
 
     /// The controller's command at a state, V.

@@ -51,7 +51,7 @@ pub struct RotaryAxis {
     /// Supply voltage the rig states, V (PWM reference of the battery-sag block).
     pub supply_v: f64,
     /// Effects switched on, with the index of each one's parameter.
-    pub effects: Vec<(Effect, usize)>,
+    pub effects: effects::EffectSlots,
     /// Smoothing speed of Coulomb friction, rad/s.
     pub coulomb_eps_rad_s: f64,
 }
@@ -94,7 +94,7 @@ impl RotaryAxis {
             ratio: rig.get("gearbox.ratio").unwrap_or(1.0),
             encoder: rig.get("sensors.motor_encoder_counts_per_rev").is_some(),
             supply_v: rig.get("supply.voltage_V").unwrap_or(24.0),
-            effects: vec![],
+            effects: effects::EffectSlots::default(),
             coulomb_eps_rad_s: 1.0,
         })
     }
@@ -140,13 +140,13 @@ impl RotaryAxis {
         } else {
             m.specs.push(spec);
         }
-        m.effects.push((effect, m.specs.len() - 1));
+        m.effects.add(effect, m.specs.len() - 1);
         m.coulomb_eps_rad_s = (effects::COULOMB_SMOOTHING_FRACTION * max_speed).max(1e-3);
         m
     }
 
     fn effect(&self, e: Effect) -> Option<usize> {
-        self.effects.iter().find(|(x, _)| *x == e).map(|(_, i)| *i)
+        self.effects.get(e)
     }
 
     fn gearbox(&self, p: &[f64], play: usize) -> GearboxParams {
