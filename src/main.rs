@@ -114,6 +114,10 @@ enum Command {
         /// Save measured, baseline and diagnosed outputs to a Rerun .rrd file.
         #[arg(long, value_name = "FILE.rrd")]
         save: Option<PathBuf>,
+        /// Only try these effects (vocabulary names, comma-separated); by default every
+        /// effect that applies to the rig.
+        #[arg(long, value_delimiter = ',', value_name = "NAME,...")]
+        effects: Option<Vec<String>>,
     },
     /// Prove the diagnosis on agvsim's own recordings with concealed effects (and a clean
     /// one): each effect must be found within 15 % and nothing on the clean case.
@@ -127,6 +131,9 @@ enum Command {
         /// Seed of inputs, noise and rig errors.
         #[arg(long, default_value_t = 1)]
         seed: u64,
+        /// Run only these cases (comma-separated names, e.g. `backlash,vehicle_clean`).
+        #[arg(long = "case", value_delimiter = ',', value_name = "NAME,...")]
+        cases: Vec<String>,
     },
     /// Fit a rig's model to a recording: parameters with standard deviations, loss, FPE,
     /// AIC, fit per output and residual checks.
@@ -343,7 +350,16 @@ fn main() -> ExitCode {
             json,
             report,
             save,
+            effects,
         } => {
+            let effects = match effects.map(|names| agvsim::diagnose::parse_effects(&names)) {
+                Some(Err(e)) => {
+                    eprintln!("error: --effects: {e}");
+                    return ExitCode::FAILURE;
+                }
+                Some(Ok(v)) => Some(v),
+                None => None,
+            };
             let job = agvsim::diagnose::job::DiagnoseJob {
                 rig,
                 recording,
@@ -351,7 +367,10 @@ fn main() -> ExitCode {
                 json,
                 report_dir: report,
                 save_rrd: save,
-                options: Default::default(),
+                options: agvsim::diagnose::DiagnoseOptions {
+                    effects,
+                    ..Default::default()
+                },
             };
             match agvsim::diagnose::job::run(&job) {
                 Ok((d, written)) => {
@@ -367,49 +386,52 @@ fn main() -> ExitCode {
                 }
             }
         }
-        Command::Prove { out, quick, seed } => {
-            match agvsim::diagnose::prove::prove(&out, quick, seed) {
-                Ok(cases) => {
+        Command::Prove {
+            out,
+            quick,
+            seed,
+            cases,
+        } => match agvsim::diagnose::prove::prove(&out, quick, seed, &cases) {
+            Ok(cases) => {
+                println!(
+                    "{:<20} {:<20} {:>10} {:<34} {:>8} {:>15}  result",
+                    "case", "truth", "value", "found", "error", "fit"
+                );
+                for c in &cases {
+                    let found = c
+                        .found
+                        .iter()
+                        .map(|(e, v)| format!("{} {v:.4}", e.name()))
+                        .collect::<Vec<_>>()
+                        .join(", ");
                     println!(
-                        "{:<20} {:<20} {:>10} {:<34} {:>8} {:>15}  result",
-                        "case", "truth", "value", "found", "error", "fit"
+                        "{:<20} {:<20} {:>10.4} {:<34} {:>8} {:>6.2}->{:>6.2} %  {}",
+                        c.name,
+                        c.effect.map_or("none", |e| e.name()),
+                        c.truth,
+                        if found.is_empty() {
+                            "(none)".into()
+                        } else {
+                            found
+                        },
+                        c.relative_error()
+                            .map_or("-".into(), |e| format!("{:+.1}%", 100.0 * e)),
+                        c.baseline_fit_pct,
+                        c.final_fit_pct,
+                        if c.passed { "pass" } else { "FAIL" }
                     );
-                    for c in &cases {
-                        let found = c
-                            .found
-                            .iter()
-                            .map(|(e, v)| format!("{} {v:.4}", e.name()))
-                            .collect::<Vec<_>>()
-                            .join(", ");
-                        println!(
-                            "{:<20} {:<20} {:>10.4} {:<34} {:>8} {:>6.2}->{:>6.2} %  {}",
-                            c.name,
-                            c.effect.map_or("none", |e| e.name()),
-                            c.truth,
-                            if found.is_empty() {
-                                "(none)".into()
-                            } else {
-                                found
-                            },
-                            c.relative_error()
-                                .map_or("-".into(), |e| format!("{:+.1}%", 100.0 * e)),
-                            c.baseline_fit_pct,
-                            c.final_fit_pct,
-                            if c.passed { "pass" } else { "FAIL" }
-                        );
-                    }
-                    if cases.iter().all(|c| c.passed) {
-                        ExitCode::SUCCESS
-                    } else {
-                        ExitCode::FAILURE
-                    }
                 }
-                Err(e) => {
-                    eprintln!("error: {e}");
+                if cases.iter().all(|c| c.passed) {
+                    ExitCode::SUCCESS
+                } else {
                     ExitCode::FAILURE
                 }
             }
-        }
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::FAILURE
+            }
+        },
         Command::Identify {
             rig,
             recording,

@@ -565,5 +565,36 @@ fn diagnose_writes_contract_json_report_and_rerun() {
         .unwrap()
         .contains("nothing is missing"));
     assert!(report.join("diagnosed_motor_speed_rad_s_fit.svg").exists());
+    assert!(report.join("motor_speed_rad_s_compare.svg").exists());
+    let regimes = std::fs::read_to_string(report.join("regimes.svg")).unwrap();
+    assert!(regimes.contains("after a speed reversal"));
     assert!(std::fs::metadata(&rrd).unwrap().len() > 1000);
+}
+
+/// `--effects` takes vocabulary names only, and only effects that apply to the rig's model.
+#[test]
+fn diagnose_effects_option_is_checked() {
+    for (list, expect) in [
+        (
+            "backlash,gear_wobble",
+            "`gear_wobble` is not an effect name",
+        ),
+        ("wheel_slip", "does not apply"),
+    ] {
+        let out = agvsim()
+            .args([
+                "diagnose",
+                "--rig",
+                "../shared/data/dev/dev_axis_11.rig.toml",
+                "--recording",
+                "../shared/data/dev/dev_axis_11.csv",
+                "--effects",
+                list,
+            ])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && !err.contains("panicked"), "{err}");
+        assert!(err.contains(expect), "{list}: {err}");
+    }
 }

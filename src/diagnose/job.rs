@@ -123,6 +123,7 @@ pub fn run(job: &DiagnoseJob) -> Result<(Diagnosis, Vec<PathBuf>), IdentError> {
         let txt = dir.join("diagnosis.txt");
         std::fs::write(&txt, render(&d)).map_err(io(&txt))?;
         written.push(txt);
+        written.extend(super::plots::write(dir, &d).map_err(io(dir))?);
         written.extend(plot::write_evaluation(dir, "baseline", &d.baseline).map_err(io(dir))?);
         written.extend(plot::write_evaluation(dir, "diagnosed", &d.diagnosed).map_err(io(dir))?);
     }

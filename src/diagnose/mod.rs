@@ -15,6 +15,7 @@
 //!    second effect.
 
 pub mod job;
+pub mod plots;
 pub mod prove;
 pub mod regimes;
 mod search;
@@ -35,7 +36,7 @@ use crate::ident::{
 use crate::record::Recording;
 use crate::rig::Rig;
 use regimes::RegimeShare;
-use search::{effect_grid, golden, scan};
+use search::{effect_grid, golden, profile_scan, scan};
 
 /// Smallest gain in AIC (with the effective sample count) that counts as evidence.
 pub const MIN_DELTA_AIC: f64 = 10.0;
@@ -151,6 +152,8 @@ struct Scales {
     effort: f64,
     /// Mechanical time constant, s.
     tau: f64,
+    /// Vehicle weight, N (vehicle only).
+    weight_n: f64,
 }
 
 impl Structure {
@@ -158,6 +161,15 @@ impl Structure {
         match self {
             Structure::Rotary(m) => m.applicable(),
             Structure::Linear(m) => m.applicable(),
+            Structure::Vehicle(m) => m.applicable(),
+            _ => vec![],
+        }
+    }
+
+    /// Nominal parameters an effect's block makes identifiable, beyond the nominal free set.
+    fn newly_identifiable(&self, e: Effect, outputs: &[String]) -> Vec<usize> {
+        match self {
+            Structure::Rotary(m) => m.newly_identifiable(e, outputs),
             _ => vec![],
         }
     }
@@ -166,6 +178,7 @@ impl Structure {
         match self {
             Structure::Rotary(m) => Structure::Rotary(m.with_effect(e, start, lo, hi, speed_max)),
             Structure::Linear(m) => Structure::Linear(m.with_effect(e, start, lo, hi, speed_max)),
+            Structure::Vehicle(m) => Structure::Vehicle(m.with_effect(e, start, lo, hi, speed_max)),
             other => other.clone(),
         }
     }
@@ -208,49 +221,106 @@ fn describe(e: Effect, v: f64, linear: bool) -> String {
         Effect::SpeedFeedback => format!(
             "the motor controller closing its own speed loop with integral gain {v:.4} V/rad"
         ),
-        Effect::WheelSlip => {
-            format!("tyre force limited by a floor friction coefficient of {v:.2}")
-        }
-        Effect::CastorDrag => format!("castor drag of {v:.1} N"),
+        Effect::WheelSlip => format!(
+            "wheel slip: the tyres' grip limited by a peak floor friction coefficient of about {v:.2}"
+        ),
+        Effect::CastorDrag => format!(
+            "drag of about {v:.1} N from the idler castors opposing the chassis's motion"
+        ),
     }
 }
 
-/// Effective number of independent residuals: N / (1 + 2 sum of the residual's
+/// Effective number of independent residuals per output: N / (1 + 2 sum of the residual's
 /// autocorrelation over lags until it first falls below 0.05).
-fn effective_n(data: &Dataset, predicted: &[Vec<f64>]) -> f64 {
-    let mut best = f64::INFINITY;
-    for (j, col) in data.outputs.iter().enumerate() {
-        let e: Vec<f64> = col
-            .iter()
-            .zip(&predicted[j])
-            .filter_map(|(y, p)| y.map(|y| y - p))
-            .collect();
-        let n = e.len() as f64;
-        let m = e.iter().sum::<f64>() / n;
-        let var: f64 = e.iter().map(|v| (v - m).powi(2)).sum();
-        if var == 0.0 {
-            continue;
-        }
-        let mut sum = 0.0;
-        for lag in 1..(e.len() / 4).min(500) {
-            let r: f64 = (0..e.len() - lag)
-                .map(|k| (e[k] - m) * (e[k + lag] - m))
-                .sum::<f64>()
-                / var;
-            if r < 0.05 {
-                break;
+fn effective_n(data: &Dataset, predicted: &[Vec<f64>]) -> Vec<f64> {
+    data.outputs
+        .iter()
+        .enumerate()
+        .map(|(j, col)| {
+            let e: Vec<f64> = col
+                .iter()
+                .zip(&predicted[j])
+                .filter_map(|(y, p)| y.map(|y| y - p))
+                .collect();
+            let n = e.len() as f64;
+            let m = e.iter().sum::<f64>() / n.max(1.0);
+            let var: f64 = e.iter().map(|v| (v - m).powi(2)).sum();
+            if var == 0.0 {
+                return n.max(1.0);
             }
-            sum += r;
-        }
-        best = best.min(n / (1.0 + 2.0 * sum));
-    }
-    best.max(1.0)
+            let mut sum = 0.0;
+            for lag in 1..(e.len() / 4).min(500) {
+                let r: f64 = (0..e.len() - lag)
+                    .map(|k| (e[k] - m) * (e[k + lag] - m))
+                    .sum::<f64>()
+                    / var;
+                if r < 0.05 {
+                    break;
+                }
+                sum += r;
+            }
+            (n / (1.0 + 2.0 * sum)).max(1.0)
+        })
+        .collect()
+}
+
+/// Sum of squared residuals per output.
+fn output_rss(data: &Dataset, predicted: &[Vec<f64>]) -> Vec<f64> {
+    data.outputs
+        .iter()
+        .zip(predicted)
+        .map(|(col, p)| {
+            col.iter()
+                .zip(p)
+                .filter_map(|(y, p)| y.map(|y| (y - p).powi(2)))
+                .sum::<f64>()
+                .max(1e-300)
+        })
+        .collect()
+}
+
+/// Log-likelihood gain of a richer model, outputs with their own unknown noise levels:
+/// `sum_j n_j ln(RSS_j before / RSS_j after)`, each output counting its effective number
+/// of independent residuals (the larger of the two models': when the effect is what
+/// colours the baseline residual, the richer model's residual is whiter). An output that
+/// drifts (a pose integrated from speeds) is strongly coloured and counts for little; the
+/// others keep their weight.
+fn likelihood_gain(
+    data: &Dataset,
+    before: &[Vec<f64>],
+    n_before: &[f64],
+    after: &[Vec<f64>],
+) -> f64 {
+    let n_after = effective_n(data, after);
+    output_rss(data, before)
+        .iter()
+        .zip(output_rss(data, after))
+        .enumerate()
+        .map(|(j, (b, a))| n_before[j].max(n_after[j]) * (b / a).ln())
+        .sum()
 }
 
 /// Options of a diagnosis.
 #[derive(Debug, Clone, Default)]
 pub struct DiagnoseOptions {
     pub ident: IdentifyOptions,
+    /// Only these candidate effects (by default every one that applies to the structure).
+    pub effects: Option<Vec<Effect>>,
+}
+
+/// Vocabulary names to effects; an unknown name is an error that lists the vocabulary.
+pub fn parse_effects(names: &[String]) -> Result<Vec<Effect>, String> {
+    names
+        .iter()
+        .map(|n| {
+            Effect::from_name(n.trim()).ok_or_else(|| {
+                format!(
+                    "`{n}` is not an effect name; the vocabulary is: {}",
+                    Effect::ALL.map(|e| e.name()).join(", ")
+                )
+            })
+        })
+        .collect()
 }
 
 struct Stage {
@@ -267,20 +337,39 @@ pub fn diagnose(
     opts: &DiagnoseOptions,
 ) -> Result<Diagnosis, IdentError> {
     let structure = build_structure(rig, rig_path, rec, opts.ident.model)?;
-    if !matches!(structure, Structure::Rotary(_) | Structure::Linear(_)) {
+    if !matches!(
+        structure,
+        Structure::Rotary(_) | Structure::Linear(_) | Structure::Vehicle(_)
+    ) {
         return Err(IdentError::Setup(format!(
-            "{}: diagnosis works on drive-axis recordings (rotary or linear); this is a {} experiment",
+            "{}: diagnosis works on drive-axis (rotary or linear) and vehicle recordings; this is a {} experiment",
             rec.path.display(),
             structure.model().name()
         )));
     }
     let model = structure.model();
+    let applicable = structure.applicable();
+    if let Some(asked) = &opts.effects {
+        if let Some(e) = asked.iter().find(|e| !applicable.contains(e)) {
+            return Err(IdentError::Setup(format!(
+                "effect `{}` does not apply to the {} model; these do: {}",
+                e.name(),
+                model.name(),
+                applicable
+                    .iter()
+                    .map(|e| e.name())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )));
+        }
+    }
     let data = Dataset::from_recording(rec, &model.input_names(), &model.output_names())?;
     check_decidable(&data, rec)?;
     let free = model.default_free(&data.output_names);
     let base_fit = fit_structure(model, &data, &free, &opts.ident, &model.nominal())?;
     let weights = base_fit.weights.clone();
-    let n_eff = effective_n(&data, &base_fit.predicted);
+    let n_eff_outputs = effective_n(&data, &base_fit.predicted);
+    let n_eff: f64 = n_eff_outputs.iter().sum();
     let speed = regimes::measured_speed(&data);
     let regs = regimes::regimes(&data, &speed);
     let base_energy = regimes::energy_per_sample(&data, &base_fit.predicted, &weights);
@@ -295,11 +384,13 @@ pub fn diagnose(
     let linear = matches!(structure, Structure::Linear(_));
     let free_nominal = free.clone();
     for _round in 0..2 {
+        let stage_n = effective_n(&data, &stage.fit.predicted);
         let tried: Vec<Effect> = findings.iter().map(|f: &Finding| f.effect).collect();
-        let candidates: Vec<Effect> = structure
-            .applicable()
-            .into_iter()
+        let candidates: Vec<Effect> = applicable
+            .iter()
+            .copied()
             .filter(|e| !tried.contains(e))
+            .filter(|e| opts.effects.as_ref().is_none_or(|only| only.contains(e)))
             .collect();
         let results: Vec<(Effect, Structure, Option<Fit>)> = candidates
             .par_iter()
@@ -338,6 +429,13 @@ pub fn diagnose(
                 let nuisance: Vec<usize> = (stage.fit.params.len()..idx).collect();
                 let mut others = stage.fit.free.clone();
                 others.extend(nuisance.iter().copied());
+                // Parameters the effect makes identifiable that the nominal model could not
+                // separate (a play splits the inertia and damping between its two sides).
+                for i in cand.newly_identifiable(e, &data.output_names) {
+                    if !others.contains(&i) {
+                        others.push(i);
+                    }
+                }
                 let mut free = others.clone();
                 free.push(idx);
                 let settings = |free: Vec<usize>, starts: Vec<Vec<f64>>| FitSettings {
@@ -346,7 +444,22 @@ pub fn diagnose(
                     max_iterations: opts.ident.max_iterations,
                     starts,
                 };
-                let starts = if m.params()[idx].fd_step > 1e-6 {
+                let rough = m.params()[idx].fd_step > 1e-6;
+                let mut starts = starts;
+                if rough {
+                    // A profile over every fourth grid value, from the rig's beliefs.
+                    let coarse: Vec<f64> = grid.iter().step_by(4).copied().collect();
+                    starts.extend(profile_scan(
+                        &cand,
+                        &start_at(&believed, s1),
+                        idx,
+                        &others,
+                        &coarse,
+                        &data,
+                        &weights,
+                    ));
+                }
+                let starts = if rough {
                     // A rough parameter: alternate fitting the others with it held and
                     // placing it by a line search with the others held.
                     starts
@@ -389,20 +502,20 @@ pub fn diagnose(
         for (e, cand, f) in results {
             let Some(f) = f else { continue };
             let reduction = 1.0 - f.cost / stage.fit.cost;
-            // The evidence counts independent residuals of the richer model: when the effect
-            // is what colours the baseline residual, the candidate's residual is whiter.
-            let n_c = effective_n(&data, &f.predicted).max(n_eff);
             let added = (f.free.len() - stage.fit.free.len()) as f64;
-            let delta_aic = n_c * (stage.fit.cost / f.cost).ln() - 2.0 * added;
+            let delta_aic =
+                likelihood_gain(&data, &stage.fit.predicted, &stage_n, &f.predicted) - 2.0 * added;
             // An effect whose own parameter sits at the bound where the effect vanishes
             // (a play of 0.1 mrad) did not earn the gain: its block's other physics did.
             let lo = cand.model().params()[f.params.len() - 1].lo;
-            let vanishes_at_zero = !matches!(
-                e,
-                Effect::VoltageSaturation | Effect::FrictionAsymmetry | Effect::Offset
-            );
-            let at_null_bound =
-                vanishes_at_zero && lo > 0.0 && f.params[f.params.len() - 1] < 1.5 * lo;
+            let hi = cand.model().params()[f.params.len() - 1].hi;
+            let value = f.params[f.params.len() - 1];
+            let at_null_bound = match e {
+                Effect::VoltageSaturation | Effect::FrictionAsymmetry | Effect::Offset => false,
+                // Grip vanishes as a limit when the friction coefficient grows without bound.
+                Effect::WheelSlip => value > hi / 1.5,
+                _ => lo > 0.0 && value < 1.5 * lo,
+            };
             let significant =
                 delta_aic > MIN_DELTA_AIC && reduction >= MIN_RSS_REDUCTION && !at_null_bound;
             let idx = f.params.len() - 1;
@@ -568,6 +681,7 @@ fn scales(structure: &Structure, p: &[f64], data: &Dataset, speed: &[f64]) -> Sc
                 dt,
                 effort: p[K] * v_max / p[R],
                 tau: m.mechanical_time_constant_s(p),
+                weight_n: 0.0,
             }
         }
         Structure::Linear(m) => {
@@ -588,6 +702,24 @@ fn scales(structure: &Structure, p: &[f64], data: &Dataset, speed: &[f64]) -> Sc
                 dt,
                 effort: (m.force_per_volt * cmd).max(1e-6),
                 tau: p[MASS] / p[VISCOUS],
+                weight_n: 0.0,
+            }
+        }
+        Structure::Vehicle(m) => {
+            use crate::ident::models::vehicle::{K, R};
+            let v_max = data
+                .inputs
+                .iter()
+                .flat_map(|u| u.iter().map(|v| v.abs()))
+                .fold(0.0, f64::max)
+                .max(1e-6);
+            Scales {
+                v_max,
+                speed_max,
+                dt,
+                effort: p[K] * v_max / p[R],
+                tau: m.mechanical_time_constant_s(p),
+                weight_n: p[crate::ident::models::vehicle::MASS] * crate::model::GRAVITY_M_S2,
             }
         }
         _ => Scales {
@@ -596,6 +728,7 @@ fn scales(structure: &Structure, p: &[f64], data: &Dataset, speed: &[f64]) -> Sc
             dt,
             effort: 1.0,
             tau: 1.0,
+            weight_n: 0.0,
         },
     }
 }

@@ -5,9 +5,10 @@
 //! nothing on the clean case.
 //!
 //! Effects the simulator itself has on a lifted drive axis: backlash, Coulomb friction and
-//! voltage saturation (the bridges' limit). Battery sag only clips in the simulator (no PWM
-//! duty model), and its DCMC speed loop is a PI without feed-forward, unlike the
-//! vocabulary's `speed_feedback`; neither is proved here.
+//! voltage saturation (the bridges' limit); on the floor (full level): wheel slip (the
+//! drive tyres' friction limit) and castor drag (the castors' rolling resistance). Battery
+//! sag only clips in the simulator (no PWM duty model), and its DCMC speed loop is a PI
+//! without feed-forward, unlike the vocabulary's `speed_feedback`; neither is proved here.
 
 use std::f64::consts::TAU;
 use std::fmt::Write as _;
@@ -194,12 +195,29 @@ fn nominal_rig(scene: &Scene, rng: &mut Pcg64) -> Rig {
 
 /// Runs the proof: `quick` keeps the clean, Coulomb-friction and voltage-saturation cases at
 /// 8 s, otherwise all cases at 20 s. Files go to `out_dir`.
-pub fn prove(out_dir: &Path, quick: bool, seed: u64) -> Result<Vec<ProofCase>, IdentError> {
+pub fn prove(
+    out_dir: &Path,
+    quick: bool,
+    seed: u64,
+    only: &[String],
+) -> Result<Vec<ProofCase>, IdentError> {
+    let wanted = |name: &str| only.is_empty() || only.iter().any(|o| o == name);
+    let all: Vec<&str> = specs()
+        .iter()
+        .map(|s| s.name)
+        .chain(vehicle_specs().iter().map(|s| s.name))
+        .collect();
+    if let Some(bad) = only.iter().find(|o| !all.contains(&o.as_str())) {
+        return Err(IdentError::Setup(format!(
+            "--case: no proof case `{bad}`; the cases are: {}",
+            all.join(", ")
+        )));
+    }
     std::fs::create_dir_all(out_dir)
         .map_err(|e| IdentError::Setup(format!("{}: {e}", out_dir.display())))?;
     let mut out = Vec::new();
     for (i, spec) in specs().into_iter().enumerate() {
-        if quick && spec.name == "backlash" {
+        if (quick && spec.name == "backlash") || !wanted(spec.name) {
             continue;
         }
         let mut rng = Pcg64::seed_from_u64(seed.wrapping_mul(31).wrapping_add(i as u64));
@@ -213,36 +231,242 @@ pub fn prove(out_dir: &Path, quick: bool, seed: u64) -> Result<Vec<ProofCase>, I
             &mut rng,
         )?;
         let rig = nominal_rig(&scene, &mut rng);
-        let rec_path = out_dir.join(format!("prove_{}.csv", spec.name));
-        let rig_path = out_dir.join(format!("prove_{}.rig.toml", spec.name));
-        let io = |p: &Path, e: std::io::Error| IdentError::Setup(format!("{}: {e}", p.display()));
-        std::fs::write(&rec_path, &csv).map_err(|e| io(&rec_path, e))?;
-        std::fs::write(&rig_path, rig.to_toml()).map_err(|e| io(&rig_path, e))?;
-        let rec = Recording::load(&rec_path)?;
-        let d = diagnose(&rig, &rig_path, &rec, None, &DiagnoseOptions::default())?;
-        let found: Vec<(Effect, f64)> = d.findings.iter().map(|f| (f.effect, f.value)).collect();
-        let passed = match spec.effect {
-            None => found.is_empty(),
-            Some(e) => found.first().is_some_and(|(fe, v)| {
-                *fe == e && ((v - spec.truth) / spec.truth).abs() <= PARAM_TOLERANCE
-            }),
-        };
-        let json = out_dir.join(format!("prove_{}.json", spec.name));
-        std::fs::write(
-            &json,
-            serde_json::to_string_pretty(&d.contract_json()).expect("json"),
-        )
-        .map_err(|e| io(&json, e))?;
-        out.push(ProofCase {
-            name: spec.name.into(),
-            effect: spec.effect,
-            truth: spec.truth,
-            found,
-            baseline_fit_pct: d.baseline_fit_pct,
-            final_fit_pct: d.final_fit_pct,
-            passed,
-            recording: rec_path,
-        });
+        out.push(check(
+            out_dir,
+            spec.name,
+            spec.effect,
+            spec.truth,
+            &csv,
+            &rig,
+        )?);
+    }
+    if !quick {
+        for (i, spec) in vehicle_specs().into_iter().enumerate() {
+            if !wanted(spec.name) {
+                continue;
+            }
+            let mut rng = Pcg64::seed_from_u64(seed.wrapping_mul(37).wrapping_add(100 + i as u64));
+            let scene = Scene::from_toml("", Path::new("<proof>"), &spec.overrides)
+                .map_err(|e| IdentError::Setup(e.to_string()))?;
+            let csv = record_vehicle(&scene, 16.0, VEHICLE_RATE_HZ, &mut rng)?;
+            let rig = nominal_vehicle_rig(&scene, &mut rng)?;
+            let truth = vehicle_truth(&scene, spec.effect)?;
+            out.push(check(out_dir, spec.name, spec.effect, truth, &csv, &rig)?);
+        }
     }
     Ok(out)
+}
+
+/// Writes a case's recording and rig, diagnoses it and judges the outcome.
+fn check(
+    out_dir: &Path,
+    name: &str,
+    effect: Option<Effect>,
+    truth: f64,
+    csv: &str,
+    rig: &Rig,
+) -> Result<ProofCase, IdentError> {
+    let rec_path = out_dir.join(format!("prove_{name}.csv"));
+    let rig_path = out_dir.join(format!("prove_{name}.rig.toml"));
+    let io = |p: &Path, e: std::io::Error| IdentError::Setup(format!("{}: {e}", p.display()));
+    std::fs::write(&rec_path, csv).map_err(|e| io(&rec_path, e))?;
+    std::fs::write(&rig_path, rig.to_toml()).map_err(|e| io(&rig_path, e))?;
+    let rec = Recording::load(&rec_path)?;
+    let d = diagnose(rig, &rig_path, &rec, None, &DiagnoseOptions::default())?;
+    let found: Vec<(Effect, f64)> = d.findings.iter().map(|f| (f.effect, f.value)).collect();
+    let passed = match effect {
+        None => found.is_empty(),
+        Some(e) => found
+            .first()
+            .is_some_and(|(fe, v)| *fe == e && ((v - truth) / truth).abs() <= PARAM_TOLERANCE),
+    };
+    let json = out_dir.join(format!("prove_{name}.json"));
+    std::fs::write(
+        &json,
+        serde_json::to_string_pretty(&d.contract_json()).expect("json"),
+    )
+    .map_err(|e| io(&json, e))?;
+    Ok(ProofCase {
+        name: name.into(),
+        effect,
+        truth,
+        found,
+        baseline_fit_pct: d.baseline_fit_pct,
+        final_fit_pct: d.final_fit_pct,
+        passed,
+        recording: rec_path,
+    })
+}
+
+/// A whole-vehicle proof case on the floor (full fidelity: rapier chassis, tyres, castors).
+struct VehicleSpec {
+    name: &'static str,
+    effect: Option<Effect>,
+    overrides: Vec<String>,
+}
+
+fn vehicle_specs() -> Vec<VehicleSpec> {
+    // Physics the vocabulary names only where the case says so: a stiff gear mesh without
+    // play, no brush friction, the centre of mass on the drive axle (the rig format has no
+    // key for an offset), castors that swivel and roll freely.
+    let base: Vec<String> = [
+        "sim.fidelity=full",
+        "gearbox.backlash_rad=0",
+        "gearbox.tooth_stiffness_Nm_rad=100000",
+        "motor.coulomb_Nm=0",
+        "chassis.cg_x_m=0",
+        "payload.cg_x_m=0",
+        "castors.swivel_friction_Nm=0",
+        "castors.rolling_resistance=0",
+        "tyre.compound=high_grip",
+        "wire.points_m=[[-50.0, 0.0], [50.0, 0.0]]",
+    ]
+    .map(String::from)
+    .to_vec();
+    let with = |extra: &[&str]| {
+        let mut v = base.clone();
+        v.extend(extra.iter().map(|s| s.to_string()));
+        v
+    };
+    vec![
+        VehicleSpec {
+            name: "vehicle_clean",
+            effect: None,
+            overrides: base.clone(),
+        },
+        VehicleSpec {
+            name: "vehicle_wheel_slip",
+            effect: Some(Effect::WheelSlip),
+            // A slippery floor for the drive tyres: grip 0.15 at the peak.
+            overrides: with(&["tyre.compound=hard_polyurethane", "tyre.peak_mu=0.15"]),
+        },
+        VehicleSpec {
+            name: "vehicle_castor_drag",
+            effect: Some(Effect::CastorDrag),
+            overrides: with(&["castors.rolling_resistance=0.05"]),
+        },
+    ]
+}
+
+/// A floor recording with open-loop voltages: smoothed random forward and turn levels held
+/// 0.3-1 s, encoders (1024 counts) at `rate_hz`, a pose tracker (2 mm, 0.005 rad) on every
+/// fourth row.
+fn record_vehicle(
+    scene: &Scene,
+    duration_s: f64,
+    rate_hz: f64,
+    rng: &mut Pcg64,
+) -> Result<String, IdentError> {
+    let mut sim = Sim::new(scene).map_err(|e| IdentError::Setup(e.to_string()))?;
+    let dt = sim.params().dt_s;
+    let per = ((1.0 / rate_hz) / dt).round().max(1.0) as usize;
+    let interval = per as f64 * dt;
+    let n = (duration_s / interval) as usize;
+    let mut csv = format!(
+        "# agvsim-recording: 1\n# rig: vehicle\n# description: agvsim proof case, vehicle on the floor, open-loop random voltages, tracker on every fourth row\n# sample_time_s: {interval}\n# source: agvsim {} simulation, fidelity {}\nt_s,left_voltage_V,right_voltage_V,x_m,y_m,heading_rad,left_motor_speed_rad_s,right_motor_speed_rad_s\n",
+        env!("CARGO_PKG_VERSION"),
+        sim.params().fidelity.name()
+    );
+    let (mut target, mut level, mut hold) = ([0.0f64; 2], [0.0f64; 2], 0usize);
+    let mut last = [0.0f64; 2];
+    let smoothing = (-interval / 0.15).exp();
+    for k in 0..=n {
+        if hold == 0 {
+            let fwd = rng.random_range(-8.0..=8.0);
+            let turn = rng.random_range(-2.5..=2.5);
+            target = [fwd - turn, fwd + turn];
+            hold = rng
+                .random_range((0.3 / interval) as usize..=(1.0 / interval) as usize)
+                .max(1);
+        }
+        hold -= 1;
+        for s in 0..2 {
+            level[s] = smoothing * level[s] + (1.0 - smoothing) * target[s];
+        }
+        let mut speed = [0.0; 2];
+        for (s, d) in sim.drivetrains().iter().enumerate() {
+            let counts = encoder_counts(d.motor.angle_rad, ENCODER_COUNTS);
+            if k > 0 {
+                speed[s] = (counts - last[s]) * TAU / ENCODER_COUNTS / interval;
+            }
+            last[s] = counts;
+        }
+        let pose = sim.pose();
+        let tracker = if k % 4 == 0 {
+            let mut noise = || -> f64 { StandardNormal.sample(rng) };
+            format!(
+                "{:.5},{:.5},{:.5}",
+                pose.x_m + 0.002 * noise(),
+                pose.y_m + 0.002 * noise(),
+                pose.heading_rad + 0.005 * noise()
+            )
+        } else {
+            ",,".into()
+        };
+        let _ = writeln!(
+            csv,
+            "{:.6},{:.4},{:.4},{tracker},{:.4},{:.4}",
+            k as f64 * interval,
+            level[0],
+            level[1],
+            speed[0],
+            speed[1]
+        );
+        sim.set_actuation(Actuation::Voltage(level));
+        for _ in 0..per {
+            sim.step().map_err(|e| IdentError::Setup(e.to_string()))?;
+        }
+    }
+    Ok(csv)
+}
+
+/// The vehicle rig an experimenter would write: the scene's values 5-25 % off (wheel radius
+/// and track 1-3 %), and no word of the effect.
+fn nominal_vehicle_rig(scene: &Scene, rng: &mut Pcg64) -> Result<Rig, IdentError> {
+    let params =
+        crate::sim::SimParams::from_scene(scene).map_err(|e| IdentError::Setup(e.to_string()))?;
+    let mut rig = nominal_rig(scene, &mut Pcg64::seed_from_u64(rng.random()));
+    let mut off = |x: f64, lo: f64, hi: f64| {
+        let sign = if rng.random::<bool>() { 1.0 } else { -1.0 };
+        x * (1.0 + sign * rng.random_range(lo..hi))
+    };
+    rig.rig = "vehicle".into();
+    let c = &params.chassis;
+    let load_fraction = params.loads.drive_n.iter().sum::<f64>() / params.weight_n();
+    rig.chassis = Some(crate::rig::ChassisRig {
+        mass_kg: Some(off(c.mass_kg, 0.05, 0.25)),
+        yaw_inertia_kg_m2: Some(off(c.yaw_inertia_kg_m2, 0.05, 0.25)),
+        track_width_m: Some(off(c.track_width_m, 0.01, 0.03)),
+        drive_load_fraction: Some(load_fraction),
+    });
+    if let Some(w) = rig.wheel.as_mut() {
+        w.radius_m = Some(off(scene.wheel.radius_m, 0.01, 0.03));
+    }
+    if let Some(s) = rig.sensors.as_mut() {
+        s.current_noise_A = None;
+        s.tracker_position_noise_m = Some(0.002);
+        s.tracker_heading_noise_rad = Some(0.005);
+        s.tracker_rate_hz = Some(rate_hz_of_tracker());
+    }
+    Ok(rig)
+}
+
+fn rate_hz_of_tracker() -> f64 {
+    VEHICLE_RATE_HZ / 4.0
+}
+
+/// Encoder rate of the vehicle proof, Hz.
+const VEHICLE_RATE_HZ: f64 = 200.0;
+
+/// The truth of a vehicle case's effect parameter, from the scene.
+fn vehicle_truth(scene: &Scene, effect: Option<Effect>) -> Result<f64, IdentError> {
+    let params =
+        crate::sim::SimParams::from_scene(scene).map_err(|e| IdentError::Setup(e.to_string()))?;
+    Ok(match effect {
+        Some(Effect::WheelSlip) => params.drive_tyre(params.floor.default).peak_mu,
+        Some(Effect::CastorDrag) => {
+            params.castor_rolling_resistance * params.loads.castor_n.iter().sum::<f64>()
+        }
+        _ => 0.0,
+    })
 }

@@ -111,6 +111,19 @@ pub fn regimes(data: &Dataset, speed: &[f64]) -> Vec<Regime> {
         label: "at high speed (above 80 % of the largest)".into(),
         mask: speed.iter().map(|v| v.abs() > 0.8 * vmax).collect(),
     });
+    if let (Some(l), Some(r)) = (
+        data.output_index("left_motor_speed_rad_s"),
+        data.output_index("right_motor_speed_rad_s"),
+    ) {
+        // Turning: the two sides' speed difference, against its largest.
+        let (l, r) = (filled(&data.outputs[l]), filled(&data.outputs[r]));
+        let diff: Vec<f64> = l.iter().zip(&r).map(|(a, b)| (b - a).abs()).collect();
+        let dmax = diff.iter().copied().fold(0.0, f64::max);
+        out.push(Regime {
+            label: "while turning hard (side speed difference above 50 % of its largest)".into(),
+            mask: diff.iter().map(|d| dmax > 0.0 && *d > 0.5 * dmax).collect(),
+        });
+    }
     for (i, name) in data.input_names.iter().enumerate() {
         let u = &data.inputs[i];
         let umax = u.iter().map(|v| v.abs()).fold(0.0, f64::max);
@@ -141,6 +154,14 @@ pub fn regimes(data: &Dataset, speed: &[f64]) -> Vec<Regime> {
 /// rate of the first position or angle output.
 pub fn measured_speed(data: &Dataset) -> Vec<f64> {
     let pick = |suffix: &str| data.output_names.iter().position(|n| n.ends_with(suffix));
+    // A vehicle: its forward speed is the mean of the two motors'.
+    if let (Some(l), Some(r)) = (
+        data.output_index("left_motor_speed_rad_s"),
+        data.output_index("right_motor_speed_rad_s"),
+    ) {
+        let (l, r) = (filled(&data.outputs[l]), filled(&data.outputs[r]));
+        return l.iter().zip(&r).map(|(a, b)| 0.5 * (a + b)).collect();
+    }
     if let Some(j) = pick("_rad_s").or_else(|| pick("_m_s")) {
         return filled(&data.outputs[j]);
     }

@@ -47,7 +47,11 @@ pub(super) fn effect_grid(e: Effect, s: &Scales) -> (Vec<f64>, f64, f64) {
             let k = s.v_max / s.speed_max.max(1e-9) / s.tau.max(1e-6);
             (log(1e-5 * k, 0.3 * k, 16), 1e-7 * k, 10.0 * k)
         }
-        Effect::WheelSlip | Effect::CastorDrag => (vec![1.0], 0.0, 1.0),
+        Effect::WheelSlip => (log(0.15, 2.0, 14), 0.05, 4.0),
+        Effect::CastorDrag => {
+            let w = s.weight_n.max(1e-6);
+            (log(1e-3 * w, 0.1 * w, 14), 1e-5 * w, 0.5 * w)
+        }
     }
 }
 
@@ -134,4 +138,56 @@ pub(super) fn golden(f: &dyn Fn(f64) -> f64, a: f64, b: f64, iterations: usize) 
         }
     }
     Some(from(if f1 < f2 { x1 } else { x2 }))
+}
+
+/// Profile scan of a rough parameter: at each grid value, held, a few iterations of the
+/// other free parameters from `start` (a parameter like a backlash play shifts every
+/// engagement, and the nominal parameters fitted without it lean away from it, so a scan
+/// with them held can miss the true play's basin entirely). Returns up to two non-adjacent
+/// best grid points, each with the parameters fitted there.
+pub(super) fn profile_scan(
+    cand: &Structure,
+    start: &[f64],
+    idx: usize,
+    others: &[usize],
+    grid: &[f64],
+    data: &Dataset,
+    weights: &[f64],
+) -> Vec<Vec<f64>> {
+    use rayon::prelude::*;
+    let m = cand.model();
+    let fitted: Vec<Option<(f64, Vec<f64>)>> = grid
+        .par_iter()
+        .map(|&g| {
+            let mut p = start.to_vec();
+            p[idx] = g;
+            let settings = fit::FitSettings {
+                free: others.to_vec(),
+                weights: weights.to_vec(),
+                max_iterations: 8,
+                starts: vec![p],
+            };
+            fit::fit(m, data, &settings)
+                .ok()
+                .map(|f| (f.cost, f.params))
+        })
+        .collect();
+    let mut order: Vec<usize> = (0..grid.len()).filter(|&i| fitted[i].is_some()).collect();
+    order.sort_by(|&a, &b| {
+        let c = |i: usize| fitted[i].as_ref().map_or(f64::INFINITY, |f| f.0);
+        c(a).total_cmp(&c(b))
+    });
+    let mut picked: Vec<usize> = Vec::new();
+    for i in order {
+        if picked.iter().all(|&j| i.abs_diff(j) > 1) {
+            picked.push(i);
+        }
+        if picked.len() == 2 {
+            break;
+        }
+    }
+    picked
+        .into_iter()
+        .filter_map(|i| fitted[i].as_ref().map(|f| f.1.clone()))
+        .collect()
 }

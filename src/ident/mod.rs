@@ -32,6 +32,7 @@ use models::dcmc_pair::{Case, DcmcPair};
 use models::falling_weight::FallingWeight;
 use models::linear_axis::LinearAxis;
 use models::rotary_axis::{AxisInput, RotaryAxis};
+use models::vehicle::Vehicle;
 
 /// The model structures `identify` offers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -88,6 +89,7 @@ pub enum Structure {
     Pair(DcmcPair),
     Falling(FallingWeight),
     Coast(CoastDown),
+    Vehicle(Vehicle),
 }
 
 impl Structure {
@@ -98,6 +100,7 @@ impl Structure {
             Structure::Pair(m) => m,
             Structure::Falling(m) => m,
             Structure::Coast(m) => m,
+            Structure::Vehicle(m) => m,
         }
     }
 }
@@ -188,15 +191,18 @@ pub fn build_structure(
     };
     Ok(match choice {
         ModelChoice::DriveAxis => {
+            if rig.rig == "vehicle" {
+                if rec.column("left_voltage_V").is_none() || rec.column("right_voltage_V").is_none()
+                {
+                    return Err(IdentError::Mismatch {
+                        file: rec.path.clone(),
+                        message: "the whole-vehicle model is driven by `left_voltage_V` and `right_voltage_V`; recordings driven through the motor controller (`demand_fwd_pct`, `demand_turn_pct`) are not supported yet".into(),
+                    });
+                }
+                return Ok(Structure::Vehicle(Vehicle::from_rig(rig, rig_path)?));
+            }
             if rig.rig != "drive_axis" {
-                return Err(if rig.rig == "vehicle" {
-                    IdentError::Setup(format!(
-                        "{}: whole-vehicle identification is not available yet; identify each drive axis from lifted-wheel recordings",
-                        rig_path.display()
-                    ))
-                } else {
-                    wrong_rig("drive_axis")
-                });
+                return Err(wrong_rig("drive_axis"));
             }
             if rig.is_linear() {
                 Structure::Linear(LinearAxis::from_rig(rig, rig_path)?)

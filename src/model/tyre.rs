@@ -159,6 +159,53 @@ impl TyreParams {
     }
 }
 
+/// Steady-state (relaxation-free) tyre force of the whole-vehicle identification model, N,
+/// wheel frame: `F_lin = C N slip` per direction, with slip measured against
+/// `sqrt(v_x^2 + v_floor^2)` so that it stays finite at standstill, and, when a friction
+/// limit is given, the combined demand `q = |F_lin| / (mu N)` mapped through the smooth
+/// saturation `sin(c atan(q / c)) / q` (a magic-formula shape: linear at small demand,
+/// exactly `mu N` at the peak, falling beyond it). Smooth, so a fit can differentiate it;
+/// the bristle model above is the simulator's transient version of the same law.
+pub fn steady_slip_force(
+    kin: ContactKinematics,
+    normal_load_n: f64,
+    stiffness_per_n: [f64; 2],
+    speed_floor_m_s: f64,
+    peak_mu: Option<f64>,
+) -> [f64; 2] {
+    // sqrt rather than hypot: the arguments are speeds, far from overflow, and this sits
+    // in the innermost loop of identification.
+    let denom = (kin.forward_m_s * kin.forward_m_s + speed_floor_m_s * speed_floor_m_s).sqrt();
+    let slip = [
+        (kin.rim_m_s - kin.forward_m_s) / denom,
+        -kin.lateral_m_s / denom,
+    ];
+    let f = [
+        stiffness_per_n[0] * normal_load_n * slip[0],
+        stiffness_per_n[1] * normal_load_n * slip[1],
+    ];
+    match peak_mu {
+        None => f,
+        Some(mu) => {
+            let q = (f[0] * f[0] + f[1] * f[1]).sqrt() / (mu * normal_load_n).max(1e-12);
+            [f[0] * friction_saturation(q), f[1] * friction_saturation(q)]
+        }
+    }
+}
+
+/// Shape factor of the saturation (between Pacejka's typical longitudinal 1.65 and lateral
+/// 1.3): the force beyond the peak falls to `sin(c pi / 2)` of it.
+pub const SATURATION_SHAPE: f64 = 1.5;
+
+/// `sin(c atan(q / c)) / q`: 1 at small demand, `1 / q` at the peak.
+pub fn friction_saturation(q: f64) -> f64 {
+    if q < 1e-6 {
+        1.0
+    } else {
+        (SATURATION_SHAPE * (q / SATURATION_SHAPE).atan()).sin() / q
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -233,6 +280,40 @@ mod tests {
         let out = t.step(&mut s, ContactKinematics::default(), 300.0, 1e-3);
         assert!(out.force_n[0].is_finite() && out.force_n[0] > 0.0);
         assert_eq!(out.slip_ratio, 0.0);
+    }
+
+    #[test]
+    fn steady_force_is_linear_at_small_slip_and_peaks_at_mu_n() {
+        let kin = |rim: f64| ContactKinematics {
+            forward_m_s: 1.0,
+            lateral_m_s: 0.0,
+            rim_m_s: rim,
+        };
+        let floor = 0.2;
+        let denom = 1.0f64.hypot(floor);
+        // 0.1 % slip: linear, C N slip.
+        let f = steady_slip_force(kin(1.001), 500.0, [30.0, 25.0], floor, Some(0.6));
+        let lin = 30.0 * 500.0 * 0.001 / denom;
+        assert!((f[0] - lin).abs() < 1e-3 * lin, "{f:?} vs {lin}");
+        // Over all slips the force never exceeds mu N, and reaches it.
+        let peak = (0..4000)
+            .map(|i| {
+                steady_slip_force(
+                    kin(1.0 + i as f64 * 1e-3),
+                    500.0,
+                    [30.0, 25.0],
+                    floor,
+                    Some(0.6),
+                )[0]
+            })
+            .fold(0.0, f64::max);
+        assert!(
+            peak <= 0.6 * 500.0 + 1e-9 && peak > 0.6 * 500.0 * 0.999,
+            "{peak}"
+        );
+        // Without a limit the law stays linear.
+        let f = steady_slip_force(kin(2.0), 500.0, [30.0, 25.0], floor, None);
+        assert!((f[0] - 30.0 * 500.0 / denom).abs() < 1e-9);
     }
 
     #[test]

@@ -5,3 +5,4 @@ pub mod dcmc_pair;
 pub mod falling_weight;
 pub mod linear_axis;
 pub mod rotary_axis;
+pub mod vehicle;

@@ -36,6 +36,8 @@ pub const TOOTH_DAMPING_NM_S_RAD: f64 = 3.0;
 /// Share of the viscous friction on the wheel side of the play when the backlash block is
 /// on (the rig gives only the total); a parameter of the block, held at this value.
 pub const WHEEL_SIDE_VISCOUS_SHARE: f64 = 0.3;
+/// Finite-difference step (search coordinate) of every parameter once a play is modelled.
+pub const BACKLASH_FD_STEP: f64 = 1e-3;
 /// Name of the backlash block's nuisance parameter.
 pub const WHEEL_SHARE_PARAM: &str = "backlash.wheel_viscous_share";
 
@@ -129,6 +131,12 @@ impl RotaryAxis {
         let mut m = self.clone();
         let spec = ParamSpec::new(effect.param_name(false), start, lo, hi);
         if effect == Effect::Backlash {
+            // Teeth meeting and parting make the output a rough function of every
+            // parameter on the scale of an integration step: differences for the Jacobian
+            // must be wider than that roughness.
+            for s in &mut m.specs {
+                s.fd_step = s.fd_step.max(BACKLASH_FD_STEP);
+            }
             // The block's nuisance parameter comes first; the play is always the last.
             m.specs.push(ParamSpec::new(
                 WHEEL_SHARE_PARAM,
@@ -143,6 +151,20 @@ impl RotaryAxis {
         m.effects.add(effect, m.specs.len() - 1);
         m.coulomb_eps_rad_s = (effects::COULOMB_SMOOTHING_FRACTION * max_speed).max(1e-3);
         m
+    }
+
+    /// Nominal parameters an effect's block makes identifiable beyond the default free set:
+    /// with a play, the motor runs free on its own inertia and electrical damping `K^2/R`
+    /// while the teeth are apart, which separates the two inertias, and R from K even
+    /// without a current.
+    pub fn newly_identifiable(&self, effect: Effect, outputs: &[String]) -> Vec<usize> {
+        let has_current = outputs.iter().any(|o| o == "current_A");
+        match effect {
+            // The wheel's inertia is seen apart from the rotor's once the teeth separate.
+            Effect::Backlash if has_current => vec![JW],
+            Effect::Backlash => vec![R, JW],
+            _ => vec![],
+        }
     }
 
     fn effect(&self, e: Effect) -> Option<usize> {

@@ -1,0 +1,509 @@
+//! The whole AGV on the floor, for identification from vehicle recordings: two DC motors
+//! driving their wheels through the gear trains, the tyres' slip forces, and the chassis as
+//! a planar rigid body; castors are free idlers carrying the rest of the weight.
+//!
+//! Per side (left, right): `L di/dt = V - R i - K w_m`, the motor and wheel through the
+//! gear (rigid, or a play with tooth contact when the backlash block is on), and the tyre's
+//! force `F = steady_slip_force(...)` on the rim. The chassis, in its own frame at the
+//! drive-axle midpoint (the tracked point; the rig gives no centre-of-mass offset, so the
+//! centre of mass is taken there): `m (du/dt - v r) = Fx_l + Fx_r`,
+//! `m (dv/dt + u r) = Fy_l + Fy_r`, `Iz dr/dt = (Fx_r - Fx_l) track / 2`, and the pose
+//! `(x, y, heading)` in the world frame. The physical laws are the simulator's own
+//! (`crate::model`: motor electrical law, gear tooth contact, tyre slip force).
+
+use std::path::Path;
+
+use crate::ident::data::Dataset;
+use crate::ident::effects::{self, Effect};
+use crate::ident::model::{GreyBox, OutputKind, ParamSpec};
+use crate::model::gearbox::GearboxParams;
+use crate::model::tyre::{steady_slip_force, ContactKinematics};
+use crate::model::GRAVITY_M_S2;
+use crate::rig::{Rig, RigError};
+
+use super::rotary_axis::{
+    BACKLASH_FD_STEP, TOOTH_DAMPING_NM_S_RAD, TOOTH_STIFFNESS_NM_RAD, WHEEL_SHARE_PARAM,
+};
+
+pub const R: usize = 0;
+pub const L: usize = 1;
+pub const K: usize = 2;
+pub const JM: usize = 3;
+pub const JW: usize = 4;
+pub const B: usize = 5;
+pub const MASS: usize = 6;
+pub const IZ: usize = 7;
+pub const RW: usize = 8;
+pub const TRACK: usize = 9;
+pub const LOAD_FRACTION: usize = 10;
+pub const LONG_STIFFNESS: usize = 11;
+pub const LAT_STIFFNESS: usize = 12;
+
+/// Tyre slip stiffnesses per newton of load assumed when the rig does not say (the
+/// simulator's hard-compound preset): they only set the small creep of a tyre below its
+/// friction limit.
+pub const DEFAULT_LONG_STIFFNESS_PER_N: f64 = 30.0;
+pub const DEFAULT_LAT_STIFFNESS_PER_N: f64 = 25.0;
+/// Share of the weight on the drive wheels when the rig does not give it.
+pub const DEFAULT_DRIVE_LOAD_FRACTION: f64 = 0.6;
+/// Ground speed below which slip is measured against this speed instead (m/s): keeps
+/// slip finite at standstill and the tyre's stiffness bounded for explicit integration.
+pub const SLIP_SPEED_FLOOR_M_S: f64 = 0.2;
+
+/// States per side: current, motor speed, motor angle, wheel speed, wheel angle.
+const SIDE: usize = 5;
+/// First chassis state: forward speed, lateral speed, yaw rate, x, y, heading.
+const BODY: usize = 2 * SIDE;
+
+/// The vehicle with any effects switched on.
+#[derive(Debug, Clone)]
+pub struct Vehicle {
+    specs: Vec<ParamSpec>,
+    /// Motor turns per wheel turn.
+    pub ratio: f64,
+    /// Motor speeds come from encoders (count differences over the sample interval).
+    pub encoder: bool,
+    /// Supply voltage the rig states, V.
+    pub supply_v: f64,
+    pub effects: effects::EffectSlots,
+    /// Smoothing speeds of Coulomb friction (rad/s, motor) and castor drag (m/s).
+    pub coulomb_eps_rad_s: f64,
+    pub drag_eps_m_s: f64,
+}
+
+impl Vehicle {
+    pub fn from_rig(rig: &Rig, path: &Path) -> Result<Vehicle, RigError> {
+        let need = |k: &str| rig.require(k, path, "the whole-vehicle model needs it");
+        let l = need("motor.inductance_H")?;
+        let specs = vec![
+            ParamSpec::positive("motor.resistance_ohm", need("motor.resistance_ohm")?),
+            ParamSpec::new("motor.inductance_H", l, l / 3.0, 3.0 * l),
+            ParamSpec::positive(
+                "motor.torque_constant_Nm_A",
+                need("motor.torque_constant_Nm_A")?,
+            ),
+            ParamSpec::positive(
+                "motor.rotor_inertia_kg_m2",
+                need("motor.rotor_inertia_kg_m2")?,
+            ),
+            ParamSpec::positive("wheel.inertia_kg_m2", need("wheel.inertia_kg_m2")?),
+            ParamSpec::positive("motor.viscous_Nm_s_rad", need("motor.viscous_Nm_s_rad")?),
+            ParamSpec::positive("chassis.mass_kg", need("chassis.mass_kg")?),
+            ParamSpec::positive(
+                "chassis.yaw_inertia_kg_m2",
+                need("chassis.yaw_inertia_kg_m2")?,
+            ),
+            {
+                // Measured with a ruler: a few percent is a generous bound.
+                let r = need("wheel.radius_m")?;
+                ParamSpec::new("wheel.radius_m", r, 0.8 * r, 1.25 * r)
+            },
+            {
+                let t = need("chassis.track_width_m")?;
+                ParamSpec::new("chassis.track_width_m", t, 0.8 * t, 1.25 * t)
+            },
+            ParamSpec::new(
+                "chassis.drive_load_fraction",
+                rig.get("chassis.drive_load_fraction")
+                    .unwrap_or(DEFAULT_DRIVE_LOAD_FRACTION),
+                0.05,
+                1.0,
+            ),
+            ParamSpec::positive(
+                "tyre.longitudinal_stiffness_per_N",
+                DEFAULT_LONG_STIFFNESS_PER_N,
+            ),
+            ParamSpec::positive("tyre.lateral_stiffness_per_N", DEFAULT_LAT_STIFFNESS_PER_N),
+        ];
+        Ok(Vehicle {
+            specs,
+            ratio: rig.require("gearbox.ratio", path, "the whole-vehicle model needs it")?,
+            encoder: rig.get("sensors.motor_encoder_counts_per_rev").is_some(),
+            supply_v: rig.get("supply.voltage_V").unwrap_or(24.0),
+            effects: effects::EffectSlots::default(),
+            coulomb_eps_rad_s: 1.0,
+            drag_eps_m_s: 0.01,
+        })
+    }
+
+    /// Effects that can act on the vehicle.
+    pub fn applicable(&self) -> Vec<Effect> {
+        vec![
+            Effect::WheelSlip,
+            Effect::Backlash,
+            Effect::CastorDrag,
+            Effect::CoulombFriction,
+            Effect::VoltageSaturation,
+            Effect::BatterySag,
+            Effect::TransportDelay,
+        ]
+    }
+
+    /// This model with one more effect, its parameter starting at `start` within
+    /// `[lo, hi]`; `max_speed` (motor, rad/s) sets the smoothing of friction laws.
+    pub fn with_effect(
+        &self,
+        effect: Effect,
+        start: f64,
+        lo: f64,
+        hi: f64,
+        max_speed: f64,
+    ) -> Vehicle {
+        let mut m = self.clone();
+        let spec = ParamSpec::new(effect.param_name(false), start, lo, hi);
+        match effect {
+            Effect::Backlash => {
+                for s in &mut m.specs {
+                    s.fd_step = s.fd_step.max(BACKLASH_FD_STEP);
+                }
+                m.specs
+                    .push(ParamSpec::new(WHEEL_SHARE_PARAM, 0.3, 0.0, 0.95));
+                m.specs.push(spec.with_fd_step(2e-3));
+            }
+            _ => m.specs.push(spec),
+        }
+        m.effects.add(effect, m.specs.len() - 1);
+        m.coulomb_eps_rad_s = (effects::COULOMB_SMOOTHING_FRACTION * max_speed).max(1e-3);
+        let ground = max_speed / self.ratio * self.specs[RW].nominal;
+        m.drag_eps_m_s = (effects::COULOMB_SMOOTHING_FRACTION * ground).max(1e-4);
+        m
+    }
+
+    fn effect(&self, e: Effect) -> Option<usize> {
+        self.effects.get(e)
+    }
+
+    /// Normal load on each drive wheel, N.
+    pub fn drive_wheel_load_n(&self, p: &[f64]) -> f64 {
+        p[LOAD_FRACTION] * p[MASS] * GRAVITY_M_S2 / 2.0
+    }
+
+    /// Inertia at a motor shaft of its motor, gear and wheel, kg m^2.
+    pub fn drivetrain_inertia_at_motor(&self, p: &[f64]) -> f64 {
+        p[JM] + p[JW] / (self.ratio * self.ratio)
+    }
+
+    /// Forward time constant of the vehicle on its motors, s.
+    pub fn mechanical_time_constant_s(&self, p: &[f64]) -> f64 {
+        let n2 = self.ratio * self.ratio;
+        let j = self.drivetrain_inertia_at_motor(p) + 0.5 * p[MASS] * p[RW] * p[RW] / n2;
+        j / (p[B] + p[K] * p[K] / p[R])
+    }
+
+    /// Terminal voltages of the two motors from the commands and the currents, V.
+    fn terminal_voltages(&self, p: &[f64], cmd: [f64; 2], current: [f64; 2]) -> [f64; 2] {
+        let mut v = cmd;
+        if let Some(i) = self.effect(Effect::VoltageSaturation) {
+            v = v.map(|v| v.clamp(-p[i], p[i]));
+        }
+        if let Some(i) = self.effect(Effect::BatterySag) {
+            // Both bridges draw on one battery: duty d = V / V_rated, bus current sum d i.
+            let d = v.map(|v| (v / self.supply_v).clamp(-1.0, 1.0));
+            let bus = self.supply_v - p[i] * (d[0] * current[0] + d[1] * current[1]);
+            v = [d[0] * bus, d[1] * bus];
+        }
+        v
+    }
+}
+
+impl GreyBox for Vehicle {
+    fn name(&self) -> String {
+        "whole vehicle (two motors, gears, tyres, chassis), voltage-driven".into()
+    }
+
+    fn params(&self) -> &[ParamSpec] {
+        &self.specs
+    }
+
+    fn default_free(&self, _outputs: &[String]) -> Vec<usize> {
+        // R and K separate through the torque per volt K/R and the back-EMF damping K^2/R
+        // (the viscous friction is small beside it). L is weakly seen at vehicle sample
+        // rates; the wheel's inertia only in sum with the rotor's; the load fraction and
+        // the tyre stiffnesses only through the small creep of a rolling tyre.
+        vec![R, K, JM, B, MASS, IZ, RW, TRACK]
+    }
+
+    fn input_names(&self) -> Vec<String> {
+        vec!["left_voltage_V".into(), "right_voltage_V".into()]
+    }
+
+    fn output_names(&self) -> Vec<String> {
+        [
+            "x_m",
+            "y_m",
+            "heading_rad",
+            "left_motor_speed_rad_s",
+            "right_motor_speed_rad_s",
+            "left_wheel_speed_m_s",
+            "right_wheel_speed_m_s",
+            "yaw_rate_rad_s",
+        ]
+        .map(String::from)
+        .to_vec()
+    }
+
+    fn n_states(&self) -> usize {
+        BODY + 6
+    }
+
+    fn initial_state(&self, _p: &[f64], data: &Dataset) -> Vec<f64> {
+        // At rest; the pose where the tracker first saw the vehicle.
+        let mut x = vec![0.0; self.n_states()];
+        x[BODY + 3] = data.first_measured("x_m").unwrap_or(0.0);
+        x[BODY + 4] = data.first_measured("y_m").unwrap_or(0.0);
+        x[BODY + 5] = data.first_measured("heading_rad").unwrap_or(0.0);
+        x
+    }
+
+    fn max_step_s(&self, p: &[f64]) -> f64 {
+        let n2 = self.ratio * self.ratio;
+        let load = self.drive_wheel_load_n(p);
+        // The tyre's slip force is a stiff damper on the rim speed: explicit RK4 needs
+        // h lambda below 2.8 (lambda taken at its largest, at standstill); at 2 the fast
+        // mode still decays monotonically enough, as it does physically, while the slow
+        // dynamics are integrated accurately.
+        let rim_damping = load * p[LONG_STIFFNESS] / SLIP_SPEED_FLOOR_M_S;
+        let wheel_j = if self.effect(Effect::Backlash).is_some() {
+            p[JW]
+        } else {
+            p[JW] + p[JM] * n2
+        };
+        let lambda_long = rim_damping * p[RW] * p[RW] / wheel_j;
+        let lambda_lat = 2.0 * load * p[LAT_STIFFNESS] / SLIP_SPEED_FLOOR_M_S / p[MASS];
+        let mut h = (2.0 / lambda_long.max(lambda_lat)).min(p[L] / p[R]);
+        if self.effect(Effect::Backlash).is_some() {
+            let j_red = p[JW] * p[JM] * n2 / (p[JW] + p[JM] * n2);
+            let rate = (TOOTH_STIFFNESS_NM_RAD / j_red).sqrt() + TOOTH_DAMPING_NM_S_RAD / j_red;
+            h = h.min(0.3 / rate);
+        }
+        h
+    }
+
+    fn input_delay_s(&self, p: &[f64]) -> f64 {
+        self.effect(Effect::TransportDelay).map_or(0.0, |i| p[i])
+    }
+
+    fn derivatives(&self, p: &[f64], x: &[f64], u: &[f64], _held: &[f64], dx: &mut [f64]) {
+        let n = self.ratio;
+        let (fwd, lat, yaw_rate, heading) = (x[BODY], x[BODY + 1], x[BODY + 2], x[BODY + 5]);
+        let load = self.drive_wheel_load_n(p);
+        let mu = self.effect(Effect::WheelSlip).map(|i| p[i]);
+        let v = self.terminal_voltages(p, [u[0], u[1]], [x[0], x[SIDE]]);
+        let mut force = [[0.0; 2]; 2];
+        for side in 0..2 {
+            let s = side * SIDE;
+            let (i, wm, wm_angle) = (x[s], x[s + 1], x[s + 2]);
+            dx[s] = (v[side] - p[R] * i - p[K] * wm) / p[L];
+            let mut drive = p[K] * i;
+            if let Some(c) = self.effect(Effect::CoulombFriction) {
+                drive -= effects::smooth_coulomb(p[c], wm, self.coulomb_eps_rad_s);
+            }
+            let backlash = self.effect(Effect::Backlash);
+            let ww = if backlash.is_some() { x[s + 3] } else { wm / n };
+            // Left wheel at +track/2 in the chassis frame (y to the left).
+            let offset = if side == 0 { -0.5 } else { 0.5 } * p[TRACK];
+            let kin = ContactKinematics {
+                forward_m_s: fwd + yaw_rate * offset,
+                lateral_m_s: lat,
+                rim_m_s: ww * p[RW],
+            };
+            let f = steady_slip_force(
+                kin,
+                load,
+                [p[LONG_STIFFNESS], p[LAT_STIFFNESS]],
+                SLIP_SPEED_FLOOR_M_S,
+                mu,
+            );
+            // The ground pushes the chassis forward by f[0] and resists the wheel by f[0] R.
+            let ground_torque = f[0] * p[RW];
+            match backlash {
+                None => {
+                    dx[s + 1] = (drive - p[B] * wm - ground_torque / n)
+                        / self.drivetrain_inertia_at_motor(p);
+                    dx[s + 3] = 0.0;
+                    dx[s + 4] = wm / n;
+                }
+                Some(play) => {
+                    let g = GearboxParams {
+                        ratio: n,
+                        backlash_rad: p[play],
+                        tooth_stiffness_nm_rad: TOOTH_STIFFNESS_NM_RAD,
+                        tooth_damping_nm_s_rad: TOOTH_DAMPING_NM_S_RAD,
+                    };
+                    let tooth = g.tooth_contact_torque(wm_angle / n - x[s + 4], wm / n - ww);
+                    let share = p[play - 1];
+                    let b_motor = p[B] * (1.0 - share);
+                    let b_wheel = p[B] * share * n * n;
+                    dx[s + 1] = (drive - b_motor * wm - tooth / n) / p[JM];
+                    dx[s + 3] = (tooth - b_wheel * ww - ground_torque) / p[JW];
+                    dx[s + 4] = ww;
+                }
+            }
+            dx[s + 2] = wm;
+            force[side] = f;
+        }
+        let mut fx = force[0][0] + force[1][0];
+        let mut fy = force[0][1] + force[1][1];
+        if let Some(d) = self.effect(Effect::CastorDrag) {
+            // Rolling drag of the idlers, opposing the chassis's motion over the floor.
+            let speed = (fwd * fwd + lat * lat + self.drag_eps_m_s * self.drag_eps_m_s).sqrt();
+            fx -= p[d] * fwd / speed;
+            fy -= p[d] * lat / speed;
+        }
+        dx[BODY] = fx / p[MASS] + lat * yaw_rate;
+        dx[BODY + 1] = fy / p[MASS] - fwd * yaw_rate;
+        dx[BODY + 2] = (force[1][0] - force[0][0]) * 0.5 * p[TRACK] / p[IZ];
+        let (sin, cos) = heading.sin_cos();
+        dx[BODY + 3] = fwd * cos - lat * sin;
+        dx[BODY + 4] = fwd * sin + lat * cos;
+        dx[BODY + 5] = yaw_rate;
+    }
+
+    fn output_kind(&self, name: &str) -> OutputKind {
+        match name {
+            "left_motor_speed_rad_s" if self.encoder => OutputKind::IntervalRate(2),
+            "right_motor_speed_rad_s" if self.encoder => OutputKind::IntervalRate(SIDE + 2),
+            _ => OutputKind::Instant,
+        }
+    }
+
+    fn output(&self, p: &[f64], name: &str, x: &[f64], _u: &[f64], _held: &[f64]) -> f64 {
+        let wheel = |s: usize| {
+            if self.effect(Effect::Backlash).is_some() {
+                x[s + 3]
+            } else {
+                x[s + 1] / self.ratio
+            }
+        };
+        match name {
+            "x_m" => x[BODY + 3],
+            "y_m" => x[BODY + 4],
+            "heading_rad" => x[BODY + 5],
+            "left_motor_speed_rad_s" => x[1],
+            "right_motor_speed_rad_s" => x[SIDE + 1],
+            "left_wheel_speed_m_s" => wheel(0) * p[RW],
+            "right_wheel_speed_m_s" => wheel(SIDE) * p[RW],
+            "yaw_rate_rad_s" => x[BODY + 2],
+            _ => f64::NAN,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ident::model::simulate;
+
+    fn rig() -> Rig {
+        Rig::parse(
+            r#"rig = "vehicle"
+[motor]
+resistance_ohm = 0.35
+inductance_H = 0.0008
+torque_constant_Nm_A = 0.063
+rotor_inertia_kg_m2 = 2.0e-4
+viscous_Nm_s_rad = 1.0e-4
+[gearbox]
+ratio = 23.41
+[wheel]
+radius_m = 0.075
+inertia_kg_m2 = 0.02
+[chassis]
+mass_kg = 120.0
+yaw_inertia_kg_m2 = 14.0
+track_width_m = 0.5
+drive_load_fraction = 0.6
+"#,
+            Path::new("test.rig.toml"),
+        )
+        .unwrap()
+    }
+
+    /// Constant voltages for `duration` s, sampled every 10 ms.
+    fn run(model: &Vehicle, p: &[f64], v: [f64; 2], duration: f64) -> (Dataset, Vec<Vec<f64>>) {
+        let n = (duration / 0.01) as usize + 1;
+        let outputs = [
+            "x_m",
+            "y_m",
+            "heading_rad",
+            "left_motor_speed_rad_s",
+            "right_motor_speed_rad_s",
+        ];
+        let data = Dataset {
+            name: "test".into(),
+            t_s: (0..n).map(|k| k as f64 * 0.01).collect(),
+            input_names: model.input_names(),
+            inputs: vec![vec![v[0]; n], vec![v[1]; n]],
+            output_names: outputs.map(String::from).to_vec(),
+            outputs: vec![vec![Some(0.0); n]; outputs.len()],
+        };
+        let y = simulate(model, p, &data).unwrap();
+        (data, y)
+    }
+
+    /// Straight run at constant voltage: with no force needed at constant speed, the motor
+    /// settles at K V / (K^2 + R b), the tyres stop creeping, and the vehicle moves at the
+    /// rim speed, straight along x.
+    #[test]
+    fn straight_run_settles_at_the_motor_law_and_rolls_without_creep() {
+        let m = Vehicle::from_rig(&rig(), Path::new("test.rig.toml")).unwrap();
+        let p = m.nominal();
+        let (_, y) = run(&m, &p, [12.0, 12.0], 6.0);
+        let w = 0.063 * 12.0 / (0.063 * 0.063 + 0.35 * 1.0e-4);
+        let last = y[3].len() - 1;
+        assert!((y[3][last] - w).abs() < 1e-3 * w, "{} vs {w}", y[3][last]);
+        let ground = w / 23.41 * 0.075;
+        let speed = (y[0][last] - y[0][last - 100]) / 1.0;
+        assert!(
+            (speed - ground).abs() < 1e-3 * ground,
+            "{speed} vs {ground}"
+        );
+        assert!(y[1][last].abs() < 1e-9 && y[2][last].abs() < 1e-9);
+    }
+
+    /// Opposite voltages spin the vehicle on the spot at 2 r w / (N track).
+    #[test]
+    fn opposite_voltages_turn_on_the_spot() {
+        let m = Vehicle::from_rig(&rig(), Path::new("test.rig.toml")).unwrap();
+        let p = m.nominal();
+        let (_, y) = run(&m, &p, [-6.0, 6.0], 4.0);
+        let last = y[2].len() - 1;
+        let w = y[4][last];
+        let yaw_rate = (y[2][last] - y[2][last - 100]) / 1.0;
+        let expected = 2.0 * w / 23.41 * 0.075 / 0.5;
+        assert!(
+            (yaw_rate - expected).abs() < 1e-3 * expected,
+            "{yaw_rate} vs {expected}"
+        );
+        assert!(y[0][last].abs() < 1e-6 && y[1][last].abs() < 1e-6);
+    }
+
+    /// With the wheel-slip block, the floor limits traction: a full-voltage start cannot
+    /// accelerate the vehicle faster than mu times the drive wheels' share of g (and, the
+    /// wheels spinning, keeps at least the law's sliding share of it), while without the
+    /// block the same start accelerates far harder.
+    #[test]
+    fn friction_limit_caps_the_acceleration() {
+        let nominal = Vehicle::from_rig(&rig(), Path::new("test.rig.toml")).unwrap();
+        let slip = nominal.with_effect(Effect::WheelSlip, 0.1, 0.05, 4.0, 300.0);
+        let mut p = nominal.nominal();
+        p.push(0.1);
+        let cap = 0.1 * 0.6 * GRAVITY_M_S2;
+        let peak_accel = |y: &[Vec<f64>]| {
+            let v: Vec<f64> = y[0].windows(2).map(|w| (w[1] - w[0]) / 0.01).collect();
+            v.windows(2)
+                .map(|w| (w[1] - w[0]) / 0.01)
+                .fold(0.0, f64::max)
+        };
+        let (_, y) = run(&slip, &p, [24.0, 24.0], 1.0);
+        let a = peak_accel(&y);
+        // A spinning wheel keeps sin(c pi / 2) of the peak grip (the law's full-slide end).
+        let sliding = (crate::model::tyre::SATURATION_SHAPE * std::f64::consts::FRAC_PI_2).sin();
+        assert!(
+            a <= cap * 1.01 && a > 0.99 * sliding * cap,
+            "{a} vs cap {cap}"
+        );
+        let (_, y) = run(&nominal, &nominal.nominal(), [24.0, 24.0], 1.0);
+        assert!(peak_accel(&y) > 2.0 * cap);
+    }
+}
