@@ -114,6 +114,28 @@ impl Problem<'_> {
         p
     }
 
+    /// Bounds of the search coordinates.
+    fn z_bounds(&self) -> (Vec<f64>, Vec<f64>) {
+        let specs = self.model.params();
+        let z = |c: &Coord, v: f64| match c {
+            Coord::Log => v.ln(),
+            Coord::Linear { scale } => v / scale,
+        };
+        let lo = self
+            .free
+            .iter()
+            .zip(&self.coords)
+            .map(|(&i, c)| z(c, specs[i].lo))
+            .collect();
+        let hi = self
+            .free
+            .iter()
+            .zip(&self.coords)
+            .map(|(&i, c)| z(c, specs[i].hi))
+            .collect();
+        (lo, hi)
+    }
+
     /// dp/dz for each free parameter at p.
     fn dp_dz(&self, p: &[f64]) -> Vec<f64> {
         self.free
@@ -244,16 +266,46 @@ fn run_lm(pb: &Problem, max_iterations: usize) -> Result<Fit, FitError> {
             for i in 0..n {
                 a[(i, i)] += lambda * h[(i, i)].max(1e-12);
             }
-            // Damped Gauss-Newton: dz = -(J'J + lambda diag(J'J))^-1 J'r.
-            let step = match a.clone().cholesky() {
-                Some(c) => c.solve(&g),
-                None => match a.lu().solve(&g) {
-                    Some(x) => x,
-                    None => {
-                        lambda *= 10.0;
-                        continue;
+            // Damped Gauss-Newton: dz = -(J'J + lambda diag(J'J))^-1 J'r, with parameters
+            // at a bound that the step would push through held there (an active set): a
+            // clamped component would otherwise bend every other component of the step.
+            let (zlo, zhi) = pb.z_bounds();
+            let mut held = vec![false; n];
+            let step = loop {
+                let mut a = a.clone();
+                let mut g = g.clone();
+                for i in (0..n).filter(|&i| held[i]) {
+                    for j in 0..n {
+                        a[(i, j)] = 0.0;
+                        a[(j, i)] = 0.0;
                     }
-                },
+                    a[(i, i)] = 1.0;
+                    g[i] = 0.0;
+                }
+                let Some(step) = (match a.clone().cholesky() {
+                    Some(c) => Some(c.solve(&g)),
+                    None => a.lu().solve(&g),
+                }) else {
+                    break None;
+                };
+                let tol = 1e-9;
+                let pushed: Vec<usize> = (0..n)
+                    .filter(|&i| {
+                        !held[i]
+                            && ((z[i] <= zlo[i] + tol && step[i] > 0.0)
+                                || (z[i] >= zhi[i] - tol && step[i] < 0.0))
+                    })
+                    .collect();
+                if pushed.is_empty() {
+                    break Some(step);
+                }
+                for i in pushed {
+                    held[i] = true;
+                }
+            };
+            let Some(step) = step else {
+                lambda *= 10.0;
+                continue;
             };
             let z_new: Vec<f64> = z.iter().zip(step.iter()).map(|(a, b)| a - b).collect();
             // Keep z inside the bounds so the clamp does not hide a wasted step.

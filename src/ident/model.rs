@@ -92,6 +92,10 @@ pub trait GreyBox: Sync {
     /// Instantaneous value of output `name`.
     fn output(&self, p: &[f64], name: &str, x: &[f64], u: &[f64], held: &[f64]) -> f64;
 
+    /// Adjusts a finished simulation to the recording's frame before it is compared (a
+    /// pose tracker's unknown start pose): called once per simulation.
+    fn align_outputs(&self, _data: &Dataset, _y: &mut [Vec<f64>]) {}
+
     /// Index of a parameter by name.
     fn param_index(&self, name: &str) -> Option<usize> {
         self.params().iter().position(|s| s.name == name)
@@ -205,5 +209,6 @@ pub fn simulate(model: &dyn GreyBox, p: &[f64], data: &Dataset) -> Result<Vec<Ve
         data.input_row(k + 1, &mut u);
         model.hold(p, data.t_s[k + 1], &x, &u, &mut held);
     }
+    model.align_outputs(data, &mut y);
     Ok(y)
 }

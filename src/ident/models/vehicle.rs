@@ -50,6 +50,10 @@ pub const DEFAULT_DRIVE_LOAD_FRACTION: f64 = 0.6;
 /// slip finite at standstill and the tyre's stiffness bounded for explicit integration.
 pub const SLIP_SPEED_FLOOR_M_S: f64 = 0.2;
 
+/// Name of the castor-drag block's nuisance parameter: the castors' distance from the
+/// drive-axle midpoint, m.
+pub const CASTOR_LEVER_PARAM: &str = "castor_drag.lever_m";
+
 /// States per side: current, motor speed, motor angle, wheel speed, wheel angle.
 const SIDE: usize = 5;
 /// First chassis state: forward speed, lateral speed, yaw rate, x, y, heading.
@@ -69,6 +73,10 @@ pub struct Vehicle {
     /// Smoothing speeds of Coulomb friction (rad/s, motor) and castor drag (m/s).
     pub coulomb_eps_rad_s: f64,
     pub drag_eps_m_s: f64,
+    /// Tracker noise (rig `[sensors]`, else 2 mm and 5 mrad): weights of the start-pose
+    /// alignment.
+    pub tracker_position_noise_m: f64,
+    pub tracker_heading_noise_rad: f64,
 }
 
 impl Vehicle {
@@ -123,6 +131,10 @@ impl Vehicle {
             effects: effects::EffectSlots::default(),
             coulomb_eps_rad_s: 1.0,
             drag_eps_m_s: 0.01,
+            tracker_position_noise_m: rig.get("sensors.tracker_position_noise_m").unwrap_or(0.002),
+            tracker_heading_noise_rad: rig
+                .get("sensors.tracker_heading_noise_rad")
+                .unwrap_or(0.005),
         })
     }
 
@@ -159,6 +171,15 @@ impl Vehicle {
                 m.specs
                     .push(ParamSpec::new(WHEEL_SHARE_PARAM, 0.3, 0.0, 0.95));
                 m.specs.push(spec.with_fd_step(2e-3));
+            }
+            Effect::CastorDrag => {
+                // Where the castors sit is not in the rig: their distance from the axle
+                // midpoint, which sets how much they resist turning, is the block's own
+                // parameter, starting at half the track.
+                let t = self.specs[TRACK].nominal;
+                m.specs
+                    .push(ParamSpec::new(CASTOR_LEVER_PARAM, 0.5 * t, 0.0, 3.0 * t));
+                m.specs.push(spec);
             }
             _ => m.specs.push(spec),
         }
@@ -344,19 +365,85 @@ impl GreyBox for Vehicle {
         }
         let mut fx = force[0][0] + force[1][0];
         let mut fy = force[0][1] + force[1][1];
+        let mut yaw_torque = (force[1][0] - force[0][0]) * 0.5 * p[TRACK];
         if let Some(d) = self.effect(Effect::CastorDrag) {
-            // Rolling drag of the idlers, opposing the chassis's motion over the floor.
-            let speed = (fwd * fwd + lat * lat + self.drag_eps_m_s * self.drag_eps_m_s).sqrt();
+            // Rolling drag of the idlers, lumped at a distance `lever` from the axle
+            // midpoint: it opposes their contact's motion over the floor, which is the
+            // chassis's motion plus the turn's sweep, so it resists turning as well.
+            let lever = p[d - 1];
+            let sweep = yaw_rate * lever;
+            let speed =
+                (fwd * fwd + lat * lat + sweep * sweep + self.drag_eps_m_s * self.drag_eps_m_s)
+                    .sqrt();
             fx -= p[d] * fwd / speed;
             fy -= p[d] * lat / speed;
+            yaw_torque -= p[d] * lever * sweep / speed;
         }
         dx[BODY] = fx / p[MASS] + lat * yaw_rate;
         dx[BODY + 1] = fy / p[MASS] - fwd * yaw_rate;
-        dx[BODY + 2] = (force[1][0] - force[0][0]) * 0.5 * p[TRACK] / p[IZ];
+        dx[BODY + 2] = yaw_torque / p[IZ];
         let (sin, cos) = heading.sin_cos();
         dx[BODY + 3] = fwd * cos - lat * sin;
         dx[BODY + 4] = fwd * sin + lat * cos;
         dx[BODY + 5] = yaw_rate;
+    }
+
+    /// The vehicle starts where the tracker first saw it, but that reading is as noisy as
+    /// any other: a start heading 5 mrad off swings the whole path by 5 mrad, 10 mm at 2 m.
+    /// The start pose is therefore fitted, in closed form, to each simulation: the small
+    /// rigid motion (rotation about the start point, then shift) that best aligns the
+    /// simulated pose with the tracked one, positions and heading weighted by the tracker's
+    /// noise. This is the least-squares optimum over three nuisance parameters, at no cost
+    /// in simulations.
+    fn align_outputs(&self, data: &Dataset, y: &mut [Vec<f64>]) {
+        let (Some(jx), Some(jy)) = (data.output_index("x_m"), data.output_index("y_m")) else {
+            return;
+        };
+        let jh = data.output_index("heading_rad");
+        let (wp, wh) = (
+            1.0 / (self.tracker_position_noise_m * self.tracker_position_noise_m),
+            1.0 / (self.tracker_heading_noise_rad * self.tracker_heading_noise_rad),
+        );
+        let (xs, ys) = (y[jx][0], y[jy][0]);
+        // Linearised in the rotation a: x' = x - a (y - ys) + dx, y' = y + a (x - xs) + dy,
+        // heading' = heading + a. Normal equations for (a, dx, dy).
+        let mut n = nalgebra::Matrix3::<f64>::zeros();
+        let mut b = nalgebra::Vector3::<f64>::zeros();
+        for k in 0..data.len() {
+            if let (Some(mx), Some(my)) = (data.outputs[jx][k], data.outputs[jy][k]) {
+                let (rx, ry) = (-(y[jy][k] - ys), y[jx][k] - xs);
+                for (row, resid) in [
+                    (nalgebra::Vector3::new(rx, 1.0, 0.0), mx - y[jx][k]),
+                    (nalgebra::Vector3::new(ry, 0.0, 1.0), my - y[jy][k]),
+                ] {
+                    n += wp * row * row.transpose();
+                    b += wp * row * resid;
+                }
+            }
+            if let Some(jh) = jh {
+                if let Some(mh) = data.outputs[jh][k] {
+                    let row = nalgebra::Vector3::new(1.0, 0.0, 0.0);
+                    n += wh * row * row.transpose();
+                    b += wh * row * (mh - y[jh][k]);
+                }
+            }
+        }
+        let Some(sol) = n.lu().solve(&b) else {
+            return;
+        };
+        let (a, dx, dy) = (sol[0], sol[1], sol[2]);
+        if !(a.is_finite() && dx.is_finite() && dy.is_finite()) {
+            return;
+        }
+        let (sin, cos) = a.sin_cos();
+        for k in 0..data.len() {
+            let (px, py) = (y[jx][k] - xs, y[jy][k] - ys);
+            y[jx][k] = xs + cos * px - sin * py + dx;
+            y[jy][k] = ys + sin * px + cos * py + dy;
+            if let Some(jh) = jh {
+                y[jh][k] += a;
+            }
+        }
     }
 
     fn output_kind(&self, name: &str) -> OutputKind {
