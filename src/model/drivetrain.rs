@@ -58,10 +58,7 @@ impl DrivetrainParams {
     pub fn substeps(&self, dt: f64, ground_stiffness_n_m: f64, ground_damping_n_s_m: f64) -> usize {
         let jw = self.wheel_inertia_kg_m2;
         let jm = self.reflected_motor_inertia();
-        let j_red = jw * jm / (jw + jm);
-        let g = &self.gearbox;
-        let mesh_rate =
-            (g.tooth_stiffness_nm_rad / j_red).sqrt() + g.tooth_damping_nm_s_rad / j_red;
+        let mesh_rate = self.gearbox.mesh_rate(jm, jw);
         let r2 = self.wheel_radius_m.powi(2);
         let ground_rate = (ground_stiffness_n_m * r2 / jw).sqrt() + ground_damping_n_s_m * r2 / jw;
         let rate = mesh_rate.max(ground_rate);

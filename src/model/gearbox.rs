@@ -41,6 +41,14 @@ impl GearboxParams {
         }
     }
 
+    /// Fastest rate of the tooth mesh, 1/s: `sqrt(k / J) + c / J` on the reduced inertia of
+    /// the two sides (`motor_side` referred to the wheel, `wheel_side`, kg m^2). Explicit
+    /// integrators keep `h * rate` small against it.
+    pub fn mesh_rate(&self, motor_side_kg_m2: f64, wheel_side_kg_m2: f64) -> f64 {
+        let j_red = motor_side_kg_m2 * wheel_side_kg_m2 / (motor_side_kg_m2 + wheel_side_kg_m2);
+        (self.tooth_stiffness_nm_rad / j_red).sqrt() + self.tooth_damping_nm_s_rad / j_red
+    }
+
     /// Torque the teeth pass to the wheel (N m, wheel side; the motor feels `-T/ratio`).
     /// A spring-damper on the penetration past the play; teeth push but never pull, so
     /// the damping term cannot make a separating contact sticky.

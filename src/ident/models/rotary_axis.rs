@@ -283,10 +283,10 @@ impl GreyBox for RotaryAxis {
     fn max_step_s(&self, p: &[f64]) -> f64 {
         // RK4 is accurate to 2 % on a decaying mode at h = its time constant.
         let mut h = (p[L] / p[R]).min(0.2 * self.mechanical_time_constant_s(p));
-        if self.effect(Effect::Backlash).is_some() {
-            let n2 = self.ratio * self.ratio;
-            let j_red = p[JW] * p[JM] * n2 / (p[JW] + p[JM] * n2);
-            let rate = (TOOTH_STIFFNESS_NM_RAD / j_red).sqrt() + TOOTH_DAMPING_NM_S_RAD / j_red;
+        if let Some(play) = self.effect(Effect::Backlash) {
+            let rate = self
+                .gearbox(p, play)
+                .mesh_rate(p[JM] * self.ratio * self.ratio, p[JW]);
             h = h.min(0.3 / rate);
         }
         h

@@ -194,6 +194,16 @@ impl Vehicle {
         self.effects.get(e)
     }
 
+    /// The gear train of the backlash block (play at index `play`).
+    fn gearbox(&self, p: &[f64], play: usize) -> GearboxParams {
+        GearboxParams {
+            ratio: self.ratio,
+            backlash_rad: p[play],
+            tooth_stiffness_nm_rad: TOOTH_STIFFNESS_NM_RAD,
+            tooth_damping_nm_s_rad: TOOTH_DAMPING_NM_S_RAD,
+        }
+    }
+
     /// Normal load on each drive wheel, N.
     pub fn drive_wheel_load_n(&self, p: &[f64]) -> f64 {
         p[LOAD_FRACTION] * p[MASS] * GRAVITY_M_S2 / 2.0
@@ -292,9 +302,8 @@ impl GreyBox for Vehicle {
         let lambda_long = rim_damping * p[RW] * p[RW] / wheel_j;
         let lambda_lat = 2.0 * load * p[LAT_STIFFNESS] / SLIP_SPEED_FLOOR_M_S / p[MASS];
         let mut h = (2.0 / lambda_long.max(lambda_lat)).min(p[L] / p[R]);
-        if self.effect(Effect::Backlash).is_some() {
-            let j_red = p[JW] * p[JM] * n2 / (p[JW] + p[JM] * n2);
-            let rate = (TOOTH_STIFFNESS_NM_RAD / j_red).sqrt() + TOOTH_DAMPING_NM_S_RAD / j_red;
+        if let Some(play) = self.effect(Effect::Backlash) {
+            let rate = self.gearbox(p, play).mesh_rate(p[JM] * n2, p[JW]);
             h = h.min(0.3 / rate);
         }
         h
@@ -345,12 +354,7 @@ impl GreyBox for Vehicle {
                     dx[s + 4] = wm / n;
                 }
                 Some(play) => {
-                    let g = GearboxParams {
-                        ratio: n,
-                        backlash_rad: p[play],
-                        tooth_stiffness_nm_rad: TOOTH_STIFFNESS_NM_RAD,
-                        tooth_damping_nm_s_rad: TOOTH_DAMPING_NM_S_RAD,
-                    };
+                    let g = self.gearbox(p, play);
                     let tooth = g.tooth_contact_torque(wm_angle / n - x[s + 4], wm / n - ww);
                     let share = p[play - 1];
                     let b_motor = p[B] * (1.0 - share);
