@@ -27,5 +27,7 @@ pub mod run;
 pub mod scene;
 pub mod sensing;
 pub mod sim;
+pub mod study;
+pub mod sweep;
 pub mod viz;
 pub mod world;

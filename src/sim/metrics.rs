@@ -5,6 +5,28 @@ use super::Snapshot;
 /// Tracking settles when the lateral error stays within this band, m.
 pub const SETTLED_BAND_M: f64 = 0.010;
 
+/// A run has settled if its error then stays in the band for at least this share of the
+/// run.
+pub const SETTLED_MIN_SHARE: f64 = 0.2;
+
+/// Smallest oscillation counted as a limit cycle: half peak-to-peak lateral error, m.
+/// About the resolution of the thesis's pen traces (pen play 2 mm, wire straight to
+/// +/-3 mm): anything smaller could not have been seen on its floor.
+pub const LIMIT_CYCLE_MIN_AMPLITUDE_M: f64 = 0.002;
+
+/// Share of the run, at its end, in which a limit cycle is looked for: the loop has had
+/// the rest to settle from its start offset.
+pub const LIMIT_CYCLE_TAIL_FRACTION: f64 = 0.4;
+
+/// A sustained oscillation of the lateral error at the end of a run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LimitCycle {
+    /// Half the peak-to-peak lateral error, m.
+    pub amplitude_m: f64,
+    /// Mean period between like zero crossings, s.
+    pub period_s: f64,
+}
+
 /// The summary of a run.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct RunSummary {
@@ -12,34 +34,59 @@ pub struct RunSummary {
     /// Distance travelled by the axle midpoint, m.
     pub distance_m: f64,
     /// Distance travelled until the lateral error last left the settled band; `None` if it
-    /// never settled.
+    /// never settled (or stayed in the band for less than [`SETTLED_MIN_SHARE`] of the run).
     pub settling_distance_m: Option<f64>,
     /// RMS lateral error after settling (whole run if it never settled), m.
     pub rms_lateral_error_m: f64,
     /// Peak |lateral error| after settling, m.
     pub peak_lateral_error_after_settling_m: f64,
+    /// A sustained oscillation over the last [`LIMIT_CYCLE_TAIL_FRACTION`] of the run.
+    pub limit_cycle: Option<LimitCycle>,
+    /// Peak |slip ratio| of the drive tyres over the second half of the run. (The first
+    /// half holds the start from rest, where any wheel spin-up reads as a slip ratio near
+    /// 1 while the vehicle barely moves; the second half is the tracking the studies are
+    /// about.)
     pub peak_abs_slip_ratio: f64,
-    /// Share of the time either drive tyre was sliding (friction limit active).
+    /// Time mean of |slip ratio| over both drive tyres, second half of the run.
+    pub mean_abs_slip_ratio: f64,
+    /// Share of the second half of the run in which either drive tyre slid (its force on
+    /// the friction limit).
     pub sliding_fraction: f64,
     /// Energy drawn from the battery, J.
     pub battery_energy_j: f64,
+    /// Castor shimmy: RMS swivel rate of the castors over the second half of the run,
+    /// rad/s (0 on the levels that lump the castors). Castors that trail quietly behind a
+    /// vehicle tracking its wire barely swivel; a shimmying castor flaps at several rad/s.
+    pub castor_shimmy_rad_s: f64,
     pub final_lateral_error_m: f64,
+    /// The sensors lost the wire at some point.
+    pub lost_wire: bool,
     pub faults: Vec<String>,
     pub bumper_stop: bool,
 }
 
-/// Accumulates a [`RunSummary`] from snapshots taken every `dt`.
+#[derive(Debug, Clone, Copy)]
+struct Sample {
+    t_s: f64,
+    distance_m: f64,
+    lateral_error_m: f64,
+}
+
+/// Accumulates a [`RunSummary`] from snapshots taken at regular intervals.
 #[derive(Debug, Clone, Default)]
 pub struct MetricsObserver {
-    samples: Vec<(f64, f64)>,
+    samples: Vec<Sample>,
     last_xy: Option<[f64; 2]>,
     distance_m: f64,
-    peak_slip: f64,
-    sliding_samples: usize,
-    samples_n: usize,
+    /// (time, larger |slip ratio| of the two sides, mean |slip ratio|, either sliding).
+    slip: Vec<(f64, f64, f64, bool)>,
     energy_j: f64,
     last_t: f64,
+    /// (time, mean squared swivel rate over the castors) per interval.
+    swivel_rate_sq: Vec<(f64, f64)>,
+    last_swivel: Vec<f64>,
     faults: Vec<String>,
+    lost_wire: bool,
     bumper: bool,
 }
 
@@ -52,20 +99,41 @@ impl MetricsObserver {
         self.last_xy = Some(xy);
         let dt = s.t_s - self.last_t;
         self.last_t = s.t_s;
-        self.samples.push((self.distance_m, s.lateral_error_m));
-        self.samples_n += 1;
-        for side in &s.sides {
-            self.peak_slip = self.peak_slip.max(side.slip_ratio.abs());
-        }
-        if s.sides.iter().any(|x| x.sliding) {
-            self.sliding_samples += 1;
-        }
+        self.samples.push(Sample {
+            t_s: s.t_s,
+            distance_m: self.distance_m,
+            lateral_error_m: s.lateral_error_m,
+        });
+        let [l, r] = [s.sides[0].slip_ratio.abs(), s.sides[1].slip_ratio.abs()];
+        self.slip.push((
+            s.t_s,
+            l.max(r),
+            0.5 * (l + r),
+            s.sides.iter().any(|x| x.sliding),
+        ));
         self.energy_j += s.battery_v * s.battery_current_a * dt;
+        if !s.castors.is_empty() {
+            if self.last_swivel.len() == s.castors.len() && dt > 0.0 {
+                let mean_sq = s
+                    .castors
+                    .iter()
+                    .zip(&self.last_swivel)
+                    .map(|(c, last)| {
+                        let rate = wrap_angle(c.swivel_rad - last) / dt;
+                        rate * rate
+                    })
+                    .sum::<f64>()
+                    / s.castors.len() as f64;
+                self.swivel_rate_sq.push((s.t_s, mean_sq));
+            }
+            self.last_swivel = s.castors.iter().map(|c| c.swivel_rad).collect();
+        }
         if let Some(f) = s.dcmc_fault {
             if !self.faults.iter().any(|x| x == f) {
                 self.faults.push(f.to_string());
             }
         }
+        self.lost_wire |= s.lost_wire;
         self.bumper |= s.bumper;
     }
 
@@ -73,31 +141,162 @@ impl MetricsObserver {
         let settle_idx = self
             .samples
             .iter()
-            .rposition(|(_, e)| e.abs() > SETTLED_BAND_M)
+            .rposition(|s| s.lateral_error_m.abs() > SETTLED_BAND_M)
             .map(|i| i + 1)
             .unwrap_or(0);
-        let settled = settle_idx < self.samples.len() && self.samples.len() - settle_idx >= 2;
+        // Settled only if it then stays in the band for a real stretch: a cycle that
+        // leaves the band once a period would otherwise "settle" after its last swing.
+        let settled = settle_idx < self.samples.len()
+            && self.samples.len() - settle_idx >= 2
+            && self.last_t - self.samples[settle_idx].t_s >= SETTLED_MIN_SHARE * self.last_t;
         let tail = if settled {
             &self.samples[settle_idx..]
         } else {
             &self.samples[..]
         };
         let n = tail.len().max(1) as f64;
-        let rms = (tail.iter().map(|(_, e)| e * e).sum::<f64>() / n).sqrt();
-        let peak = tail.iter().map(|(_, e)| e.abs()).fold(0.0, f64::max);
+        let rms = (tail.iter().map(|s| s.lateral_error_m.powi(2)).sum::<f64>() / n).sqrt();
+        let peak = tail
+            .iter()
+            .map(|s| s.lateral_error_m.abs())
+            .fold(0.0, f64::max);
+        let half = 0.5 * self.last_t;
+        let shimmy: Vec<f64> = self
+            .swivel_rate_sq
+            .iter()
+            .filter(|(t, _)| *t >= half)
+            .map(|(_, v)| *v)
+            .collect();
+        let late_slip: Vec<&(f64, f64, f64, bool)> =
+            self.slip.iter().filter(|x| x.0 >= half).collect();
+        let late_n = late_slip.len().max(1) as f64;
+        let tail_start = (1.0 - LIMIT_CYCLE_TAIL_FRACTION) * self.last_t;
+        let cycle_tail: Vec<(f64, f64)> = self
+            .samples
+            .iter()
+            .filter(|s| s.t_s >= tail_start)
+            .map(|s| (s.t_s, s.lateral_error_m))
+            .collect();
         RunSummary {
             duration_s: self.last_t,
             distance_m: self.distance_m,
-            settling_distance_m: settled
-                .then(|| self.samples.get(settle_idx).map(|s| s.0).unwrap_or(0.0)),
+            settling_distance_m: settled.then(|| {
+                self.samples
+                    .get(settle_idx)
+                    .map(|s| s.distance_m)
+                    .unwrap_or(0.0)
+            }),
             rms_lateral_error_m: rms,
             peak_lateral_error_after_settling_m: peak,
-            peak_abs_slip_ratio: self.peak_slip,
-            sliding_fraction: self.sliding_samples as f64 / self.samples_n.max(1) as f64,
+            limit_cycle: limit_cycle(&cycle_tail),
+            peak_abs_slip_ratio: late_slip.iter().map(|x| x.1).fold(0.0, f64::max),
+            mean_abs_slip_ratio: late_slip.iter().map(|x| x.2).sum::<f64>() / late_n,
+            sliding_fraction: late_slip.iter().filter(|x| x.3).count() as f64 / late_n,
             battery_energy_j: self.energy_j,
-            final_lateral_error_m: self.samples.last().map(|s| s.1).unwrap_or(0.0),
+            castor_shimmy_rad_s: if shimmy.is_empty() {
+                0.0
+            } else {
+                (shimmy.iter().sum::<f64>() / shimmy.len() as f64).sqrt()
+            },
+            final_lateral_error_m: self
+                .samples
+                .last()
+                .map(|s| s.lateral_error_m)
+                .unwrap_or(0.0),
+            lost_wire: self.lost_wire,
             faults: self.faults.clone(),
             bumper_stop: self.bumper,
         }
+    }
+}
+
+fn wrap_angle(a: f64) -> f64 {
+    let tau = std::f64::consts::TAU;
+    a - tau * (a / tau).round()
+}
+
+/// A sustained oscillation in `(t_s, e_m)` samples: at least two full periods about the
+/// mean (crossings counted with a hysteresis of a quarter of the amplitude, so noise does
+/// not count), an amplitude of at least [`LIMIT_CYCLE_MIN_AMPLITUDE_M`], and no decay
+/// (the later half of the window swings at least half as far as the earlier half: a loop
+/// still ringing down from its start is not cycling).
+pub fn limit_cycle(samples: &[(f64, f64)]) -> Option<LimitCycle> {
+    if samples.len() < 8 {
+        return None;
+    }
+    let mean = samples.iter().map(|s| s.1).sum::<f64>() / samples.len() as f64;
+    let p2p = |w: &[(f64, f64)]| {
+        let (lo, hi) = w
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), s| {
+                (lo.min(s.1), hi.max(s.1))
+            });
+        hi - lo
+    };
+    let amplitude = 0.5 * p2p(samples);
+    if !(amplitude >= LIMIT_CYCLE_MIN_AMPLITUDE_M) {
+        return None;
+    }
+    let mid = samples.len() / 2;
+    if p2p(&samples[mid..]) < 0.5 * p2p(&samples[..mid]) {
+        return None;
+    }
+    // Upward crossings of the mean, with hysteresis.
+    let band = 0.25 * amplitude;
+    let mut below = samples[0].1 - mean < -band;
+    let mut ups = Vec::new();
+    for &(t, e) in samples {
+        let d = e - mean;
+        if below && d > band {
+            ups.push(t);
+            below = false;
+        } else if !below && d < -band {
+            below = true;
+        }
+    }
+    if ups.len() < 3 {
+        return None;
+    }
+    let period_s = (ups[ups.len() - 1] - ups[0]) / (ups.len() - 1) as f64;
+    Some(LimitCycle {
+        amplitude_m: amplitude,
+        period_s,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sine(amp: f64, period: f64, decay_per_s: f64) -> Vec<(f64, f64)> {
+        (0..800)
+            .map(|k| {
+                let t = k as f64 * 0.01;
+                (
+                    t,
+                    0.003
+                        + amp
+                            * (-decay_per_s * t).exp()
+                            * (std::f64::consts::TAU * t / period).sin(),
+                )
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_steady_oscillation_is_a_limit_cycle_with_its_amplitude_and_period() {
+        let c = limit_cycle(&sine(0.01, 1.3, 0.0)).expect("cycle");
+        assert!((c.amplitude_m - 0.01).abs() < 1e-4, "{c:?}");
+        // Crossings are found to the sample (10 ms) over 5 periods: a few ms of error.
+        assert!((c.period_s - 1.3).abs() < 0.01, "{c:?}");
+    }
+
+    #[test]
+    fn ringing_down_small_or_slow_swings_are_not_limit_cycles() {
+        // Decays by e over 2 s: the later half swings far less than the earlier half.
+        assert!(limit_cycle(&sine(0.02, 1.0, 0.5)).is_none());
+        assert!(limit_cycle(&sine(0.001, 1.0, 0.0)).is_none());
+        // One drift, not two full periods in 8 s.
+        assert!(limit_cycle(&sine(0.02, 10.0, 0.0)).is_none());
     }
 }

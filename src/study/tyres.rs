@@ -1,0 +1,223 @@
+//! Tyre compounds: hard polyurethane against soft rubber, on painted and bare concrete,
+//! with payloads of 0, 100 and 200 kg, over the proportional gain: where the drive tyres
+//! start to slide and where slip-driven limit cycles start (the thesis's recommendation of
+//! a softer compound, quantified).
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+use super::{md_table, opt, study_sweep, value_of, write_summary, StudyOptions, StudyOutput};
+use crate::ident::plot::{svg, Series};
+use crate::sweep::SweepError;
+
+pub const SCENE: &str = include_str!("../../scenes/studies/tyre_compounds.toml");
+pub const SCENE_LABEL: &str = "scenes/studies/tyre_compounds.toml";
+
+/// A run "slips" when a drive tyre is on its friction limit for at least this share of the
+/// second half of the run. Backlash-only limit cycles on good grip slide for 0-4 % of the
+/// time (tooth knocks at each engagement); cycles that the tyres cannot follow slide for a
+/// fifth of it and more.
+pub const SLIDING_SHARE: f64 = 0.05;
+
+/// One compound, floor and payload over the gains.
+#[derive(Debug, Clone)]
+pub struct TyreGroup {
+    pub compound: String,
+    pub surface: String,
+    pub payload_kg: String,
+    /// (gain, sliding fraction, limit-cycle amplitude m (0: none), lost the wire).
+    pub runs: Vec<(f64, f64, f64, bool)>,
+    /// Lowest gain at which the tyres slide for [`SLIDING_SHARE`] of the time.
+    pub slip_onset_gain: Option<f64>,
+    /// Lowest gain with a limit cycle during which the tyres slide that much.
+    pub slip_cycle_onset_gain: Option<f64>,
+    /// Gains at which the sensors lost the wire (too little steering at the lowest gains,
+    /// a cycle that outgrows the coils' range at the highest).
+    pub wire_lost_gains: Vec<f64>,
+}
+
+impl TyreGroup {
+    /// Mean sliding fraction over the given gains (those where every group held the wire).
+    pub fn mean_sliding_over(&self, gains: &[f64]) -> f64 {
+        let v: Vec<f64> = self
+            .runs
+            .iter()
+            .filter(|r| gains.iter().any(|g| (g - r.0).abs() < 1e-9))
+            .map(|r| r.1)
+            .collect();
+        v.iter().sum::<f64>() / v.len().max(1) as f64
+    }
+}
+
+/// Runs the study; returns the groups and the summary.
+pub fn run(
+    opts: &StudyOptions,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<(Vec<TyreGroup>, StudyOutput), SweepError> {
+    let varies: Vec<String> = if opts.quick {
+        vec![
+            "tyre.compound=hard_polyurethane,soft_rubber".into(),
+            "floor.surface=painted_concrete".into(),
+            "payload.mass_kg=0".into(),
+            "controller.gain_scale=1..3:9".into(),
+        ]
+    } else {
+        vec![
+            "tyre.compound=hard_polyurethane,soft_rubber".into(),
+            "floor.surface=painted_concrete,bare_concrete".into(),
+            "payload.mass_kg=0,100,200".into(),
+            "controller.gain_scale=0.5..4:15".into(),
+        ]
+    };
+    let (o, results) = study_sweep(
+        opts,
+        "sweep",
+        SCENE_LABEL,
+        SCENE,
+        &[],
+        &varies,
+        false,
+        progress,
+    )?;
+    let mut groups: BTreeMap<(String, String, String), TyreGroup> = BTreeMap::new();
+    for r in &results {
+        let Ok(s) = &r.outcome else { continue };
+        let key = (
+            value_of(&o, r, "tyre.compound").to_string(),
+            value_of(&o, r, "floor.surface").to_string(),
+            value_of(&o, r, "payload.mass_kg").to_string(),
+        );
+        let gain: f64 = value_of(&o, r, "controller.gain_scale")
+            .parse()
+            .unwrap_or(f64::NAN);
+        let g = groups.entry(key.clone()).or_insert_with(|| TyreGroup {
+            compound: key.0,
+            surface: key.1,
+            payload_kg: key.2,
+            runs: vec![],
+            slip_onset_gain: None,
+            slip_cycle_onset_gain: None,
+            wire_lost_gains: vec![],
+        });
+        g.runs.push((
+            gain,
+            s.sliding_fraction,
+            s.limit_cycle.map_or(0.0, |c| c.amplitude_m),
+            s.lost_wire,
+        ));
+    }
+    let mut groups: Vec<TyreGroup> = groups.into_values().collect();
+    for g in &mut groups {
+        g.runs.sort_by(|a, b| a.0.total_cmp(&b.0));
+        g.slip_onset_gain = g.runs.iter().find(|r| r.1 >= SLIDING_SHARE).map(|r| r.0);
+        g.slip_cycle_onset_gain = g
+            .runs
+            .iter()
+            .find(|r| !r.3 && r.2 > 0.0 && r.1 >= SLIDING_SHARE)
+            .map(|r| r.0);
+        g.wire_lost_gains = g.runs.iter().filter(|r| r.3).map(|r| r.0).collect();
+    }
+    // Gains at which every group kept the wire: slip compared like for like.
+    let held: Vec<f64> = groups
+        .first()
+        .map(|g| g.runs.iter().map(|r| r.0).collect::<Vec<_>>())
+        .unwrap_or_default()
+        .into_iter()
+        .filter(|gain| {
+            groups
+                .iter()
+                .all(|g| g.runs.iter().any(|r| (r.0 - gain).abs() < 1e-9 && !r.3))
+        })
+        .collect();
+    let rows: Vec<Vec<String>> = groups
+        .iter()
+        .map(|g| {
+            vec![
+                g.compound.clone(),
+                g.surface.clone(),
+                g.payload_kg.clone(),
+                opt(g.slip_onset_gain, 2),
+                opt(g.slip_cycle_onset_gain, 2),
+                if g.wire_lost_gains.is_empty() {
+                    "-".into()
+                } else {
+                    g.wire_lost_gains
+                        .iter()
+                        .map(|x| format!("{x}"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                },
+                format!("{:.1}", 100.0 * g.mean_sliding_over(&held)),
+            ]
+        })
+        .collect();
+    let mut summary = format!(
+        "# Tyre-compound study\n\nScene `{SCENE_LABEL}` (full level: rapier chassis, tyres, castors), \
+         {} runs of {} s. A run slips when a drive tyre is on its friction limit for at least \
+         {:.0} % of the second half; a slip-driven limit cycle is a sustained oscillation of \
+         at least {:.0} mm during which it slips. Gains are `controller.gain_scale` (1 = the \
+         firmware's Kp = -1/20).\n\nSliding is the mean share of the time over the gains at \
+         which every combination kept the wire ({}).\n\n",
+        results.len(),
+        o.scene_text
+            .lines()
+            .find_map(|l| l.strip_prefix("duration_s = "))
+            .unwrap_or("?"),
+        100.0 * SLIDING_SHARE,
+        1000.0 * crate::sim::metrics::LIMIT_CYCLE_MIN_AMPLITUDE_M,
+        held.iter().map(|g| format!("{g}")).collect::<Vec<_>>().join(", ")
+    );
+    summary.push_str(&md_table(
+        &[
+            "compound",
+            "floor",
+            "payload kg",
+            "slip from gain",
+            "slip cycles from gain",
+            "wire lost at gains",
+            "sliding %",
+        ],
+        &rows,
+    ));
+    let mut files = vec![];
+    // Onset of slip-driven cycles against payload, one line per compound and floor.
+    let mut lines: BTreeMap<(String, String), (Vec<f64>, Vec<f64>)> = BTreeMap::new();
+    for g in &groups {
+        let e = lines
+            .entry((g.compound.clone(), g.surface.clone()))
+            .or_default();
+        e.0.push(g.payload_kg.parse().unwrap_or(f64::NAN));
+        e.1.push(g.slip_cycle_onset_gain.unwrap_or(f64::NAN));
+    }
+    let labels: Vec<String> = lines.keys().map(|(c, s)| format!("{c} on {s}")).collect();
+    let colours = ["#d62728", "#ff7f0e", "#1f77b4", "#2ca02c"];
+    let series: Vec<Series> = lines
+        .values()
+        .zip(&labels)
+        .enumerate()
+        .map(|(i, ((x, y), label))| Series {
+            label,
+            x,
+            y,
+            colour: colours[i % colours.len()],
+            stems: false,
+        })
+        .collect();
+    let plot: PathBuf = opts.out_dir.join("slip_cycle_onset.svg");
+    std::fs::create_dir_all(&opts.out_dir).map_err(crate::sweep::io_err(&opts.out_dir))?;
+    std::fs::write(
+        &plot,
+        svg(
+            "onset of slip-driven limit cycles",
+            "payload, kg",
+            "gain_scale",
+            &series,
+            None,
+        ),
+    )
+    .map_err(crate::sweep::io_err(&plot))?;
+    files.push(plot);
+    summary.push_str("\nPlots: `slip_cycle_onset.svg` (onset gain against payload); `sweep/plots/` (every metric against gain).\n");
+    files.push(write_summary(&opts.out_dir, &summary)?);
+    Ok((groups, StudyOutput { summary, files }))
+}

@@ -1,0 +1,47 @@
+//! Parameter sweeps: a scene run over the full grid of `--vary KEY=VALUES` (times
+//! `--repeat` noise seeds), in parallel, into one `results.csv` of run metrics.
+//!
+//! Runs are numbered in grid order (the first `--vary` slowest, the repeat fastest); every
+//! run is a pure function of the scene text, its overrides and its seed, so the results do
+//! not depend on the number of jobs or the order they finish in. `--shard I/N` runs the
+//! I-th of N contiguous slices of that numbering, and [`merge`](results::merge) joins the
+//! shards' folders back into the unsharded result, byte for byte.
+
+pub mod grid;
+pub mod plots;
+pub mod results;
+pub mod runner;
+
+pub use grid::{parse_shard, parse_vary, Grid, RunPoint, Shard, Vary};
+pub use results::{merge, Manifest, MERGE_NOTE};
+pub use runner::{run_sweep, RunResult, SweepOptions, SweepOutput, Trace};
+
+use std::path::PathBuf;
+
+/// Errors of a sweep.
+#[derive(Debug, thiserror::Error)]
+pub enum SweepError {
+    /// A `--vary` or `--shard` argument that cannot be read.
+    #[error("{arg}: {message}")]
+    Argument { arg: String, message: String },
+    #[error(transparent)]
+    Scene(#[from] crate::scene::SceneError),
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    /// A results or manifest file that is not what a sweep writes.
+    #[error("{path}: {message}")]
+    Format { path: PathBuf, message: String },
+    /// Shard folders that do not belong together or do not cover the sweep.
+    #[error("cannot merge: {0}")]
+    Merge(String),
+}
+
+pub fn io_err(path: &std::path::Path) -> impl Fn(std::io::Error) -> SweepError + '_ {
+    move |source| SweepError::Io {
+        path: path.to_owned(),
+        source,
+    }
+}

@@ -1,0 +1,431 @@
+//! The sweep's files: `results.csv` (one row per run), `sweep.toml` (what was swept, so
+//! that shards can be checked before they are merged) and `traces/`.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use super::grid::{Grid, Shard, Vary};
+use super::runner::{RunResult, SweepOptions};
+use super::{io_err, SweepError};
+use crate::sim::metrics::RunSummary;
+
+pub const RESULTS_FILE: &str = "results.csv";
+pub const MANIFEST_FILE: &str = "sweep.toml";
+pub const TRACES_DIR: &str = "traces";
+
+/// Printed with a merge: what was checked.
+pub const MERGE_NOTE: &str =
+    "shards checked: same scene text, overrides, grid and repeats; every run exactly once";
+
+/// The metric columns of `results.csv`, after the run's identity columns, with what each
+/// means (also the plot titles).
+pub const METRICS: [(&str, &str); 14] = [
+    ("rms_lateral_error_m", "RMS lateral error after settling, m"),
+    (
+        "peak_lateral_error_m",
+        "peak |lateral error| after settling, m",
+    ),
+    (
+        "settling_distance_m",
+        "distance travelled before the error stays within 10 mm, m",
+    ),
+    (
+        "limit_cycle_amplitude_m",
+        "limit-cycle amplitude (half peak-to-peak; 0: none), m",
+    ),
+    ("limit_cycle_period_s", "limit-cycle period, s"),
+    (
+        "peak_slip_ratio",
+        "peak |slip ratio| of the drive tyres, second half",
+    ),
+    (
+        "mean_slip_ratio",
+        "time-mean |slip ratio| of the drive tyres, second half",
+    ),
+    (
+        "sliding_fraction",
+        "share of the second half a drive tyre slides beyond its peak",
+    ),
+    ("battery_energy_J", "energy drawn from the battery, J"),
+    (
+        "castor_shimmy_rad_s",
+        "castor shimmy: RMS swivel rate over the second half, rad/s",
+    ),
+    ("distance_m", "distance travelled, m"),
+    ("final_lateral_error_m", "lateral error at the end, m"),
+    ("lost_wire", "the sensors lost the wire (1) or not (0)"),
+    ("faults", "DCMC faults and bumper stops"),
+];
+
+/// Numbers as short, exact-enough text: nine significant digits.
+fn num(v: f64) -> String {
+    if !v.is_finite() {
+        return String::new();
+    }
+    let r: f64 = format!("{v:.8e}").parse().unwrap_or(v);
+    format!("{r}")
+}
+
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+fn metric_cells(s: &RunSummary) -> Vec<String> {
+    let mut faults = s.faults.clone();
+    if s.bumper_stop {
+        faults.push("bumper_stop".into());
+    }
+    vec![
+        num(s.rms_lateral_error_m),
+        num(s.peak_lateral_error_after_settling_m),
+        s.settling_distance_m.map(num).unwrap_or_default(),
+        num(s.limit_cycle.map(|c| c.amplitude_m).unwrap_or(0.0)),
+        s.limit_cycle.map(|c| num(c.period_s)).unwrap_or_default(),
+        num(s.peak_abs_slip_ratio),
+        num(s.mean_abs_slip_ratio),
+        num(s.sliding_fraction),
+        num(s.battery_energy_j),
+        num(s.castor_shimmy_rad_s),
+        num(s.distance_m),
+        num(s.final_lateral_error_m),
+        (s.lost_wire as u8).to_string(),
+        faults.join(" "),
+    ]
+}
+
+/// The header of `results.csv` for a grid.
+pub fn header(grid: &Grid) -> Vec<String> {
+    let mut h = vec!["run".to_string()];
+    h.extend(grid.varies.iter().map(|v| v.key.clone()));
+    h.extend(["repeat", "seed", "outcome"].map(String::from));
+    h.extend(METRICS.iter().map(|(c, _)| c.to_string()));
+    h
+}
+
+/// `results.csv` text: the header, then one row per run in grid order.
+pub fn results_csv(grid: &Grid, results: &[RunResult]) -> String {
+    let mut out = header(grid).join(",");
+    out.push('\n');
+    for r in results {
+        let mut cells = vec![r.point.index.to_string()];
+        cells.extend(r.point.values.iter().map(|v| csv_field(v)));
+        cells.push(r.point.repeat.to_string());
+        cells.push(r.point.seed.to_string());
+        match &r.outcome {
+            Ok(s) => {
+                cells.push("ok".into());
+                cells.extend(metric_cells(s).iter().map(|c| csv_field(c)));
+            }
+            Err(e) => {
+                cells.push(csv_field(&format!("error: {e}")));
+                cells.extend(std::iter::repeat_n(String::new(), METRICS.len()));
+            }
+        }
+        let _ = writeln!(out, "{}", cells.join(","));
+    }
+    out
+}
+
+/// `traces/run_NNNNN.csv` for each run that has a trace.
+pub fn write_traces(dir: &Path, results: &[RunResult]) -> Result<(), SweepError> {
+    let tdir = dir.join(TRACES_DIR);
+    std::fs::create_dir_all(&tdir).map_err(io_err(&tdir))?;
+    for r in results {
+        let Some(t) = &r.trace else { continue };
+        let mut s = String::from("t_s,distance_m,x_m,y_m,lateral_error_m\n");
+        for i in 0..t.t_s.len() {
+            let _ = writeln!(
+                s,
+                "{},{},{},{},{}",
+                num(t.t_s[i]),
+                num(t.distance_m[i]),
+                num(t.x_m[i]),
+                num(t.y_m[i]),
+                num(t.lateral_error_m[i])
+            );
+        }
+        let path = tdir.join(trace_name(r.point.index));
+        std::fs::write(&path, s).map_err(io_err(&path))?;
+    }
+    Ok(())
+}
+
+pub fn trace_name(index: usize) -> String {
+    format!("run_{index:05}.csv")
+}
+
+/// A parsed `results.csv`: the header and the rows' cells, kept as text so that a merge
+/// writes back exactly what the shards wrote.
+#[derive(Debug, Clone)]
+pub struct Table {
+    pub header: Vec<String>,
+    /// (run number, raw line, cells).
+    pub rows: Vec<(usize, String, Vec<String>)>,
+}
+
+fn split_csv(line: &str) -> Vec<String> {
+    let mut cells = vec![];
+    let mut cur = String::new();
+    let mut quoted = false;
+    let mut chars = line.chars().peekable();
+    while let Some(c) = chars.next() {
+        match (c, quoted) {
+            ('"', true) if chars.peek() == Some(&'"') => {
+                cur.push('"');
+                chars.next();
+            }
+            ('"', _) => quoted = !quoted,
+            (',', false) => cells.push(std::mem::take(&mut cur)),
+            _ => cur.push(c),
+        }
+    }
+    cells.push(cur);
+    cells
+}
+
+impl Table {
+    pub fn parse(text: &str, path: &Path) -> Result<Table, SweepError> {
+        let bad = |line: usize, message: String| SweepError::Format {
+            path: path.to_owned(),
+            message: format!("line {line}: {message}"),
+        };
+        let mut lines = text.lines();
+        let header = split_csv(
+            lines
+                .next()
+                .ok_or_else(|| bad(1, "empty file; expected the header `run,...`".into()))?,
+        );
+        if header.first().map(String::as_str) != Some("run") {
+            return Err(bad(1, "expected a header starting with `run`".into()));
+        }
+        let mut rows = vec![];
+        for (i, line) in lines.enumerate() {
+            if line.is_empty() {
+                continue;
+            }
+            let cells = split_csv(line);
+            if cells.len() != header.len() {
+                return Err(bad(
+                    i + 2,
+                    format!(
+                        "{} cells where the header has {}",
+                        cells.len(),
+                        header.len()
+                    ),
+                ));
+            }
+            let run: usize = cells[0]
+                .parse()
+                .map_err(|_| bad(i + 2, format!("`{}`: expected a run number", cells[0])))?;
+            rows.push((run, line.to_string(), cells));
+        }
+        Ok(Table { header, rows })
+    }
+
+    pub fn column(&self, name: &str) -> Option<usize> {
+        self.header.iter().position(|h| h == name)
+    }
+}
+
+/// `sweep.toml`: what a sweep folder holds.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Manifest {
+    pub agvsim_version: String,
+    pub scene: String,
+    /// FNV-1a hash of the scene text (hex): shards of different scenes are not merged.
+    pub scene_hash: String,
+    pub set: Vec<String>,
+    pub repeat: usize,
+    pub base_seed: u64,
+    pub total_runs: usize,
+    /// `I/N`.
+    pub shard: String,
+    /// Run numbers `[first, end)` in this folder.
+    pub runs: [usize; 2],
+    pub traces: bool,
+    pub vary: Vec<ManifestVary>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ManifestVary {
+    pub key: String,
+    pub values: Vec<String>,
+}
+
+fn fnv1a(text: &str) -> String {
+    let mut h: u64 = 0xcbf29ce484222325;
+    for b in text.bytes() {
+        h ^= b as u64;
+        h = h.wrapping_mul(0x100000001b3);
+    }
+    format!("{h:016x}")
+}
+
+impl Manifest {
+    pub fn of(opts: &SweepOptions) -> Manifest {
+        let total = opts.grid.total();
+        let r = opts.shard.range(total);
+        Manifest {
+            agvsim_version: env!("CARGO_PKG_VERSION").into(),
+            scene: opts.scene_path.display().to_string(),
+            scene_hash: fnv1a(&opts.scene_text),
+            set: opts.set.clone(),
+            repeat: opts.grid.repeat,
+            base_seed: opts.grid.base_seed,
+            total_runs: total,
+            shard: opts.shard.to_string(),
+            runs: [r.start, r.end],
+            traces: opts.traces,
+            vary: opts
+                .grid
+                .varies
+                .iter()
+                .map(|v| ManifestVary {
+                    key: v.key.clone(),
+                    values: v.values.clone(),
+                })
+                .collect(),
+        }
+    }
+
+    pub fn grid(&self) -> Grid {
+        Grid {
+            varies: self
+                .vary
+                .iter()
+                .map(|v| Vary {
+                    key: v.key.clone(),
+                    values: v.values.clone(),
+                })
+                .collect(),
+            repeat: self.repeat,
+            base_seed: self.base_seed,
+        }
+    }
+
+    pub fn write(&self, dir: &Path) -> Result<(), SweepError> {
+        let path = dir.join(MANIFEST_FILE);
+        let text = toml::to_string(self).map_err(|e| SweepError::Format {
+            path: path.clone(),
+            message: e.to_string(),
+        })?;
+        std::fs::write(&path, text).map_err(io_err(&path))
+    }
+
+    pub fn read(dir: &Path) -> Result<Manifest, SweepError> {
+        let path = dir.join(MANIFEST_FILE);
+        let text = std::fs::read_to_string(&path).map_err(io_err(&path))?;
+        toml::from_str(&text).map_err(|e| SweepError::Format {
+            path: path.clone(),
+            message: format!("not a sweep manifest: {}", e.message()),
+        })
+    }
+
+    /// The same sweep, whatever the slice.
+    fn same_sweep(&self, other: &Manifest) -> bool {
+        let strip = |m: &Manifest| Manifest {
+            shard: String::new(),
+            runs: [0, 0],
+            scene: String::new(),
+            ..m.clone()
+        };
+        strip(self) == strip(other)
+    }
+}
+
+/// Joins shard folders into `out`: checks they are slices of one sweep and cover every
+/// run exactly once, writes their rows in run order (as the shards wrote them), the
+/// manifest, traces and plots. Returns the merged `results.csv` path.
+pub fn merge(shards: &[PathBuf], out: &Path) -> Result<(PathBuf, Vec<PathBuf>), SweepError> {
+    if shards.is_empty() {
+        return Err(SweepError::Merge("no shard folders given".into()));
+    }
+    let manifests: Vec<Manifest> = shards
+        .iter()
+        .map(|d| Manifest::read(d))
+        .collect::<Result<_, _>>()?;
+    let first = &manifests[0];
+    for (m, d) in manifests.iter().zip(shards).skip(1) {
+        if !first.same_sweep(m) {
+            return Err(SweepError::Merge(format!(
+                "{} is not a slice of the same sweep as {} (scene text, --set, --vary, --repeat or version differ)",
+                d.display(),
+                shards[0].display()
+            )));
+        }
+    }
+    let mut rows: BTreeMap<usize, String> = BTreeMap::new();
+    let mut header: Option<Vec<String>> = None;
+    for d in shards {
+        let path = d.join(RESULTS_FILE);
+        let text = std::fs::read_to_string(&path).map_err(io_err(&path))?;
+        let table = Table::parse(&text, &path)?;
+        match &header {
+            None => header = Some(table.header.clone()),
+            Some(h) if *h != table.header => {
+                return Err(SweepError::Merge(format!(
+                    "{}: its columns differ from the first shard's",
+                    path.display()
+                )))
+            }
+            _ => {}
+        }
+        for (run, line, _) in table.rows {
+            if rows.insert(run, line).is_some() {
+                return Err(SweepError::Merge(format!(
+                    "run {run} appears twice (in {} and an earlier shard); give each shard once",
+                    path.display()
+                )));
+            }
+        }
+    }
+    let missing: Vec<usize> = (0..first.total_runs)
+        .filter(|i| !rows.contains_key(i))
+        .collect();
+    if !missing.is_empty() || rows.len() != first.total_runs {
+        let shown: Vec<String> = missing.iter().take(10).map(|i| i.to_string()).collect();
+        return Err(SweepError::Merge(format!(
+            "{} of {} runs are missing (runs {}{}); is a shard folder left out or unfinished?",
+            missing.len(),
+            first.total_runs,
+            shown.join(", "),
+            if missing.len() > 10 { ", ..." } else { "" }
+        )));
+    }
+    std::fs::create_dir_all(out).map_err(io_err(out))?;
+    let mut csv = header.unwrap_or_default().join(",");
+    csv.push('\n');
+    for line in rows.values() {
+        csv.push_str(line);
+        csv.push('\n');
+    }
+    let path = out.join(RESULTS_FILE);
+    std::fs::write(&path, &csv).map_err(io_err(&path))?;
+    let merged = Manifest {
+        shard: Shard::WHOLE.to_string(),
+        runs: [0, first.total_runs],
+        ..first.clone()
+    };
+    merged.write(out)?;
+    if first.traces {
+        let tdir = out.join(TRACES_DIR);
+        std::fs::create_dir_all(&tdir).map_err(io_err(&tdir))?;
+        for (m, d) in manifests.iter().zip(shards) {
+            for i in m.runs[0]..m.runs[1] {
+                let from = d.join(TRACES_DIR).join(trace_name(i));
+                let to = tdir.join(trace_name(i));
+                std::fs::copy(&from, &to).map_err(io_err(&from))?;
+            }
+        }
+    }
+    let table = Table::parse(&csv, &path)?;
+    let plots = super::plots::write(out, &merged.grid(), &table)?;
+    Ok((path, plots))
+}

@@ -1,0 +1,219 @@
+//! Running the grid: every run in parallel on a pool of `jobs` threads, results in grid
+//! order.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use rayon::prelude::*;
+
+use super::grid::{Grid, RunPoint, Shard};
+use super::results::{self, Manifest};
+use super::{io_err, SweepError};
+use crate::scene::Scene;
+use crate::sim::metrics::{MetricsObserver, RunSummary};
+use crate::sim::{Sim, SimError};
+
+/// Metrics are sampled every this many simulation steps (10 ms at the default 1 ms step),
+/// as `agvsim run` does.
+const METRICS_EVERY_STEPS: u64 = 10;
+
+/// What to sweep and where to write it.
+#[derive(Debug, Clone)]
+pub struct SweepOptions {
+    /// The scene file (named in messages and in the manifest).
+    pub scene_path: PathBuf,
+    /// Its text, read once so every run sees the same scene.
+    pub scene_text: String,
+    /// `--set` overrides applied to every run before the varied keys.
+    pub set: Vec<String>,
+    pub grid: Grid,
+    pub shard: Shard,
+    /// Worker threads; 0: one per core.
+    pub jobs: usize,
+    /// Also write each run's path and lateral error (`traces/run_NNNNN.csv`).
+    pub traces: bool,
+    pub out_dir: PathBuf,
+}
+
+impl SweepOptions {
+    /// Reads the scene and checks every varied value against it before any run starts, so
+    /// that a misspelt key or value fails at once with the scene's own message.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        scene_path: &Path,
+        set: Vec<String>,
+        varies: Vec<super::Vary>,
+        repeat: usize,
+        shard: Shard,
+        jobs: usize,
+        traces: bool,
+        out_dir: PathBuf,
+    ) -> Result<SweepOptions, SweepError> {
+        let scene_text = std::fs::read_to_string(scene_path).map_err(|source| {
+            crate::scene::SceneError::Read {
+                file: scene_path.to_owned(),
+                source,
+            }
+        })?;
+        let mut o = SweepOptions::from_text(scene_path, scene_text, set, varies, repeat)?;
+        o.shard = shard;
+        o.jobs = jobs;
+        o.traces = traces;
+        o.out_dir = out_dir;
+        Ok(o)
+    }
+
+    /// As [`SweepOptions::new`] from scene text (`scene_path` names it in messages): the
+    /// whole grid, one job per core, no traces, output in `runs/sweep`.
+    pub fn from_text(
+        scene_path: &Path,
+        scene_text: String,
+        set: Vec<String>,
+        varies: Vec<super::Vary>,
+        repeat: usize,
+    ) -> Result<SweepOptions, SweepError> {
+        let base = Scene::from_toml(&scene_text, scene_path, &set)?;
+        for v in &varies {
+            for x in &v.values {
+                let mut o = set.clone();
+                o.push(format!("{}={x}", v.key));
+                Scene::from_toml(&scene_text, scene_path, &o)?;
+            }
+        }
+        let grid = Grid::new(varies, repeat, base.sim.seed)?;
+        Ok(SweepOptions {
+            scene_path: scene_path.to_owned(),
+            scene_text,
+            set,
+            grid,
+            shard: Shard::WHOLE,
+            jobs: 0,
+            traces: false,
+            out_dir: PathBuf::from("runs/sweep"),
+        })
+    }
+}
+
+/// A run's path: time, distance along the path, axle position and the sensor pair's
+/// lateral error, at the scene's record interval.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Trace {
+    pub t_s: Vec<f64>,
+    pub distance_m: Vec<f64>,
+    pub x_m: Vec<f64>,
+    pub y_m: Vec<f64>,
+    pub lateral_error_m: Vec<f64>,
+}
+
+/// One run's outcome.
+#[derive(Debug, Clone)]
+pub struct RunResult {
+    pub point: RunPoint,
+    /// The metrics, or why the run stopped (a diverged simulation, a bad combination of
+    /// values).
+    pub outcome: Result<RunSummary, String>,
+    pub trace: Option<Trace>,
+}
+
+/// What a sweep wrote.
+#[derive(Debug, Clone)]
+pub struct SweepOutput {
+    pub results: Vec<RunResult>,
+    pub results_csv: PathBuf,
+    pub plots: Vec<PathBuf>,
+}
+
+/// Runs one grid point to the end of the scene's duration.
+pub fn run_point(opts: &SweepOptions, point: &RunPoint) -> RunResult {
+    let mut overrides = opts.set.clone();
+    overrides.extend(point.overrides(&opts.grid.varies));
+    let mut trace = opts.traces.then(Trace::default);
+    let outcome = Scene::from_toml(&opts.scene_text, &opts.scene_path, &overrides)
+        .map_err(|e| e.to_string())
+        .and_then(|scene| simulate(&scene, trace.as_mut()).map_err(|e| e.to_string()));
+    RunResult {
+        point: point.clone(),
+        outcome,
+        trace,
+    }
+}
+
+fn simulate(scene: &Scene, mut trace: Option<&mut Trace>) -> Result<RunSummary, SimError> {
+    let mut sim = Sim::new(scene)?;
+    let dt = sim.params().dt_s;
+    let steps = (sim.params().duration_s / dt).round() as u64;
+    let trace_every = ((scene.sim.record_interval_s / dt).round() as u64).max(1);
+    let mut metrics = MetricsObserver::default();
+    let mut distance = 0.0;
+    let mut last_xy: Option<[f64; 2]> = None;
+    for k in 0..=steps {
+        if k > 0 {
+            sim.step()?;
+        }
+        let want_trace = trace.is_some() && k % trace_every == 0;
+        if k % METRICS_EVERY_STEPS == 0 || want_trace {
+            let s = sim.snapshot();
+            if k % METRICS_EVERY_STEPS == 0 {
+                metrics.observe(&s);
+            }
+            if let (true, Some(t)) = (want_trace, trace.as_deref_mut()) {
+                let xy = [s.pose.x_m, s.pose.y_m];
+                if let Some(l) = last_xy {
+                    distance += (xy[0] - l[0]).hypot(xy[1] - l[1]);
+                }
+                last_xy = Some(xy);
+                t.t_s.push(s.t_s);
+                t.distance_m.push(distance);
+                t.x_m.push(xy[0]);
+                t.y_m.push(xy[1]);
+                t.lateral_error_m.push(s.lateral_error_m);
+            }
+        }
+    }
+    Ok(metrics.summary())
+}
+
+/// Runs the shard's runs on `jobs` threads, calling `progress(done, total)` as runs finish
+/// (from worker threads), then writes `results.csv`, `sweep.toml`, plots and traces.
+pub fn run_sweep(
+    opts: &SweepOptions,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<SweepOutput, SweepError> {
+    let points = opts.grid.points(opts.shard);
+    let total = points.len();
+    let done = AtomicUsize::new(0);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.jobs)
+        .build()
+        .map_err(|e| SweepError::Argument {
+            arg: format!("--jobs {}", opts.jobs),
+            message: format!("cannot start the worker threads: {e}"),
+        })?;
+    // The results come back in grid order whatever order the runs finish in.
+    let results: Vec<RunResult> = pool.install(|| {
+        points
+            .par_iter()
+            .map(|p| {
+                let r = run_point(opts, p);
+                progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
+                r
+            })
+            .collect()
+    });
+    std::fs::create_dir_all(&opts.out_dir).map_err(io_err(&opts.out_dir))?;
+    let manifest = Manifest::of(opts);
+    manifest.write(&opts.out_dir)?;
+    let csv = results::results_csv(&opts.grid, &results);
+    let results_csv = opts.out_dir.join(results::RESULTS_FILE);
+    std::fs::write(&results_csv, &csv).map_err(io_err(&results_csv))?;
+    if opts.traces {
+        results::write_traces(&opts.out_dir, &results)?;
+    }
+    let table = results::Table::parse(&csv, &results_csv)?;
+    let plots = super::plots::write(&opts.out_dir, &opts.grid, &table)?;
+    Ok(SweepOutput {
+        results,
+        results_csv,
+        plots,
+    })
+}
