@@ -1,4 +1,5 @@
-//! Simulated seconds per wall second: 10 s of `lab_offset_120mm` at each fidelity level.
+//! Simulated seconds per wall second: 10 s of `lab_offset_120mm` at each fidelity level;
+//! the Rerun logging overhead of a run; a 100-run sweep on one and two jobs.
 
 use std::path::Path;
 
@@ -35,5 +36,65 @@ fn levels(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, levels);
+/// Rerun logging overhead: `agvsim run` of 5 s of the lab scene (CSV recording and metrics)
+/// with and without saving a Rerun recording at the default frame interval (0.02 s).
+fn logging(c: &mut Criterion) {
+    use agvsim::run::{run_scene, RunOptions};
+    use agvsim::viz::RerunTarget;
+    let scene = Scene::load(
+        Path::new("scenes/lab_offset_120mm.toml"),
+        &["sim.duration_s=5".to_string()],
+    )
+    .expect("lab scene");
+    let dir = std::env::temp_dir().join(format!("agvsim_bench_{}", std::process::id()));
+    let mut group = c.benchmark_group("run_lab_5s");
+    group.sample_size(10);
+    for (name, rerun) in [
+        ("csv_only", None),
+        (
+            "csv_and_rerun",
+            Some(RerunTarget::Save(dir.join("bench.rrd"))),
+        ),
+    ] {
+        let opts = RunOptions {
+            out_dir: dir.clone(),
+            name: "bench".into(),
+            rerun,
+            rerun_interval_s: 0.02,
+        };
+        group.bench_function(name, |b| {
+            b.iter(|| run_scene(&scene, &opts).unwrap().summary)
+        });
+    }
+    group.finish();
+}
+
+/// A 100-run sweep (gain x payload, 1 s of the full level each) on 1 and 2 jobs.
+fn sweep_jobs(c: &mut Criterion) {
+    use agvsim::sweep::{parse_vary, run_sweep, Shard, SweepOptions};
+    let mut group = c.benchmark_group("sweep_100_runs");
+    group.sample_size(10);
+    for jobs in [1usize, 2] {
+        let opts = SweepOptions::new(
+            Path::new("scenes/studies/tyre_compounds.toml"),
+            vec!["sim.duration_s=1".into()],
+            vec![
+                parse_vary("controller.gain_scale=0.5..3:20").unwrap(),
+                parse_vary("payload.mass_kg=0,50,100,150,200").unwrap(),
+            ],
+            1,
+            Shard::WHOLE,
+            jobs,
+            false,
+            std::env::temp_dir().join(format!("agvsim_bench_sweep_{}_{jobs}", std::process::id())),
+        )
+        .unwrap();
+        group.bench_function(format!("jobs_{jobs}"), |b| {
+            b.iter(|| run_sweep(&opts, &|_, _| {}).unwrap().results.len())
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, levels, logging, sweep_jobs);
 criterion_main!(benches);
