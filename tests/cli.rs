@@ -598,3 +598,79 @@ fn diagnose_effects_option_is_checked() {
         assert!(err.contains(expect), "{list}: {err}");
     }
 }
+
+#[test]
+fn sweep_runs_shards_merges_and_refuses_bad_values() {
+    let dir = tmp("sweep");
+    let sweep = |extra: &[&str], out: &str| {
+        agvsim()
+            .args([
+                "sweep",
+                "scenes/lab_offset_120mm.toml",
+                "--vary",
+                "controller.gain_scale=0.5..2:3",
+                "--vary",
+                "tyre.compound=hard_polyurethane,soft_rubber",
+                "--duration",
+                "1",
+            ])
+            .args(extra)
+            .arg("--out")
+            .arg(dir.join(out))
+            .output()
+            .unwrap()
+    };
+    let whole = sweep(&[], "whole");
+    assert!(
+        whole.status.success(),
+        "{}",
+        String::from_utf8_lossy(&whole.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&whole.stdout);
+    assert!(stdout.contains("6 runs"), "{stdout}");
+    for (i, name) in [(1, "a"), (2, "b")] {
+        let s = sweep(&["--shard", &format!("{i}/2"), "--jobs", "1"], name);
+        assert!(s.status.success(), "{}", String::from_utf8_lossy(&s.stderr));
+    }
+    let m = agvsim()
+        .args(["sweep", "merge"])
+        .arg(dir.join("b"))
+        .arg(dir.join("a"))
+        .arg("--out")
+        .arg(dir.join("merged"))
+        .output()
+        .unwrap();
+    assert!(m.status.success(), "{}", String::from_utf8_lossy(&m.stderr));
+    let a = std::fs::read(dir.join("whole/results.csv")).unwrap();
+    assert_eq!(a, std::fs::read(dir.join("merged/results.csv")).unwrap());
+    assert!(dir.join("whole/plots/rms_lateral_error_m.svg").exists());
+
+    for (args, expect) in [
+        (
+            vec!["--vary", "controller.gain_scale=1..2"],
+            "a range needs a count",
+        ),
+        (vec!["--vary", "controller.gain=1,2"], "gain"),
+        (
+            vec!["--vary", "controller.gain_scale=1,2", "--shard", "3/2"],
+            "--shard 3/2",
+        ),
+        (
+            vec!["--vary", "controller.gain_scale=1,2", "--jobs", "0"],
+            "--jobs",
+        ),
+    ] {
+        let st = agvsim()
+            .args(["sweep", "scenes/lab_offset_120mm.toml"])
+            .args(&args)
+            .arg("--out")
+            .arg(dir.join("bad"))
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&st.stderr);
+        assert!(
+            !st.status.success() && err.contains(expect),
+            "{args:?}: {err}"
+        );
+    }
+}
