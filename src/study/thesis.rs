@@ -4,6 +4,7 @@
 
 use super::{md_table, study_sweep, value_of, write_summary, StudyOptions, StudyOutput};
 use crate::ident::plot::{svg, Series};
+use crate::sweep::plots::COLOURS;
 use crate::sweep::SweepError;
 
 pub const SCENE: &str = include_str!("../../scenes/lab_offset_120mm.toml");
@@ -109,10 +110,6 @@ pub fn run(
                 if s.lost_wire { "yes" } else { "no" }.into(),
             ]);
         }
-        let colours = [
-            "#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f",
-            "#bcbd22", "#17becf",
-        ];
         let series: Vec<Series> = paths
             .iter()
             .enumerate()
@@ -120,7 +117,7 @@ pub fn run(
                 label,
                 x,
                 y,
-                colour: colours[i % colours.len()],
+                colour: COLOURS[i % COLOURS.len()],
                 stems: false,
             })
             .collect();

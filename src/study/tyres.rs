@@ -8,6 +8,7 @@ use std::path::PathBuf;
 
 use super::{md_table, opt, study_sweep, value_of, write_summary, StudyOptions, StudyOutput};
 use crate::ident::plot::{svg, Series};
+use crate::sweep::plots::COLOURS;
 use crate::sweep::SweepError;
 
 pub const SCENE: &str = include_str!("../../scenes/studies/tyre_compounds.toml");
@@ -190,7 +191,6 @@ pub fn run(
         e.1.push(g.slip_cycle_onset_gain.unwrap_or(f64::NAN));
     }
     let labels: Vec<String> = lines.keys().map(|(c, s)| format!("{c} on {s}")).collect();
-    let colours = ["#d62728", "#ff7f0e", "#1f77b4", "#2ca02c"];
     let series: Vec<Series> = lines
         .values()
         .zip(&labels)
@@ -199,7 +199,7 @@ pub fn run(
             label,
             x,
             y,
-            colour: colours[i % colours.len()],
+            colour: COLOURS[i % COLOURS.len()],
             stems: false,
         })
         .collect();

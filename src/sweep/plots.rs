@@ -9,7 +9,8 @@ use super::results::{Table, METRICS};
 use super::{io_err, SweepError};
 use crate::ident::plot::{svg, Series};
 
-const COLOURS: [&str; 10] = [
+/// Line colours of the sweep and study plots, in order.
+pub const COLOURS: [&str; 10] = [
     "#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f",
     "#bcbd22", "#17becf",
 ];
