@@ -73,6 +73,17 @@ enum Command {
         #[arg(long)]
         quick: bool,
     },
+    /// Linearise the scene's plant (drivetrains and chassis) about straight running on the
+    /// wire and report controllability from the motor voltages and observability from the
+    /// coil pair (ranks, and which states the coils cannot see). The full level is
+    /// linearised as its no-slip counterpart.
+    Linearize {
+        /// Scene file (TOML), e.g. scenes/lab_offset_120mm.toml.
+        scene: PathBuf,
+        /// Override a scene value, e.g. --set controller.reverse=true (repeatable).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
+    },
     /// List the tyre compounds and floor surfaces and the tyre values they combine into.
     Presets,
     /// Run one of the thesis's lab experiments on a simulated AGV; write the recording and
@@ -694,6 +705,29 @@ fn main() -> ExitCode {
             }
         }
         Command::Sweep(args) => sweep_command(args),
+        Command::Linearize { scene, set } => {
+            let loaded = match Scene::load(&scene, &set) {
+                Ok(s) => s,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return ExitCode::from(2);
+                }
+            };
+            match agvsim::sim::linearize::linearise(&loaded) {
+                Ok(l) => {
+                    println!("scene            {}", scene.display());
+                    print!(
+                        "{}",
+                        agvsim::sim::linearize::render(&l, &agvsim::sim::linearize::analyse(&l))
+                    );
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
         Command::Study {
             name,
             out,

@@ -224,3 +224,45 @@ fn reversing_on_the_front_pair_loses_the_wire_where_a_rear_pair_holds_it() {
     // height, 38 mm) over the second half.
     assert!(rear.late_rms_m < 0.038, "{rear:?}");
 }
+
+#[test]
+fn linearised_plant_is_controllable_and_the_coils_see_only_the_turning_mode() {
+    use agvsim::sim::linearize::{analyse, linearise, STATE_NAMES};
+    let scene = agvsim::scene::Scene::load(Path::new("scenes/lab_offset_120mm.toml"), &[]).unwrap();
+    let l = linearise(&scene).unwrap();
+    // The lab speed: about 1 m/s forward.
+    assert!(l.speed_m_s > 0.5 && l.speed_m_s < 2.0, "{}", l.speed_m_s);
+    let r = analyse(&l);
+    // Two voltages reach every state: each side's drivetrain, and through them both the
+    // straight-running and the turning motion.
+    assert_eq!(r.controllable_rank, STATE_NAMES.len());
+    // A straight wire is the same everywhere along it, and the readings of a pair on it
+    // depend only on its offset and heading: the position along the wire and the
+    // straight-running (common) mode of the drivetrains are invisible, the turning
+    // (differential) mode and the offset are seen.
+    let unseen: Vec<&str> = STATE_NAMES
+        .iter()
+        .zip(&r.unobservable_share)
+        .filter(|(_, s)| **s > 0.99)
+        .map(|(n, _)| *n)
+        .collect();
+    assert_eq!(
+        unseen,
+        [
+            "x_m",
+            "speed_m_s",
+            "current_sum_A",
+            "motor_speed_sum_rad_s",
+            "twist_sum_rad"
+        ]
+    );
+    assert_eq!(r.observable_rank, 6);
+    for seen in ["y_m", "heading_rad", "yaw_rate_rad_s", "current_diff_A"] {
+        let j = STATE_NAMES.iter().position(|n| *n == seen).unwrap();
+        assert!(
+            r.unobservable_share[j] < 0.01,
+            "{seen}: {}",
+            r.unobservable_share[j]
+        );
+    }
+}

@@ -170,7 +170,7 @@ impl Sim {
 
     /// Sub-steps the drivetrains together with whatever carries the wheels, then (on the
     /// floor) applies the forces and steps rapier. Returns the drive tyres' mean output.
-    fn advance_drivetrains_and_body(
+    pub(super) fn advance_drivetrains_and_body(
         &mut self,
         terminals: [Terminal; 2],
         dt: f64,
