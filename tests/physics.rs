@@ -285,3 +285,28 @@ fn calibration_table_fit() {
     assert!(h > 0.01 && h < 0.06);
     assert!(rms < 12.0);
 }
+
+/// The castor swivel joints hold under the hardest use the scenes give them (slip-driven
+/// limit cycles at high gain): each castor's pivot stays within rapier's allowed joint
+/// error (1 mm) of its point on the chassis, with the solver's single warm-started
+/// iteration.
+#[test]
+fn castor_swivels_stay_on_the_chassis_through_slip_cycles() {
+    let sc = Scene::load(Path::new("scenes/high_gain_slip.toml"), &[]).unwrap();
+    let trail = sc.castors.trail_m;
+    let mut sim = Sim::new(&sc).unwrap();
+    let mut worst: f64 = 0.0;
+    for _ in 0..10_000 {
+        sim.step().unwrap();
+        let s = sim.snapshot();
+        for c in &s.castors {
+            let pivot = [
+                c.patch_m[0] + trail * c.heading_rad.cos(),
+                c.patch_m[1] + trail * c.heading_rad.sin(),
+            ];
+            worst = worst.max((pivot[0] - c.swivel_m[0]).hypot(pivot[1] - c.swivel_m[1]));
+        }
+    }
+    println!("largest swivel joint separation {:.4} um", 1e6 * worst);
+    assert!(worst < 0.001, "joint opened by {:.3} mm", 1000.0 * worst);
+}

@@ -52,6 +52,108 @@ pub struct RerunRecorder {
     wire: Vec<[f64; 2]>,
     wire_closed: bool,
     floor_name: &'static str,
+    /// Plot series waiting to be sent as one column chunk each.
+    plots: PlotBuffer,
+}
+
+/// Frames of plot data sent together: columns cost far less than a log call per value per
+/// frame (the plots then update in the viewer once a second of simulated time at the
+/// default frame interval).
+const PLOT_BATCH_FRAMES: usize = 50;
+
+/// Frames between re-logs of the travelled path (the whole strip each time).
+const PATH_LOG_EVERY_FRAMES: u64 = 25;
+
+/// Frames waiting to be sent as column chunks: their times, the plot series (entity path,
+/// values per frame, values) and the vehicle's moving geometry (a fixed number of items
+/// per frame each).
+#[derive(Default)]
+struct PlotBuffer {
+    times_s: Vec<f64>,
+    series: Vec<(&'static str, usize, Vec<f64>)>,
+    /// Outline and nose, 2 strips per frame.
+    body: Vec<Vec<[f32; 2]>>,
+    /// 2 coils per frame.
+    coils: Vec<[f32; 2]>,
+    coil_colors: Vec<[u8; 4]>,
+    coil_labels: Vec<String>,
+    /// Tyre force and slip arrows, 2 per frame each.
+    force: Vec<[f32; 2]>,
+    slip: Vec<[f32; 2]>,
+    contacts: Vec<[f32; 2]>,
+    /// Castor forks, `castors_per_frame` strips per frame.
+    castors: Vec<Vec<[f32; 2]>>,
+    castors_per_frame: usize,
+}
+
+impl PlotBuffer {
+    fn push(&mut self, path: &'static str, values: &[f64]) {
+        match self.series.iter_mut().find(|s| s.0 == path) {
+            Some(s) => s.2.extend_from_slice(values),
+            None => self.series.push((path, values.len(), values.to_vec())),
+        }
+    }
+
+    fn flush(&mut self, rec: &RecordingStream) -> Result<(), VizError> {
+        if self.times_s.is_empty() {
+            return Ok(());
+        }
+        let n = self.times_s.len();
+        let times = || {
+            [rerun::TimeColumn::new_duration_secs(
+                "sim_time",
+                self.times_s.iter().copied(),
+            )]
+        };
+        for (path, width, values) in &mut self.series {
+            let columns = rerun::Scalars::new(std::mem::take(values))
+                .columns(std::iter::repeat_n(*width, n))
+                .map_err(err)?;
+            rec.send_columns(*path, times(), columns).map_err(err)?;
+        }
+        let per = |k: usize| std::iter::repeat_n(k, n);
+        let body = rerun::LineStrips2D::new(std::mem::take(&mut self.body))
+            .with_colors(vec![BODY; 2 * n])
+            .columns(per(2))
+            .map_err(err)?;
+        rec.send_columns("world/agv/body", times(), body)
+            .map_err(err)?;
+        let coils = rerun::Points2D::new(std::mem::take(&mut self.coils))
+            .with_radii(vec![0.015f32; 2 * n])
+            .with_colors(std::mem::take(&mut self.coil_colors))
+            .with_labels(std::mem::take(&mut self.coil_labels))
+            .columns(per(2))
+            .map_err(err)?;
+        rec.send_columns("world/agv/coils", times(), coils)
+            .map_err(err)?;
+        let contacts = std::mem::take(&mut self.contacts);
+        let force = rerun::Arrows2D::from_vectors(std::mem::take(&mut self.force))
+            .with_origins(contacts.clone())
+            .with_colors(vec![[255u8, 80, 200, 255]; 2 * n])
+            .columns(per(2))
+            .map_err(err)?;
+        rec.send_columns("world/agv/tyre_force", times(), force)
+            .map_err(err)?;
+        let slip = rerun::Arrows2D::from_vectors(std::mem::take(&mut self.slip))
+            .with_origins(contacts)
+            .with_colors(vec![[255u8, 255, 0, 255]; 2 * n])
+            .columns(per(2))
+            .map_err(err)?;
+        rec.send_columns("world/agv/slip", times(), slip)
+            .map_err(err)?;
+        if self.castors_per_frame > 0 {
+            let k = self.castors_per_frame;
+            let castors = rerun::LineStrips2D::new(std::mem::take(&mut self.castors))
+                .with_colors(vec![CASTOR; k * n])
+                .with_radii(vec![0.01f32; k * n])
+                .columns(per(k))
+                .map_err(err)?;
+            rec.send_columns("world/agv/castors", times(), castors)
+                .map_err(err)?;
+        }
+        self.times_s.clear();
+        Ok(())
+    }
 }
 
 fn err(e: impl std::fmt::Display) -> VizError {
@@ -116,6 +218,7 @@ impl RerunRecorder {
             wire: params.wire.points().to_vec(),
             wire_closed: params.wire.is_closed(),
             floor_name: params.floor.default.name,
+            plots: PlotBuffer::default(),
         };
         r.log_static(params)?;
         Ok(r)
@@ -251,75 +354,29 @@ impl RerunRecorder {
             w(pose.to_world([0.0, 0.0])),
             w(pose.to_world([front * 0.8, 0.0])),
         ];
-        rec.log(
-            "world/agv/body",
-            &rerun::LineStrips2D::new([outline, nose]).with_colors([BODY]),
-        )
-        .map_err(err)?;
-        let coil_colors: Vec<[u8; 4]> = s
-            .sensors_adc
-            .iter()
-            .map(|v| {
-                let k = (v / 255.0).clamp(0.0, 1.0);
-                [255, (255.0 * (1.0 - k)) as u8, 0, 255]
-            })
-            .collect();
-        rec.log(
-            "world/agv/coils",
-            &rerun::Points2D::new(s.coils_m.map(w))
-                .with_radii([0.015f32])
-                .with_colors(coil_colors)
-                .with_labels([
-                    format!("L {:.0}", s.sensors_adc[0]),
-                    format!("R {:.0}", s.sensors_adc[1]),
-                ]),
-        )
-        .map_err(err)?;
+        let b = &mut self.plots;
+        b.body.push(outline);
+        b.body.push(nose);
+        for (k, c) in s.coils_m.iter().enumerate() {
+            let v = s.sensors_adc[k];
+            let level = (v / 255.0).clamp(0.0, 1.0);
+            b.coils.push(w(*c));
+            b.coil_colors
+                .push([255, (255.0 * (1.0 - level)) as u8, 0, 255]);
+            b.coil_labels
+                .push(format!("{} {v:.0}", if k == 0 { "L" } else { "R" }));
+        }
         // Tyre forces (N -> m at 1 mm/N) and slip (the sliding velocity direction).
-        let contacts: Vec<[f32; 2]> = s.sides.iter().map(|x| w(x.contact_m)).collect();
-        let forces: Vec<[f32; 2]> = s
-            .sides
-            .iter()
-            .map(|x| {
-                let f = pose.rotate(x.tyre_force_n);
-                [0.001 * f[0] as f32, -0.001 * f[1] as f32]
-            })
-            .collect();
-        rec.log(
-            "world/agv/tyre_force",
-            &rerun::Arrows2D::from_vectors(forces)
-                .with_origins(contacts.clone())
-                .with_colors([[255, 80, 200, 255]]),
-        )
-        .map_err(err)?;
-        let slips: Vec<[f32; 2]> = s
-            .sides
-            .iter()
-            .map(|x| {
-                let v = pose.rotate([0.3 * x.slip_ratio, 0.3 * x.slip_angle_rad]);
-                [v[0] as f32, -v[1] as f32]
-            })
-            .collect();
-        rec.log(
-            "world/agv/slip",
-            &rerun::Arrows2D::from_vectors(slips)
-                .with_origins(contacts)
-                .with_colors([[255, 255, 0, 255]]),
-        )
-        .map_err(err)?;
-        if !s.castors.is_empty() {
-            let strips: Vec<Vec<[f32; 2]>> = s
-                .castors
-                .iter()
-                .map(|c| vec![w(c.swivel_m), w(c.patch_m)])
-                .collect();
-            rec.log(
-                "world/agv/castors",
-                &rerun::LineStrips2D::new(strips)
-                    .with_colors([CASTOR])
-                    .with_radii([0.01f32]),
-            )
-            .map_err(err)?;
+        for x in &s.sides {
+            b.contacts.push(w(x.contact_m));
+            let f = pose.rotate(x.tyre_force_n);
+            b.force.push([0.001 * f[0] as f32, -0.001 * f[1] as f32]);
+            let v = pose.rotate([0.3 * x.slip_ratio, 0.3 * x.slip_angle_rad]);
+            b.slip.push([v[0] as f32, -v[1] as f32]);
+        }
+        b.castors_per_frame = s.castors.len();
+        for c in &s.castors {
+            b.castors.push(vec![w(c.swivel_m), w(c.patch_m)]);
         }
         if self.count / self.every % self.path_every == 1 || self.path.is_empty() {
             self.path.push(w([pose.x_m, pose.y_m]));
@@ -329,46 +386,53 @@ impl RerunRecorder {
                 self.path_every *= 2;
             }
         }
-        rec.log(
-            "world/path",
-            &rerun::LineStrips2D::new([self.path.clone()]).with_colors([PATH]),
-        )
-        .map_err(err)?;
-        rec.log(
-            "plots/tracking/lateral_error_m",
-            &rerun::Scalars::new([s.lateral_error_m]),
-        )
-        .map_err(err)?;
-        rec.log("plots/sensors/adc", &rerun::Scalars::new(s.sensors_adc))
+        let frame = self.count / self.every;
+        if frame % PATH_LOG_EVERY_FRAMES == 1 || self.path.len() == 1 {
+            rec.log(
+                "world/path",
+                &rerun::LineStrips2D::new([self.path.clone()]).with_colors([PATH]),
+            )
             .map_err(err)?;
-        rec.log("plots/drive/demand_pct", &rerun::Scalars::new(s.demand_pct))
-            .map_err(err)?;
-        rec.log(
+        }
+        let b = &mut self.plots;
+        b.times_s.push(s.t_s);
+        b.push("plots/tracking/lateral_error_m", &[s.lateral_error_m]);
+        b.push("plots/sensors/adc", &s.sensors_adc);
+        b.push("plots/drive/demand_pct", &s.demand_pct);
+        b.push(
             "plots/drive/voltage_V",
-            &rerun::Scalars::new([s.sides[0].voltage_v, s.sides[1].voltage_v]),
-        )
-        .map_err(err)?;
-        rec.log(
+            &[s.sides[0].voltage_v, s.sides[1].voltage_v],
+        );
+        b.push(
             "plots/motors/motor_speed_rad_s",
-            &rerun::Scalars::new([s.sides[0].motor_speed_rad_s, s.sides[1].motor_speed_rad_s]),
-        )
-        .map_err(err)?;
-        rec.log(
+            &[s.sides[0].motor_speed_rad_s, s.sides[1].motor_speed_rad_s],
+        );
+        b.push(
             "plots/wheels/slip_ratio",
-            &rerun::Scalars::new([s.sides[0].slip_ratio, s.sides[1].slip_ratio]),
-        )
-        .map_err(err)?;
-        rec.log(
+            &[s.sides[0].slip_ratio, s.sides[1].slip_ratio],
+        );
+        b.push(
             "plots/wheels/backlash_gap_rad",
-            &rerun::Scalars::new([s.sides[0].backlash_gap_rad, s.sides[1].backlash_gap_rad]),
-        )
-        .map_err(err)?;
+            &[s.sides[0].backlash_gap_rad, s.sides[1].backlash_gap_rad],
+        );
+        if b.times_s.len() >= PLOT_BATCH_FRAMES {
+            b.flush(rec)?;
+        }
         Ok(())
     }
 
     /// Logs the floor and the wire, framed on the travelled region (a long wire would
     /// otherwise shrink the vehicle to a dot), and flushes everything to the sink.
-    pub fn finish(self) -> Result<(), VizError> {
+    pub fn finish(mut self) -> Result<(), VizError> {
+        self.plots.flush(&self.rec)?;
+        if !self.path.is_empty() {
+            self.rec
+                .log(
+                    "world/path",
+                    &rerun::LineStrips2D::new([self.path.clone()]).with_colors([PATH]),
+                )
+                .map_err(err)?;
+        }
         let margin = 1.0;
         let lo = [self.seen.0[0] - margin, self.seen.0[1] - margin];
         let hi = [self.seen.1[0] + margin, self.seen.1[1] + margin];
