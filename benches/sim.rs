@@ -36,18 +36,18 @@ fn levels(c: &mut Criterion) {
     group.finish();
 }
 
-/// Rerun logging overhead: `agvsim run` of 5 s of the lab scene (CSV recording and metrics)
+/// Rerun logging overhead: `agvsim run` of 20 s of the lab scene, a typical run (CSV recording and metrics),
 /// with and without saving a Rerun recording at the default frame interval (0.02 s).
 fn logging(c: &mut Criterion) {
     use agvsim::run::{run_scene, RunOptions};
     use agvsim::viz::RerunTarget;
     let scene = Scene::load(
         Path::new("scenes/lab_offset_120mm.toml"),
-        &["sim.duration_s=5".to_string()],
+        &["sim.duration_s=20".to_string()],
     )
     .expect("lab scene");
     let dir = std::env::temp_dir().join(format!("agvsim_bench_{}", std::process::id()));
-    let mut group = c.benchmark_group("run_lab_5s");
+    let mut group = c.benchmark_group("run_lab_20s");
     group.sample_size(10);
     for (name, rerun) in [
         ("csv_only", None),

@@ -363,7 +363,7 @@ fn record_vehicle(
     let interval = per as f64 * dt;
     let n = (duration_s / interval) as usize;
     let mut csv = format!(
-        "# agvsim-recording: 1\n# rig: vehicle\n# description: agvsim proof case, vehicle on the floor, open-loop random voltages, tracker on every fourth row\n# sample_time_s: {interval}\n# source: agvsim {} simulation, fidelity {}\nt_s,left_voltage_V,right_voltage_V,x_m,y_m,heading_rad,left_motor_speed_rad_s,right_motor_speed_rad_s\n",
+        "# agvsim-recording: 1\n# rig: vehicle\n# description: agvsim proof case, vehicle on the floor, open-loop random voltages, tracker on every fourth row\n# sample_time_s: {interval}\n# source: agvsim {} simulation, fidelity {}\nt_s,left_voltage_V,right_voltage_V,x_m,y_m,heading_rad,left_motor_speed_rad_s,right_motor_speed_rad_s,left_current_A,right_current_A\n",
         env!("CARGO_PKG_VERSION"),
         sim.params().fidelity.name()
     );
@@ -406,14 +406,23 @@ fn record_vehicle(
         } else {
             ",,".into()
         };
+        // Armature currents as the DCMC's current sense reads them: 0.2 A noise, 0.05 A
+        // steps (as the lifted-axis cases).
+        let mut current = [0.0; 2];
+        for (s, d) in sim.drivetrains().iter().enumerate() {
+            let noise: f64 = StandardNormal.sample(rng);
+            current[s] = ((d.motor.current_a + 0.2 * noise) / 0.05).round() * 0.05;
+        }
         let _ = writeln!(
             csv,
-            "{:.6},{:.4},{:.4},{tracker},{:.4},{:.4}",
+            "{:.6},{:.4},{:.4},{tracker},{:.4},{:.4},{:.2},{:.2}",
             k as f64 * interval,
             level[0],
             level[1],
             speed[0],
-            speed[1]
+            speed[1],
+            current[0],
+            current[1]
         );
         sim.set_actuation(Actuation::Voltage(level));
         for _ in 0..per {
@@ -446,7 +455,7 @@ fn nominal_vehicle_rig(scene: &Scene, rng: &mut Pcg64) -> Result<Rig, IdentError
         w.radius_m = Some(off(scene.wheel.radius_m, 0.01, 0.03));
     }
     if let Some(s) = rig.sensors.as_mut() {
-        s.current_noise_A = None;
+        s.current_noise_A = Some(0.2);
         s.tracker_position_noise_m = Some(0.002);
         s.tracker_heading_noise_rad = Some(0.005);
         s.tracker_rate_hz = Some(rate_hz_of_tracker());

@@ -268,6 +268,8 @@ impl GreyBox for Vehicle {
             "left_wheel_speed_m_s",
             "right_wheel_speed_m_s",
             "yaw_rate_rad_s",
+            "left_current_A",
+            "right_current_A",
         ]
         .map(String::from)
         .to_vec()
@@ -475,6 +477,8 @@ impl GreyBox for Vehicle {
             "left_wheel_speed_m_s" => wheel(0) * p[RW],
             "right_wheel_speed_m_s" => wheel(SIDE) * p[RW],
             "yaw_rate_rad_s" => x[BODY + 2],
+            "left_current_A" => x[0],
+            "right_current_A" => x[SIDE],
             _ => f64::NAN,
         }
     }
