@@ -51,7 +51,7 @@ pub fn parse_vary(arg: &str) -> Result<Vary, SweepError> {
             .trim()
             .parse()
             .map_err(|_| err(format!("`{n}`: the range's count is not a whole number")))?;
-        if n < 1 || n > MAX_RUNS {
+        if !(1..=MAX_RUNS).contains(&n) {
             return Err(err(format!(
                 "`{n}`: the range's count must be 1 to {MAX_RUNS}"
             )));
