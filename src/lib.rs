@@ -11,10 +11,15 @@
 //! - [`sensing`]: guide wire (parry2d), pick-up coils and ADC, bumper.
 //! - [`firmware`]: the 80C552's fixed-point P-D law, sample and hold, PWM, Open Day.
 //! - [`world`]: floor surfaces and the rapier engine (chassis and castor bodies).
-//! - [`sim`]: `Sim::step` in a fixed order, fidelity levels, snapshots, metrics.
+//! - [`sim`]: `Sim::step` in a fixed order, fidelity levels, snapshots, metrics, and the
+//!   plant's linearisation (controllability, observability).
 //! - [`record`]: the exchange format for recordings.
 //! - [`viz`]: the Rerun recorder (an observer of snapshots).
 //! - [`run`]: running a scene with its observers, as the CLI does.
+//! - [`experiment`], [`rig`], [`ident`], [`diagnose`]: the thesis's lab experiments,
+//!   rig files, grey-box identification and the diagnosis of missing physics.
+//! - [`sweep`], [`study`]: parallel parameter sweeps (shards, merge) and the shipped
+//!   studies built on them.
 
 pub mod diagnose;
 pub mod experiment;
