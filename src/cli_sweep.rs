@@ -1,0 +1,210 @@
+//! `agvsim sweep` and `agvsim sweep merge`: their arguments, the progress display and the
+//! summary printed (the work is the library's `sweep` module).
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::Subcommand;
+
+use crate::positive_seconds;
+
+#[derive(clap::Args)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+pub struct SweepArgs {
+    #[command(subcommand)]
+    action: Option<SweepAction>,
+    /// Scene file (TOML), e.g. scenes/high_gain_slip.toml.
+    #[arg(required = true)]
+    scene: Option<PathBuf>,
+    /// A scene key and its values: a list (tyre.compound=hard_polyurethane,soft_rubber), a
+    /// linear range LO..HI:N (controller.gain_scale=0.1..6:25) or a log range
+    /// log:LO..HI:N. Repeat for a full grid; the first is the slowest in run order.
+    #[arg(long = "vary", value_name = "KEY=VALUES", required = true)]
+    vary: Vec<String>,
+    /// Runs per grid point, with noise seeds sim.seed, sim.seed+1, ...
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=10000))]
+    repeat: u32,
+    /// Parallel runs [default: one per core]. Results do not depend on it.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    jobs: Option<u32>,
+    /// Run only the I-th of N contiguous slices of the runs (e.g. a cluster job array);
+    /// join the slices' folders with `agvsim sweep merge`.
+    #[arg(long, value_name = "I/N")]
+    shard: Option<String>,
+    /// Output folder [default: runs/sweep_SCENE_NAME, with _shard_I_of_N when sharded].
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Override a scene value for every run, e.g. --set sim.duration_s=10 (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    set: Vec<String>,
+    /// Simulated time of each run, s (overrides sim.duration_s).
+    #[arg(long, value_parser = positive_seconds)]
+    duration: Option<f64>,
+    /// Also write every run's path and lateral error (traces/run_NNNNN.csv).
+    #[arg(long)]
+    traces: bool,
+}
+
+#[derive(Subcommand)]
+pub enum SweepAction {
+    /// Join the folders of `--shard` runs of one sweep into the unsharded result.
+    Merge {
+        /// The shard folders, in any order.
+        #[arg(required = true)]
+        shards: Vec<PathBuf>,
+        /// Folder for the merged results.csv, sweep.toml and plots.
+        #[arg(long)]
+        out: PathBuf,
+    },
+}
+
+/// Reports sweep progress: a bar with rate and time left on a terminal, a plain line every
+/// tenth of the runs otherwise (logs of batch jobs).
+fn sweep_progress(total: usize) -> impl Fn(usize, usize) + Sync {
+    use std::io::IsTerminal;
+    let start = std::time::Instant::now();
+    let bar = std::io::stderr().is_terminal().then(|| {
+        let b = indicatif::ProgressBar::new(total as u64);
+        b.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{bar:40} {pos}/{len} runs  {per_sec}  {eta} left",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    });
+    move |done, total| match &bar {
+        Some(b) => {
+            b.set_position(done as u64);
+            if done == total {
+                b.finish_and_clear();
+            }
+        }
+        None => {
+            let step = (total / 10).max(1);
+            if done % step == 0 || done == total {
+                let secs = start.elapsed().as_secs_f64();
+                let rate = done as f64 / secs.max(1e-9);
+                eprintln!(
+                    "sweep: {done}/{total} runs, {rate:.2} runs/s, about {:.0} s left",
+                    (total - done) as f64 / rate.max(1e-9)
+                );
+            }
+        }
+    }
+}
+
+pub fn sweep_command(args: SweepArgs) -> ExitCode {
+    use agvsim::sweep;
+    if let Some(SweepAction::Merge { shards, out }) = args.action {
+        return match sweep::merge(&shards, &out) {
+            Ok((csv, _plots)) => {
+                println!(
+                    "merged     {} shard folders ({})",
+                    shards.len(),
+                    sweep::MERGE_NOTE
+                );
+                println!("results    {}", csv.display());
+                println!("plots      {}", out.join("plots").display());
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::FAILURE
+            }
+        };
+    }
+    let Some(scene) = args.scene else {
+        eprintln!("error: a sweep needs a scene file");
+        return ExitCode::from(2);
+    };
+    let prepared = (|| {
+        let varies = args
+            .vary
+            .iter()
+            .map(|v| sweep::parse_vary(v))
+            .collect::<Result<Vec<_>, _>>()?;
+        let shard = match &args.shard {
+            Some(s) => sweep::parse_shard(s)?,
+            None => sweep::Shard::WHOLE,
+        };
+        let mut set = args.set.clone();
+        if let Some(d) = args.duration {
+            set.push(format!("sim.duration_s={d}"));
+        }
+        let name = scene
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "scene".into());
+        let out = args.out.clone().unwrap_or_else(|| {
+            let mut n = format!("sweep_{name}");
+            if shard != sweep::Shard::WHOLE {
+                n.push_str(&format!("_shard_{}_of_{}", shard.index, shard.count));
+            }
+            PathBuf::from("runs").join(n)
+        });
+        sweep::SweepOptions::new(
+            &scene,
+            set,
+            varies,
+            args.repeat as usize,
+            shard,
+            args.jobs.unwrap_or(0) as usize,
+            args.traces,
+            out,
+        )
+    })();
+    let opts = match prepared {
+        Ok(o) => o,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let range = opts.shard.range(opts.grid.total());
+    println!(
+        "sweep      {}: {} runs{} on {} jobs",
+        scene.display(),
+        range.len(),
+        if opts.shard == sweep::Shard::WHOLE {
+            String::new()
+        } else {
+            format!(
+                " (shard {} of {} runs: {}..{})",
+                opts.shard,
+                opts.grid.total(),
+                range.start,
+                range.end
+            )
+        },
+        if opts.jobs == 0 {
+            rayon::current_num_threads()
+        } else {
+            opts.jobs
+        }
+    );
+    let started = std::time::Instant::now();
+    match sweep::run_sweep(&opts, &sweep_progress(range.len())) {
+        Ok(o) => {
+            let failed: Vec<_> = o.results.iter().filter(|r| r.outcome.is_err()).collect();
+            println!(
+                "done       {} runs in {:.1} s, {} failed",
+                o.results.len(),
+                started.elapsed().as_secs_f64(),
+                failed.len()
+            );
+            for r in failed.iter().take(5) {
+                if let Err(e) = &r.outcome {
+                    println!("  run {}: {e}", r.point.index);
+                }
+            }
+            println!("results    {}", o.results_csv.display());
+            println!("plots      {}", opts.out_dir.join("plots").display());
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
