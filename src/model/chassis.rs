@@ -196,6 +196,18 @@ impl NoSlipParams {
     }
 }
 
+/// An angle in (-pi, pi].
+pub fn wrap_angle(a: f64) -> f64 {
+    let two_pi = 2.0 * std::f64::consts::PI;
+    let mut w = a % two_pi;
+    if w > std::f64::consts::PI {
+        w -= two_pi;
+    } else if w <= -std::f64::consts::PI {
+        w += two_pi;
+    }
+    w
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

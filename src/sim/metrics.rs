@@ -1,6 +1,7 @@
 //! Run metrics for summaries and sweeps, accumulated from snapshots as a run goes.
 
 use super::Snapshot;
+use crate::model::chassis::wrap_angle;
 
 /// Tracking settles when the lateral error stays within this band, m.
 pub const SETTLED_BAND_M: f64 = 0.010;
@@ -208,11 +209,6 @@ impl MetricsObserver {
             bumper_stop: self.bumper,
         }
     }
-}
-
-fn wrap_angle(a: f64) -> f64 {
-    let tau = std::f64::consts::TAU;
-    a - tau * (a / tau).round()
 }
 
 /// A sustained oscillation in `(t_s, e_m)` samples: at least two full periods about the

@@ -52,8 +52,8 @@ pub struct RerunRecorder {
     wire: Vec<[f64; 2]>,
     wire_closed: bool,
     floor_name: &'static str,
-    /// Plot series waiting to be sent as one column chunk each.
-    plots: PlotBuffer,
+    /// Frames (plots and moving geometry) waiting to be sent as column chunks.
+    frames: FrameBuffer,
 }
 
 /// Frames of plot data sent together: columns cost far less than a log call per value per
@@ -68,7 +68,7 @@ const PATH_LOG_EVERY_FRAMES: u64 = 25;
 /// values per frame, values) and the vehicle's moving geometry (a fixed number of items
 /// per frame each).
 #[derive(Default)]
-struct PlotBuffer {
+struct FrameBuffer {
     times_s: Vec<f64>,
     series: Vec<(&'static str, usize, Vec<f64>)>,
     /// Outline and nose, 2 strips per frame.
@@ -86,7 +86,7 @@ struct PlotBuffer {
     castors_per_frame: usize,
 }
 
-impl PlotBuffer {
+impl FrameBuffer {
     fn push(&mut self, path: &'static str, values: &[f64]) {
         match self.series.iter_mut().find(|s| s.0 == path) {
             Some(s) => s.2.extend_from_slice(values),
@@ -218,7 +218,7 @@ impl RerunRecorder {
             wire: params.wire.points().to_vec(),
             wire_closed: params.wire.is_closed(),
             floor_name: params.floor.default.name,
-            plots: PlotBuffer::default(),
+            frames: FrameBuffer::default(),
         };
         r.log_static(params)?;
         Ok(r)
@@ -354,7 +354,7 @@ impl RerunRecorder {
             w(pose.to_world([0.0, 0.0])),
             w(pose.to_world([front * 0.8, 0.0])),
         ];
-        let b = &mut self.plots;
+        let b = &mut self.frames;
         b.body.push(outline);
         b.body.push(nose);
         for (k, c) in s.coils_m.iter().enumerate() {
@@ -394,7 +394,7 @@ impl RerunRecorder {
             )
             .map_err(err)?;
         }
-        let b = &mut self.plots;
+        let b = &mut self.frames;
         b.times_s.push(s.t_s);
         b.push("plots/tracking/lateral_error_m", &[s.lateral_error_m]);
         b.push("plots/sensors/adc", &s.sensors_adc);
@@ -424,7 +424,7 @@ impl RerunRecorder {
     /// Logs the floor and the wire, framed on the travelled region (a long wire would
     /// otherwise shrink the vehicle to a dot), and flushes everything to the sink.
     pub fn finish(mut self) -> Result<(), VizError> {
-        self.plots.flush(&self.rec)?;
+        self.frames.flush(&self.rec)?;
         if !self.path.is_empty() {
             self.rec
                 .log(

@@ -7,7 +7,7 @@
 
 use rapier2d_f64::prelude::*;
 
-use crate::model::chassis::{ChassisParams, Pose};
+use crate::model::chassis::{wrap_angle, ChassisParams, Pose};
 use crate::sensing::bumper::Obstacle;
 
 /// Castor bodies and joints.
@@ -215,16 +215,4 @@ impl Engine {
         let after = self.world.bodies[self.chassis].rotation().angle();
         self.heading_rad += wrap_angle(after - before);
     }
-}
-
-/// An angle in (-pi, pi].
-pub fn wrap_angle(a: f64) -> f64 {
-    let two_pi = 2.0 * std::f64::consts::PI;
-    let mut w = a % two_pi;
-    if w > std::f64::consts::PI {
-        w -= two_pi;
-    } else if w <= -std::f64::consts::PI {
-        w += two_pi;
-    }
-    w
 }

@@ -33,6 +33,17 @@ pub const GAIN: usize = 6;
 /// is insensitive to it once it is stiff against the sample rate).
 pub const TOOTH_STIFFNESS_NM_RAD: f64 = 5000.0;
 pub const TOOTH_DAMPING_NM_S_RAD: f64 = 3.0;
+
+/// The backlash block's gear train: the fitted play between teeth of the identification
+/// models' fixed mesh stiffness and damping.
+pub fn play_gearbox(ratio: f64, backlash_rad: f64) -> GearboxParams {
+    GearboxParams {
+        ratio,
+        backlash_rad,
+        tooth_stiffness_nm_rad: TOOTH_STIFFNESS_NM_RAD,
+        tooth_damping_nm_s_rad: TOOTH_DAMPING_NM_S_RAD,
+    }
+}
 /// Share of the viscous friction on the wheel side of the play when the backlash block is
 /// on (the rig gives only the total); a parameter of the block, held at this value.
 pub const WHEEL_SIDE_VISCOUS_SHARE: f64 = 0.3;
@@ -172,12 +183,7 @@ impl RotaryAxis {
     }
 
     fn gearbox(&self, p: &[f64], play: usize) -> GearboxParams {
-        GearboxParams {
-            ratio: self.ratio,
-            backlash_rad: p[play],
-            tooth_stiffness_nm_rad: TOOTH_STIFFNESS_NM_RAD,
-            tooth_damping_nm_s_rad: TOOTH_DAMPING_NM_S_RAD,
-        }
+        play_gearbox(self.ratio, p[play])
     }
 
     /// Friction torque at the motor shaft besides its viscous part, N m.

@@ -21,9 +21,7 @@ use crate::model::tyre::{steady_slip_force, ContactKinematics};
 use crate::model::GRAVITY_M_S2;
 use crate::rig::{Rig, RigError};
 
-use super::rotary_axis::{
-    BACKLASH_FD_STEP, TOOTH_DAMPING_NM_S_RAD, TOOTH_STIFFNESS_NM_RAD, WHEEL_SHARE_PARAM,
-};
+use super::rotary_axis::{BACKLASH_FD_STEP, WHEEL_SHARE_PARAM};
 
 pub const R: usize = 0;
 pub const L: usize = 1;
@@ -196,12 +194,7 @@ impl Vehicle {
 
     /// The gear train of the backlash block (play at index `play`).
     fn gearbox(&self, p: &[f64], play: usize) -> GearboxParams {
-        GearboxParams {
-            ratio: self.ratio,
-            backlash_rad: p[play],
-            tooth_stiffness_nm_rad: TOOTH_STIFFNESS_NM_RAD,
-            tooth_damping_nm_s_rad: TOOTH_DAMPING_NM_S_RAD,
-        }
+        super::rotary_axis::play_gearbox(self.ratio, p[play])
     }
 
     /// Normal load on each drive wheel, N.
