@@ -101,8 +101,30 @@ impl TyreParams {
         self.peak_mu / self.long_stiffness_per_N
     }
 
-    /// Advances the patch deflection by `h` and returns the force on the wheel.
+    /// Advances the patch deflection by `h` and returns the force on the wheel with the
+    /// slip measures of `kin`.
     pub fn step(
+        &self,
+        s: &mut TyreState,
+        kin: ContactKinematics,
+        normal_load_n: f64,
+        h: f64,
+    ) -> TyreOutput {
+        let out = self.step_force(s, kin, normal_load_n, h);
+        if normal_load_n <= 0.0 {
+            return out;
+        }
+        let (slip_ratio, slip_angle_rad) = slip_measures(kin);
+        TyreOutput {
+            slip_ratio,
+            slip_angle_rad,
+            ..out
+        }
+    }
+
+    /// [`Self::step`] without the slip measures (left zero): for sub-steps whose slip is
+    /// reported only once, after the last of them (the slip angle costs an `atan2`).
+    pub fn step_force(
         &self,
         s: &mut TyreState,
         kin: ContactKinematics,
@@ -139,23 +161,29 @@ impl TyreParams {
             }
         }
         s.deflection_m = d;
-        let (slip_ratio, slip_angle_rad) = if speed < SLIP_REPORT_FLOOR_M_S {
-            (0.0, 0.0)
-        } else {
-            (
-                (kin.rim_m_s - kin.forward_m_s) / speed,
-                kin.lateral_m_s
-                    .atan2(kin.forward_m_s.abs().max(SLIP_REPORT_FLOOR_M_S)),
-            )
-        };
         TyreOutput {
             force_n: f,
-            slip_ratio,
-            slip_angle_rad,
+            slip_ratio: 0.0,
+            slip_angle_rad: 0.0,
             sliding_speed_m_s: sliding_speed,
             sliding,
             limit_n: limit,
         }
+    }
+}
+
+/// Slip ratio `(w r - v_x) / max(|w r|, |v_x|)` and slip angle (rad) of a wheel's motion;
+/// both zero below 1 mm/s, where they mean nothing.
+pub fn slip_measures(kin: ContactKinematics) -> (f64, f64) {
+    let speed = kin.forward_m_s.abs().max(kin.rim_m_s.abs());
+    if speed < SLIP_REPORT_FLOOR_M_S {
+        (0.0, 0.0)
+    } else {
+        (
+            (kin.rim_m_s - kin.forward_m_s) / speed,
+            kin.lateral_m_s
+                .atan2(kin.forward_m_s.abs().max(SLIP_REPORT_FLOOR_M_S)),
+        )
     }
 }
 

@@ -8,7 +8,7 @@ use crate::firmware::FirmwareInput;
 use crate::model::chassis::Pose;
 use crate::model::dcmc::DcmcInput;
 use crate::model::motor::Terminal;
-use crate::model::tyre::{ContactKinematics, TyreOutput};
+use crate::model::tyre::{slip_measures, ContactKinematics, TyreOutput};
 use crate::sensing::coil::{adc_counts, adc_unquantised};
 
 /// Speeds beyond this are not physical for this machine: a diverging run, rad/s.
@@ -227,12 +227,16 @@ impl Sim {
                         let t = dtp.tooth_torque_nm(&self.drive[i]);
                         dtp.motor_substep(&mut self.drive[i], terminals[i], t, h);
                         kin[i].rim_m_s = self.drive[i].wheel_speed_rad_s * r;
-                        let out =
-                            tyre_params[i].step(&mut self.tyres[i], kin[i], p.loads.drive_n[i], h);
+                        let out = tyre_params[i].step_force(
+                            &mut self.tyres[i],
+                            kin[i],
+                            p.loads.drive_n[i],
+                            h,
+                        );
                         dtp.wheel_substep(&mut self.drive[i], t, -r * out.force_n[0], h);
                         force_sum[i][0] += out.force_n[0];
                         force_sum[i][1] += out.force_n[1];
-                        // Keep slip measures of the last sub-step, mean of the forces.
+                        // Sliding state of the last sub-step (its slip measures after the loop), mean of the forces.
                         mean[i] = TyreOutput {
                             force_n: [0.0; 2],
                             ..out
@@ -241,6 +245,9 @@ impl Sim {
                 }
                 for i in 0..2 {
                     mean[i].force_n = [force_sum[i][0] * inv_n, force_sum[i][1] * inv_n];
+                    if p.loads.drive_n[i] > 0.0 {
+                        (mean[i].slip_ratio, mean[i].slip_angle_rad) = slip_measures(kin[i]);
+                    }
                 }
                 let wheel_forces = [
                     (wheels[0], pose.rotate(mean[0].force_n)),
@@ -253,7 +260,7 @@ impl Sim {
                     let tp = p.castor_tyre(p.floor.surface_at(m.patch_m));
                     let roll = m.velocity_m_s[0];
                     // A free-rolling wheel: rim speed equals forward speed, only lateral slip.
-                    let out = tp.step(
+                    let out = tp.step_force(
                         &mut self.castor_tyres[k],
                         ContactKinematics {
                             forward_m_s: roll,
