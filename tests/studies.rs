@@ -266,3 +266,34 @@ fn linearised_plant_is_controllable_and_the_coils_see_only_the_turning_mode() {
         );
     }
 }
+
+#[test]
+fn closed_loop_reversing_on_the_front_pair_is_unstable_and_a_rear_pair_stabilises_it() {
+    // The thesis's linear result: P-D wire following is stable forwards; reversing on the
+    // same two coils is unstable ("backing a trailer knowing only the towbar") whatever the
+    // gain; a rear pair makes it stable again. The poles come from the linearised plant
+    // closed through the firmware's gains and the DCMC's slopes.
+    use agvsim::sim::linearize::{close_loop, linearise};
+    let closed = |scene: &str, gain: f64| {
+        let scene = agvsim::scene::Scene::load(
+            Path::new(scene),
+            &[format!("controller.gain_scale={gain}")],
+        )
+        .unwrap();
+        close_loop(&linearise(&scene).unwrap()).expect("the P-D firmware and gain DCMC")
+    };
+    for gain in [0.5, 1.0, 3.0] {
+        let forward = closed("scenes/lab_offset_120mm.toml", gain);
+        let front = closed("scenes/studies/reversing_front_only.toml", gain);
+        let rear = closed("scenes/studies/reversing_rear_pair.toml", gain);
+        assert!(forward.stable(), "forward, gain {gain}: {forward:?}");
+        assert!(
+            !front.stable(),
+            "reversing on the front pair, gain {gain}: {front:?}"
+        );
+        assert!(
+            rear.stable(),
+            "reversing on the rear pair, gain {gain}: {rear:?}"
+        );
+    }
+}

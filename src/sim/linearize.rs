@@ -68,6 +68,47 @@ pub struct Linearisation {
     pub a: DMatrix<f64>,
     pub b: DMatrix<f64>,
     pub c: DMatrix<f64>,
+    /// The firmware's P-D law and the DCMC about the operating point, when the scene runs
+    /// the P-D law through the gain or proportional-speed DCMC.
+    pub controller: Option<LoopGains>,
+}
+
+/// The wire-following loop about the operating point, continuous-time: the turn demand
+/// `u = sign (-Kp X + Kd T dX/dt)` in duty counts from the coil difference `X = left -
+/// right` (counts), and the DCMC's terminal voltages `dV = g_turn u + G_speed dw`.
+#[derive(Debug, Clone)]
+pub struct LoopGains {
+    /// Proportional gain, turn counts per count of coil difference (`kp_num gain_scale /
+    /// kp_den`; the firmware's -1/20 turns towards the stronger coil).
+    pub kp: f64,
+    /// Derivative gain per interrupt, turn counts per count of change (`kd_num / kd_den`).
+    pub kd: f64,
+    /// Interrupt period, s: the derivative acts on the change over one period.
+    pub period_s: f64,
+    /// -1 reversing (the firmware negates its demands), else +1.
+    pub sign: f64,
+    /// Terminal voltage per count of turn demand (left, right), V.
+    pub volts_per_turn_count: [f64; 2],
+    /// Terminal voltage per rad/s of the same side's motor speed (the proportional speed
+    /// loop; zero for the gain DCMC), V s/rad.
+    pub volts_per_motor_speed: [f64; 2],
+}
+
+/// The closed wire-following loop's poles.
+#[derive(Debug, Clone)]
+pub struct ClosedLoop {
+    /// Continuous-time poles without the position along the wire (a pure integrator the
+    /// loop cannot see), 1/s, as (re, im).
+    pub poles: Vec<(f64, f64)>,
+    /// Largest real part, 1/s.
+    pub rightmost_re: f64,
+}
+
+impl ClosedLoop {
+    /// Every pole in the open left half-plane.
+    pub fn stable(&self) -> bool {
+        self.rightmost_re < 0.0
+    }
 }
 
 /// What the linearisation shows.
@@ -248,6 +289,7 @@ pub fn linearise(scene: &Scene) -> Result<Linearisation, LinearizeError> {
         let fm = step_from(&mut sim, &x0, um);
         b.set_column(k, &((fp - fm) / (2.0 * d)));
     }
+    let controller = loop_gains(&params, &sim);
     Ok(Linearisation {
         level,
         speed_m_s: x0[3],
@@ -257,6 +299,108 @@ pub fn linearise(scene: &Scene) -> Result<Linearisation, LinearizeError> {
         a,
         b,
         c,
+        controller,
+    })
+}
+
+/// The P-D law's gains and the DCMC's local slopes at the operating point (`sim` holds it);
+/// `None` for other controllers and for the PI DCMC (whose integrators would be states).
+fn loop_gains(params: &SimParams, sim: &Sim) -> Option<LoopGains> {
+    use crate::firmware::pwm::PCT_PER_COUNT;
+    use crate::model::dcmc::{DcmcInput, DcmcState};
+    use crate::scene::{ControllerKind, DcmcKind};
+    let fw = &params.firmware;
+    if fw.kind != ControllerKind::Pd || params.dcmc.kind == DcmcKind::Pi {
+        return None;
+    }
+    let sign = if fw.reverse { -1.0 } else { 1.0 };
+    let speeds = [
+        sim.drive[0].motor.speed_rad_s,
+        sim.drive[1].motor.speed_rad_s,
+    ];
+    let forward_pct = sign * fw.forward_counts as f64 * PCT_PER_COUNT;
+    let available_v = params
+        .battery
+        .available_drive_v(params.battery.open_circuit_v);
+    let volts = |turn_counts: f64, w: [f64; 2]| {
+        let mut dcmc = params.dcmc;
+        dcmc.faults = false;
+        let mut state = DcmcState {
+            enabled_since_s: Some(0.0),
+            ..DcmcState::default()
+        };
+        dcmc.step(
+            &mut state,
+            &DcmcInput {
+                t_s: 1.0e3,
+                enabled: true,
+                forward_pct,
+                turn_pct: turn_counts * PCT_PER_COUNT,
+                motor_speed_rad_s: w,
+                back_emf_v: w.map(|x| params.drivetrain.motor.back_emf_v(x)),
+                low_battery: false,
+                available_v,
+            },
+            params.dt_s,
+        )
+        .voltage_v
+    };
+    let du = 0.01;
+    let (up, um) = (volts(du, speeds), volts(-du, speeds));
+    let dw = 1e-3;
+    let mut per_speed = [0.0; 2];
+    for k in 0..2 {
+        let (mut wp, mut wm) = (speeds, speeds);
+        wp[k] += dw;
+        wm[k] -= dw;
+        per_speed[k] = (volts(0.0, wp)[k] - volts(0.0, wm)[k]) / (2.0 * dw);
+    }
+    Some(LoopGains {
+        kp: fw.kp_num as f64 * fw.gain_scale / fw.kp_den as f64,
+        kd: fw.kd_num as f64 / fw.kd_den as f64,
+        period_s: fw.period_s.unwrap_or(params.dt_s),
+        sign,
+        volts_per_turn_count: [(up[0] - um[0]) / (2.0 * du), (up[1] - um[1]) / (2.0 * du)],
+        volts_per_motor_speed: per_speed,
+    })
+}
+
+/// Closes the wire-following loop around the linearised plant, continuous-time: the P-D
+/// law on the coil difference and the DCMC's slopes. The firmware's sampling, computation
+/// delay and the PWM filter are left out; each adds phase lag, so a loop found unstable
+/// here has no hope on the machine, while one found stable still has to be confirmed by
+/// simulation.
+pub fn close_loop(l: &Linearisation) -> Option<ClosedLoop> {
+    let g = l.controller.as_ref()?;
+    let n = l.a.nrows();
+    let f = (&l.a - DMatrix::identity(n, n)) / l.dt_s;
+    let b = &l.b / l.dt_s;
+    let cx = l.c.row(0) - l.c.row(1);
+    // Turn counts per unit of state: -Kp X + Kd T dX/dt, with dX/dt = C_x f x (the coils
+    // do not see the voltages directly).
+    let turn = (&cx * (-g.kp) + &cx * &f * (g.kd * g.period_s)) * g.sign;
+    let mut k = DMatrix::zeros(2, n);
+    for side in 0..2 {
+        k.set_row(side, &(&turn * g.volts_per_turn_count[side]));
+        // Motor speed of this side from the sum and difference states (7: sum, 8: right -
+        // left).
+        let w = g.volts_per_motor_speed[side];
+        let along_diff = if side == 0 { -0.5 } else { 0.5 };
+        k[(side, 7)] += 0.5 * w;
+        k[(side, 8)] += along_diff * w;
+    }
+    let closed = f + b * k;
+    // Without x (index 0): nothing depends on it, so its mode is a bare integrator.
+    let reduced = closed.view((1, 1), (n - 1, n - 1)).into_owned();
+    let poles: Vec<(f64, f64)> = reduced
+        .complex_eigenvalues()
+        .iter()
+        .map(|z| (z.re, z.im))
+        .collect();
+    let rightmost_re = poles.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
+    Some(ClosedLoop {
+        poles,
+        rightmost_re,
     })
 }
 
@@ -400,22 +544,60 @@ pub fn render(l: &Linearisation, r: &Reach) -> String {
             unseen.join(", ")
         );
     }
-    let mut poles = r.poles.clone();
+    let _ = writeln!(s, "\npoles (1/s)      {}", pole_list(&r.poles));
+    match (&l.controller, close_loop(l)) {
+        (Some(g), Some(cl)) => {
+            let _ = writeln!(
+                s,
+                "\nclosed loop      P-D on the coil difference (Kp {:.4}, Kd {:.4} per {:.0} ms interrupt{}), \
+                 {:.3}/{:.3} V per turn count; sampling, delay and PWM filter left out",
+                g.kp,
+                g.kd,
+                1000.0 * g.period_s,
+                if g.sign < 0.0 { ", demands negated reversing" } else { "" },
+                g.volts_per_turn_count[0],
+                g.volts_per_turn_count[1],
+            );
+            let _ = writeln!(s, "closed poles     {}", pole_list(&cl.poles));
+            let _ = writeln!(
+                s,
+                "stability        {} (rightmost pole {:+.3} 1/s){}",
+                if cl.stable() { "stable" } else { "UNSTABLE" },
+                cl.rightmost_re,
+                if cl.stable() {
+                    ": without the left-out lags, which cost phase margin; the simulation has \
+                     the last word"
+                } else {
+                    ": unstable even without the left-out lags, which only cost phase margin"
+                }
+            );
+        }
+        _ => {
+            let _ = writeln!(
+                s,
+                "\nclosed loop      not analysed: only the P-D firmware through the gain or \
+                 proportional-speed DCMC is"
+            );
+        }
+    }
+    s
+}
+
+/// Poles sorted by real part, as text.
+fn pole_list(poles: &[(f64, f64)]) -> String {
+    let mut poles = poles.to_vec();
     poles.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
-    let _ = writeln!(
-        s,
-        "\npoles (1/s)      {}",
-        poles
-            .iter()
-            .map(|(re, im)| if im.abs() < 1e-9 * re.abs().max(1.0) {
+    poles
+        .iter()
+        .map(|(re, im)| {
+            if im.abs() < 1e-9 * re.abs().max(1.0) {
                 format!("{re:.3}")
             } else {
                 format!("{re:.2}{im:+.2}i")
-            })
-            .collect::<Vec<_>>()
-            .join(", ")
-    );
-    s
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 #[cfg(test)]

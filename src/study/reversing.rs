@@ -82,10 +82,52 @@ pub fn run(
         ],
         &rows,
     ));
+    summary.push_str(&linear_analysis()?);
     summary.push_str(
         "\nNot modelled: the thesis's \"swing away\" reversing strategy (turn away from the \
          wire first) and its failure on a curved path; the firmware here has no such mode.\n",
     );
     let files = vec![write_summary(&opts.out_dir, &summary)?];
     Ok((runs, StudyOutput { summary, files }))
+}
+
+/// The same two configurations by linear analysis (`agvsim linearize`): the rightmost pole
+/// of the P-D loop closed around the linearised plant.
+fn linear_analysis() -> Result<String, SweepError> {
+    use crate::sim::linearize::{close_loop, linearise};
+    let mut rows = vec![];
+    for (name, label, text) in [
+        (
+            "front only",
+            "scenes/studies/reversing_front_only.toml",
+            FRONT_ONLY,
+        ),
+        (
+            "rear pair",
+            "scenes/studies/reversing_rear_pair.toml",
+            REAR_PAIR,
+        ),
+    ] {
+        let scene = crate::scene::Scene::from_toml(text, std::path::Path::new(label), &[])?;
+        let closed = linearise(&scene).ok().and_then(|l| close_loop(&l)).map_or(
+            ["-".to_string(), "not analysed".to_string()],
+            |c| {
+                [
+                    format!("{:+.2}", c.rightmost_re),
+                    if c.stable() { "stable" } else { "unstable" }.to_string(),
+                ]
+            },
+        );
+        rows.push(vec![name.to_string(), closed[0].clone(), closed[1].clone()]);
+    }
+    let mut s = String::from(
+        "\n## Linear analysis\n\nThe P-D loop closed around the plant linearised on the wire \
+         (`agvsim linearize SCENE`; sampling, delay and PWM filter left out, which only cost \
+         phase margin):\n\n",
+    );
+    s.push_str(&md_table(
+        &["configuration", "rightmost closed-loop pole 1/s", "loop"],
+        &rows,
+    ));
+    Ok(s)
 }
