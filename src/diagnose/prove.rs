@@ -10,7 +10,6 @@
 //! sag only clips in the simulator (no PWM duty model), and its DCMC speed loop is a PI
 //! without feed-forward, unlike the vocabulary's `speed_feedback`; neither is proved here.
 
-use std::f64::consts::TAU;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -19,7 +18,7 @@ use rand_distr::{Distribution, StandardNormal};
 use rand_pcg::Pcg64;
 
 use super::{diagnose, DiagnoseOptions};
-use crate::experiment::{encoder_counts, ENCODER_COUNTS};
+use crate::experiment::{EncoderSpeed, ENCODER_COUNTS};
 use crate::ident::effects::Effect;
 use crate::ident::IdentError;
 use crate::record::Recording;
@@ -128,7 +127,8 @@ fn record(
         env!("CARGO_PKG_VERSION"),
         sim.params().fidelity.name()
     );
-    let (mut v, mut hold, mut last) = (0.0, 0usize, 0.0);
+    let (mut v, mut hold) = (0.0, 0usize);
+    let mut encoder = EncoderSpeed::new(sim.drivetrains()[0].motor.angle_rad);
     for k in 0..=n {
         if hold == 0 {
             v = rng.random_range(-peak_v..=peak_v);
@@ -138,15 +138,8 @@ fn record(
         }
         hold -= 1;
         let m = sim.drivetrains()[0].motor;
-        let counts = encoder_counts(m.angle_rad, ENCODER_COUNTS);
-        let speed = if k == 0 {
-            0.0
-        } else {
-            (counts - last) * TAU / ENCODER_COUNTS / interval
-        };
-        last = counts;
-        let noise: f64 = StandardNormal.sample(rng);
-        let i = ((m.current_a + 0.2 * noise) / 0.05).round() * 0.05;
+        let speed = encoder.read(m.angle_rad, interval);
+        let i = current_sense(m.current_a, rng);
         let _ = writeln!(csv, "{:.6},{v:.4},{speed:.4},{i:.2}", k as f64 * interval);
         sim.set_actuation(Actuation::Voltage([v, v]));
         for _ in 0..per {
@@ -154,6 +147,12 @@ fn record(
         }
     }
     Ok(csv)
+}
+
+/// An armature current as the DCMC's current sense reads it: 0.2 A RMS noise, 0.05 A steps.
+fn current_sense(current_a: f64, rng: &mut Pcg64) -> f64 {
+    let noise: f64 = StandardNormal.sample(rng);
+    ((current_a + 0.2 * noise) / 0.05).round() * 0.05
 }
 
 /// The rig an experimenter would write: the scene's values, each off by 5-25 % either way,
@@ -368,7 +367,7 @@ fn record_vehicle(
         sim.params().fidelity.name()
     );
     let (mut target, mut level, mut hold) = ([0.0f64; 2], [0.0f64; 2], 0usize);
-    let mut last = [0.0f64; 2];
+    let mut encoders = [0, 1].map(|s| EncoderSpeed::new(sim.drivetrains()[s].motor.angle_rad));
     let smoothing = (-interval / 0.15).exp();
     for k in 0..=n {
         if hold == 0 {
@@ -388,11 +387,7 @@ fn record_vehicle(
         }
         let mut speed = [0.0; 2];
         for (s, d) in sim.drivetrains().iter().enumerate() {
-            let counts = encoder_counts(d.motor.angle_rad, ENCODER_COUNTS);
-            if k > 0 {
-                speed[s] = (counts - last[s]) * TAU / ENCODER_COUNTS / interval;
-            }
-            last[s] = counts;
+            speed[s] = encoders[s].read(d.motor.angle_rad, interval);
         }
         let pose = sim.pose();
         let tracker = if k % 4 == 0 {
@@ -406,12 +401,9 @@ fn record_vehicle(
         } else {
             ",,".into()
         };
-        // Armature currents as the DCMC's current sense reads them: 0.2 A noise, 0.05 A
-        // steps (as the lifted-axis cases).
         let mut current = [0.0; 2];
         for (s, d) in sim.drivetrains().iter().enumerate() {
-            let noise: f64 = StandardNormal.sample(rng);
-            current[s] = ((d.motor.current_a + 0.2 * noise) / 0.05).round() * 0.05;
+            current[s] = current_sense(d.motor.current_a, rng);
         }
         let _ = writeln!(
             csv,

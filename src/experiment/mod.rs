@@ -206,6 +206,30 @@ pub(crate) fn encoder_counts(angle_rad: f64, counts_per_rev: f64) -> f64 {
 
 pub(crate) const ENCODER_COUNTS: f64 = 1024.0;
 
+/// A shaft speed as the logger derives it from a 1024-count encoder read at a fixed
+/// interval: the whole counts since the last read over the interval.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct EncoderSpeed {
+    last_counts: f64,
+}
+
+impl EncoderSpeed {
+    /// An encoder last read at `angle_rad`.
+    pub(crate) fn new(angle_rad: f64) -> Self {
+        EncoderSpeed {
+            last_counts: encoder_counts(angle_rad, ENCODER_COUNTS),
+        }
+    }
+
+    /// Reads the shaft at `angle_rad`, `interval_s` after the last read: speed, rad/s.
+    pub(crate) fn read(&mut self, angle_rad: f64, interval_s: f64) -> f64 {
+        let counts = encoder_counts(angle_rad, ENCODER_COUNTS);
+        let speed = (counts - self.last_counts) * TAU / ENCODER_COUNTS / interval_s;
+        self.last_counts = counts;
+        speed
+    }
+}
+
 /// Header of a recording in the exchange format.
 fn header(rig: &str, meta: &[(&str, String)], columns: &[&str]) -> String {
     let mut s = format!("# agvsim-recording: 1\n# rig: {rig}\n");
@@ -340,7 +364,7 @@ fn lifted_random_demand(
         ],
         &["t_s", "demand_fwd_pct", "demand_turn_pct", "left_motor_speed_rad_s", "right_motor_speed_rad_s"],
     );
-    let mut counts = [0.0; 2];
+    let mut encoders = [0, 1].map(|i| EncoderSpeed::new(sim.drivetrains()[i].motor.angle_rad));
     for k in 0..=n {
         let t = k as f64 * interval;
         // Demand applied from this row to the next (zero-order hold).
@@ -366,16 +390,13 @@ fn lifted_random_demand(
             }
         }
         let mut speed = [0.0; 2];
-        let new_counts =
-            [0, 1].map(|i| encoder_counts(sim.drivetrains()[i].motor.angle_rad, ENCODER_COUNTS));
-        if k > 0 {
-            for i in 0..2 {
+        for i in 0..2 {
+            let read = encoders[i].read(sim.drivetrains()[i].motor.angle_rad, interval);
+            if k > 0 {
                 let noise: f64 = StandardNormal.sample(rng);
-                speed[i] = (new_counts[i] - counts[i]) * TAU / ENCODER_COUNTS / interval
-                    + opts.speed_noise_rad_s * noise;
+                speed[i] = read + opts.speed_noise_rad_s * noise;
             }
         }
-        counts = new_counts;
         let _ = writeln!(
             csv,
             "{t:.6},{:.4},{:.4},{:.5},{:.5}",
@@ -431,19 +452,13 @@ fn falling_weight(
         ],
         &["t_s", "motor_speed_rad_s", "back_emf_V"],
     );
-    let mut counts = 0.0;
+    let mut encoder = EncoderSpeed::new(s.angle_rad);
     let mut rows = 0;
     let mut at_rest_since = None;
     let max_rows = (60.0 / (per as f64 * h)) as usize;
     for k in 0..max_rows {
         let t = k as f64 * per as f64 * h;
-        let c = encoder_counts(s.angle_rad, ENCODER_COUNTS);
-        let speed = if k == 0 {
-            0.0
-        } else {
-            (c - counts) * TAU / ENCODER_COUNTS / (per as f64 * h)
-        };
-        counts = c;
+        let speed = encoder.read(s.angle_rad, per as f64 * h);
         let n: f64 = StandardNormal.sample(rng);
         let emf = motor.back_emf_v(s.speed_rad_s) + opts.voltage_noise_v * n;
         let _ = writeln!(csv, "{t:.6},{speed:.5},{emf:.5}");
@@ -503,20 +518,17 @@ fn coast_down(
         ],
         &["t_s", "motor_speed_rad_s"],
     );
-    let angle0 = sim.drivetrains()[0].motor.angle_rad;
-    let mut counts = encoder_counts(angle0, ENCODER_COUNTS);
+    let mut encoder = EncoderSpeed::new(sim.drivetrains()[0].motor.angle_rad);
     let mut rows = 0;
     let mut at_rest_since = None;
     for k in 0..(60.0 / interval) as usize {
         let t = k as f64 * interval;
         let w = sim.drivetrains()[0].motor.speed_rad_s;
+        // The first row has no previous read: the run-up's settled speed.
         let speed = if k == 0 {
             w
         } else {
-            let c = encoder_counts(sim.drivetrains()[0].motor.angle_rad, ENCODER_COUNTS);
-            let v = (c - counts) * TAU / ENCODER_COUNTS / interval;
-            counts = c;
-            v
+            encoder.read(sim.drivetrains()[0].motor.angle_rad, interval)
         };
         let n: f64 = StandardNormal.sample(rng);
         let _ = writeln!(csv, "{t:.6},{:.5}", speed + opts.speed_noise_rad_s * n);
