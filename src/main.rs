@@ -229,6 +229,18 @@ fn demand_pct(s: &str) -> Result<f64, String> {
     }
 }
 
+/// A failure of the job: the library's error, exit status 1.
+fn fail(e: impl std::fmt::Display) -> ExitCode {
+    eprintln!("error: {e}");
+    ExitCode::FAILURE
+}
+
+/// Input that cannot be used (a scene that does not load): exit status 2.
+fn bad_input(e: impl std::fmt::Display) -> ExitCode {
+    eprintln!("error: {e}");
+    ExitCode::from(2)
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
@@ -251,10 +263,7 @@ fn main() -> ExitCode {
             }
             let loaded = match Scene::load(&scene, &set) {
                 Ok(s) => s,
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    return ExitCode::from(2);
-                }
+                Err(e) => return bad_input(e),
             };
             let name = scene
                 .file_stem()
@@ -274,52 +283,14 @@ fn main() -> ExitCode {
             };
             match run_scene(&loaded, &opts) {
                 Ok(o) => {
-                    let s = &o.summary;
-                    println!(
-                        "scene      {} ({}, fidelity {})",
-                        scene.display(),
-                        loaded.description,
-                        loaded.sim.fidelity.name()
+                    print!(
+                        "{}",
+                        agvsim::run::render_summary(&scene, &loaded, &o.summary)
                     );
-                    println!(
-                        "simulated  {:.2} s, {:.2} m travelled",
-                        s.duration_s, s.distance_m
-                    );
-                    match s.settling_distance_m {
-                        Some(d) => println!(
-                            "settled    after {:.2} m (lateral error within {:.0} mm from then on)",
-                            d,
-                            1000.0 * agvsim::sim::metrics::SETTLED_BAND_M
-                        ),
-                        None => println!(
-                            "settled    no (lateral error never stayed within {:.0} mm)",
-                            1000.0 * agvsim::sim::metrics::SETTLED_BAND_M
-                        ),
-                    }
-                    println!(
-                        "RMS error  {:.1} mm lateral (after settling), peak {:.1} mm",
-                        1000.0 * s.rms_lateral_error_m,
-                        1000.0 * s.peak_lateral_error_after_settling_m
-                    );
-                    println!(
-                        "peak slip  {:.3} (slip ratio, second half of the run), sliding {:.1} % of that time",
-                        s.peak_abs_slip_ratio,
-                        100.0 * s.sliding_fraction
-                    );
-                    println!("energy     {:.0} J from the battery", s.battery_energy_j);
-                    if !s.faults.is_empty() {
-                        println!("DCMC fault {}", s.faults.join(", "));
-                    }
-                    if s.bumper_stop {
-                        println!("bumper     stopped on contact with an obstacle");
-                    }
                     println!("recording  {}", o.recording.display());
                     ExitCode::SUCCESS
                 }
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    ExitCode::FAILURE
-                }
+                Err(e) => fail(e),
             }
         }
         Command::Experiment {
@@ -337,10 +308,7 @@ fn main() -> ExitCode {
         } => {
             let loaded = match Scene::load(&scene, &[]) {
                 Ok(s) => s,
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    return ExitCode::from(2);
-                }
+                Err(e) => return bad_input(e),
             };
             let opts = ExperimentOptions {
                 out_dir: out,
@@ -369,10 +337,7 @@ fn main() -> ExitCode {
                     }
                     ExitCode::SUCCESS
                 }
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    ExitCode::FAILURE
-                }
+                Err(e) => fail(e),
             }
         }
         Command::Diagnose {
@@ -412,10 +377,7 @@ fn main() -> ExitCode {
                     }
                     ExitCode::SUCCESS
                 }
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    ExitCode::FAILURE
-                }
+                Err(e) => fail(e),
             }
         }
         Command::Prove {
@@ -425,44 +387,14 @@ fn main() -> ExitCode {
             cases,
         } => match agvsim::diagnose::prove::prove(&out, quick, seed, &cases) {
             Ok(cases) => {
-                println!(
-                    "{:<20} {:<20} {:>10} {:<34} {:>8} {:>15}  result",
-                    "case", "truth", "value", "found", "error", "fit"
-                );
-                for c in &cases {
-                    let found = c
-                        .found
-                        .iter()
-                        .map(|(e, v)| format!("{} {v:.4}", e.name()))
-                        .collect::<Vec<_>>()
-                        .join(", ");
-                    println!(
-                        "{:<20} {:<20} {:>10.4} {:<34} {:>8} {:>6.2}->{:>6.2} %  {}",
-                        c.name,
-                        c.effect.map_or("none", |e| e.name()),
-                        c.truth,
-                        if found.is_empty() {
-                            "(none)".into()
-                        } else {
-                            found
-                        },
-                        c.relative_error()
-                            .map_or("-".into(), |e| format!("{:+.1}%", 100.0 * e)),
-                        c.baseline_fit_pct,
-                        c.final_fit_pct,
-                        if c.passed { "pass" } else { "FAIL" }
-                    );
-                }
+                print!("{}", agvsim::diagnose::prove::render(&cases));
                 if cases.iter().all(|c| c.passed) {
                     ExitCode::SUCCESS
                 } else {
                     ExitCode::FAILURE
                 }
             }
-            Err(e) => {
-                eprintln!("error: {e}");
-                ExitCode::FAILURE
-            }
+            Err(e) => fail(e),
         },
         Command::Identify {
             rig,
@@ -499,20 +431,14 @@ fn main() -> ExitCode {
                     }
                     ExitCode::SUCCESS
                 }
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    ExitCode::FAILURE
-                }
+                Err(e) => fail(e),
             }
         }
         Command::Sweep(args) => cli_sweep::sweep_command(args),
         Command::Linearize { scene, set } => {
             let loaded = match Scene::load(&scene, &set) {
                 Ok(s) => s,
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    return ExitCode::from(2);
-                }
+                Err(e) => return bad_input(e),
             };
             match agvsim::sim::linearize::linearise(&loaded) {
                 Ok(l) => {
@@ -523,10 +449,7 @@ fn main() -> ExitCode {
                     );
                     ExitCode::SUCCESS
                 }
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    ExitCode::FAILURE
-                }
+                Err(e) => fail(e),
             }
         }
         Command::Study {
@@ -555,31 +478,11 @@ fn main() -> ExitCode {
                     }
                     ExitCode::SUCCESS
                 }
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    ExitCode::FAILURE
-                }
+                Err(e) => fail(e),
             }
         }
         Command::Presets => {
-            println!(
-                "{:<20} {:>8} {:>8} {:>10} {:>10} {:>9}",
-                "compound / surface", "peak_mu", "slide_mu", "Cx per N", "Cy per N", "sigma_m"
-            );
-            for c in &presets::COMPOUNDS {
-                for s in &presets::SURFACES {
-                    let t = presets::combine(c, s);
-                    println!(
-                        "{:<20} {:>8.3} {:>8.3} {:>10.1} {:>10.1} {:>9.3}",
-                        format!("{} / {}", c.name, s.name),
-                        t.peak_mu,
-                        t.sliding_mu,
-                        t.long_stiffness_per_N,
-                        t.lat_stiffness_per_N,
-                        t.relaxation_length_m
-                    );
-                }
-            }
+            print!("{}", presets::render_table());
             ExitCode::SUCCESS
         }
     }

@@ -139,3 +139,56 @@ pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutput, RunError
         scene_used,
     })
 }
+
+/// The summary `agvsim run` prints: one labelled line per measure, with units.
+pub fn render_summary(scene_path: &Path, scene: &Scene, s: &RunSummary) -> String {
+    use std::fmt::Write;
+    let band_mm = 1000.0 * crate::sim::metrics::SETTLED_BAND_M;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "scene      {} ({}, fidelity {})",
+        scene_path.display(),
+        scene.description,
+        scene.sim.fidelity.name()
+    );
+    let _ = writeln!(
+        out,
+        "simulated  {:.2} s, {:.2} m travelled",
+        s.duration_s, s.distance_m
+    );
+    let _ = match s.settling_distance_m {
+        Some(d) => writeln!(
+            out,
+            "settled    after {d:.2} m (lateral error within {band_mm:.0} mm from then on)"
+        ),
+        None => writeln!(
+            out,
+            "settled    no (lateral error never stayed within {band_mm:.0} mm)"
+        ),
+    };
+    let _ = writeln!(
+        out,
+        "RMS error  {:.1} mm lateral (after settling), peak {:.1} mm",
+        1000.0 * s.rms_lateral_error_m,
+        1000.0 * s.peak_lateral_error_after_settling_m
+    );
+    let _ = writeln!(
+        out,
+        "peak slip  {:.3} (slip ratio, second half of the run), sliding {:.1} % of that time",
+        s.peak_abs_slip_ratio,
+        100.0 * s.sliding_fraction
+    );
+    let _ = writeln!(
+        out,
+        "energy     {:.0} J from the battery",
+        s.battery_energy_j
+    );
+    if !s.faults.is_empty() {
+        let _ = writeln!(out, "DCMC fault {}", s.faults.join(", "));
+    }
+    if s.bumper_stop {
+        let _ = writeln!(out, "bumper     stopped on contact with an obstacle");
+    }
+    out
+}

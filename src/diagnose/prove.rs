@@ -49,6 +49,41 @@ impl ProofCase {
     }
 }
 
+/// The table `agvsim prove` prints: each case's truth, what was found, the error of the
+/// parameter and the fit before and after.
+pub fn render(cases: &[ProofCase]) -> String {
+    let mut out = format!(
+        "{:<20} {:<20} {:>10} {:<34} {:>8} {:>15}  result\n",
+        "case", "truth", "value", "found", "error", "fit"
+    );
+    for c in cases {
+        let found = c
+            .found
+            .iter()
+            .map(|(e, v)| format!("{} {v:.4}", e.name()))
+            .collect::<Vec<_>>()
+            .join(", ");
+        let _ = writeln!(
+            out,
+            "{:<20} {:<20} {:>10.4} {:<34} {:>8} {:>6.2}->{:>6.2} %  {}",
+            c.name,
+            c.effect.map_or("none", |e| e.name()),
+            c.truth,
+            if found.is_empty() {
+                "(none)".into()
+            } else {
+                found
+            },
+            c.relative_error()
+                .map_or("-".into(), |e| format!("{:+.1}%", 100.0 * e)),
+            c.baseline_fit_pct,
+            c.final_fit_pct,
+            if c.passed { "pass" } else { "FAIL" }
+        );
+    }
+    out
+}
+
 struct Spec {
     name: &'static str,
     effect: Option<Effect>,

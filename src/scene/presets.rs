@@ -133,3 +133,28 @@ pub fn combine(c: &Compound, s: &Surface) -> TyreParams {
         damping_ratio: 0.3,
     }
 }
+
+/// The table `agvsim presets` prints: every compound on every surface.
+pub fn render_table() -> String {
+    use std::fmt::Write;
+    let mut out = format!(
+        "{:<20} {:>8} {:>8} {:>10} {:>10} {:>9}\n",
+        "compound / surface", "peak_mu", "slide_mu", "Cx per N", "Cy per N", "sigma_m"
+    );
+    for c in &COMPOUNDS {
+        for s in &SURFACES {
+            let t = combine(c, s);
+            let _ = writeln!(
+                out,
+                "{:<20} {:>8.3} {:>8.3} {:>10.1} {:>10.1} {:>9.3}",
+                format!("{} / {}", c.name, s.name),
+                t.peak_mu,
+                t.sliding_mu,
+                t.long_stiffness_per_N,
+                t.lat_stiffness_per_N,
+                t.relaxation_length_m
+            );
+        }
+    }
+    out
+}
