@@ -113,7 +113,45 @@ pub struct Pose {
     pub heading_rad: f64,
 }
 
+/// A pose with its heading's sine and cosine worked out once, for mapping several points
+/// or directions from the body frame to the world.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PoseFrame {
+    pub x_m: f64,
+    pub y_m: f64,
+    pub sin: f64,
+    pub cos: f64,
+}
+
+impl PoseFrame {
+    /// A body-frame point in the world frame.
+    pub fn to_world(&self, p: [f64; 2]) -> [f64; 2] {
+        let (s, c) = (self.sin, self.cos);
+        [
+            self.x_m + c * p[0] - s * p[1],
+            self.y_m + s * p[0] + c * p[1],
+        ]
+    }
+
+    /// A body-frame direction in the world frame.
+    pub fn rotate(&self, v: [f64; 2]) -> [f64; 2] {
+        let (s, c) = (self.sin, self.cos);
+        [c * v[0] - s * v[1], s * v[0] + c * v[1]]
+    }
+}
+
 impl Pose {
+    /// This pose's frame (one sine and cosine for many mappings).
+    pub fn frame(&self) -> PoseFrame {
+        let (sin, cos) = self.heading_rad.sin_cos();
+        PoseFrame {
+            x_m: self.x_m,
+            y_m: self.y_m,
+            sin,
+            cos,
+        }
+    }
+
     /// A body-frame point in the world frame.
     pub fn to_world(&self, p: [f64; 2]) -> [f64; 2] {
         let (s, c) = self.heading_rad.sin_cos();

@@ -5,7 +5,7 @@ use rand_distr::{Distribution, StandardNormal};
 use super::{Actuation, Body, Sim, SimError};
 use crate::firmware::pwm::duty_to_pct;
 use crate::firmware::FirmwareInput;
-use crate::model::chassis::Pose;
+use crate::model::chassis::PoseFrame;
 use crate::model::dcmc::DcmcInput;
 use crate::model::motor::Terminal;
 use crate::model::tyre::{slip_measures, ContactKinematics, TyreOutput};
@@ -32,12 +32,16 @@ impl Sim {
     ///    [`SimError::Diverged`].
     pub fn step(&mut self) -> Result<(), SimError> {
         let dt = self.params.dt_s;
-        let pose = self.pose();
+        let body_pose = self.pose();
+        let pose = body_pose.frame();
 
         // 1. Sensors.
         let sensors = self.read_coils(&pose, self.params.coils_m);
         let rear = self.params.rear_coils_m.map(|c| self.read_coils(&pose, c));
-        let bumper = self.params.bumper.touches(&pose, &self.params.obstacles);
+        let bumper = self
+            .params
+            .bumper
+            .touches(&body_pose, &self.params.obstacles);
         let steer_on = match (self.params.firmware.reverse, rear) {
             (true, Some(r)) => r,
             _ => sensors,
@@ -146,7 +150,7 @@ impl Sim {
     }
 
     /// Readings of a coil pair (left, right) at a pose: field, noise, ADC.
-    fn read_coils(&mut self, pose: &Pose, coils: [[f64; 2]; 2]) -> [f64; 2] {
+    fn read_coils(&mut self, pose: &PoseFrame, coils: [[f64; 2]; 2]) -> [f64; 2] {
         let axis = pose.rotate([0.0, 1.0]);
         let mut out = [0.0; 2];
         for (i, c) in coils.iter().enumerate() {
