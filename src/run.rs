@@ -109,7 +109,7 @@ pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutput, RunError
     for k in 1..=steps {
         sim.step()?;
         let want_row = k % record_every == 0;
-        let want_viz = viz.is_some();
+        let want_viz = viz.as_mut().is_some_and(|v| v.due());
         if want_row || want_viz || k % 10 == 0 {
             let s = sim.snapshot();
             if want_row {
@@ -118,7 +118,7 @@ pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutput, RunError
             if k % 10 == 0 || want_row {
                 metrics.observe(&s);
             }
-            if let Some(v) = viz.as_mut() {
+            if let (true, Some(v)) = (want_viz, viz.as_mut()) {
                 if let Err(e) = v.observe(&s, sim.params()) {
                     viz_err = Some(e);
                     break;

@@ -362,13 +362,16 @@ impl RerunRecorder {
         Ok(())
     }
 
-    /// Called after every physics step; logs every `every`-th.
-    pub fn observe(&mut self, s: &Snapshot, p: &SimParams) -> Result<(), VizError> {
+    /// Called once per physics step: whether this step's snapshot is to be logged (every
+    /// `every`-th step, from the first). The caller builds the snapshot only then.
+    pub fn due(&mut self) -> bool {
         let due = self.count % self.every == 0;
         self.count += 1;
-        if !due {
-            return Ok(());
-        }
+        due
+    }
+
+    /// Logs a snapshot of a step for which [`Self::due`] said yes.
+    pub fn observe(&mut self, s: &Snapshot, p: &SimParams) -> Result<(), VizError> {
         let rec = &self.rec;
         rec.set_duration_secs("sim_time", s.t_s);
         let pose = s.pose;
