@@ -38,10 +38,10 @@ fn gains(level: &str, quick: bool) -> &'static str {
         // Figs 6.1-6.2: 0.1-1.0 and 1.5-4.0.
         ("linear", false) => "0.1,0.2,0.3,0.5,0.7,1.0,1.5,2.0,3.0,4.0",
         ("linear", true) => "0.2,0.5,1.0,2.0,4.0",
-        // The full level from where its tyres begin to slide: with the thesis's hard
-        // tyres on painted concrete it holds the wire only below about gain 2.5.
-        ("full", false) => "1.0,1.5,2.0,3.0,4.0,5.0,6.0",
-        ("full", true) => "1.0,1.5,2.0,4.0",
+        // The full level from where its tyres begin to slide, finely up to where, with the
+        // thesis's hard tyres on painted concrete, it stops holding the wire (near gain 2).
+        ("full", false) => "1.0,1.25,1.5,1.75,2.0,3.0,4.0,5.0,6.0",
+        ("full", true) => "1.0,1.5,1.75,2.0,4.0",
         // Figs 6.3-6.5: 2.0-6.0.
         (_, false) => "2.0,3.0,4.0,5.0,6.0",
         (_, true) => "2.0,4.0,6.0",
