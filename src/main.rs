@@ -77,8 +77,9 @@ enum Command {
     },
     /// Linearise the scene's plant (drivetrains and chassis) about straight running on the
     /// wire and report controllability from the motor voltages and observability from the
-    /// coil pair (ranks, and which states the coils cannot see). The full level is
-    /// linearised as its no-slip counterpart.
+    /// coil pair (ranks, and which states the coils cannot see), then close the P-D loop
+    /// around it and report its poles and stability. The full level is linearised as its
+    /// no-slip counterpart.
     Linearize {
         /// Scene file (TOML), e.g. scenes/lab_offset_120mm.toml.
         scene: PathBuf,
