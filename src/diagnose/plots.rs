@@ -12,11 +12,9 @@ use crate::ident::plot::{svg, Series};
 /// Writes `OUTPUT_compare.svg` and `OUTPUT_residual.svg` per output and `regimes.svg`.
 pub fn write(dir: &Path, d: &Diagnosis) -> std::io::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir)?;
-    let data = d
-        .baseline
-        .data
-        .as_ref()
-        .expect("an evaluation keeps its data");
+    let Some(data) = d.baseline.data.as_ref() else {
+        return Err(std::io::Error::other("the diagnosis holds no data to plot"));
+    };
     let mut files = Vec::new();
     let name_of_final = if d.findings.is_empty() {
         "diagnosed (= baseline)".to_string()

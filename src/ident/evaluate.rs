@@ -112,7 +112,7 @@ pub fn evaluate(data: &Dataset, predicted: Vec<Vec<f64>>, max_lag: usize) -> Eva
             .collect();
         let e: Vec<f64> = rows
             .iter()
-            .map(|&k| data.outputs[j][k].unwrap() - predicted[j][k])
+            .filter_map(|&k| data.outputs[j][k].map(|y| y - predicted[j][k]))
             .collect();
         rms.insert(
             name.clone(),

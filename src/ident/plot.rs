@@ -208,7 +208,11 @@ fn escape(s: &str) -> String {
 /// evaluation into `dir`; returns the files written.
 pub fn write_evaluation(dir: &Path, prefix: &str, e: &Evaluation) -> std::io::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir)?;
-    let data = e.data.as_ref().expect("an evaluation keeps its data");
+    let Some(data) = e.data.as_ref() else {
+        return Err(std::io::Error::other(
+            "the evaluation holds no data to plot",
+        ));
+    };
     let mut files = Vec::new();
     for (j, name) in data.output_names.iter().enumerate() {
         let (t, y): (Vec<f64>, Vec<f64>) = data.outputs[j]

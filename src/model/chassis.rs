@@ -154,17 +154,12 @@ impl Pose {
 
     /// A body-frame point in the world frame.
     pub fn to_world(&self, p: [f64; 2]) -> [f64; 2] {
-        let (s, c) = self.heading_rad.sin_cos();
-        [
-            self.x_m + c * p[0] - s * p[1],
-            self.y_m + s * p[0] + c * p[1],
-        ]
+        self.frame().to_world(p)
     }
 
     /// A body-frame direction in the world frame.
     pub fn rotate(&self, v: [f64; 2]) -> [f64; 2] {
-        let (s, c) = self.heading_rad.sin_cos();
-        [c * v[0] - s * v[1], s * v[0] + c * v[1]]
+        self.frame().rotate(v)
     }
 
     /// A world-frame direction in the body frame.

@@ -240,7 +240,8 @@ impl Sim {
                         dtp.wheel_substep(&mut self.drive[i], t, -r * out.force_n[0], h);
                         force_sum[i][0] += out.force_n[0];
                         force_sum[i][1] += out.force_n[1];
-                        // Sliding state of the last sub-step (its slip measures after the loop), mean of the forces.
+                        // The last sub-step's sliding state (its slip measures follow the
+                        // loop) and the mean of the forces.
                         mean[i] = TyreOutput {
                             force_n: [0.0; 2],
                             ..out

@@ -8,6 +8,20 @@ use crate::sweep::SweepError;
 pub const FRONT_ONLY: &str = include_str!("../../scenes/studies/reversing_front_only.toml");
 pub const REAR_PAIR: &str = include_str!("../../scenes/studies/reversing_rear_pair.toml");
 
+/// The two configurations: name, scene file, scene text.
+const CONFIGURATIONS: [(&str, &str, &str); 2] = [
+    (
+        "front_only",
+        "scenes/studies/reversing_front_only.toml",
+        FRONT_ONLY,
+    ),
+    (
+        "rear_pair",
+        "scenes/studies/reversing_rear_pair.toml",
+        REAR_PAIR,
+    ),
+];
+
 /// One run: configuration, start offset m, lost the wire, RMS lateral error over the
 /// second half m, final lateral error m.
 #[derive(Debug, Clone)]
@@ -26,18 +40,7 @@ pub fn run(
     let offsets = if opts.quick { "0.05" } else { "0.02,0.05,0.1" };
     let varies = vec![format!("start.y_m={offsets}")];
     let mut runs = vec![];
-    for (name, label, text) in [
-        (
-            "front_only",
-            "scenes/studies/reversing_front_only.toml",
-            FRONT_ONLY,
-        ),
-        (
-            "rear_pair",
-            "scenes/studies/reversing_rear_pair.toml",
-            REAR_PAIR,
-        ),
-    ] {
+    for (name, label, text) in CONFIGURATIONS {
         let (o, results) = study_sweep(opts, name, label, text, &[], &varies, true, progress)?;
         for r in &results {
             let (Ok(s), Some(t)) = (&r.outcome, &r.trace) else {
@@ -96,29 +99,19 @@ pub fn run(
 fn linear_analysis() -> Result<String, SweepError> {
     use crate::sim::linearize::{close_loop, linearise};
     let mut rows = vec![];
-    for (name, label, text) in [
-        (
-            "front only",
-            "scenes/studies/reversing_front_only.toml",
-            FRONT_ONLY,
-        ),
-        (
-            "rear pair",
-            "scenes/studies/reversing_rear_pair.toml",
-            REAR_PAIR,
-        ),
-    ] {
+    for (name, label, text) in CONFIGURATIONS {
         let scene = crate::scene::Scene::from_toml(text, std::path::Path::new(label), &[])?;
-        let closed = linearise(&scene).ok().and_then(|l| close_loop(&l)).map_or(
-            ["-".to_string(), "not analysed".to_string()],
-            |c| {
-                [
-                    format!("{:+.2}", c.rightmost_re),
+        let [pole, verdict] = match linearise(&scene) {
+            Ok(l) => match close_loop(&l) {
+                Some(c) => [
+                    format!("{:+.2}", c.rightmost_re()),
                     if c.stable() { "stable" } else { "unstable" }.to_string(),
-                ]
+                ],
+                None => ["-".into(), "not analysed (no P-D loop to close)".into()],
             },
-        );
-        rows.push(vec![name.to_string(), closed[0].clone(), closed[1].clone()]);
+            Err(e) => ["-".into(), format!("not analysed: {e}")],
+        };
+        rows.push(vec![name.replace('_', " "), pole, verdict]);
     }
     let mut s = String::from(
         "\n## Linear analysis\n\nThe P-D loop closed around the plant linearised on the wire \

@@ -188,8 +188,9 @@ fn what_slip_adds(
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<String, SweepError> {
     let scene = crate::scene::Scene::from_toml(SCENE, std::path::Path::new(SCENE_LABEL), &[])?;
-    let sliding = crate::scene::presets::compound(&scene.tyre.compound)
-        .map_or(1.0, |c| scene.tyre.sliding_ratio.unwrap_or(c.sliding_ratio));
+    let params = crate::sim::SimParams::from_scene(&scene)?;
+    let tyre = params.drive_tyre(params.floor.default);
+    let sliding = tyre.sliding_mu / tyre.peak_mu;
     let play = scene.gearbox.backlash_rad;
     let gains = if opts.quick { "2,4" } else { "2,3,4,6" };
     let varies = vec![
@@ -249,9 +250,10 @@ fn what_slip_adds(
     let mut md = format!(
         "\n## What slip adds at high gain\n\nThe thesis explains Run #3 by two things together: \
          gear teeth engaging after the motor freewheels through the play spin the wheels, and \
-         spinning wheels grip less. The `full` level at gains {gains}, with the hard \
+         spinning wheels grip less. The `full` level at gains {gains}, with the `{}` \
          compound's sliding friction ({sliding} of the peak) or none lost on sliding, and with \
          the gear play ({:.1} degrees) or none:\n\n",
+        scene.tyre.compound,
         play.to_degrees()
     );
     md.push_str(&md_table(

@@ -26,6 +26,9 @@ pub enum SweepError {
     Argument { arg: String, message: String },
     #[error(transparent)]
     Scene(#[from] crate::scene::SceneError),
+    /// A scene whose parameters the simulator refuses (checked before a study's runs).
+    #[error(transparent)]
+    Sim(#[from] crate::sim::SimError),
     #[error("{path}: {source}")]
     Io {
         path: PathBuf,

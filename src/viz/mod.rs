@@ -12,6 +12,12 @@ use rerun::{RecordingStream, RecordingStreamBuilder};
 
 use crate::sim::{SimParams, Snapshot};
 
+mod frames;
+mod reports;
+
+use frames::{FrameBuffer, PLOT_BATCH_FRAMES};
+pub use reports::{save_diagnosis, save_identification};
+
 /// Where the recording goes.
 #[derive(Debug, Clone)]
 pub enum RerunTarget {
@@ -58,100 +64,8 @@ pub struct RerunRecorder {
     frames: FrameBuffer,
 }
 
-/// Frames of plot data sent together: columns cost far less than a log call per value per
-/// frame, and each chunk carries its own schema, so larger batches also make smaller files.
-/// A streaming viewer then updates every 5 s of simulated time at the default frame
-/// interval: about 20 ms of wall time at the `full` level's speed.
-const PLOT_BATCH_FRAMES: usize = 250;
-
 /// Frames between re-logs of the travelled path (the whole strip each time).
 const PATH_LOG_EVERY_FRAMES: u64 = 25;
-
-/// Frames waiting to be sent as column chunks: their times, the plot series (entity path,
-/// values per frame, values) and the vehicle's moving geometry (a fixed number of items
-/// per frame each).
-#[derive(Default)]
-struct FrameBuffer {
-    times_s: Vec<f64>,
-    series: Vec<(&'static str, usize, Vec<f64>)>,
-    /// Outline and nose, 2 strips per frame.
-    body: Vec<Vec<[f32; 2]>>,
-    /// 2 coils per frame.
-    coils: Vec<[f32; 2]>,
-    coil_colors: Vec<[u8; 4]>,
-    coil_labels: Vec<String>,
-    /// Tyre force and slip arrows, 2 per frame each.
-    force: Vec<[f32; 2]>,
-    slip: Vec<[f32; 2]>,
-    contacts: Vec<[f32; 2]>,
-    /// Castor forks, `castors_per_frame` strips per frame.
-    castors: Vec<Vec<[f32; 2]>>,
-    castors_per_frame: usize,
-}
-
-impl FrameBuffer {
-    fn push(&mut self, path: &'static str, values: &[f64]) {
-        match self.series.iter_mut().find(|s| s.0 == path) {
-            Some(s) => s.2.extend_from_slice(values),
-            None => self.series.push((path, values.len(), values.to_vec())),
-        }
-    }
-
-    fn flush(&mut self, rec: &RecordingStream) -> Result<(), VizError> {
-        if self.times_s.is_empty() {
-            return Ok(());
-        }
-        let n = self.times_s.len();
-        let times = || {
-            [rerun::TimeColumn::new_duration_secs(
-                "sim_time",
-                self.times_s.iter().copied(),
-            )]
-        };
-        for (path, width, values) in &mut self.series {
-            let columns = rerun::Scalars::new(std::mem::take(values))
-                .columns(std::iter::repeat_n(*width, n))
-                .map_err(err)?;
-            rec.send_columns(*path, times(), columns).map_err(err)?;
-        }
-        let per = |k: usize| std::iter::repeat_n(k, n);
-        let body = rerun::LineStrips2D::new(std::mem::take(&mut self.body))
-            .columns(per(2))
-            .map_err(err)?;
-        rec.send_columns("world/agv/body", times(), body)
-            .map_err(err)?;
-        let coils = rerun::Points2D::new(std::mem::take(&mut self.coils))
-            .with_colors(std::mem::take(&mut self.coil_colors))
-            .with_labels(std::mem::take(&mut self.coil_labels))
-            .columns(per(2))
-            .map_err(err)?;
-        rec.send_columns("world/agv/coils", times(), coils)
-            .map_err(err)?;
-        let contacts = std::mem::take(&mut self.contacts);
-        let force = rerun::Arrows2D::from_vectors(std::mem::take(&mut self.force))
-            .with_origins(contacts.clone())
-            .columns(per(2))
-            .map_err(err)?;
-        rec.send_columns("world/agv/tyre_force", times(), force)
-            .map_err(err)?;
-        let slip = rerun::Arrows2D::from_vectors(std::mem::take(&mut self.slip))
-            .with_origins(contacts)
-            .columns(per(2))
-            .map_err(err)?;
-        rec.send_columns("world/agv/slip", times(), slip)
-            .map_err(err)?;
-        if self.castors_per_frame > 0 {
-            let k = self.castors_per_frame;
-            let castors = rerun::LineStrips2D::new(std::mem::take(&mut self.castors))
-                .columns(per(k))
-                .map_err(err)?;
-            rec.send_columns("world/agv/castors", times(), castors)
-                .map_err(err)?;
-        }
-        self.times_s.clear();
-        Ok(())
-    }
-}
 
 /// The SDK's batcher sends what it holds every `flush_tick`; its default (200 ms) is longer
 /// than a whole typical run, so all the encoding and compression would wait for `finish`
@@ -419,7 +333,8 @@ impl RerunRecorder {
         for c in &s.castors {
             b.castors.push(vec![w(c.swivel_m), w(c.patch_m)]);
         }
-        if self.count / self.every % self.path_every == 1 || self.path.is_empty() {
+        let frame = self.count / self.every;
+        if frame % self.path_every == 1 || self.path.is_empty() {
             self.path.push(w([pose.x_m, pose.y_m]));
             if self.path.len() > 4000 {
                 // Thin the trace rather than grow without bound.
@@ -427,13 +342,8 @@ impl RerunRecorder {
                 self.path_every *= 2;
             }
         }
-        let frame = self.count / self.every;
         if frame % PATH_LOG_EVERY_FRAMES == 1 || self.path.len() == 1 {
-            rec.log(
-                "world/path",
-                &rerun::LineStrips2D::new([self.path.clone()]).with_colors([PATH]),
-            )
-            .map_err(err)?;
+            self.log_path()?;
         }
         let b = &mut self.frames;
         b.times_s.push(s.t_s);
@@ -462,17 +372,22 @@ impl RerunRecorder {
         Ok(())
     }
 
+    /// Re-logs the travelled path, the whole strip (at the current time).
+    fn log_path(&self) -> Result<(), VizError> {
+        self.rec
+            .log(
+                "world/path",
+                &rerun::LineStrips2D::new([self.path.clone()]).with_colors([PATH]),
+            )
+            .map_err(err)
+    }
+
     /// Logs the floor and the wire, framed on the travelled region (a long wire would
     /// otherwise shrink the vehicle to a dot), and flushes everything to the sink.
     pub fn finish(mut self) -> Result<(), VizError> {
         self.frames.flush(&self.rec)?;
         if !self.path.is_empty() {
-            self.rec
-                .log(
-                    "world/path",
-                    &rerun::LineStrips2D::new([self.path.clone()]).with_colors([PATH]),
-                )
-                .map_err(err)?;
+            self.log_path()?;
         }
         let margin = 1.0;
         let lo = [self.seen.0[0] - margin, self.seen.0[1] - margin];
@@ -538,95 +453,4 @@ fn clip_segment(
             [a[0] + t1 * d[0], a[1] + t1 * d[1]],
         )
     })
-}
-
-/// Saves a diagnosis: measured outputs with the baseline's and the diagnosed model's
-/// simulations and residuals, as time series in a `.rrd` file.
-pub fn save_diagnosis(
-    path: &std::path::Path,
-    d: &crate::diagnose::Diagnosis,
-) -> Result<(), VizError> {
-    let rec = RecordingStreamBuilder::new("agvsim")
-        .recording_id(format!("agvsim-diagnose-{}", d.recording))
-        .save(path)
-        .map_err(err)?;
-    let Some(data) = d.baseline.data.as_ref() else {
-        return Ok(());
-    };
-    for (j, name) in data.output_names.iter().enumerate() {
-        for (k, t) in data.t_s.iter().enumerate() {
-            rec.set_duration_secs("t", *t);
-            rec.log(
-                format!("{name}/baseline"),
-                &rerun::Scalars::new([d.baseline.predicted[j][k]]),
-            )
-            .map_err(err)?;
-            rec.log(
-                format!("{name}/diagnosed"),
-                &rerun::Scalars::new([d.diagnosed.predicted[j][k]]),
-            )
-            .map_err(err)?;
-            if let Some(y) = data.outputs[j][k] {
-                rec.log(format!("{name}/measured"), &rerun::Scalars::new([y]))
-                    .map_err(err)?;
-                rec.log(
-                    format!("{name}/residual/baseline"),
-                    &rerun::Scalars::new([y - d.baseline.predicted[j][k]]),
-                )
-                .map_err(err)?;
-                rec.log(
-                    format!("{name}/residual/diagnosed"),
-                    &rerun::Scalars::new([y - d.diagnosed.predicted[j][k]]),
-                )
-                .map_err(err)?;
-            }
-        }
-    }
-    rec.flush_blocking().map_err(err)?;
-    Ok(())
-}
-
-/// Saves an identification's measured and simulated outputs (estimation and validation) as
-/// time series, and its residuals, to a `.rrd` file.
-pub fn save_identification(
-    path: &std::path::Path,
-    id: &crate::ident::Identification,
-) -> Result<(), VizError> {
-    let rec = RecordingStreamBuilder::new("agvsim")
-        .recording_id(format!("agvsim-identify-{}", id.estimation.recording))
-        .save(path)
-        .map_err(err)?;
-    let mut evals = vec![("estimation", &id.estimation)];
-    if let Some(v) = &id.validation {
-        evals.push(("validation", v));
-    }
-    for (label, e) in evals {
-        let Some(data) = e.data.as_ref() else {
-            continue;
-        };
-        for (j, name) in data.output_names.iter().enumerate() {
-            for (k, t) in data.t_s.iter().enumerate() {
-                rec.set_duration_secs("t", *t);
-                rec.log(
-                    format!("{label}/{name}/simulated"),
-                    &rerun::Scalars::new([e.predicted[j][k]]),
-                )
-                .map_err(err)?;
-                if let Some(y) = data.outputs[j][k] {
-                    rec.log(
-                        format!("{label}/{name}/measured"),
-                        &rerun::Scalars::new([y]),
-                    )
-                    .map_err(err)?;
-                    rec.log(
-                        format!("{label}/{name}/residual"),
-                        &rerun::Scalars::new([y - e.predicted[j][k]]),
-                    )
-                    .map_err(err)?;
-                }
-            }
-        }
-    }
-    rec.flush_blocking().map_err(err)?;
-    Ok(())
 }

@@ -16,6 +16,12 @@ use crate::model::chassis::Pose;
 use crate::model::motor::Terminal;
 use crate::scene::{Fidelity, Scene};
 
+mod closed_loop;
+mod reach;
+
+pub use closed_loop::{close_loop, ClosedLoop, LoopGains};
+pub use reach::{analyse, Reach};
+
 /// The plant state, in this order. Side quantities are in common (`_sum`: left + right)
 /// and differential (`_diff`: right - left) form, which separates straight running from
 /// turning. `twist` is gear output angle minus wheel angle.
@@ -33,15 +39,16 @@ pub const STATE_NAMES: [&str; 11] = [
     "twist_diff_rad",
 ];
 
+/// Indices of the motor-speed states in [`STATE_NAMES`].
+const MOTOR_SPEED_SUM: usize = 7;
+const MOTOR_SPEED_DIFF: usize = 8;
+
 /// Typical sizes of the states, for scaling before rank decisions.
 const STATE_SCALE: [f64; 11] = [
     1.0, 0.1, 0.1, 1.0, 1.0, 10.0, 10.0, 100.0, 100.0, 0.01, 0.01,
 ];
 const VOLTAGE_SCALE_V: f64 = 10.0;
 const READING_SCALE_ADC: f64 = 100.0;
-
-/// Relative size below which a new Krylov direction counts as already spanned.
-const RANK_TOLERANCE: f64 = 1e-7;
 
 /// Errors of a linearisation.
 #[derive(Debug, thiserror::Error)]
@@ -71,58 +78,6 @@ pub struct Linearisation {
     /// The firmware's P-D law and the DCMC about the operating point, when the scene runs
     /// the P-D law through the gain or proportional-speed DCMC.
     pub controller: Option<LoopGains>,
-}
-
-/// The wire-following loop about the operating point, continuous-time: the turn demand
-/// `u = sign (-Kp X + Kd T dX/dt)` in duty counts from the coil difference `X = left -
-/// right` (counts), and the DCMC's terminal voltages `dV = g_turn u + G_speed dw`.
-#[derive(Debug, Clone)]
-pub struct LoopGains {
-    /// Proportional gain, turn counts per count of coil difference (`kp_num gain_scale /
-    /// kp_den`; the firmware's -1/20 turns towards the stronger coil).
-    pub kp: f64,
-    /// Derivative gain per interrupt, turn counts per count of change (`kd_num / kd_den`).
-    pub kd: f64,
-    /// Interrupt period, s: the derivative acts on the change over one period.
-    pub period_s: f64,
-    /// -1 reversing (the firmware negates its demands), else +1.
-    pub sign: f64,
-    /// Terminal voltage per count of turn demand (left, right), V.
-    pub volts_per_turn_count: [f64; 2],
-    /// Terminal voltage per rad/s of the same side's motor speed (the proportional speed
-    /// loop; zero for the gain DCMC), V s/rad.
-    pub volts_per_motor_speed: [f64; 2],
-}
-
-/// The closed wire-following loop's poles.
-#[derive(Debug, Clone)]
-pub struct ClosedLoop {
-    /// Continuous-time poles without the position along the wire (a pure integrator the
-    /// loop cannot see), 1/s, as (re, im).
-    pub poles: Vec<(f64, f64)>,
-    /// Largest real part, 1/s.
-    pub rightmost_re: f64,
-}
-
-impl ClosedLoop {
-    /// Every pole in the open left half-plane.
-    pub fn stable(&self) -> bool {
-        self.rightmost_re < 0.0
-    }
-}
-
-/// What the linearisation shows.
-#[derive(Debug, Clone)]
-pub struct Reach {
-    pub states: usize,
-    pub controllable_rank: usize,
-    pub observable_rank: usize,
-    /// Per state: the share (0-1) of it outside the controllable subspace.
-    pub uncontrollable_share: Vec<f64>,
-    /// Per state: the share (0-1) of it the coil readings cannot see.
-    pub unobservable_share: Vec<f64>,
-    /// Continuous-time poles (eigenvalues of (A - I)/dt), 1/s, as (re, im).
-    pub poles: Vec<(f64, f64)>,
 }
 
 impl Sim {
@@ -188,6 +143,14 @@ impl Sim {
                     * (pose.heading_rad - off.direction_rad).cos().abs()
             }),
         )
+    }
+}
+
+impl Linearisation {
+    /// The continuous-time state matrix `(A - I)/dt`, 1/s.
+    pub fn continuous_a(&self) -> DMatrix<f64> {
+        let n = self.a.nrows();
+        (&self.a - DMatrix::identity(n, n)) / self.dt_s
     }
 }
 
@@ -289,7 +252,7 @@ pub fn linearise(scene: &Scene) -> Result<Linearisation, LinearizeError> {
         let fm = step_from(&mut sim, &x0, um);
         b.set_column(k, &((fp - fm) / (2.0 * d)));
     }
-    let controller = loop_gains(&params, &sim);
+    let controller = closed_loop::loop_gains(&params, &sim);
     Ok(Linearisation {
         level,
         speed_m_s: x0[3],
@@ -301,187 +264,6 @@ pub fn linearise(scene: &Scene) -> Result<Linearisation, LinearizeError> {
         c,
         controller,
     })
-}
-
-/// The P-D law's gains and the DCMC's local slopes at the operating point (`sim` holds it);
-/// `None` for other controllers and for the PI DCMC (whose integrators would be states).
-fn loop_gains(params: &SimParams, sim: &Sim) -> Option<LoopGains> {
-    use crate::firmware::pwm::PCT_PER_COUNT;
-    use crate::model::dcmc::{DcmcInput, DcmcState};
-    use crate::scene::{ControllerKind, DcmcKind};
-    let fw = &params.firmware;
-    if fw.kind != ControllerKind::Pd || params.dcmc.kind == DcmcKind::Pi {
-        return None;
-    }
-    let sign = if fw.reverse { -1.0 } else { 1.0 };
-    let speeds = [
-        sim.drive[0].motor.speed_rad_s,
-        sim.drive[1].motor.speed_rad_s,
-    ];
-    let forward_pct = sign * fw.forward_counts as f64 * PCT_PER_COUNT;
-    let available_v = params
-        .battery
-        .available_drive_v(params.battery.open_circuit_v);
-    let volts = |turn_counts: f64, w: [f64; 2]| {
-        let mut dcmc = params.dcmc;
-        dcmc.faults = false;
-        let mut state = DcmcState {
-            enabled_since_s: Some(0.0),
-            ..DcmcState::default()
-        };
-        dcmc.step(
-            &mut state,
-            &DcmcInput {
-                t_s: 1.0e3,
-                enabled: true,
-                forward_pct,
-                turn_pct: turn_counts * PCT_PER_COUNT,
-                motor_speed_rad_s: w,
-                back_emf_v: w.map(|x| params.drivetrain.motor.back_emf_v(x)),
-                low_battery: false,
-                available_v,
-            },
-            params.dt_s,
-        )
-        .voltage_v
-    };
-    let du = 0.01;
-    let (up, um) = (volts(du, speeds), volts(-du, speeds));
-    let dw = 1e-3;
-    let mut per_speed = [0.0; 2];
-    for k in 0..2 {
-        let (mut wp, mut wm) = (speeds, speeds);
-        wp[k] += dw;
-        wm[k] -= dw;
-        per_speed[k] = (volts(0.0, wp)[k] - volts(0.0, wm)[k]) / (2.0 * dw);
-    }
-    Some(LoopGains {
-        kp: fw.kp_num as f64 * fw.gain_scale / fw.kp_den as f64,
-        kd: fw.kd_num as f64 / fw.kd_den as f64,
-        period_s: fw.period_s.unwrap_or(params.dt_s),
-        sign,
-        volts_per_turn_count: [(up[0] - um[0]) / (2.0 * du), (up[1] - um[1]) / (2.0 * du)],
-        volts_per_motor_speed: per_speed,
-    })
-}
-
-/// Closes the wire-following loop around the linearised plant, continuous-time: the P-D
-/// law on the coil difference and the DCMC's slopes. The firmware's sampling, computation
-/// delay and the PWM filter are left out; each adds phase lag, so a loop found unstable
-/// here has no hope on the machine, while one found stable still has to be confirmed by
-/// simulation.
-pub fn close_loop(l: &Linearisation) -> Option<ClosedLoop> {
-    let g = l.controller.as_ref()?;
-    let n = l.a.nrows();
-    let f = (&l.a - DMatrix::identity(n, n)) / l.dt_s;
-    let b = &l.b / l.dt_s;
-    let cx = l.c.row(0) - l.c.row(1);
-    // Turn counts per unit of state: -Kp X + Kd T dX/dt, with dX/dt = C_x f x (the coils
-    // do not see the voltages directly).
-    let turn = (&cx * (-g.kp) + &cx * &f * (g.kd * g.period_s)) * g.sign;
-    let mut k = DMatrix::zeros(2, n);
-    for side in 0..2 {
-        k.set_row(side, &(&turn * g.volts_per_turn_count[side]));
-        // Motor speed of this side from the sum and difference states (7: sum, 8: right -
-        // left).
-        let w = g.volts_per_motor_speed[side];
-        let along_diff = if side == 0 { -0.5 } else { 0.5 };
-        k[(side, 7)] += 0.5 * w;
-        k[(side, 8)] += along_diff * w;
-    }
-    let closed = f + b * k;
-    // Without x (index 0): nothing depends on it, so its mode is a bare integrator.
-    let reduced = closed.view((1, 1), (n - 1, n - 1)).into_owned();
-    let poles: Vec<(f64, f64)> = reduced
-        .complex_eigenvalues()
-        .iter()
-        .map(|z| (z.re, z.im))
-        .collect();
-    let rightmost_re = poles.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
-    Some(ClosedLoop {
-        poles,
-        rightmost_re,
-    })
-}
-
-/// Orthonormal basis of the block Krylov subspace span{G, F G, F^2 G, ...}.
-fn krylov_basis(f: &DMatrix<f64>, g: &DMatrix<f64>) -> DMatrix<f64> {
-    let n = f.nrows();
-    let f_norm = f.norm().max(1e-300);
-    let mut basis: Vec<DVector<f64>> = vec![];
-    let mut block: Vec<DVector<f64>> = g.column_iter().map(|c| c.into_owned()).collect();
-    let g_norm = g.norm().max(1e-300);
-    let mut scale = g_norm;
-    for _ in 0..n {
-        let mut added = vec![];
-        for mut v in block {
-            // Twice Gram-Schmidt against everything kept so far.
-            for _ in 0..2 {
-                for q in basis.iter().chain(added.iter()) {
-                    let p = q.dot(&v);
-                    v -= q * p;
-                }
-            }
-            let norm = v.norm();
-            if norm > RANK_TOLERANCE * scale {
-                added.push(v / norm);
-            }
-        }
-        if added.is_empty() {
-            break;
-        }
-        block = added.iter().map(|q| f * q).collect();
-        basis.extend(added);
-        scale = f_norm;
-        if basis.len() >= n {
-            break;
-        }
-    }
-    if basis.is_empty() {
-        DMatrix::zeros(n, 0)
-    } else {
-        DMatrix::from_columns(&basis)
-    }
-}
-
-/// Per coordinate, the squared norm of its unit vector outside the span of `q`.
-fn outside_share(q: &DMatrix<f64>) -> Vec<f64> {
-    (0..q.nrows())
-        .map(|j| {
-            let inside: f64 = (0..q.ncols()).map(|k| q[(j, k)].powi(2)).sum();
-            (1.0 - inside).clamp(0.0, 1.0)
-        })
-        .collect()
-}
-
-/// Controllability from the voltages and observability from the coil readings.
-pub fn analyse(l: &Linearisation) -> Reach {
-    let n = l.a.nrows();
-    let s = DMatrix::from_diagonal(&DVector::from_row_slice(&STATE_SCALE));
-    let s_inv = DMatrix::from_diagonal(&DVector::from_iterator(
-        n,
-        STATE_SCALE.iter().map(|x| 1.0 / x),
-    ));
-    let f = (&l.a - DMatrix::identity(n, n)) / l.dt_s;
-    let f_scaled = &s_inv * &f * &s;
-    let b_scaled = &s_inv * &l.b * (VOLTAGE_SCALE_V / l.dt_s);
-    let c_scaled = &l.c * &s / READING_SCALE_ADC;
-    let ctrb = krylov_basis(&f_scaled, &b_scaled);
-    let obsv = krylov_basis(&f_scaled.transpose(), &c_scaled.transpose());
-    let poles = f
-        .clone()
-        .complex_eigenvalues()
-        .iter()
-        .map(|z| (z.re, z.im))
-        .collect();
-    Reach {
-        states: n,
-        controllable_rank: ctrb.ncols(),
-        observable_rank: obsv.ncols(),
-        uncontrollable_share: outside_share(&ctrb),
-        unobservable_share: outside_share(&obsv),
-        poles,
-    }
 }
 
 /// The report `agvsim linearize` prints.
@@ -563,7 +345,7 @@ pub fn render(l: &Linearisation, r: &Reach) -> String {
                 s,
                 "stability        {} (rightmost pole {:+.3} 1/s){}",
                 if cl.stable() { "stable" } else { "UNSTABLE" },
-                cl.rightmost_re,
+                cl.rightmost_re(),
                 if cl.stable() {
                     ": without the left-out lags, which cost phase margin; the simulation has \
                      the last word"
@@ -598,26 +380,4 @@ fn pole_list(poles: &[(f64, f64)]) -> String {
         })
         .collect::<Vec<_>>()
         .join(", ")
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn krylov_rank_of_a_decoupled_pair_counts_only_the_driven_chain() {
-        // Two integrator chains, the input drives only the first: rank 2 of 4.
-        let f = DMatrix::from_row_slice(
-            4,
-            4,
-            &[
-                0., 1., 0., 0., 0., 0., 0., 0., 0., 0., 0., 1., 0., 0., 0., 0.,
-            ],
-        );
-        let g = DMatrix::from_row_slice(4, 1, &[0., 1., 0., 0.]);
-        let q = krylov_basis(&f, &g);
-        assert_eq!(q.ncols(), 2);
-        let out = outside_share(&q);
-        assert!(out[0] < 1e-12 && out[1] < 1e-12 && out[2] > 1.0 - 1e-12);
-    }
 }
