@@ -165,6 +165,19 @@ fn bad_scenes_are_rejected_with_file_key_and_expectation() {
         e.contains("tyre.compound") && e.contains("soft_rubber"),
         "{e}"
     );
+    let e = bad_scene("swing_forwards", "[controller]\nkind = \"swing_away\"\n");
+    assert!(
+        e.contains("controller.kind") && e.contains("controller.reverse = true"),
+        "{e}"
+    );
+    let e = bad_scene(
+        "swing_correction",
+        "[controller]\nkind = \"swing_away\"\nreverse = true\n[controller.swing_away]\ncorrection = 1.5\n",
+    );
+    assert!(
+        e.contains("controller.swing_away.correction") && e.contains("between 0 and 1"),
+        "{e}"
+    );
 }
 
 #[test]

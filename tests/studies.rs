@@ -207,22 +207,31 @@ fn thesis_figures_show_the_asymptote_growing_backlash_cycles_and_slip_at_the_ful
 }
 
 #[test]
-fn reversing_on_the_front_pair_loses_the_wire_where_a_rear_pair_holds_it() {
+fn reversing_on_the_front_pair_loses_the_wire_where_swing_away_or_a_rear_pair_holds_it_and_swing_away_loses_a_bend(
+) {
     let (runs, out) = study::reversing::run(&quick("reversing"), &no_progress).unwrap();
     println!("{}", out.summary);
-    let front = runs
-        .iter()
-        .find(|r| r.configuration == "front_only")
-        .unwrap();
-    let rear = runs
-        .iter()
-        .find(|r| r.configuration == "rear_pair")
-        .unwrap();
+    let find = |c: &str, w: &str| {
+        runs.iter()
+            .find(|r| r.configuration == c && r.wire == w)
+            .unwrap_or_else(|| panic!("no {c} run on the {w} wire"))
+    };
+    // Straight wire: the P-D law on the front pair alone is unstable reversing; the
+    // swing-away strategy and a rear pair hold the wire, and keep the error within the
+    // coils' strong-signal zone (about one coil height, 38 mm) over the second half.
+    let front = find("front_only", "straight");
     assert!(front.lost_wire, "{front:?}");
-    assert!(!rear.lost_wire, "{rear:?}");
-    // The rear pair keeps the error within the coils' strong-signal zone (about one coil
-    // height, 38 mm) over the second half.
-    assert!(rear.late_rms_m < 0.038, "{rear:?}");
+    for c in ["swing_away", "rear_pair"] {
+        let r = find(c, "straight");
+        assert!(!r.lost_wire, "{r:?}");
+        assert!(r.late_rms_m < 0.038, "{r:?}");
+    }
+    // The bend: the rear pair still follows it, so it can be followed; swing away, whose
+    // picture of the wire is the straight line it started on, loses it.
+    let rear = find("rear_pair", "bent");
+    assert!(!rear.lost_wire && rear.late_rms_m < 0.038, "{rear:?}");
+    let swing = find("swing_away", "bent");
+    assert!(swing.lost_wire, "{swing:?}");
 }
 
 #[test]

@@ -2,9 +2,13 @@
 //! fixed-point P-D law on the sensor difference, and after a computation delay writes the
 //! PWM registers, clipped to the DCMC's accepted duty range. `pwm` holds the 100 Hz
 //! filter that turns duty into analogue demand. The Open Day program (PLAYTIME.C) is a
-//! small state machine around the same law.
+//! small state machine around the same law. `swing_away` is the reversing strategy the
+//! thesis describes but did not build.
 
 pub mod pwm;
+pub mod swing_away;
+
+use swing_away::{SwingAwayInput, SwingAwayParams, SwingAwayState};
 
 use crate::scene::ControllerKind;
 
@@ -39,6 +43,8 @@ pub struct FirmwareParams {
     pub centring_kp_den: i32,
     pub lost_threshold_adc: f64,
     pub bumper: bool,
+    /// The swing-away reversing strategy (controller kind `swing_away` only).
+    pub swing_away: Option<SwingAwayParams>,
 }
 
 /// The Open Day program's phases.
@@ -89,6 +95,10 @@ pub struct FirmwareState {
     pub lost_wire: bool,
     /// The larger of the two readings at the last interrupt, counts.
     pub peak_reading_adc: f64,
+    /// The readings (S0, S1) sampled at the last interrupt, counts.
+    pub readings_adc: [f64; 2],
+    /// The swing-away strategy's estimate of where the wire is.
+    pub swing_away: SwingAwayState,
 }
 
 /// What the firmware reads at an interrupt.
@@ -101,6 +111,9 @@ pub struct FirmwareInput {
     /// instead of the readings when present.
     pub ideal_difference: Option<f64>,
     pub bumper: bool,
+    /// Drive wheels' rim speeds (left, right), m/s: odometry, read only by the swing-away
+    /// strategy.
+    pub wheel_speed_m_s: [f64; 2],
 }
 
 impl FirmwareParams {
@@ -180,6 +193,7 @@ impl FirmwareParams {
         }
         // GetXpos: the difference of the two readings and the lost-wire test.
         let [s0, s1] = u.sensors_adc;
+        s.readings_adc = u.sensors_adc;
         s.peak_reading_adc = s0.max(s1);
         s.lost_wire = s.peak_reading_adc < self.lost_threshold_adc;
         if s0 != s1 && !s.lost_wire {
@@ -187,7 +201,7 @@ impl FirmwareParams {
         }
         let x = u.ideal_difference.unwrap_or(s0 - s1);
         s.x_hist = [x, s.x_hist[0]];
-        let command = self.command(s, u.t_s);
+        let command = self.command(s, u);
         s.command_counts = command;
         let duty = self.duties(command[0], command[1]);
         if self.compute_delay_s > 0.0 {
@@ -200,7 +214,8 @@ impl FirmwareParams {
 
     /// The (forward, turn) demand in counts for this interrupt, advancing the Open Day
     /// phases.
-    fn command(&self, s: &mut FirmwareState, t_s: f64) -> [f64; 2] {
+    fn command(&self, s: &mut FirmwareState, u: &FirmwareInput) -> [f64; 2] {
+        let t_s = u.t_s;
         if s.phase == Phase::Starting {
             if t_s + 1e-9 < self.start_delay_s {
                 return [0.0, 0.0];
@@ -217,6 +232,20 @@ impl FirmwareParams {
                 sign * self.forward_counts as f64,
                 sign * self.pd_turn(s, self.kp_den),
             ],
+            ControllerKind::SwingAway => {
+                let turn = self.swing_away.map_or(0.0, |p| {
+                    p.step(
+                        &mut s.swing_away,
+                        &SwingAwayInput {
+                            readings_adc: s.readings_adc,
+                            wire_seen: !s.lost_wire,
+                            wheel_speed_m_s: u.wheel_speed_m_s,
+                            t_s,
+                        },
+                    )
+                });
+                [sign * self.forward_counts as f64, turn]
+            }
             ControllerKind::OpenDay => match s.phase {
                 Phase::Follow => {
                     if s.lost_wire {

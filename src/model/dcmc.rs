@@ -99,6 +99,19 @@ impl DcmcParams {
         [f - t, f + t]
     }
 
+    /// Steady motor-speed difference (right minus left) per pct of turn demand on unloaded
+    /// motors, rad/s: what a designer of the firmware would read off the identified unit.
+    /// `back_emf_v_s_rad` is the motors' back-EMF constant.
+    pub fn motor_speed_difference_per_turn_pct(&self, back_emf_v_s_rad: f64) -> f64 {
+        match self.kind {
+            DcmcKind::Gain => 2.0 * self.turn_gain_v_pct / back_emf_v_s_rad,
+            DcmcKind::P | DcmcKind::Pi => {
+                let [l, r] = self.speed_setpoints(0.0, 1.0);
+                r - l
+            }
+        }
+    }
+
     /// One control step of length `dt`.
     pub fn step(&self, s: &mut DcmcState, u: &DcmcInput, dt: f64) -> DcmcOutput {
         if !u.enabled {

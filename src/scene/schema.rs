@@ -470,6 +470,42 @@ pub enum ControllerKind {
     OpenDay,
     /// No controller: constant demands (for identification and property tests).
     OpenLoop,
+    /// The thesis's "swing away" reversing strategy on the front pair alone: steer the
+    /// drive axle onto a wire assumed straight, by dead reckoning from wheel odometry
+    /// (`[controller.swing_away]`; needs `reverse = true`). The thesis describes it but
+    /// did not build it.
+    SwingAway,
+}
+
+/// Design of the swing-away reversing strategy (`[controller.swing_away]`). The defaults
+/// are ours (*assumed*): a heading loop several times faster than the axle loop.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SwingAwaySpec {
+    /// Rate at which the axle closes on the assumed line, 1/s.
+    pub axle_gain_per_s: f64,
+    /// Yaw-rate demand per rad of heading error, 1/s.
+    pub heading_gain_per_s: f64,
+    /// Largest heading demand relative to the line, rad.
+    pub max_heading_rad: f64,
+    /// Share of the disagreement between sensed and estimated pair offset the estimate
+    /// takes at each interrupt, 0..1.
+    pub correction: f64,
+    /// Reverse straight this long after first seeing the wire (the wheels spin up and
+    /// would mislead the odometry) before taking the line estimate and steering, s.
+    pub straight_start_s: f64,
+}
+
+impl Default for SwingAwaySpec {
+    fn default() -> Self {
+        SwingAwaySpec {
+            axle_gain_per_s: 0.5,
+            heading_gain_per_s: 2.5,
+            max_heading_rad: 0.35,
+            correction: 0.2,
+            straight_start_s: 1.0,
+        }
+    }
 }
 
 /// The 80C552 firmware: fixed-point P-D law, timer period, PWM outputs and filter.
@@ -521,6 +557,8 @@ pub struct ControllerSpec {
     pub centring_kp_den: i32,
     /// Stop (bumper interrupt) on contact with an obstacle.
     pub bumper: bool,
+    /// The swing-away reversing strategy's design (kind `swing_away`).
+    pub swing_away: SwingAwaySpec,
 }
 
 impl Default for ControllerSpec {
@@ -549,6 +587,7 @@ impl Default for ControllerSpec {
             centred_counts: 0x30,
             centring_kp_den: 4,
             bumper: true,
+            swing_away: SwingAwaySpec::default(),
         }
     }
 }

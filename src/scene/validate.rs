@@ -1,7 +1,7 @@
 //! Range and consistency checks on a parsed scene. Each failure names the key, the value
 //! and what was expected.
 
-use super::{presets, Invalid, Scene};
+use super::{presets, ControllerKind, Invalid, Scene};
 
 fn bad(key: &str, value: impl std::fmt::Display, expected: &str) -> Invalid {
     Invalid {
@@ -263,6 +263,37 @@ impl Scene {
         non_negative("controller.start_delay_s", k.start_delay_s)?;
         finite("controller.open_loop_forward_pct", k.open_loop_forward_pct)?;
         finite("controller.open_loop_turn_pct", k.open_loop_turn_pct)?;
+        let sw = &k.swing_away;
+        positive("controller.swing_away.axle_gain_per_s", sw.axle_gain_per_s)?;
+        positive(
+            "controller.swing_away.heading_gain_per_s",
+            sw.heading_gain_per_s,
+        )?;
+        non_negative(
+            "controller.swing_away.straight_start_s",
+            sw.straight_start_s,
+        )?;
+        if !(sw.max_heading_rad > 0.0 && sw.max_heading_rad < std::f64::consts::FRAC_PI_2) {
+            return Err(bad(
+                "controller.swing_away.max_heading_rad",
+                sw.max_heading_rad,
+                "an angle between 0 and pi/2 rad",
+            ));
+        }
+        if !(0.0..=1.0).contains(&sw.correction) {
+            return Err(bad(
+                "controller.swing_away.correction",
+                sw.correction,
+                "a share between 0 and 1",
+            ));
+        }
+        if k.kind == ControllerKind::SwingAway && !k.reverse {
+            return Err(bad(
+                "controller.kind",
+                "swing_away",
+                "a reversing run: swing_away is a reversing strategy, so set controller.reverse = true",
+            ));
+        }
         let w = &self.wire;
         if w.points_m.len() < 2 {
             return Err(bad(

@@ -158,6 +158,13 @@ impl Sim {
         }
     }
 
+    /// Drive wheels' rim speeds (left, right), m/s: what encoders on the wheels would
+    /// measure (tyre slip unseen).
+    pub fn rim_speeds_m_s(&self) -> [f64; 2] {
+        let r = self.params.drivetrain.wheel_radius_m;
+        self.drive.map(|w| w.wheel_speed_rad_s * r)
+    }
+
     /// Drivetrain states (left, right).
     pub fn drivetrains(&self) -> &[DrivetrainState; 2] {
         &self.drive

@@ -60,6 +60,7 @@ impl Sim {
         });
 
         // 2. Controller.
+        let odometry = self.rim_speeds_m_s();
         let duty = self.params.firmware.step(
             &mut self.firmware,
             &FirmwareInput {
@@ -67,6 +68,7 @@ impl Sim {
                 sensors_adc: steer_on,
                 ideal_difference: ideal,
                 bumper,
+                wheel_speed_m_s: odometry,
             },
         );
 
