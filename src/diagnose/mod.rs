@@ -14,11 +14,15 @@
 //!    the residual. The most significant is accepted and the search repeats once for a
 //!    second effect.
 
+mod evidence;
 pub mod job;
 pub mod plots;
 pub mod prove;
 pub mod regimes;
+mod scales;
 mod search;
+
+pub use evidence::relative_errors;
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -35,7 +39,9 @@ use crate::ident::{
 };
 use crate::record::Recording;
 use crate::rig::Rig;
+use evidence::{describe, effective_n, evidence, likelihood_gain};
 use regimes::RegimeShare;
+use scales::{scales, Scales};
 use search::{effect_grid, golden, profile_scan, scan};
 
 /// Smallest gain in AIC (with the effective sample count) that counts as evidence.
@@ -140,22 +146,6 @@ impl Diagnosis {
     }
 }
 
-/// Scales of a record that set effect starting values and bounds.
-struct Scales {
-    /// Largest actuation voltage (or force command), V.
-    v_max: f64,
-    /// Largest measured speed.
-    speed_max: f64,
-    /// Typical sample interval, s.
-    dt: f64,
-    /// Stall torque K V / R (rotary), N m, or largest force (linear), N.
-    effort: f64,
-    /// Mechanical time constant, s.
-    tau: f64,
-    /// Vehicle weight, N (vehicle only).
-    weight_n: f64,
-}
-
 impl Structure {
     fn applicable(&self) -> Vec<Effect> {
         match self {
@@ -182,122 +172,6 @@ impl Structure {
             other => other.clone(),
         }
     }
-}
-
-fn describe(e: Effect, v: f64, linear: bool) -> String {
-    match e {
-        Effect::Backlash => format!(
-            "gear backlash of about {:.1} degrees ({v:.4} rad) of total play at the wheel",
-            v.to_degrees()
-        ),
-        Effect::CoulombFriction if linear => {
-            format!("Coulomb friction of about {v:.2} N opposing the motion")
-        }
-        Effect::CoulombFriction => format!(
-            "Coulomb friction of about {:.1} mN m at the motor shaft (brushes, bearings)",
-            1000.0 * v
-        ),
-        Effect::FrictionAsymmetry => {
-            format!("viscous friction {v:.2} times stronger forwards than backwards")
-        }
-        Effect::Offset if linear => {
-            format!("a constant bias force of {v:.2} N (gravity component, cable, sensor bias)")
-        }
-        Effect::Offset => format!(
-            "a constant bias torque of {:.1} mN m at the motor shaft",
-            1000.0 * v
-        ),
-        Effect::VoltageSaturation => {
-            format!("the drive voltage clipped at about {v:.2} V by the supply")
-        }
-        Effect::BatterySag => format!(
-            "the supply sagging with current through about {:.0} mohm of internal resistance",
-            1000.0 * v
-        ),
-        Effect::TransportDelay => format!(
-            "a dead time of about {:.1} ms between command and actuation",
-            1000.0 * v
-        ),
-        Effect::SpeedFeedback => format!(
-            "the motor controller closing its own speed loop with integral gain {v:.4} V/rad"
-        ),
-        Effect::WheelSlip => format!(
-            "wheel slip: the tyres' grip limited by a peak floor friction coefficient of about {v:.2}"
-        ),
-        Effect::CastorDrag => format!(
-            "drag of about {v:.1} N from the idler castors opposing the chassis's motion"
-        ),
-    }
-}
-
-/// Effective number of independent residuals per output: N / (1 + 2 sum of the residual's
-/// autocorrelation over lags until it first falls below 0.05).
-fn effective_n(data: &Dataset, predicted: &[Vec<f64>]) -> Vec<f64> {
-    data.outputs
-        .iter()
-        .enumerate()
-        .map(|(j, col)| {
-            let e: Vec<f64> = col
-                .iter()
-                .zip(&predicted[j])
-                .filter_map(|(y, p)| y.map(|y| y - p))
-                .collect();
-            let n = e.len() as f64;
-            let m = e.iter().sum::<f64>() / n.max(1.0);
-            let var: f64 = e.iter().map(|v| (v - m).powi(2)).sum();
-            if var == 0.0 {
-                return n.max(1.0);
-            }
-            let mut sum = 0.0;
-            for lag in 1..(e.len() / 4).min(500) {
-                let r: f64 = (0..e.len() - lag)
-                    .map(|k| (e[k] - m) * (e[k + lag] - m))
-                    .sum::<f64>()
-                    / var;
-                if r < 0.05 {
-                    break;
-                }
-                sum += r;
-            }
-            (n / (1.0 + 2.0 * sum)).max(1.0)
-        })
-        .collect()
-}
-
-/// Sum of squared residuals per output.
-fn output_rss(data: &Dataset, predicted: &[Vec<f64>]) -> Vec<f64> {
-    data.outputs
-        .iter()
-        .zip(predicted)
-        .map(|(col, p)| {
-            col.iter()
-                .zip(p)
-                .filter_map(|(y, p)| y.map(|y| (y - p).powi(2)))
-                .sum::<f64>()
-                .max(1e-300)
-        })
-        .collect()
-}
-
-/// Log-likelihood gain of a richer model, outputs with their own unknown noise levels:
-/// `sum_j n_j ln(RSS_j before / RSS_j after)`, each output counting its effective number
-/// of independent residuals (the larger of the two models': when the effect is what
-/// colours the baseline residual, the richer model's residual is whiter). An output that
-/// drifts (a pose integrated from speeds) is strongly coloured and counts for little; the
-/// others keep their weight.
-fn likelihood_gain(
-    data: &Dataset,
-    before: &[Vec<f64>],
-    n_before: &[f64],
-    after: &[Vec<f64>],
-) -> f64 {
-    let n_after = effective_n(data, after);
-    output_rss(data, before)
-        .iter()
-        .zip(output_rss(data, after))
-        .enumerate()
-        .map(|(j, (b, a))| n_before[j].max(n_after[j]) * (b / a).ln())
-        .sum()
 }
 
 /// Options of a diagnosis.
@@ -612,125 +486,6 @@ pub fn diagnose(
         diagnosed: diagnosed_eval,
         validation,
     })
-}
-
-/// `|y - yhat| / |y|` in % per output over measured cells; for a position output also its
-/// speed, both differenced over the same rows (the way benchmark papers report speed).
-pub fn relative_errors(data: &Dataset, predicted: &[Vec<f64>]) -> BTreeMap<String, f64> {
-    let mut out = BTreeMap::new();
-    let rel = |pairs: &[(f64, f64)]| {
-        let e: f64 = pairs
-            .iter()
-            .map(|(y, p)| (y - p).powi(2))
-            .sum::<f64>()
-            .sqrt();
-        let n: f64 = pairs.iter().map(|(y, _)| y * y).sum::<f64>().sqrt();
-        100.0 * e / n.max(1e-300)
-    };
-    for (j, name) in data.output_names.iter().enumerate() {
-        let pairs: Vec<(f64, f64)> = data.outputs[j]
-            .iter()
-            .zip(&predicted[j])
-            .filter_map(|(y, p)| y.map(|y| (y, *p)))
-            .collect();
-        out.insert(name.clone(), rel(&pairs));
-        if let Some(stem) = name.strip_suffix("position_m") {
-            let mut speed = Vec::new();
-            for k in 1..data.len() {
-                if let (Some(a), Some(b)) = (data.outputs[j][k - 1], data.outputs[j][k]) {
-                    let dt = data.t_s[k] - data.t_s[k - 1];
-                    speed.push(((b - a) / dt, (predicted[j][k] - predicted[j][k - 1]) / dt));
-                }
-            }
-            out.insert(
-                format!("{stem}speed_m_s (differenced position)"),
-                rel(&speed),
-            );
-        }
-    }
-    out
-}
-
-fn evidence(shares: &[RegimeShare], reduction_pct: f64) -> String {
-    match shares.first() {
-        Some(s) if s.concentration() > 1.5 => format!(
-            "{:.0}% of the residual energy the effect removes lies in the {:.0}% of samples {} (RSS down {reduction_pct:.0}%)",
-            s.energy_pct, s.samples_pct, s.regime
-        ),
-        _ => format!("the fit improves throughout the record, in no regime more than elsewhere (RSS down {reduction_pct:.0}%)"),
-    }
-}
-
-fn scales(structure: &Structure, p: &[f64], data: &Dataset, speed: &[f64]) -> Scales {
-    let speed_max = speed.iter().map(|v| v.abs()).fold(0.0, f64::max).max(1e-9);
-    let mut dts: Vec<f64> = data.t_s.windows(2).map(|w| w[1] - w[0]).collect();
-    dts.sort_by(f64::total_cmp);
-    let dt = dts.get(dts.len() / 2).copied().unwrap_or(1e-3);
-    let u_max = data
-        .inputs
-        .first()
-        .map(|u| u.iter().map(|v| v.abs()).fold(0.0, f64::max))
-        .unwrap_or(1.0);
-    match structure {
-        Structure::Rotary(m) => {
-            use crate::ident::models::rotary_axis::{K, R};
-            let v_max = m.voltage(p, u_max).abs().max(1e-6);
-            Scales {
-                v_max,
-                speed_max,
-                dt,
-                effort: p[K] * v_max / p[R],
-                tau: m.mechanical_time_constant_s(p),
-                weight_n: 0.0,
-            }
-        }
-        Structure::Linear(m) => {
-            use crate::ident::models::linear_axis::{MASS, VISCOUS};
-            let cmd = data
-                .output_index("command_V")
-                .map(|j| {
-                    data.outputs[j]
-                        .iter()
-                        .flatten()
-                        .map(|v| v.abs())
-                        .fold(0.0, f64::max)
-                })
-                .unwrap_or(u_max);
-            Scales {
-                v_max: cmd,
-                speed_max,
-                dt,
-                effort: (m.force_per_volt * cmd).max(1e-6),
-                tau: p[MASS] / p[VISCOUS],
-                weight_n: 0.0,
-            }
-        }
-        Structure::Vehicle(m) => {
-            use crate::ident::models::vehicle::{K, R};
-            let v_max = data
-                .inputs
-                .iter()
-                .flat_map(|u| u.iter().map(|v| v.abs()))
-                .fold(0.0, f64::max)
-                .max(1e-6);
-            Scales {
-                v_max,
-                speed_max,
-                dt,
-                effort: p[K] * v_max / p[R],
-                tau: m.mechanical_time_constant_s(p),
-                weight_n: p[crate::ident::models::vehicle::MASS] * crate::model::GRAVITY_M_S2,
-            }
-        }
-        _ => Scales {
-            v_max: 1.0,
-            speed_max,
-            dt,
-            effort: 1.0,
-            tau: 1.0,
-            weight_n: 0.0,
-        },
-    }
 }
 
 /// Refuses records that cannot support a decision.

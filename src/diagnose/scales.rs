@@ -1,0 +1,93 @@
+//! Scales of a record (largest actuation, speed, sample interval, effort, time constant,
+//! weight) that set candidate effects' starting values and bounds.
+
+use crate::ident::data::Dataset;
+use crate::ident::Structure;
+
+/// Scales of a record that set effect starting values and bounds.
+pub(crate) struct Scales {
+    /// Largest actuation voltage (or force command), V.
+    pub v_max: f64,
+    /// Largest measured speed.
+    pub speed_max: f64,
+    /// Typical sample interval, s.
+    pub dt: f64,
+    /// Stall torque K V / R (rotary), N m, or largest force (linear), N.
+    pub effort: f64,
+    /// Mechanical time constant, s.
+    pub tau: f64,
+    /// Vehicle weight, N (vehicle only).
+    pub weight_n: f64,
+}
+
+pub(crate) fn scales(structure: &Structure, p: &[f64], data: &Dataset, speed: &[f64]) -> Scales {
+    let speed_max = speed.iter().map(|v| v.abs()).fold(0.0, f64::max).max(1e-9);
+    let mut dts: Vec<f64> = data.t_s.windows(2).map(|w| w[1] - w[0]).collect();
+    dts.sort_by(f64::total_cmp);
+    let dt = dts.get(dts.len() / 2).copied().unwrap_or(1e-3);
+    let u_max = data
+        .inputs
+        .first()
+        .map(|u| u.iter().map(|v| v.abs()).fold(0.0, f64::max))
+        .unwrap_or(1.0);
+    match structure {
+        Structure::Rotary(m) => {
+            use crate::ident::models::rotary_axis::{K, R};
+            let v_max = m.voltage(p, u_max).abs().max(1e-6);
+            Scales {
+                v_max,
+                speed_max,
+                dt,
+                effort: p[K] * v_max / p[R],
+                tau: m.mechanical_time_constant_s(p),
+                weight_n: 0.0,
+            }
+        }
+        Structure::Linear(m) => {
+            use crate::ident::models::linear_axis::{MASS, VISCOUS};
+            let cmd = data
+                .output_index("command_V")
+                .map(|j| {
+                    data.outputs[j]
+                        .iter()
+                        .flatten()
+                        .map(|v| v.abs())
+                        .fold(0.0, f64::max)
+                })
+                .unwrap_or(u_max);
+            Scales {
+                v_max: cmd,
+                speed_max,
+                dt,
+                effort: (m.force_per_volt * cmd).max(1e-6),
+                tau: p[MASS] / p[VISCOUS],
+                weight_n: 0.0,
+            }
+        }
+        Structure::Vehicle(m) => {
+            use crate::ident::models::vehicle::{K, R};
+            let v_max = data
+                .inputs
+                .iter()
+                .flat_map(|u| u.iter().map(|v| v.abs()))
+                .fold(0.0, f64::max)
+                .max(1e-6);
+            Scales {
+                v_max,
+                speed_max,
+                dt,
+                effort: p[K] * v_max / p[R],
+                tau: m.mechanical_time_constant_s(p),
+                weight_n: p[crate::ident::models::vehicle::MASS] * crate::model::GRAVITY_M_S2,
+            }
+        }
+        _ => Scales {
+            v_max: 1.0,
+            speed_max,
+            dt,
+            effort: 1.0,
+            tau: 1.0,
+            weight_n: 0.0,
+        },
+    }
+}
