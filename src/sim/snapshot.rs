@@ -77,6 +77,9 @@ pub struct Snapshot {
     pub controller_phase: &'static str,
     pub lost_wire: bool,
     pub bumper: bool,
+    /// The swing-away strategy's picture of the wire, once it has one: a 6 m stretch of
+    /// the straight line it assumes, centred on the axle, world frame, m.
+    pub assumed_wire_m: Option<[[f64; 2]; 2]>,
 }
 
 impl Sim {
@@ -168,6 +171,20 @@ impl Sim {
             controller_phase: self.firmware.phase.name(),
             lost_wire: self.firmware.lost_wire,
             bumper: self.last.bumper,
+            assumed_wire_m: self.firmware.swing_away.estimate.map(|e| {
+                // The line runs at the estimated heading behind the body's, with the axle
+                // the estimated offset to its left.
+                let along = pose.heading_rad - e.heading_rad;
+                let (sin, cos) = along.sin_cos();
+                let foot = [
+                    pose.x_m + e.axle_offset_m * sin,
+                    pose.y_m - e.axle_offset_m * cos,
+                ];
+                [
+                    [foot[0] - 3.0 * cos, foot[1] - 3.0 * sin],
+                    [foot[0] + 3.0 * cos, foot[1] + 3.0 * sin],
+                ]
+            }),
         }
     }
 }

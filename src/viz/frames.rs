@@ -31,6 +31,9 @@ pub(super) struct FrameBuffer {
     /// Castor forks, `castors_per_frame` strips per frame.
     pub(super) castors: Vec<Vec<[f32; 2]>>,
     pub(super) castors_per_frame: usize,
+    /// The swing-away strategy's assumed wire: a strip in the frames that have one.
+    pub(super) assumed_wire: Vec<Vec<[f32; 2]>>,
+    pub(super) assumed_wire_per_frame: Vec<usize>,
 }
 
 impl FrameBuffer {
@@ -92,6 +95,15 @@ impl FrameBuffer {
             rec.send_columns("world/agv/castors", times(), castors)
                 .map_err(err)?;
         }
+        let lengths = std::mem::take(&mut self.assumed_wire_per_frame);
+        if lengths.iter().any(|&k| k > 0) {
+            let assumed = rerun::LineStrips2D::new(std::mem::take(&mut self.assumed_wire))
+                .columns(lengths)
+                .map_err(err)?;
+            rec.send_columns("world/agv/assumed_wire", times(), assumed)
+                .map_err(err)?;
+        }
+        self.assumed_wire.clear();
         self.times_s.clear();
         Ok(())
     }

@@ -41,6 +41,8 @@ const CASTOR: [u8; 4] = [200, 200, 200, 255];
 const FORCE: [u8; 4] = [255, 80, 200, 255];
 const SLIP: [u8; 4] = [255, 255, 0, 255];
 const PATH: [u8; 4] = [120, 220, 120, 255];
+/// The swing-away strategy's assumed wire.
+const ASSUMED: [u8; 4] = [255, 255, 120, 255];
 const LEFT: [u8; 4] = [230, 90, 90, 255];
 const RIGHT: [u8; 4] = [90, 140, 230, 255];
 
@@ -224,6 +226,14 @@ impl RerunRecorder {
                 .with_radii([0.01f32]),
         )
         .map_err(err)?;
+        rec.log_static(
+            "world/agv/assumed_wire",
+            &rerun::LineStrips2D::update_fields()
+                .with_colors([ASSUMED])
+                .with_radii([0.004f32])
+                .with_labels(["assumed wire"]),
+        )
+        .map_err(err)?;
         let series = |names: &[&str], colors: &[[u8; 4]]| {
             rerun::SeriesLines::new()
                 .with_names(names.iter().map(|s| s.to_string()))
@@ -330,6 +340,13 @@ impl RerunRecorder {
             b.slip.push([v[0] as f32, -v[1] as f32]);
         }
         b.castors_per_frame = s.castors.len();
+        match s.assumed_wire_m {
+            Some([a, z]) => {
+                b.assumed_wire.push(vec![w(a), w(z)]);
+                b.assumed_wire_per_frame.push(1);
+            }
+            None => b.assumed_wire_per_frame.push(0),
+        }
         for c in &s.castors {
             b.castors.push(vec![w(c.swivel_m), w(c.patch_m)]);
         }
