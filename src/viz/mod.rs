@@ -226,14 +226,16 @@ impl RerunRecorder {
                 .with_radii([0.01f32]),
         )
         .map_err(err)?;
-        rec.log_static(
-            "world/agv/assumed_wire",
-            &rerun::LineStrips2D::update_fields()
-                .with_colors([ASSUMED])
-                .with_radii([0.004f32])
-                .with_labels(["assumed wire"]),
-        )
-        .map_err(err)?;
+        if p.firmware.swing_away.is_some() {
+            rec.log_static(
+                "world/agv/assumed_wire",
+                &rerun::LineStrips2D::update_fields()
+                    .with_colors([ASSUMED])
+                    .with_radii([0.004f32])
+                    .with_labels(["assumed wire"]),
+            )
+            .map_err(err)?;
+        }
         let series = |names: &[&str], colors: &[[u8; 4]]| {
             rerun::SeriesLines::new()
                 .with_names(names.iter().map(|s| s.to_string()))
