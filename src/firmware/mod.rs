@@ -95,8 +95,6 @@ pub struct FirmwareState {
     pub lost_wire: bool,
     /// The larger of the two readings at the last interrupt, counts.
     pub peak_reading_adc: f64,
-    /// The readings (S0, S1) sampled at the last interrupt, counts.
-    pub readings_adc: [f64; 2],
     /// The swing-away strategy's estimate of where the wire is.
     pub swing_away: SwingAwayState,
 }
@@ -193,7 +191,6 @@ impl FirmwareParams {
         }
         // GetXpos: the difference of the two readings and the lost-wire test.
         let [s0, s1] = u.sensors_adc;
-        s.readings_adc = u.sensors_adc;
         s.peak_reading_adc = s0.max(s1);
         s.lost_wire = s.peak_reading_adc < self.lost_threshold_adc;
         if s0 != s1 && !s.lost_wire {
@@ -237,7 +234,7 @@ impl FirmwareParams {
                     p.step(
                         &mut s.swing_away,
                         &SwingAwayInput {
-                            readings_adc: s.readings_adc,
+                            readings_adc: u.sensors_adc,
                             wire_seen: !s.lost_wire,
                             wheel_speed_m_s: u.wheel_speed_m_s,
                             t_s,

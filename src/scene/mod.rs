@@ -3,10 +3,12 @@
 //! was expected.
 #![allow(non_snake_case)]
 
+mod controller_spec;
 pub mod presets;
 mod schema;
 mod validate;
 
+pub use controller_spec::*;
 pub use schema::*;
 
 use std::path::{Path, PathBuf};
