@@ -13,7 +13,7 @@
 //! that its failure on a curve is the straight-line assumption's rather than odometry
 //! drift's. Tyre slip still misleads it, as it would the real retrofit.
 
-use crate::model::chassis::wrap_angle;
+use crate::model::chassis::{wrap_angle, Pose};
 use crate::sensing::coil::CoilParams;
 
 /// Where the strategy believes it is, relative to the straight line it assumes the wire is.
@@ -23,6 +23,24 @@ pub struct LineEstimate {
     pub axle_offset_m: f64,
     /// Body heading relative to the line, rad (counter-clockwise positive).
     pub heading_rad: f64,
+}
+
+impl LineEstimate {
+    /// The line this estimate places the wire on, as the segment of `half_length_m` either
+    /// side of the point nearest the axle, world frame, m, for a vehicle at `pose`: the
+    /// line runs at the estimated heading behind the body's, with the axle the estimated
+    /// offset to its left.
+    pub fn assumed_wire_m(&self, pose: Pose, half_length_m: f64) -> [[f64; 2]; 2] {
+        let (sin, cos) = (pose.heading_rad - self.heading_rad).sin_cos();
+        let foot = [
+            pose.x_m + self.axle_offset_m * sin,
+            pose.y_m - self.axle_offset_m * cos,
+        ];
+        [
+            [foot[0] - half_length_m * cos, foot[1] - half_length_m * sin],
+            [foot[0] + half_length_m * cos, foot[1] + half_length_m * sin],
+        ]
+    }
 }
 
 /// The strategy's state: no estimate until it has seen the wire and reversed straight.
@@ -237,6 +255,29 @@ mod tests {
             ..u
         };
         assert!(p.step(&mut s, &u) < 0.0);
+    }
+
+    #[test]
+    fn the_assumed_wire_lies_the_estimated_offset_from_the_axle_at_the_estimated_heading() {
+        let e = LineEstimate {
+            axle_offset_m: 0.2,
+            heading_rad: 0.3,
+        };
+        let pose = Pose {
+            x_m: 1.0,
+            y_m: 2.0,
+            heading_rad: 0.5,
+        };
+        let [a, z] = e.assumed_wire_m(pose, 3.0);
+        let (dx, dy) = (z[0] - a[0], z[1] - a[1]);
+        assert!((dx.hypot(dy) - 6.0).abs() < 1e-12);
+        assert!(
+            (dy.atan2(dx) - 0.2).abs() < 1e-12,
+            "line at heading minus estimate"
+        );
+        // Signed distance of the axle to the left of the line (cross product).
+        let left = (dx * (pose.y_m - a[1]) - dy * (pose.x_m - a[0])) / 6.0;
+        assert!((left - 0.2).abs() < 1e-12, "{left}");
     }
 
     #[test]

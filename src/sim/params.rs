@@ -225,6 +225,33 @@ impl SimParams {
             armature_resistance_ohm: motor.resistance_ohm,
         };
         let c = &scene.controller;
+        let s = &scene.sensors;
+        let coil = CoilParams {
+            height_m: s.height_m,
+            full_scale_adc: s.full_scale_adc,
+        };
+        let swing_away = (c.kind == ControllerKind::SwingAway).then(|| {
+            let sw = &c.swing_away;
+            // One count of turn: pct, then the unit's motor-speed difference, through the
+            // gears to the rims, over the track.
+            let rim_difference_m_s = dcmc
+                .motor_speed_difference_per_turn_pct(drivetrain.motor.torque_constant_nm_a)
+                / COUNTS_PER_PCT
+                / g.ratio
+                * scene.wheel.radius_m;
+            SwingAwayParams {
+                coil,
+                half_spacing_m: s.half_spacing_m,
+                sensor_ahead_m: s.x_m,
+                track_width_m: scene.chassis.track_width_m,
+                yaw_rate_per_turn_count: rim_difference_m_s / scene.chassis.track_width_m,
+                axle_gain_per_s: sw.axle_gain_per_s,
+                heading_gain_per_s: sw.heading_gain_per_s,
+                max_heading_rad: sw.max_heading_rad,
+                correction: sw.correction,
+                straight_start_s: sw.straight_start_s,
+            }
+        });
         let firmware = FirmwareParams {
             kind: c.kind,
             kp_num: c.kp_num,
@@ -254,36 +281,8 @@ impl SimParams {
             centring_kp_den: c.centring_kp_den,
             lost_threshold_adc: scene.sensors.lost_threshold_adc,
             bumper: c.bumper,
-            swing_away: None,
+            swing_away,
         };
-        let s = &scene.sensors;
-        let coil = CoilParams {
-            height_m: s.height_m,
-            full_scale_adc: s.full_scale_adc,
-        };
-        let mut firmware = firmware;
-        if c.kind == ControllerKind::SwingAway {
-            let sw = &c.swing_away;
-            // One count of turn: pct, then the unit's motor-speed difference, through the
-            // gears to the rims, over the track.
-            let rim_difference_m_s = dcmc
-                .motor_speed_difference_per_turn_pct(drivetrain.motor.torque_constant_nm_a)
-                / COUNTS_PER_PCT
-                / g.ratio
-                * scene.wheel.radius_m;
-            firmware.swing_away = Some(SwingAwayParams {
-                coil,
-                half_spacing_m: s.half_spacing_m,
-                sensor_ahead_m: s.x_m,
-                track_width_m: scene.chassis.track_width_m,
-                yaw_rate_per_turn_count: rim_difference_m_s / scene.chassis.track_width_m,
-                axle_gain_per_s: sw.axle_gain_per_s,
-                heading_gain_per_s: sw.heading_gain_per_s,
-                max_heading_rad: sw.max_heading_rad,
-                correction: sw.correction,
-                straight_start_s: sw.straight_start_s,
-            });
-        }
         let coils_m = [[s.x_m, s.half_spacing_m], [s.x_m, -s.half_spacing_m]];
         let rear_coils_m = s
             .rear_x_m

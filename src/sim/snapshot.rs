@@ -82,6 +82,9 @@ pub struct Snapshot {
     pub assumed_wire_m: Option<[[f64; 2]; 2]>,
 }
 
+/// Half the length of the swing-away strategy's assumed wire shown, m.
+const ASSUMED_WIRE_HALF_LENGTH_M: f64 = 3.0;
+
 impl Sim {
     /// What the simulation looks like now.
     pub fn snapshot(&self) -> Snapshot {
@@ -96,6 +99,7 @@ impl Sim {
             }
         };
         let wheels = p.chassis.wheel_points_m();
+        let rims = self.rim_speeds_m_s();
         let mut sides = [SideSnapshot::default(); 2];
         for i in 0..2 {
             let d = &self.drive[i];
@@ -108,7 +112,7 @@ impl Sim {
                 motor_angle_rad: d.motor.angle_rad,
                 wheel_speed_rad_s: d.wheel_speed_rad_s,
                 wheel_angle_rad: d.wheel_angle_rad,
-                wheel_rim_m_s: d.wheel_speed_rad_s * p.drivetrain.wheel_radius_m,
+                wheel_rim_m_s: rims[i],
                 backlash_gap_rad: gap,
                 tooth_torque_nm: p.drivetrain.tooth_torque_nm(d),
                 tyre_force_n: t.force_n,
@@ -171,20 +175,11 @@ impl Sim {
             controller_phase: self.firmware.phase.name(),
             lost_wire: self.firmware.lost_wire,
             bumper: self.last.bumper,
-            assumed_wire_m: self.firmware.swing_away.estimate.map(|e| {
-                // The line runs at the estimated heading behind the body's, with the axle
-                // the estimated offset to its left.
-                let along = pose.heading_rad - e.heading_rad;
-                let (sin, cos) = along.sin_cos();
-                let foot = [
-                    pose.x_m + e.axle_offset_m * sin,
-                    pose.y_m - e.axle_offset_m * cos,
-                ];
-                [
-                    [foot[0] - 3.0 * cos, foot[1] - 3.0 * sin],
-                    [foot[0] + 3.0 * cos, foot[1] + 3.0 * sin],
-                ]
-            }),
+            assumed_wire_m: self
+                .firmware
+                .swing_away
+                .estimate
+                .map(|e| e.assumed_wire_m(pose, ASSUMED_WIRE_HALF_LENGTH_M)),
         }
     }
 }
