@@ -119,6 +119,10 @@ enum Command {
         /// Peak forward demand, pct (turn peaks at half).
         #[arg(long, default_value_t = 40.0, value_parser = demand_pct)]
         peak_demand: f64,
+        /// Pulses: each demand level is held a random whole number of samples in MIN..MAX
+        /// (both included); 20..60 is joystick-like at 25 ms.
+        #[arg(long, default_value = "4..16", value_parser = hold_range)]
+        hold: (usize, usize),
         /// RMS white noise on encoder speeds, rad/s.
         #[arg(long, default_value_t = 0.5, value_parser = non_negative)]
         speed_noise: f64,
@@ -223,6 +227,18 @@ fn non_negative(s: &str) -> Result<f64, String> {
     }
 }
 
+/// `MIN..MAX` whole samples, 1 <= MIN <= MAX.
+fn hold_range(s: &str) -> Result<(usize, usize), String> {
+    let bad = || format!("`{s}`: expected MIN..MAX whole samples with 1 <= MIN <= MAX, e.g. 20..60");
+    let (a, b) = s.split_once("..").ok_or_else(bad)?;
+    let (a, b): (usize, usize) = (a.trim().parse().map_err(|_| bad())?, b.trim().parse().map_err(|_| bad())?);
+    if a >= 1 && a <= b {
+        Ok((a, b))
+    } else {
+        Err(bad())
+    }
+}
+
 fn demand_pct(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {
         Ok(v) if v > 0.0 && v <= 100.0 => Ok(v),
@@ -304,6 +320,7 @@ fn main() -> ExitCode {
             duration,
             pattern,
             peak_demand,
+            hold,
             speed_noise,
             rig_error,
         } => {
@@ -319,6 +336,7 @@ fn main() -> ExitCode {
                 duration_s: duration,
                 pattern,
                 peak_demand_pct: peak_demand,
+                hold_samples: hold,
                 speed_noise_rad_s: speed_noise,
                 rig_error,
                 ..ExperimentOptions::default()

@@ -271,3 +271,87 @@ fn emps_nominal_structure_runs_in_closed_loop_and_shows_its_gap() {
             .passes
     );
 }
+
+/// Issue 14: the default machine is the thesis's as identified. The lab scene's lifted-wheel
+/// experiment driven like the thesis's (25 ms samples, levels up to 90 % held 0.5-1.5 s),
+/// identified with the thesis's case-1 structure and averaged over four seeds (one run's
+/// fit scatters by about 10 %: the structure lacks the machine's fast turn path), gives
+/// time constants within 15 % of the thesis's 0.65 s (left) and 0.58 s (right) and
+/// turn/forward column ratios within 10 % of its 0.717 and 0.723 (section 5.2.1). The
+/// tolerances are the issue's; the thesis's own standard deviations are 2-4 %.
+#[test]
+fn default_machine_identifies_as_the_thesis_dcmc() {
+    use agvsim::study::thesis_dcmc::{identify_lifted, identify_lifted_mean, MATCH_SEEDS};
+    let scene = Scene::load(Path::new("scenes/lab_offset_120mm.toml"), &[]).unwrap();
+    let dir = tmp("thesis-dcmc");
+    for seed in MATCH_SEEDS {
+        let (m, _) = identify_lifted(&scene, &dir, seed, None).unwrap();
+        println!(
+            "seed {seed}: time constants {:.3?} s, turn/forward {:.3?}",
+            m.time_constants_s(),
+            m.column_ratios()
+        );
+    }
+    println!("mean of seeds {MATCH_SEEDS:?}:");
+    check_against_thesis(&identify_lifted_mean(&scene, &dir).unwrap());
+}
+
+fn check_against_thesis(m: &agvsim::study::thesis_dcmc::PairModel) {
+    use agvsim::study::thesis_dcmc::CASE1;
+    let (tau, ratio) = (m.time_constants_s(), m.column_ratios());
+    let (tau_t, ratio_t) = (CASE1.time_constants_s(), CASE1.column_ratios());
+    let b_t = CASE1.b_agvsim();
+    println!("            thesis (agvsim signs)      agvsim default machine");
+    for i in 0..2 {
+        println!(
+            "A{i}{i}        {:9.4} +- {:.4}      {:9.4}",
+            CASE1.a_1_s[i], CASE1.a_std_1_s[i], m.a[(i, i)]
+        );
+    }
+    for i in 0..2 {
+        for j in 0..2 {
+            println!(
+                "B{i}{j}        {:9.4} +- {:.4}      {:9.4}",
+                b_t[i][j], CASE1.b_std[i][j], m.b[(i, j)]
+            );
+        }
+    }
+    for i in 0..2 {
+        println!(
+            "side {i}: time constant {:.3} s (thesis {:.3}), turn/forward {:.3} (thesis {:.3})",
+            tau[i], tau_t[i], ratio[i], ratio_t[i]
+        );
+        assert!((tau[i] / tau_t[i] - 1.0).abs() < 0.15, "time constant {i}");
+        assert!((ratio[i] / ratio_t[i] - 1.0).abs() < 0.10, "column ratio {i}");
+    }
+}
+
+/// Issue 14: the reference recording shipped in `data/thesis_case1/` is what its generator
+/// makes (byte for byte), and agvsim's case-1 identification of it gives back the thesis's
+/// A and B within the noise: each within three of the thesis's standard deviations at the
+/// thesis's loss (the reference's own record is as informative as the thesis's).
+#[test]
+fn thesis_reference_recording_is_reproducible_and_identifies_as_the_thesis() {
+    use agvsim::study::thesis_dcmc::{identify_lifted, reference_recording, ReferenceSpec, CASE1};
+    let path = Path::new("data/thesis_case1/case1_reference.csv");
+    let shipped = std::fs::read_to_string(path).unwrap();
+    assert!(
+        shipped == reference_recording(&ReferenceSpec::default()),
+        "{} differs from its generator (agvsim study thesis-dcmc writes it)",
+        path.display()
+    );
+    let scene = Scene::load(Path::new("scenes/lab_offset_120mm.toml"), &[]).unwrap();
+    let (_, r) = identify_lifted(&scene, &tmp("thesis-ref"), 1, Some(path)).unwrap();
+    let r = r.unwrap();
+    let b_t = CASE1.b_agvsim();
+    for i in 0..2 {
+        let a = r.a[(i, i)];
+        println!("A{i}{i} {a:.4} (thesis {:.4} +- {:.4})", CASE1.a_1_s[i], CASE1.a_std_1_s[i]);
+        assert!((a - CASE1.a_1_s[i]).abs() < 3.0 * CASE1.a_std_1_s[i].max(0.03 * a.abs()));
+        for j in 0..2 {
+            let b = r.b[(i, j)];
+            println!("B{i}{j} {b:.4} (thesis {:.4} +- {:.4})", b_t[i][j], CASE1.b_std[i][j]);
+            assert!((b - b_t[i][j]).abs() < 3.0 * CASE1.b_std[i][j].max(0.03 * b.abs()));
+        }
+    }
+}

@@ -130,7 +130,9 @@ fn backlash_reversal_shows_the_configured_play() {
 }
 
 /// Peak and mean slip ratio and peak forward acceleration over the first second of a hard
-/// start (full demand through the DCMC once its enable delay has passed).
+/// start: the full 23.5 V on both motors at once (the DCMC, with its 0.66 s forward lag,
+/// would soften the start; the motors across the batteries, as in the thesis's coast-down
+/// rig, do not).
 fn hard_start(compound: &str) -> (f64, f64, f64, f64) {
     let sc = scene(
         "",
@@ -142,15 +144,7 @@ fn hard_start(compound: &str) -> (f64, f64, f64, f64) {
         ],
     );
     let mut sim = Sim::new(&sc).unwrap();
-    sim.set_actuation(Actuation::Demand {
-        forward_pct: 0.0,
-        turn_pct: 0.0,
-    });
-    run(&mut sim, 0.6);
-    sim.set_actuation(Actuation::Demand {
-        forward_pct: 100.0,
-        turn_pct: 0.0,
-    });
+    sim.set_actuation(Actuation::Voltage([23.5, 23.5]));
     let dt = sc.sim.dt_s;
     let window = 20; // 20 ms: averages over the tooth and tyre ringing
     let mut speeds = vec![];
@@ -174,7 +168,8 @@ fn hard_start(compound: &str) -> (f64, f64, f64, f64) {
 }
 
 /// Acceptance 4: a hard start on painted concrete with hard tyres slips (slip ratio above
-/// 0.2) and cannot accelerate faster than friction allows; soft tyres slip less.
+/// 0.2) and cannot accelerate faster than friction allows; soft tyres slip less. Issue 14:
+/// through the DCMC, whose forward demand lags 0.66 s, the same start slips less.
 #[test]
 fn hard_start_slips_and_friction_bounds_acceleration() {
     let sc = scene("", &[]);
@@ -190,6 +185,33 @@ fn hard_start_slips_and_friction_bounds_acceleration() {
     assert!(acc_hard <= 1.10 * bound);
     assert!(acc_hard <= mu_hard * 9.81);
     assert!(mean_soft < mean_hard);
+    // Full demand through the thesis's DCMC: the lag spreads the torque over 0.66 s.
+    let sc = scene(
+        "",
+        &[
+            "sim.fidelity=full",
+            "floor.surface=painted_concrete",
+            "controller.kind=open_loop",
+        ],
+    );
+    let mut sim = Sim::new(&sc).unwrap();
+    sim.set_actuation(Actuation::Demand {
+        forward_pct: 0.0,
+        turn_pct: 0.0,
+    });
+    run(&mut sim, 0.6);
+    sim.set_actuation(Actuation::Demand {
+        forward_pct: 100.0,
+        turn_pct: 0.0,
+    });
+    let mut mean_dcmc = 0.0;
+    for _ in 0..1000 {
+        sim.step().unwrap();
+        let s = sim.snapshot();
+        mean_dcmc += 0.5 * (s.sides[0].slip_ratio.abs() + s.sides[1].slip_ratio.abs()) / 1000.0;
+    }
+    println!("through the DCMC: mean slip {mean_dcmc:.3} over 1 s");
+    assert!(mean_dcmc < mean_hard);
 }
 
 /// Acceptance 5: castors swing round to trail the motion within a few castor lengths.
@@ -250,10 +272,11 @@ fn coil_readings_are_symmetric_full_scale_and_zero_along_the_wire() {
         sim.step().unwrap();
         sim.snapshot().sensors_adc
     };
-    let a = 0.038;
-    // Left coil over the wire: the vehicle is displaced right by the half spacing.
+    let a = Scene::default().sensors.half_spacing_m;
+    // Left coil over the wire: the vehicle is displaced right by the half spacing. The
+    // measured law's peak is the calibration table's (240 counts at x = 38 mm).
     let over = read(-a, 0.0);
-    assert_eq!(over[0], 250.0);
+    assert_eq!(over[0], 240.0);
     // Mirror positions swap the readings.
     let l = read(0.03, 0.0);
     let r = read(-0.03, 0.0);
@@ -263,6 +286,46 @@ fn coil_readings_are_symmetric_full_scale_and_zero_along_the_wire() {
     let along = read(0.0, std::f64::consts::FRAC_PI_2);
     println!("over {over:?}, +30 mm {l:?}, -30 mm {r:?}, axis along wire {along:?}");
     assert!(along[0] <= 1.0 && along[1] <= 1.0);
+}
+
+/// Issue 14: the default (measured) coil law reproduces the thesis's calibration table
+/// through the simulator: the pair placed at each of the table's 21 offsets off a straight
+/// wire reads the table's 42 values (`LuS2` the near coil, `LuS1` the far one) within 3
+/// counts RMS; the mirrored offsets swap the readings; and beyond the table's last row
+/// (127 mm) the near coil keeps falling until the lost-wire threshold (4 counts).
+#[test]
+fn measured_coil_law_reproduces_the_calibration_table() {
+    use agvsim::sensing::calibration_table::{LU_S1, LU_S2, LU_X};
+    let read = |y: f64| {
+        let o: Vec<String> = [
+            "sim.fidelity=complex",
+            "controller.kind=open_loop",
+            "wire.points_m=[[-30.0, 0.0], [30.0, 0.0]]",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .chain([format!("start.y_m={y}")])
+        .collect();
+        let mut sim = Sim::new(&Scene::from_toml("", Path::new("t.toml"), &o).unwrap()).unwrap();
+        sim.step().unwrap();
+        sim.snapshot().sensors_adc
+    };
+    let mut e2 = 0.0;
+    for i in 0..LU_X.len() {
+        // Pair left of the wire by x: the right coil is the near one.
+        let [left, right] = read(LU_X[i] * 1e-3);
+        e2 += (right - LU_S2[i]).powi(2) + (left - LU_S1[i]).powi(2);
+        let [ml, mr] = read(-LU_X[i] * 1e-3);
+        assert_eq!((ml, mr), (right, left), "mirror of x = {} mm", LU_X[i]);
+    }
+    let rms = (e2 / (2 * LU_X.len()) as f64).sqrt();
+    println!("measured coil law against the table: RMS {rms:.2} counts over 42 readings");
+    assert!(rms <= 3.0, "RMS {rms}");
+    // Past the table: still falling, and lost (both below 4) before 200 mm.
+    let far: Vec<f64> = [0.127, 0.135, 0.15, 0.2].iter().map(|&y| read(y)[1]).collect();
+    println!("near coil at 127, 135, 150, 200 mm: {far:?}");
+    assert!(far.windows(2).all(|w| w[1] <= w[0]));
+    assert!(far[0] >= 4.0 && far[3] < 4.0);
 }
 
 /// Acceptance 6 (calibration): fitting only the coil spacing and height to the thesis's

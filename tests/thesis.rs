@@ -129,3 +129,36 @@ fn complex_level_limit_cycles_grow_with_gain() {
     );
     assert!(no_backlash < 0.2 * amps[1]);
 }
+
+/// Issue 14: low gains turn. At the thesis's lowest simulated gain (0.1, Kp = -1/200) the
+/// full-level vehicle, 120 mm off the wire, turns towards it: the firmware keeps the P-D
+/// law's fraction of a count and dithers the PWM, so the filtered turn demand averages
+/// the fractional command. With the C's whole-count truncation (`pwm_dither = false`) the
+/// same run never turns (the 14-count sensor difference times 1/200 truncates to 0), which
+/// is why the dither is the thesis machine's default.
+#[test]
+fn low_gain_run_turns_towards_the_wire() {
+    let run = |dither: bool| {
+        let o = vec![
+            "controller.gain_scale=0.1".to_string(),
+            format!("controller.pwm_dither={dither}"),
+        ];
+        lab_run(&o, 12.0)
+    };
+    let (dithered, truncated) = (run(true), run(false));
+    let at = |v: &[(f64, f64)], t: f64| v.iter().find(|(s, _)| *s >= t).unwrap().1;
+    println!(
+        "gain 0.1, lateral error at 0 / 6 / 12 s: dithered {:.1} / {:.1} / {:.1} mm, truncated {:.1} / {:.1} / {:.1} mm",
+        at(&dithered, 0.0) * 1e3,
+        at(&dithered, 6.0) * 1e3,
+        at(&dithered, 11.9) * 1e3,
+        at(&truncated, 0.0) * 1e3,
+        at(&truncated, 6.0) * 1e3,
+        at(&truncated, 11.9) * 1e3,
+    );
+    // Turned towards the wire: the error fell by more than the pen's 2 mm play, the wire's
+    // 3 mm straightness and the start's drift together (10 mm).
+    assert!(at(&dithered, 11.9) < at(&dithered, 0.0) - 0.010);
+    // Whole counts: never turned (within 1 mm of where it started).
+    assert!((at(&truncated, 11.9) - at(&truncated, 0.0)).abs() < 0.001);
+}

@@ -94,7 +94,7 @@ impl FromStr for ExperimentKind {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum DemandPattern {
     /// The microcontroller's pulses: random levels held for random whole numbers of
-    /// intervals (4 to 16).
+    /// intervals (4 to 16 unless set).
     Pulses,
     /// A joystick-like random walk, bounded by the peak demand.
     Walk,
@@ -127,6 +127,8 @@ pub struct ExperimentOptions {
     pub pattern: DemandPattern,
     /// Peak forward demand, pct (turn demand peaks at half of it).
     pub peak_demand_pct: f64,
+    /// Pulses: each level is held a random whole number of samples in this range.
+    pub hold_samples: (usize, usize),
     /// RMS of white noise on encoder speeds (electrical noise, timing jitter), rad/s.
     pub speed_noise_rad_s: f64,
     /// RMS noise of the back-EMF voltage reading, V.
@@ -150,6 +152,7 @@ impl Default for ExperimentOptions {
             duration_s: 15.0,
             pattern: DemandPattern::Pulses,
             peak_demand_pct: 40.0,
+            hold_samples: (4, 16),
             speed_noise_rad_s: 0.5,
             voltage_noise_v: 0.01,
             rig_error: 0.0,
@@ -376,7 +379,7 @@ fn lifted_random_demand(
                             rng.random_range(-peak..=peak),
                             rng.random_range(-0.5 * peak..=0.5 * peak),
                         ];
-                        hold_left = rng.random_range(4..=16);
+                        hold_left = rng.random_range(opts.hold_samples.0..=opts.hold_samples.1);
                     }
                     hold_left -= 1;
                 }

@@ -28,6 +28,9 @@ pub struct FirmwareParams {
     pub compute_delay_s: f64,
     /// Integer arithmetic as on the 8-bit micro (C division truncates toward zero).
     pub integer_math: bool,
+    /// Keep the law's fraction and dither the PWM registers by error feedback (the
+    /// rounding residue of each interrupt carried to the next) instead of truncating.
+    pub pwm_dither: bool,
     pub forward_counts: i32,
     pub reverse: bool,
     pub reference_counts: i32,
@@ -97,6 +100,9 @@ pub struct FirmwareState {
     pub peak_reading_adc: f64,
     /// The swing-away strategy's estimate of where the wire is.
     pub swing_away: SwingAwayState,
+    /// Rounding residue of the PWM registers (forward, turn) carried to the next
+    /// interrupt when dithering, counts.
+    pub dither_residue: [f64; 2],
 }
 
 /// What the firmware reads at an interrupt.
@@ -137,7 +143,7 @@ impl FirmwareParams {
     /// `num * e / den` as the firmware computes it (integer: truncation toward zero).
     fn gain_times(&self, num: i32, den: i32, scale: f64, e: f64) -> f64 {
         let v = num as f64 * scale * e / den as f64;
-        if self.integer_math {
+        if self.integer_math && !self.pwm_dither {
             v.trunc()
         } else {
             v
@@ -156,14 +162,24 @@ impl FirmwareParams {
         p + d
     }
 
-    /// `Drive(Forward, Turn)`: offsets from half duty, clipped to the accepted range.
-    fn duties(&self, forward: f64, turn: f64) -> [i32; 2] {
-        let q = |v: f64| {
-            (HALF_DUTY as f64 + v)
+    /// `Drive(Forward, Turn)`: offsets from half duty, rounded to whole counts (with the
+    /// carried residue when dithering) and clipped to the accepted range.
+    fn duties(&self, s: &mut FirmwareState, forward: f64, turn: f64) -> [i32; 2] {
+        let mut duty = [0; 2];
+        for (i, v) in [forward, turn].into_iter().enumerate() {
+            let wanted = HALF_DUTY as f64 + v + if self.pwm_dither { s.dither_residue[i] } else { 0.0 };
+            let written = wanted
                 .round()
-                .clamp(self.duty_min as f64, self.duty_max as f64) as i32
-        };
-        [q(forward), q(turn)]
+                .clamp(self.duty_min as f64, self.duty_max as f64);
+            // A clipped register carries nothing over (no wind-up against the limit).
+            s.dither_residue[i] = if self.pwm_dither && written == wanted.round() {
+                wanted - written
+            } else {
+                0.0
+            };
+            duty[i] = written as i32;
+        }
+        duty
     }
 
     /// Runs the firmware at a physics step: an interrupt if one is due, and the delayed
@@ -200,7 +216,7 @@ impl FirmwareParams {
         s.x_hist = [x, s.x_hist[0]];
         let command = self.command(s, u);
         s.command_counts = command;
-        let duty = self.duties(command[0], command[1]);
+        let duty = self.duties(s, command[0], command[1]);
         if self.compute_delay_s > 0.0 {
             s.pending = Some((u.t_s + self.compute_delay_s, duty));
         } else {

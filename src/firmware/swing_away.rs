@@ -200,6 +200,7 @@ mod tests {
             coil: CoilParams {
                 height_m: 0.038,
                 full_scale_adc: 250.0,
+                law: crate::sensing::coil::CoilLaw::Physical,
             },
             half_spacing_m: 0.038,
             sensor_ahead_m: 0.45,

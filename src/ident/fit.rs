@@ -11,7 +11,7 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
 use super::data::Dataset;
-use super::model::{simulate, GreyBox};
+use super::model::{GreyBox, Predictor};
 
 /// How a free parameter is searched.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -81,7 +81,7 @@ pub fn residuals(data: &Dataset, predicted: &[Vec<f64>], weights: &[f64]) -> Vec
 }
 
 struct Problem<'a> {
-    model: &'a dyn GreyBox,
+    model: &'a dyn Predictor,
     data: &'a Dataset,
     base: Vec<f64>,
     free: Vec<usize>,
@@ -102,7 +102,7 @@ impl Problem<'_> {
     }
 
     fn to_p(&self, z: &[f64]) -> Vec<f64> {
-        let specs = self.model.params();
+        let specs = self.model.param_specs();
         let mut p = self.base.clone();
         for ((&i, c), zi) in self.free.iter().zip(&self.coords).zip(z) {
             let v = match c {
@@ -116,7 +116,7 @@ impl Problem<'_> {
 
     /// Bounds of the search coordinates.
     fn z_bounds(&self) -> (Vec<f64>, Vec<f64>) {
-        let specs = self.model.params();
+        let specs = self.model.param_specs();
         let z = |c: &Coord, v: f64| match c {
             Coord::Log => v.ln(),
             Coord::Linear { scale } => v / scale,
@@ -150,7 +150,7 @@ impl Problem<'_> {
 
     fn residuals(&self, z: &[f64]) -> Option<Vec<f64>> {
         let p = self.to_p(z);
-        let y = simulate(self.model, &p, self.data).ok()?;
+        let y = self.model.predict(&p, self.data).ok()?;
         let r = residuals(self.data, &y, self.weights);
         r.iter().all(|v| v.is_finite()).then_some(r)
     }
@@ -159,7 +159,7 @@ impl Problem<'_> {
         let cols: Vec<Vec<f64>> = (0..z.len())
             .into_par_iter()
             .map(|c| {
-                let step = self.model.params()[self.free[c]].fd_step;
+                let step = self.model.param_specs()[self.free[c]].fd_step;
                 let h = step * z[c].abs().max(1.0);
                 let mut zc = z.to_vec();
                 zc[c] += h;
@@ -187,6 +187,15 @@ fn sum_sq(r: &[f64]) -> f64 {
 
 /// Fits the free parameters from each start and keeps the best.
 pub fn fit(model: &dyn GreyBox, data: &Dataset, s: &FitSettings) -> Result<Fit, FitError> {
+    fit_predictor(model, data, s)
+}
+
+/// [`fit`] for any [`Predictor`]: the simulator replaying a record as well as a grey box.
+pub fn fit_predictor(
+    model: &dyn Predictor,
+    data: &Dataset,
+    s: &FitSettings,
+) -> Result<Fit, FitError> {
     let n_res = data.measured_cells();
     if n_res <= s.free.len() {
         return Err(FitError::TooFewData {
@@ -194,7 +203,7 @@ pub fn fit(model: &dyn GreyBox, data: &Dataset, s: &FitSettings) -> Result<Fit, 
             residuals: n_res,
         });
     }
-    let specs = model.params();
+    let specs = model.param_specs();
     let mut best: Option<Fit> = None;
     let mut first_error = None;
     for (si, start) in s.starts.iter().enumerate() {
@@ -240,7 +249,7 @@ fn run_lm(pb: &Problem, max_iterations: usize) -> Result<Fit, FitError> {
     let mut r = match pb.residuals(&z) {
         Some(r) => r,
         None => {
-            let t_s = simulate(pb.model, &start_p, pb.data)
+            let t_s = pb.model.predict(&start_p, pb.data)
                 .err()
                 .map(|d| d.t_s)
                 .unwrap_or(f64::NAN);
@@ -345,7 +354,7 @@ fn run_lm(pb: &Problem, max_iterations: usize) -> Result<Fit, FitError> {
         }
     }
     let p = pb.to_p(&z);
-    let predicted = simulate(pb.model, &p, pb.data).expect("accepted parameters simulate");
+    let predicted = pb.model.predict(&p, pb.data).expect("accepted parameters simulate");
     let jac = pb.jacobian(&z, &r);
     let (std, covariance) = covariance(pb, &p, &jac, cost, r.len());
     Ok(Fit {

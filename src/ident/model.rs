@@ -57,7 +57,24 @@ pub enum OutputKind {
 
 /// A grey-box model. Parameters are immutable during a simulation; everything that evolves
 /// is in the state vector or the held vector.
-pub trait GreyBox: Sync {
+/// What the output-error fitter needs of a model: its parameters and its prediction of
+/// a record's outputs, `[output][row]` in the dataset's output order. Every [`GreyBox`] is
+/// one (integrated by [`simulate`]); the simulator replaying a record is another.
+pub trait Predictor: Sync {
+    fn param_specs(&self) -> &[ParamSpec];
+    fn predict(&self, p: &[f64], data: &Dataset) -> Result<Vec<Vec<f64>>, Diverged>;
+}
+
+impl<T: GreyBox + ?Sized> Predictor for T {
+    fn param_specs(&self) -> &[ParamSpec] {
+        self.params()
+    }
+    fn predict(&self, p: &[f64], data: &Dataset) -> Result<Vec<Vec<f64>>, Diverged> {
+        simulate(self, p, data)
+    }
+}
+
+pub trait GreyBox: Predictor {
     /// Model name for reports.
     fn name(&self) -> String;
     /// All parameters, free or fixed.
@@ -117,7 +134,7 @@ pub struct Diverged {
 pub const MAX_SUBSTEPS: usize = 2000;
 
 /// Predicted outputs, `[output][row]`, in the dataset's output order.
-pub fn simulate(model: &dyn GreyBox, p: &[f64], data: &Dataset) -> Result<Vec<Vec<f64>>, Diverged> {
+pub fn simulate<M: GreyBox + ?Sized>(model: &M, p: &[f64], data: &Dataset) -> Result<Vec<Vec<f64>>, Diverged> {
     let n = data.len();
     let nx = model.n_states();
     let kinds: Vec<OutputKind> = data

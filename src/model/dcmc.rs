@@ -2,6 +2,15 @@
 //! voltage, in the three structures the thesis identified, with the unit's quirks:
 //! enable-delay fault, combined-demand fault, turn priority, low-battery fault and active
 //! braking when disabled or faulted.
+//!
+//! The unit is slow: the thesis's lifted-wheel identification (section 5.2.1, case 1)
+//! found time constants of 0.65 s (left) and 0.58 s (right) from demand to motor speed,
+//! twenty times the motor's own mechanical time constant. A wheelchair controller shapes
+//! the pilot's demand in its microprocessor; the thesis's first-order fit (1.2-1.7 %
+//! standard deviations, and "no compelling evidence for a more complex control
+//! strategy") supports a first-order lag per side, so that is the form modelled here
+//! ([`DcmcResponse`]): each side's request (voltage for `gain`, speed set-point for
+//! `p`/`pi`) follows the mixed demand through its own lag before the bridges limit it.
 
 pub use crate::scene::DcmcKind;
 
@@ -23,6 +32,62 @@ pub struct DcmcParams {
     pub armature_resistance_ohm: f64,
     /// Whether the unit's faults are modelled at all.
     pub faults: bool,
+    /// The unit's acceleration setting: a rate limit on each side's demand; `None`: none.
+    pub ramp: Option<DcmcRamp>,
+    /// The unit's turn acceleration setting: a rate limit on the turn demand, percent of
+    /// full turn demand per second; `None`: none.
+    pub turn_ramp_pct_s: Option<f64>,
+    /// The unit's demand smoothing: a first-order lag on each side's request; `None`:
+    /// none.
+    pub response: Option<DcmcResponse>,
+}
+
+/// Rate limit of each side's demand, percent of full demand per second: a wheelchair
+/// controller's acceleration setting. Large demand steps ramp slowly; small corrections
+/// pass almost at once, which a linear lag cannot do.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DcmcRamp {
+    pub left_pct_s: f64,
+    pub right_pct_s: f64,
+}
+
+impl DcmcRamp {
+    /// Rates (left, right), pct/s.
+    pub fn rates_pct_s(&self) -> [f64; 2] {
+        [self.left_pct_s, self.right_pct_s]
+    }
+
+    /// A side's ramped value after `dt`: moves towards `raw` by at most `max_rate dt`.
+    pub fn ramped(ramped: f64, raw: f64, max_rate: f64, dt: f64) -> f64 {
+        let step = max_rate * dt;
+        ramped + (raw - ramped).clamp(-step, step)
+    }
+}
+
+/// First-order lags of the demand in the DCMC's microprocessor: each side's forward part
+/// has its own (the thesis's two sides differ by 12 %), the turn part one of its own.
+/// Time constants in seconds; 0 passes that part at once.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DcmcResponse {
+    pub left_time_constant_s: f64,
+    pub right_time_constant_s: f64,
+    pub turn_time_constant_s: f64,
+}
+
+impl DcmcResponse {
+    /// A side's shaped request after `dt` with the raw request held: the lag's exact
+    /// discretisation, `y + (x - y)(1 - exp(-dt / tau))`.
+    pub fn shaped_request(time_constant_s: f64, shaped: f64, raw: f64, dt: f64) -> f64 {
+        if time_constant_s <= 0.0 {
+            return raw;
+        }
+        shaped + (raw - shaped) * (1.0 - (-dt / time_constant_s).exp())
+    }
+
+    /// Time constants of the forward part (left, right), s.
+    pub fn time_constants_s(&self) -> [f64; 2] {
+        [self.left_time_constant_s, self.right_time_constant_s]
+    }
 }
 
 /// Why the DCMC stopped driving (latched until it is disabled and enabled again).
@@ -53,6 +118,13 @@ pub struct DcmcState {
     pub fault: Option<DcmcFault>,
     /// PI integrators (left, right), rad.
     pub integral_rad: [f64; 2],
+    /// Forward part of each side's request after its lag (left, right): volts for `gain`,
+    /// speed set-point in rad/s for `p`/`pi`.
+    pub forward_request: [f64; 2],
+    /// Turn part of each side's request after its lag, same units.
+    pub turn_request: [f64; 2],
+    /// Each side's request after the lags and the ramp: what the unit acts on.
+    pub shaped_request: [f64; 2],
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -118,6 +190,9 @@ impl DcmcParams {
             s.enabled_since_s = None;
             s.fault = None;
             s.integral_rad = [0.0; 2];
+            s.forward_request = [0.0; 2];
+            s.turn_request = [0.0; 2];
+            s.shaped_request = [0.0; 2];
             return self.brake(u);
         }
         let since = *s.enabled_since_s.get_or_insert(u.t_s);
@@ -134,12 +209,16 @@ impl DcmcParams {
         }
         if s.fault.is_some() {
             s.integral_rad = [0.0; 2];
+            s.forward_request = [0.0; 2];
+            s.turn_request = [0.0; 2];
+            s.shaped_request = [0.0; 2];
             return self.brake(u);
         }
+        let shaped = self.shape(s, u.forward_pct, u.turn_pct, dt);
         let request = match self.kind {
-            DcmcKind::Gain => self.gain_voltages(u.forward_pct, u.turn_pct),
+            DcmcKind::Gain => shaped,
             DcmcKind::P | DcmcKind::Pi => {
-                let set = self.speed_setpoints(u.forward_pct, u.turn_pct);
+                let set = shaped;
                 let mut v = [0.0; 2];
                 for i in 0..2 {
                     let e = set[i] - u.motor_speed_rad_s[i];
@@ -156,14 +235,77 @@ impl DcmcParams {
             // Anti-windup: do not integrate while the output is clipped.
             for i in 0..2 {
                 if (limited[i] - request[i]).abs() > 1e-9 {
-                    let set = self.speed_setpoints(u.forward_pct, u.turn_pct);
-                    s.integral_rad[i] -= (set[i] - u.motor_speed_rad_s[i]) * dt;
+                    s.integral_rad[i] -= (shaped[i] - u.motor_speed_rad_s[i]) * dt;
                 }
             }
         }
         DcmcOutput {
             voltage_v: limited,
             braking: false,
+        }
+    }
+
+    /// Each side's request from the demands: its forward part through that side's lag,
+    /// its turn part through the turn lag, then the sum through the ramp (each only if
+    /// modelled). Keeps the stages in the state.
+    fn shape(&self, s: &mut DcmcState, forward_pct: f64, turn_pct: f64, dt: f64) -> [f64; 2] {
+        let (fwd, turn) = match self.kind {
+            DcmcKind::Gain => (
+                self.gain_voltages(forward_pct, 0.0),
+                self.gain_voltages(0.0, turn_pct),
+            ),
+            DcmcKind::P | DcmcKind::Pi => (
+                self.speed_setpoints(forward_pct, 0.0),
+                self.speed_setpoints(0.0, turn_pct),
+            ),
+        };
+        let (tau_fwd, tau_turn) = self
+            .response
+            .map_or(([0.0; 2], 0.0), |r| (r.time_constants_s(), r.turn_time_constant_s));
+        for i in 0..2 {
+            s.forward_request[i] =
+                DcmcResponse::shaped_request(tau_fwd[i], s.forward_request[i], fwd[i], dt);
+            // The turn ramp limits each side's turn part at the same rate, so the two move
+            // together (equal and opposite).
+            let turn_i = match self.turn_ramp_pct_s {
+                Some(rate) => DcmcRamp::ramped(
+                    s.turn_request[i],
+                    turn[i],
+                    rate * self.turn_request_per_pct(),
+                    dt,
+                ),
+                None => turn[i],
+            };
+            s.turn_request[i] =
+                DcmcResponse::shaped_request(tau_turn, s.turn_request[i], turn_i, dt);
+        }
+        let mut x = [0, 1].map(|i| s.forward_request[i] + s.turn_request[i]);
+        if let Some(r) = self.ramp {
+            let rates = r.rates_pct_s();
+            for (i, xi) in x.iter_mut().enumerate() {
+                let rate = rates[i] * self.request_per_pct().abs();
+                *xi = DcmcRamp::ramped(s.shaped_request[i], *xi, rate, dt);
+            }
+        }
+        s.shaped_request = x;
+        x
+    }
+
+    /// A side's turn part per percent of turn demand: V for `gain`, rad/s for `p`/`pi`.
+    fn turn_request_per_pct(&self) -> f64 {
+        match self.kind {
+            DcmcKind::Gain => self.turn_gain_v_pct.abs(),
+            DcmcKind::P | DcmcKind::Pi => {
+                (self.speed_per_pct_rad_s * self.turn_gain_v_pct / self.forward_gain_v_pct).abs()
+            }
+        }
+    }
+
+    /// A side's request per percent of (forward) demand: V for `gain`, rad/s for `p`/`pi`.
+    fn request_per_pct(&self) -> f64 {
+        match self.kind {
+            DcmcKind::Gain => self.forward_gain_v_pct,
+            DcmcKind::P | DcmcKind::Pi => self.speed_per_pct_rad_s,
         }
     }
 
@@ -227,6 +369,9 @@ mod tests {
             current_limit_a: 1000.0,
             armature_resistance_ohm: 0.35,
             faults: true,
+            ramp: None,
+            turn_ramp_pct_s: None,
+            response: None,
         }
     }
 
@@ -265,6 +410,69 @@ mod tests {
         assert!((v[1] - v[0] - 12.0).abs() < 1e-9, "turn kept: {v:?}");
         assert!(v[1] <= 23.5 + 1e-12);
         assert!(v[0] < 23.5 - 6.0 - 1e-9, "inner wheel slowed: {v:?}");
+    }
+
+    #[test]
+    fn response_lag_reaches_63_percent_after_one_time_constant_per_side() {
+        let mut d = dcmc();
+        d.response = Some(DcmcResponse {
+            left_time_constant_s: 0.6,
+            right_time_constant_s: 0.3,
+            turn_time_constant_s: 0.0,
+        });
+        let mut s = DcmcState::default();
+        d.step(&mut s, &input(0.0, 0.0, 0.0), 0.001);
+        let dt = 0.001;
+        let mut t = 0.6;
+        let mut at = |until: f64, s: &mut DcmcState| {
+            let mut out = DcmcOutput::default();
+            while t < until - 1e-12 {
+                t += dt;
+                out = d.step(s, &input(t, 50.0, 0.0), dt);
+            }
+            out
+        };
+        // From the first demand at 0.6 s: the right side (0.3 s) at one time constant.
+        let v = at(0.9, &mut s);
+        let full = 50.0 * 0.235;
+        let share = 1.0 - (-1.0f64).exp();
+        assert!((v.voltage_v[1] / full - share).abs() < 0.01, "right {v:?}");
+        assert!((v.voltage_v[0] / full - (1.0 - (-0.5f64).exp())).abs() < 0.01, "left {v:?}");
+        let before = at(1.2, &mut s);
+        assert!((before.voltage_v[0] / full - share).abs() < 0.01, "left {before:?}");
+        // The turn part passes at once (no turn lag): a turn step shows in full.
+        let v = d.step(&mut s, &input(1.201, 50.0, 10.0), dt);
+        let turn_volts = 10.0 * 0.12;
+        assert!((v.voltage_v[1] - before.voltage_v[1] - turn_volts).abs() < 0.01 * turn_volts);
+        // Disabling resets the lags: the next enable starts from zero again.
+        d.step(&mut s, &DcmcInput { enabled: false, ..input(1.3, 0.0, 0.0) }, dt);
+        assert_eq!(s.shaped_request, [0.0; 2]);
+        assert_eq!(s.forward_request, [0.0; 2]);
+    }
+
+    #[test]
+    fn ramp_passes_small_steps_at_once_and_limits_large_ones() {
+        let mut d = dcmc();
+        d.ramp = Some(DcmcRamp {
+            left_pct_s: 100.0,
+            right_pct_s: 100.0,
+        });
+        let mut s = DcmcState::default();
+        d.step(&mut s, &input(0.0, 0.0, 0.0), 0.001);
+        // A 50 % step at 100 %/s takes 0.5 s: halfway after 0.25 s.
+        let mut out = DcmcOutput::default();
+        for k in 1..=250 {
+            out = d.step(&mut s, &input(0.6 + k as f64 * 1e-3, 50.0, 0.0), 1e-3);
+        }
+        assert!((out.voltage_v[0] - 25.0 * 0.235).abs() < 1e-6, "{out:?}");
+        // A 0.1 % correction is through within 1 ms.
+        let before = s.shaped_request;
+        for k in 1..=260 {
+            d.step(&mut s, &input(0.85 + k as f64 * 1e-3, 50.0, 0.0), 1e-3);
+        }
+        let out = d.step(&mut s, &input(1.2, 50.0, 0.1), 1e-3);
+        assert!((out.voltage_v[1] - (50.0 * 0.235 + 0.1 * 0.12)).abs() < 1e-9);
+        assert!(before[0] < s.shaped_request[0]);
     }
 
     #[test]

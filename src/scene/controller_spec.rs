@@ -83,6 +83,14 @@ pub struct ControllerSpec {
     pub duty_max: i32,
     /// PWM low-pass filter corner, Hz (-3 dB).
     pub pwm_filter_hz: f64,
+    /// Keep the P-D law's fraction of a count and dither the 8-bit PWM registers (each
+    /// interrupt's rounding residue is carried to the next), so the filtered demand
+    /// averages the fractional command. `false`: the C as printed, each term truncated
+    /// to whole counts. *Assumed* `true` for the thesis machine: with the calibrated
+    /// coils the sensor difference 120 mm off the wire is 14 counts, and -14/20
+    /// truncates to 0, so the printed arithmetic would never turn the vehicle from the
+    /// floor runs' start, yet it did (the OCR lost the type of `ControlValue`).
+    pub pwm_dither: bool,
     /// The firmware waits this long after enabling the DCMC before it drives, s (Delay(60)).
     pub start_delay_s: f64,
     /// Open loop: constant forward demand, pct.
@@ -122,6 +130,7 @@ impl Default for ControllerSpec {
             duty_min: 20,
             duty_max: 236,
             pwm_filter_hz: 100.0,
+            pwm_dither: true,
             start_delay_s: 1.0,
             open_loop_forward_pct: 0.0,
             open_loop_turn_pct: 0.0,

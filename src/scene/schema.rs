@@ -384,11 +384,11 @@ pub enum DcmcKind {
 #[serde(deny_unknown_fields, default)]
 pub struct DcmcSpec {
     pub kind: DcmcKind,
-    /// `gain`: volts per percent of forward demand.
+    /// `gain`: volts per percent of forward demand. Default matched to the thesis's
+    /// case-1 identification (see `response_time_left_s`).
     pub forward_gain_V_pct: f64,
-    /// `gain`: volts per percent of turn demand (added right, subtracted left). *Assumed*
-    /// 0.72 x the forward gain: the ratio of the turn and forward columns of the thesis's
-    /// identified B matrix.
+    /// `gain`: volts per percent of turn demand (added right, subtracted left). Default
+    /// matched likewise: the identified turn/forward column ratio is the thesis's 0.72.
     pub turn_gain_V_pct: f64,
     /// `p`/`pi`: motor speed set-point per percent of demand, rad/s per pct.
     pub speed_per_pct_rad_s: f64,
@@ -407,14 +407,40 @@ pub struct DcmcSpec {
     /// Armature current limit per motor, A (*assumed*: wheelchair controllers limit at
     /// 40-70 A).
     pub current_limit_A: f64,
+    /// The unit's acceleration setting: the left side's demand may change by at most
+    /// this, percent of full demand per second (0: no limit). Default fitted to the
+    /// thesis's case-1 identification (section 5.2.1) through the lifted-wheel simulator;
+    /// see `agvsim study thesis-dcmc`.
+    pub ramp_left_pct_s: f64,
+    /// The same for the right side, pct/s.
+    pub ramp_right_pct_s: f64,
+    /// The unit's turn acceleration setting: the turn demand may change by at most this,
+    /// percent of full turn demand per second (0: no limit).
+    pub turn_ramp_pct_s: f64,
+    /// Time constant of the unit's first-order lag on the left side's forward demand, s
+    /// (0: none). Default matched, with the two gains, so that the machine's lifted-wheel
+    /// runs identified with the thesis's case-1 structure give the thesis's A and B
+    /// (section 5.2.1): `agvsim study thesis-dcmc`. Equal on both sides: a 12 % side
+    /// difference (the thesis's A11 and A22) would yaw the vehicle 0.1 rad at every start
+    /// and lose the wire from the floor runs' start at gains up to 1, which the thesis's
+    /// vehicle did not.
+    pub response_time_left_s: f64,
+    /// The same for the right side, s.
+    pub response_time_right_s: f64,
+    /// Time constant of the lag on the turn demand, s (0: none). *Assumed* 0: the
+    /// thesis's case-1 structure cannot tell a turn lag from a forward one, and the floor
+    /// runs bound it: with the forward lags on the turn demand too, the firmware's P-D
+    /// loop at the thesis's gains is unstable (`agvsim linearize`) and loses the wire,
+    /// where the real vehicle followed it (`agvsim study thesis-dcmc` sweeps it).
+    pub turn_response_time_s: f64,
 }
 
 impl Default for DcmcSpec {
     fn default() -> Self {
         DcmcSpec {
             kind: DcmcKind::Gain,
-            forward_gain_V_pct: 0.235,
-            turn_gain_V_pct: 0.17,
+            forward_gain_V_pct: 0.1623,
+            turn_gain_V_pct: 0.1020,
             speed_per_pct_rad_s: 3.5,
             kp_V_s_rad: 0.5,
             ki_V_rad: 4.0,
@@ -423,21 +449,43 @@ impl Default for DcmcSpec {
             turn_priority: true,
             brake_gain_V_s_rad: 0.3,
             current_limit_A: 40.0,
+            ramp_left_pct_s: 0.0,
+            ramp_right_pct_s: 0.0,
+            turn_ramp_pct_s: 0.0,
+            response_time_left_s: 0.699,
+            response_time_right_s: 0.699,
+            turn_response_time_s: 0.0,
         }
     }
 }
 
 /// The two guide-wire pick-up coils, body frame.
+/// Which law turns the field at a coil into its reading.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum SensorLaw {
+    /// The thesis's coils as measured: the calibration table (`AGVPOS.C`) as one coil's
+    /// response against distance, interpolated monotonically, zero beyond 164 mm.
+    #[default]
+    Measured,
+    /// Reading proportional to the Biot-Savart field component along the coil's axis
+    /// (`full_scale_adc h^2 / (h^2 + y^2)` off a straight wire): for other machines.
+    Physical,
+}
+
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SensorSpec {
     /// Coil pair ahead of the drive axle, m (*assumed*).
     pub x_m: f64,
-    /// Half the spacing between the coils, m (fitted to the thesis's calibration table).
+    /// Half the spacing between the coils, m (37 mm: where the thesis's calibration table
+    /// puts them, see `sensing::response`).
     pub half_spacing_m: f64,
     /// Height of the coils above the wire, m (about 38 mm).
     pub height_m: f64,
-    /// Reading directly over a straight wire, ADC counts.
+    /// `measured` (the thesis's calibration table) or `physical`.
+    pub law: SensorLaw,
+    /// Reading directly over a straight wire, ADC counts (the `physical` law's scale).
     pub full_scale_adc: f64,
     /// RMS noise added before quantisation, ADC counts.
     pub noise_adc: f64,
@@ -451,8 +499,9 @@ impl Default for SensorSpec {
     fn default() -> Self {
         SensorSpec {
             x_m: 0.45,
-            half_spacing_m: 0.038,
+            half_spacing_m: 0.037,
             height_m: 0.038,
+            law: SensorLaw::Measured,
             full_scale_adc: 250.0,
             noise_adc: 0.0,
             lost_threshold_adc: 4.0,

@@ -222,6 +222,12 @@ impl Scene {
         positive("dcmc.combined_fault_pct", d.combined_fault_pct)?;
         non_negative("dcmc.brake_gain_V_s_rad", d.brake_gain_V_s_rad)?;
         positive("dcmc.current_limit_A", d.current_limit_A)?;
+        non_negative("dcmc.ramp_left_pct_s", d.ramp_left_pct_s)?;
+        non_negative("dcmc.ramp_right_pct_s", d.ramp_right_pct_s)?;
+        non_negative("dcmc.turn_ramp_pct_s", d.turn_ramp_pct_s)?;
+        non_negative("dcmc.response_time_left_s", d.response_time_left_s)?;
+        non_negative("dcmc.response_time_right_s", d.response_time_right_s)?;
+        non_negative("dcmc.turn_response_time_s", d.turn_response_time_s)?;
         let se = &self.sensors;
         finite("sensors.x_m", se.x_m)?;
         positive("sensors.half_spacing_m", se.half_spacing_m)?;

@@ -1,27 +1,65 @@
 //! The pick-up coils and their 8-bit ADC. A tuned coil with a horizontal axis across the
 //! vehicle reads the field component along its axis: proportional to 1/distance and to
 //! the cosine of the angle between axis and field, so zero with the axis along the wire.
+//!
+//! Two laws map that field to a reading ([`CoilLaw`]): the physical one (reading
+//! proportional to the field component, `full_scale h^2 / (h^2 + y^2)` off a straight
+//! wire), and the thesis's coils as measured ([`ResponseCurve`]), whose far tail falls off
+//! much faster than `1/r` (10 counts at 90 mm where the physical law gives about 38).
+
+use super::response::ResponseCurve;
+
+/// How a coil's reading follows the field at it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CoilLaw {
+    /// Reading proportional to the field component along the coil's axis (Biot-Savart).
+    Physical,
+    /// The measured response: the field component is turned into the distance at which a
+    /// straight wire would give it (physical law, the coil's height), and the curve gives
+    /// the reading at that distance. On a straight wire with the axis across it this is the
+    /// curve itself; turned, or over a bend, the field's geometry still counts.
+    Measured(ResponseCurve),
+}
 
 /// One coil pair's sensing law.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CoilParams {
     /// Height above the floor (the wire), m.
     pub height_m: f64,
-    /// Reading over a straight wire with the axis across it, counts.
+    /// Reading over a straight wire with the axis across it, counts (physical law).
     pub full_scale_adc: f64,
+    pub law: CoilLaw,
 }
 
 impl CoilParams {
     /// Analogue reading (before noise and quantisation), counts, from the scaled field
     /// (`Wire::horizontal_field`) and the coil axis (world-frame unit vector).
     pub fn reading(&self, field: [f64; 2], axis: [f64; 2]) -> f64 {
-        self.full_scale_adc * (field[0] * axis[0] + field[1] * axis[1]).abs()
+        let along_axis = (field[0] * axis[0] + field[1] * axis[1]).abs();
+        match &self.law {
+            CoilLaw::Physical => self.full_scale_adc * along_axis,
+            CoilLaw::Measured(curve) => {
+                if along_axis >= 1.0 {
+                    curve.peak_adc()
+                } else if along_axis > 0.0 {
+                    // h^2 / (h^2 + y^2) = p  =>  y = h sqrt(1/p - 1).
+                    curve.reading(self.height_m * (1.0 / along_axis - 1.0).sqrt())
+                } else {
+                    curve.reading(f64::INFINITY)
+                }
+            }
+        }
     }
 
     /// Reading of a coil `lateral_m` off an infinite straight wire, axis across it.
     pub fn straight_wire_reading(&self, lateral_m: f64) -> f64 {
-        let h2 = self.height_m * self.height_m;
-        self.full_scale_adc * h2 / (h2 + lateral_m * lateral_m)
+        match &self.law {
+            CoilLaw::Physical => {
+                let h2 = self.height_m * self.height_m;
+                self.full_scale_adc * h2 / (h2 + lateral_m * lateral_m)
+            }
+            CoilLaw::Measured(curve) => curve.reading(lateral_m),
+        }
     }
 
     /// Slope of the difference (left minus right) near the wire, counts per metre of the
@@ -29,7 +67,11 @@ impl CoilParams {
     /// thesis's linear model.
     pub fn difference_slope_counts_per_m(&self, half_spacing_m: f64) -> f64 {
         let (h, a) = (self.height_m, half_spacing_m);
-        -4.0 * self.full_scale_adc * h * h * a / (h * h + a * a).powi(2)
+        match &self.law {
+            CoilLaw::Physical => -4.0 * self.full_scale_adc * h * h * a / (h * h + a * a).powi(2),
+            // d/dy [g(y + a) - g(y - a)] at y = 0, g even: 2 g'(a).
+            CoilLaw::Measured(curve) => 2.0 * curve.slope(a),
+        }
     }
 }
 
@@ -57,6 +99,7 @@ pub fn fit_calibration_table(
         let c = CoilParams {
             height_m: h,
             full_scale_adc: full_scale,
+            law: CoilLaw::Physical,
         };
         let mut e2 = 0.0;
         for i in 0..x_mm.len() {

@@ -7,7 +7,7 @@ use crate::firmware::swing_away::SwingAwayParams;
 use crate::firmware::FirmwareParams;
 use crate::model::battery::BatteryParams;
 use crate::model::chassis::{ChassisParams, NoSlipParams, NormalLoads, Pose};
-use crate::model::dcmc::DcmcParams;
+use crate::model::dcmc::{DcmcParams, DcmcRamp, DcmcResponse};
 use crate::model::drivetrain::DrivetrainParams;
 use crate::model::gearbox::GearboxParams;
 use crate::model::motor::MotorParams;
@@ -16,7 +16,9 @@ use crate::model::GRAVITY_M_S2;
 use crate::scene::presets::{self, Compound, Surface};
 use crate::scene::{ControllerKind, Fidelity, Scene, TyreSpec};
 use crate::sensing::bumper::{Bumper, Obstacle};
-use crate::sensing::coil::CoilParams;
+use crate::scene::SensorLaw;
+use crate::sensing::coil::{CoilLaw, CoilParams};
+use crate::sensing::response::ResponseCurve;
 use crate::sensing::wire::Wire;
 use crate::world::engine::CastorParams;
 use crate::world::Floor;
@@ -223,12 +225,29 @@ impl SimParams {
             current_limit_a: d.current_limit_A,
             faults: features.dcmc_faults,
             armature_resistance_ohm: motor.resistance_ohm,
+            ramp: (d.ramp_left_pct_s > 0.0 || d.ramp_right_pct_s > 0.0).then_some(DcmcRamp {
+                left_pct_s: positive_or_unlimited(d.ramp_left_pct_s),
+                right_pct_s: positive_or_unlimited(d.ramp_right_pct_s),
+            }),
+            turn_ramp_pct_s: (d.turn_ramp_pct_s > 0.0).then_some(d.turn_ramp_pct_s),
+            response: (d.response_time_left_s > 0.0
+                || d.response_time_right_s > 0.0
+                || d.turn_response_time_s > 0.0)
+                .then_some(DcmcResponse {
+                    left_time_constant_s: d.response_time_left_s,
+                    right_time_constant_s: d.response_time_right_s,
+                    turn_time_constant_s: d.turn_response_time_s,
+                }),
         };
         let c = &scene.controller;
         let s = &scene.sensors;
         let coil = CoilParams {
             height_m: s.height_m,
             full_scale_adc: s.full_scale_adc,
+            law: match s.law {
+                SensorLaw::Physical => CoilLaw::Physical,
+                SensorLaw::Measured => CoilLaw::Measured(ResponseCurve::thesis()),
+            },
         };
         let swing_away = (c.kind == ControllerKind::SwingAway).then(|| {
             let sw = &c.swing_away;
@@ -266,6 +285,7 @@ impl SimParams {
                 0.0
             },
             integer_math: features.quantisation,
+            pwm_dither: c.pwm_dither,
             forward_counts: c.forward_counts,
             reverse: c.reverse,
             reference_counts: c.reference_counts,
@@ -428,5 +448,14 @@ impl SimParams {
     /// Weight of the whole vehicle, N.
     pub fn weight_n(&self) -> f64 {
         self.chassis.mass_kg * GRAVITY_M_S2
+    }
+}
+
+/// A rate limit of 0 in the scene means "no limit".
+fn positive_or_unlimited(rate: f64) -> f64 {
+    if rate > 0.0 {
+        rate
+    } else {
+        f64::INFINITY
     }
 }

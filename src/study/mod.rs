@@ -7,10 +7,14 @@
 //!   Figs 6.1-6.5, and the `full` level beside them.
 //! - [`backlash`]: limit-cycle amplitude against gear play and gain.
 //! - [`reversing`]: reversing on the front coil pair only against a rear pair.
+//! - [`thesis_dcmc`]: the thesis's identified DCMC, a reference recording made from it,
+//!   the scene's DCMC keys fitted to it through the simulator, and the machine's own
+//!   lifted-wheel identification beside the thesis's.
 
 pub mod backlash;
 pub mod reversing;
 pub mod thesis;
+pub mod thesis_dcmc;
 pub mod tyres;
 
 use std::fmt::Write as _;
@@ -25,14 +29,16 @@ pub enum StudyKind {
     ThesisFigures,
     BacklashTolerance,
     Reversing,
+    ThesisDcmc,
 }
 
 impl StudyKind {
-    pub const ALL: [StudyKind; 4] = [
+    pub const ALL: [StudyKind; 5] = [
         StudyKind::TyreCompounds,
         StudyKind::ThesisFigures,
         StudyKind::BacklashTolerance,
         StudyKind::Reversing,
+        StudyKind::ThesisDcmc,
     ];
 
     pub fn name(self) -> &'static str {
@@ -41,6 +47,7 @@ impl StudyKind {
             StudyKind::ThesisFigures => "thesis-figures",
             StudyKind::BacklashTolerance => "backlash-tolerance",
             StudyKind::Reversing => "reversing",
+            StudyKind::ThesisDcmc => "thesis-dcmc",
         }
     }
 }
@@ -88,6 +95,7 @@ pub fn run_study(
         StudyKind::ThesisFigures => thesis::run(opts, progress)?.1,
         StudyKind::BacklashTolerance => backlash::run(opts, progress)?.1,
         StudyKind::Reversing => reversing::run(opts, progress)?.1,
+        StudyKind::ThesisDcmc => thesis_dcmc::run(opts)?.1,
     };
     Ok(out)
 }

@@ -138,6 +138,11 @@ pub fn run_point(opts: &SweepOptions, point: &RunPoint) -> RunResult {
     }
 }
 
+/// Runs a scene to its end and summarises it (the sweep's metrics, no trace).
+pub fn summarise(scene: &Scene) -> Result<RunSummary, SimError> {
+    simulate(scene, None)
+}
+
 fn simulate(scene: &Scene, mut trace: Option<&mut Trace>) -> Result<RunSummary, SimError> {
     let mut sim = Sim::new(scene)?;
     let dt = sim.params().dt_s;

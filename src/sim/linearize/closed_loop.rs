@@ -25,6 +25,9 @@ pub struct LoopGains {
     /// Terminal voltage per rad/s of the same side's motor speed (the proportional speed
     /// loop; zero for the gain DCMC), V s/rad.
     pub volts_per_motor_speed: [f64; 2],
+    /// Time constant of the DCMC's lag on the turn demand, s; `None` when the turn
+    /// passes at once (the forward lags do not act on the loop's small signals).
+    pub turn_response_time_s: Option<f64>,
 }
 
 /// The closed wire-following loop's poles.
@@ -72,6 +75,11 @@ pub(super) fn loop_gains(params: &SimParams, sim: &Sim) -> Option<LoopGains> {
     let volts = |turn_counts: f64, w: [f64; 2]| {
         let mut dcmc = params.dcmc;
         dcmc.faults = false;
+        // Steady slopes: the response lag is a state of the loop (below), not a gain, and
+        // the ramp passes small signals untouched.
+        dcmc.response = None;
+        dcmc.ramp = None;
+        dcmc.turn_ramp_pct_s = None;
         let mut state = DcmcState {
             enabled_since_s: Some(0.0),
             ..DcmcState::default()
@@ -109,6 +117,11 @@ pub(super) fn loop_gains(params: &SimParams, sim: &Sim) -> Option<LoopGains> {
         sign,
         volts_per_turn_count: [(up[0] - um[0]) / (2.0 * du), (up[1] - um[1]) / (2.0 * du)],
         volts_per_motor_speed: per_speed,
+        turn_response_time_s: params
+            .dcmc
+            .response
+            .map(|r| r.turn_time_constant_s)
+            .filter(|t| *t > 0.0),
     })
 }
 
@@ -126,16 +139,35 @@ pub fn close_loop(l: &Linearisation) -> Option<ClosedLoop> {
     // Turn counts per unit of state: -Kp X + Kd T dX/dt, with dX/dt = C_x f x (the coils
     // do not see the voltages directly).
     let turn = (&cx * (-g.kp) + &cx * &f * (g.kd * g.period_s)) * g.sign;
-    let mut k = DMatrix::zeros(2, n);
+    // Terminal voltages `v = lagged turn part + speed feedback W x`.
+    let mut turn_volts = DMatrix::zeros(2, n);
+    let mut speed_feedback = DMatrix::zeros(2, n);
     for side in 0..2 {
-        k.set_row(side, &(&turn * g.volts_per_turn_count[side]));
+        turn_volts.set_row(side, &(&turn * g.volts_per_turn_count[side]));
         // This side's motor speed from the sum and the difference (right - left) states.
         let w = g.volts_per_motor_speed[side];
         let along_diff = if side == 0 { -0.5 } else { 0.5 };
-        k[(side, MOTOR_SPEED_SUM)] += 0.5 * w;
-        k[(side, MOTOR_SPEED_DIFF)] += along_diff * w;
+        speed_feedback[(side, MOTOR_SPEED_SUM)] += 0.5 * w;
+        speed_feedback[(side, MOTOR_SPEED_DIFF)] += along_diff * w;
     }
-    let closed = f + b * k;
+    let closed = match g.turn_response_time_s {
+        None => &f + &b * (turn_volts + speed_feedback),
+        Some(tau) => {
+            // Two more states, the lagged turn voltages z: z' = (T x - z) / tau.
+            let mut m = DMatrix::zeros(n + 2, n + 2);
+            m.view_mut((0, 0), (n, n))
+                .copy_from(&(&f + &b * speed_feedback));
+            m.view_mut((0, n), (n, 2)).copy_from(&b);
+            for side in 0..2 {
+                for j in 0..n {
+                    m[(n + side, j)] = turn_volts[(side, j)] / tau;
+                }
+                m[(n + side, n + side)] = -1.0 / tau;
+            }
+            m
+        }
+    };
+    let n = closed.nrows();
     // Without x (the first state): nothing depends on it, so its mode is a bare integrator.
     let reduced = closed.view((1, 1), (n - 1, n - 1)).into_owned();
     let poles: Vec<(f64, f64)> = reduced
