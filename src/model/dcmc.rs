@@ -8,9 +8,12 @@
 //! twenty times the motor's own mechanical time constant. A wheelchair controller shapes
 //! the pilot's demand in its microprocessor; the thesis's first-order fit (1.2-1.7 %
 //! standard deviations, and "no compelling evidence for a more complex control
-//! strategy") supports a first-order lag per side, so that is the form modelled here
-//! ([`DcmcResponse`]): each side's request (voltage for `gain`, speed set-point for
-//! `p`/`pi`) follows the mixed demand through its own lag before the bridges limit it.
+//! strategy") supports first-order lags ([`DcmcResponse`]): each side's forward part has
+//! one, the turn part one of its own (the case-1 structure cannot tell them apart; the
+//! floor runs bound the turn lag, see `study::thesis_dcmc`). Rate limits ([`DcmcRamp`],
+//! the units' acceleration settings) are there for other machines. The shaped request
+//! (voltage for `gain`, speed set-point for `p`/`pi`) then goes through the bridges'
+//! limits.
 
 pub use crate::scene::DcmcKind;
 

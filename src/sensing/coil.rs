@@ -10,6 +10,10 @@
 use super::response::ResponseCurve;
 
 /// How a coil's reading follows the field at it.
+// The measured curve is about 1 KB of knots held inline so that the sensing parameters
+// stay `Copy` (the firmware's and the simulator's parameters are); it is read by
+// reference every step and copied only when parameters are built.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum CoilLaw {
     /// Reading proportional to the field component along the coil's axis (Biot-Savart).

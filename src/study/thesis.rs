@@ -272,7 +272,7 @@ fn what_slip_adds(
         "\nGains at which the wire is held: with the drop and the play {}; with the drop only \
          {}; with the play only {}; with neither {}. Where the sensors lose the wire, the \
          slipping vehicle has overshot it at a heading the saturated tyres cannot turn back \
-         before the coil pair leaves its ±0.15 m range; the thesis's vehicle instead kept \
+         before both coils fall below the lost-wire threshold; the thesis's vehicle instead kept \
          cycling across the wire.\n",
         describe(held(true, true)),
         describe(held(true, false)),
