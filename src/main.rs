@@ -229,9 +229,13 @@ fn non_negative(s: &str) -> Result<f64, String> {
 
 /// `MIN..MAX` whole samples, 1 <= MIN <= MAX.
 fn hold_range(s: &str) -> Result<(usize, usize), String> {
-    let bad = || format!("`{s}`: expected MIN..MAX whole samples with 1 <= MIN <= MAX, e.g. 20..60");
+    let bad =
+        || format!("`{s}`: expected MIN..MAX whole samples with 1 <= MIN <= MAX, e.g. 20..60");
     let (a, b) = s.split_once("..").ok_or_else(bad)?;
-    let (a, b): (usize, usize) = (a.trim().parse().map_err(|_| bad())?, b.trim().parse().map_err(|_| bad())?);
+    let (a, b): (usize, usize) = (
+        a.trim().parse().map_err(|_| bad())?,
+        b.trim().parse().map_err(|_| bad())?,
+    );
     if a >= 1 && a <= b {
         Ok((a, b))
     } else {

@@ -305,14 +305,18 @@ fn check_against_thesis(m: &agvsim::study::thesis_dcmc::PairModel) {
     for i in 0..2 {
         println!(
             "A{i}{i}        {:9.4} +- {:.4}      {:9.4}",
-            CASE1.a_1_s[i], CASE1.a_std_1_s[i], m.a[(i, i)]
+            CASE1.a_1_s[i],
+            CASE1.a_std_1_s[i],
+            m.a[(i, i)]
         );
     }
     for i in 0..2 {
         for j in 0..2 {
             println!(
                 "B{i}{j}        {:9.4} +- {:.4}      {:9.4}",
-                b_t[i][j], CASE1.b_std[i][j], m.b[(i, j)]
+                b_t[i][j],
+                CASE1.b_std[i][j],
+                m.b[(i, j)]
             );
         }
     }
@@ -322,7 +326,10 @@ fn check_against_thesis(m: &agvsim::study::thesis_dcmc::PairModel) {
             tau[i], tau_t[i], ratio[i], ratio_t[i]
         );
         assert!((tau[i] / tau_t[i] - 1.0).abs() < 0.15, "time constant {i}");
-        assert!((ratio[i] / ratio_t[i] - 1.0).abs() < 0.10, "column ratio {i}");
+        assert!(
+            (ratio[i] / ratio_t[i] - 1.0).abs() < 0.10,
+            "column ratio {i}"
+        );
     }
 }
 
@@ -346,11 +353,17 @@ fn thesis_reference_recording_is_reproducible_and_identifies_as_the_thesis() {
     let b_t = CASE1.b_agvsim();
     for i in 0..2 {
         let a = r.a[(i, i)];
-        println!("A{i}{i} {a:.4} (thesis {:.4} +- {:.4})", CASE1.a_1_s[i], CASE1.a_std_1_s[i]);
+        println!(
+            "A{i}{i} {a:.4} (thesis {:.4} +- {:.4})",
+            CASE1.a_1_s[i], CASE1.a_std_1_s[i]
+        );
         assert!((a - CASE1.a_1_s[i]).abs() < 3.0 * CASE1.a_std_1_s[i].max(0.03 * a.abs()));
         for j in 0..2 {
             let b = r.b[(i, j)];
-            println!("B{i}{j} {b:.4} (thesis {:.4} +- {:.4})", b_t[i][j], CASE1.b_std[i][j]);
+            println!(
+                "B{i}{j} {b:.4} (thesis {:.4} +- {:.4})",
+                b_t[i][j], CASE1.b_std[i][j]
+            );
             assert!((b - b_t[i][j]).abs() < 3.0 * CASE1.b_std[i][j].max(0.03 * b.abs()));
         }
     }

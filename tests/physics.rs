@@ -322,7 +322,10 @@ fn measured_coil_law_reproduces_the_calibration_table() {
     println!("measured coil law against the table: RMS {rms:.2} counts over 42 readings");
     assert!(rms <= 3.0, "RMS {rms}");
     // Past the table: still falling, and lost (both below 4) before 200 mm.
-    let far: Vec<f64> = [0.127, 0.135, 0.15, 0.2].iter().map(|&y| read(y)[1]).collect();
+    let far: Vec<f64> = [0.127, 0.135, 0.15, 0.2]
+        .iter()
+        .map(|&y| read(y)[1])
+        .collect();
     println!("near coil at 127, 135, 150, 200 mm: {far:?}");
     assert!(far.windows(2).all(|w| w[1] <= w[0]));
     assert!(far[0] >= 4.0 && far[3] < 4.0);

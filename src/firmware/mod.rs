@@ -167,7 +167,13 @@ impl FirmwareParams {
     fn duties(&self, s: &mut FirmwareState, forward: f64, turn: f64) -> [i32; 2] {
         let mut duty = [0; 2];
         for (i, v) in [forward, turn].into_iter().enumerate() {
-            let wanted = HALF_DUTY as f64 + v + if self.pwm_dither { s.dither_residue[i] } else { 0.0 };
+            let wanted = HALF_DUTY as f64
+                + v
+                + if self.pwm_dither {
+                    s.dither_residue[i]
+                } else {
+                    0.0
+                };
             let written = wanted
                 .round()
                 .clamp(self.duty_min as f64, self.duty_max as f64);

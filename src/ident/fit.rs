@@ -249,7 +249,9 @@ fn run_lm(pb: &Problem, max_iterations: usize) -> Result<Fit, FitError> {
     let mut r = match pb.residuals(&z) {
         Some(r) => r,
         None => {
-            let t_s = pb.model.predict(&start_p, pb.data)
+            let t_s = pb
+                .model
+                .predict(&start_p, pb.data)
                 .err()
                 .map(|d| d.t_s)
                 .unwrap_or(f64::NAN);
@@ -354,7 +356,10 @@ fn run_lm(pb: &Problem, max_iterations: usize) -> Result<Fit, FitError> {
         }
     }
     let p = pb.to_p(&z);
-    let predicted = pb.model.predict(&p, pb.data).expect("accepted parameters simulate");
+    let predicted = pb
+        .model
+        .predict(&p, pb.data)
+        .expect("accepted parameters simulate");
     let jac = pb.jacobian(&z, &r);
     let (std, covariance) = covariance(pb, &p, &jac, cost, r.len());
     Ok(Fit {

@@ -134,7 +134,11 @@ pub struct Diverged {
 pub const MAX_SUBSTEPS: usize = 2000;
 
 /// Predicted outputs, `[output][row]`, in the dataset's output order.
-pub fn simulate<M: GreyBox + ?Sized>(model: &M, p: &[f64], data: &Dataset) -> Result<Vec<Vec<f64>>, Diverged> {
+pub fn simulate<M: GreyBox + ?Sized>(
+    model: &M,
+    p: &[f64],
+    data: &Dataset,
+) -> Result<Vec<Vec<f64>>, Diverged> {
     let n = data.len();
     let nx = model.n_states();
     let kinds: Vec<OutputKind> = data

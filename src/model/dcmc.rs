@@ -262,9 +262,9 @@ impl DcmcParams {
                 self.speed_setpoints(0.0, turn_pct),
             ),
         };
-        let (tau_fwd, tau_turn) = self
-            .response
-            .map_or(([0.0; 2], 0.0), |r| (r.time_constants_s(), r.turn_time_constant_s));
+        let (tau_fwd, tau_turn) = self.response.map_or(([0.0; 2], 0.0), |r| {
+            (r.time_constants_s(), r.turn_time_constant_s)
+        });
         for i in 0..2 {
             s.forward_request[i] =
                 DcmcResponse::shaped_request(tau_fwd[i], s.forward_request[i], fwd[i], dt);
@@ -440,15 +440,28 @@ mod tests {
         let full = 50.0 * 0.235;
         let share = 1.0 - (-1.0f64).exp();
         assert!((v.voltage_v[1] / full - share).abs() < 0.01, "right {v:?}");
-        assert!((v.voltage_v[0] / full - (1.0 - (-0.5f64).exp())).abs() < 0.01, "left {v:?}");
+        assert!(
+            (v.voltage_v[0] / full - (1.0 - (-0.5f64).exp())).abs() < 0.01,
+            "left {v:?}"
+        );
         let before = at(1.2, &mut s);
-        assert!((before.voltage_v[0] / full - share).abs() < 0.01, "left {before:?}");
+        assert!(
+            (before.voltage_v[0] / full - share).abs() < 0.01,
+            "left {before:?}"
+        );
         // The turn part passes at once (no turn lag): a turn step shows in full.
         let v = d.step(&mut s, &input(1.201, 50.0, 10.0), dt);
         let turn_volts = 10.0 * 0.12;
         assert!((v.voltage_v[1] - before.voltage_v[1] - turn_volts).abs() < 0.01 * turn_volts);
         // Disabling resets the lags: the next enable starts from zero again.
-        d.step(&mut s, &DcmcInput { enabled: false, ..input(1.3, 0.0, 0.0) }, dt);
+        d.step(
+            &mut s,
+            &DcmcInput {
+                enabled: false,
+                ..input(1.3, 0.0, 0.0)
+            },
+            dt,
+        );
         assert_eq!(s.shaped_request, [0.0; 2]);
         assert_eq!(s.forward_request, [0.0; 2]);
     }

@@ -63,7 +63,11 @@ impl ResponseCurve {
             .iter()
             .zip(near_adc)
             .map(|(x, s)| ((x - a_mm).abs() * 1e-3, *s))
-            .chain(x_mm.iter().zip(far_adc).map(|(x, s)| ((x + a_mm) * 1e-3, *s)))
+            .chain(
+                x_mm.iter()
+                    .zip(far_adc)
+                    .map(|(x, s)| ((x + a_mm) * 1e-3, *s)),
+            )
             .collect();
         samples.sort_by(|p, q| p.0.total_cmp(&q.0));
         let mut knots = pooled_knots(&samples);

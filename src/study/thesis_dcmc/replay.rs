@@ -1,0 +1,239 @@
+//! The simulator's lifted-wheel machine replaying a recording's demands, as a model the
+//! output-error fitter can fit: its parameters are scene keys of the DCMC.
+
+use crate::ident::data::Dataset;
+use crate::ident::fit::{fit_predictor, Fit, FitSettings};
+use crate::ident::model::{Diverged, ParamSpec, Predictor};
+use crate::scene::Scene;
+use crate::sim::{Actuation, Sim};
+
+/// Which form of the DCMC's slow response a fit uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ResponseForm {
+    /// A first-order lag per side on the forward demand; the turn demand at once.
+    ForwardLag,
+    /// The same, and a lag of its own on the turn demand.
+    ForwardAndTurnLag,
+    /// A rate limit per side (the unit's acceleration setting), no lag.
+    Ramp,
+    /// A lag per side on the forward demand and a rate limit on the turn demand (the
+    /// unit's turn acceleration setting).
+    ForwardLagTurnRamp,
+}
+
+impl ResponseForm {
+    pub const ALL: [ResponseForm; 4] = [
+        ResponseForm::ForwardLag,
+        ResponseForm::ForwardAndTurnLag,
+        ResponseForm::Ramp,
+        ResponseForm::ForwardLagTurnRamp,
+    ];
+
+    /// The scene keys a fit of this form sets, in parameter order.
+    pub fn keys(self) -> &'static [&'static str] {
+        match self {
+            ResponseForm::ForwardLag => &[
+                "dcmc.forward_gain_V_pct",
+                "dcmc.turn_gain_V_pct",
+                "dcmc.response_time_left_s",
+                "dcmc.response_time_right_s",
+            ],
+            ResponseForm::ForwardAndTurnLag => &[
+                "dcmc.forward_gain_V_pct",
+                "dcmc.turn_gain_V_pct",
+                "dcmc.response_time_left_s",
+                "dcmc.response_time_right_s",
+                "dcmc.turn_response_time_s",
+            ],
+            ResponseForm::Ramp => &[
+                "dcmc.forward_gain_V_pct",
+                "dcmc.turn_gain_V_pct",
+                "dcmc.ramp_left_pct_s",
+                "dcmc.ramp_right_pct_s",
+            ],
+            ResponseForm::ForwardLagTurnRamp => &[
+                "dcmc.forward_gain_V_pct",
+                "dcmc.turn_gain_V_pct",
+                "dcmc.response_time_left_s",
+                "dcmc.response_time_right_s",
+                "dcmc.turn_ramp_pct_s",
+            ],
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            ResponseForm::ForwardLag => "lag on the forward demand",
+            ResponseForm::ForwardAndTurnLag => "lags on the forward and the turn demand",
+            ResponseForm::Ramp => "rate limit (ramp) per side",
+            ResponseForm::ForwardLagTurnRamp => "lag on the forward demand, ramp on the turn",
+        }
+    }
+
+    /// The scene with only this form's response: the others' keys at zero.
+    pub(super) fn isolate(self, scene: &mut Scene) {
+        let d = &mut scene.dcmc;
+        match self {
+            ResponseForm::ForwardLag => {
+                d.turn_response_time_s = 0.0;
+                d.ramp_left_pct_s = 0.0;
+                d.ramp_right_pct_s = 0.0;
+                d.turn_ramp_pct_s = 0.0;
+            }
+            ResponseForm::ForwardAndTurnLag => {
+                d.ramp_left_pct_s = 0.0;
+                d.ramp_right_pct_s = 0.0;
+                d.turn_ramp_pct_s = 0.0;
+            }
+            ResponseForm::Ramp => {
+                d.response_time_left_s = 0.0;
+                d.response_time_right_s = 0.0;
+                d.turn_response_time_s = 0.0;
+                d.turn_ramp_pct_s = 0.0;
+            }
+            ResponseForm::ForwardLagTurnRamp => {
+                d.turn_response_time_s = 0.0;
+                d.ramp_left_pct_s = 0.0;
+                d.ramp_right_pct_s = 0.0;
+            }
+        }
+    }
+}
+
+/// A key's value in a scene, where a fit starts: the scene's, or for a response that is
+/// off a neutral start (a lag of 0.3 s, a rate of 100 %/s).
+pub(super) fn starting_value(scene: &Scene, key: &str) -> f64 {
+    let d = &scene.dcmc;
+    let or = |v: f64, start: f64| if v > 0.0 { v } else { start };
+    match key {
+        "dcmc.forward_gain_V_pct" => d.forward_gain_V_pct,
+        "dcmc.turn_gain_V_pct" => d.turn_gain_V_pct,
+        "dcmc.response_time_left_s" => or(d.response_time_left_s, 0.3),
+        "dcmc.response_time_right_s" => or(d.response_time_right_s, 0.3),
+        "dcmc.turn_response_time_s" => or(d.turn_response_time_s, 0.3),
+        "dcmc.ramp_left_pct_s" => or(d.ramp_left_pct_s, 100.0),
+        "dcmc.ramp_right_pct_s" => or(d.ramp_right_pct_s, 100.0),
+        "dcmc.turn_ramp_pct_s" => or(d.turn_ramp_pct_s, 100.0),
+        _ => unreachable!("not a fitted DCMC key: {key}"),
+    }
+}
+
+/// Sets one of the DCMC keys a fit uses.
+pub(super) fn set_dcmc_key(scene: &mut Scene, key: &str, v: f64) {
+    let d = &mut scene.dcmc;
+    match key {
+        "dcmc.forward_gain_V_pct" => d.forward_gain_V_pct = v,
+        "dcmc.turn_gain_V_pct" => d.turn_gain_V_pct = v,
+        "dcmc.response_time_left_s" => d.response_time_left_s = v,
+        "dcmc.response_time_right_s" => d.response_time_right_s = v,
+        "dcmc.turn_response_time_s" => d.turn_response_time_s = v,
+        "dcmc.ramp_left_pct_s" => d.ramp_left_pct_s = v,
+        "dcmc.ramp_right_pct_s" => d.ramp_right_pct_s = v,
+        "dcmc.turn_ramp_pct_s" => d.turn_ramp_pct_s = v,
+        _ => unreachable!("not a fitted DCMC key: {key}"),
+    }
+}
+
+/// The simulator's lifted-wheel machine replaying a recording's demands: a [`Predictor`]
+/// whose parameters are scene keys of the DCMC ([`ResponseForm::keys`]) and whose outputs
+/// are the motor speeds as encoders give them: the mean over the interval before each
+/// sample (row 0: the speed at the start).
+pub struct LiftedDcmcReplay {
+    scene: Scene,
+    form: ResponseForm,
+    specs: Vec<ParamSpec>,
+}
+
+impl LiftedDcmcReplay {
+    /// The scene's machine with its wheels lifted and only the form's response; the
+    /// scene's values of the keys are the starting values ([`starting_value`]).
+    pub fn new(scene: &Scene, form: ResponseForm) -> LiftedDcmcReplay {
+        let mut scene = scene.clone();
+        scene.sim.wheels_lifted = true;
+        let start = scene.clone();
+        form.isolate(&mut scene);
+        // The simulator steps the gear play and Coulomb friction as events on its time
+        // grid, so its outputs are not smooth in the parameters below about 1e-4
+        // relative: difference the Jacobian over 0.1 %.
+        let specs = form
+            .keys()
+            .iter()
+            .map(|k| {
+                let v = starting_value(&start, k);
+                ParamSpec::new(k, v, 1e-3 * v.abs(), 1e3 * v.abs()).with_fd_step(1e-3)
+            })
+            .collect();
+        LiftedDcmcReplay { scene, form, specs }
+    }
+
+    /// The scene with parameters `p` in the form's keys.
+    pub fn scene_with(&self, p: &[f64]) -> Scene {
+        let mut s = self.scene.clone();
+        for (k, v) in self.form.keys().iter().zip(p) {
+            set_dcmc_key(&mut s, k, *v);
+        }
+        s
+    }
+
+    pub const INPUTS: [&'static str; 2] = ["demand_fwd_pct", "demand_turn_pct"];
+    pub const OUTPUTS: [&'static str; 2] = ["left_motor_speed_rad_s", "right_motor_speed_rad_s"];
+}
+
+impl Predictor for LiftedDcmcReplay {
+    fn param_specs(&self) -> &[ParamSpec] {
+        &self.specs
+    }
+
+    fn predict(&self, p: &[f64], data: &Dataset) -> Result<Vec<Vec<f64>>, Diverged> {
+        let scene = self.scene_with(p);
+        let mut sim = Sim::new(&scene).map_err(|_| Diverged { t_s: data.t_s[0] })?;
+        let dt = sim.params().dt_s;
+        let out_index: Vec<usize> = data
+            .output_names
+            .iter()
+            .map(|n| if n == Self::OUTPUTS[0] { 0 } else { 1 })
+            .collect();
+        let mut y = vec![vec![0.0; data.len()]; data.output_names.len()];
+        let mut u = vec![0.0; data.inputs.len()];
+        for (j, &side) in out_index.iter().enumerate() {
+            y[j][0] = sim.drivetrains()[side].motor.speed_rad_s;
+        }
+        for k in 0..data.len() - 1 {
+            let before = sim.drivetrains().map(|d| d.motor.angle_rad);
+            data.input_row(k, &mut u);
+            sim.set_actuation(Actuation::Demand {
+                forward_pct: u[0],
+                turn_pct: u[1],
+            });
+            let steps = ((data.t_s[k + 1] - data.t_s[k]) / dt).round().max(1.0) as usize;
+            for _ in 0..steps {
+                sim.step().map_err(|_| Diverged { t_s: data.t_s[k] })?;
+            }
+            let interval = data.t_s[k + 1] - data.t_s[k];
+            for (j, &side) in out_index.iter().enumerate() {
+                y[j][k + 1] = (sim.drivetrains()[side].motor.angle_rad - before[side]) / interval;
+            }
+        }
+        Ok(y)
+    }
+}
+
+/// Fits the scene's DCMC keys to a lifted-wheel recording (demands in, motor speeds out)
+/// by output error through the simulator, in one response form. Returns the fit
+/// (parameters in the form's key order) and the replay model.
+pub fn fit_dcmc_keys(
+    scene: &Scene,
+    data: &Dataset,
+    form: ResponseForm,
+) -> Result<(Fit, LiftedDcmcReplay), String> {
+    let model = LiftedDcmcReplay::new(scene, form);
+    let nominal: Vec<f64> = model.specs.iter().map(|s| s.nominal).collect();
+    let settings = FitSettings {
+        free: (0..form.keys().len()).collect(),
+        weights: vec![1.0; data.output_names.len()],
+        max_iterations: 40,
+        starts: vec![nominal],
+    };
+    let f = fit_predictor(&model, data, &settings).map_err(|e| e.to_string())?;
+    Ok((f, model))
+}
