@@ -240,6 +240,7 @@ pub fn diagnose(
     let data = Dataset::from_recording(rec, &model.input_names(), &model.output_names())?;
     check_decidable(&data, rec)?;
     let free = model.default_free(&data.output_names);
+    crate::ident::enough_data(rec, &data, free.len())?;
     let base_fit = fit_structure(model, &data, &free, &opts.ident, &model.nominal())?;
     let weights = base_fit.weights.clone();
     let n_eff_outputs = effective_n(&data, &base_fit.predicted);
@@ -249,6 +250,7 @@ pub fn diagnose(
     let base_energy = regimes::energy_per_sample(&data, &base_fit.predicted, &weights);
     let scales = scales(&structure, &base_fit.params, &data, &speed);
     let baseline_eval = evaluate(&data, base_fit.predicted.clone(), opts.ident.max_lag);
+    crate::ident::finite_loss(rec, &data, &baseline_eval)?;
     let mut stage = Stage {
         structure: structure.clone(),
         fit: base_fit.clone(),

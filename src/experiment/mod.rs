@@ -256,6 +256,12 @@ pub fn run_experiment(
             "--interval {interval}: expected a positive number of seconds"
         )));
     }
+    if !(0.0..1.0).contains(&opts.rig_error) {
+        return Err(ExperimentError::Setup(format!(
+            "--rig-error {}: expected a fraction from 0 up to (not including) 1; beliefs off by 100 % or more can turn a resistance, an inertia or a gain negative",
+            opts.rig_error
+        )));
+    }
     let mut scene = scene.clone();
     if let Some(seed) = opts.seed {
         scene.sim.seed = seed;
@@ -264,6 +270,11 @@ pub fn run_experiment(
         .name
         .clone()
         .unwrap_or_else(|| kind.name().replace('-', "_"));
+    if name.is_empty() || name == "." || name == ".." || name.contains(['/', '\\']) {
+        return Err(ExperimentError::Setup(format!(
+            "--name `{name}`: expected a plain file stem (no `/`, `\\`, `.` or `..`), so that the files stay inside --out"
+        )));
+    }
     let recording = opts.out_dir.join(format!("{name}.csv"));
     let rig_path = opts.out_dir.join(format!("{name}.rig.toml"));
     let mut rng = Pcg64::seed_from_u64(scene.sim.seed ^ 0xe4e1);

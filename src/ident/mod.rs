@@ -414,8 +414,10 @@ pub fn identify(
     let model = structure.model();
     let data = Dataset::from_recording(rec, &model.input_names(), &model.output_names())?;
     let free = free_indices(model, &opts.free, &data.output_names)?;
+    enough_data(rec, &data, free.len())?;
     let f = fit_structure(model, &data, &free, opts, &model.nominal())?;
     let estimation = evaluate(&data, f.predicted.clone(), opts.max_lag);
+    finite_loss(rec, &data, &estimation)?;
     let validation = match validation {
         Some(v) => {
             let vdata = Dataset::from_recording(v, &model.input_names(), &model.output_names())?;
@@ -434,6 +436,55 @@ pub fn identify(
         validation,
         opts.starts,
     ))
+}
+
+/// Measured output values needed per free parameter: below this the loss, FPE and the
+/// standard deviations (which divide by `N - d`) say more about the count than the
+/// machine.
+pub const MIN_VALUES_PER_PARAMETER: usize = 5;
+
+/// Refuses a record too short to fit `free` parameters.
+pub(crate) fn enough_data(rec: &Recording, data: &Dataset, free: usize) -> Result<(), IdentError> {
+    let n = data.measured_cells();
+    let need = MIN_VALUES_PER_PARAMETER * free.max(1);
+    if n < need {
+        return Err(IdentError::Mismatch {
+            file: rec.path.clone(),
+            message: format!(
+                "too few samples to fit: {n} measured output values ({} rows) for {free} free parameters; at least {need} are needed ({MIN_VALUES_PER_PARAMETER} per parameter)",
+                data.len()
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// Refuses a fit whose loss is not a finite positive number: a cell too large to square,
+/// or a record the model reproduces exactly (no noise left to estimate anything from).
+pub(crate) fn finite_loss(
+    rec: &Recording,
+    data: &Dataset,
+    e: &Evaluation,
+) -> Result<(), IdentError> {
+    if e.loss.is_finite() && e.loss > 0.0 && e.fit_pct.values().all(|f| f.is_finite()) {
+        return Ok(());
+    }
+    let largest = data
+        .inputs
+        .iter()
+        .flatten()
+        .copied()
+        .chain(data.outputs.iter().flatten().flatten().copied())
+        .fold(0.0f64, |m, v| m.max(v.abs()));
+    let why = if e.loss == 0.0 {
+        "the model reproduces the record exactly, so there is no residual to estimate the noise, the standard deviations or the FPE from".to_string()
+    } else {
+        format!("a cell is too large for the fit's arithmetic (largest |value| {largest:e}); check the recording's inputs and outputs")
+    };
+    Err(IdentError::Mismatch {
+        file: rec.path.clone(),
+        message: format!("the fit's loss is {}: {why}", e.loss),
+    })
 }
 
 fn assemble(

@@ -54,8 +54,10 @@ impl Recording {
         Recording::parse(&text, path)
     }
 
-    /// Parses text; `path` is used in messages.
+    /// Parses text; `path` is used in messages. A leading UTF-8 byte-order mark (as some
+    /// spreadsheet programs write) is skipped.
     pub fn parse(text: &str, path: &Path) -> Result<Recording, RecordingError> {
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let file = || path.to_owned();
         let at = |line: usize, message: String| RecordingError::Line {
             file: file(),

@@ -189,6 +189,8 @@ impl Rig {
 
     /// Parses and checks a rig file; `path` is used in messages.
     pub fn parse(text: &str, path: &Path) -> Result<Rig, RigError> {
+        // A leading UTF-8 byte-order mark (as some editors write) is not TOML.
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let invalid = |message: String| RigError::Invalid {
             file: path.to_owned(),
             message,

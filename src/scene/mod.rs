@@ -66,12 +66,20 @@ impl Scene {
                 file: path.to_owned(),
                 message: e.to_string(),
             })?;
+            let base = table.clone();
             for arg in overrides {
                 apply_override(&mut table, arg)?;
             }
-            scene = Scene::deserialize_table(table).map_err(|message| SceneError::Override {
-                arg: overrides.join(" "),
-                message,
+            scene = Scene::deserialize_table(table).map_err(|message| {
+                // Name the override at fault: the first that fails on the file alone.
+                let culprit = overrides.iter().find(|arg| {
+                    let mut t = base.clone();
+                    apply_override(&mut t, arg).is_ok() && Scene::deserialize_table(t).is_err()
+                });
+                SceneError::Override {
+                    arg: culprit.cloned().unwrap_or_else(|| overrides.join(" ")),
+                    message,
+                }
             })?;
         }
         scene.validate().map_err(|bad| SceneError::Invalid {

@@ -356,10 +356,14 @@ impl Scene {
                     }
                 }
                 (None, Some(r)) => positive(&format!("{key}.radius_m"), r)?,
-                _ => {
+                (given, _) => {
                     return Err(bad(
                         &key,
-                        "half_extents_m and radius_m",
+                        if given.is_some() {
+                            "both half_extents_m and radius_m"
+                        } else {
+                            "neither half_extents_m nor radius_m"
+                        },
                         "exactly one of half_extents_m (rectangle) or radius_m (circle)",
                     ))
                 }

@@ -435,9 +435,8 @@ impl SimParams {
         if w * self.dt_s > 0.5 {
             return Err(SimError::Setup {
                 message: format!(
-                    "sim.dt_s = {} s is too long for the castor swivel mode ({:.0} rad/s); use sim.dt_s <= {:.5}",
+                    "the castor swivel mode ({w:.3e} rad/s) is too fast for sim.dt_s = {} s: it comes from the castors' load ({load:.3e} N per castor, from chassis.mass_kg, payload.mass_kg and chassis.drive_load_fraction), their tyre, castors.trail_m ({tr} m) and castors.mass_kg ({m} kg); check those keys, or use sim.dt_s <= {:.3e}",
                     self.dt_s,
-                    w,
                     0.5 / w
                 ),
             });

@@ -72,12 +72,37 @@ impl SweepOptions {
         varies: Vec<super::Vary>,
         repeat: usize,
     ) -> Result<SweepOptions, SweepError> {
+        // A key both set and varied: the varied values would silently win over the set one.
+        for v in &varies {
+            if let Some(s) = set
+                .iter()
+                .find(|s| s.split_once('=').map(|(k, _)| k.trim()) == Some(v.key.as_str()))
+            {
+                return Err(SweepError::Argument {
+                    arg: format!("--set {s}"),
+                    message: format!(
+                        "`{}` is also varied (--vary {}=...): a run takes the varied value, so drop one of them",
+                        v.key, v.key
+                    ),
+                });
+            }
+        }
         let base = Scene::from_toml(&scene_text, scene_path, &set)?;
         for v in &varies {
             for x in &v.values {
                 let mut o = set.clone();
-                o.push(format!("{}={x}", v.key));
-                Scene::from_toml(&scene_text, scene_path, &o)?;
+                let arg = format!("{}={x}", v.key);
+                o.push(arg.clone());
+                Scene::from_toml(&scene_text, scene_path, &o).map_err(|e| match e {
+                    // A varied value, not a --set the user typed.
+                    crate::scene::SceneError::Override { arg: a, message } if a == arg => {
+                        SweepError::Argument {
+                            arg: format!("--vary {}", v.key),
+                            message: format!("value `{x}`: {message}"),
+                        }
+                    }
+                    other => other.into(),
+                })?;
             }
         }
         let grid = Grid::new(varies, repeat, base.sim.seed)?;

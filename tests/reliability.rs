@@ -1,0 +1,230 @@
+//! Reliability (issue 18, first findings): bad input gets a clear refusal that names the
+//! file, key or cell, never a silent wrong answer. Each test fails on the code before.
+
+use std::path::{Path, PathBuf};
+
+use agvsim::experiment::{run_experiment, ExperimentKind, ExperimentOptions};
+use agvsim::ident::{identify, IdentifyOptions, ModelChoice};
+use agvsim::record::Recording;
+use agvsim::rig::Rig;
+use agvsim::scene::Scene;
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("agvsim-rel-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A lifted-wheel run on the estimator's known-truth rig.
+fn lifted(dir: &Path, duration_s: f64) -> (Rig, PathBuf, PathBuf) {
+    let scene = Scene::load(Path::new("scenes/lifted_identification.toml"), &[]).unwrap();
+    let out = run_experiment(
+        ExperimentKind::LiftedRandomDemand,
+        &scene,
+        &ExperimentOptions {
+            out_dir: dir.to_owned(),
+            duration_s,
+            seed: Some(3),
+            ..ExperimentOptions::default()
+        },
+    )
+    .unwrap();
+    (Rig::load(&out.rig).unwrap(), out.rig, out.recording)
+}
+
+fn gain_fit(rig: &Rig, rig_path: &Path, rec: &Recording) -> Result<(), String> {
+    identify(
+        rig,
+        rig_path,
+        rec,
+        None,
+        &IdentifyOptions {
+            model: Some(ModelChoice::Gain),
+            ..IdentifyOptions::default()
+        },
+    )
+    .map(|_| ())
+    .map_err(|e| e.to_string())
+}
+
+/// Spreadsheets write a UTF-8 byte-order mark: a recording and a rig that start with one
+/// read as without it.
+#[test]
+fn byte_order_marks_are_skipped() {
+    let text = "# agvsim-recording: 1\n# rig: drive_axis\nt_s,voltage_V,motor_speed_rad_s\n0,0,0\n0.001,1,0.5\n";
+    let plain = Recording::parse(text, Path::new("r.csv")).unwrap();
+    let marked = Recording::parse(&format!("\u{feff}{text}"), Path::new("r.csv")).unwrap();
+    assert_eq!(plain.t_s, marked.t_s);
+    let rig = "rig = \"drive_axis\"\n[motor]\nresistance_ohm = 0.35\n";
+    let a = Rig::parse(rig, Path::new("r.rig.toml")).unwrap();
+    let b = Rig::parse(&format!("\u{feff}{rig}"), Path::new("r.rig.toml")).unwrap();
+    assert_eq!(a.get("motor.resistance_ohm"), b.get("motor.resistance_ohm"));
+}
+
+/// Ten rows for six parameters: refused, naming the counts (it used to report a 100 %
+/// fit with V = 0 and AIC = -inf).
+#[test]
+fn a_record_too_short_to_fit_is_refused() {
+    let dir = tmp("short");
+    let (rig, rig_path, rec_path) = lifted(&dir, 0.225);
+    let rec = Recording::load(&rec_path).unwrap();
+    assert_eq!(rec.t_s.len(), 10);
+    let err = gain_fit(&rig, &rig_path, &rec).unwrap_err();
+    println!("{err}");
+    assert!(
+        err.contains("too few samples") && err.contains("6 free parameters"),
+        "{err}"
+    );
+}
+
+/// One output cell of 1e300: the loss cannot be computed, and that is an error naming
+/// the recording and the cell's size, not a NaN report with exit 0.
+#[test]
+fn a_fit_whose_loss_is_not_finite_is_an_error() {
+    let dir = tmp("huge");
+    let (rig, rig_path, rec_path) = lifted(&dir, 3.0);
+    let text = std::fs::read_to_string(&rec_path).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let row = lines.len() - 20;
+    let mut cells: Vec<String> = lines[row].split(',').map(String::from).collect();
+    *cells.last_mut().unwrap() = "1e300".into();
+    lines[row] = cells.join(",");
+    let bad = dir.join("huge.csv");
+    std::fs::write(&bad, lines.join("\n") + "\n").unwrap();
+    let err = gain_fit(&rig, &rig_path, &Recording::load(&bad).unwrap()).unwrap_err();
+    println!("{err}");
+    assert!(
+        err.contains("huge.csv") && err.contains("loss") && err.contains("1e300"),
+        "{err}"
+    );
+    // The clean record still fits.
+    gain_fit(&rig, &rig_path, &Recording::load(&rec_path).unwrap()).unwrap();
+}
+
+/// `--name` cannot lead out of `--out`, and `--rig-error` of 100 % or more (which can
+/// make a resistance negative) is refused.
+#[test]
+fn experiment_names_stay_inside_out_and_rig_errors_stay_below_one() {
+    let dir = tmp("escape");
+    let scene = Scene::load(Path::new("scenes/lifted_identification.toml"), &[]).unwrap();
+    let run = |name: Option<&str>, rig_error: f64| {
+        run_experiment(
+            ExperimentKind::CoastDown,
+            &scene,
+            &ExperimentOptions {
+                out_dir: dir.join("out"),
+                name: name.map(String::from),
+                rig_error,
+                ..ExperimentOptions::default()
+            },
+        )
+        .map_err(|e| e.to_string())
+    };
+    let err = run(Some("../../escape"), 0.0).unwrap_err();
+    assert!(
+        err.contains("--name") && err.contains("plain file stem"),
+        "{err}"
+    );
+    assert!(!dir.join("escape.csv").exists() && !dir.parent().unwrap().join("escape.csv").exists());
+    let err = run(None, 5.0).unwrap_err();
+    assert!(err.contains("--rig-error 5"), "{err}");
+    let ok = run(Some("fine"), 0.5).unwrap();
+    assert!(ok.recording.starts_with(dir.join("out")));
+}
+
+/// A key both set and varied in a sweep: the set value would be silently ignored.
+#[test]
+fn sweep_refuses_a_key_both_set_and_varied() {
+    use agvsim::sweep::{parse_vary, SweepOptions};
+    let text = std::fs::read_to_string("scenes/high_gain_slip.toml").unwrap();
+    let vary = parse_vary("controller.gain_scale=1,2").unwrap();
+    let err = SweepOptions::from_text(
+        Path::new("scenes/high_gain_slip.toml"),
+        text,
+        vec!["controller.gain_scale=5".into()],
+        vec![vary],
+        1,
+    )
+    .err()
+    .expect("refused")
+    .to_string();
+    println!("{err}");
+    assert!(
+        err.contains("controller.gain_scale=5") && err.contains("also varied"),
+        "{err}"
+    );
+}
+
+/// An obstacle with neither shape key says so (it used to read "= half_extents_m and
+/// radius_m").
+#[test]
+fn an_obstacle_without_a_shape_says_which_keys_are_missing() {
+    let err = Scene::from_toml(
+        "[[obstacles]]\ncenter_m = [3.0, 0.0]\n",
+        Path::new("o.toml"),
+        &[],
+    )
+    .unwrap_err()
+    .to_string();
+    println!("{err}");
+    assert!(err.contains("neither half_extents_m nor radius_m"), "{err}");
+}
+
+/// A bad `--set` value is quoted alone (it used to be quoted with the command's own
+/// `sim.duration_s=2`), and a bad `--vary` value is called a `--vary` value.
+#[test]
+fn bad_override_values_are_quoted_as_the_user_typed_them() {
+    use agvsim::sweep::{parse_vary, SweepOptions};
+    let err = Scene::load(
+        Path::new("scenes/high_gain_slip.toml"),
+        &["chassis.mass_kg=abc".into(), "sim.duration_s=2".into()],
+    )
+    .unwrap_err()
+    .to_string();
+    println!("{err}");
+    assert!(
+        err.starts_with("--set chassis.mass_kg=abc:") && !err.contains("duration"),
+        "{err}"
+    );
+    let text = std::fs::read_to_string("scenes/high_gain_slip.toml").unwrap();
+    let err = SweepOptions::from_text(
+        Path::new("scenes/high_gain_slip.toml"),
+        text,
+        vec![],
+        vec![parse_vary("controller.gain_scale=a,b").unwrap()],
+        1,
+    )
+    .err()
+    .expect("refused")
+    .to_string();
+    println!("{err}");
+    assert!(
+        err.starts_with("--vary controller.gain_scale: value `a`"),
+        "{err}"
+    );
+}
+
+/// A value that makes the castor swivel mode too fast for the step names the keys that
+/// set the mode (it used to blame only `sim.dt_s`, with a bound printed as 0.00000).
+#[test]
+fn a_too_fast_castor_mode_names_its_keys() {
+    let scene = Scene::load(
+        Path::new("scenes/high_gain_slip.toml"),
+        &["castors.mass_kg=1e-9".into()],
+    )
+    .unwrap();
+    let err = agvsim::sim::Sim::new(&scene)
+        .err()
+        .expect("refused")
+        .to_string();
+    println!("{err}");
+    assert!(
+        err.contains("castors.mass_kg (0.000000001 kg)") && err.contains("chassis.mass_kg"),
+        "{err}"
+    );
+    assert!(
+        !err.contains("0.00000\n") && err.contains("sim.dt_s <= 6.99"),
+        "{err}"
+    );
+}
