@@ -56,6 +56,17 @@ fn io(path: &Path) -> impl Fn(std::io::Error) -> RunError + '_ {
 /// run, overrides included) into the output folder.
 pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutput, RunError> {
     let params = SimParams::from_scene(scene)?;
+    // The Rerun target first: a file that cannot be written (or a viewer that cannot be
+    // reached) stops the run before any output is left behind.
+    let mut viz = match &opts.rerun {
+        Some(t) => Some(RerunRecorder::new(
+            t,
+            &opts.name,
+            &params,
+            opts.rerun_interval_s,
+        )?),
+        None => None,
+    };
     std::fs::create_dir_all(&opts.out_dir).map_err(io(&opts.out_dir))?;
     let recording = opts.out_dir.join(format!("{}.csv", opts.name));
     let scene_used = opts.out_dir.join(format!("{}.scene.toml", opts.name));
@@ -88,15 +99,6 @@ pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutput, RunError
     let mut writer =
         RecordingWriter::new(BufWriter::new(file), "vehicle", &meta, vehicle_columns())
             .map_err(io(&recording))?;
-    let mut viz = match &opts.rerun {
-        Some(t) => Some(RerunRecorder::new(
-            t,
-            &opts.name,
-            &params,
-            opts.rerun_interval_s,
-        )?),
-        None => None,
-    };
     let record_every = ((scene.sim.record_interval_s / params.dt_s).round() as u64).max(1);
     let duration = params.duration_s;
     let mut sim = Sim::from_params(params)?;

@@ -228,3 +228,72 @@ fn a_too_fast_castor_mode_names_its_keys() {
         "{err}"
     );
 }
+
+/// Scene geometry that used to be accepted silently: a wire point with a third
+/// coordinate (dropped), wire points at 1e300 m (the coils read 0 and the run reported
+/// "settled, RMS 0.0 mm"), and a concave floor region (the README promises convex).
+#[test]
+fn scene_geometry_that_cannot_be_meant_is_refused() {
+    let load = |toml: &str| {
+        Scene::from_toml(toml, Path::new("g.toml"), &[])
+            .err()
+            .map(|e| e.to_string())
+    };
+    let err = load("[wire]\npoints_m = [[0.0, 0.0, 5.0], [10.0, 0.0]]\n").expect("refused");
+    println!("{err}");
+    assert!(
+        err.contains("g.toml") && err.contains("point 0 has 3 coordinates"),
+        "{err}"
+    );
+    let err = load("[wire]\npoints_m = [[-1e300, 0.0], [1e300, 0.0]]\n").expect("refused");
+    println!("{err}");
+    assert!(
+        err.contains("wire.points_m[0]") && err.contains("1e5 m"),
+        "{err}"
+    );
+    let concave = "[[floor.regions]]\nsurface = \"bare_concrete\"\npolygon_m = [[0.0, 0.0], [4.0, 0.0], [1.0, 1.0], [0.0, 4.0]]\n";
+    let err = load(concave).expect("refused");
+    println!("{err}");
+    assert!(
+        err.contains("floor.regions[0].polygon_m[2]") && err.contains("convex"),
+        "{err}"
+    );
+    let convex = "[[floor.regions]]\nsurface = \"bare_concrete\"\npolygon_m = [[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [0.0, 4.0]]\n";
+    assert_eq!(load(convex), None);
+    // Clockwise outlines are as convex as counter-clockwise ones.
+    let clockwise = "[[floor.regions]]\nsurface = \"bare_concrete\"\npolygon_m = [[0.0, 0.0], [0.0, 4.0], [4.0, 4.0], [4.0, 0.0]]\n";
+    assert_eq!(load(clockwise), None);
+}
+
+/// A Rerun file that cannot be written stops the run before it writes anything (it used
+/// to leave a header-only CSV and the scene behind).
+#[test]
+fn an_unwritable_rerun_file_leaves_no_partial_output() {
+    use agvsim::run::{run_scene, RunOptions};
+    use agvsim::viz::RerunTarget;
+    let dir = tmp("save").join("out");
+    let scene = Scene::load(
+        Path::new("scenes/high_gain_slip.toml"),
+        &["sim.duration_s=0.1".into()],
+    )
+    .unwrap();
+    let err = run_scene(
+        &scene,
+        &RunOptions {
+            out_dir: dir.clone(),
+            name: "x".into(),
+            rerun: Some(RerunTarget::Save(PathBuf::from("/no/such/dir/y.rrd"))),
+            rerun_interval_s: 0.02,
+        },
+    )
+    .err()
+    .expect("refused")
+    .to_string();
+    println!("{err}");
+    assert!(err.contains("/no/such/dir/y.rrd"), "{err}");
+    assert!(
+        !dir.exists(),
+        "left {:?}",
+        std::fs::read_dir(&dir).map(|d| d.count())
+    );
+}

@@ -338,6 +338,7 @@ impl Default for FloorSpec {
 pub struct FloorRegionSpec {
     pub surface: String,
     /// Corners of a convex polygon, world frame, m.
+    #[serde(deserialize_with = "points_2d")]
     pub polygon_m: Vec<[f64; 2]>,
 }
 
@@ -515,6 +516,7 @@ impl Default for SensorSpec {
 #[serde(deny_unknown_fields, default)]
 pub struct WireSpec {
     /// Vertices, m.
+    #[serde(deserialize_with = "points_2d")]
     pub points_m: Vec<[f64; 2]>,
     /// Joins the last point to the first.
     pub closed: bool,
@@ -550,4 +552,20 @@ pub struct ObstacleSpec {
     pub radius_m: Option<f64>,
     /// Rotation of a rectangle, rad.
     pub angle_rad: f64,
+}
+
+/// A list of floor points, each exactly `[x, y]`: a third coordinate is an error, not
+/// silently dropped.
+fn points_2d<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<[f64; 2]>, D::Error> {
+    let raw: Vec<Vec<f64>> = Vec::deserialize(d)?;
+    raw.iter()
+        .enumerate()
+        .map(|(i, p)| match p.as_slice() {
+            [x, y] => Ok([*x, *y]),
+            _ => Err(serde::de::Error::custom(format!(
+                "point {i} has {} coordinates ({p:?}): expected two, [x, y] in metres on the floor",
+                p.len()
+            ))),
+        })
+        .collect()
 }

@@ -19,6 +19,30 @@ fn positive(key: &str, v: f64) -> Result<(), Invalid> {
     }
 }
 
+/// Largest coordinate on the floor, m: far beyond any plant, small enough that squared
+/// distances and the field's arithmetic stay exact to well below a millimetre.
+pub const MAX_FLOOR_M: f64 = 1.0e5;
+
+/// The first corner where a polygon's outline turns against its overall direction (a
+/// concave or self-crossing outline), if any.
+fn concave_corner(poly: &[[f64; 2]]) -> Option<usize> {
+    let n = poly.len();
+    let turn = |k: usize| {
+        let (a, b, c) = (poly[(k + n - 1) % n], poly[k], poly[(k + 1) % n]);
+        (b[0] - a[0]) * (c[1] - b[1]) - (b[1] - a[1]) * (c[0] - b[0])
+    };
+    let total: f64 = (0..n).map(turn).sum();
+    let area2: f64 = (0..n)
+        .map(|k| poly[k][0] * poly[(k + 1) % n][1] - poly[(k + 1) % n][0] * poly[k][1])
+        .sum();
+    let sign = if area2 != 0.0 {
+        area2.signum()
+    } else {
+        total.signum()
+    };
+    (0..n).find(|&k| turn(k) * sign < -1e-12)
+}
+
 fn non_negative(key: &str, v: f64) -> Result<(), Invalid> {
     if v.is_finite() && v >= 0.0 {
         Ok(())
@@ -199,6 +223,13 @@ impl Scene {
                     "at least 3 finite [x, y] corners of a convex polygon",
                 ));
             }
+            if let Some(k) = concave_corner(&r.polygon_m) {
+                return Err(bad(
+                    &format!("floor.regions[{i}].polygon_m[{k}]"),
+                    format!("{:?}", r.polygon_m[k]),
+                    "a corner of a convex polygon (the outline turns the other way here)",
+                ));
+            }
         }
         let b = &self.battery;
         positive("battery.open_circuit_V", b.open_circuit_V)?;
@@ -316,11 +347,11 @@ impl Scene {
             ));
         }
         for (i, p) in w.points_m.iter().enumerate() {
-            if !p[0].is_finite() || !p[1].is_finite() {
+            if !(p[0].abs() <= MAX_FLOOR_M && p[1].abs() <= MAX_FLOOR_M) {
                 return Err(bad(
                     &format!("wire.points_m[{i}]"),
                     format!("{p:?}"),
-                    "finite coordinates",
+                    &format!("finite coordinates within {MAX_FLOOR_M:e} m of the origin"),
                 ));
             }
         }
