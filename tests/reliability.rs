@@ -297,3 +297,58 @@ fn an_unwritable_rerun_file_leaves_no_partial_output() {
         std::fs::read_dir(&dir).map(|d| d.count())
     );
 }
+
+/// One input cell of 1e300 makes the model diverge; the error points into the recording
+/// (time, largest input), not only at the rig. A one-row recording is "too few samples",
+/// not "no output column the model can compare with".
+#[test]
+fn a_diverging_start_or_a_single_row_points_at_the_recording() {
+    let dir = tmp("input");
+    let (rig, rig_path, rec_path) = lifted(&dir, 3.0);
+    let text = std::fs::read_to_string(&rec_path).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let row = lines.len() - 40;
+    let mut cells: Vec<String> = lines[row].split(',').map(String::from).collect();
+    cells[1] = "1e300".into();
+    lines[row] = cells.join(",");
+    let bad = dir.join("input.csv");
+    std::fs::write(&bad, lines.join("\n") + "\n").unwrap();
+    let err = gain_fit(&rig, &rig_path, &Recording::load(&bad).unwrap()).unwrap_err();
+    println!("{err}");
+    assert!(
+        err.contains("input.csv") && err.contains("largest |input|") && err.contains("1e300"),
+        "{err}"
+    );
+    let header_end = text.lines().position(|l| l.starts_with("t_s")).unwrap();
+    let one: Vec<&str> = text.lines().take(header_end + 2).collect();
+    let single = dir.join("single.csv");
+    std::fs::write(&single, one.join("\n") + "\n").unwrap();
+    let err = gain_fit(&rig, &rig_path, &Recording::load(&single).unwrap()).unwrap_err();
+    println!("{err}");
+    assert!(
+        err.contains("single.csv") && err.contains("too few samples: 1 row"),
+        "{err}"
+    );
+}
+
+/// An obstacle on the start pose is refused (the vehicle used to be thrown 0.5 m
+/// sideways at its first step); the shipped bumper scene, whose obstacle is ahead, runs.
+#[test]
+fn an_obstacle_on_the_start_pose_is_refused() {
+    let scene = Scene::load(
+        Path::new("scenes/high_gain_slip.toml"),
+        &["obstacles=[{center_m = [0.2, 0.0], radius_m = 0.1}]".into()],
+    )
+    .unwrap();
+    let err = agvsim::sim::Sim::new(&scene)
+        .err()
+        .expect("refused")
+        .to_string();
+    println!("{err}");
+    assert!(
+        err.contains("obstacles[0]") && err.contains("start pose"),
+        "{err}"
+    );
+    let bumper = Scene::load(Path::new("scenes/bumper_stop.toml"), &[]).unwrap();
+    assert!(agvsim::sim::Sim::new(&bumper).is_ok());
+}

@@ -241,7 +241,8 @@ pub fn diagnose(
     check_decidable(&data, rec)?;
     let free = model.default_free(&data.output_names);
     crate::ident::enough_data(rec, &data, free.len())?;
-    let base_fit = fit_structure(model, &data, &free, &opts.ident, &model.nominal())?;
+    let base_fit = fit_structure(model, &data, &free, &opts.ident, &model.nominal())
+        .map_err(|e| crate::ident::diverging_start(rec, &data, e))?;
     let weights = base_fit.weights.clone();
     let n_eff_outputs = effective_n(&data, &base_fit.predicted);
     let n_eff: f64 = n_eff_outputs.iter().sum();

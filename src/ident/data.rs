@@ -26,6 +26,15 @@ impl Dataset {
         inputs: &[String],
         outputs: &[String],
     ) -> Result<Dataset, RecordingError> {
+        if rec.t_s.len() < 2 {
+            return Err(RecordingError::File {
+                file: rec.path.clone(),
+                message: format!(
+                    "too few samples: {} row(s); a fit needs a record over time",
+                    rec.t_s.len()
+                ),
+            });
+        }
         let input_cols = inputs
             .iter()
             .map(|n| rec.require_complete(n))

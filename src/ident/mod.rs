@@ -415,7 +415,8 @@ pub fn identify(
     let data = Dataset::from_recording(rec, &model.input_names(), &model.output_names())?;
     let free = free_indices(model, &opts.free, &data.output_names)?;
     enough_data(rec, &data, free.len())?;
-    let f = fit_structure(model, &data, &free, opts, &model.nominal())?;
+    let f = fit_structure(model, &data, &free, opts, &model.nominal())
+        .map_err(|e| diverging_start(rec, &data, e))?;
     let estimation = evaluate(&data, f.predicted.clone(), opts.max_lag);
     finite_loss(rec, &data, &estimation)?;
     let validation = match validation {
@@ -457,6 +458,30 @@ pub(crate) fn enough_data(rec: &Recording, data: &Dataset, free: usize) -> Resul
         });
     }
     Ok(())
+}
+
+/// A model that diverges at its starting parameters: say where in the recording, and what
+/// in it could be at fault (a huge input cell, a long gap in time), not only the rig.
+pub(crate) fn diverging_start(rec: &Recording, data: &Dataset, e: IdentError) -> IdentError {
+    let IdentError::Fit(fit::FitError::DivergesAtStart { t_s }) = e else {
+        return e;
+    };
+    let largest = data
+        .inputs
+        .iter()
+        .flatten()
+        .fold(0.0f64, |m, v| m.max(v.abs()));
+    let gap = data
+        .t_s
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .fold(0.0f64, f64::max);
+    IdentError::Mismatch {
+        file: rec.path.clone(),
+        message: format!(
+            "the model diverges from the rig's values at t = {t_s} s of this recording: check its inputs there (largest |input| in the record {largest:e}; longest gap between samples {gap:.3} s) and the rig's values"
+        ),
+    }
 }
 
 /// Refuses a fit whose loss is not a finite positive number: a cell too large to square,

@@ -363,7 +363,37 @@ impl SimParams {
         };
         params.substeps = params.choose_substeps();
         params.check_castor_step()?;
+        params.check_start_clear()?;
         Ok(params)
+    }
+
+    /// Refuses an obstacle that overlaps the body at the start pose: the contact solver
+    /// would throw the vehicle clear at its first step.
+    fn check_start_clear(&self) -> Result<(), SimError> {
+        use parry2d_f64::math::{Pose as ShapePose, Vector};
+        use parry2d_f64::query;
+        use parry2d_f64::shape::Cuboid;
+        if self.wheels_lifted {
+            return Ok(());
+        }
+        let (front, rear, width) = self.outline_m;
+        let centre = self.start.to_world([0.5 * (front - rear), 0.0]);
+        let body_pose = ShapePose::new(Vector::new(centre[0], centre[1]), self.start.heading_rad);
+        let body = Cuboid::new(Vector::new(0.5 * (front + rear), 0.5 * width));
+        for (i, o) in self.obstacles.iter().enumerate() {
+            let overlaps = query::intersection_test(&body_pose, &body, &o.pose, o.shape.as_ref())
+                .map(|r| r.intersecting)
+                .unwrap_or(false);
+            if overlaps {
+                return Err(SimError::Setup {
+                    message: format!(
+                        "obstacles[{i}] (centre {:?} m) overlaps the vehicle's body at its start pose (start.x_m = {}, start.y_m = {}, start.heading_rad = {}); move the obstacle or the start",
+                        o.spec.center_m, self.start.x_m, self.start.y_m, self.start.heading_rad
+                    ),
+                });
+            }
+        }
+        Ok(())
     }
 
     /// Drive tyre parameters on a surface (compound preset, then any scene override).
