@@ -352,3 +352,39 @@ fn an_obstacle_on_the_start_pose_is_refused() {
     let bumper = Scene::load(Path::new("scenes/bumper_stop.toml"), &[]).unwrap();
     assert!(agvsim::sim::Sim::new(&bumper).is_ok());
 }
+
+/// Values that make the drivetrain's sub-step rule explode are refused up front, naming
+/// the keys (they used to run at 31-265 s of wall time per simulated second, or never
+/// finish a millisecond); the shipped scenes need far fewer sub-steps than the limit.
+#[test]
+fn drivetrain_values_that_would_hang_a_run_are_refused() {
+    use agvsim::sim::{SimParams, MAX_SUBSTEPS};
+    for (set, key) in [
+        ("wheel.radius_m=100", "wheel.radius_m"),
+        (
+            "motor.rotor_inertia_kg_m2=1e-15",
+            "motor.rotor_inertia_kg_m2",
+        ),
+        (
+            "gearbox.tooth_stiffness_Nm_rad=1e15",
+            "gearbox.tooth_stiffness_Nm_rad",
+        ),
+        ("tyre.relaxation_length_m=1e-12", "tyre.relaxation_length_m"),
+    ] {
+        let scene = Scene::load(Path::new("scenes/high_gain_slip.toml"), &[set.into()]).unwrap();
+        let err = agvsim::sim::Sim::new(&scene).err().expect(set).to_string();
+        println!("{set}: {err}");
+        assert!(err.contains(key), "{set}: {err}");
+    }
+    for file in [
+        "lab_offset_120mm",
+        "high_gain_slip",
+        "soft_tyres",
+        "bumper_stop",
+        "open_day_loop",
+    ] {
+        let scene = Scene::load(Path::new(&format!("scenes/{file}.toml")), &[]).unwrap();
+        let n = SimParams::from_scene(&scene).unwrap().substeps;
+        assert!(n * 10 < MAX_SUBSTEPS, "{file}: {n}");
+    }
+}

@@ -8,7 +8,7 @@ mod params;
 mod snapshot;
 mod step;
 
-pub use params::{motor_params, Features, SimParams};
+pub use params::{motor_params, Features, SimParams, MAX_SUBSTEPS};
 pub use snapshot::{CastorSnapshot, SideSnapshot, Snapshot};
 
 use rand::SeedableRng;

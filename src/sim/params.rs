@@ -362,9 +362,31 @@ impl SimParams {
             substeps: 1,
         };
         params.substeps = params.choose_substeps();
+        params.check_substeps()?;
         params.check_castor_step()?;
         params.check_start_clear()?;
         Ok(params)
+    }
+
+    /// Refuses a drivetrain whose sub-step rule asks for more than [`MAX_SUBSTEPS`] sub-steps
+    /// per physics step: such a run would take hours per simulated second. Names the
+    /// keys behind the fastest mode.
+    fn check_substeps(&self) -> Result<(), SimError> {
+        if self.substeps <= MAX_SUBSTEPS {
+            return Ok(());
+        }
+        let mesh_alone = self.drivetrain.substeps(self.dt_s, 0.0, 0.0);
+        let keys = if mesh_alone > MAX_SUBSTEPS {
+            "the gear mesh: gearbox.tooth_stiffness_Nm_rad, gearbox.tooth_damping_Nm_s_rad, motor.rotor_inertia_kg_m2, gearbox.ratio, wheel.inertia_kg_m2"
+        } else {
+            "the drive tyre's bristles on the wheel: tyre.relaxation_length_m, tyre.long_stiffness_per_N, wheel.radius_m, wheel.inertia_kg_m2, the load on the wheel"
+        };
+        Err(SimError::Setup {
+            message: format!(
+                "the drivetrain needs {} sub-steps per {} s step (at most {MAX_SUBSTEPS} are run): its fastest mode is {keys}; check those values",
+                self.substeps, self.dt_s
+            ),
+        })
     }
 
     /// Refuses an obstacle that overlaps the body at the start pose: the contact solver
@@ -479,6 +501,10 @@ impl SimParams {
         self.chassis.mass_kg * GRAVITY_M_S2
     }
 }
+
+/// Most drivetrain sub-steps per physics step a run may take (the shipped scenes need a
+/// few tens): beyond it a run takes hours per simulated second.
+pub const MAX_SUBSTEPS: usize = 1000;
 
 /// A rate limit of 0 in the scene means "no limit".
 fn positive_or_unlimited(rate: f64) -> f64 {
