@@ -43,6 +43,10 @@ pub struct SweepArgs {
     /// Also write every run's path and lateral error (traces/run_NNNNN.csv).
     #[arg(long)]
     traces: bool,
+    /// Refuse grids of more runs than this (a guard against a typo that asks for a
+    /// million runs).
+    #[arg(long, default_value_t = agvsim::sweep::DEFAULT_MAX_RUNS)]
+    max_runs: usize,
 }
 
 #[derive(Subcommand)]
@@ -124,6 +128,7 @@ pub fn sweep_command(args: SweepArgs) -> ExitCode {
             .iter()
             .map(|v| sweep::parse_vary(v))
             .collect::<Result<Vec<_>, _>>()?;
+        sweep::check_size(&varies, args.repeat as usize, args.max_runs)?;
         let shard = match &args.shard {
             Some(s) => sweep::parse_shard(s)?,
             None => sweep::Shard::WHOLE,

@@ -388,3 +388,56 @@ fn drivetrain_values_that_would_hang_a_run_are_refused() {
         assert!(n * 10 < MAX_SUBSTEPS, "{file}: {n}");
     }
 }
+
+/// A grid a typing slip made huge is refused before any run, naming its size and the
+/// way to allow it; a sweep whose `--out` is a file fails before any run is spent.
+#[test]
+fn a_runaway_grid_and_a_file_as_out_folder_are_refused_up_front() {
+    use agvsim::sweep::{check_size, parse_vary, run_sweep, Shard, SweepOptions, DEFAULT_MAX_RUNS};
+    let big = vec![
+        parse_vary("controller.gain_scale=0.5..4:1000").unwrap(),
+        parse_vary("tyre.mu_peak=0.1..1:1000").unwrap(),
+    ];
+    let err = check_size(&big, 1, DEFAULT_MAX_RUNS)
+        .unwrap_err()
+        .to_string();
+    println!("{err}");
+    assert!(
+        err.contains("1000000 runs") && err.contains("--max-runs"),
+        "{err}"
+    );
+    assert!(
+        check_size(&big, 1, 1_000_000).is_ok(),
+        "an explicit limit allows it"
+    );
+    assert!(check_size(&big[..1], 3, DEFAULT_MAX_RUNS).is_ok());
+
+    let dir = tmp("out-file");
+    let file = dir.join("results_here");
+    std::fs::write(&file, "not a folder").unwrap();
+    let opts = SweepOptions::new(
+        Path::new("scenes/lab_offset_120mm.toml"),
+        vec!["sim.duration_s=1".into()],
+        vec![parse_vary("controller.gain_scale=1,2").unwrap()],
+        1,
+        Shard::WHOLE,
+        1,
+        false,
+        file.clone(),
+    )
+    .unwrap();
+    let runs = std::sync::atomic::AtomicUsize::new(0);
+    let err = run_sweep(&opts, &|_, _| {
+        runs.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+    })
+    .err()
+    .expect("refused")
+    .to_string();
+    println!("{err}");
+    assert!(
+        err.contains("--out") && err.contains("not a folder"),
+        "{err}"
+    );
+    assert_eq!(runs.into_inner(), 0, "no run was spent before the refusal");
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "not a folder");
+}

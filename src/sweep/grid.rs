@@ -6,6 +6,37 @@ use super::SweepError;
 /// than a study, and the runs would not finish on one machine anyway (use shards).
 pub const MAX_RUNS: usize = 1_000_000;
 
+/// Default `--max-runs`: a grid larger than this is refused unless the user raises the
+/// limit, since at a few runs per second it would take days (a slip such as `:100000`
+/// for `:10` is the likelier cause).
+pub const DEFAULT_MAX_RUNS: usize = 100_000;
+
+/// Refuses a grid of more than `max_runs` runs (value counts multiplied, times `repeat`),
+/// naming the count and how to allow it, before any run starts.
+pub fn check_size(varies: &[Vary], repeat: usize, max_runs: usize) -> Result<(), SweepError> {
+    let total = varies
+        .iter()
+        .try_fold(repeat.max(1), |acc, v| acc.checked_mul(v.values.len()));
+    match total {
+        Some(t) if t <= max_runs => Ok(()),
+        _ => {
+            let counts: Vec<String> = varies
+                .iter()
+                .map(|v| format!("{} values of {}", v.values.len(), v.key))
+                .collect();
+            let shown = total.map_or_else(|| "too many to count".to_string(), |t| t.to_string());
+            Err(SweepError::Argument {
+                arg: "--vary".into(),
+                message: format!(
+                    "the grid has {shown} runs ({} x {repeat} repeat(s)), more than --max-runs {max_runs}; \
+                     check the ranges, or pass --max-runs N to allow it",
+                    counts.join(" x ")
+                ),
+            })
+        }
+    }
+}
+
 /// One varied scene key and its values, as TOML value text (`hard_polyurethane`, `2.5`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Vary {

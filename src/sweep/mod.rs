@@ -12,7 +12,9 @@ pub mod plots;
 pub mod results;
 pub mod runner;
 
-pub use grid::{parse_shard, parse_vary, Grid, RunPoint, Shard, Vary};
+pub use grid::{
+    check_size, parse_shard, parse_vary, Grid, RunPoint, Shard, Vary, DEFAULT_MAX_RUNS,
+};
 pub use results::{merge, Manifest, MERGE_NOTE};
 pub use runner::{run_sweep, RunResult, SweepOptions, SweepOutput, Trace};
 

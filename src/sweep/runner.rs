@@ -209,6 +209,17 @@ pub fn run_sweep(
     opts: &SweepOptions,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<SweepOutput, SweepError> {
+    // The output folder must take files before any run is spent on it.
+    if opts.out_dir.exists() && !opts.out_dir.is_dir() {
+        return Err(SweepError::Argument {
+            arg: format!("--out {}", opts.out_dir.display()),
+            message: "this is a file, not a folder; give a folder for the sweep's outputs".into(),
+        });
+    }
+    std::fs::create_dir_all(&opts.out_dir).map_err(io_err(&opts.out_dir))?;
+    let probe = opts.out_dir.join(".agvsim-write-test");
+    std::fs::write(&probe, b"").map_err(io_err(&opts.out_dir))?;
+    let _ = std::fs::remove_file(&probe);
     let points = opts.grid.points(opts.shard);
     let total = points.len();
     let done = AtomicUsize::new(0);
