@@ -26,6 +26,7 @@ pub mod experiment;
 pub mod firmware;
 pub mod ident;
 pub mod model;
+pub mod plot;
 pub mod record;
 pub mod rig;
 pub mod run;

@@ -308,7 +308,14 @@ fn main() -> ExitCode {
                         "{}",
                         agvsim::run::render_summary(&scene, &loaded, &o.summary)
                     );
+                    print!(
+                        "{}",
+                        agvsim::run::render_expectations(&loaded, &o.summary, !set.is_empty())
+                    );
                     println!("recording  {}", o.recording.display());
+                    if let Some(RerunTarget::Save(p)) = &opts.rerun {
+                        println!("rerun      {}", p.display());
+                    }
                     ExitCode::SUCCESS
                 }
                 Err(e) => fail(e),

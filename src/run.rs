@@ -142,10 +142,10 @@ pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutput, RunError
     })
 }
 
-/// The summary `agvsim run` prints: one labelled line per measure, with units.
+/// The summary `agvsim run` prints: one labelled line per measure, with units. Every
+/// error figure says what stretch of the run it covers.
 pub fn render_summary(scene_path: &Path, scene: &Scene, s: &RunSummary) -> String {
     use std::fmt::Write;
-    let band_mm = 1000.0 * crate::sim::metrics::SETTLED_BAND_M;
     let mut out = String::new();
     let _ = writeln!(
         out,
@@ -159,22 +159,14 @@ pub fn render_summary(scene_path: &Path, scene: &Scene, s: &RunSummary) -> Strin
         "simulated  {:.2} s, {:.2} m travelled",
         s.duration_s, s.distance_m
     );
-    let _ = match s.settling_distance_m {
-        Some(d) => writeln!(
+    if s.wheels_lifted {
+        let _ = writeln!(
             out,
-            "settled    after {d:.2} m (lateral error within {band_mm:.0} mm from then on)"
-        ),
-        None => writeln!(
-            out,
-            "settled    no (lateral error never stayed within {band_mm:.0} mm)"
-        ),
-    };
-    let _ = writeln!(
-        out,
-        "RMS error  {:.1} mm lateral (after settling), peak {:.1} mm",
-        1000.0 * s.rms_lateral_error_m,
-        1000.0 * s.peak_lateral_error_after_settling_m
-    );
+            "tracking   none: the wheels are lifted and the chassis stays put"
+        );
+    } else {
+        out.push_str(&tracking_lines(s));
+    }
     let _ = writeln!(
         out,
         "peak slip  {:.3} (slip ratio, second half of the run), sliding {:.1} % of that time",
@@ -189,8 +181,117 @@ pub fn render_summary(scene_path: &Path, scene: &Scene, s: &RunSummary) -> Strin
     if !s.faults.is_empty() {
         let _ = writeln!(out, "DCMC fault {}", s.faults.join(", "));
     }
-    if s.bumper_stop {
-        let _ = writeln!(out, "bumper     stopped on contact with an obstacle");
+    if let Some(e) = s.bumper_at {
+        let _ = writeln!(
+            out,
+            "bumper     stopped on contact with an obstacle at {}",
+            event_words(&e)
+        );
+    }
+    out
+}
+
+/// "12.30 s, 4.10 m travelled, axle at (4.10, 0.02) m".
+fn event_words(e: &crate::sim::metrics::RunEvent) -> String {
+    format!(
+        "{:.2} s, {:.2} m travelled, axle at ({:.2}, {:.2}) m",
+        e.t_s, e.distance_m, e.at_m[0], e.at_m[1]
+    )
+}
+
+/// The wire-following lines: settling, the error and what it covers, the limit cycle,
+/// and the wire lost or ended.
+fn tracking_lines(s: &RunSummary) -> String {
+    use crate::sim::metrics::{
+        ErrorWindow, LIMIT_CYCLE_MIN_AMPLITUDE_M, LIMIT_CYCLE_TAIL_FRACTION, SETTLED_BAND_M,
+    };
+    use std::fmt::Write;
+    let band_mm = 1000.0 * SETTLED_BAND_M;
+    let mut out = String::new();
+    let _ = match s.settling_distance_m {
+        Some(d) => writeln!(
+            out,
+            "settled    after {d:.2} m (lateral error within {band_mm:.0} mm from then on)"
+        ),
+        None if s.error_window != ErrorWindow::WholeRun => {
+            writeln!(out, "settled    no (the wire was lost or ended first)")
+        }
+        None => writeln!(
+            out,
+            "settled    no (lateral error never stayed within {band_mm:.0} mm)"
+        ),
+    };
+    let _ = writeln!(
+        out,
+        "error      RMS {:.1} mm, peak {:.1} mm lateral ({})",
+        1000.0 * s.rms_lateral_error_m,
+        1000.0 * s.peak_lateral_error_m,
+        s.error_window.describe()
+    );
+    let cycle_over = match s.error_window {
+        ErrorWindow::UntilWireLost | ErrorWindow::UntilWireEnd => "on the wire",
+        _ => "of the run",
+    };
+    let tail_pct = 100.0 * LIMIT_CYCLE_TAIL_FRACTION;
+    let _ = match s.limit_cycle {
+        Some(c) => writeln!(
+            out,
+            "cycle      limit cycle +/-{:.1} mm, period {:.2} s (last {tail_pct:.0} % {cycle_over})",
+            1000.0 * c.amplitude_m,
+            c.period_s
+        ),
+        None => writeln!(
+            out,
+            "cycle      none (no sustained swing of {:.0} mm or more in the last {tail_pct:.0} % {cycle_over})",
+            1000.0 * LIMIT_CYCLE_MIN_AMPLITUDE_M
+        ),
+    };
+    if let Some(e) = s.wire_lost {
+        let after = if s.off_wire_at_end {
+            "still lost at the end"
+        } else {
+            "found again by the end"
+        };
+        let times = match s.wire_losses {
+            0 | 1 => String::new(),
+            n => format!(" {n} times, first"),
+        };
+        let _ = writeln!(
+            out,
+            "wire       lost{times} at {}; {after}",
+            event_words(&e)
+        );
+    }
+    if let Some(e) = s.wire_end {
+        let _ = writeln!(
+            out,
+            "wire end   passed the far end of the wire at {}",
+            event_words(&e)
+        );
+    }
+    out
+}
+
+/// The scene's `[expect]` claims against the run, one line each; nothing when the table
+/// is empty. With overrides the run is not the scene as written, so nothing is checked.
+pub fn render_expectations(scene: &Scene, s: &RunSummary, overridden: bool) -> String {
+    use std::fmt::Write;
+    if scene.expect.is_empty() {
+        return String::new();
+    }
+    if overridden {
+        return "expected   not checked: --set/--duration/--seed changed the scene its [expect] describes\n"
+            .into();
+    }
+    let mut out = String::new();
+    for c in crate::sim::expectation::check(&scene.expect, s) {
+        let _ = writeln!(
+            out,
+            "expected   {:<40} {} (run: {})",
+            c.claim,
+            if c.met { "met" } else { "NOT MET" },
+            c.observed
+        );
     }
     out
 }

@@ -35,7 +35,7 @@ fn run_writes_a_recording_in_the_exchange_format() {
     );
     let stdout = String::from_utf8_lossy(&st.stdout);
     assert!(
-        stdout.contains("RMS error") && stdout.contains("peak slip"),
+        stdout.contains("error      RMS") && stdout.contains("peak slip"),
         "{stdout}"
     );
     let csv = std::fs::read_to_string(out.join("lab_offset_120mm.csv")).unwrap();

@@ -5,7 +5,8 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use super::{diagnose, DiagnoseOptions, Diagnosis};
-use crate::ident::{plot, IdentError};
+use crate::ident::IdentError;
+use crate::plot;
 use crate::record::Recording;
 use crate::rig::Rig;
 

@@ -422,7 +422,7 @@ pub fn diagnose(
             .map(|(a, b)| (a - b).max(0.0))
             .collect();
         let evidence = evidence(
-            &regimes::shares(&regs, &removed),
+            &regimes::shares(&regs, &removed, removed.iter().sum()),
             100.0 * (1.0 - f.cost / stage.fit.cost),
         );
         let idx = f.params.len() - 1;
@@ -441,6 +441,7 @@ pub fn diagnose(
         };
     }
     let final_energy = regimes::energy_per_sample(&data, &stage.fit.predicted, &weights);
+    let base_total_energy: f64 = base_energy.iter().sum();
     let diagnosed_eval = evaluate(&data, stage.fit.predicted.clone(), opts.ident.max_lag);
     let params_of = |s: &Structure, p: &[f64]| -> BTreeMap<String, f64> {
         s.model()
@@ -478,8 +479,8 @@ pub fn diagnose(
         model: model.name(),
         baseline_fit_pct: baseline_eval.fit_pct_mean,
         baseline_params: params_of(&structure, &base_fit.params),
-        where_before: regimes::shares(&regs, &base_energy),
-        where_after: regimes::shares(&regs, &final_energy),
+        where_before: regimes::shares(&regs, &base_energy, base_total_energy),
+        where_after: regimes::shares(&regs, &final_energy, base_total_energy),
         rounds,
         final_fit_pct: diagnosed_eval.fit_pct_mean,
         final_params: params_of(&stage.structure, &stage.fit.params),

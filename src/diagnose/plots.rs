@@ -2,12 +2,11 @@
 //! diagnosed model, the residual before and after over time, and the residual energy by
 //! operating regime before and after.
 
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use super::regimes::RegimeShare;
 use super::Diagnosis;
-use crate::ident::plot::{svg, Series};
+use crate::plot::{bar_chart, svg, BarGroup, Series, Style};
 
 /// Writes `OUTPUT_compare.svg` and `OUTPUT_residual.svg` per output and `regimes.svg`.
 pub fn write(dir: &Path, d: &Diagnosis) -> std::io::Result<Vec<PathBuf>> {
@@ -42,27 +41,14 @@ pub fn write(dir: &Path, d: &Diagnosis) -> std::io::Result<Vec<PathBuf>> {
             "t (s)",
             name,
             &[
-                Series {
-                    label: "measured",
-                    x: &t,
-                    y: &y,
-                    colour: "#888",
-                    stems: false,
-                },
-                Series {
-                    label: "baseline",
-                    x: &data.t_s,
-                    y: &d.baseline.predicted[j],
-                    colour: "#d08000",
-                    stems: false,
-                },
-                Series {
-                    label: &name_of_final,
-                    x: &data.t_s,
-                    y: &d.diagnosed.predicted[j],
-                    colour: "#1f5fbf",
-                    stems: false,
-                },
+                Series::line("measured", &t, &y, "#555").with_style(Style::Measured),
+                Series::line("baseline", &data.t_s, &d.baseline.predicted[j], "#d08000"),
+                Series::line(
+                    &name_of_final,
+                    &data.t_s,
+                    &d.diagnosed.predicted[j],
+                    "#1f5fbf",
+                ),
             ],
             None,
         );
@@ -84,20 +70,8 @@ pub fn write(dir: &Path, d: &Diagnosis) -> std::io::Result<Vec<PathBuf>> {
             "t (s)",
             name,
             &[
-                Series {
-                    label: "baseline",
-                    x: &tb,
-                    y: &rb,
-                    colour: "#d08000",
-                    stems: false,
-                },
-                Series {
-                    label: "diagnosed",
-                    x: &ta,
-                    y: &ra,
-                    colour: "#1f5fbf",
-                    stems: false,
-                },
+                Series::line("baseline", &tb, &rb, "#d08000"),
+                Series::line("diagnosed", &ta, &ra, "#1f5fbf"),
             ],
             None,
         );
@@ -111,73 +85,33 @@ pub fn write(dir: &Path, d: &Diagnosis) -> std::io::Result<Vec<PathBuf>> {
     Ok(files)
 }
 
-/// A horizontal bar chart: per regime, its share of the samples and of the residual energy
-/// before and after the diagnosis (a regime whose energy bar outgrows its sample bar is
-/// where the mismatch lives).
+/// A horizontal bar chart: per regime, its share of the samples, and the residual energy
+/// in it before and after the diagnosis, both as a share of the baseline's total residual
+/// energy (one total, so the diagnosed bar shows how much was removed there). A regime
+/// whose baseline bar outgrows its sample bar is where the mismatch lives.
 pub fn regime_bars(before: &[RegimeShare], after: &[RegimeShare]) -> String {
-    let row_h = 54.0;
-    let left = 330.0;
-    let width = 520.0;
-    let top = 50.0;
-    let h = top + row_h * before.len() as f64 + 30.0;
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"900\" height=\"{h}\" font-family=\"sans-serif\" font-size=\"12\">\n<rect width=\"900\" height=\"{h}\" fill=\"white\"/>"
-    );
-    let _ = writeln!(
-        s,
-        "<text x=\"450\" y=\"20\" text-anchor=\"middle\" font-size=\"14\">Residual energy by regime: share of samples, of the baseline's and of the diagnosed model's residual energy</text>"
-    );
-    let legend = [
-        ("samples", "#bbb"),
-        ("baseline energy", "#d08000"),
-        ("diagnosed energy", "#1f5fbf"),
-    ];
-    for (i, (label, colour)) in legend.iter().enumerate() {
-        let x = left + i as f64 * 170.0;
-        let _ = writeln!(
-            s,
-            "<rect x=\"{x}\" y=\"30\" width=\"12\" height=\"10\" fill=\"{colour}\"/><text x=\"{}\" y=\"39\">{label}</text>",
-            x + 16.0
-        );
-    }
-    let max = before
+    let groups: Vec<BarGroup> = before
         .iter()
-        .chain(after)
-        .flat_map(|r| [r.samples_pct, r.energy_pct])
-        .fold(1.0, f64::max);
-    for (i, b) in before.iter().enumerate() {
-        let y = top + i as f64 * row_h;
-        let a = after
-            .iter()
-            .find(|a| a.regime == b.regime)
-            .map_or(0.0, |a| a.energy_pct);
-        let _ = writeln!(
-            s,
-            "<text x=\"{}\" y=\"{}\" text-anchor=\"end\">{}</text>",
-            left - 8.0,
-            y + 24.0,
-            b.regime.replace('&', "&amp;").replace('<', "&lt;")
-        );
-        for (k, (v, colour)) in [
-            (b.samples_pct, "#bbb"),
-            (b.energy_pct, "#d08000"),
-            (a, "#1f5fbf"),
-        ]
-        .iter()
-        .enumerate()
-        {
-            let yy = y + 6.0 + k as f64 * 14.0;
-            let w = width * v / max;
-            let _ = writeln!(
-                s,
-                "<rect x=\"{left}\" y=\"{yy}\" width=\"{w:.1}\" height=\"12\" fill=\"{colour}\"/><text x=\"{:.1}\" y=\"{:.1}\" font-size=\"10\">{v:.1} %</text>",
-                left + w + 4.0,
-                yy + 10.0
-            );
-        }
-    }
-    s.push_str("</svg>\n");
-    s
+        .map(|b| {
+            let a = after
+                .iter()
+                .find(|a| a.regime == b.regime)
+                .map_or(0.0, |a| a.energy_of_baseline_pct);
+            BarGroup {
+                label: b.regime.clone(),
+                values: vec![b.samples_pct, b.energy_of_baseline_pct, a],
+            }
+        })
+        .collect();
+    bar_chart(
+        "Residual energy by operating regime, before and after the diagnosis",
+        "samples: % of all samples; energies: % of the baseline's total residual energy",
+        &[
+            ("samples", "#bbb"),
+            ("baseline residual energy", "#d08000"),
+            ("diagnosed residual energy", "#1f5fbf"),
+        ],
+        &groups,
+        "%",
+    )
 }

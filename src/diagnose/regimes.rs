@@ -21,6 +21,10 @@ pub struct RegimeShare {
     pub samples_pct: f64,
     /// Share of the energy, %.
     pub energy_pct: f64,
+    /// The energy in the regime as a share of the baseline's total residual energy, %
+    /// (equal to `energy_pct` for the baseline itself), so that before and after compare
+    /// on one total.
+    pub energy_of_baseline_pct: f64,
 }
 
 impl RegimeShare {
@@ -172,8 +176,9 @@ pub fn measured_speed(data: &Dataset) -> Vec<f64> {
 }
 
 /// Shares of `energy` (one value per sample) by regime, most concentrated first.
-pub fn shares(regimes: &[Regime], energy: &[f64]) -> Vec<RegimeShare> {
+pub fn shares(regimes: &[Regime], energy: &[f64], baseline_total: f64) -> Vec<RegimeShare> {
     let total: f64 = energy.iter().sum::<f64>().max(1e-300);
+    let reference = baseline_total.max(1e-300);
     let n = energy.len() as f64;
     let mut out: Vec<RegimeShare> = regimes
         .iter()
@@ -191,6 +196,7 @@ pub fn shares(regimes: &[Regime], energy: &[f64]) -> Vec<RegimeShare> {
                 regime: r.label.clone(),
                 samples_pct: 100.0 * count / n,
                 energy_pct: 100.0 * e / total,
+                energy_of_baseline_pct: 100.0 * e / reference,
             }
         })
         .collect();

@@ -3,7 +3,8 @@
 
 use std::path::{Path, PathBuf};
 
-use super::{identify, plot, IdentError, Identification, IdentifyOptions};
+use super::{identify, IdentError, Identification, IdentifyOptions};
+use crate::plot;
 use crate::record::Recording;
 use crate::rig::Rig;
 

@@ -10,7 +10,7 @@ pub mod fit;
 pub mod job;
 pub mod model;
 pub mod models;
-pub mod plot;
+
 pub mod report;
 pub mod resid;
 

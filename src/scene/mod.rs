@@ -4,11 +4,13 @@
 #![allow(non_snake_case)]
 
 mod controller_spec;
+mod expect;
 pub mod presets;
 mod schema;
 mod validate;
 
 pub use controller_spec::*;
+pub use expect::ExpectSpec;
 pub use schema::*;
 
 use std::path::{Path, PathBuf};

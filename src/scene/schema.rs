@@ -6,7 +6,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::ControllerSpec;
+use super::{ControllerSpec, ExpectSpec};
 
 /// A whole scene: vehicle, floor, wire, obstacles and run settings.
 #[derive(Debug, Clone, Deserialize, Serialize, Default)]
@@ -30,6 +30,9 @@ pub struct Scene {
     pub wire: WireSpec,
     pub start: StartSpec,
     pub obstacles: Vec<ObstacleSpec>,
+    /// What a run of the scene as written shows (checked by `agvsim run` and the tests).
+    #[serde(skip_serializing_if = "ExpectSpec::is_empty")]
+    pub expect: ExpectSpec,
 }
 
 /// Which parts of the model are switched on (the thesis's three levels plus ours).

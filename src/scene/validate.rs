@@ -69,6 +69,7 @@ fn fraction(key: &str, v: f64) -> Result<(), Invalid> {
 
 impl Scene {
     pub fn validate(&self) -> Result<(), Invalid> {
+        self.expect.validate()?;
         let s = &self.sim;
         positive("sim.duration_s", s.duration_s)?;
         if !(s.dt_s.is_finite() && s.dt_s > 0.0 && s.dt_s <= 0.01) {

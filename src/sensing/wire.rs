@@ -83,6 +83,21 @@ impl Wire {
         }
     }
 
+    /// Whether a floor point lies beyond the far end of an open wire: its nearest wire
+    /// point is the last vertex and it sits ahead of it along the last segment (a loop has
+    /// no end). Past the end the lateral offset measures distance to the end point, not a
+    /// tracking error.
+    pub fn past_end(&self, p: [f64; 2]) -> bool {
+        if self.closed || self.points.len() < 2 {
+            return false;
+        }
+        let n = self.points.len();
+        let (a, b) = (self.points[n - 2], self.points[n - 1]);
+        let along = (p[0] - b[0]) * (b[0] - a[0]) + (p[1] - b[1]) * (b[1] - a[1]);
+        let nearest = self.offset(p).nearest_m;
+        along > 0.0 && (nearest[0] - b[0]).hypot(nearest[1] - b[1]) < 1e-9
+    }
+
     /// Horizontal magnetic field at a point `height_m` above the floor (Biot-Savart, each
     /// segment a finite straight conductor), scaled so that an infinite straight wire
     /// directly below gives magnitude 1. Returns the world-frame horizontal vector.
@@ -126,6 +141,20 @@ pub fn segment_horizontal_field(a: [f64; 2], b: [f64; 2], p: [f64; 2], h: f64) -
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn only_points_ahead_of_an_open_wires_last_vertex_are_past_its_end() {
+        let w = Wire::new(vec![[0.0, 0.0], [5.0, 0.0], [5.0, 5.0]], false);
+        assert!(w.past_end([5.0, 5.5]));
+        assert!(w.past_end([5.2, 6.0]));
+        assert!(!w.past_end([5.1, 4.0]), "beside the last leg");
+        assert!(
+            !w.past_end([-1.0, 0.0]),
+            "before the start is not past the end"
+        );
+        let loop_ = Wire::new(vec![[0.0, 0.0], [5.0, 0.0], [5.0, 5.0]], true);
+        assert!(!loop_.past_end([5.0, 6.0]));
+    }
 
     #[test]
     fn lateral_offset_is_signed_left_positive() {

@@ -28,6 +28,52 @@ pub struct LimitCycle {
     pub period_s: f64,
 }
 
+/// Where and when something happened to the vehicle during a run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RunEvent {
+    pub t_s: f64,
+    /// Distance travelled by then, m.
+    pub distance_m: f64,
+    /// Axle midpoint then, world frame, m.
+    pub at_m: [f64; 2],
+}
+
+/// The stretch of the run the RMS and peak lateral errors are taken over.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ErrorWindow {
+    /// From settling to the end (the run settled and stayed on the wire).
+    AfterSettling,
+    /// From the start until the sensors first lost the wire.
+    UntilWireLost,
+    /// From the start until the axle passed the far end of the wire.
+    UntilWireEnd,
+    /// The whole run (it never settled, and stayed on the wire).
+    #[default]
+    WholeRun,
+}
+
+impl ErrorWindow {
+    /// Words for summaries and tables.
+    pub fn describe(self) -> &'static str {
+        match self {
+            ErrorWindow::AfterSettling => "after settling",
+            ErrorWindow::UntilWireLost => "until the wire was lost",
+            ErrorWindow::UntilWireEnd => "until the wire's end",
+            ErrorWindow::WholeRun => "whole run",
+        }
+    }
+
+    /// Name in results tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            ErrorWindow::AfterSettling => "after_settling",
+            ErrorWindow::UntilWireLost => "until_wire_lost",
+            ErrorWindow::UntilWireEnd => "until_wire_end",
+            ErrorWindow::WholeRun => "whole_run",
+        }
+    }
+}
+
 /// The summary of a run.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct RunSummary {
@@ -37,11 +83,14 @@ pub struct RunSummary {
     /// Distance travelled until the lateral error last left the settled band; `None` if it
     /// never settled (or stayed in the band for less than [`SETTLED_MIN_SHARE`] of the run).
     pub settling_distance_m: Option<f64>,
-    /// RMS lateral error after settling (whole run if it never settled), m.
+    /// RMS lateral error over [`RunSummary::error_window`], m.
     pub rms_lateral_error_m: f64,
-    /// Peak |lateral error| after settling, m.
-    pub peak_lateral_error_after_settling_m: f64,
-    /// A sustained oscillation over the last [`LIMIT_CYCLE_TAIL_FRACTION`] of the run.
+    /// Peak |lateral error| over [`RunSummary::error_window`], m.
+    pub peak_lateral_error_m: f64,
+    /// What the RMS and peak are taken over.
+    pub error_window: ErrorWindow,
+    /// A sustained oscillation over the last [`LIMIT_CYCLE_TAIL_FRACTION`] of the run, or
+    /// of the part of it before the wire was lost or ended.
     pub limit_cycle: Option<LimitCycle>,
     /// Peak |slip ratio| of the drive tyres over the second half of the run. (The first
     /// half holds the start from rest, where any wheel spin-up reads as a slip ratio near
@@ -62,8 +111,21 @@ pub struct RunSummary {
     pub final_lateral_error_m: f64,
     /// The sensors lost the wire at some point.
     pub lost_wire: bool,
+    /// When the sensors first lost the wire.
+    pub wire_lost: Option<RunEvent>,
+    /// How many times the sensors lost the wire (each loss after the wire was seen
+    /// again counts anew).
+    pub wire_losses: u32,
+    /// The sensors were off the wire at the end of the run.
+    pub off_wire_at_end: bool,
+    /// When the axle first passed the far end of an open wire.
+    pub wire_end: Option<RunEvent>,
+    /// The wheels were lifted: the chassis did not move, so nothing was tracked.
+    pub wheels_lifted: bool,
     pub faults: Vec<String>,
     pub bumper_stop: bool,
+    /// When the bumper first touched an obstacle.
+    pub bumper_at: Option<RunEvent>,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -88,7 +150,13 @@ pub struct MetricsObserver {
     last_swivel: Vec<f64>,
     faults: Vec<String>,
     lost_wire: bool,
+    wire_lost: Option<RunEvent>,
+    wire_losses: u32,
+    off_wire_now: bool,
+    wire_end: Option<RunEvent>,
+    wheels_lifted: bool,
     bumper: bool,
+    bumper_at: Option<RunEvent>,
 }
 
 impl MetricsObserver {
@@ -134,11 +202,39 @@ impl MetricsObserver {
                 self.faults.push(f.to_string());
             }
         }
+        let event = RunEvent {
+            t_s: s.t_s,
+            distance_m: self.distance_m,
+            at_m: xy,
+        };
+        if s.lost_wire && self.wire_lost.is_none() {
+            self.wire_lost = Some(event);
+        }
+        if s.past_wire_end && self.wire_end.is_none() {
+            self.wire_end = Some(event);
+        }
+        if s.bumper && self.bumper_at.is_none() {
+            self.bumper_at = Some(event);
+        }
+        if s.lost_wire && !self.off_wire_now {
+            self.wire_losses += 1;
+        }
+        self.off_wire_now = s.lost_wire;
+        self.wheels_lifted = s.wheels_lifted;
         self.lost_wire |= s.lost_wire;
         self.bumper |= s.bumper;
     }
 
     pub fn summary(&self) -> RunSummary {
+        // Tracking is judged only while there is a wire under the sensors: after the wire
+        // is lost or ends, the "lateral error" measures distance from it, not tracking.
+        let event_t = [self.wire_lost, self.wire_end]
+            .iter()
+            .flatten()
+            .map(|e| e.t_s)
+            .fold(f64::INFINITY, f64::min);
+        let on_wire_n = self.samples.partition_point(|s| s.t_s < event_t);
+        let on_wire = &self.samples[..on_wire_n];
         let settle_idx = self
             .samples
             .iter()
@@ -147,17 +243,31 @@ impl MetricsObserver {
             .unwrap_or(0);
         // Settled only if it then stays in the band for a real stretch: a cycle that
         // leaves the band once a period would otherwise "settle" after its last swing.
-        let settled = settle_idx < self.samples.len()
+        let settled = event_t.is_infinite()
+            && settle_idx < self.samples.len()
             && self.samples.len() - settle_idx >= 2
             && self.last_t - self.samples[settle_idx].t_s >= SETTLED_MIN_SHARE * self.last_t;
-        let tail = if settled {
-            &self.samples[settle_idx..]
+        let (window, error_window) = if settled {
+            (&self.samples[settle_idx..], ErrorWindow::AfterSettling)
+        } else if event_t.is_finite() {
+            let lost_first = self.wire_lost.is_some_and(|e| e.t_s <= event_t);
+            let w = if lost_first {
+                ErrorWindow::UntilWireLost
+            } else {
+                ErrorWindow::UntilWireEnd
+            };
+            (on_wire, w)
         } else {
-            &self.samples[..]
+            (&self.samples[..], ErrorWindow::WholeRun)
         };
-        let n = tail.len().max(1) as f64;
-        let rms = (tail.iter().map(|s| s.lateral_error_m.powi(2)).sum::<f64>() / n).sqrt();
-        let peak = tail
+        let n = window.len().max(1) as f64;
+        let rms = (window
+            .iter()
+            .map(|s| s.lateral_error_m.powi(2))
+            .sum::<f64>()
+            / n)
+            .sqrt();
+        let peak = window
             .iter()
             .map(|s| s.lateral_error_m.abs())
             .fold(0.0, f64::max);
@@ -171,9 +281,9 @@ impl MetricsObserver {
         let late_slip: Vec<&(f64, f64, f64, bool)> =
             self.slip.iter().filter(|x| x.0 >= half).collect();
         let late_n = late_slip.len().max(1) as f64;
-        let tail_start = (1.0 - LIMIT_CYCLE_TAIL_FRACTION) * self.last_t;
-        let cycle_tail: Vec<(f64, f64)> = self
-            .samples
+        let cycle_end_t = on_wire.last().map_or(0.0, |s| s.t_s);
+        let tail_start = (1.0 - LIMIT_CYCLE_TAIL_FRACTION) * cycle_end_t;
+        let cycle_tail: Vec<(f64, f64)> = on_wire
             .iter()
             .filter(|s| s.t_s >= tail_start)
             .map(|s| (s.t_s, s.lateral_error_m))
@@ -188,8 +298,13 @@ impl MetricsObserver {
                     .unwrap_or(0.0)
             }),
             rms_lateral_error_m: rms,
-            peak_lateral_error_after_settling_m: peak,
-            limit_cycle: limit_cycle(&cycle_tail),
+            peak_lateral_error_m: peak,
+            error_window,
+            limit_cycle: if self.wheels_lifted {
+                None
+            } else {
+                limit_cycle(&cycle_tail)
+            },
             peak_abs_slip_ratio: late_slip.iter().map(|x| x.1).fold(0.0, f64::max),
             mean_abs_slip_ratio: late_slip.iter().map(|x| x.2).sum::<f64>() / late_n,
             sliding_fraction: late_slip.iter().filter(|x| x.3).count() as f64 / late_n,
@@ -205,8 +320,14 @@ impl MetricsObserver {
                 .map(|s| s.lateral_error_m)
                 .unwrap_or(0.0),
             lost_wire: self.lost_wire,
+            wire_lost: self.wire_lost,
+            wire_losses: self.wire_losses,
+            off_wire_at_end: self.off_wire_now,
+            wire_end: self.wire_end,
+            wheels_lifted: self.wheels_lifted,
             faults: self.faults.clone(),
             bumper_stop: self.bumper,
+            bumper_at: self.bumper_at,
         }
     }
 }

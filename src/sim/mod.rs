@@ -2,6 +2,7 @@
 //! the blocks act (see its doc comment). Observers (CSV, Rerun, metrics) read
 //! [`Snapshot`]s; the physics knows nothing of them.
 
+pub mod expectation;
 pub mod linearize;
 pub mod metrics;
 mod params;

@@ -76,6 +76,10 @@ pub struct Snapshot {
     pub dcmc_fault: Option<&'static str>,
     pub controller_phase: &'static str,
     pub lost_wire: bool,
+    /// The axle midpoint is beyond the far end of an open wire.
+    pub past_wire_end: bool,
+    /// Wheels lifted off the floor (the chassis stays put; no tracking to speak of).
+    pub wheels_lifted: bool,
     pub bumper: bool,
     /// The swing-away strategy's picture of the wire, once it has one: a 6 m stretch of
     /// the straight line it assumes, centred on the axle, world frame, m.
@@ -174,6 +178,8 @@ impl Sim {
             dcmc_fault: self.dcmc.fault.map(|f| f.name()),
             controller_phase: self.firmware.phase.name(),
             lost_wire: self.firmware.lost_wire,
+            past_wire_end: p.wire.past_end([pose.x_m, pose.y_m]),
+            wheels_lifted: matches!(self.body, Body::Lifted(_)),
             bumper: self.last.bumper,
             assumed_wire_m: self
                 .firmware

@@ -3,8 +3,7 @@
 //! error against distance, and the `full` level beside them showing what slip adds.
 
 use super::{md_table, study_sweep, value_of, write_summary, StudyOptions, StudyOutput};
-use crate::ident::plot::{svg, Series};
-use crate::sweep::plots::COLOURS;
+use crate::plot::{svg, Series, COLOURS};
 use crate::sweep::SweepError;
 
 pub const SCENE: &str = include_str!("../../scenes/lab_offset_120mm.toml");
@@ -93,7 +92,12 @@ pub fn run(
                 lost_wire: s.lost_wire,
             });
             let y_mm: Vec<f64> = t.lateral_error_m.iter().map(|e| 1000.0 * e).collect();
-            paths.push((format!("gain {gain}"), t.distance_m.clone(), y_mm));
+            let label = if s.lost_wire {
+                format!("gain {gain} (lost the wire; out of scale)")
+            } else {
+                format!("gain {gain}")
+            };
+            paths.push((label, t.distance_m.clone(), y_mm, s.lost_wire));
             rows.push(vec![
                 level.to_string(),
                 format!("{gain}"),
@@ -113,12 +117,14 @@ pub fn run(
         let series: Vec<Series> = paths
             .iter()
             .enumerate()
-            .map(|(i, (label, x, y))| Series {
-                label,
-                x,
-                y,
-                colour: COLOURS[i % COLOURS.len()],
-                stems: false,
+            .map(|(i, (label, x, y, lost))| {
+                let line = Series::line(label, x, y, COLOURS[i % COLOURS.len()]);
+                // A lost run's error runs off to metres and would flatten every cycle.
+                if *lost {
+                    line.out_of_scale()
+                } else {
+                    line
+                }
             })
             .collect();
         let fig = opts.out_dir.join(format!("paths_{level}.svg"));

@@ -7,8 +7,7 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use super::{md_table, opt, study_sweep, value_of, write_summary, StudyOptions, StudyOutput};
-use crate::ident::plot::{svg, Series};
-use crate::sweep::plots::COLOURS;
+use crate::plot::{Plot, Series, COLOURS};
 use crate::sweep::SweepError;
 
 pub const SCENE: &str = include_str!("../../scenes/studies/tyre_compounds.toml");
@@ -195,25 +194,22 @@ pub fn run(
         .values()
         .zip(&labels)
         .enumerate()
-        .map(|(i, ((x, y), label))| Series {
-            label,
-            x,
-            y,
-            colour: COLOURS[i % COLOURS.len()],
-            stems: false,
-        })
+        .map(|(i, ((x, y), label))| Series::line(label, x, y, COLOURS[i % COLOURS.len()]))
         .collect();
     let plot: PathBuf = opts.out_dir.join("slip_cycle_onset.svg");
     std::fs::create_dir_all(&opts.out_dir).map_err(crate::sweep::io_err(&opts.out_dir))?;
     std::fs::write(
         &plot,
-        svg(
-            "onset of slip-driven limit cycles",
-            "payload, kg",
-            "gain_scale",
-            &series,
-            None,
-        ),
+        Plot {
+            title: "onset of slip-driven limit cycles",
+            x_label: "payload, kg",
+            y_label: "gain_scale",
+            series: &series,
+            band: None,
+            flags: None,
+            empty_note: "no run reached a slip-driven limit cycle at the gains swept",
+        }
+        .render(),
     )
     .map_err(crate::sweep::io_err(&plot))?;
     files.push(plot);

@@ -7,12 +7,21 @@ use std::path::{Path, PathBuf};
 use super::grid::Grid;
 use super::results::{Table, METRICS};
 use super::{io_err, SweepError};
-use crate::ident::plot::{svg, Series};
+use crate::plot::{Flags, Plot, Series, COLOURS};
 
-/// Line colours of the sweep and study plots, in order.
-pub const COLOURS: [&str; 10] = [
-    "#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f",
-    "#bcbd22", "#17becf",
+/// Result columns that hold words, not numbers: not plotted.
+const TEXT_METRICS: [&str; 2] = ["faults", "error_window"];
+
+/// Metrics of how the wire was followed: meaningless for a run that lost the wire (its
+/// "error" then measures distance from the wire), so such runs are left out of these
+/// plots' lines and scale and marked with a cross instead.
+const TRACKING_METRICS: [&str; 6] = [
+    "rms_lateral_error_m",
+    "peak_lateral_error_m",
+    "settling_distance_m",
+    "limit_cycle_amplitude_m",
+    "limit_cycle_period_s",
+    "final_lateral_error_m",
 ];
 
 /// Most lines on one plot; more would be unreadable (the CSV has them all).
@@ -46,17 +55,29 @@ pub fn write(dir: &Path, grid: &Grid, table: &Table) -> Result<Vec<PathBuf>, Swe
         }
     };
     let outcome = table.column("outcome");
+    let lost = table.column("lost_wire");
     let key_cols: Vec<Option<usize>> = grid.varies.iter().map(|v| table.column(&v.key)).collect();
     let mut files = vec![];
-    for (metric, meaning) in METRICS.iter().filter(|(m, _)| *m != "faults") {
+    for (metric, meaning) in METRICS.iter().filter(|(m, _)| !TEXT_METRICS.contains(m)) {
         let Some(mc) = table.column(metric) else {
             continue;
         };
         // series label -> x -> (sum, count)
         let mut lines: BTreeMap<Vec<usize>, (String, BTreeMap<i64, (f64, f64, usize)>)> =
             BTreeMap::new();
+        let tracking = TRACKING_METRICS.contains(metric);
+        // Grid x of runs that failed, or lost the wire on a tracking metric.
+        let mut flagged: Vec<f64> = vec![];
         for (_, _, cells) in &table.rows {
-            if outcome.map(|c| cells[c] != "ok").unwrap_or(false) {
+            let failed = outcome.map(|c| cells[c] != "ok").unwrap_or(false);
+            let was_lost = lost.is_some_and(|c| cells[c] == "1");
+            if failed || (tracking && was_lost) {
+                if let Some(Some(col)) = key_cols.get(xi) {
+                    let x = x_of(&cells[*col]);
+                    if x.is_finite() && !flagged.contains(&x) {
+                        flagged.push(x);
+                    }
+                }
                 continue;
             }
             let Ok(y) = cells[mc].parse::<f64>() else {
@@ -89,7 +110,7 @@ pub fn write(dir: &Path, grid: &Grid, table: &Table) -> Result<Vec<PathBuf>, Swe
             p.1 += y;
             p.2 += 1;
         }
-        if lines.is_empty() {
+        if lines.is_empty() && flagged.is_empty() {
             continue;
         }
         let data: Vec<(String, Vec<f64>, Vec<f64>)> = lines
@@ -111,20 +132,32 @@ pub fn write(dir: &Path, grid: &Grid, table: &Table) -> Result<Vec<PathBuf>, Swe
         let series: Vec<Series> = data
             .iter()
             .enumerate()
-            .map(|(i, (label, xs, ys))| Series {
-                label,
-                x: xs,
-                y: ys,
-                colour: COLOURS[i % COLOURS.len()],
-                stems: false,
-            })
+            .map(|(i, (label, xs, ys))| Series::line(label, xs, ys, COLOURS[i % COLOURS.len()]))
             .collect();
         let x_label = if numeric_x {
             xv.key.clone()
         } else {
             format!("{} ({})", xv.key, xv.values.join(", "))
         };
-        let text = svg(meaning, &x_label, metric, &series, None);
+        let flag_label = if tracking {
+            "a run here lost the wire or failed (left out)"
+        } else {
+            "a run here failed (left out)"
+        };
+        let text = Plot {
+            title: meaning,
+            x_label: &x_label,
+            y_label: metric,
+            series: &series,
+            band: None,
+            flags: (!flagged.is_empty()).then_some(Flags {
+                label: flag_label,
+                x: &flagged,
+                colour: "#c00000",
+            }),
+            empty_note: "no run gave a value",
+        }
+        .render();
         let path = pdir.join(format!("{metric}.svg"));
         std::fs::write(&path, text).map_err(io_err(&path))?;
         files.push(path);

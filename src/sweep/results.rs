@@ -22,11 +22,18 @@ pub const MERGE_NOTE: &str =
 
 /// The metric columns of `results.csv`, after the run's identity columns, with what each
 /// means (also the plot titles).
-pub const METRICS: [(&str, &str); 14] = [
-    ("rms_lateral_error_m", "RMS lateral error after settling, m"),
+pub const METRICS: [(&str, &str); 17] = [
+    (
+        "rms_lateral_error_m",
+        "RMS lateral error over error_window, m",
+    ),
     (
         "peak_lateral_error_m",
-        "peak |lateral error| after settling, m",
+        "peak |lateral error| over error_window, m",
+    ),
+    (
+        "error_window",
+        "what the RMS and peak cover: after_settling, until_wire_lost, until_wire_end or whole_run",
     ),
     (
         "settling_distance_m",
@@ -57,6 +64,14 @@ pub const METRICS: [(&str, &str); 14] = [
     ("distance_m", "distance travelled, m"),
     ("final_lateral_error_m", "lateral error at the end, m"),
     ("lost_wire", "the sensors lost the wire (1) or not (0)"),
+    (
+        "wire_lost_t_s",
+        "time the sensors first lost the wire, s (empty: never)",
+    ),
+    (
+        "wire_end_t_s",
+        "time the axle passed the far end of the wire, s (empty: never)",
+    ),
     ("faults", "DCMC faults and bumper stops"),
 ];
 
@@ -84,7 +99,8 @@ fn metric_cells(s: &RunSummary) -> Vec<String> {
     }
     vec![
         num(s.rms_lateral_error_m),
-        num(s.peak_lateral_error_after_settling_m),
+        num(s.peak_lateral_error_m),
+        s.error_window.name().to_string(),
         s.settling_distance_m.map(num).unwrap_or_default(),
         num(s.limit_cycle.map(|c| c.amplitude_m).unwrap_or(0.0)),
         s.limit_cycle.map(|c| num(c.period_s)).unwrap_or_default(),
@@ -96,6 +112,8 @@ fn metric_cells(s: &RunSummary) -> Vec<String> {
         num(s.distance_m),
         num(s.final_lateral_error_m),
         (s.lost_wire as u8).to_string(),
+        s.wire_lost.map(|e| num(e.t_s)).unwrap_or_default(),
+        s.wire_end.map(|e| num(e.t_s)).unwrap_or_default(),
         faults.join(" "),
     ]
 }

@@ -105,6 +105,7 @@ impl SweepOptions {
                 })?;
             }
         }
+        check_repeat_has_noise(&base, &varies, repeat)?;
         let grid = Grid::new(varies, repeat, base.sim.seed)?;
         Ok(SweepOptions {
             scene_path: scene_path.to_owned(),
@@ -117,6 +118,32 @@ impl SweepOptions {
             out_dir: PathBuf::from("runs/sweep"),
         })
     }
+}
+
+/// Scene keys whose values make runs differ from seed to seed: the random inputs.
+pub const NOISE_KEYS: [&str; 1] = ["sensors.noise_adc"];
+
+/// Repeats differ only through the seeded noise: with every noise source at zero (and
+/// none varied) `--repeat N` would write N identical rows, so it is refused, naming the
+/// keys that add noise.
+fn check_repeat_has_noise(
+    base: &Scene,
+    varies: &[super::Vary],
+    repeat: usize,
+) -> Result<(), SweepError> {
+    let noisy =
+        base.sensors.noise_adc > 0.0 || varies.iter().any(|v| NOISE_KEYS.contains(&v.key.as_str()));
+    if repeat > 1 && !noisy {
+        return Err(SweepError::Argument {
+            arg: format!("--repeat {repeat}"),
+            message: format!(
+                "every repeat would give the same result: the scene adds no noise ({} = 0); \
+                 set a noise source, e.g. --set sensors.noise_adc=2, or drop --repeat",
+                NOISE_KEYS.join(", ")
+            ),
+        });
+    }
+    Ok(())
 }
 
 /// A run's path: time, distance along the path, axle position and the sensor pair's

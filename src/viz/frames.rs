@@ -12,27 +12,31 @@ use super::{err, VizError};
 pub(super) const PLOT_BATCH_FRAMES: usize = 250;
 
 /// Frames waiting to be sent as column chunks: their times, the plot series (entity path,
-/// values per frame, values) and the vehicle's moving geometry (a fixed number of items
-/// per frame each).
+/// values per frame, values) and the vehicle's moving parts. Everything under
+/// `world/agv` is in the vehicle frame; `pose_*` places that frame on the floor.
 #[derive(Default)]
 pub(super) struct FrameBuffer {
     pub(super) times_s: Vec<f64>,
     pub(super) series: Vec<(&'static str, usize, Vec<f64>)>,
-    /// Outline and nose, 2 strips per frame.
-    pub(super) body: Vec<Vec<[f32; 2]>>,
-    /// 2 coils per frame.
-    pub(super) coils: Vec<[f32; 2]>,
+    /// The vehicle frame on the floor: axle midpoint, m, and heading, rad.
+    pub(super) pose_xy: Vec<[f32; 3]>,
+    pub(super) pose_heading_rad: Vec<f32>,
+    /// 2 coils per frame: colour and label (positions are static in the vehicle frame).
     pub(super) coil_colors: Vec<[u8; 4]>,
     pub(super) coil_labels: Vec<String>,
-    /// Tyre force and slip arrows, 2 per frame each.
-    pub(super) force: Vec<[f32; 2]>,
-    pub(super) slip: Vec<[f32; 2]>,
-    pub(super) contacts: Vec<[f32; 2]>,
-    /// Castor forks, `castors_per_frame` strips per frame.
-    pub(super) castors: Vec<Vec<[f32; 2]>>,
+    /// Tyre force and slip arrows from the wheel contacts, vehicle frame, 2 per frame each.
+    pub(super) contacts: Vec<[f32; 3]>,
+    pub(super) force: Vec<[f32; 3]>,
+    pub(super) slip: Vec<[f32; 3]>,
+    /// Castor forks, vehicle frame, `castors_per_frame` strips per frame.
+    pub(super) castors: Vec<Vec<[f32; 3]>>,
     pub(super) castors_per_frame: usize,
-    /// The swing-away strategy's assumed wire: a strip in the frames that have one.
-    pub(super) assumed_wire: Vec<Vec<[f32; 2]>>,
+    /// The wire near the vehicle, vehicle frame: strips per frame vary.
+    pub(super) nearby_wire: Vec<Vec<[f32; 3]>>,
+    pub(super) nearby_wire_per_frame: Vec<usize>,
+    /// The swing-away strategy's assumed wire, world frame: a strip in the frames that
+    /// have one.
+    pub(super) assumed_wire: Vec<Vec<[f32; 3]>>,
     pub(super) assumed_wire_per_frame: Vec<usize>,
 }
 
@@ -62,12 +66,17 @@ impl FrameBuffer {
             rec.send_columns(*path, times(), columns).map_err(err)?;
         }
         let per = |k: usize| std::iter::repeat_n(k, n);
-        let body = rerun::LineStrips2D::new(std::mem::take(&mut self.body))
-            .columns(per(2))
+        let rotations: Vec<rerun::RotationAxisAngle> = std::mem::take(&mut self.pose_heading_rad)
+            .into_iter()
+            .map(|h| rerun::RotationAxisAngle::new([0.0, 0.0, 1.0], rerun::Angle::from_radians(h)))
+            .collect();
+        let pose = rerun::Transform3D::update_fields()
+            .with_many_translation(std::mem::take(&mut self.pose_xy))
+            .with_many_rotation_axis_angle(rotations)
+            .columns(per(1))
             .map_err(err)?;
-        rec.send_columns("world/agv/body", times(), body)
-            .map_err(err)?;
-        let coils = rerun::Points2D::new(std::mem::take(&mut self.coils))
+        rec.send_columns("world/agv", times(), pose).map_err(err)?;
+        let coils = rerun::Points3D::update_fields()
             .with_colors(std::mem::take(&mut self.coil_colors))
             .with_labels(std::mem::take(&mut self.coil_labels))
             .columns(per(2))
@@ -75,13 +84,13 @@ impl FrameBuffer {
         rec.send_columns("world/agv/coils", times(), coils)
             .map_err(err)?;
         let contacts = std::mem::take(&mut self.contacts);
-        let force = rerun::Arrows2D::from_vectors(std::mem::take(&mut self.force))
+        let force = rerun::Arrows3D::from_vectors(std::mem::take(&mut self.force))
             .with_origins(contacts.clone())
             .columns(per(2))
             .map_err(err)?;
         rec.send_columns("world/agv/tyre_force", times(), force)
             .map_err(err)?;
-        let slip = rerun::Arrows2D::from_vectors(std::mem::take(&mut self.slip))
+        let slip = rerun::Arrows3D::from_vectors(std::mem::take(&mut self.slip))
             .with_origins(contacts)
             .columns(per(2))
             .map_err(err)?;
@@ -89,18 +98,27 @@ impl FrameBuffer {
             .map_err(err)?;
         if self.castors_per_frame > 0 {
             let k = self.castors_per_frame;
-            let castors = rerun::LineStrips2D::new(std::mem::take(&mut self.castors))
+            let castors = rerun::LineStrips3D::update_fields()
+                .with_strips(std::mem::take(&mut self.castors))
                 .columns(per(k))
                 .map_err(err)?;
             rec.send_columns("world/agv/castors", times(), castors)
                 .map_err(err)?;
         }
+        let lengths = std::mem::take(&mut self.nearby_wire_per_frame);
+        let strips = rerun::LineStrips3D::update_fields()
+            .with_strips(std::mem::take(&mut self.nearby_wire))
+            .columns(lengths)
+            .map_err(err)?;
+        rec.send_columns("world/agv/nearby_wire", times(), strips)
+            .map_err(err)?;
         let lengths = std::mem::take(&mut self.assumed_wire_per_frame);
         if lengths.iter().any(|&k| k > 0) {
-            let assumed = rerun::LineStrips2D::new(std::mem::take(&mut self.assumed_wire))
+            let assumed = rerun::LineStrips3D::update_fields()
+                .with_strips(std::mem::take(&mut self.assumed_wire))
                 .columns(lengths)
                 .map_err(err)?;
-            rec.send_columns("world/agv/assumed_wire", times(), assumed)
+            rec.send_columns("world/assumed_wire", times(), assumed)
                 .map_err(err)?;
         }
         self.assumed_wire.clear();

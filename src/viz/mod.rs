@@ -1,21 +1,23 @@
 //! The Rerun recorder: an observer of snapshots that logs the floor scene and time series
-//! at a decimated rate, with a default layout (blueprint) a newcomer can read: the floor
-//! view on the left, four stacked plots on the right.
+//! at a decimated rate, with a default layout (blueprint, `layout.rs`) a newcomer can read.
 //!
-//! The 2-D view draws y downwards, so world y is negated when logged: a left turn on the
-//! floor looks like one on the screen.
+//! Everything is logged in 3-D on the floor plane (z = 0, z up), so the viewer shows and
+//! reads coordinates exactly as the scene defines them: x and y in metres, counter-
+//! clockwise headings. The vehicle's parts are logged once in its own frame
+//! (`world/agv`), whose pose is logged every frame: the follow view sits in that frame.
 
 use std::path::PathBuf;
 
-use rerun::blueprint::{Blueprint, Horizontal, Spatial2DView, TimeSeriesView, Vertical};
 use rerun::{RecordingStream, RecordingStreamBuilder};
 
 use crate::sim::{SimParams, Snapshot};
 
 mod frames;
+mod layout;
 mod reports;
 
 use frames::{FrameBuffer, PLOT_BATCH_FRAMES};
+pub use layout::send_blueprint;
 pub use reports::{save_diagnosis, save_identification};
 
 /// Where the recording goes.
@@ -37,6 +39,7 @@ pub struct VizError(pub String);
 const GREY: [u8; 4] = [120, 120, 120, 255];
 const WIRE: [u8; 4] = [255, 170, 0, 255];
 const BODY: [u8; 4] = [80, 160, 255, 255];
+const WHEEL: [u8; 4] = [230, 230, 230, 255];
 const CASTOR: [u8; 4] = [200, 200, 200, 255];
 const FORCE: [u8; 4] = [255, 80, 200, 255];
 const SLIP: [u8; 4] = [255, 255, 0, 255];
@@ -46,8 +49,18 @@ const ASSUMED: [u8; 4] = [255, 255, 120, 255];
 const LEFT: [u8; 4] = [230, 90, 90, 255];
 const RIGHT: [u8; 4] = [90, 140, 230, 255];
 
-fn w(p: [f64; 2]) -> [f32; 2] {
-    [p[0] as f32, -p[1] as f32]
+/// Tyre-force arrows: metres of arrow per newton (1 m per 400 N: a drive tyre at its grip
+/// limit on painted concrete, about 400 N, draws as long as the vehicle).
+pub const FORCE_ARROW_M_PER_N: f64 = 0.0025;
+/// Slip arrows: metres of arrow per unit of slip (ratio forward, angle in rad sideways):
+/// a 10 % slip draws 0.2 m.
+pub const SLIP_ARROW_M: f64 = 2.0;
+/// Half the side of the square around the axle in which the follow view shows the wire, m.
+const NEARBY_WIRE_HALF_M: f64 = 2.5;
+
+/// A floor point at z = 0.
+fn w(p: [f64; 2]) -> [f32; 3] {
+    [p[0] as f32, p[1] as f32, 0.0]
 }
 
 /// Logs snapshots to Rerun every `every` physics steps.
@@ -55,13 +68,15 @@ pub struct RerunRecorder {
     rec: RecordingStream,
     every: u64,
     count: u64,
-    path: Vec<[f32; 2]>,
+    path: Vec<[f32; 3]>,
     path_every: u64,
     /// Travelled region (min, max), world frame, for framing the floor at the end.
     seen: ([f64; 2], [f64; 2]),
     wire: Vec<[f64; 2]>,
     wire_closed: bool,
     floor_name: &'static str,
+    /// Drive-wheel contact points, vehicle frame (the arrows' origins).
+    contacts: [[f32; 3]; 2],
     /// Frames (plots and moving geometry) waiting to be sent as column chunks.
     frames: FrameBuffer,
 }
@@ -84,36 +99,23 @@ fn err(e: impl std::fmt::Display) -> VizError {
     VizError(e.to_string())
 }
 
-/// The default layout.
-pub fn blueprint() -> Blueprint {
-    let floor = Spatial2DView::new("Floor (top view)").with_origin("/world");
-    let tracking =
-        TimeSeriesView::new("Tracking: lateral error (m)").with_origin("/plots/tracking");
-    let sensors =
-        TimeSeriesView::new("Guide-wire sensors (ADC counts)").with_origin("/plots/sensors");
-    let drive =
-        TimeSeriesView::new("DCMC: demand (pct) and motor voltage (V)").with_origin("/plots/drive");
-    let motors = TimeSeriesView::new("Motor speed (rad/s)").with_origin("/plots/motors");
-    let wheels =
-        TimeSeriesView::new("Wheels: slip ratio, backlash gap (rad)").with_origin("/plots/wheels");
-    Blueprint::new(
-        Horizontal::new([
-            floor.into(),
-            Vertical::new([
-                tracking.into(),
-                sensors.into(),
-                drive.into(),
-                motors.into(),
-                wheels.into(),
-            ])
-            .into(),
-        ])
-        .with_column_shares([0.55, 0.45]),
-    )
+/// A closed rectangle in the vehicle frame: centre, half length along x, half width.
+fn rectangle(c: [f64; 2], half_x: f64, half_y: f64) -> Vec<[f32; 3]> {
+    [
+        [-1.0, -1.0],
+        [1.0, -1.0],
+        [1.0, 1.0],
+        [-1.0, 1.0],
+        [-1.0, -1.0],
+    ]
+    .iter()
+    .map(|k| w([c[0] + k[0] * half_x, c[1] + k[1] * half_y]))
+    .collect()
 }
 
 impl RerunRecorder {
-    /// Opens the target and logs the static scene (floor regions, wire, obstacles).
+    /// Opens the target and logs the static scene (floor regions, obstacles, the vehicle's
+    /// body, wheels and coil positions in its own frame).
     pub fn new(
         target: &RerunTarget,
         name: &str,
@@ -122,13 +124,19 @@ impl RerunRecorder {
     ) -> Result<Self, VizError> {
         let builder = RecordingStreamBuilder::new("agvsim")
             .recording_id(format!("agvsim-{name}-seed{}", params.seed))
-            .with_blueprint(blueprint())
             .batcher_config(batcher_config());
         let rec = match target {
             RerunTarget::Save(p) => builder.save(p).map_err(err)?,
             RerunTarget::Spawn => builder.spawn().map_err(err)?,
             RerunTarget::Connect => builder.connect_grpc().map_err(err)?,
         };
+        // Named after the scene in the viewer's sources panel (a fixed recording id keeps
+        // the builder from sending the name itself).
+        rec.send_recording_name(name).map_err(err)?;
+        // The overview first frames the floor around the start; the layout is sent again
+        // with the travelled region when the run ends.
+        let (x, y) = (params.start.x_m, params.start.y_m);
+        send_blueprint(&rec, ([x - 5.0, y - 3.0], [x + 5.0, y + 3.0]))?;
         let every = ((log_interval_s / params.dt_s).round() as u64).max(1);
         let mut r = RerunRecorder {
             rec,
@@ -143,6 +151,7 @@ impl RerunRecorder {
             wire: params.wire.points().to_vec(),
             wire_closed: params.wire.is_closed(),
             floor_name: params.floor.default.name,
+            contacts: params.chassis.wheel_points_m().map(w),
             frames: FrameBuffer::default(),
         };
         r.log_static(params)?;
@@ -151,23 +160,31 @@ impl RerunRecorder {
 
     fn log_static(&mut self, p: &SimParams) -> Result<(), VizError> {
         let rec = &self.rec;
+        rec.log_static("world", &rerun::ViewCoordinates::RIGHT_HAND_Z_UP())
+            .map_err(err)?;
         for (i, (_, surface, pts)) in p.floor.regions.iter().enumerate() {
-            let mut strip: Vec<[f32; 2]> = pts.iter().map(|q| w(*q)).collect();
+            let mut strip: Vec<[f32; 3]> = pts.iter().map(|q| w(*q)).collect();
             strip.push(strip[0]);
             rec.log_static(
                 format!("world/floor/region_{i}"),
-                &rerun::LineStrips2D::new([strip])
+                &rerun::LineStrips3D::new([strip])
                     .with_colors([[180, 140, 90, 255]])
                     .with_labels([surface.name]),
             )
             .map_err(err)?;
         }
+        self.log_obstacles(p)?;
+        self.log_vehicle(p)?;
+        self.log_plot_styles()
+    }
+
+    fn log_obstacles(&self, p: &SimParams) -> Result<(), VizError> {
         for (i, o) in p.obstacles.iter().enumerate() {
             let c = o.spec.center_m;
-            let strip: Vec<[f32; 2]> = match (o.spec.half_extents_m, o.spec.radius_m) {
+            let strip: Vec<[f32; 3]> = match (o.spec.half_extents_m, o.spec.radius_m) {
                 (Some(h), _) => {
                     let (s, co) = o.spec.angle_rad.sin_cos();
-                    let mut v: Vec<[f32; 2]> = [
+                    [
                         [-1.0, -1.0],
                         [1.0, -1.0],
                         [1.0, 1.0],
@@ -175,13 +192,11 @@ impl RerunRecorder {
                         [-1.0, -1.0],
                     ]
                     .iter()
-                    .map(|k| {
+                    .map(|k: &[f64; 2]| {
                         let (x, y) = (k[0] * h[0], k[1] * h[1]);
                         w([c[0] + co * x - s * y, c[1] + s * x + co * y])
                     })
-                    .collect();
-                    v.shrink_to_fit();
-                    v
+                    .collect()
                 }
                 (None, Some(r)) => (0..=32)
                     .map(|k| {
@@ -191,100 +206,115 @@ impl RerunRecorder {
                     .collect(),
                 _ => continue,
             };
-            rec.log_static(
-                format!("world/obstacles/{i}"),
-                &rerun::LineStrips2D::new([strip]).with_colors([[255, 60, 60, 255]]),
-            )
-            .map_err(err)?;
+            self.rec
+                .log_static(
+                    format!("world/obstacles/{i}"),
+                    &rerun::LineStrips3D::new([strip]).with_colors([[255, 60, 60, 255]]),
+                )
+                .map_err(err)?;
         }
-        // The moving geometry's styles never change: logged once, static, so each frame
-        // carries only positions (one colour or radius applies to every instance).
+        Ok(())
+    }
+
+    /// The vehicle in its own frame: body outline with a nose line, the two drive wheels
+    /// (they do not steer), coil positions, and the styles and origins of the arrows.
+    fn log_vehicle(&self, p: &SimParams) -> Result<(), VizError> {
+        let rec = &self.rec;
+        let (front, rear, width) = p.outline_m;
+        let outline = rectangle(
+            [0.5 * (front - rear), 0.0],
+            0.5 * (front + rear),
+            0.5 * width,
+        );
+        let nose = vec![w([0.0, 0.0]), w([front * 0.8, 0.0])];
         rec.log_static(
             "world/agv/body",
-            &rerun::LineStrips2D::update_fields().with_colors([BODY]),
+            &rerun::LineStrips3D::new([outline, nose]).with_colors([BODY]),
+        )
+        .map_err(err)?;
+        let r = p.drivetrain.wheel_radius_m;
+        let wheels: Vec<Vec<[f32; 3]>> = p
+            .chassis
+            .wheel_points_m()
+            .iter()
+            .map(|c| rectangle(*c, r, 0.025))
+            .collect();
+        rec.log_static(
+            "world/agv/wheels",
+            &rerun::LineStrips3D::new(wheels)
+                .with_colors([WHEEL])
+                .with_radii([0.008f32]),
         )
         .map_err(err)?;
         rec.log_static(
             "world/agv/coils",
-            &rerun::Points2D::update_fields().with_radii([0.015f32]),
+            &rerun::Points3D::new(p.coils_m.iter().map(|c| w(*c))).with_radii([0.02f32]),
         )
         .map_err(err)?;
         rec.log_static(
             "world/agv/tyre_force",
-            &rerun::Arrows2D::update_fields().with_colors([FORCE]),
+            &rerun::Arrows3D::update_fields()
+                .with_colors([FORCE])
+                // One label (on the left wheel's arrow) says what the arrows are and their scale.
+                .with_labels([
+                    format!("tyre force, 1 m per {:.0} N", 1.0 / FORCE_ARROW_M_PER_N),
+                    String::new(),
+                ]),
         )
         .map_err(err)?;
         rec.log_static(
             "world/agv/slip",
-            &rerun::Arrows2D::update_fields().with_colors([SLIP]),
+            &rerun::Arrows3D::update_fields()
+                .with_colors([SLIP])
+                .with_labels([
+                    String::new(),
+                    format!("slip, {SLIP_ARROW_M} m per unit of slip"),
+                ]),
         )
         .map_err(err)?;
         rec.log_static(
             "world/agv/castors",
-            &rerun::LineStrips2D::update_fields()
+            &rerun::LineStrips3D::update_fields()
                 .with_colors([CASTOR])
                 .with_radii([0.01f32]),
         )
         .map_err(err)?;
+        rec.log_static(
+            "world/agv/nearby_wire",
+            &rerun::LineStrips3D::update_fields()
+                .with_colors([WIRE])
+                .with_radii([0.006f32]),
+        )
+        .map_err(err)?;
         if p.firmware.swing_away.is_some() {
             rec.log_static(
-                "world/agv/assumed_wire",
-                &rerun::LineStrips2D::update_fields()
+                "world/assumed_wire",
+                &rerun::LineStrips3D::update_fields()
                     .with_colors([ASSUMED])
                     .with_radii([0.004f32])
                     .with_labels(["assumed wire"]),
             )
             .map_err(err)?;
         }
+        Ok(())
+    }
+
+    /// Series names and colours: one quantity per plot, named by side.
+    fn log_plot_styles(&self) -> Result<(), VizError> {
         let series = |names: &[&str], colors: &[[u8; 4]]| {
             rerun::SeriesLines::new()
                 .with_names(names.iter().map(|s| s.to_string()))
                 .with_colors(colors.to_vec())
         };
-        rec.log_static(
-            "plots/tracking/lateral_error_m",
-            &series(&["sensor pair off the wire (m)"], &[PATH]),
-        )
-        .map_err(err)?;
-        rec.log_static(
-            "plots/sensors/adc",
-            &series(&["left coil", "right coil"], &[LEFT, RIGHT]),
-        )
-        .map_err(err)?;
-        rec.log_static(
-            "plots/drive/demand_pct",
-            &series(
-                &["forward demand (pct)", "turn demand (pct)"],
-                &[GREY, WIRE],
-            ),
-        )
-        .map_err(err)?;
-        rec.log_static(
-            "plots/drive/voltage_V",
-            &series(&["left voltage (V)", "right voltage (V)"], &[LEFT, RIGHT]),
-        )
-        .map_err(err)?;
-        rec.log_static(
-            "plots/motors/motor_speed_rad_s",
-            &series(
-                &["left motor (rad/s)", "right motor (rad/s)"],
-                &[[255, 150, 150, 255], [150, 190, 255, 255]],
-            ),
-        )
-        .map_err(err)?;
-        rec.log_static(
-            "plots/wheels/slip_ratio",
-            &series(&["left slip", "right slip"], &[LEFT, RIGHT]),
-        )
-        .map_err(err)?;
-        rec.log_static(
-            "plots/wheels/backlash_gap_rad",
-            &series(
-                &["left gap (rad)", "right gap (rad)"],
-                &[[255, 200, 120, 255], [120, 220, 255, 255]],
-            ),
-        )
-        .map_err(err)?;
+        let sides = series(&["left", "right"], &[LEFT, RIGHT]);
+        for (path, _) in layout::PLOTS {
+            let style = match path {
+                "plots/lateral_error_m" => series(&["sensor pair"], &[PATH]),
+                "plots/demand_pct" => series(&["forward", "turn"], &[GREY, WIRE]),
+                _ => sides.clone(),
+            };
+            self.rec.log_static(path, &style).map_err(err)?;
+        }
         Ok(())
     }
 
@@ -297,61 +327,35 @@ impl RerunRecorder {
     }
 
     /// Logs a snapshot of a step for which [`Self::due`] said yes.
-    pub fn observe(&mut self, s: &Snapshot, p: &SimParams) -> Result<(), VizError> {
-        let rec = &self.rec;
-        rec.set_duration_secs("sim_time", s.t_s);
+    pub fn observe(&mut self, s: &Snapshot, _p: &SimParams) -> Result<(), VizError> {
         let pose = s.pose;
         for k in 0..2 {
             let v = [pose.x_m, pose.y_m][k];
             self.seen.0[k] = self.seen.0[k].min(v);
             self.seen.1[k] = self.seen.1[k].max(v);
         }
-        let (front, rear, width) = p.outline_m;
-        let outline: Vec<[f32; 2]> = [
-            [front, width / 2.0],
-            [-rear, width / 2.0],
-            [-rear, -width / 2.0],
-            [front, -width / 2.0],
-            [front, width / 2.0],
-        ]
-        .iter()
-        .map(|q| w(pose.to_world(*q)))
-        .collect();
-        let nose = vec![
-            w(pose.to_world([0.0, 0.0])),
-            w(pose.to_world([front * 0.8, 0.0])),
-        ];
+        self.buffer_vehicle(s);
         let b = &mut self.frames;
-        b.body.push(outline);
-        b.body.push(nose);
-        for (k, c) in s.coils_m.iter().enumerate() {
-            let v = s.sensors_adc[k];
-            let level = (v / 255.0).clamp(0.0, 1.0);
-            b.coils.push(w(*c));
-            b.coil_colors
-                .push([255, (255.0 * (1.0 - level)) as u8, 0, 255]);
-            b.coil_labels
-                .push(format!("{} {v:.0}", if k == 0 { "L" } else { "R" }));
-        }
-        // Tyre forces (N -> m at 1 mm/N) and slip (the sliding velocity direction).
-        for x in &s.sides {
-            b.contacts.push(w(x.contact_m));
-            let f = pose.rotate(x.tyre_force_n);
-            b.force.push([0.001 * f[0] as f32, -0.001 * f[1] as f32]);
-            let v = pose.rotate([0.3 * x.slip_ratio, 0.3 * x.slip_angle_rad]);
-            b.slip.push([v[0] as f32, -v[1] as f32]);
-        }
-        b.castors_per_frame = s.castors.len();
-        match s.assumed_wire_m {
-            Some([a, z]) => {
-                b.assumed_wire.push(vec![w(a), w(z)]);
-                b.assumed_wire_per_frame.push(1);
-            }
-            None => b.assumed_wire_per_frame.push(0),
-        }
-        for c in &s.castors {
-            b.castors.push(vec![w(c.swivel_m), w(c.patch_m)]);
-        }
+        b.times_s.push(s.t_s);
+        b.push("plots/lateral_error_m", &[s.lateral_error_m]);
+        b.push("plots/coils_adc", &s.sensors_adc);
+        b.push("plots/demand_pct", &s.demand_pct);
+        b.push(
+            "plots/voltage_V",
+            &[s.sides[0].voltage_v, s.sides[1].voltage_v],
+        );
+        b.push(
+            "plots/motor_speed_rad_s",
+            &[s.sides[0].motor_speed_rad_s, s.sides[1].motor_speed_rad_s],
+        );
+        b.push(
+            "plots/slip_ratio",
+            &[s.sides[0].slip_ratio, s.sides[1].slip_ratio],
+        );
+        b.push(
+            "plots/backlash_gap_rad",
+            &[s.sides[0].backlash_gap_rad, s.sides[1].backlash_gap_rad],
+        );
         let frame = self.count / self.every;
         if frame % self.path_every == 1 || self.path.is_empty() {
             self.path.push(w([pose.x_m, pose.y_m]));
@@ -362,33 +366,73 @@ impl RerunRecorder {
             }
         }
         if frame % PATH_LOG_EVERY_FRAMES == 1 || self.path.len() == 1 {
+            self.rec.set_duration_secs("sim_time", s.t_s);
             self.log_path()?;
         }
-        let b = &mut self.frames;
-        b.times_s.push(s.t_s);
-        b.push("plots/tracking/lateral_error_m", &[s.lateral_error_m]);
-        b.push("plots/sensors/adc", &s.sensors_adc);
-        b.push("plots/drive/demand_pct", &s.demand_pct);
-        b.push(
-            "plots/drive/voltage_V",
-            &[s.sides[0].voltage_v, s.sides[1].voltage_v],
-        );
-        b.push(
-            "plots/motors/motor_speed_rad_s",
-            &[s.sides[0].motor_speed_rad_s, s.sides[1].motor_speed_rad_s],
-        );
-        b.push(
-            "plots/wheels/slip_ratio",
-            &[s.sides[0].slip_ratio, s.sides[1].slip_ratio],
-        );
-        b.push(
-            "plots/wheels/backlash_gap_rad",
-            &[s.sides[0].backlash_gap_rad, s.sides[1].backlash_gap_rad],
-        );
-        if b.times_s.len() >= PLOT_BATCH_FRAMES {
-            b.flush(rec)?;
+        if self.frames.times_s.len() >= PLOT_BATCH_FRAMES {
+            self.frames.flush(&self.rec)?;
         }
         Ok(())
+    }
+
+    /// The vehicle's moving parts for one frame, in its own frame.
+    fn buffer_vehicle(&mut self, s: &Snapshot) {
+        let pose = s.pose;
+        let body = |p: [f64; 2]| w(pose.unrotate([p[0] - pose.x_m, p[1] - pose.y_m]));
+        let b = &mut self.frames;
+        b.pose_xy.push(w([pose.x_m, pose.y_m]));
+        b.pose_heading_rad.push(pose.heading_rad as f32);
+        // The coils sit 74 mm apart: one label on the left coil carries both readings.
+        for k in 0..2 {
+            let v = s.sensors_adc[k];
+            let level = (v / 255.0).clamp(0.0, 1.0);
+            b.coil_colors
+                .push([255, (255.0 * (1.0 - level)) as u8, 0, 255]);
+        }
+        b.coil_labels.push(format!(
+            "coils L {:.0} R {:.0}",
+            s.sensors_adc[0], s.sensors_adc[1]
+        ));
+        b.coil_labels.push(String::new());
+        // The wheels do not steer: wheel-frame forces and slips are body-frame vectors.
+        for (x, c) in s.sides.iter().zip(self.contacts) {
+            b.contacts.push(c);
+            let f = x.tyre_force_n;
+            b.force.push([
+                (FORCE_ARROW_M_PER_N * f[0]) as f32,
+                (FORCE_ARROW_M_PER_N * f[1]) as f32,
+                0.0,
+            ]);
+            b.slip.push([
+                (SLIP_ARROW_M * x.slip_ratio) as f32,
+                (SLIP_ARROW_M * x.slip_angle_rad) as f32,
+                0.0,
+            ]);
+        }
+        b.castors_per_frame = s.castors.len();
+        for c in &s.castors {
+            b.castors.push(vec![body(c.swivel_m), body(c.patch_m)]);
+        }
+        let h = NEARBY_WIRE_HALF_M;
+        let (lo, hi) = ([pose.x_m - h, pose.y_m - h], [pose.x_m + h, pose.y_m + h]);
+        let mut pts = self.wire.clone();
+        if self.wire_closed {
+            pts.push(pts[0]);
+        }
+        let before = b.nearby_wire.len();
+        for seg in pts.windows(2) {
+            if let Some((a, z)) = clip_segment(seg[0], seg[1], lo, hi) {
+                b.nearby_wire.push(vec![body(a), body(z)]);
+            }
+        }
+        b.nearby_wire_per_frame.push(b.nearby_wire.len() - before);
+        match s.assumed_wire_m {
+            Some([a, z]) => {
+                b.assumed_wire.push(vec![w(a), w(z)]);
+                b.assumed_wire_per_frame.push(1);
+            }
+            None => b.assumed_wire_per_frame.push(0),
+        }
     }
 
     /// Re-logs the travelled path, the whole strip (at the current time).
@@ -396,7 +440,7 @@ impl RerunRecorder {
         self.rec
             .log(
                 "world/path",
-                &rerun::LineStrips2D::new([self.path.clone()]).with_colors([PATH]),
+                &rerun::LineStrips3D::new([self.path.clone()]).with_colors([PATH]),
             )
             .map_err(err)
     }
@@ -411,11 +455,12 @@ impl RerunRecorder {
         let margin = 1.0;
         let lo = [self.seen.0[0] - margin, self.seen.0[1] - margin];
         let hi = [self.seen.1[0] + margin, self.seen.1[1] + margin];
+        send_blueprint(&self.rec, (lo, hi))?;
         let floor = vec![w(lo), w([hi[0], lo[1]]), w(hi), w([lo[0], hi[1]]), w(lo)];
         self.rec
             .log_static(
                 "world/floor",
-                &rerun::LineStrips2D::new([floor])
+                &rerun::LineStrips3D::new([floor])
                     .with_colors([GREY])
                     .with_labels([self.floor_name]),
             )
@@ -424,7 +469,7 @@ impl RerunRecorder {
         if self.wire_closed {
             pts.push(pts[0]);
         }
-        let strips: Vec<Vec<[f32; 2]>> = pts
+        let strips: Vec<Vec<[f32; 3]>> = pts
             .windows(2)
             .filter_map(|s| clip_segment(s[0], s[1], lo, hi))
             .map(|(a, b)| vec![w(a), w(b)])
@@ -432,7 +477,7 @@ impl RerunRecorder {
         self.rec
             .log_static(
                 "world/wire",
-                &rerun::LineStrips2D::new(strips)
+                &rerun::LineStrips3D::new(strips)
                     .with_colors([WIRE])
                     .with_radii([0.006f32]),
             )

@@ -1,0 +1,88 @@
+//! Identification plots: each output measured against simulated, and the residual
+//! checks (autocorrelation, cross-correlation with each input) with their bands.
+
+use std::path::{Path, PathBuf};
+
+use super::{svg, Series, Style, W};
+use crate::ident::Evaluation;
+
+/// Height of one stacked residual plot, px (as rendered by [`svg`] with a one-row legend).
+fn stacked_height(doc: &str) -> f64 {
+    doc.split("height=\"")
+        .nth(1)
+        .and_then(|r| r.split('"').next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(320.0)
+}
+
+/// Writes `PREFIX_OUTPUT_fit.svg` and `PREFIX_OUTPUT_resid.svg` for each output of an
+/// evaluation into `dir`; returns the files written.
+pub fn write_evaluation(dir: &Path, prefix: &str, e: &Evaluation) -> std::io::Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir)?;
+    let Some(data) = e.data.as_ref() else {
+        return Err(std::io::Error::other(
+            "the evaluation holds no data to plot",
+        ));
+    };
+    let mut files = Vec::new();
+    for (j, name) in data.output_names.iter().enumerate() {
+        let (t, y): (Vec<f64>, Vec<f64>) = data.outputs[j]
+            .iter()
+            .zip(&data.t_s)
+            .filter_map(|(v, t)| v.map(|v| (*t, v)))
+            .unzip();
+        let fit = e.fit_pct[name];
+        let doc = svg(
+            &format!(
+                "{name}: measured and simulated ({} , fit {fit:.1} %)",
+                e.recording
+            ),
+            "t (s)",
+            name,
+            &[
+                Series::line("measured", &t, &y, "#555").with_style(Style::Measured),
+                Series::line("simulated", &data.t_s, &e.predicted[j], "#1f5fbf"),
+            ],
+            None,
+        );
+        let f = dir.join(format!("{prefix}_{name}_fit.svg"));
+        std::fs::write(&f, doc)?;
+        files.push(f);
+        let c = &e.checks[j];
+        let lags: Vec<f64> = c.whiteness.lags.iter().map(|&l| l as f64).collect();
+        let mut doc = svg(
+            &format!("{name}: residual autocorrelation (99 % band)"),
+            "lag (samples)",
+            "correlation",
+            &[
+                Series::line("residual", &lags, &c.whiteness.values, "#1f5fbf")
+                    .with_style(Style::Stems),
+            ],
+            Some(c.whiteness.band),
+        );
+        for (input, x) in &c.independence {
+            let lags: Vec<f64> = x.lags.iter().map(|&l| l as f64).collect();
+            doc.push_str(&svg(
+                &format!("{name}: cross-correlation with input {input} (99 % band)"),
+                "lag (samples, input leading)",
+                "correlation",
+                &[Series::line(input, &lags, &x.values, "#b05000").with_style(Style::Stems)],
+                Some(x.band),
+            ));
+        }
+        // Several <svg> roots stack as one document inside an outer svg.
+        let mut stacked = String::new();
+        let mut y = 0.0;
+        for part in doc.split_inclusive("</svg>\n") {
+            stacked.push_str(&part.replacen("<svg xmlns", &format!("<svg y=\"{y}\" xmlns"), 1));
+            y += stacked_height(part);
+        }
+        let outer = format!(
+            "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{W}\" height=\"{y}\">\n{stacked}</svg>\n"
+        );
+        let f = dir.join(format!("{prefix}_{name}_resid.svg"));
+        std::fs::write(&f, outer)?;
+        files.push(f);
+    }
+    Ok(files)
+}

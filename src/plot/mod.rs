@@ -1,0 +1,559 @@
+//! Plots as SVG, written directly (no plotting dependency), shared by identify, diagnose,
+//! sweep and study: line plots of series against x, and horizontal bar charts.
+//!
+//! Rules every plot keeps, so it reads at a glance: the legend sits below the data and
+//! wraps rather than being cut; a series of few points gets markers; a series marked out
+//! of scale (a run that lost the wire) is drawn clipped and dashed and does not set the
+//! axes; flagged points (failed runs) are drawn as crosses along the top edge, outside the
+//! scale; tick labels are rounded to their step; a measured trace is drawn wide and pale
+//! under the simulated one so both stay visible.
+
+pub mod bars;
+pub mod evaluation;
+
+use std::fmt::Write;
+
+pub use bars::{bar_chart, BarGroup};
+pub use evaluation::write_evaluation;
+
+/// Canvas width, px.
+pub const W: f64 = 900.0;
+/// Height of the data area, px.
+const PLOT_H: f64 = 250.0;
+const MARGIN_L: f64 = 80.0;
+const MARGIN_R: f64 = 20.0;
+const MARGIN_T: f64 = 34.0;
+/// Below the data area: tick labels and the x label.
+const AXIS_H: f64 = 42.0;
+const LEGEND_ROW_H: f64 = 18.0;
+/// Width of one character at the 12 px font, px (a generous estimate, so text fits).
+pub const CHAR_W: f64 = 7.0;
+/// A line series with at most this many points also gets a marker at each.
+const MARKERS_UP_TO: usize = 40;
+
+/// Colours for successive series.
+pub const COLOURS: [&str; 10] = [
+    "#1f5fbf", "#d08000", "#2a9d3a", "#c02a2a", "#7b4fb0", "#8c564b", "#d04f9c", "#555555",
+    "#9aa01a", "#17a2b8",
+];
+
+/// How a series is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Style {
+    /// A thin line (markers too when it has few points).
+    Line,
+    /// Wide and pale, for measured data under a simulated line.
+    Measured,
+    /// Vertical stems from zero (correlations).
+    Stems,
+    /// Markers only, no line.
+    Points,
+}
+
+/// One series of a plot.
+pub struct Series<'a> {
+    pub label: &'a str,
+    pub x: &'a [f64],
+    pub y: &'a [f64],
+    pub colour: &'a str,
+    pub style: Style,
+    /// Whether the series sets the axes' range. A series out of scale (a run that lost
+    /// the wire) is clipped to the frame and dashed.
+    pub in_scale: bool,
+}
+
+impl<'a> Series<'a> {
+    /// A thin line that sets the scale.
+    pub fn line(label: &'a str, x: &'a [f64], y: &'a [f64], colour: &'a str) -> Self {
+        Series {
+            label,
+            x,
+            y,
+            colour,
+            style: Style::Line,
+            in_scale: true,
+        }
+    }
+
+    pub fn with_style(mut self, style: Style) -> Self {
+        self.style = style;
+        self
+    }
+
+    /// Marks the series as out of scale (drawn clipped and dashed).
+    pub fn out_of_scale(mut self) -> Self {
+        self.in_scale = false;
+        self
+    }
+}
+
+/// Points drawn as crosses along the top edge, outside the scale, with one legend entry
+/// (for example the grid points where every run lost the wire).
+pub struct Flags<'a> {
+    pub label: &'a str,
+    pub x: &'a [f64],
+    pub colour: &'a str,
+}
+
+/// A line plot.
+pub struct Plot<'a> {
+    pub title: &'a str,
+    pub x_label: &'a str,
+    pub y_label: &'a str,
+    pub series: &'a [Series<'a>],
+    /// A dashed +/-band about zero (a confidence band).
+    pub band: Option<f64>,
+    pub flags: Option<Flags<'a>>,
+    /// Shown in the data area when there is nothing to draw.
+    pub empty_note: &'a str,
+}
+
+/// A simple line plot (the common case).
+pub fn svg(
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[Series],
+    band: Option<f64>,
+) -> String {
+    Plot {
+        title,
+        x_label,
+        y_label,
+        series,
+        band,
+        flags: None,
+        empty_note: "no data",
+    }
+    .render()
+}
+
+/// Axis ticks at round steps covering `[lo, hi]`, and the number of decimals their step
+/// needs. Ticks are whole multiples of the step, so a tick at zero reads `0`, never
+/// `-1.4e-17`.
+pub fn nice_ticks(lo: f64, hi: f64) -> (Vec<f64>, usize) {
+    let span = (hi - lo).max(1e-300);
+    let raw = span / 5.0;
+    let mag = 10f64.powf(raw.log10().floor());
+    let step = [1.0, 2.0, 5.0, 10.0]
+        .iter()
+        .map(|m| m * mag)
+        .find(|s| span / s <= 6.0)
+        .unwrap_or(10.0 * mag);
+    let first = (lo / step).ceil() as i64;
+    let last = (hi / step + 1e-9).floor() as i64;
+    let ticks = (first..=last).map(|k| k as f64 * step).collect();
+    let decimals = (-step.log10().floor()).max(0.0) as usize;
+    (ticks, decimals)
+}
+
+/// A tick label: rounded to the step's decimals; scientific for very large or very small
+/// magnitudes.
+pub fn fmt_tick(t: f64, decimals: usize) -> String {
+    if t == 0.0 {
+        return "0".into();
+    }
+    if t.abs() >= 1e5 || decimals > 4 {
+        return format!("{t:.1e}");
+    }
+    format!("{t:.decimals$}")
+}
+
+pub fn escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+/// Legend entries laid out in rows across the width below the plot, wrapping instead of
+/// cutting: the (x, row) of each entry.
+fn legend_layout(labels: &[&str]) -> Vec<(f64, usize)> {
+    let mut out = Vec::new();
+    let (mut x, mut row) = (MARGIN_L, 0);
+    for l in labels {
+        let w = 30.0 + CHAR_W * l.chars().count() as f64 + 20.0;
+        if x + w > W - MARGIN_R && x > MARGIN_L {
+            x = MARGIN_L;
+            row += 1;
+        }
+        out.push((x, row));
+        x += w;
+    }
+    out
+}
+
+fn range_of<'b>(values: impl Iterator<Item = &'b f64>) -> (f64, f64) {
+    values
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(*v), b.max(*v))
+        })
+}
+
+impl Plot<'_> {
+    /// The axes' ranges: x over every series and flag, y over the in-scale series (and
+    /// the band, and zero for stems), padded by 5 %.
+    fn ranges(&self) -> ((f64, f64), (f64, f64)) {
+        let flag_x = self.flags.iter().flat_map(|f| f.x.iter());
+        let (x0, x1) = range_of(self.series.iter().flat_map(|s| s.x.iter()).chain(flag_x));
+        let scaled = self.series.iter().filter(|s| s.in_scale);
+        let (mut y0, mut y1) = range_of(scaled.flat_map(|s| s.y.iter()));
+        if let Some(b) = self.band {
+            y0 = y0.min(-b);
+            y1 = y1.max(b);
+        }
+        if self.series.iter().any(|s| s.style == Style::Stems) {
+            y0 = y0.min(0.0);
+            y1 = y1.max(0.0);
+        }
+        if !(y1 > y0) {
+            let c = if y0.is_finite() { y0 } else { 0.0 };
+            let h = if c == 0.0 { 1.0 } else { 0.1 * c.abs() };
+            (y0, y1) = (c - h, c + h);
+        }
+        let pad = 0.05 * (y1 - y0);
+        // Room along the top for the flags' crosses, clear of the data.
+        let top_pad = if self.flags.is_some() { 3.0 * pad } else { pad };
+        let x = if x1 > x0 {
+            (x0, x1)
+        } else if x0.is_finite() {
+            let h = if x0 == 0.0 { 1.0 } else { 0.1 * x0.abs() };
+            // A single x: do not invent negative values of a quantity that has none.
+            let lo = if x0 >= 0.0 { (x0 - h).max(0.0) } else { x0 - h };
+            (lo, x0 + h)
+        } else {
+            (0.0, 1.0)
+        };
+        (x, (y0 - pad, y1 + top_pad))
+    }
+
+    pub fn render(&self) -> String {
+        let ((x0, x1), (y0, y1)) = self.ranges();
+        let px = |x: f64| MARGIN_L + (x - x0) / (x1 - x0) * (W - MARGIN_L - MARGIN_R);
+        let py = |y: f64| MARGIN_T + (y1 - y) / (y1 - y0) * PLOT_H;
+        // A series with nothing to draw says so in the legend rather than vanishing.
+        let owned: Vec<String> = self
+            .series
+            .iter()
+            .map(|ser| {
+                let any = ser
+                    .x
+                    .iter()
+                    .zip(ser.y)
+                    .any(|(x, y)| x.is_finite() && y.is_finite());
+                if any {
+                    ser.label.to_string()
+                } else {
+                    format!("{} (no values)", ser.label)
+                }
+            })
+            .collect();
+        let mut labels: Vec<&str> = owned.iter().map(String::as_str).collect();
+        if let Some(f) = &self.flags {
+            labels.push(f.label);
+        }
+        let legend = legend_layout(&labels);
+        let rows = legend.last().map_or(0, |l| l.1 + 1);
+        let h = MARGIN_T + PLOT_H + AXIS_H + rows as f64 * LEGEND_ROW_H + 8.0;
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{h}" font-family="sans-serif" font-size="12">"#
+        );
+        let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
+        let _ = writeln!(
+            s,
+            r#"<defs><clipPath id="data"><rect x="{MARGIN_L}" y="{MARGIN_T}" width="{:.1}" height="{PLOT_H}"/></clipPath></defs>"#,
+            W - MARGIN_L - MARGIN_R
+        );
+        let _ = writeln!(
+            s,
+            r#"<text x="{}" y="20" font-size="14" text-anchor="middle">{}</text>"#,
+            W / 2.0,
+            escape(self.title)
+        );
+        self.axes(&mut s, (x0, x1), (y0, y1), &px, &py);
+        let drawn = self.series.iter().any(|ser| {
+            ser.x
+                .iter()
+                .zip(ser.y)
+                .any(|(x, y)| x.is_finite() && y.is_finite())
+        }) || self.flags.as_ref().is_some_and(|f| !f.x.is_empty());
+        if !drawn {
+            let _ = writeln!(
+                s,
+                r##"<text x="{:.1}" y="{:.1}" text-anchor="middle" fill="#888" font-size="14">{}</text>"##,
+                (W + MARGIN_L) / 2.0,
+                MARGIN_T + PLOT_H / 2.0,
+                escape(self.empty_note)
+            );
+        }
+        // Measured data first, so simulated lines are drawn over it.
+        let mut order: Vec<usize> = (0..self.series.len()).collect();
+        order.sort_by_key(|&i| self.series[i].style != Style::Measured);
+        for i in order {
+            draw_series(&mut s, &self.series[i], &px, &py);
+        }
+        if let Some(f) = &self.flags {
+            for x in f.x.iter().filter(|x| x.is_finite()) {
+                cross(&mut s, px(*x), MARGIN_T + 8.0, f.colour);
+            }
+        }
+        let top = MARGIN_T + PLOT_H + AXIS_H;
+        for (k, (x, row)) in legend.iter().enumerate() {
+            let y = top + *row as f64 * LEGEND_ROW_H;
+            let (colour, style, in_scale) = match self.series.get(k) {
+                Some(ser) => (ser.colour, ser.style, ser.in_scale),
+                None => (
+                    self.flags.as_ref().map_or("#000", |f| f.colour),
+                    Style::Points,
+                    true,
+                ),
+            };
+            legend_key(
+                &mut s,
+                *x,
+                y,
+                colour,
+                style,
+                in_scale,
+                k >= self.series.len(),
+            );
+            let _ = writeln!(
+                s,
+                r#"<text x="{:.1}" y="{:.1}">{}</text>"#,
+                x + 28.0,
+                y + 4.0,
+                escape(labels[k])
+            );
+        }
+        s.push_str("</svg>\n");
+        s
+    }
+
+    fn axes(
+        &self,
+        s: &mut String,
+        (x0, x1): (f64, f64),
+        (y0, y1): (f64, f64),
+        px: &dyn Fn(f64) -> f64,
+        py: &dyn Fn(f64) -> f64,
+    ) {
+        let bottom = MARGIN_T + PLOT_H;
+        let (xt, xd) = nice_ticks(x0, x1);
+        for t in xt {
+            let x = px(t);
+            let _ = writeln!(
+                s,
+                r##"<line x1="{x:.1}" y1="{MARGIN_T}" x2="{x:.1}" y2="{bottom:.1}" stroke="#eee"/><text x="{x:.1}" y="{:.1}" text-anchor="middle">{}</text>"##,
+                bottom + 15.0,
+                fmt_tick(t, xd)
+            );
+        }
+        let (yt, yd) = nice_ticks(y0, y1);
+        for t in yt {
+            let y = py(t);
+            let _ = writeln!(
+                s,
+                r##"<line x1="{MARGIN_L}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="#eee"/><text x="{:.1}" y="{:.1}" text-anchor="end">{}</text>"##,
+                W - MARGIN_R,
+                MARGIN_L - 5.0,
+                y + 4.0,
+                fmt_tick(t, yd)
+            );
+        }
+        let _ = writeln!(
+            s,
+            r#"<rect x="{MARGIN_L}" y="{MARGIN_T}" width="{:.1}" height="{PLOT_H}" fill="none" stroke="black"/>"#,
+            W - MARGIN_L - MARGIN_R,
+        );
+        let _ = writeln!(
+            s,
+            r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">{}</text>"#,
+            (W + MARGIN_L) / 2.0,
+            bottom + 32.0,
+            escape(self.x_label)
+        );
+        let _ = writeln!(
+            s,
+            r#"<text transform="translate(16,{:.1}) rotate(-90)" text-anchor="middle">{}</text>"#,
+            MARGIN_T + PLOT_H / 2.0,
+            escape(self.y_label)
+        );
+        if let Some(b) = self.band {
+            for v in [b, -b] {
+                let _ = writeln!(
+                    s,
+                    r##"<line x1="{MARGIN_L}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="#c00" stroke-dasharray="5,4"/>"##,
+                    W - MARGIN_R,
+                    y = py(v)
+                );
+            }
+        }
+    }
+}
+
+fn cross(s: &mut String, x: f64, y: f64, colour: &str) {
+    let _ = writeln!(
+        s,
+        r#"<path d="M{:.1},{:.1}L{:.1},{:.1}M{:.1},{:.1}L{:.1},{:.1}" stroke="{colour}" stroke-width="2"/>"#,
+        x - 4.0,
+        y - 4.0,
+        x + 4.0,
+        y + 4.0,
+        x - 4.0,
+        y + 4.0,
+        x + 4.0,
+        y - 4.0
+    );
+}
+
+fn marker(s: &mut String, x: f64, y: f64, colour: &str) {
+    let _ = writeln!(
+        s,
+        r#"<circle cx="{x:.1}" cy="{y:.1}" r="3.5" fill="{colour}" stroke="white" stroke-width="1"/>"#
+    );
+}
+
+fn legend_key(
+    s: &mut String,
+    x: f64,
+    y: f64,
+    colour: &str,
+    style: Style,
+    in_scale: bool,
+    is_flag: bool,
+) {
+    if is_flag {
+        cross(s, x + 11.0, y, colour);
+        return;
+    }
+    let (width, opacity) = match style {
+        Style::Measured => (5.0, 0.45),
+        _ => (3.0, 1.0),
+    };
+    let dash = if in_scale {
+        ""
+    } else {
+        r#" stroke-dasharray="6,3""#
+    };
+    if style != Style::Points {
+        let _ = writeln!(
+            s,
+            r#"<line x1="{x:.1}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="{colour}" stroke-width="{width}" stroke-opacity="{opacity}"{dash}/>"#,
+            x + 22.0
+        );
+    }
+    if style == Style::Points {
+        marker(s, x + 11.0, y, colour);
+    }
+}
+
+fn draw_series(s: &mut String, ser: &Series, px: &dyn Fn(f64) -> f64, py: &dyn Fn(f64) -> f64) {
+    let finite: Vec<(f64, f64)> = ser
+        .x
+        .iter()
+        .zip(ser.y)
+        .filter(|(x, y)| x.is_finite() && y.is_finite())
+        .map(|(x, y)| (*x, *y))
+        .collect();
+    let clip = r#" clip-path="url(#data)""#;
+    match ser.style {
+        Style::Stems => {
+            for (x, y) in &finite {
+                let _ = writeln!(
+                    s,
+                    r#"<line x1="{:.1}" y1="{:.1}" x2="{:.1}" y2="{:.1}" stroke="{}" stroke-width="2"{clip}/>"#,
+                    px(*x),
+                    py(0.0),
+                    px(*x),
+                    py(*y),
+                    ser.colour
+                );
+            }
+        }
+        Style::Points => {
+            for (x, y) in &finite {
+                marker(s, px(*x), py(*y), ser.colour);
+            }
+        }
+        Style::Line | Style::Measured => {
+            // Thin long series to about two points per pixel column.
+            let stride = (finite.len() / 2000).max(1);
+            let pts: Vec<String> = finite
+                .iter()
+                .step_by(stride)
+                .map(|(x, y)| format!("{:.1},{:.1}", px(*x), py(*y)))
+                .collect();
+            let (width, opacity) = if ser.style == Style::Measured {
+                (4.0, 0.45)
+            } else {
+                (1.4, 1.0)
+            };
+            let dash = if ser.in_scale {
+                ""
+            } else {
+                r#" stroke-dasharray="6,3""#
+            };
+            let _ = writeln!(
+                s,
+                r#"<polyline fill="none" stroke="{}" stroke-width="{width}" stroke-opacity="{opacity}"{dash}{clip} points="{}"/>"#,
+                ser.colour,
+                pts.join(" ")
+            );
+            if ser.style == Style::Line && finite.len() <= MARKERS_UP_TO && ser.in_scale {
+                for (x, y) in &finite {
+                    marker(s, px(*x), py(*y), ser.colour);
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ticks_are_whole_steps_and_labels_are_rounded() {
+        let (t, d) = nice_ticks(-0.7, 0.7);
+        assert!(t.contains(&0.0), "{t:?}");
+        let labels: Vec<String> = t.iter().map(|v| fmt_tick(*v, d)).collect();
+        assert!(labels.iter().all(|l| !l.contains('e')), "{labels:?}");
+        assert!(labels.contains(&"0".to_string()));
+        assert_eq!(fmt_tick(0.30000000000000004, 1), "0.3");
+    }
+
+    #[test]
+    fn long_legends_wrap_inside_the_canvas() {
+        let long = "compound=hard_polyurethane floor=painted_concrete payload=200";
+        let labels = vec![long; 5];
+        let l = legend_layout(&labels);
+        for (x, _) in &l {
+            assert!(x + 50.0 + CHAR_W * long.len() as f64 <= W, "{x}");
+        }
+        assert!(l.last().unwrap().1 >= 2, "{l:?}");
+    }
+
+    #[test]
+    fn out_of_scale_series_do_not_set_the_axes() {
+        let x = [0.0, 1.0, 2.0];
+        let near = [0.01, -0.02, 0.015];
+        let lost = [0.0, -3.0, -5.0];
+        let series = [
+            Series::line("held", &x, &near, "#000"),
+            Series::line("lost", &x, &lost, "#f00").out_of_scale(),
+        ];
+        let p = Plot {
+            title: "t",
+            x_label: "x",
+            y_label: "y",
+            series: &series,
+            band: None,
+            flags: None,
+            empty_note: "",
+        };
+        let (_, (y0, y1)) = p.ranges();
+        assert!(y0 > -0.03 && y1 < 0.03, "{y0} {y1}");
+    }
+}
