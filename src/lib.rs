@@ -28,6 +28,7 @@ pub mod ident;
 pub mod model;
 pub mod plot;
 pub mod record;
+pub mod replay;
 pub mod rig;
 pub mod run;
 pub mod scene;

@@ -56,6 +56,26 @@ enum Command {
         #[arg(long, default_value_t = 0.02, value_parser = positive_seconds)]
         rerun_interval: f64,
     },
+    /// Drive the simulator (the scene, at its fidelity) with a recording's inputs instead of
+    /// its firmware and compare its outputs with the recording's: fit per output, the
+    /// simulated recording beside the measured one, a plot per output.
+    Replay {
+        /// Scene file (TOML): the machine to replay on.
+        #[arg(long)]
+        scene: PathBuf,
+        /// Recording (exchange format) whose inputs drive the simulator.
+        #[arg(long)]
+        recording: PathBuf,
+        /// Output folder [default: runs/replay_RECORDING_NAME].
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Override a scene value, e.g. --set chassis.mass_kg=300 (repeatable).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
+        /// Also write the measured and simulated outputs to this Rerun .rrd file.
+        #[arg(long, value_name = "FILE.rrd")]
+        save: Option<PathBuf>,
+    },
     /// Run a scene over a grid of values in parallel and tabulate the metrics of every run
     /// (results.csv, plots); `sweep merge` joins shard folders.
     Sweep(cli_sweep::SweepArgs),
@@ -262,6 +282,66 @@ fn bad_input(e: impl std::fmt::Display) -> ExitCode {
     ExitCode::from(2)
 }
 
+/// `agvsim replay`: load, replay, write, print.
+fn replay_command(
+    scene_path: &std::path::Path,
+    rec_path: &std::path::Path,
+    out: Option<PathBuf>,
+    set: &[String],
+    save: Option<PathBuf>,
+) -> ExitCode {
+    use agvsim::replay::{self, report};
+    let scene = match Scene::load(scene_path, set) {
+        Ok(s) => s,
+        Err(e) => return bad_input(e),
+    };
+    let rec = match agvsim::record::Recording::load(rec_path) {
+        Ok(r) => r,
+        Err(e) => return bad_input(e),
+    };
+    let name = rec_path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "recording".into());
+    let dir = out.unwrap_or_else(|| PathBuf::from("runs").join(format!("replay_{name}")));
+    let r = match replay::replay(&scene, &rec) {
+        Ok(r) => r,
+        Err(e @ replay::ReplayError::Recording { .. }) => return bad_input(e),
+        Err(e) => return fail(e),
+    };
+    println!(
+        "replay     {} on {} (fidelity {}), inputs {}, {} rows",
+        rec_path.display(),
+        scene_path.display(),
+        scene.sim.fidelity.name(),
+        r.drive.columns().join(", "),
+        r.t_s.len()
+    );
+    print!("{}", report::render(&r));
+    let written = (|| -> std::io::Result<Vec<PathBuf>> {
+        std::fs::create_dir_all(&dir)?;
+        let csv = dir.join(format!("{name}.replay.csv"));
+        report::write_atomically(&csv, &report::simulated_csv(&r, &rec, scene_path))?;
+        let mut files = vec![csv];
+        files.extend(report::write_plots(&dir, &r, &name)?);
+        Ok(files)
+    })();
+    match written {
+        Ok(files) => {
+            println!("simulated  {}", files[0].display());
+            println!("plots      {}", dir.join("plots").display());
+        }
+        Err(e) => return fail(format!("{}: {e}", dir.display())),
+    }
+    if let Some(p) = save {
+        if let Err(e) = agvsim::viz::save_replay(&p, &name, &r) {
+            return fail(e);
+        }
+        println!("rerun      {}", p.display());
+    }
+    ExitCode::SUCCESS
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
@@ -464,6 +544,13 @@ fn main() -> ExitCode {
                 Err(e) => fail(e),
             }
         }
+        Command::Replay {
+            scene,
+            recording,
+            out,
+            set,
+            save,
+        } => replay_command(&scene, &recording, out, &set, save),
         Command::Sweep(args) => cli_sweep::sweep_command(args),
         Command::Linearize { scene, set } => {
             let loaded = match Scene::load(&scene, &set) {

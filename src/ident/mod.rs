@@ -5,7 +5,7 @@
 
 pub mod data;
 pub mod effects;
-mod evaluate;
+pub mod evaluate;
 pub mod fit;
 pub mod job;
 pub mod model;

@@ -95,3 +95,73 @@ pub fn save_identification(
     rec.flush_blocking().map_err(err)?;
     Ok(())
 }
+
+/// Saves a replay: per output, measured and simulated overlaid in one plot on one
+/// timeline (`t`, the recording's time) with their difference below, to a `.rrd` file.
+pub fn save_replay(
+    path: &std::path::Path,
+    name: &str,
+    r: &crate::replay::Replay,
+) -> Result<(), VizError> {
+    use rerun::blueprint::{Blueprint, Grid, TimeSeriesView, Vertical};
+    let columns = r.outputs.iter().map(|o| {
+        Vertical::new([
+            TimeSeriesView::new(format!("{}: measured and simulated", o.name))
+                .with_origin(format!("/{}/fit", o.name))
+                .into(),
+            TimeSeriesView::new(format!("{}: measured - simulated", o.name))
+                .with_origin(format!("/{}/difference", o.name))
+                .into(),
+        ])
+        .with_row_shares([0.65, 0.35])
+        .into()
+    });
+    let rec = RecordingStreamBuilder::new("agvsim")
+        .recording_id(format!("agvsim-replay-{name}"))
+        .with_blueprint(Blueprint::new(Grid::new(columns)))
+        .save(path)
+        .map_err(err)?;
+    rec.send_recording_name(format!("replay of {name}"))
+        .map_err(err)?;
+    for o in &r.outputs {
+        let style =
+            |n: &str, c: [u8; 4]| rerun::SeriesLines::new().with_names([n]).with_colors([c]);
+        rec.log_static(
+            format!("{}/fit/measured", o.name),
+            &style("measured", [150, 150, 150, 255]),
+        )
+        .map_err(err)?;
+        rec.log_static(
+            format!("{}/fit/simulated", o.name),
+            &style("simulated", [31, 95, 191, 255]),
+        )
+        .map_err(err)?;
+        rec.log_static(
+            format!("{}/difference", o.name),
+            &style("difference", [208, 128, 0, 255]),
+        )
+        .map_err(err)?;
+        for (k, t) in r.t_s.iter().enumerate() {
+            rec.set_duration_secs("t", *t);
+            rec.log(
+                format!("{}/fit/simulated", o.name),
+                &rerun::Scalars::new([o.simulated[k]]),
+            )
+            .map_err(err)?;
+            if let Some(y) = o.measured[k] {
+                rec.log(
+                    format!("{}/fit/measured", o.name),
+                    &rerun::Scalars::new([y]),
+                )
+                .map_err(err)?;
+                rec.log(
+                    format!("{}/difference", o.name),
+                    &rerun::Scalars::new([y - o.simulated[k]]),
+                )
+                .map_err(err)?;
+            }
+        }
+    }
+    rec.flush_blocking().map_err(err)?;
+    Ok(())
+}

@@ -1,0 +1,313 @@
+//! Replay: the simulator itself, at the scene's fidelity (rapier chassis, tyres and castors
+//! at `full`), driven by a recording's inputs instead of its firmware, and compared with
+//! the recording's outputs. This is how a user sees how well the simulation they run
+//! matches their machine, output by output, with the same normalised fit as `identify`.
+//!
+//! Inputs, by the contract's columns: motor voltages (`left_/right_voltage_V`; a drive
+//! axis's `voltage_V`) bypass the DCMC; demands (`demand_fwd_pct`, `demand_turn_pct`; a
+//! drive axis's `demand_pct`) go through it. Each input is held from its row to the next
+//! (zero-order hold, as a controller's output is). A drive axis is the scene's left drive
+//! with the wheels lifted; a `drive_pair` recording, both drives lifted. The simulator starts from rest, at the recording's first pose
+//! when it has one.
+
+pub mod report;
+
+use std::path::PathBuf;
+
+use crate::ident::evaluate::fit_pct;
+use crate::record::{vehicle_columns, Recording};
+use crate::scene::Scene;
+use crate::sim::{Actuation, Sim, SimError, Snapshot};
+
+/// Why a replay cannot run.
+#[derive(Debug, thiserror::Error)]
+pub enum ReplayError {
+    /// The recording lacks what a replay needs.
+    #[error("{file}: {message}")]
+    Recording { file: PathBuf, message: String },
+    #[error(transparent)]
+    Sim(#[from] SimError),
+    #[error("{file}: the simulation diverged at t = {t_s} s of the recording: {source}")]
+    Diverged {
+        file: PathBuf,
+        t_s: f64,
+        source: SimError,
+    },
+}
+
+/// How the recording drives the simulator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Drive {
+    /// Left and right motor voltages, V.
+    Voltages,
+    /// Forward and turn demand into the DCMC, pct.
+    Demands,
+    /// A drive axis (the left drive, wheels lifted) on its motor voltage, V.
+    AxisVoltage,
+    /// A drive axis on its demand into the motor controller, pct (as a forward demand,
+    /// so both sides run alike and the left one is compared).
+    AxisDemand,
+}
+
+impl Drive {
+    /// The recording's input columns this drive reads.
+    pub fn columns(self) -> &'static [&'static str] {
+        match self {
+            Drive::Voltages => &["left_voltage_V", "right_voltage_V"],
+            Drive::Demands => &["demand_fwd_pct", "demand_turn_pct"],
+            Drive::AxisVoltage => &["voltage_V"],
+            Drive::AxisDemand => &["demand_pct"],
+        }
+    }
+
+    fn actuation(self, u: &[f64]) -> Actuation {
+        match self {
+            Drive::Voltages => Actuation::Voltage([u[0], u[1]]),
+            Drive::Demands => Actuation::Demand {
+                forward_pct: u[0],
+                turn_pct: u[1],
+            },
+            Drive::AxisVoltage => Actuation::Voltage([u[0], 0.0]),
+            Drive::AxisDemand => Actuation::Demand {
+                forward_pct: u[0],
+                turn_pct: 0.0,
+            },
+        }
+    }
+
+    fn lifted(self) -> bool {
+        matches!(self, Drive::AxisVoltage | Drive::AxisDemand)
+    }
+}
+
+/// A simulator output a recording column can be compared with.
+struct Channel {
+    name: String,
+    read: fn(&Snapshot) -> f64,
+}
+
+/// The drive-axis outputs (the left drive of the lifted simulator).
+fn axis_channels() -> Vec<(&'static str, fn(&Snapshot) -> f64)> {
+    vec![
+        ("motor_speed_rad_s", |s| s.sides[0].motor_speed_rad_s),
+        ("motor_angle_rad", |s| s.sides[0].motor_angle_rad),
+        ("wheel_angle_rad", |s| s.sides[0].wheel_angle_rad),
+        ("current_A", |s| s.sides[0].current_a),
+    ]
+}
+
+/// One output, measured and simulated at the recording's rows.
+#[derive(Debug, Clone)]
+pub struct ReplayedOutput {
+    pub name: String,
+    pub measured: Vec<Option<f64>>,
+    pub simulated: Vec<f64>,
+    /// Normalised fit, % (as `identify` reports it).
+    pub fit_pct: f64,
+    /// RMS of measured minus simulated over the measured cells, in the column's unit.
+    pub rms_error: f64,
+}
+
+/// A replay's result.
+#[derive(Debug, Clone)]
+pub struct Replay {
+    pub drive: Drive,
+    pub t_s: Vec<f64>,
+    /// The inputs as held, `[input][row]`.
+    pub inputs: Vec<Vec<f64>>,
+    pub outputs: Vec<ReplayedOutput>,
+    /// Recording columns neither used as an input nor produced by the simulator.
+    pub not_compared: Vec<String>,
+}
+
+impl Replay {
+    /// Mean fit over the compared outputs, %.
+    pub fn mean_fit_pct(&self) -> f64 {
+        self.outputs.iter().map(|o| o.fit_pct).sum::<f64>() / self.outputs.len().max(1) as f64
+    }
+
+    /// One output by name.
+    pub fn output(&self, name: &str) -> Option<&ReplayedOutput> {
+        self.outputs.iter().find(|o| o.name == name)
+    }
+}
+
+fn recording_err(rec: &Recording, message: String) -> ReplayError {
+    ReplayError::Recording {
+        file: rec.path.clone(),
+        message,
+    }
+}
+
+/// The drive the recording's columns give, voltages first.
+fn choose_drive(rec: &Recording) -> Result<Drive, ReplayError> {
+    let candidates: &[Drive] = match rec.rig.as_str() {
+        "drive_axis" => &[Drive::AxisVoltage, Drive::AxisDemand],
+        "vehicle" | "drive_pair" => &[Drive::Voltages, Drive::Demands],
+        other => return Err(recording_err(
+            rec,
+            format!(
+                "rig `{other}`: replay drives `vehicle`, `drive_axis` and `drive_pair` recordings"
+            ),
+        )),
+    };
+    candidates
+        .iter()
+        .copied()
+        .find(|d| d.columns().iter().all(|c| rec.column(c).is_some()))
+        .ok_or_else(|| {
+            let wanted: Vec<String> = candidates
+                .iter()
+                .map(|d| d.columns().join(" and "))
+                .collect();
+            recording_err(
+                rec,
+                format!(
+                    "no input the simulator can be driven by: expected {}",
+                    wanted.join(", or ")
+                ),
+            )
+        })
+}
+
+/// The input columns, each held over missing cells (a cell before the first value is an
+/// error: the start must be known).
+fn held_inputs(rec: &Recording, drive: Drive) -> Result<Vec<Vec<f64>>, ReplayError> {
+    drive
+        .columns()
+        .iter()
+        .map(|name| {
+            let col = rec.column(name).unwrap_or_default();
+            let mut last = None;
+            col.iter()
+                .enumerate()
+                .map(|(i, v)| {
+                    last = v.or(last);
+                    last.ok_or_else(|| {
+                        recording_err(
+                            rec,
+                            format!(
+                                "input `{name}` has no value at its first row (t = {} s)",
+                                rec.t_s[i]
+                            ),
+                        )
+                    })
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// The simulator outputs this recording has columns for.
+fn channels(rec: &Recording, drive: Drive) -> (Vec<Channel>, Vec<String>) {
+    let table: Vec<(&str, fn(&Snapshot) -> f64)> = if drive.lifted() {
+        axis_channels()
+    } else {
+        vehicle_columns()
+            .into_iter()
+            .filter(|c| c.name != "t_s")
+            .map(|c| (c.name, c.value))
+            .collect()
+    };
+    let mut found = vec![];
+    let mut missing = vec![];
+    for name in &rec.names {
+        if drive.columns().contains(&name.as_str()) {
+            continue;
+        }
+        match table.iter().find(|(n, _)| n == name) {
+            Some((_, read)) if !Drive::Demands.columns().contains(&name.as_str()) => {
+                found.push(Channel {
+                    name: name.clone(),
+                    read: *read,
+                })
+            }
+            _ => missing.push(name.clone()),
+        }
+    }
+    (found, missing)
+}
+
+/// Runs the scene's simulator on the recording's inputs and compares its outputs.
+pub fn replay(scene: &Scene, rec: &Recording) -> Result<Replay, ReplayError> {
+    if rec.t_s.len() < 2 {
+        return Err(recording_err(
+            rec,
+            format!("too few samples to replay: {} row(s)", rec.t_s.len()),
+        ));
+    }
+    let drive = choose_drive(rec)?;
+    let inputs = held_inputs(rec, drive)?;
+    let (chans, not_compared) = channels(rec, drive);
+    if chans.is_empty() {
+        return Err(recording_err(
+            rec,
+            "no output column the simulator produces: nothing to compare".into(),
+        ));
+    }
+    let mut scene = scene.clone();
+    // A drive axis, and this project's lifted pair, are recorded with the wheels off
+    // the floor.
+    scene.sim.wheels_lifted = drive.lifted() || rec.rig == "drive_pair";
+    let first = |name: &str| rec.column(name).and_then(|c| c[0]);
+    if let (Some(x), Some(y)) = (first("x_m"), first("y_m")) {
+        scene.start.x_m = x;
+        scene.start.y_m = y;
+    }
+    if let Some(h) = first("heading_rad") {
+        scene.start.heading_rad = h;
+    }
+    let mut sim = Sim::new(&scene)?;
+    let dt = sim.params().dt_s;
+    let t0 = rec.t_s[0];
+    let n = rec.t_s.len();
+    let mut simulated = vec![Vec::with_capacity(n); chans.len()];
+    let mut t_sim = 0.0;
+    for k in 0..n {
+        if k > 0 {
+            // Step until the simulator reaches this row's time, holding the last input.
+            let target = rec.t_s[k] - t0;
+            while t_sim + 0.5 * dt < target {
+                sim.step().map_err(|source| ReplayError::Diverged {
+                    file: rec.path.clone(),
+                    t_s: rec.t_s[k],
+                    source,
+                })?;
+                t_sim += dt;
+            }
+        }
+        let s = sim.snapshot();
+        for (c, out) in chans.iter().zip(simulated.iter_mut()) {
+            out.push((c.read)(&s));
+        }
+        let u: Vec<f64> = inputs.iter().map(|col| col[k]).collect();
+        sim.set_actuation(drive.actuation(&u));
+    }
+    let outputs = chans
+        .iter()
+        .zip(simulated)
+        .map(|(c, sim_y)| {
+            let measured: Vec<Option<f64>> = rec.column(&c.name).unwrap_or_default().to_vec();
+            let pairs: Vec<f64> = measured
+                .iter()
+                .zip(&sim_y)
+                .filter_map(|(m, s)| m.map(|m| (m - s).powi(2)))
+                .collect();
+            let rms_error = (pairs.iter().sum::<f64>() / pairs.len().max(1) as f64).sqrt();
+            ReplayedOutput {
+                name: c.name.clone(),
+                fit_pct: fit_pct(&measured, &sim_y),
+                measured,
+                simulated: sim_y,
+                rms_error,
+            }
+        })
+        .collect();
+    Ok(Replay {
+        drive,
+        t_s: rec.t_s.clone(),
+        inputs,
+        outputs,
+        not_compared,
+    })
+}

@@ -1,0 +1,101 @@
+//! A replay's files and text: the simulated recording beside the measured one (same
+//! columns), a plot per output, and the fit table.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use super::Replay;
+use crate::plot::{svg, Series, Style};
+use crate::record::Recording;
+
+/// Writes `path` whole or not at all: the text goes to a temporary file beside it, which
+/// is then renamed over it.
+pub fn write_atomically(path: &Path, text: &str) -> std::io::Result<()> {
+    let tmp = path.with_extension("partial");
+    std::fs::write(&tmp, text)?;
+    std::fs::rename(&tmp, path)
+}
+
+/// The simulated recording: the measured file's time, inputs (as held) and compared
+/// outputs, with the replay named in its metadata.
+pub fn simulated_csv(r: &Replay, rec: &Recording, scene_path: &Path) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "# agvsim-recording: 1");
+    let _ = writeln!(s, "# rig: {}", rec.rig);
+    let _ = writeln!(
+        s,
+        "# description: agvsim replay of {} on {}",
+        rec.path.display(),
+        scene_path.display()
+    );
+    let _ = writeln!(
+        s,
+        "# source: agvsim {} simulation driven by the recording's inputs",
+        env!("CARGO_PKG_VERSION")
+    );
+    let mut header = vec!["t_s".to_string()];
+    header.extend(r.drive.columns().iter().map(|c| c.to_string()));
+    header.extend(r.outputs.iter().map(|o| o.name.clone()));
+    let _ = writeln!(s, "{}", header.join(","));
+    for k in 0..r.t_s.len() {
+        let mut row = vec![format!("{}", r.t_s[k])];
+        row.extend(r.inputs.iter().map(|col| format!("{}", col[k])));
+        row.extend(r.outputs.iter().map(|o| format!("{:.6}", o.simulated[k])));
+        let _ = writeln!(s, "{}", row.join(","));
+    }
+    s
+}
+
+/// The fit table `agvsim replay` prints.
+pub fn render(r: &Replay) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "{:<28} {:>8} {:>14}", "output", "fit %", "RMS error");
+    for o in &r.outputs {
+        let _ = writeln!(
+            s,
+            "{:<28} {:>8.1} {:>14.4e}",
+            o.name, o.fit_pct, o.rms_error
+        );
+    }
+    let _ = writeln!(s, "{:<28} {:>8.1}", "mean", r.mean_fit_pct());
+    if !r.not_compared.is_empty() {
+        let _ = writeln!(
+            s,
+            "not compared: {} (inputs of another kind, or no such simulator output)",
+            r.not_compared.join(", ")
+        );
+    }
+    s
+}
+
+/// `plots/OUTPUT_replay.svg` per output: measured (wide, pale) under simulated.
+pub fn write_plots(dir: &Path, r: &Replay, rec_name: &str) -> std::io::Result<Vec<PathBuf>> {
+    let pdir = dir.join("plots");
+    std::fs::create_dir_all(&pdir)?;
+    let mut files = vec![];
+    for o in &r.outputs {
+        let (t, y): (Vec<f64>, Vec<f64>) = o
+            .measured
+            .iter()
+            .zip(&r.t_s)
+            .filter_map(|(v, t)| v.map(|v| (*t, v)))
+            .unzip();
+        let doc = svg(
+            &format!(
+                "{}: measured and replayed in the simulator ({rec_name}, fit {:.1} %)",
+                o.name, o.fit_pct
+            ),
+            "t (s)",
+            &o.name,
+            &[
+                Series::line("measured", &t, &y, "#555").with_style(Style::Measured),
+                Series::line("simulated", &r.t_s, &o.simulated, "#1f5fbf"),
+            ],
+            None,
+        );
+        let f = pdir.join(format!("{}_replay.svg", o.name));
+        write_atomically(&f, &doc)?;
+        files.push(f);
+    }
+    Ok(files)
+}
