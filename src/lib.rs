@@ -21,6 +21,7 @@
 //! - [`sweep`], [`study`]: parallel parameter sweeps (shards, merge) and the shipped
 //!   studies built on them.
 
+pub mod calibrate;
 pub mod diagnose;
 pub mod experiment;
 pub mod firmware;

@@ -76,6 +76,32 @@ enum Command {
         #[arg(long, value_name = "FILE.rrd")]
         save: Option<PathBuf>,
     },
+    /// Fit the scene's uncertain keys to a recording through the simulator itself, print
+    /// each key before and after and the replay fit on the original and calibrated scene,
+    /// and write the calibrated scene.
+    Calibrate {
+        /// Scene file (TOML): its values are the beliefs.
+        #[arg(long)]
+        scene: PathBuf,
+        /// Recording (exchange format) to fit.
+        #[arg(long)]
+        recording: PathBuf,
+        /// Comma-separated scene keys to fit [default: the recording kind's set: motor
+        /// resistance, torque constant, rotor inertia, viscous friction for a lifted drive;
+        /// torque constant, resistance, chassis mass and yaw inertia for a vehicle].
+        #[arg(long, value_delimiter = ',')]
+        free: Vec<String>,
+        /// Write the calibrated scene here (the original text with the fitted keys
+        /// replaced and commented).
+        #[arg(long, value_name = "CALIBRATED.toml")]
+        write: Option<PathBuf>,
+        /// A second recording to compare the original and calibrated scenes on.
+        #[arg(long, value_name = "OTHER.csv")]
+        validate: Option<PathBuf>,
+        /// Override a scene value before fitting (repeatable).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
+    },
     /// Run a scene over a grid of values in parallel and tabulate the metrics of every run
     /// (results.csv, plots); `sweep merge` joins shard folders.
     Sweep(cli_sweep::SweepArgs),
@@ -342,6 +368,95 @@ fn replay_command(
     ExitCode::SUCCESS
 }
 
+/// `agvsim calibrate`: load, fit through the simulator, print, write the scene.
+fn calibrate_command(
+    scene_path: &std::path::Path,
+    rec_path: &std::path::Path,
+    free: &[String],
+    write: Option<PathBuf>,
+    validate: Option<PathBuf>,
+    set: &[String],
+) -> ExitCode {
+    use agvsim::calibrate::{self, write as cw};
+    let text = match std::fs::read_to_string(scene_path) {
+        Ok(t) => t,
+        Err(e) => return bad_input(format!("{}: cannot read: {e}", scene_path.display())),
+    };
+    let scene = match Scene::from_toml(&text, scene_path, set) {
+        Ok(s) => s,
+        Err(e) => return bad_input(e),
+    };
+    let rec = match agvsim::record::Recording::load(rec_path) {
+        Ok(r) => r,
+        Err(e) => return bad_input(e),
+    };
+    let other = match validate.as_deref().map(agvsim::record::Recording::load) {
+        Some(Ok(r)) => Some(r),
+        Some(Err(e)) => return bad_input(e),
+        None => None,
+    };
+    // The output path is checked before the fit's work.
+    if let Some(w) = &write {
+        if w.is_dir() {
+            return bad_input(format!(
+                "--write {}: a folder; give a file name for the calibrated scene",
+                w.display()
+            ));
+        }
+    }
+    println!(
+        "calibrate  {} against {} (fidelity {}), through the simulator",
+        scene_path.display(),
+        rec_path.display(),
+        scene.sim.fidelity.name()
+    );
+    let c = match calibrate::calibrate(&scene, &rec, free) {
+        Ok(c) => c,
+        Err(e) => return fail(e),
+    };
+    print!("{}", cw::render(&c));
+    println!(
+        "mean       {:.1} % -> {:.1} % over the fitted outputs ({} iterations)",
+        cw::mean_fit(&c.before, &c.outputs),
+        cw::mean_fit(&c.after, &c.outputs),
+        c.iterations
+    );
+    if let Some(o) = &other {
+        let runs = (
+            agvsim::replay::replay(&scene, o),
+            agvsim::replay::replay(&c.scene, o),
+        );
+        match runs {
+            (Ok(b), Ok(a)) => println!(
+                "validate   {}: {:.1} % -> {:.1} %",
+                o.path.display(),
+                cw::mean_fit(&b, &c.outputs),
+                cw::mean_fit(&a, &c.outputs)
+            ),
+            (Err(e), _) | (_, Err(e)) => return fail(e),
+        }
+    }
+    if let Some(w) = write {
+        let source = rec_path.file_name().map_or_else(
+            || "the recording".into(),
+            |n| n.to_string_lossy().into_owned(),
+        );
+        let out = match cw::calibrated_text(&text, &c, &source) {
+            Ok(t) => t,
+            Err(e) => return fail(e),
+        };
+        // The written scene must load (and with the original's overrides, run as fitted).
+        if let Err(e) = Scene::from_toml(&out, &w, set) {
+            return fail(format!("the calibrated scene does not load: {e}"));
+        }
+        if let Err(e) = agvsim::replay::report::write_atomically(&w, &out) {
+            return fail(format!("{}: {e}", w.display()));
+        }
+        println!("scene      {}", w.display());
+    }
+    ExitCode::SUCCESS
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
@@ -551,6 +666,14 @@ fn main() -> ExitCode {
             set,
             save,
         } => replay_command(&scene, &recording, out, &set, save),
+        Command::Calibrate {
+            scene,
+            recording,
+            free,
+            write,
+            validate,
+            set,
+        } => calibrate_command(&scene, &recording, &free, write, validate, &set),
         Command::Sweep(args) => cli_sweep::sweep_command(args),
         Command::Linearize { scene, set } => {
             let loaded = match Scene::load(&scene, &set) {

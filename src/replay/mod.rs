@@ -102,7 +102,8 @@ pub struct ReplayedOutput {
     pub name: String,
     pub measured: Vec<Option<f64>>,
     pub simulated: Vec<f64>,
-    /// Normalised fit, % (as `identify` reports it).
+    /// Normalised fit, % (as `identify` reports it); NaN where the column has fewer than
+    /// two measured cells (simulated only).
     pub fit_pct: f64,
     /// RMS of measured minus simulated over the measured cells, in the column's unit.
     pub rms_error: f64,
@@ -121,9 +122,18 @@ pub struct Replay {
 }
 
 impl Replay {
-    /// Mean fit over the compared outputs, %.
+    /// Mean fit over the compared outputs, % (NaN when none has measurements).
     pub fn mean_fit_pct(&self) -> f64 {
-        self.outputs.iter().map(|o| o.fit_pct).sum::<f64>() / self.outputs.len().max(1) as f64
+        let fits: Vec<f64> = self
+            .outputs
+            .iter()
+            .map(|o| o.fit_pct)
+            .filter(|f| f.is_finite())
+            .collect();
+        if fits.is_empty() {
+            return f64::NAN;
+        }
+        fits.iter().sum::<f64>() / fits.len() as f64
     }
 
     /// One output by name.
@@ -144,12 +154,14 @@ fn choose_drive(rec: &Recording) -> Result<Drive, ReplayError> {
     let candidates: &[Drive] = match rec.rig.as_str() {
         "drive_axis" => &[Drive::AxisVoltage, Drive::AxisDemand],
         "vehicle" | "drive_pair" => &[Drive::Voltages, Drive::Demands],
-        other => return Err(recording_err(
-            rec,
-            format!(
+        other => {
+            return Err(recording_err(
+                rec,
+                format!(
                 "rig `{other}`: replay drives `vehicle`, `drive_axis` and `drive_pair` recordings"
             ),
-        )),
+            ))
+        }
     };
     candidates
         .iter()
@@ -293,10 +305,20 @@ pub fn replay(scene: &Scene, rec: &Recording) -> Result<Replay, ReplayError> {
                 .zip(&sim_y)
                 .filter_map(|(m, s)| m.map(|m| (m - s).powi(2)))
                 .collect();
-            let rms_error = (pairs.iter().sum::<f64>() / pairs.len().max(1) as f64).sqrt();
+            // A column with fewer than two values is simulated only: no fit.
+            let compared = pairs.len() >= 2;
+            let rms_error = if compared {
+                (pairs.iter().sum::<f64>() / pairs.len() as f64).sqrt()
+            } else {
+                f64::NAN
+            };
             ReplayedOutput {
                 name: c.name.clone(),
-                fit_pct: fit_pct(&measured, &sim_y),
+                fit_pct: if compared {
+                    fit_pct(&measured, &sim_y)
+                } else {
+                    f64::NAN
+                },
                 measured,
                 simulated: sim_y,
                 rms_error,

@@ -51,17 +51,27 @@ pub fn render(r: &Replay) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "{:<28} {:>8} {:>14}", "output", "fit %", "RMS error");
     for o in &r.outputs {
-        let _ = writeln!(
-            s,
-            "{:<28} {:>8.1} {:>14.4e}",
-            o.name, o.fit_pct, o.rms_error
-        );
+        if o.fit_pct.is_finite() {
+            let _ = writeln!(
+                s,
+                "{:<28} {:>8.1} {:>14.4e}",
+                o.name, o.fit_pct, o.rms_error
+            );
+        } else {
+            let _ = writeln!(
+                s,
+                "{:<28} {:>8}   not measured: simulated only",
+                o.name, "-"
+            );
+        }
     }
-    let _ = writeln!(s, "{:<28} {:>8.1}", "mean", r.mean_fit_pct());
+    if r.mean_fit_pct().is_finite() {
+        let _ = writeln!(s, "{:<28} {:>8.1}", "mean", r.mean_fit_pct());
+    }
     if !r.not_compared.is_empty() {
         let _ = writeln!(
             s,
-            "not compared: {} (inputs of another kind, or no such simulator output)",
+            "not compared: {} (inputs of another kind, empty, or no such simulator output)",
             r.not_compared.join(", ")
         );
     }
@@ -80,10 +90,15 @@ pub fn write_plots(dir: &Path, r: &Replay, rec_name: &str) -> std::io::Result<Ve
             .zip(&r.t_s)
             .filter_map(|(v, t)| v.map(|v| (*t, v)))
             .unzip();
+        let fit = if o.fit_pct.is_finite() {
+            format!("fit {:.1} %", o.fit_pct)
+        } else {
+            "not measured".to_string()
+        };
         let doc = svg(
             &format!(
-                "{}: measured and replayed in the simulator ({rec_name}, fit {:.1} %)",
-                o.name, o.fit_pct
+                "{}: measured and replayed in the simulator ({rec_name}, {fit})",
+                o.name
             ),
             "t (s)",
             &o.name,

@@ -1,0 +1,56 @@
+//! Scene keys by their dotted names (`motor.resistance_ohm`): read one, or set several
+//! through the same path as `--set`, so a fitted value is validated like a user's.
+
+use std::path::Path;
+
+use super::CalibrateError;
+use crate::scene::Scene;
+
+/// The number a dotted key holds in the scene.
+pub fn get(scene: &Scene, key: &str) -> Result<f64, CalibrateError> {
+    let value = toml::Value::try_from(scene)
+        .map_err(|e| CalibrateError::Key(format!("the scene cannot be read as a table: {e}")))?;
+    let mut v = &value;
+    for part in key.split('.') {
+        v = v
+            .get(part)
+            .ok_or_else(|| CalibrateError::Key(format!("`{key}`: no such scene key")))?;
+    }
+    v.as_float()
+        .or_else(|| v.as_integer().map(|i| i as f64))
+        .ok_or_else(|| {
+            CalibrateError::Key(format!(
+                "`{key}` = {v}: not a number, so it cannot be fitted"
+            ))
+        })
+}
+
+/// The scene with each `(key, value)` set, validated as a `--set` would be.
+pub fn set(scene: &Scene, pairs: &[(String, f64)]) -> Result<Scene, CalibrateError> {
+    let overrides: Vec<String> = pairs.iter().map(|(k, v)| format!("{k}={v:e}")).collect();
+    Scene::from_toml(
+        &scene.to_toml(),
+        Path::new("<calibrated scene>"),
+        &overrides,
+    )
+    .map_err(|e| CalibrateError::Key(e.to_string()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn keys_read_and_set_by_name_and_bad_ones_are_named() {
+        let s = Scene::default();
+        let r = get(&s, "motor.resistance_ohm").unwrap();
+        let t = set(&s, &[("motor.resistance_ohm".into(), 2.0 * r)]).unwrap();
+        assert_eq!(get(&t, "motor.resistance_ohm").unwrap(), 2.0 * r);
+        let e = get(&s, "motor.resistence_ohm").unwrap_err().to_string();
+        assert!(e.contains("motor.resistence_ohm"), "{e}");
+        let e = set(&s, &[("motor.resistance_ohm".into(), -1.0)])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("motor.resistance_ohm"), "{e}");
+    }
+}

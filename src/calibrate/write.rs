@@ -1,0 +1,105 @@
+//! The calibrated scene as a file: the user's own scene text with each fitted key
+//! replaced and a comment beside it giving the old value, the fitted value and its
+//! standard deviation. Everything else (comments, order, other keys) is left as written.
+
+use super::{CalibrateError, Calibration};
+
+/// Six significant digits: more than any fit determines.
+fn rounded(v: f64) -> f64 {
+    format!("{v:.5e}").parse().unwrap_or(v)
+}
+
+/// The original scene text with the calibration's changed keys (those not at a bound).
+pub fn calibrated_text(
+    original: &str,
+    c: &Calibration,
+    source: &str,
+) -> Result<String, CalibrateError> {
+    let mut doc: toml_edit::DocumentMut = original
+        .parse()
+        .map_err(|e| CalibrateError::Key(format!("the scene cannot be edited: {e}")))?;
+    for k in c.keys.iter().filter(|k| k.at_bound.is_none()) {
+        let parts: Vec<&str> = k.key.split('.').collect();
+        let (leaf, path) = parts.split_last().expect("a key has a name");
+        let mut table = doc.as_table_mut();
+        for p in path {
+            if !table.contains_key(p) {
+                let mut t = toml_edit::Table::new();
+                t.set_implicit(true);
+                table.insert(p, toml_edit::Item::Table(t));
+            }
+            table = table[p].as_table_mut().ok_or_else(|| {
+                CalibrateError::Key(format!("`{}`: `{p}` is not a table in the scene", k.key))
+            })?;
+        }
+        let std = k
+            .std
+            .map_or("undetermined".to_string(), |s| format!("{:.2e}", s));
+        let mut value = toml_edit::Value::from(rounded(k.after));
+        value.decor_mut().set_suffix(format!(
+            "  # calibrated against {source}: was {}, fitted {} +/- {std}",
+            k.before,
+            rounded(k.after)
+        ));
+        table.insert(leaf, toml_edit::Item::Value(value));
+    }
+    let mut text = format!(
+        "# Calibrated by `agvsim calibrate` against {source}; the fitted keys carry a `# calibrated` comment.\n"
+    );
+    text.push_str(&doc.to_string());
+    Ok(text)
+}
+
+/// The text `agvsim calibrate` prints: each key before and after, then each fitted output's
+/// replay fit on the original and on the calibrated scene.
+pub fn render(c: &Calibration) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "{:<30} {:>12} {:>12} {:>10}",
+        "key", "scene", "calibrated", "std"
+    );
+    for k in &c.keys {
+        match k.at_bound {
+            Some(b) => {
+                let _ = writeln!(
+                    s,
+                    "{:<30} {:>12.5e} {:>12} at bound {b:.4e}: not an estimate; the scene keeps its value (check the belief or the model)",
+                    k.key, k.before, "-"
+                );
+            }
+            None => {
+                let std = k.std.map_or("-".to_string(), |v| format!("{v:.2e}"));
+                let _ = writeln!(
+                    s,
+                    "{:<30} {:>12.5e} {:>12.5e} {:>10}",
+                    k.key, k.before, k.after, std
+                );
+            }
+        }
+    }
+    let _ = writeln!(
+        s,
+        "replay fit, %        {:>10} {:>12}",
+        "original", "calibrated"
+    );
+    for name in &c.outputs {
+        let (Some(b), Some(a)) = (c.before.output(name), c.after.output(name)) else {
+            continue;
+        };
+        let _ = writeln!(s, "  {:<28} {:>8.1} {:>12.1}", name, b.fit_pct, a.fit_pct);
+    }
+    s
+}
+
+/// Mean replay fit over the calibration's outputs, %.
+pub fn mean_fit(r: &crate::replay::Replay, outputs: &[String]) -> f64 {
+    let fits: Vec<f64> = outputs
+        .iter()
+        .filter_map(|n| r.output(n))
+        .map(|o| o.fit_pct)
+        .filter(|f| f.is_finite())
+        .collect();
+    fits.iter().sum::<f64>() / fits.len().max(1) as f64
+}
