@@ -457,7 +457,23 @@ fn calibrate_command(
     ExitCode::SUCCESS
 }
 
+/// Piped into `head` or a pager that quits, the program ends quietly when the reader
+/// closes, as command-line tools do, instead of panicking on the failed write (Rust
+/// ignores SIGPIPE by default).
+#[cfg(unix)]
+fn quiet_on_closed_pipe() {
+    // SAFETY: setting a signal's disposition to the default at start-up, before any thread
+    // exists, has no preconditions.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
+#[cfg(not(unix))]
+fn quiet_on_closed_pipe() {}
+
 fn main() -> ExitCode {
+    quiet_on_closed_pipe();
     let cli = Cli::parse();
     match cli.command {
         Command::Run {

@@ -441,3 +441,46 @@ fn a_runaway_grid_and_a_file_as_out_folder_are_refused_up_front() {
     assert_eq!(runs.into_inner(), 0, "no run was spent before the refusal");
     assert_eq!(std::fs::read_to_string(&file).unwrap(), "not a folder");
 }
+
+/// A parameter whose search ends at a bound is reported as such (text and JSON), with no
+/// standard deviation: here a rig whose resistance belief is 30 times too small, so the
+/// search's upper bound (10 times the belief) stops it.
+#[test]
+fn a_parameter_at_its_search_bound_is_not_reported_as_an_estimate() {
+    let dev = Path::new("../shared/data/dev");
+    if !dev.exists() {
+        println!("skipped: ../shared/data/dev is not beside the checkout");
+        return;
+    }
+    let dir = tmp("at-bound");
+    let rig_text = std::fs::read_to_string(dev.join("dev_axis_05.rig.toml"))
+        .unwrap()
+        .replace("resistance_ohm = 0.2741", "resistance_ohm = 0.009");
+    let rig_path = dir.join("bad.rig.toml");
+    std::fs::write(&rig_path, rig_text).unwrap();
+    let rig = Rig::load(&rig_path).unwrap();
+    let rec = Recording::load(&dev.join("dev_axis_05.csv")).unwrap();
+    let id = identify(&rig, &rig_path, &rec, None, &IdentifyOptions::default()).unwrap();
+    let r = id
+        .params
+        .iter()
+        .find(|p| p.name == "motor.resistance_ohm")
+        .unwrap();
+    println!("{r:?}");
+    assert_eq!(r.at_bound, Some(0.09));
+    assert!(r.std.is_none());
+    let text = agvsim::ident::report::render(&id);
+    assert!(
+        text.contains("AT BOUND 9.0000e-2: not an estimate"),
+        "{text}"
+    );
+    let json = serde_json::to_value(&id).unwrap();
+    let p = json["params"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|p| p["name"] == "motor.resistance_ohm")
+        .unwrap()
+        .clone();
+    assert_eq!(p["at_bound"], serde_json::json!(0.09));
+}

@@ -172,9 +172,6 @@ pub struct Calibration {
     pub iterations: usize,
 }
 
-/// Relative distance from a bound within which a fitted value counts as on it.
-const AT_BOUND_REL: f64 = 1e-3;
-
 /// Fits `free` scene keys (the recording kind's default set when empty) to the recording.
 pub fn calibrate(
     scene: &Scene,
@@ -244,8 +241,7 @@ pub fn calibrate(
         .enumerate()
         .map(|(i, s)| {
             let v = fit.params[i];
-            let on = |b: f64| (v - b).abs() <= AT_BOUND_REL * b.abs();
-            let at_bound = [s.lo, s.hi].into_iter().find(|b| on(*b));
+            let at_bound = crate::ident::bound_reached(v, s.lo, s.hi);
             KeyFit {
                 key: s.name.clone(),
                 before: s.nominal,

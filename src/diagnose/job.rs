@@ -34,6 +34,12 @@ pub fn render(d: &Diagnosis) -> String {
         "Baseline (nominal model, parameters fitted): fit {:.2} %",
         d.baseline_fit_pct
     );
+    for (name, bound) in &d.baseline_at_bound {
+        let _ = writeln!(
+            s,
+            "WARNING: {name} ended at its search bound {bound:.4e}: not an estimate; the rig's belief or the model's structure is wrong, and effects found below may be standing in for that"
+        );
+    }
     let _ = writeln!(
         s,
         "Where the baseline residual lives (energy share against share of samples):"

@@ -86,6 +86,9 @@ pub struct Diagnosis {
     pub model: String,
     pub baseline_fit_pct: f64,
     pub baseline_params: BTreeMap<String, f64>,
+    /// Free baseline parameters whose search ended at a bound (name, bound): no
+    /// estimates, but signs that the rig's belief or the model's structure is wrong.
+    pub baseline_at_bound: BTreeMap<String, f64>,
     /// Baseline residual energy by regime.
     pub where_before: Vec<RegimeShare>,
     /// Residual energy by regime after the accepted effects.
@@ -126,7 +129,7 @@ impl Diagnosis {
         let mut v = serde_json::json!({
             "recording": self.recording,
             "model": self.model,
-            "baseline": {"fit_pct": self.baseline_fit_pct, "params": self.baseline_params},
+            "baseline": {"fit_pct": self.baseline_fit_pct, "params": self.baseline_params, "at_bound": self.baseline_at_bound},
             "effects": effects,
             "final": {"fit_pct": self.final_fit_pct, "params": self.final_params},
             "where_before": self.where_before,
@@ -479,6 +482,7 @@ pub fn diagnose(
         model: model.name(),
         baseline_fit_pct: baseline_eval.fit_pct_mean,
         baseline_params: params_of(&structure, &base_fit.params),
+        baseline_at_bound: at_bound_of(&structure, &base_fit),
         where_before: regimes::shares(&regs, &base_energy, base_total_energy),
         where_after: regimes::shares(&regs, &final_energy, base_total_energy),
         rounds,
@@ -519,4 +523,16 @@ fn check_decidable(data: &Dataset, rec: &Recording) -> Result<(), IdentError> {
         }
     }
     Ok(())
+}
+
+/// The free parameters of a fit that ended on a bound of their search, with the bound.
+fn at_bound_of(s: &Structure, f: &crate::ident::fit::Fit) -> BTreeMap<String, f64> {
+    let specs = s.model().params();
+    f.free
+        .iter()
+        .filter_map(|&i| {
+            let p = &specs[i];
+            crate::ident::bound_reached(f.params[i], p.lo, p.hi).map(|b| (p.name.clone(), b))
+        })
+        .collect()
 }

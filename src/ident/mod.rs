@@ -256,9 +256,26 @@ pub struct ParamReport {
     pub name: String,
     pub nominal: f64,
     pub value: f64,
-    /// Standard deviation (free parameters); `null` when the data do not determine it.
+    /// Standard deviation (free parameters); `null` when the data do not determine it,
+    /// and when the search ended at a bound.
     pub std: Option<f64>,
     pub free: bool,
+    /// The bound of the search the value ended on, if it did: then the value is no
+    /// estimate but a sign that the belief (the rig's nominal) or the model's structure is
+    /// wrong.
+    pub at_bound: Option<f64>,
+}
+
+/// Relative distance from a search bound within which a fitted value counts as on it.
+pub const AT_BOUND_REL: f64 = 1e-3;
+
+/// The bound `value` sits on, if any (relative to the bound's size, or absolutely for a
+/// bound at zero).
+pub fn bound_reached(value: f64, lo: f64, hi: f64) -> Option<f64> {
+    [lo, hi]
+        .into_iter()
+        .filter(|b| b.is_finite())
+        .find(|b| (value - b).abs() <= AT_BOUND_REL * b.abs().max(1e-12))
 }
 
 /// A continuous-time state-space model with standard deviations (thesis-style tables).
@@ -526,12 +543,18 @@ fn assemble(
         .enumerate()
         .map(|(i, s)| {
             let slot = f.free.iter().position(|&j| j == i);
+            let at_bound = slot.and_then(|_| bound_reached(f.params[i], s.lo, s.hi));
             ParamReport {
                 name: s.name.clone(),
                 nominal: s.nominal,
                 value: f.params[i],
-                std: slot.and_then(|k| f.std[k]),
+                std: if at_bound.is_some() {
+                    None
+                } else {
+                    slot.and_then(|k| f.std[k])
+                },
                 free: slot.is_some(),
+                at_bound,
             }
         })
         .collect();

@@ -109,7 +109,13 @@ pub fn render(id: &Identification) -> String {
         "parameter", "nominal", "estimate ± 1 std", "rel. std"
     );
     for p in &id.params {
-        if p.free {
+        if let Some(b) = p.at_bound {
+            let _ = writeln!(
+                out,
+                "{:<34} {:>12.5e} {:>13.6e}   AT BOUND {b:.4e}: not an estimate; the rig's belief or the model is wrong",
+                p.name, p.nominal, p.value
+            );
+        } else if p.free {
             let _ = writeln!(
                 out,
                 "{:<34} {:>12.5e} {:>13.6e} ± {:<9.3e} {:>10}",
