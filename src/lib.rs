@@ -27,6 +27,7 @@ pub mod experiment;
 pub mod firmware;
 pub mod ident;
 pub mod model;
+pub mod output;
 pub mod plot;
 pub mod record;
 pub mod replay;

@@ -484,3 +484,80 @@ fn a_parameter_at_its_search_bound_is_not_reported_as_an_estimate() {
         .clone();
     assert_eq!(p["at_bound"], serde_json::json!(0.09));
 }
+
+/// `sweep merge` checks every row against the sweep's grid (an edited value is named
+/// with its line), refuses to merge into a shard's own folder, and reads quoted fields
+/// with newlines; a sweep rerun into its folder leaves no stale traces.
+#[test]
+fn merges_check_rows_and_shards_and_reruns_leave_no_stale_files() {
+    use agvsim::sweep::{merge, parse_vary, run_sweep, Shard, SweepOptions};
+    let dir = tmp("merge");
+    let shard = |i: usize, traces: bool, values: &str, out: &Path| {
+        let o = SweepOptions::new(
+            Path::new("scenes/lab_offset_120mm.toml"),
+            vec!["sim.duration_s=1".into()],
+            vec![parse_vary(&format!("controller.gain_scale={values}")).unwrap()],
+            1,
+            Shard { index: i, count: 2 },
+            1,
+            traces,
+            out.to_owned(),
+        )
+        .unwrap();
+        run_sweep(&o, &|_, _| {}).unwrap();
+    };
+    let (a, b) = (dir.join("a"), dir.join("b"));
+    shard(1, false, "1,2,3,4", &a);
+    shard(2, false, "1,2,3,4", &b);
+    let err = merge(&[a.clone(), b.clone()], &a).unwrap_err().to_string();
+    println!("{err}");
+    assert!(err.contains("is one of the shard folders"), "{err}");
+    // A quoted field holding a comma and a newline reads back (it used to split the row).
+    let results = b.join("results.csv");
+    let text = std::fs::read_to_string(&results).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let last = lines.len() - 1;
+    let cells: Vec<&str> = lines[last].split(',').collect();
+    let n = cells.len();
+    let mut edited: Vec<String> = cells.iter().map(|c| c.to_string()).collect();
+    edited[n - 1] = "\"note, with\na newline\"".into();
+    lines[last] = edited.join(",");
+    std::fs::write(&results, lines.join("\n") + "\n").unwrap();
+    merge(&[a.clone(), b.clone()], &dir.join("m1")).unwrap();
+    // An edited grid value is named.
+    let text = std::fs::read_to_string(&results).unwrap();
+    std::fs::write(&results, text.replacen(",4,0,", ",9,0,", 1)).unwrap();
+    let err = merge(&[a.clone(), b.clone()], &dir.join("m2"))
+        .unwrap_err()
+        .to_string();
+    println!("{err}");
+    assert!(
+        err.contains("controller.gain_scale = `9`")
+            && err.contains("where the sweep's grid has `4`"),
+        "{err}"
+    );
+    // Ten runs with traces, then two into the same folder: no old traces remain.
+    let c = dir.join("c");
+    let o = |values: &str, traces: bool| {
+        SweepOptions::new(
+            Path::new("scenes/lab_offset_120mm.toml"),
+            vec!["sim.duration_s=0.5".into()],
+            vec![parse_vary(&format!("controller.gain_scale={values}")).unwrap()],
+            1,
+            Shard::WHOLE,
+            1,
+            traces,
+            c.clone(),
+        )
+        .unwrap()
+    };
+    run_sweep(&o("1..2:10", true), &|_, _| {}).unwrap();
+    assert_eq!(std::fs::read_dir(c.join("traces")).unwrap().count(), 10);
+    run_sweep(&o("1,2", false), &|_, _| {}).unwrap();
+    assert!(!c.join("traces").exists(), "stale traces left");
+    let rows = std::fs::read_to_string(c.join("results.csv"))
+        .unwrap()
+        .lines()
+        .count();
+    assert_eq!(rows, 3);
+}

@@ -8,13 +8,7 @@ use super::Replay;
 use crate::plot::{svg, Series, Style};
 use crate::record::Recording;
 
-/// Writes `path` whole or not at all: the text goes to a temporary file beside it, which
-/// is then renamed over it.
-pub fn write_atomically(path: &Path, text: &str) -> std::io::Result<()> {
-    let tmp = path.with_extension("partial");
-    std::fs::write(&tmp, text)?;
-    std::fs::rename(&tmp, path)
-}
+pub use crate::output::write_atomically;
 
 /// The simulated recording: the measured file's time, inputs (as held) and compared
 /// outputs, with the replay named in its metadata.

@@ -84,14 +84,6 @@ fn num(v: f64) -> String {
     format!("{r}")
 }
 
-fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_string()
-    }
-}
-
 fn metric_cells(s: &RunSummary) -> Vec<String> {
     let mut faults = s.faults.clone();
     if s.bumper_stop {
@@ -127,28 +119,37 @@ pub fn header(grid: &Grid) -> Vec<String> {
     h
 }
 
+/// CSV text of a header and rows (fields quoted where they need it).
+fn csv_text(header: &[String], rows: impl IntoIterator<Item = Vec<String>>) -> String {
+    let mut w = csv::WriterBuilder::new().from_writer(vec![]);
+    // Writing to memory cannot fail.
+    let _ = w.write_record(header);
+    for r in rows {
+        let _ = w.write_record(&r);
+    }
+    String::from_utf8(w.into_inner().unwrap_or_default()).unwrap_or_default()
+}
+
 /// `results.csv` text: the header, then one row per run in grid order.
 pub fn results_csv(grid: &Grid, results: &[RunResult]) -> String {
-    let mut out = header(grid).join(",");
-    out.push('\n');
-    for r in results {
+    let rows = results.iter().map(|r| {
         let mut cells = vec![r.point.index.to_string()];
-        cells.extend(r.point.values.iter().map(|v| csv_field(v)));
+        cells.extend(r.point.values.iter().cloned());
         cells.push(r.point.repeat.to_string());
         cells.push(r.point.seed.to_string());
         match &r.outcome {
             Ok(s) => {
                 cells.push("ok".into());
-                cells.extend(metric_cells(s).iter().map(|c| csv_field(c)));
+                cells.extend(metric_cells(s));
             }
             Err(e) => {
-                cells.push(csv_field(&format!("error: {e}")));
+                cells.push(format!("error: {e}"));
                 cells.extend(std::iter::repeat_n(String::new(), METRICS.len()));
             }
         }
-        let _ = writeln!(out, "{}", cells.join(","));
-    }
-    out
+        cells
+    });
+    csv_text(&header(grid), rows)
 }
 
 /// `traces/run_NNNNN.csv` for each run that has a trace.
@@ -184,54 +185,40 @@ pub fn trace_name(index: usize) -> String {
 #[derive(Debug, Clone)]
 pub struct Table {
     pub header: Vec<String>,
-    /// (run number, raw line, cells).
-    pub rows: Vec<(usize, String, Vec<String>)>,
-}
-
-fn split_csv(line: &str) -> Vec<String> {
-    let mut cells = vec![];
-    let mut cur = String::new();
-    let mut quoted = false;
-    let mut chars = line.chars().peekable();
-    while let Some(c) = chars.next() {
-        match (c, quoted) {
-            ('"', true) if chars.peek() == Some(&'"') => {
-                cur.push('"');
-                chars.next();
-            }
-            ('"', _) => quoted = !quoted,
-            (',', false) => cells.push(std::mem::take(&mut cur)),
-            _ => cur.push(c),
-        }
-    }
-    cells.push(cur);
-    cells
+    /// (run number, file line of the row, cells).
+    pub rows: Vec<(usize, usize, Vec<String>)>,
 }
 
 impl Table {
     pub fn parse(text: &str, path: &Path) -> Result<Table, SweepError> {
-        let bad = |line: usize, message: String| SweepError::Format {
+        let bad = |line: u64, message: String| SweepError::Format {
             path: path.to_owned(),
             message: format!("line {line}: {message}"),
         };
-        let mut lines = text.lines();
-        let header = split_csv(
-            lines
-                .next()
-                .ok_or_else(|| bad(1, "empty file; expected the header `run,...`".into()))?,
-        );
+        let mut reader = csv::ReaderBuilder::new()
+            .has_headers(false)
+            .flexible(true)
+            .from_reader(text.as_bytes());
+        let mut records = reader.records();
+        let header: Vec<String> = match records.next() {
+            Some(Ok(r)) => r.iter().map(String::from).collect(),
+            Some(Err(e)) => return Err(bad(1, e.to_string())),
+            None => return Err(bad(1, "empty file; expected the header `run,...`".into())),
+        };
         if header.first().map(String::as_str) != Some("run") {
             return Err(bad(1, "expected a header starting with `run`".into()));
         }
         let mut rows = vec![];
-        for (i, line) in lines.enumerate() {
-            if line.is_empty() {
+        for r in records {
+            let r = r.map_err(|e| bad(e.position().map_or(0, |p| p.line()), e.to_string()))?;
+            let line = r.position().map_or(0, |p| p.line());
+            let cells: Vec<String> = r.iter().map(String::from).collect();
+            if cells.len() == 1 && cells[0].is_empty() {
                 continue;
             }
-            let cells = split_csv(line);
             if cells.len() != header.len() {
                 return Err(bad(
-                    i + 2,
+                    line,
                     format!(
                         "{} cells where the header has {}",
                         cells.len(),
@@ -241,14 +228,53 @@ impl Table {
             }
             let run: usize = cells[0]
                 .parse()
-                .map_err(|_| bad(i + 2, format!("`{}`: expected a run number", cells[0])))?;
-            rows.push((run, line.to_string(), cells));
+                .map_err(|_| bad(line, format!("`{}`: expected a run number", cells[0])))?;
+            rows.push((run, line as usize, cells));
         }
         Ok(Table { header, rows })
     }
 
     pub fn column(&self, name: &str) -> Option<usize> {
         self.header.iter().position(|h| h == name)
+    }
+
+    /// Checks a row's identity cells (varied values, repeat, seed) against the run the
+    /// grid has at its number: a row edited or from another sweep is named.
+    fn check_on_grid(
+        &self,
+        grid: &Grid,
+        path: &Path,
+        line: usize,
+        cells: &[String],
+    ) -> Result<(), SweepError> {
+        let run: usize = cells[0].parse().unwrap_or(usize::MAX);
+        if run >= grid.total() {
+            return Err(SweepError::Merge(format!(
+                "{} line {line}: run {run} is not in the sweep's grid of {} runs",
+                path.display(),
+                grid.total()
+            )));
+        }
+        let p = grid.point(run);
+        let mut expected: Vec<(String, String)> = grid
+            .varies
+            .iter()
+            .zip(&p.values)
+            .map(|(v, x)| (v.key.clone(), x.clone()))
+            .collect();
+        expected.push(("repeat".into(), p.repeat.to_string()));
+        expected.push(("seed".into(), p.seed.to_string()));
+        for (col, want) in expected {
+            let got = self.column(&col).map(|c| cells[c].as_str());
+            if got != Some(want.as_str()) {
+                return Err(SweepError::Merge(format!(
+                    "{} line {line}: run {run} has {col} = `{}` where the sweep's grid has `{want}`; the row was edited or comes from another sweep",
+                    path.display(),
+                    got.unwrap_or("(no such column)")
+                )));
+            }
+        }
+        Ok(())
     }
 }
 
@@ -334,7 +360,7 @@ impl Manifest {
             path: path.clone(),
             message: e.to_string(),
         })?;
-        std::fs::write(&path, text).map_err(io_err(&path))
+        crate::output::write_atomically(&path, text).map_err(io_err(&path))
     }
 
     pub fn read(dir: &Path) -> Result<Manifest, SweepError> {
@@ -365,6 +391,17 @@ pub fn merge(shards: &[PathBuf], out: &Path) -> Result<(PathBuf, Vec<PathBuf>), 
     if shards.is_empty() {
         return Err(SweepError::Merge("no shard folders given".into()));
     }
+    // Merging into a shard's own folder would replace that shard's results.
+    let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
+        (Ok(x), Ok(y)) => x == y,
+        _ => a == b,
+    };
+    if let Some(d) = shards.iter().find(|d| same(d, out)) {
+        return Err(SweepError::Merge(format!(
+            "--out {} is one of the shard folders; merging there would replace that shard: give a new folder",
+            d.display()
+        )));
+    }
     let manifests: Vec<Manifest> = shards
         .iter()
         .map(|d| Manifest::read(d))
@@ -379,7 +416,8 @@ pub fn merge(shards: &[PathBuf], out: &Path) -> Result<(PathBuf, Vec<PathBuf>), 
             )));
         }
     }
-    let mut rows: BTreeMap<usize, String> = BTreeMap::new();
+    let grid = first.grid();
+    let mut rows: BTreeMap<usize, Vec<String>> = BTreeMap::new();
     let mut header: Option<Vec<String>> = None;
     for d in shards {
         let path = d.join(RESULTS_FILE);
@@ -395,8 +433,9 @@ pub fn merge(shards: &[PathBuf], out: &Path) -> Result<(PathBuf, Vec<PathBuf>), 
             }
             _ => {}
         }
-        for (run, line, _) in table.rows {
-            if rows.insert(run, line).is_some() {
+        for (run, line, cells) in &table.rows {
+            table.check_on_grid(&grid, &path, *line, cells)?;
+            if rows.insert(*run, cells.clone()).is_some() {
                 return Err(SweepError::Merge(format!(
                     "run {run} appears twice (in {} and an earlier shard); give each shard once",
                     path.display()
@@ -418,14 +457,9 @@ pub fn merge(shards: &[PathBuf], out: &Path) -> Result<(PathBuf, Vec<PathBuf>), 
         )));
     }
     std::fs::create_dir_all(out).map_err(io_err(out))?;
-    let mut csv = header.unwrap_or_default().join(",");
-    csv.push('\n');
-    for line in rows.values() {
-        csv.push_str(line);
-        csv.push('\n');
-    }
+    let csv = csv_text(&header.unwrap_or_default(), rows.into_values());
     let path = out.join(RESULTS_FILE);
-    std::fs::write(&path, &csv).map_err(io_err(&path))?;
+    crate::output::write_atomically(&path, &csv).map_err(io_err(&path))?;
     let merged = Manifest {
         shard: Shard::WHOLE.to_string(),
         runs: [0, first.total_runs],

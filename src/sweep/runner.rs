@@ -230,6 +230,30 @@ fn simulate(scene: &Scene, mut trace: Option<&mut Trace>) -> Result<RunSummary, 
     Ok(metrics.summary())
 }
 
+/// Removes what an earlier sweep wrote into the folder (its results, manifest, plots and
+/// traces, and nothing else), so that no stale file stands beside the new ones: a
+/// 10-run sweep with traces followed by a 2-run one used to leave 8 old traces.
+fn clear_previous_outputs(dir: &Path) -> Result<(), SweepError> {
+    // Only a folder a sweep wrote (it has the manifest): a user's own `plots/` elsewhere is
+    // never touched.
+    if !dir.join(results::MANIFEST_FILE).is_file() {
+        return Ok(());
+    }
+    for f in [results::RESULTS_FILE, results::MANIFEST_FILE] {
+        let p = dir.join(f);
+        if p.is_file() {
+            std::fs::remove_file(&p).map_err(io_err(&p))?;
+        }
+    }
+    for d in [results::TRACES_DIR, "plots"] {
+        let p = dir.join(d);
+        if p.is_dir() {
+            std::fs::remove_dir_all(&p).map_err(io_err(&p))?;
+        }
+    }
+    Ok(())
+}
+
 /// Runs the shard's runs on `jobs` threads, calling `progress(done, total)` as runs finish
 /// (from worker threads), then writes `results.csv`, `sweep.toml`, plots and traces.
 pub fn run_sweep(
@@ -247,6 +271,7 @@ pub fn run_sweep(
     let probe = opts.out_dir.join(".agvsim-write-test");
     std::fs::write(&probe, b"").map_err(io_err(&opts.out_dir))?;
     let _ = std::fs::remove_file(&probe);
+    clear_previous_outputs(&opts.out_dir)?;
     let points = opts.grid.points(opts.shard);
     let total = points.len();
     let done = AtomicUsize::new(0);
@@ -273,7 +298,7 @@ pub fn run_sweep(
     manifest.write(&opts.out_dir)?;
     let csv = results::results_csv(&opts.grid, &results);
     let results_csv = opts.out_dir.join(results::RESULTS_FILE);
-    std::fs::write(&results_csv, &csv).map_err(io_err(&results_csv))?;
+    crate::output::write_atomically(&results_csv, &csv).map_err(io_err(&results_csv))?;
     if opts.traces {
         results::write_traces(&opts.out_dir, &results)?;
     }
