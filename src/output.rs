@@ -19,3 +19,31 @@ pub fn write_atomically(path: &Path, bytes: impl AsRef<[u8]>) -> std::io::Result
         let _ = std::fs::remove_file(&tmp);
     })
 }
+
+/// Checks, before any work, that `path` can be written as a file (`folder = false`) or a
+/// folder: no existing part of the way to it is a file, and a file target is not an
+/// existing folder (nor a folder target an existing file). The message names the option.
+pub fn check_target(option: &str, path: &Path, folder: bool) -> Result<(), String> {
+    let say = |why: String| Err(format!("{option} {}: {why}", path.display()));
+    if path.is_dir() && !folder {
+        return say("is a folder; give a file name".into());
+    }
+    if path.is_file() && folder {
+        return say("is a file; give a folder".into());
+    }
+    for a in path.ancestors().skip(1) {
+        if a.as_os_str().is_empty() {
+            break;
+        }
+        if a.exists() {
+            if !a.is_dir() {
+                return say(format!(
+                    "{} is a file, so nothing can be written under it",
+                    a.display()
+                ));
+            }
+            break;
+        }
+    }
+    Ok(())
+}

@@ -561,3 +561,48 @@ fn merges_check_rows_and_shards_and_reruns_leave_no_stale_files() {
         .count();
     assert_eq!(rows, 3);
 }
+
+/// `identify --json` under a file and `diagnose --report` on a file fail at once, naming
+/// the option, instead of after the whole analysis ("File exists").
+#[test]
+fn output_paths_are_checked_before_the_work() {
+    use agvsim::diagnose::job::{run as diagnose_job, DiagnoseJob};
+    use agvsim::ident::job::{run as identify_job, IdentifyJob};
+    let dir = tmp("targets");
+    let (_, rig, rec) = lifted(&dir, 4.0);
+    let file = dir.join("a_file");
+    std::fs::write(&file, "x").unwrap();
+    let started = std::time::Instant::now();
+    let err = identify_job(&IdentifyJob {
+        rig: rig.clone(),
+        recording: rec.clone(),
+        validate: None,
+        options: IdentifyOptions::default(),
+        json: Some(file.join("x.json")),
+        plot_dir: None,
+        save_rrd: None,
+    })
+    .err()
+    .expect("refused")
+    .to_string();
+    println!("{err}");
+    assert!(err.contains("--json") && err.contains("is a file"), "{err}");
+    let err = diagnose_job(&DiagnoseJob {
+        rig,
+        recording: rec,
+        validate: None,
+        json: None,
+        report_dir: Some(file.clone()),
+        save_rrd: None,
+        options: Default::default(),
+    })
+    .err()
+    .expect("refused")
+    .to_string();
+    println!("{err}");
+    assert!(
+        err.contains("--report") && err.contains("give a folder"),
+        "{err}"
+    );
+    println!("both refused in {:?}", started.elapsed());
+}

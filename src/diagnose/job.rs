@@ -109,6 +109,17 @@ pub fn render(d: &Diagnosis) -> String {
 }
 
 pub fn run(job: &DiagnoseJob) -> Result<(Diagnosis, Vec<PathBuf>), IdentError> {
+    // Output paths are checked before the diagnosis's work, not after it.
+    let targets = [
+        ("--json", &job.json, false),
+        ("--report", &job.report_dir, true),
+        ("--save", &job.save_rrd, false),
+    ];
+    for (option, path, folder) in targets {
+        if let Some(p) = path {
+            crate::output::check_target(option, p, folder).map_err(IdentError::Setup)?;
+        }
+    }
     let rig = Rig::load(&job.rig)?;
     let rec = Recording::load(&job.recording)?;
     let val = job.validate.as_deref().map(Recording::load).transpose()?;

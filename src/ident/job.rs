@@ -32,6 +32,17 @@ fn io(path: &Path) -> impl Fn(std::io::Error) -> IdentError + '_ {
 }
 
 pub fn run(job: &IdentifyJob) -> Result<IdentifyOutcome, IdentError> {
+    // Output paths are checked before the fit's work, not after it.
+    let targets = [
+        ("--json", &job.json, false),
+        ("--plot", &job.plot_dir, true),
+        ("--save", &job.save_rrd, false),
+    ];
+    for (option, path, folder) in targets {
+        if let Some(p) = path {
+            crate::output::check_target(option, p, folder).map_err(IdentError::Setup)?;
+        }
+    }
     let rig = Rig::load(&job.rig)?;
     let rec = Recording::load(&job.recording)?;
     let val = job.validate.as_deref().map(Recording::load).transpose()?;
