@@ -147,4 +147,19 @@ fn recordings_a_replay_cannot_use_are_refused_clearly() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("too few samples"), "{err}");
+    // A corrupt time column (found by tests/fuzz.rs) used to run the simulator for ever.
+    let endless = dir.join("endless.csv");
+    std::fs::write(
+        &endless,
+        "# agvsim-recording: 1\n# rig: drive_axis\nt_s,voltage_V,motor_speed_rad_s\n0,1,0\n99999999999999999999,1,0\n",
+    )
+    .unwrap();
+    let err = replay(&lab(&[]), &Recording::load(&endless).unwrap())
+        .unwrap_err()
+        .to_string();
+    println!("{err}");
+    assert!(
+        err.contains("simulator steps") && err.contains("time column"),
+        "{err}"
+    );
 }

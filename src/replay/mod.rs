@@ -19,6 +19,11 @@ use crate::record::{vehicle_columns, Recording};
 use crate::scene::Scene;
 use crate::sim::{Actuation, Sim, SimError, Snapshot};
 
+/// Most simulator steps a replay runs: 1e8 steps is a day of a recording at the 1 ms
+/// step, far beyond any rig run, and still minutes of work; beyond it a time column is
+/// more likely wrong (in ms, or corrupt) than meant.
+pub const MAX_REPLAY_STEPS: f64 = 1e8;
+
 /// Why a replay cannot run.
 #[derive(Debug, thiserror::Error)]
 pub enum ReplayError {
@@ -272,6 +277,16 @@ pub fn replay(scene: &Scene, rec: &Recording) -> Result<Replay, ReplayError> {
     let mut sim = Sim::new(&scene)?;
     let dt = sim.params().dt_s;
     let t0 = rec.t_s[0];
+    let span_s = rec.t_s[rec.t_s.len() - 1] - t0;
+    if !(span_s / dt <= MAX_REPLAY_STEPS) {
+        return Err(recording_err(
+            rec,
+            format!(
+                "the recording spans {span_s:e} s, {:e} simulator steps of {dt} s (at most {MAX_REPLAY_STEPS:e} are run); check its time column",
+                span_s / dt
+            ),
+        ));
+    }
     let n = rec.t_s.len();
     let mut simulated = vec![Vec::with_capacity(n); chans.len()];
     let mut t_sim = 0.0;
