@@ -70,8 +70,12 @@ pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutput, RunError
     std::fs::create_dir_all(&opts.out_dir).map_err(io(&opts.out_dir))?;
     let recording = opts.out_dir.join(format!("{}.csv", opts.name));
     let scene_used = opts.out_dir.join(format!("{}.scene.toml", opts.name));
-    std::fs::write(&scene_used, scene.to_toml()).map_err(io(&scene_used))?;
-    let file = File::create(&recording).map_err(io(&recording))?;
+    crate::output::write_atomically(&scene_used, scene.to_toml()).map_err(io(&scene_used))?;
+    // The recording streams into `NAME.csv.partial` and takes its name only when the run
+    // has finished: a run killed or stopped by an error leaves no file that looks like a
+    // finished, shorter run.
+    let partial = crate::output::partial_name(&recording);
+    let file = File::create(&partial).map_err(io(&partial))?;
     let meta = [
         (
             "description",
@@ -109,7 +113,11 @@ pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutput, RunError
     let steps = (duration / sim.params().dt_s).round() as u64;
     let mut viz_err = None;
     for k in 1..=steps {
-        sim.step()?;
+        if let Err(e) = sim.step() {
+            // A diverged run leaves no recording behind, not even the partial one.
+            let _ = std::fs::remove_file(&partial);
+            return Err(e.into());
+        }
         let want_row = k % record_every == 0;
         let want_viz = viz.as_mut().is_some_and(|v| v.due());
         if want_row || want_viz || k % 10 == 0 {
@@ -130,8 +138,10 @@ pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutput, RunError
     }
     writer.finish().map_err(io(&recording))?;
     if let Some(e) = viz_err {
+        let _ = std::fs::remove_file(&partial);
         return Err(e.into());
     }
+    std::fs::rename(&partial, &recording).map_err(io(&recording))?;
     if let Some(v) = viz {
         v.finish()?;
     }

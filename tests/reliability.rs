@@ -606,3 +606,37 @@ fn output_paths_are_checked_before_the_work() {
     );
     println!("both refused in {:?}", started.elapsed());
 }
+
+/// A run killed mid-way leaves no recording that looks like a finished, shorter run: the
+/// rows stream into `NAME.csv.partial`, renamed only when the run ends.
+#[test]
+fn a_killed_run_leaves_no_finished_looking_recording() {
+    let dir = tmp("killed");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_agvsim"))
+        .args([
+            "run",
+            "scenes/lab_offset_120mm.toml",
+            "--duration",
+            "100000",
+            "--out",
+        ])
+        .arg(&dir)
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Wait until rows are being written, then kill.
+    let partial = dir.join("lab_offset_120mm.csv.partial");
+    for _ in 0..200 {
+        if std::fs::metadata(&partial).is_ok_and(|m| m.len() > 10_000) {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(25));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(partial.exists(), "the run had started writing");
+    assert!(
+        !dir.join("lab_offset_120mm.csv").exists(),
+        "a killed run left a finished-looking CSV"
+    );
+}
