@@ -640,3 +640,121 @@ fn a_killed_run_leaves_no_finished_looking_recording() {
         "a killed run left a finished-looking CSV"
     );
 }
+
+/// A linear axis in closed loop with known force pulses on its load (`disturbance_force_N`,
+/// a contract input): fitted with the column, the mass and friction come back and the fit
+/// is near perfect; with the column left out the pulses are unexplained residual and the
+/// fit is clearly worse. A rotary axis given the column names it as ignored.
+#[test]
+fn known_disturbance_forces_are_used_and_unusable_columns_are_named() {
+    use agvsim::ident::data::Dataset;
+    use agvsim::ident::model::simulate;
+    use agvsim::ident::models::linear_axis::LinearAxis;
+    let dir = tmp("disturbance");
+    let rig_text = "rig = \"drive_axis\"\nmotion = \"linear\"\n\n[load]\nmass_kg = 80.0\nviscous_N_s_m = 170.0\n\n[drive]\nforce_per_volt_N_V = 35.15\nlimit_V = 10.0\n\n[feedback]\nkind = \"position_velocity_cascade\"\nkp_1_s = 160.18\nkv_V_s_m = 243.45\n";
+    let rig_path = dir.join("axis.rig.toml");
+    std::fs::write(&rig_path, rig_text).unwrap();
+    let rig = Rig::load(&rig_path).unwrap();
+    // The truth: 20 % heavier, 30 % more friction than the belief; 200 N pulses.
+    let mut truth = LinearAxis::from_rig(&rig, &rig_path).unwrap();
+    truth.disturbance_input = true;
+    let n = 4000;
+    let t: Vec<f64> = (0..n).map(|k| k as f64 * 0.001).collect();
+    let reference: Vec<f64> = t
+        .iter()
+        .map(|t| 0.05 * (std::f64::consts::TAU * 0.5 * t).sin())
+        .collect();
+    let pulse: Vec<f64> = t
+        .iter()
+        .map(|t| {
+            if (t % 1.0) > 0.3 && (t % 1.0) < 0.45 {
+                200.0
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let outputs = vec![
+        "position_m".to_string(),
+        "speed_m_s".to_string(),
+        "command_V".to_string(),
+    ];
+    let data = Dataset {
+        name: "truth".into(),
+        t_s: t.clone(),
+        input_names: vec!["reference_m".into(), "disturbance_force_N".into()],
+        inputs: vec![reference.clone(), pulse.clone()],
+        output_names: outputs.clone(),
+        outputs: vec![vec![Some(0.0); n]; 3],
+    };
+    let y = simulate(&truth, &[96.0, 221.0], &data).unwrap();
+    let mut with = String::from("# agvsim-recording: 1\n# rig: drive_axis\nt_s,reference_m,disturbance_force_N,command_V,position_m,speed_m_s\n");
+    let mut without = String::from("# agvsim-recording: 1\n# rig: drive_axis\nt_s,reference_m,command_V,position_m,speed_m_s\n");
+    for k in 0..n {
+        with.push_str(&format!(
+            "{},{},{},{},{},{}\n",
+            t[k], reference[k], pulse[k], y[2][k], y[0][k], y[1][k]
+        ));
+        without.push_str(&format!(
+            "{},{},{},{},{}\n",
+            t[k], reference[k], y[2][k], y[0][k], y[1][k]
+        ));
+    }
+    let (pw, pwo) = (dir.join("with.csv"), dir.join("without.csv"));
+    std::fs::write(&pw, with).unwrap();
+    std::fs::write(&pwo, without).unwrap();
+    let fit = |p: &Path| {
+        identify(
+            &rig,
+            &rig_path,
+            &Recording::load(p).unwrap(),
+            None,
+            &IdentifyOptions::default(),
+        )
+        .unwrap()
+    };
+    let a = fit(&pw);
+    let b = fit(&pwo);
+    let mass = |id: &agvsim::ident::Identification| {
+        id.params
+            .iter()
+            .find(|p| p.name == "load.mass_kg")
+            .unwrap()
+            .value
+    };
+    println!(
+        "with the column: mass {:.2} kg, fit {:.2} %; without: mass {:.2} kg, fit {:.2} %",
+        mass(&a),
+        a.estimation.fit_pct_mean,
+        mass(&b),
+        b.estimation.fit_pct_mean
+    );
+    assert!((mass(&a) / 96.0 - 1.0).abs() < 0.01);
+    assert!(a.estimation.fit_pct_mean > 99.0);
+    assert!(b.estimation.fit_pct_mean < a.estimation.fit_pct_mean - 5.0);
+    assert!(a.ignored_inputs.is_empty());
+    // A rotary axis has no load-force input: the column is named as ignored.
+    let (rig2, rig2_path, rec2) = lifted(&dir, 4.0);
+    let text = std::fs::read_to_string(&rec2).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let h = lines.iter().position(|l| l.starts_with("t_s")).unwrap();
+    for (i, l) in lines.iter_mut().enumerate().skip(h) {
+        l.push_str(if i == h { ",disturbance_force_N" } else { ",0" });
+    }
+    let p2 = dir.join("rotary_with_force.csv");
+    std::fs::write(&p2, lines.join("\n") + "\n").unwrap();
+    let id = identify(
+        &rig2,
+        &rig2_path,
+        &Recording::load(&p2).unwrap(),
+        None,
+        &IdentifyOptions {
+            model: Some(ModelChoice::Gain),
+            ..IdentifyOptions::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(id.ignored_inputs, vec!["disturbance_force_N".to_string()]);
+    let text = agvsim::ident::report::render(&id);
+    assert!(text.contains("Ignored: disturbance_force_N"), "{text}");
+}

@@ -34,6 +34,13 @@ pub fn render(d: &Diagnosis) -> String {
         "Baseline (nominal model, parameters fitted): fit {:.2} %",
         d.baseline_fit_pct
     );
+    if !d.ignored_inputs.is_empty() {
+        let _ = writeln!(
+            s,
+            "Ignored: {} (the model has no input for it)",
+            d.ignored_inputs.join(", ")
+        );
+    }
     for (name, bound) in &d.baseline_at_bound {
         let _ = writeln!(
             s,

@@ -86,6 +86,8 @@ pub struct Diagnosis {
     pub model: String,
     pub baseline_fit_pct: f64,
     pub baseline_params: BTreeMap<String, f64>,
+    /// Contract input columns of the recording the model has no use for.
+    pub ignored_inputs: Vec<String>,
     /// Free baseline parameters whose search ended at a bound (name, bound): no
     /// estimates, but signs that the rig's belief or the model's structure is wrong.
     pub baseline_at_bound: BTreeMap<String, f64>,
@@ -129,6 +131,7 @@ impl Diagnosis {
         let mut v = serde_json::json!({
             "recording": self.recording,
             "model": self.model,
+            "ignored_inputs": self.ignored_inputs,
             "baseline": {"fit_pct": self.baseline_fit_pct, "params": self.baseline_params, "at_bound": self.baseline_at_bound},
             "effects": effects,
             "final": {"fit_pct": self.final_fit_pct, "params": self.final_params},
@@ -483,6 +486,7 @@ pub fn diagnose(
         baseline_fit_pct: baseline_eval.fit_pct_mean,
         baseline_params: params_of(&structure, &base_fit.params),
         baseline_at_bound: at_bound_of(&structure, &base_fit),
+        ignored_inputs: crate::ident::ignored_inputs(rec, structure.model()),
         where_before: regimes::shares(&regs, &base_energy, base_total_energy),
         where_after: regimes::shares(&regs, &final_energy, base_total_energy),
         rounds,

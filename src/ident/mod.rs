@@ -205,7 +205,9 @@ pub fn build_structure(
                 return Err(wrong_rig("drive_axis"));
             }
             if rig.is_linear() {
-                Structure::Linear(LinearAxis::from_rig(rig, rig_path)?)
+                let mut m = LinearAxis::from_rig(rig, rig_path)?;
+                m.disturbance_input = rec.column("disturbance_force_N").is_some();
+                Structure::Linear(m)
             } else {
                 let input = if rec.column("voltage_V").is_some() {
                     AxisInput::Voltage
@@ -291,6 +293,8 @@ pub struct StateSpaceReport {
 #[derive(Debug, Clone, Serialize)]
 pub struct Identification {
     pub model: String,
+    /// Contract input columns of the recording the model has no use for.
+    pub ignored_inputs: Vec<String>,
     pub rig: String,
     pub params: Vec<ParamReport>,
     pub n_free: usize,
@@ -447,13 +451,40 @@ pub fn identify(
         }
         None => None,
     };
-    Ok(assemble(
-        &structure,
-        &f,
-        estimation,
-        validation,
-        opts.starts,
-    ))
+    let mut id = assemble(&structure, &f, estimation, validation, opts.starts);
+    id.ignored_inputs = ignored_inputs(rec, model);
+    Ok(id)
+}
+
+/// Input columns the contract defines, for any rig.
+pub const CONTRACT_INPUTS: [&str; 12] = [
+    "voltage_V",
+    "demand_pct",
+    "command_V",
+    "torque_Nm",
+    "force_N",
+    "disturbance_force_N",
+    "reference_rad",
+    "reference_m",
+    "left_voltage_V",
+    "right_voltage_V",
+    "demand_fwd_pct",
+    "demand_turn_pct",
+];
+
+/// The recording's contract input columns the model neither takes as an input nor
+/// compares as an output: named in the report, never dropped silently.
+pub fn ignored_inputs(rec: &Recording, model: &dyn GreyBox) -> Vec<String> {
+    let used: Vec<String> = model
+        .input_names()
+        .into_iter()
+        .chain(model.output_names())
+        .collect();
+    rec.names
+        .iter()
+        .filter(|n| CONTRACT_INPUTS.contains(&n.as_str()) && !used.contains(n))
+        .cloned()
+        .collect()
 }
 
 /// Measured output values needed per free parameter: below this the loss, FPE and the
@@ -567,6 +598,7 @@ fn assemble(
     };
     Identification {
         model: model.name(),
+        ignored_inputs: Vec::new(),
         rig: String::new(),
         params,
         n_free: f.free.len(),

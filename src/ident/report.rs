@@ -91,6 +91,13 @@ fn evaluation(out: &mut String, title: &str, e: &Evaluation) {
 pub fn render(id: &Identification) -> String {
     let mut out = String::new();
     let _ = writeln!(out, "Model: {}", id.model);
+    if !id.ignored_inputs.is_empty() {
+        let _ = writeln!(
+            out,
+            "Ignored: {} (the model has no input for it)",
+            id.ignored_inputs.join(", ")
+        );
+    }
     let _ = writeln!(
         out,
         "Solver: Levenberg-Marquardt, {} start(s), {} iterations, {} simulations, {}",

@@ -35,6 +35,9 @@ pub struct LinearAxis {
     pub effects: effects::EffectSlots,
     /// Smoothing speed of Coulomb friction, m/s.
     pub coulomb_eps_m_s: f64,
+    /// The recording gives the known external force on the load (`disturbance_force_N`,
+    /// a contract input): it enters the force balance as the last input.
+    pub disturbance_input: bool,
 }
 
 impl LinearAxis {
@@ -72,6 +75,7 @@ impl LinearAxis {
             feedback,
             effects: effects::EffectSlots::default(),
             coulomb_eps_m_s: 1e-3,
+            disturbance_input: false,
         })
     }
 
@@ -141,10 +145,14 @@ impl GreyBox for LinearAxis {
     }
 
     fn input_names(&self) -> Vec<String> {
-        match self.feedback {
-            Loop::Open => vec!["command_V".into()],
-            Loop::PositionVelocityCascade { .. } => vec!["reference_m".into()],
+        let mut i = match self.feedback {
+            Loop::Open => vec!["command_V".to_string()],
+            Loop::PositionVelocityCascade { .. } => vec!["reference_m".to_string()],
+        };
+        if self.disturbance_input {
+            i.push("disturbance_force_N".into());
         }
+        i
     }
 
     fn output_names(&self) -> Vec<String> {
@@ -182,8 +190,12 @@ impl GreyBox for LinearAxis {
         self.effect(Effect::TransportDelay).map_or(0.0, |i| p[i])
     }
 
-    fn derivatives(&self, p: &[f64], x: &[f64], _u: &[f64], held: &[f64], dx: &mut [f64]) {
+    fn derivatives(&self, p: &[f64], x: &[f64], u: &[f64], held: &[f64], dx: &mut [f64]) {
         let mut force = self.force_per_volt * held[0];
+        if self.disturbance_input {
+            // The known external force on the load, as recorded.
+            force += u[u.len() - 1];
+        }
         let v = x[1];
         let viscous = match self.effect(Effect::FrictionAsymmetry) {
             Some(i) => effects::asymmetric_viscous(p[VISCOUS], p[i], v),
