@@ -26,6 +26,7 @@ pub mod diagnose;
 pub mod experiment;
 pub mod firmware;
 pub mod ident;
+pub mod import;
 pub mod model;
 pub mod output;
 pub mod plot;

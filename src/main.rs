@@ -26,6 +26,22 @@ struct Cli {
 }
 
 #[derive(Subcommand)]
+enum ImportFormat {
+    /// Any CSV whose columns have other names or units, by a map file (see the README):
+    /// the time and each contract column with its source column and unit or scale.
+    Csv {
+        /// The CSV file (a header row, then data).
+        file: PathBuf,
+        /// The map file (TOML).
+        #[arg(long, value_name = "MAP.toml")]
+        map: PathBuf,
+        /// Output folder [default: runs/import]; the recording is FILE_STEM.csv there.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+}
+
+#[derive(Subcommand)]
 enum Command {
     /// Simulate a scene and write its recording (CSV, exchange format) and summary.
     Run {
@@ -101,6 +117,11 @@ enum Command {
         /// Override a scene value before fitting (repeatable).
         #[arg(long = "set", value_name = "KEY=VALUE")]
         set: Vec<String>,
+    },
+    /// Convert a recording kept in another format into the exchange format.
+    Import {
+        #[command(subcommand)]
+        format: ImportFormat,
     },
     /// Run a scene over a grid of values in parallel and tabulate the metrics of every run
     /// (results.csv, plots); `sweep merge` joins shard folders.
@@ -306,6 +327,43 @@ fn fail(e: impl std::fmt::Display) -> ExitCode {
 fn bad_input(e: impl std::fmt::Display) -> ExitCode {
     eprintln!("error: {e}");
     ExitCode::from(2)
+}
+
+/// `agvsim import csv`: convert by the map, check the result reads as a contract
+/// recording, write it whole.
+fn import_csv_command(
+    file: &std::path::Path,
+    map_path: &std::path::Path,
+    out: Option<PathBuf>,
+) -> ExitCode {
+    use agvsim::import::csv_map;
+    let map = match csv_map::load_map(map_path) {
+        Ok(m) => m,
+        Err(e) => return bad_input(e),
+    };
+    let data = match std::fs::read_to_string(file) {
+        Ok(t) => t,
+        Err(e) => return bad_input(format!("{}: cannot read: {e}", file.display())),
+    };
+    let text = match csv_map::convert(&data, file, &map, map_path) {
+        Ok(t) => t,
+        Err(e) => return bad_input(e),
+    };
+    let dir = out.unwrap_or_else(|| PathBuf::from("runs").join("import"));
+    let stem = file
+        .file_stem()
+        .map_or_else(|| "imported".into(), |s| s.to_string_lossy().into_owned());
+    let path = dir.join(format!("{stem}.csv"));
+    if let Err(e) = agvsim::record::Recording::parse(&text, &path) {
+        return bad_input(format!("the converted recording breaks the contract: {e}"));
+    }
+    let written =
+        std::fs::create_dir_all(&dir).and_then(|_| agvsim::output::write_atomically(&path, &text));
+    if let Err(e) = written {
+        return fail(format!("{}: {e}", path.display()));
+    }
+    println!("recording  {}", path.display());
+    ExitCode::SUCCESS
 }
 
 /// `agvsim replay`: load, replay, write, print.
@@ -690,6 +748,9 @@ fn main() -> ExitCode {
             validate,
             set,
         } => calibrate_command(&scene, &recording, &free, write, validate, &set),
+        Command::Import {
+            format: ImportFormat::Csv { file, map, out },
+        } => import_csv_command(&file, &map, out),
         Command::Sweep(args) => cli_sweep::sweep_command(args),
         Command::Linearize { scene, set } => {
             let loaded = match Scene::load(&scene, &set) {
