@@ -117,6 +117,12 @@ enum Command {
         /// Override a scene value before fitting (repeatable).
         #[arg(long = "set", value_name = "KEY=VALUE")]
         set: Vec<String>,
+        /// Write the result (keys, fits) as JSON here.
+        #[arg(long, value_name = "OUT.json")]
+        json: Option<PathBuf>,
+        /// Write a plot per fitted output (measured, original and calibrated replays) here.
+        #[arg(long, value_name = "DIR")]
+        report: Option<PathBuf>,
     },
     /// Convert a recording kept in another format into the exchange format.
     Import {
@@ -426,15 +432,27 @@ fn replay_command(
     ExitCode::SUCCESS
 }
 
+/// Where `agvsim calibrate` writes.
+struct CalibrateOutputs {
+    write: Option<PathBuf>,
+    json: Option<PathBuf>,
+    report: Option<PathBuf>,
+}
+
 /// `agvsim calibrate`: load, fit through the simulator, print, write the scene.
 fn calibrate_command(
     scene_path: &std::path::Path,
     rec_path: &std::path::Path,
     free: &[String],
-    write: Option<PathBuf>,
+    outputs: CalibrateOutputs,
     validate: Option<PathBuf>,
     set: &[String],
 ) -> ExitCode {
+    let CalibrateOutputs {
+        write,
+        json,
+        report,
+    } = outputs;
     use agvsim::calibrate::{self, write as cw};
     let text = match std::fs::read_to_string(scene_path) {
         Ok(t) => t,
@@ -453,13 +471,17 @@ fn calibrate_command(
         Some(Err(e)) => return bad_input(e),
         None => None,
     };
-    // The output path is checked before the fit's work.
-    if let Some(w) = &write {
-        if w.is_dir() {
-            return bad_input(format!(
-                "--write {}: a folder; give a file name for the calibrated scene",
-                w.display()
-            ));
+    // The output paths are checked before the fit's work.
+    let targets = [
+        ("--write", &write, false),
+        ("--json", &json, false),
+        ("--report", &report, true),
+    ];
+    for (option, path, folder) in targets {
+        if let Some(p) = path {
+            if let Err(e) = agvsim::output::check_target(option, p, folder) {
+                return bad_input(e);
+            }
         }
     }
     println!(
@@ -492,6 +514,28 @@ fn calibrate_command(
                 cw::mean_fit(&a, &c.outputs)
             ),
             (Err(e), _) | (_, Err(e)) => return fail(e),
+        }
+    }
+    let source_name = rec_path.file_name().map_or_else(
+        || "the recording".into(),
+        |n| n.to_string_lossy().into_owned(),
+    );
+    if let Some(p) = &json {
+        let v = cw::json(
+            &c,
+            &scene_path.display().to_string(),
+            &rec_path.display().to_string(),
+        );
+        let text = serde_json::to_string_pretty(&v).unwrap_or_default();
+        if let Err(e) = agvsim::output::write_atomically(p, text) {
+            return fail(format!("{}: {e}", p.display()));
+        }
+        println!("json       {}", p.display());
+    }
+    if let Some(dir) = &report {
+        match cw::write_plots(dir, &c, &source_name) {
+            Ok(_) => println!("plots      {}", dir.display()),
+            Err(e) => return fail(format!("{}: {e}", dir.display())),
         }
     }
     if let Some(w) = write {
@@ -747,7 +791,20 @@ fn main() -> ExitCode {
             write,
             validate,
             set,
-        } => calibrate_command(&scene, &recording, &free, write, validate, &set),
+            json,
+            report,
+        } => calibrate_command(
+            &scene,
+            &recording,
+            &free,
+            CalibrateOutputs {
+                write,
+                json,
+                report,
+            },
+            validate,
+            &set,
+        ),
         Command::Import {
             format: ImportFormat::Csv { file, map, out },
         } => import_csv_command(&file, &map, out),

@@ -163,6 +163,9 @@ fn a_key_that_ends_at_its_bound_is_reported_and_not_written() {
     assert_eq!(k.at_bound, Some(1e-3));
     assert_eq!(k.after, k.before);
     assert!(k.std.is_none());
+    let j = agvsim::calibrate::write::json(&c, "lab", "m.csv");
+    assert_eq!(j["keys"][0]["at_bound"], serde_json::json!(1e-3));
+    assert!(j["keys"][0]["std"].is_null());
     let text = std::fs::read_to_string(SCENE).unwrap();
     let written = calibrated_text(&text, &c, "m.csv").unwrap();
     assert!(!written.contains("viscous_Nm_s_rad"), "{written}");

@@ -103,3 +103,80 @@ pub fn mean_fit(r: &crate::replay::Replay, outputs: &[String]) -> f64 {
         .collect();
     fits.iter().sum::<f64>() / fits.len().max(1) as f64
 }
+
+/// The calibration as JSON: each key (before, after, std, at bound) and each fitted
+/// output's replay fit on the original and the calibrated scene.
+pub fn json(c: &Calibration, scene: &str, recording: &str) -> serde_json::Value {
+    let keys: Vec<serde_json::Value> = c
+        .keys
+        .iter()
+        .map(|k| {
+            serde_json::json!({
+                "key": k.key,
+                "scene": k.before,
+                "calibrated": k.after,
+                "std": k.std,
+                "at_bound": k.at_bound,
+            })
+        })
+        .collect();
+    let fits: serde_json::Map<String, serde_json::Value> = c
+        .outputs
+        .iter()
+        .filter_map(|n| {
+            let (b, a) = (c.before.output(n)?, c.after.output(n)?);
+            Some((
+                n.clone(),
+                serde_json::json!({"original_pct": b.fit_pct, "calibrated_pct": a.fit_pct}),
+            ))
+        })
+        .collect();
+    serde_json::json!({
+        "scene": scene,
+        "recording": recording,
+        "keys": keys,
+        "replay_fit": fits,
+        "mean_fit_pct": {"original": mean_fit(&c.before, &c.outputs), "calibrated": mean_fit(&c.after, &c.outputs)},
+        "iterations": c.iterations,
+    })
+}
+
+/// `DIR/OUTPUT_calibrated.svg` per fitted output: measured (wide, pale) under the
+/// original scene's and the calibrated scene's replays.
+pub fn write_plots(
+    dir: &std::path::Path,
+    c: &Calibration,
+    rec_name: &str,
+) -> std::io::Result<Vec<std::path::PathBuf>> {
+    use crate::plot::{svg, Series, Style};
+    std::fs::create_dir_all(dir)?;
+    let mut files = vec![];
+    for name in &c.outputs {
+        let (Some(b), Some(a)) = (c.before.output(name), c.after.output(name)) else {
+            continue;
+        };
+        let (t, y): (Vec<f64>, Vec<f64>) = b
+            .measured
+            .iter()
+            .zip(&c.before.t_s)
+            .filter_map(|(v, t)| v.map(|v| (*t, v)))
+            .unzip();
+        let orig = format!("original scene ({:.1} %)", b.fit_pct);
+        let cal = format!("calibrated scene ({:.1} %)", a.fit_pct);
+        let doc = svg(
+            &format!("{name}: {rec_name} replayed on the original and the calibrated scene"),
+            "t (s)",
+            name,
+            &[
+                Series::line("measured", &t, &y, "#555").with_style(Style::Measured),
+                Series::line(&orig, &c.before.t_s, &b.simulated, "#d08000"),
+                Series::line(&cal, &c.after.t_s, &a.simulated, "#1f5fbf"),
+            ],
+            None,
+        );
+        let f = dir.join(format!("{name}_calibrated.svg"));
+        crate::output::write_atomically(&f, doc)?;
+        files.push(f);
+    }
+    Ok(files)
+}
