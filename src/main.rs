@@ -709,6 +709,9 @@ fn main() -> ExitCode {
                 save_rrd: save,
                 options: agvsim::diagnose::DiagnoseOptions {
                     effects,
+                    // Progress on standard error, a line per stage: the report on standard
+                    // output stays clean for pipes.
+                    progress: Some(|stage: &str| eprintln!("diagnose   {stage}")),
                     ..Default::default()
                 },
             };

@@ -26,11 +26,19 @@ fn run_with(dir: &str, name: &str, opts: DiagnoseOptions) -> agvsim::diagnose::D
 /// floor effects to keep the test short; the full diagnosis tries all seven.
 #[test]
 fn vehicle_wheel_slip_is_found_and_a_clean_vehicle_gives_nothing() {
+    static STAGES: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    fn count_stage(_: &str) {
+        STAGES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    }
     let only = || DiagnoseOptions {
         effects: Some(vec![Effect::WheelSlip, Effect::CastorDrag]),
+        progress: Some(count_stage),
         ..Default::default()
     };
     let d = run_with("../shared/data/dev", "dev_vehicle_01", only());
+    // Progress: the baseline, then per round its start and each of its two candidates.
+    let stages = STAGES.load(std::sync::atomic::Ordering::Relaxed);
+    assert!(stages >= 4, "{stages} progress lines");
     println!("{}", agvsim::diagnose::job::render(&d));
     let f = d.findings.first().expect("an effect");
     assert_eq!(f.effect, Effect::WheelSlip);

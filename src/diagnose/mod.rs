@@ -186,6 +186,9 @@ pub struct DiagnoseOptions {
     pub ident: IdentifyOptions,
     /// Only these candidate effects (by default every one that applies to the structure).
     pub effects: Option<Vec<Effect>>,
+    /// Told each stage as it happens (the baseline, each round's candidates as they
+    /// finish), from worker threads too: the command prints it, a test leaves it `None`.
+    pub progress: Option<fn(&str)>,
 }
 
 /// Vocabulary names to effects; an unknown name is an error that lists the vocabulary.
@@ -262,11 +265,20 @@ pub fn diagnose(
         structure: structure.clone(),
         fit: base_fit.clone(),
     };
+    let tell = |msg: String| {
+        if let Some(p) = opts.progress {
+            p(&msg);
+        }
+    };
+    tell(format!(
+        "baseline fitted ({} iterations); trying the candidate effects",
+        base_fit.iterations
+    ));
     let mut findings = Vec::new();
     let mut rounds = Vec::new();
     let linear = matches!(structure, Structure::Linear(_));
     let free_nominal = free.clone();
-    for _round in 0..2 {
+    for round_no in 1..=2 {
         let stage_n = effective_n(&data, &stage.fit.predicted);
         let tried: Vec<Effect> = findings.iter().map(|f: &Finding| f.effect).collect();
         let candidates: Vec<Effect> = applicable
@@ -275,6 +287,11 @@ pub fn diagnose(
             .filter(|e| !tried.contains(e))
             .filter(|e| opts.effects.as_ref().is_none_or(|only| only.contains(e)))
             .collect();
+        tell(format!(
+            "round {round_no}: {} candidate effects, fitted in parallel",
+            candidates.len()
+        ));
+        let finished = std::sync::atomic::AtomicUsize::new(0);
         let results: Vec<(Effect, Structure, Option<Fit>)> = candidates
             .par_iter()
             .map(|&e| {
@@ -377,6 +394,12 @@ pub fn diagnose(
                     starts
                 };
                 let f = fit::fit(m, &data, &settings(free, starts)).ok();
+                let k = finished.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                tell(format!(
+                    "round {round_no}: {} fitted ({k} of {})",
+                    e.name(),
+                    candidates.len()
+                ));
                 (e, cand, f)
             })
             .collect();
