@@ -155,12 +155,7 @@ pub fn write_plots(
         let (Some(b), Some(a)) = (c.before.output(name), c.after.output(name)) else {
             continue;
         };
-        let (t, y): (Vec<f64>, Vec<f64>) = b
-            .measured
-            .iter()
-            .zip(&c.before.t_s)
-            .filter_map(|(v, t)| v.map(|v| (*t, v)))
-            .unzip();
+        let (t, y) = crate::plot::measured_points(&c.before.t_s, &b.measured);
         let orig = format!("original scene ({:.1} %)", b.fit_pct);
         let cal = format!("calibrated scene ({:.1} %)", a.fit_pct);
         let doc = svg(

@@ -28,11 +28,7 @@ pub fn write(dir: &Path, d: &Diagnosis) -> std::io::Result<Vec<PathBuf>> {
         )
     };
     for (j, name) in data.output_names.iter().enumerate() {
-        let (t, y): (Vec<f64>, Vec<f64>) = data.outputs[j]
-            .iter()
-            .zip(&data.t_s)
-            .filter_map(|(v, t)| v.map(|v| (*t, v)))
-            .unzip();
+        let (t, y) = crate::plot::measured_points(&data.t_s, &data.outputs[j]);
         let doc = svg(
             &format!(
                 "{name}: measured, baseline ({:.1} %) and diagnosed ({:.1} %)",

@@ -112,3 +112,34 @@ impl Dataset {
             .sum()
     }
 }
+
+/// Input columns the contract defines, for any rig.
+pub const CONTRACT_INPUTS: [&str; 12] = [
+    "voltage_V",
+    "demand_pct",
+    "command_V",
+    "torque_Nm",
+    "force_N",
+    "disturbance_force_N",
+    "reference_rad",
+    "reference_m",
+    "left_voltage_V",
+    "right_voltage_V",
+    "demand_fwd_pct",
+    "demand_turn_pct",
+];
+
+/// The recording's contract input columns the model neither takes as an input nor
+/// compares as an output: named in the report, never dropped silently.
+pub fn ignored_inputs(rec: &Recording, model: &dyn crate::ident::model::GreyBox) -> Vec<String> {
+    let used: Vec<String> = model
+        .input_names()
+        .into_iter()
+        .chain(model.output_names())
+        .collect();
+    rec.names
+        .iter()
+        .filter(|n| CONTRACT_INPUTS.contains(&n.as_str()) && !used.contains(n))
+        .cloned()
+        .collect()
+}

@@ -417,3 +417,15 @@ fn covariance(
         .collect();
     (std, cov)
 }
+
+/// Relative distance from a search bound within which a fitted value counts as on it.
+pub const AT_BOUND_REL: f64 = 1e-3;
+
+/// The bound `value` sits on, if any (relative to the bound's size, or absolutely for a
+/// bound at zero).
+pub fn bound_reached(value: f64, lo: f64, hi: f64) -> Option<f64> {
+    [lo, hi]
+        .into_iter()
+        .filter(|b| b.is_finite())
+        .find(|b| (value - b).abs() <= AT_BOUND_REL * b.abs().max(1e-12))
+}

@@ -12,6 +12,9 @@ pub mod model;
 pub mod models;
 
 pub mod report;
+
+pub use data::{ignored_inputs, CONTRACT_INPUTS};
+pub use fit::{bound_reached, AT_BOUND_REL};
 pub mod resid;
 
 use std::path::{Path, PathBuf};
@@ -268,18 +271,6 @@ pub struct ParamReport {
     pub at_bound: Option<f64>,
 }
 
-/// Relative distance from a search bound within which a fitted value counts as on it.
-pub const AT_BOUND_REL: f64 = 1e-3;
-
-/// The bound `value` sits on, if any (relative to the bound's size, or absolutely for a
-/// bound at zero).
-pub fn bound_reached(value: f64, lo: f64, hi: f64) -> Option<f64> {
-    [lo, hi]
-        .into_iter()
-        .filter(|b| b.is_finite())
-        .find(|b| (value - b).abs() <= AT_BOUND_REL * b.abs().max(1e-12))
-}
-
 /// A continuous-time state-space model with standard deviations (thesis-style tables).
 #[derive(Debug, Clone, Serialize)]
 pub struct StateSpaceReport {
@@ -454,37 +445,6 @@ pub fn identify(
     let mut id = assemble(&structure, &f, estimation, validation, opts.starts);
     id.ignored_inputs = ignored_inputs(rec, model);
     Ok(id)
-}
-
-/// Input columns the contract defines, for any rig.
-pub const CONTRACT_INPUTS: [&str; 12] = [
-    "voltage_V",
-    "demand_pct",
-    "command_V",
-    "torque_Nm",
-    "force_N",
-    "disturbance_force_N",
-    "reference_rad",
-    "reference_m",
-    "left_voltage_V",
-    "right_voltage_V",
-    "demand_fwd_pct",
-    "demand_turn_pct",
-];
-
-/// The recording's contract input columns the model neither takes as an input nor
-/// compares as an output: named in the report, never dropped silently.
-pub fn ignored_inputs(rec: &Recording, model: &dyn GreyBox) -> Vec<String> {
-    let used: Vec<String> = model
-        .input_names()
-        .into_iter()
-        .chain(model.output_names())
-        .collect();
-    rec.names
-        .iter()
-        .filter(|n| CONTRACT_INPUTS.contains(&n.as_str()) && !used.contains(n))
-        .cloned()
-        .collect()
 }
 
 /// Measured output values needed per free parameter: below this the loss, FPE and the

@@ -26,11 +26,7 @@ pub fn write_evaluation(dir: &Path, prefix: &str, e: &Evaluation) -> std::io::Re
     };
     let mut files = Vec::new();
     for (j, name) in data.output_names.iter().enumerate() {
-        let (t, y): (Vec<f64>, Vec<f64>) = data.outputs[j]
-            .iter()
-            .zip(&data.t_s)
-            .filter_map(|(v, t)| v.map(|v| (*t, v)))
-            .unzip();
+        let (t, y) = super::measured_points(&data.t_s, &data.outputs[j]);
         let fit = e.fit_pct[name];
         let doc = svg(
             &format!(

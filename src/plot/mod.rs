@@ -159,6 +159,16 @@ pub fn fmt_tick(t: f64, decimals: usize) -> String {
     format!("{t:.decimals$}")
 }
 
+/// The measured cells of a column as plot points: times and values where a value was
+/// recorded (missing samples leave gaps, not zeros).
+pub fn measured_points(t_s: &[f64], column: &[Option<f64>]) -> (Vec<f64>, Vec<f64>) {
+    column
+        .iter()
+        .zip(t_s)
+        .filter_map(|(v, t)| v.map(|v| (*t, v)))
+        .unzip()
+}
+
 pub fn escape(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")

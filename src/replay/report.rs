@@ -78,12 +78,7 @@ pub fn write_plots(dir: &Path, r: &Replay, rec_name: &str) -> std::io::Result<Ve
     std::fs::create_dir_all(&pdir)?;
     let mut files = vec![];
     for o in &r.outputs {
-        let (t, y): (Vec<f64>, Vec<f64>) = o
-            .measured
-            .iter()
-            .zip(&r.t_s)
-            .filter_map(|(v, t)| v.map(|v| (*t, v)))
-            .unzip();
+        let (t, y) = crate::plot::measured_points(&r.t_s, &o.measured);
         let fit = if o.fit_pct.is_finite() {
             format!("fit {:.1} %", o.fit_pct)
         } else {

@@ -99,8 +99,10 @@ fn err(e: impl std::fmt::Display) -> VizError {
     VizError(e.to_string())
 }
 
-/// A closed rectangle in the vehicle frame: centre, half length along x, half width.
-fn rectangle(c: [f64; 2], half_x: f64, half_y: f64) -> Vec<[f32; 3]> {
+/// A closed rectangle on the floor: centre, half extents along its own x and y, and its
+/// rotation, rad (vehicle parts use 0 in the vehicle frame; obstacles their angle).
+fn rectangle(c: [f64; 2], half: [f64; 2], angle_rad: f64) -> Vec<[f32; 3]> {
+    let (s, co) = angle_rad.sin_cos();
     [
         [-1.0, -1.0],
         [1.0, -1.0],
@@ -109,7 +111,10 @@ fn rectangle(c: [f64; 2], half_x: f64, half_y: f64) -> Vec<[f32; 3]> {
         [-1.0, -1.0],
     ]
     .iter()
-    .map(|k| w([c[0] + k[0] * half_x, c[1] + k[1] * half_y]))
+    .map(|k: &[f64; 2]| {
+        let (x, y) = (k[0] * half[0], k[1] * half[1]);
+        w([c[0] + co * x - s * y, c[1] + s * x + co * y])
+    })
     .collect()
 }
 
@@ -182,22 +187,7 @@ impl RerunRecorder {
         for (i, o) in p.obstacles.iter().enumerate() {
             let c = o.spec.center_m;
             let strip: Vec<[f32; 3]> = match (o.spec.half_extents_m, o.spec.radius_m) {
-                (Some(h), _) => {
-                    let (s, co) = o.spec.angle_rad.sin_cos();
-                    [
-                        [-1.0, -1.0],
-                        [1.0, -1.0],
-                        [1.0, 1.0],
-                        [-1.0, 1.0],
-                        [-1.0, -1.0],
-                    ]
-                    .iter()
-                    .map(|k: &[f64; 2]| {
-                        let (x, y) = (k[0] * h[0], k[1] * h[1]);
-                        w([c[0] + co * x - s * y, c[1] + s * x + co * y])
-                    })
-                    .collect()
-                }
+                (Some(h), _) => rectangle(c, h, o.spec.angle_rad),
                 (None, Some(r)) => (0..=32)
                     .map(|k| {
                         let a = k as f64 / 32.0 * std::f64::consts::TAU;
@@ -223,8 +213,8 @@ impl RerunRecorder {
         let (front, rear, width) = p.outline_m;
         let outline = rectangle(
             [0.5 * (front - rear), 0.0],
-            0.5 * (front + rear),
-            0.5 * width,
+            [0.5 * (front + rear), 0.5 * width],
+            0.0,
         );
         let nose = vec![w([0.0, 0.0]), w([front * 0.8, 0.0])];
         rec.log_static(
@@ -237,7 +227,7 @@ impl RerunRecorder {
             .chassis
             .wheel_points_m()
             .iter()
-            .map(|c| rectangle(*c, r, 0.025))
+            .map(|c| rectangle(*c, [r, 0.025], 0.0))
             .collect();
         rec.log_static(
             "world/agv/wheels",
