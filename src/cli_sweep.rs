@@ -47,6 +47,10 @@ pub struct SweepArgs {
     /// million runs).
     #[arg(long, default_value_t = agvsim::sweep::DEFAULT_MAX_RUNS)]
     max_runs: usize,
+    /// Continue an interrupted sweep in its --out folder (same arguments): its finished
+    /// runs are kept and only the rest are run.
+    #[arg(long)]
+    resume: bool,
 }
 
 #[derive(Subcommand)]
@@ -96,6 +100,33 @@ fn sweep_progress(total: usize) -> impl Fn(usize, usize) + Sync {
             }
         }
     }
+}
+
+/// Set by SIGINT or SIGTERM: the sweep finishes the runs in progress, writes their rows
+/// and stops, so that `--resume` can continue it.
+static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+#[cfg(unix)]
+extern "C" fn request_stop(signal: libc::c_int) {
+    STOP.store(true, std::sync::atomic::Ordering::SeqCst);
+    // A second signal ends the process at once: the default action is back.
+    // SAFETY: `signal` is async-signal-safe; the handler touches only an atomic.
+    unsafe {
+        libc::signal(signal, libc::SIG_DFL);
+    }
+}
+
+/// Turns the first SIGINT or SIGTERM into a stop request for the sweep.
+fn stop_on_signals() -> Option<&'static std::sync::atomic::AtomicBool> {
+    #[cfg(unix)]
+    // SAFETY: installs a handler that only stores to an atomic and resets the disposition,
+    // both async-signal-safe.
+    unsafe {
+        let handler = request_stop as extern "C" fn(libc::c_int) as libc::sighandler_t;
+        libc::signal(libc::SIGINT, handler);
+        libc::signal(libc::SIGTERM, handler);
+    }
+    Some(&STOP)
 }
 
 pub fn sweep_command(args: SweepArgs) -> ExitCode {
@@ -159,14 +190,25 @@ pub fn sweep_command(args: SweepArgs) -> ExitCode {
             out,
         )
     })();
-    let opts = match prepared {
+    let mut opts = match prepared {
         Ok(o) => o,
         Err(e) => {
             eprintln!("error: {e}");
             return ExitCode::from(2);
         }
     };
+    opts.resume = args.resume;
+    opts.stop = stop_on_signals();
     let range = opts.shard.range(opts.grid.total());
+    let previous = sweep::previous_outputs(&opts.out_dir);
+    if !previous.is_empty() {
+        println!(
+            "{}    {}: {}",
+            if opts.resume { "resume " } else { "replace" },
+            opts.out_dir.display(),
+            previous.join(", ")
+        );
+    }
     println!(
         "sweep      {}: {} runs{} on {} jobs",
         scene.display(),
@@ -193,10 +235,15 @@ pub fn sweep_command(args: SweepArgs) -> ExitCode {
         Ok(o) => {
             let failed: Vec<_> = o.results.iter().filter(|r| r.outcome.is_err()).collect();
             println!(
-                "done       {} runs in {:.1} s, {} failed",
+                "done       {} runs in {:.1} s, {} failed{}",
                 o.results.len(),
                 started.elapsed().as_secs_f64(),
-                failed.len()
+                failed.len(),
+                if o.resumed > 0 {
+                    format!(" (and {} kept from the interrupted sweep)", o.resumed)
+                } else {
+                    String::new()
+                }
             );
             for r in failed.iter().take(5) {
                 if let Err(e) = &r.outcome {
@@ -206,6 +253,11 @@ pub fn sweep_command(args: SweepArgs) -> ExitCode {
             println!("results    {}", o.results_csv.display());
             println!("plots      {}", opts.out_dir.join("plots").display());
             ExitCode::SUCCESS
+        }
+        Err(e @ sweep::SweepError::Interrupted { .. }) => {
+            eprintln!("{e}");
+            // The shell's code for a process ended by SIGINT.
+            ExitCode::from(130)
         }
         Err(e) => {
             eprintln!("error: {e}");

@@ -758,3 +758,73 @@ fn known_disturbance_forces_are_used_and_unusable_columns_are_named() {
     let text = agvsim::ident::report::render(&id);
     assert!(text.contains("Ignored: disturbance_force_N"), "{text}");
 }
+
+/// A sweep stopped mid-way (as SIGINT or SIGTERM do, through the stop flag) keeps the
+/// finished runs as a valid prefix in `results.csv.partial`, which `sweep merge` names as
+/// unfinished; `--resume` runs the rest, and the result is byte for byte the uninterrupted
+/// sweep's, also when a kill cut the last row short. A folder of another sweep is not
+/// resumed.
+#[test]
+fn an_interrupted_sweep_keeps_its_finished_runs_and_resumes_to_the_same_bytes() {
+    use agvsim::sweep::{merge, parse_vary, run_sweep, Shard, SweepError, SweepOptions};
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let dir = tmp("resume");
+    let opts = |out: &Path, values: &str, jobs: usize| {
+        SweepOptions::new(
+            Path::new("scenes/lab_offset_120mm.toml"),
+            vec!["sim.duration_s=0.5".into()],
+            vec![parse_vary(&format!("controller.gain_scale={values}")).unwrap()],
+            1,
+            Shard::WHOLE,
+            jobs,
+            false,
+            out.to_owned(),
+        )
+        .unwrap()
+    };
+    let whole = dir.join("whole");
+    run_sweep(&opts(&whole, "1..2:12", 1), &|_, _| {}).unwrap();
+    let expected = std::fs::read(whole.join("results.csv")).unwrap();
+
+    let cut = dir.join("cut");
+    let stop: &'static AtomicBool = Box::leak(Box::new(AtomicBool::new(false)));
+    let mut o = opts(&cut, "1..2:12", 2);
+    o.stop = Some(stop);
+    let err = run_sweep(&o, &|done, _| {
+        if done == 5 {
+            stop.store(true, Ordering::SeqCst);
+        }
+    })
+    .unwrap_err();
+    println!("{err}");
+    let SweepError::Interrupted { done, total, .. } = err else {
+        panic!("not an interruption: {err}")
+    };
+    assert!((5..12).contains(&done) && total == 12, "{done} of {total}");
+    assert!(!cut.join("results.csv").exists(), "looks finished");
+    let partial = cut.join("results.csv.partial");
+    let text = std::fs::read_to_string(&partial).unwrap();
+    assert_eq!(text.lines().count(), 1 + done, "{text}");
+    assert!(expected.starts_with(text.as_bytes()), "not a prefix");
+    let err = merge(&[cut.clone()], &dir.join("m")).unwrap_err().to_string();
+    assert!(err.contains("interrupted shard") && err.contains("--resume"), "{err}");
+
+    // A kill in the middle of a row: the cut row is dropped and run again.
+    std::fs::write(&partial, format!("{text}{}", &text[text.len() - 40..text.len() - 1])).unwrap();
+    let mut o = opts(&cut, "1..2:12", 2);
+    o.resume = true;
+    let out = run_sweep(&o, &|_, _| {}).unwrap();
+    assert_eq!(out.resumed, done);
+    assert_eq!(out.results.len(), 12 - done);
+    assert_eq!(std::fs::read(cut.join("results.csv")).unwrap(), expected);
+    assert!(!partial.exists());
+
+    // Resuming a complete sweep, or with other arguments, is refused.
+    let err = run_sweep(&o, &|_, _| {}).unwrap_err().to_string();
+    assert!(err.contains("already complete"), "{err}");
+    let mut other = opts(&cut, "1..3:12", 2);
+    other.resume = true;
+    let err = run_sweep(&other, &|_, _| {}).unwrap_err().to_string();
+    assert!(err.contains("holds another sweep"), "{err}");
+    assert_eq!(std::fs::read(cut.join("results.csv")).unwrap(), expected);
+}

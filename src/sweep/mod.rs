@@ -8,6 +8,7 @@
 //! shards' folders back into the unsharded result, byte for byte.
 
 pub mod grid;
+pub mod journal;
 pub mod plots;
 pub mod results;
 pub mod runner;
@@ -16,7 +17,7 @@ pub use grid::{
     check_size, parse_shard, parse_vary, Grid, RunPoint, Shard, Vary, DEFAULT_MAX_RUNS,
 };
 pub use results::{merge, Manifest, MERGE_NOTE};
-pub use runner::{run_sweep, RunResult, SweepOptions, SweepOutput, Trace};
+pub use runner::{previous_outputs, run_sweep, RunResult, SweepOptions, SweepOutput, Trace};
 
 use std::path::PathBuf;
 
@@ -42,6 +43,13 @@ pub enum SweepError {
     /// Shard folders that do not belong together or do not cover the sweep.
     #[error("cannot merge: {0}")]
     Merge(String),
+    /// Stopped on request (a signal): the finished runs are kept for `--resume`.
+    #[error("interrupted: {done} of {total} runs finished, kept in {partial}; run the same command with --resume to continue")]
+    Interrupted {
+        done: usize,
+        total: usize,
+        partial: PathBuf,
+    },
 }
 
 pub fn io_err(path: &std::path::Path) -> impl Fn(std::io::Error) -> SweepError + '_ {

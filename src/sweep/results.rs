@@ -120,7 +120,7 @@ pub fn header(grid: &Grid) -> Vec<String> {
 }
 
 /// CSV text of a header and rows (fields quoted where they need it).
-fn csv_text(header: &[String], rows: impl IntoIterator<Item = Vec<String>>) -> String {
+pub fn csv_text(header: &[String], rows: impl IntoIterator<Item = Vec<String>>) -> String {
     let mut w = csv::WriterBuilder::new().from_writer(vec![]);
     // Writing to memory cannot fail.
     let _ = w.write_record(header);
@@ -130,50 +130,66 @@ fn csv_text(header: &[String], rows: impl IntoIterator<Item = Vec<String>>) -> S
     String::from_utf8(w.into_inner().unwrap_or_default()).unwrap_or_default()
 }
 
-/// `results.csv` text: the header, then one row per run in grid order.
-pub fn results_csv(grid: &Grid, results: &[RunResult]) -> String {
-    let rows = results.iter().map(|r| {
-        let mut cells = vec![r.point.index.to_string()];
-        cells.extend(r.point.values.iter().cloned());
-        cells.push(r.point.repeat.to_string());
-        cells.push(r.point.seed.to_string());
-        match &r.outcome {
-            Ok(s) => {
-                cells.push("ok".into());
-                cells.extend(metric_cells(s));
-            }
-            Err(e) => {
-                cells.push(format!("error: {e}"));
-                cells.extend(std::iter::repeat_n(String::new(), METRICS.len()));
-            }
+/// A run's row of `results.csv`: its number, varied values, repeat, seed, outcome and
+/// metrics (empty when it failed).
+pub fn row_cells(r: &RunResult) -> Vec<String> {
+    let mut cells = vec![r.point.index.to_string()];
+    cells.extend(r.point.values.iter().cloned());
+    cells.push(r.point.repeat.to_string());
+    cells.push(r.point.seed.to_string());
+    match &r.outcome {
+        Ok(s) => {
+            cells.push("ok".into());
+            cells.extend(metric_cells(s));
         }
-        cells
-    });
-    csv_text(&header(grid), rows)
+        Err(e) => {
+            cells.push(format!("error: {e}"));
+            cells.extend(std::iter::repeat_n(String::new(), METRICS.len()));
+        }
+    }
+    cells
 }
 
-/// `traces/run_NNNNN.csv` for each run that has a trace.
+/// One row as CSV text, with its newline (fields quoted where they need it).
+pub fn csv_row(cells: &[String]) -> String {
+    let mut w = csv::WriterBuilder::new().from_writer(vec![]);
+    // Writing to memory cannot fail.
+    let _ = w.write_record(cells);
+    String::from_utf8(w.into_inner().unwrap_or_default()).unwrap_or_default()
+}
+
+/// `results.csv` text: the header, then one row per run in grid order.
+pub fn results_csv(grid: &Grid, results: &[RunResult]) -> String {
+    csv_text(&header(grid), results.iter().map(row_cells))
+}
+
+/// Writes `traces/run_NNNNN.csv` for each run that has a trace.
 pub fn write_traces(dir: &Path, results: &[RunResult]) -> Result<(), SweepError> {
-    let tdir = dir.join(TRACES_DIR);
-    std::fs::create_dir_all(&tdir).map_err(io_err(&tdir))?;
     for r in results {
-        let Some(t) = &r.trace else { continue };
-        let mut s = String::from("t_s,distance_m,x_m,y_m,lateral_error_m\n");
-        for i in 0..t.t_s.len() {
-            let _ = writeln!(
-                s,
-                "{},{},{},{},{}",
-                num(t.t_s[i]),
-                num(t.distance_m[i]),
-                num(t.x_m[i]),
-                num(t.y_m[i]),
-                num(t.lateral_error_m[i])
-            );
-        }
-        let path = tdir.join(trace_name(r.point.index));
-        std::fs::write(&path, s).map_err(io_err(&path))?;
+        write_trace(dir, r)?;
     }
     Ok(())
+}
+
+/// Writes the run's `traces/run_NNNNN.csv` (whole or not at all) if it has a trace.
+pub fn write_trace(dir: &Path, r: &RunResult) -> Result<(), SweepError> {
+    let Some(t) = &r.trace else { return Ok(()) };
+    let tdir = dir.join(TRACES_DIR);
+    std::fs::create_dir_all(&tdir).map_err(io_err(&tdir))?;
+    let mut s = String::from("t_s,distance_m,x_m,y_m,lateral_error_m\n");
+    for i in 0..t.t_s.len() {
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{}",
+            num(t.t_s[i]),
+            num(t.distance_m[i]),
+            num(t.x_m[i]),
+            num(t.y_m[i]),
+            num(t.lateral_error_m[i])
+        );
+    }
+    let path = tdir.join(trace_name(r.point.index));
+    crate::output::write_atomically(&path, s).map_err(io_err(&path))
 }
 
 pub fn trace_name(index: usize) -> String {
@@ -240,7 +256,7 @@ impl Table {
 
     /// Checks a row's identity cells (varied values, repeat, seed) against the run the
     /// grid has at its number: a row edited or from another sweep is named.
-    fn check_on_grid(
+    pub fn check_on_grid(
         &self,
         grid: &Grid,
         path: &Path,
@@ -421,6 +437,17 @@ pub fn merge(shards: &[PathBuf], out: &Path) -> Result<(PathBuf, Vec<PathBuf>), 
     let mut header: Option<Vec<String>> = None;
     for d in shards {
         let path = d.join(RESULTS_FILE);
+        let partial = super::journal::partial_path(d);
+        if !path.is_file() && partial.is_file() {
+            let runs = std::fs::read_to_string(&partial)
+                .map(|t| t.lines().count().saturating_sub(1))
+                .unwrap_or(0);
+            return Err(SweepError::Merge(format!(
+                "{} holds an interrupted shard ({runs} runs finished, in {}); finish it with its sweep command and --resume",
+                d.display(),
+                partial.display()
+            )));
+        }
         let text = std::fs::read_to_string(&path).map_err(io_err(&path))?;
         let table = Table::parse(&text, &path)?;
         match &header {
