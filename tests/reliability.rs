@@ -656,7 +656,7 @@ fn known_disturbance_forces_are_used_and_unusable_columns_are_named() {
     std::fs::write(&rig_path, rig_text).unwrap();
     let rig = Rig::load(&rig_path).unwrap();
     // The truth: 20 % heavier, 30 % more friction than the belief; 200 N pulses.
-    let mut truth = LinearAxis::from_rig(&rig, &rig_path).unwrap();
+    let mut truth = LinearAxis::from_rig(&rig, &rig_path, false).unwrap();
     truth.disturbance_input = true;
     let n = 4000;
     let t: Vec<f64> = (0..n).map(|k| k as f64 * 0.001).collect();

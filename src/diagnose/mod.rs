@@ -473,11 +473,13 @@ pub fn diagnose(
     let base_total_energy: f64 = base_energy.iter().sum();
     let diagnosed_eval = evaluate(&data, stage.fit.predicted.clone(), opts.ident.max_lag);
     let params_of = |s: &Structure, p: &[f64]| -> BTreeMap<String, f64> {
-        s.model()
-            .params()
+        let m = s.model();
+        m.params()
             .iter()
             .zip(p)
-            .map(|(s, v)| (s.name.clone(), *v))
+            .enumerate()
+            .filter(|(i, _)| m.reports(*i))
+            .map(|(_, (s, v))| (s.name.clone(), *v))
             .collect()
     };
     let validation = match validation {

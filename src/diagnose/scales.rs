@@ -31,6 +31,28 @@ pub(crate) fn scales(structure: &Structure, p: &[f64], data: &Dataset, speed: &[
         .map(|u| u.iter().map(|v| v.abs()).fold(0.0, f64::max))
         .unwrap_or(1.0);
     match structure {
+        Structure::Rotary(m) if m.torque_command().is_some() => {
+            use crate::ident::models::rotary_axis::B;
+            let c = m.torque_command().expect("checked");
+            let command = data
+                .output_index("command_V")
+                .map(|j| {
+                    data.outputs[j]
+                        .iter()
+                        .flatten()
+                        .map(|v| v.abs())
+                        .fold(0.0, f64::max)
+                })
+                .unwrap_or(u_max);
+            Scales {
+                v_max: command,
+                speed_max,
+                dt,
+                effort: (c.per_volt_nm_v * command).max(1e-9),
+                tau: m.inertia_at_motor(p) / p[B],
+                weight_n: 0.0,
+            }
+        }
         Structure::Rotary(m) => {
             use crate::ident::models::rotary_axis::{K, R};
             let v_max = m.voltage(p, u_max).abs().max(1e-6);

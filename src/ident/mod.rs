@@ -34,7 +34,7 @@ use models::coast_down::CoastDown;
 use models::dcmc_pair::{Case, DcmcPair};
 use models::falling_weight::FallingWeight;
 use models::linear_axis::LinearAxis;
-use models::rotary_axis::{AxisInput, RotaryAxis};
+use models::rotary_axis::{AxisInput, RotaryAxis, TorqueCommand};
 use models::vehicle::Vehicle;
 
 /// The model structures `identify` offers.
@@ -208,18 +208,24 @@ pub fn build_structure(
                 return Err(wrong_rig("drive_axis"));
             }
             if rig.is_linear() {
-                let mut m = LinearAxis::from_rig(rig, rig_path)?;
+                let force_input =
+                    rec.column("force_N").is_some() && rec.column("command_V").is_none()
+                        && rec.column("reference_m").is_none();
+                let mut m = LinearAxis::from_rig(rig, rig_path, force_input)?;
                 m.disturbance_input = rec.column("disturbance_force_N").is_some();
                 Structure::Linear(m)
             } else {
-                let input = if rec.column("voltage_V").is_some() {
+                let has = |c: &str| rec.column(c).is_some();
+                let input = if has("voltage_V") {
                     AxisInput::Voltage
-                } else if rec.column("demand_pct").is_some() {
+                } else if has("demand_pct") {
                     AxisInput::Demand
+                } else if let Some(c) = TorqueCommand::from_columns(rig, rig_path, has)? {
+                    AxisInput::Torque(c)
                 } else {
                     return Err(IdentError::Mismatch {
                         file: rec.path.clone(),
-                        message: "neither `voltage_V` nor `demand_pct` is a column: a rotary drive axis needs one of them as its input".into(),
+                        message: "no input column: a rotary drive axis needs `voltage_V`, `demand_pct`, `torque_Nm`, `command_V` (with the rig's drive.torque_per_volt_Nm_V) or `reference_rad` (with its [feedback])".into(),
                     });
                 };
                 Structure::Rotary(RotaryAxis::from_rig(rig, rig_path, input)?)
@@ -509,7 +515,8 @@ pub(crate) fn finite_loss(
         .copied()
         .chain(data.outputs.iter().flatten().flatten().copied())
         .fold(0.0f64, |m, v| m.max(v.abs()));
-    let why = if e.loss == 0.0 {
+    // A determinant of residual covariances can come out a rounding error below zero.
+    let why = if e.loss.is_finite() && e.loss.abs() < 1e-12 {
         "the model reproduces the record exactly, so there is no residual to estimate the noise, the standard deviations or the FPE from".to_string()
     } else {
         format!("a cell is too large for the fit's arithmetic (largest |value| {largest:e}); check the recording's inputs and outputs")
@@ -532,6 +539,7 @@ fn assemble(
         .params()
         .iter()
         .enumerate()
+        .filter(|(i, _)| model.reports(*i))
         .map(|(i, s)| {
             let slot = f.free.iter().position(|&j| j == i);
             let at_bound = slot.and_then(|_| bound_reached(f.params[i], s.lo, s.hi));

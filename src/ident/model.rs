@@ -113,6 +113,11 @@ pub trait GreyBox: Predictor {
     /// pose tracker's unknown start pose): called once per simulation.
     fn align_outputs(&self, _data: &Dataset, _y: &mut [Vec<f64>]) {}
 
+    /// Whether parameter `i` acts in this model's structure and belongs in its report (a
+    /// torque-driven axis carries the armature's slots unused).
+    fn reports(&self, _i: usize) -> bool {
+        true
+    }
     /// Index of a parameter by name.
     fn param_index(&self, name: &str) -> Option<usize> {
         self.params().iter().position(|s| s.name == name)

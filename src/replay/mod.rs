@@ -177,10 +177,23 @@ fn choose_drive(rec: &Recording) -> Result<Drive, ReplayError> {
                 .iter()
                 .map(|d| d.columns().join(" and "))
                 .collect();
+            // Contract inputs the simulator's machine has no way to take: say why.
+            let other: Vec<&str> = ["torque_Nm", "force_N", "command_V", "reference_rad", "reference_m"]
+                .into_iter()
+                .filter(|c| rec.column(c).is_some())
+                .collect();
+            let why = if other.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    " ({} drive a current amplifier or a position loop, which the simulated AGV, DC motors behind the DCMC, does not have; `agvsim identify` and `diagnose` fit such records with their rig)",
+                    other.join(", ")
+                )
+            };
             recording_err(
                 rec,
                 format!(
-                    "no input the simulator can be driven by: expected {}",
+                    "no input the simulator can be driven by: expected {}{why}",
                     wanted.join(", or ")
                 ),
             )

@@ -139,6 +139,9 @@ pub struct FeedbackRig {
     pub kind: Option<String>,
     pub kp_1_s: Option<f64>,
     pub kv_V_s_m: Option<f64>,
+    /// The velocity-loop gain of a rotary axis's cascade, V per rad/s of the wheel (an
+    /// agvsim key beside the contract's linear `kv_V_s_m`).
+    pub kv_V_s_rad: Option<f64>,
 }
 
 #[allow(non_snake_case)]

@@ -38,10 +38,14 @@ pub struct LinearAxis {
     /// The recording gives the known external force on the load (`disturbance_force_N`,
     /// a contract input): it enters the force balance as the last input.
     pub disturbance_input: bool,
+    /// The recording gives the commanded force (`force_N`) instead of `command_V`.
+    pub force_input: bool,
 }
 
 impl LinearAxis {
-    pub fn from_rig(rig: &Rig, path: &Path) -> Result<LinearAxis, RigError> {
+    /// The axis a rig describes. With `force_input` the recording commands the force itself
+    /// (`force_N`), so the amplifier's gain and limit do not enter.
+    pub fn from_rig(rig: &Rig, path: &Path, force_input: bool) -> Result<LinearAxis, RigError> {
         let need = |k: &str, why: &str| rig.require(k, path, why);
         let specs = vec![
             ParamSpec::positive(
@@ -68,10 +72,19 @@ impl LinearAxis {
                 })
             }
         };
+        let (force_per_volt, limit_v) = if force_input && feedback == Loop::Open {
+            (1.0, f64::INFINITY)
+        } else {
+            (
+                need("drive.force_per_volt_N_V", "force = gain x command_V")?,
+                rig.get("drive.limit_V").unwrap_or(f64::INFINITY),
+            )
+        };
         Ok(LinearAxis {
             specs,
-            force_per_volt: need("drive.force_per_volt_N_V", "force = gain x command_V")?,
-            limit_v: rig.get("drive.limit_V").unwrap_or(f64::INFINITY),
+            force_per_volt,
+            limit_v,
+            force_input: force_input && feedback == Loop::Open,
             feedback,
             effects: effects::EffectSlots::default(),
             coulomb_eps_m_s: 1e-3,
@@ -146,6 +159,7 @@ impl GreyBox for LinearAxis {
 
     fn input_names(&self) -> Vec<String> {
         let mut i = match self.feedback {
+            Loop::Open if self.force_input => vec!["force_N".to_string()],
             Loop::Open => vec!["command_V".to_string()],
             Loop::PositionVelocityCascade { .. } => vec!["reference_m".to_string()],
         };

@@ -12,13 +12,98 @@ use crate::ident::model::{GreyBox, OutputKind, ParamSpec};
 use crate::model::gearbox::GearboxParams;
 use crate::rig::{Rig, RigError};
 
-/// What drives the armature.
+/// What drives the axis.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum AxisInput {
-    /// `voltage_V`.
+    /// `voltage_V` on the armature.
     Voltage,
-    /// `demand_pct` x `controller.gain_V_pct`.
+    /// `demand_pct` x `controller.gain_V_pct` on the armature.
     Demand,
+    /// A current (torque) amplifier: the motor torque is commanded, so the armature's
+    /// resistance, inductance and back-EMF do not act. `torque_Nm` directly
+    /// (`per_volt_nm_v` = 1), or `command_V` x `drive.torque_per_volt_Nm_V`.
+    Torque(TorqueCommand),
+}
+
+/// Where a torque amplifier's command comes from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TorqueCommand {
+    /// Motor torque per unit of the input column, N m per V (1 for `torque_Nm`).
+    pub per_volt_nm_v: f64,
+    /// Command limit, in the input column's unit (infinite when the rig gives none).
+    pub limit: f64,
+    /// The column the command is recorded in.
+    pub column: &'static str,
+    /// The position loop that produced the command from `reference_rad`, if recorded in
+    /// closed loop: then the command is an output and the reference the input.
+    pub feedback: Option<WheelCascade>,
+}
+
+/// command = kv (kp (reference - wheel angle) - wheel speed), the contract's
+/// position-velocity cascade on the load side of a rotary axis.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WheelCascade {
+    pub kp_1_s: f64,
+    /// V per rad/s of the wheel.
+    pub kv_v_s_rad: f64,
+}
+
+impl TorqueCommand {
+    /// The torque command a recording's columns and the rig describe, if it has one:
+    /// `torque_Nm`, `command_V` through `drive.torque_per_volt_Nm_V`, or `reference_rad`
+    /// through the rig's `[feedback]` loop into that amplifier.
+    pub fn from_columns(
+        rig: &Rig,
+        path: &Path,
+        has: impl Fn(&str) -> bool,
+    ) -> Result<Option<TorqueCommand>, RigError> {
+        let need = |k: &str, why: &str| rig.require(k, path, why);
+        if has("torque_Nm") {
+            return Ok(Some(TorqueCommand {
+                per_volt_nm_v: 1.0,
+                limit: f64::INFINITY,
+                column: "torque_Nm",
+                feedback: None,
+            }));
+        }
+        let closed = has("reference_rad");
+        if !has("command_V") && !closed {
+            return Ok(None);
+        }
+        let why = if closed {
+            "reference_rad is the input of a position loop into a current amplifier"
+        } else {
+            "command_V drives a current amplifier"
+        };
+        let feedback = if closed {
+            match rig.feedback.as_ref().and_then(|f| f.kind.as_deref()) {
+                Some("position_velocity_cascade") => Some(WheelCascade {
+                    kp_1_s: need("feedback.kp_1_s", "the position loop gain")?,
+                    kv_v_s_rad: need(
+                        "feedback.kv_V_s_rad",
+                        "the velocity loop gain of a rotary axis, V per rad/s of the wheel",
+                    )?,
+                }),
+                other => {
+                    return Err(RigError::Invalid {
+                        file: path.to_owned(),
+                        message: format!(
+                            "feedback.kind = {}: the recording gives reference_rad, so the rig must say how the command was made from it (\"position_velocity_cascade\")",
+                            other.map_or("(missing)".into(), |k| format!("\"{k}\""))
+                        ),
+                    })
+                }
+            }
+        } else {
+            None
+        };
+        Ok(Some(TorqueCommand {
+            per_volt_nm_v: need("drive.torque_per_volt_Nm_V", why)?,
+            limit: rig.get("drive.limit_V").unwrap_or(f64::INFINITY),
+            column: "command_V",
+            feedback,
+        }))
+    }
 }
 
 pub const R: usize = 0;
@@ -71,14 +156,21 @@ pub struct RotaryAxis {
 
 impl RotaryAxis {
     pub fn from_rig(rig: &Rig, path: &Path, input: AxisInput) -> Result<RotaryAxis, RigError> {
-        let need = |k: &str| rig.require(k, path, "the rotary drive-axis model needs it");
+        let torque_driven = matches!(input, AxisInput::Torque(_));
+        let need = |k: &str| match (torque_driven, rig.get(k)) {
+            (_, Some(v)) => Ok(v),
+            // Behind a current amplifier the armature's values do not act: placeholders
+            // the report leaves out.
+            (true, None) => Ok(1.0),
+            (false, None) => rig.require(k, path, "the rotary drive-axis model needs it"),
+        };
         let mut specs = vec![
             ParamSpec::positive("motor.resistance_ohm", need("motor.resistance_ohm")?),
             // The inductance is weakly seen at sample rates far below R/L; a fit left free
             // would chase it towards zero, and the integration with it. Beliefs are tens of
             // percent off, so a factor of 3 is a generous physical bound.
             {
-                let l = need("motor.inductance_H")?;
+                let l = need("motor.inductance_H").map(|l| if torque_driven { l.min(1e-3) } else { l })?;
                 ParamSpec::new("motor.inductance_H", l, l / 3.0, 3.0 * l)
             },
             ParamSpec::positive(
@@ -87,13 +179,24 @@ impl RotaryAxis {
             ),
             ParamSpec::positive(
                 "motor.rotor_inertia_kg_m2",
-                need("motor.rotor_inertia_kg_m2")?,
+                rig.require(
+                    "motor.rotor_inertia_kg_m2",
+                    path,
+                    "the rotary drive-axis model needs it",
+                )?,
             ),
             ParamSpec::positive(
                 "wheel.inertia_kg_m2",
                 rig.get("wheel.inertia_kg_m2").unwrap_or(0.0).max(1e-12),
             ),
-            ParamSpec::positive("motor.viscous_Nm_s_rad", need("motor.viscous_Nm_s_rad")?),
+            ParamSpec::positive(
+                "motor.viscous_Nm_s_rad",
+                rig.require(
+                    "motor.viscous_Nm_s_rad",
+                    path,
+                    "the rotary drive-axis model needs it",
+                )?,
+            ),
         ];
         if input == AxisInput::Demand {
             specs.push(ParamSpec::positive(
@@ -119,14 +222,32 @@ impl RotaryAxis {
             Effect::CoulombFriction,
             Effect::FrictionAsymmetry,
             Effect::Offset,
-            Effect::VoltageSaturation,
-            Effect::BatterySag,
-            Effect::TransportDelay,
         ];
+        match self.input {
+            // A current amplifier commands the torque: the supply's limits and sag act on
+            // the armature, not on the torque.
+            AxisInput::Torque(c) => {
+                // In closed loop a dead time would sit inside the loop, which this model
+                // does not place.
+                if c.feedback.is_none() {
+                    e.push(Effect::TransportDelay);
+                }
+            }
+            AxisInput::Voltage | AxisInput::Demand => e.extend([
+                Effect::VoltageSaturation,
+                Effect::BatterySag,
+                Effect::TransportDelay,
+            ]),
+        }
         if self.input == AxisInput::Demand {
             e.push(Effect::SpeedFeedback);
         }
         e
+    }
+
+    /// The motor torque a torque amplifier gives for a held command, N m.
+    fn commanded_torque(c: &TorqueCommand, command: f64) -> f64 {
+        c.per_volt_nm_v * command.clamp(-c.limit, c.limit)
     }
 
     /// This model with one more effect, its parameter starting at `start` within
@@ -172,7 +293,7 @@ impl RotaryAxis {
         let has_current = outputs.iter().any(|o| o == "current_A");
         match effect {
             // The wheel's inertia is seen apart from the rotor's once the teeth separate.
-            Effect::Backlash if has_current => vec![JW],
+            Effect::Backlash if has_current || self.torque_command().is_some() => vec![JW],
             Effect::Backlash => vec![R, JW],
             _ => vec![],
         }
@@ -205,6 +326,22 @@ impl RotaryAxis {
         }
     }
 
+    /// The torque amplifier's command, when a torque (not a voltage) drives the axis.
+    pub fn torque_command(&self) -> Option<TorqueCommand> {
+        match self.input {
+            AxisInput::Torque(c) => Some(c),
+            _ => None,
+        }
+    }
+
+    /// Wheel speed, rad/s: its own state once a play separates it from the motor.
+    fn wheel_speed(&self, x: &[f64]) -> f64 {
+        match self.effect(Effect::Backlash) {
+            Some(_) => x[3],
+            None => x[1] / self.ratio,
+        }
+    }
+
     /// Total inertia at the motor shaft, kg m^2.
     pub fn inertia_at_motor(&self, p: &[f64]) -> f64 {
         p[JM] + p[JW] / (self.ratio * self.ratio)
@@ -215,12 +352,18 @@ impl RotaryAxis {
         match self.input {
             AxisInput::Voltage => u,
             AxisInput::Demand => p[GAIN] * u,
+            AxisInput::Torque(_) => 0.0,
         }
     }
 
     /// Mechanical time constant J / (b + K^2/R), s.
     pub fn mechanical_time_constant_s(&self, p: &[f64]) -> f64 {
-        self.inertia_at_motor(p) / (p[B] + p[K] * p[K] / p[R])
+        // Behind a torque amplifier the back-EMF does not damp the motor.
+        let electrical = match self.input {
+            AxisInput::Torque(_) => 0.0,
+            _ => p[K] * p[K] / p[R],
+        };
+        self.inertia_at_motor(p) / (p[B] + electrical)
     }
 }
 
@@ -229,6 +372,12 @@ impl GreyBox for RotaryAxis {
         match self.input {
             AxisInput::Voltage => "rotary drive axis, voltage-driven".into(),
             AxisInput::Demand => "rotary drive axis, demand through a controller gain".into(),
+            AxisInput::Torque(TorqueCommand { feedback: None, .. }) => {
+                "rotary drive axis, current (torque) amplifier, open loop".into()
+            }
+            AxisInput::Torque(_) => {
+                "rotary drive axis, current (torque) amplifier, position-velocity cascade".into()
+            }
         }
     }
 
@@ -240,7 +389,9 @@ impl GreyBox for RotaryAxis {
         // Only the sum of the inertias is seen through a rigid gear train: the wheel's stays
         // at the rig value and the rotor's absorbs the difference. Without a current
         // measurement R and L are not separable from K and J, so they stay fixed.
-        let mut free = if outputs.iter().any(|o| o == "current_A") {
+        let mut free = if matches!(self.input, AxisInput::Torque(_)) {
+            vec![JM, B]
+        } else if outputs.iter().any(|o| o == "current_A") {
             vec![R, L, K, JM, B]
         } else {
             vec![K, JM, B]
@@ -255,18 +406,51 @@ impl GreyBox for RotaryAxis {
         match self.input {
             AxisInput::Voltage => vec!["voltage_V".into()],
             AxisInput::Demand => vec!["demand_pct".into()],
+            AxisInput::Torque(TorqueCommand { feedback: None, column, .. }) => {
+                vec![column.into()]
+            }
+            AxisInput::Torque(_) => vec!["reference_rad".into()],
         }
     }
 
     fn output_names(&self) -> Vec<String> {
-        [
-            "motor_speed_rad_s",
-            "current_A",
-            "motor_angle_rad",
-            "wheel_angle_rad",
-        ]
-        .map(String::from)
-        .to_vec()
+        let mut o: Vec<String> = ["motor_speed_rad_s", "motor_angle_rad", "wheel_angle_rad"]
+            .map(String::from)
+            .to_vec();
+        match self.input {
+            // The armature current follows the command, not a law of this model.
+            AxisInput::Torque(TorqueCommand {
+                feedback: Some(_),
+                column,
+                ..
+            }) => o.push(column.into()),
+            AxisInput::Torque(_) => {}
+            AxisInput::Voltage | AxisInput::Demand => o.insert(1, "current_A".into()),
+        }
+        o
+    }
+
+    fn reports(&self, i: usize) -> bool {
+        !(matches!(self.input, AxisInput::Torque(_)) && [R, L, K].contains(&i))
+    }
+
+    fn n_held(&self) -> usize {
+        1
+    }
+
+    fn hold(&self, _p: &[f64], _t_s: f64, x: &[f64], u: &[f64], held: &mut [f64]) {
+        held[0] = match self.input {
+            AxisInput::Torque(TorqueCommand {
+                feedback: Some(c),
+                limit,
+                ..
+            }) => {
+                // The digital loop samples the wheel and holds its command.
+                (c.kv_v_s_rad * (c.kp_1_s * (u[0] - x[4]) - self.wheel_speed(x)))
+                    .clamp(-limit, limit)
+            }
+            _ => u[0],
+        };
     }
 
     /// Current, motor speed, motor angle, wheel speed and angle (backlash block), and the
@@ -288,7 +472,10 @@ impl GreyBox for RotaryAxis {
 
     fn max_step_s(&self, p: &[f64]) -> f64 {
         // RK4 is accurate to 2 % on a decaying mode at h = its time constant.
-        let mut h = (p[L] / p[R]).min(0.2 * self.mechanical_time_constant_s(p));
+        let mut h = match self.input {
+            AxisInput::Torque(_) => 0.2 * self.mechanical_time_constant_s(p),
+            _ => (p[L] / p[R]).min(0.2 * self.mechanical_time_constant_s(p)),
+        };
         if let Some(play) = self.effect(Effect::Backlash) {
             let rate = self
                 .gearbox(p, play)
@@ -302,7 +489,7 @@ impl GreyBox for RotaryAxis {
         self.effect(Effect::TransportDelay).map_or(0.0, |i| p[i])
     }
 
-    fn derivatives(&self, p: &[f64], x: &[f64], u: &[f64], _held: &[f64], dx: &mut [f64]) {
+    fn derivatives(&self, p: &[f64], x: &[f64], u: &[f64], held: &[f64], dx: &mut [f64]) {
         let mut v = self.voltage(p, u[0]);
         dx[5] = 0.0;
         if let Some(i) = self.effect(Effect::SpeedFeedback) {
@@ -317,8 +504,18 @@ impl GreyBox for RotaryAxis {
         if let Some(i) = self.effect(Effect::BatterySag) {
             v = effects::bridge_voltage(v, self.supply_v, self.supply_v, p[i], x[0]);
         }
-        dx[0] = (v - p[R] * x[0] - p[K] * x[1]) / p[L];
-        let drive = p[K] * x[0] - self.extra_friction(p, x[1]);
+        let motor_torque = match self.input {
+            AxisInput::Torque(c) => {
+                dx[0] = 0.0;
+                let command = if c.feedback.is_some() { held[0] } else { u[0] };
+                Self::commanded_torque(&c, command)
+            }
+            AxisInput::Voltage | AxisInput::Demand => {
+                dx[0] = (v - p[R] * x[0] - p[K] * x[1]) / p[L];
+                p[K] * x[0]
+            }
+        };
+        let drive = motor_torque - self.extra_friction(p, x[1]);
         match self.effect(Effect::Backlash) {
             None => {
                 dx[1] = (drive - self.viscous(p, p[B], x[1])) / self.inertia_at_motor(p);
@@ -348,8 +545,9 @@ impl GreyBox for RotaryAxis {
         }
     }
 
-    fn output(&self, _p: &[f64], name: &str, x: &[f64], _u: &[f64], _held: &[f64]) -> f64 {
+    fn output(&self, _p: &[f64], name: &str, x: &[f64], _u: &[f64], held: &[f64]) -> f64 {
         match name {
+            "command_V" => held[0],
             "motor_speed_rad_s" => x[1],
             "current_A" => x[0],
             "motor_angle_rad" => x[2],
