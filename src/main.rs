@@ -163,6 +163,9 @@ enum Command {
     },
     /// List the tyre compounds and floor surfaces and the tyre values they combine into.
     Presets,
+    /// Print the scene reference: every key, the values it allows and its default (the
+    /// table the scene is validated against, in Markdown).
+    Keys,
     /// Run one of the thesis's lab experiments on a simulated AGV; write the recording and
     /// its rig file (exchange format).
     Experiment {
@@ -637,6 +640,10 @@ fn main() -> ExitCode {
         }
         Command::Presets => {
             print!("{}", presets::render_table());
+            ExitCode::SUCCESS
+        }
+        Command::Keys => {
+            print!("{}", agvsim::scene::ranges::markdown());
             ExitCode::SUCCESS
         }
     }

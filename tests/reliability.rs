@@ -828,3 +828,26 @@ fn an_interrupted_sweep_keeps_its_finished_runs_and_resumes_to_the_same_bytes() 
     assert!(err.contains("holds another sweep"), "{err}");
     assert_eq!(std::fs::read(cut.join("results.csv")).unwrap(), expected);
 }
+
+/// A run longer than the scene's step budget (`sim.max_steps`, 10^7 physics steps by
+/// default) is refused before it starts, naming the key and how to raise the budget: a
+/// typed `--duration 1e7` used to run for days without a word.
+#[test]
+fn a_run_beyond_its_step_budget_is_refused_up_front() {
+    let scene = Path::new("scenes/high_gain_slip.toml");
+    let err = Scene::load(scene, &["sim.duration_s=1e7".into()])
+        .err()
+        .expect("refused")
+        .to_string();
+    println!("{err}");
+    assert!(
+        err.contains("sim.duration_s") && err.contains("sim.max_steps") && err.contains("1.000e10"),
+        "{err}"
+    );
+    // Raised on purpose, it is accepted.
+    Scene::load(
+        scene,
+        &["sim.duration_s=1e7".into(), "sim.max_steps=10000000000".into()],
+    )
+    .unwrap();
+}

@@ -6,6 +6,7 @@
 mod controller_spec;
 mod expect;
 pub mod presets;
+pub mod ranges;
 mod schema;
 mod validate;
 

@@ -82,7 +82,14 @@ pub struct SimSettings {
     pub record_interval_s: f64,
     /// Wheels lifted off the floor (lab identification rig): the chassis stays put.
     pub wheels_lifted: bool,
+    /// Most physics steps (`duration_s / dt_s`) a run may take: a guard against a typo
+    /// that asks for days of simulated time; raise it for a run that needs more.
+    pub max_steps: u64,
 }
+
+/// Default of `sim.max_steps`: 10^7 physics steps, 2.8 hours simulated at the 1 ms step,
+/// a minute or two of work.
+pub const DEFAULT_MAX_STEPS: u64 = 10_000_000;
 
 impl Default for SimSettings {
     fn default() -> Self {
@@ -93,6 +100,7 @@ impl Default for SimSettings {
             seed: 1,
             record_interval_s: 0.01,
             wheels_lifted: false,
+            max_steps: DEFAULT_MAX_STEPS,
         }
     }
 }

@@ -379,12 +379,18 @@ impl SimParams {
         let keys = if mesh_alone > MAX_SUBSTEPS {
             "the gear mesh: gearbox.tooth_stiffness_Nm_rad, gearbox.tooth_damping_Nm_s_rad, motor.rotor_inertia_kg_m2, gearbox.ratio, wheel.inertia_kg_m2"
         } else {
-            "the drive tyre's bristles on the wheel: tyre.relaxation_length_m, tyre.long_stiffness_per_N, wheel.radius_m, wheel.inertia_kg_m2, the load on the wheel"
+            "the drive tyre's bristles on the wheel: tyre.relaxation_length_m, tyre.long_stiffness_per_N, wheel.radius_m, wheel.inertia_kg_m2, the load on the wheel (chassis.mass_kg, payload.mass_kg, chassis.drive_load_fraction)"
+        };
+        // A count that saturated its integer type is no count: say "more than".
+        let needed = if self.substeps >= 1_000_000_000_000 {
+            "more than 1e12".to_string()
+        } else {
+            self.substeps.to_string()
         };
         Err(SimError::Setup {
             message: format!(
-                "the drivetrain needs {} sub-steps per {} s step (at most {MAX_SUBSTEPS} are run): its fastest mode is {keys}; check those values",
-                self.substeps, self.dt_s
+                "the drivetrain needs {needed} sub-steps per {} s step (at most {MAX_SUBSTEPS} are run): its fastest mode is {keys}; check those values",
+                self.dt_s
             ),
         })
     }
