@@ -175,7 +175,7 @@ fn bad_scenes_are_rejected_with_file_key_and_expectation() {
         "[controller]\nkind = \"swing_away\"\nreverse = true\n[controller.swing_away]\ncorrection = 1.5\n",
     );
     assert!(
-        e.contains("controller.swing_away.correction") && e.contains("between 0 and 1"),
+        e.contains("controller.swing_away.correction") && e.contains("[0, 1]"),
         "{e}"
     );
 }

@@ -851,3 +851,49 @@ fn a_run_beyond_its_step_budget_is_refused_up_front() {
     )
     .unwrap();
 }
+
+/// Rig values that mean something at zero are taken where the model can use them: no
+/// viscous friction believed (the fit finds the friction the record has, searched up
+/// from zero), a wheel inertia lumped into the rotor's (the sum comes back). Where the
+/// model cannot use a zero it says why: the armature needs its inductance, a linear
+/// axis its friction belief.
+#[test]
+fn zero_rig_values_are_taken_where_meaningful_and_refused_with_the_reason_elsewhere() {
+    let dev = Path::new("../shared/data/dev");
+    if !dev.exists() {
+        println!("skipped: ../shared/data/dev is not beside the checkout");
+        return;
+    }
+    let dir = tmp("zero-rig");
+    let rec = Recording::load(&dev.join("dev_axis_05.csv")).unwrap();
+    let text = std::fs::read_to_string(dev.join("dev_axis_05.rig.toml")).unwrap();
+    let fit = |edit: &str, with: &str| {
+        let p = dir.join(format!("{}.rig.toml", with.replace(['.', ' ', '='], "_")));
+        let line = text.lines().find(|l| l.starts_with(edit)).unwrap();
+        std::fs::write(&p, text.replace(line, with)).unwrap();
+        Rig::load(&p)
+            .map_err(|e| e.to_string())
+            .and_then(|rig| {
+                identify(&rig, &p, &rec, None, &IdentifyOptions::default()).map_err(|e| e.to_string())
+            })
+    };
+    let value = |id: &agvsim::ident::Identification, n: &str| {
+        id.params.iter().find(|p| p.name == n).unwrap().value
+    };
+    let base = fit("viscous_Nm_s_rad", "viscous_Nm_s_rad = 7.48e-05").unwrap();
+    let no_viscous = fit("viscous_Nm_s_rad", "viscous_Nm_s_rad = 0.0").unwrap();
+    let (b0, b1) = (
+        value(&base, "motor.viscous_Nm_s_rad"),
+        value(&no_viscous, "motor.viscous_Nm_s_rad"),
+    );
+    println!("viscous from a belief of 7.48e-5: {b0:e}; from 0: {b1:e}");
+    assert!(b1 > 0.0 && (b1 / b0 - 1.0).abs() < 0.01);
+    let lumped = fit("inertia_kg_m2", "inertia_kg_m2 = 0.0").unwrap();
+    let total = |id: &agvsim::ident::Identification| {
+        value(id, "motor.rotor_inertia_kg_m2") + value(id, "wheel.inertia_kg_m2") / 23.41f64.powi(2)
+    };
+    println!("inertia at the motor: {:e} (rig) against {:e} (wheel lumped)", total(&base), total(&lumped));
+    assert!((total(&lumped) / total(&base) - 1.0).abs() < 0.01);
+    let err = fit("inductance_H", "inductance_H = 0.0").unwrap_err();
+    assert!(err.contains("motor.inductance_H") && err.contains("needs the inductance"), "{err}");
+}

@@ -215,7 +215,14 @@ pub fn fit_predictor(
                     Coord::Log
                 } else {
                     Coord::Linear {
-                        scale: specs[i].nominal.abs().max(1e-9),
+                        // A parameter believed zero is scaled by its search range.
+                        scale: if specs[i].nominal != 0.0 {
+                            specs[i].nominal.abs()
+                        } else if specs[i].hi.is_finite() && specs[i].hi > 0.0 {
+                            0.1 * specs[i].hi
+                        } else {
+                            1e-9
+                        },
                     }
                 }
             })

@@ -43,6 +43,17 @@ impl ParamSpec {
     pub fn positive(name: &str, nominal: f64) -> ParamSpec {
         ParamSpec::new(name, nominal, nominal.abs() * 0.1, nominal.abs() * 10.0)
     }
+
+    /// A friction coefficient: as [`ParamSpec::positive`] around a positive belief; a
+    /// belief of zero (no such friction believed) is searched on a linear scale from zero
+    /// up to `scale`, a physical ceiling the caller names.
+    pub fn friction(name: &str, nominal: f64, scale: f64) -> ParamSpec {
+        if nominal > 0.0 {
+            ParamSpec::positive(name, nominal)
+        } else {
+            ParamSpec::new(name, 0.0, 0.0, scale)
+        }
+    }
 }
 
 /// How a model output relates to its states.

@@ -229,6 +229,10 @@ impl Rig {
             }
             let may_be_zero_or_negative =
                 key.starts_with("controller.") || key == "motor.coulomb_Nm";
+            if ZERO_MEANINGFUL.contains(&key.as_str()) && value == 0.0 {
+                // Each model accepts it or refuses it with its reason.
+                continue;
+            }
             if !may_be_zero_or_negative && value <= 0.0 {
                 return Err(invalid(format!(
                     "`{key}` = {value}: expected a positive value (SI units, see the key's suffix)"
@@ -287,6 +291,34 @@ impl Rig {
     /// The rig as TOML text.
     pub fn to_toml(&self) -> String {
         toml::to_string(self).expect("a rig always serialises")
+    }
+}
+
+/// Rig values that mean something at zero: no viscous friction, an inertia lumped into
+/// another one, a negligible inductance. The reader takes them; a model that cannot use a
+/// zero refuses it with its reason ([`zero_refused`]).
+pub const ZERO_MEANINGFUL: [&str; 4] = [
+    "motor.viscous_Nm_s_rad",
+    "wheel.inertia_kg_m2",
+    "load.viscous_N_s_m",
+    "motor.inductance_H",
+];
+
+/// The error for a rig value of zero that a model cannot use, with the reason.
+pub fn zero_refused(path: &Path, key: &str, why: &str) -> RigError {
+    RigError::Invalid {
+        file: path.to_owned(),
+        message: format!("`{key}` = 0: {why}"),
+    }
+}
+
+/// The electrical damping K^2/R of the rig's motor, N m s/rad (the ceiling of a viscous
+/// friction believed zero: a drive's mechanical losses are not larger than its motor's
+/// own braking), if the rig gives both.
+pub fn electrical_damping(rig: &Rig) -> Option<f64> {
+    match (rig.get("motor.torque_constant_Nm_A"), rig.get("motor.resistance_ohm")) {
+        (Some(k), Some(r)) if r > 0.0 => Some(k * k / r),
+        _ => None,
     }
 }
 

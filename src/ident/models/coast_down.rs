@@ -29,7 +29,12 @@ impl CoastDown {
         let need = |k: &str| rig.require(k, path, why);
         Ok(CoastDown {
             specs: vec![
-                ParamSpec::positive("motor.viscous_Nm_s_rad", need("motor.viscous_Nm_s_rad")?),
+                ParamSpec::friction(
+                    "motor.viscous_Nm_s_rad",
+                    need("motor.viscous_Nm_s_rad")?,
+                    crate::rig::electrical_damping(rig)
+                        .unwrap_or(rig.get("motor.rotor_inertia_kg_m2").unwrap_or(1e-4) / 0.01),
+                ),
                 ParamSpec::positive(
                     "motor.coulomb_Nm",
                     rig.get("motor.coulomb_Nm")

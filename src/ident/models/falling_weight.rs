@@ -45,7 +45,12 @@ impl FallingWeight {
                     "motor.torque_constant_Nm_A",
                     need("motor.torque_constant_Nm_A")?,
                 ),
-                ParamSpec::positive("motor.viscous_Nm_s_rad", need("motor.viscous_Nm_s_rad")?),
+                ParamSpec::friction(
+                    "motor.viscous_Nm_s_rad",
+                    need("motor.viscous_Nm_s_rad")?,
+                    crate::rig::electrical_damping(rig)
+                        .unwrap_or(rig.get("motor.rotor_inertia_kg_m2").unwrap_or(1e-4) / 0.01),
+                ),
             ],
             mass_kg: need("falling_weight.mass_kg")?,
             pulley_radius_m: need("falling_weight.pulley_radius_m")?,

@@ -47,6 +47,13 @@ impl LinearAxis {
     /// (`force_N`), so the amplifier's gain and limit do not enter.
     pub fn from_rig(rig: &Rig, path: &Path, force_input: bool) -> Result<LinearAxis, RigError> {
         let need = |k: &str, why: &str| rig.require(k, path, why);
+        if rig.get("load.viscous_N_s_m") == Some(0.0) {
+            return Err(crate::rig::zero_refused(
+                path,
+                "load.viscous_N_s_m",
+                "the linear-axis model searches its friction on a log scale around the belief, and a moving load always has some: give a rough positive value (for example the mass over a time constant of a few seconds)",
+            ));
+        }
         let specs = vec![
             ParamSpec::positive(
                 "load.mass_kg",

@@ -137,6 +137,17 @@ pub const BACKLASH_FD_STEP: f64 = 1e-3;
 /// Name of the backlash block's nuisance parameter.
 pub const WHEEL_SHARE_PARAM: &str = "backlash.wheel_viscous_share";
 
+/// Ceiling of the search of a viscous friction believed zero, N m s/rad: the motor's own
+/// electrical damping K^2/R; behind a torque amplifier (no back-EMF braking) the rotor
+/// inertia over 10 ms, a mechanical time constant no drive train is shorter than.
+fn viscous_ceiling(rig: &Rig, torque_driven: bool) -> f64 {
+    let inertial = rig.get("motor.rotor_inertia_kg_m2").unwrap_or(1e-4) / 0.01;
+    match crate::rig::electrical_damping(rig) {
+        Some(d) if !torque_driven => d,
+        _ => inertial,
+    }
+}
+
 /// The rotary axis with any effects switched on.
 #[derive(Debug, Clone)]
 pub struct RotaryAxis {
@@ -170,7 +181,15 @@ impl RotaryAxis {
             // would chase it towards zero, and the integration with it. Beliefs are tens of
             // percent off, so a factor of 3 is a generous physical bound.
             {
-                let l = need("motor.inductance_H").map(|l| if torque_driven { l.min(1e-3) } else { l })?;
+                let l = need("motor.inductance_H")?;
+                if l == 0.0 && !torque_driven {
+                    return Err(crate::rig::zero_refused(
+                        path,
+                        "motor.inductance_H",
+                        "the model integrates the armature current, so it needs the inductance; if it is negligible, give a value well below the resistance times the sample interval (e.g. 1e-5 H)",
+                    ));
+                }
+                let l = if torque_driven { l.clamp(1e-6, 1e-3) } else { l };
                 ParamSpec::new("motor.inductance_H", l, l / 3.0, 3.0 * l)
             },
             ParamSpec::positive(
@@ -189,13 +208,14 @@ impl RotaryAxis {
                 "wheel.inertia_kg_m2",
                 rig.get("wheel.inertia_kg_m2").unwrap_or(0.0).max(1e-12),
             ),
-            ParamSpec::positive(
+            ParamSpec::friction(
                 "motor.viscous_Nm_s_rad",
                 rig.require(
                     "motor.viscous_Nm_s_rad",
                     path,
                     "the rotary drive-axis model needs it",
                 )?,
+                viscous_ceiling(rig, torque_driven),
             ),
         ];
         if input == AxisInput::Demand {

@@ -81,6 +81,13 @@ impl Vehicle {
     pub fn from_rig(rig: &Rig, path: &Path) -> Result<Vehicle, RigError> {
         let need = |k: &str| rig.require(k, path, "the whole-vehicle model needs it");
         let l = need("motor.inductance_H")?;
+        if l == 0.0 {
+            return Err(crate::rig::zero_refused(
+                path,
+                "motor.inductance_H",
+                "the model integrates the armature current, so it needs the inductance; if it is negligible, give a value well below the resistance times the sample interval (e.g. 1e-5 H)",
+            ));
+        }
         let specs = vec![
             ParamSpec::positive("motor.resistance_ohm", need("motor.resistance_ohm")?),
             ParamSpec::new("motor.inductance_H", l, l / 3.0, 3.0 * l),
@@ -92,8 +99,14 @@ impl Vehicle {
                 "motor.rotor_inertia_kg_m2",
                 need("motor.rotor_inertia_kg_m2")?,
             ),
-            ParamSpec::positive("wheel.inertia_kg_m2", need("wheel.inertia_kg_m2")?),
-            ParamSpec::positive("motor.viscous_Nm_s_rad", need("motor.viscous_Nm_s_rad")?),
+            // Zero: lumped into the rotor's (the two are seen only as their sum without
+            // gear play).
+            ParamSpec::positive("wheel.inertia_kg_m2", need("wheel.inertia_kg_m2")?.max(1e-12)),
+            ParamSpec::friction(
+                "motor.viscous_Nm_s_rad",
+                need("motor.viscous_Nm_s_rad")?,
+                crate::rig::electrical_damping(rig).unwrap_or(1.0),
+            ),
             ParamSpec::positive("chassis.mass_kg", need("chassis.mass_kg")?),
             ParamSpec::positive(
                 "chassis.yaw_inertia_kg_m2",
