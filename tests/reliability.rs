@@ -616,19 +616,26 @@ fn a_killed_run_leaves_no_finished_looking_recording() {
         .args([
             "run",
             "scenes/lab_offset_120mm.toml",
+            // Within the default step budget (10^7 steps at 1 ms), far longer than the wait.
             "--duration",
-            "100000",
+            "9000",
             "--out",
         ])
         .arg(&dir)
         .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
     // Wait until rows are being written, then kill.
     let partial = dir.join("lab_offset_120mm.csv.partial");
-    for _ in 0..200 {
+    for _ in 0..1200 {
         if std::fs::metadata(&partial).is_ok_and(|m| m.len() > 10_000) {
             break;
+        }
+        if let Some(status) = child.try_wait().unwrap() {
+            let mut stderr = String::new();
+            std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut stderr).unwrap();
+            panic!("the run ended before it was killed ({status}): {stderr}");
         }
         std::thread::sleep(std::time::Duration::from_millis(25));
     }
