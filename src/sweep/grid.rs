@@ -102,6 +102,14 @@ pub fn parse_vary(arg: &str) -> Result<Vary, SweepError> {
                 } else {
                     i as f64 / (n - 1) as f64
                 };
+                // The ends are the values the user typed, kept exactly: a tidied end
+                // could fall outside the range asked for.
+                if i == 0 {
+                    return format!("{lo}");
+                }
+                if i == n - 1 {
+                    return format!("{hi}");
+                }
                 let v = if log {
                     lo * (hi / lo).powf(f)
                 } else {
