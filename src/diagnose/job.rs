@@ -74,7 +74,13 @@ pub fn render(d: &Diagnosis) -> String {
                 c.value,
                 c.rss_reduction_pct,
                 c.delta_aic,
-                if c.significant { "significant" } else { "" }
+                if c.significant {
+                    "significant"
+                } else if c.screened_only {
+                    "screened (full search skipped)"
+                } else {
+                    ""
+                }
             );
         }
     }

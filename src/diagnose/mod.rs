@@ -14,6 +14,7 @@
 //!    the residual. The most significant is accepted and the search repeats once for a
 //!    second effect.
 
+mod candidate;
 mod evidence;
 pub mod job;
 pub mod plots;
@@ -32,7 +33,7 @@ use serde::Serialize;
 
 use crate::ident::data::Dataset;
 use crate::ident::effects::Effect;
-use crate::ident::fit::{self, Fit, FitSettings};
+use crate::ident::fit::Fit;
 use crate::ident::model::simulate;
 use crate::ident::{
     build_structure, evaluate, fit_structure, Evaluation, IdentError, IdentifyOptions, Structure,
@@ -42,7 +43,6 @@ use crate::rig::Rig;
 use evidence::{describe, effective_n, evidence, likelihood_gain};
 use regimes::RegimeShare;
 use scales::{scales, Scales};
-use search::{effect_grid, golden, profile_scan, scan};
 
 /// Smallest gain in AIC (with the effective sample count) that counts as evidence.
 pub const MIN_DELTA_AIC: f64 = 10.0;
@@ -64,6 +64,10 @@ pub struct Candidate {
     /// AIC gain with the effective number of residuals.
     pub delta_aic: f64,
     pub significant: bool,
+    /// Only the candidate's screen was fitted: it removed too little of the residual for
+    /// the full search of a rough parameter to be worth its cost (its gain is a lower
+    /// bound).
+    pub screened_only: bool,
 }
 
 /// An accepted effect.
@@ -292,120 +296,43 @@ pub fn diagnose(
             candidates.len()
         ));
         let finished = std::sync::atomic::AtomicUsize::new(0);
-        let results: Vec<(Effect, Structure, Option<Fit>)> = candidates
+        let beliefs = model.nominal();
+        let context = candidate::Context {
+            structure: &stage.structure,
+            fit: &stage.fit,
+            free_nominal: &free_nominal,
+            beliefs: &beliefs,
+            data: &data,
+            weights: &weights,
+            scales: &scales,
+            max_iterations: opts.ident.max_iterations,
+        };
+        let results: Vec<(Effect, candidate::Fitted)> = candidates
             .par_iter()
             .map(|&e| {
-                let (grid, lo, hi) = effect_grid(e, &scales);
-                let probe = stage
-                    .structure
-                    .with_effect(e, grid[0], lo, hi, scales.speed_max);
-                // Scan from the baseline fit, and from the rig's beliefs: a baseline can
-                // absorb an effect into a nominal parameter (a delay into an inflated
-                // inductance), which hides the effect's true value from a scan there.
-                let mut believed = stage.fit.params.clone();
-                for &i in &free_nominal {
-                    believed[i] = model.params()[i].nominal;
-                }
-                let from_fit = scan(&probe, &stage.fit.params, &grid, &data, &weights);
-                let from_rig = scan(&probe, &believed, &grid, &data, &weights);
-                let s1 = from_fit.first().copied().unwrap_or(grid[0]);
-                let cand = stage.structure.with_effect(e, s1, lo, hi, scales.speed_max);
-                let m = cand.model();
-                let idx = m.params().len() - 1;
-                let added = stage.fit.params.len()..m.params().len();
-                let start_at = |base: &[f64], g: f64| {
-                    let mut p = base.to_vec();
-                    p.extend(m.params()[added.clone()].iter().map(|s| s.nominal));
-                    p[idx] = g;
-                    p
-                };
-                let starts: Vec<Vec<f64>> = from_fit
-                    .iter()
-                    .take(2)
-                    .map(|&g| start_at(&stage.fit.params, g))
-                    .chain(from_rig.iter().take(1).map(|&g| start_at(&believed, g)))
-                    .collect();
-                // The block's nuisance parameters are fitted with the nominal ones.
-                let nuisance: Vec<usize> = (stage.fit.params.len()..idx).collect();
-                let mut others = stage.fit.free.clone();
-                others.extend(nuisance.iter().copied());
-                // Parameters the effect makes identifiable that the nominal model could not
-                // separate (a play splits the inertia and damping between its two sides).
-                for i in cand.newly_identifiable(e, &data.output_names) {
-                    if !others.contains(&i) {
-                        others.push(i);
-                    }
-                }
-                let mut free = others.clone();
-                free.push(idx);
-                let settings = |free: Vec<usize>, starts: Vec<Vec<f64>>| FitSettings {
-                    free,
-                    weights: weights.clone(),
-                    max_iterations: opts.ident.max_iterations,
-                    starts,
-                };
-                let rough = m.params()[idx].fd_step > 1e-6;
-                let mut starts = starts;
-                if rough {
-                    // A profile over every fourth grid value, from the rig's beliefs.
-                    let coarse: Vec<f64> = grid.iter().step_by(4).copied().collect();
-                    starts.extend(profile_scan(
-                        &cand,
-                        &start_at(&believed, s1),
-                        idx,
-                        &others,
-                        &coarse,
-                        &data,
-                        &weights,
-                    ));
-                }
-                let starts = if rough {
-                    // A rough parameter: alternate fitting the others with it held and
-                    // placing it by a line search with the others held.
-                    starts
-                        .into_iter()
-                        .map(|mut p| {
-                            for _ in 0..3 {
-                                let Ok(f) =
-                                    fit::fit(m, &data, &settings(others.clone(), vec![p.clone()]))
-                                else {
-                                    break;
-                                };
-                                p = f.params;
-                                let at = |g: f64| {
-                                    let mut q = p.clone();
-                                    q[idx] = g;
-                                    simulate(m, &q, &data)
-                                        .map(|y| {
-                                            fit::residuals(&data, &y, &weights)
-                                                .iter()
-                                                .map(|v| v * v)
-                                                .sum()
-                                        })
-                                        .unwrap_or(f64::INFINITY)
-                                };
-                                p[idx] =
-                                    golden(&at, p[idx] / 1.5, p[idx] * 1.5, 16).unwrap_or(p[idx]);
-                            }
-                            p
-                        })
-                        .collect()
-                } else {
-                    starts
-                };
-                let f = fit::fit(m, &data, &settings(free, starts)).ok();
+                let fitted = context.fit(e);
                 let k = finished.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                let how = if fitted.screened_only {
+                    " (screened: too little gain for the full search)"
+                } else {
+                    ""
+                };
                 tell(format!(
-                    "round {round_no}: {} fitted ({k} of {})",
+                    "round {round_no}: {} fitted ({k} of {}){how}",
                     e.name(),
                     candidates.len()
                 ));
-                (e, cand, f)
+                (e, fitted)
             })
             .collect();
         let mut round = Vec::new();
         let mut best: Option<(f64, Effect, Structure, Fit)> = None;
-        for (e, cand, f) in results {
+        for (e, fitted) in results {
+            let candidate::Fitted {
+                structure: cand,
+                fit: f,
+                screened_only,
+            } = fitted;
             let Some(f) = f else { continue };
             let reduction = 1.0 - f.cost / stage.fit.cost;
             let added = (f.free.len() - stage.fit.free.len()) as f64;
@@ -436,6 +363,7 @@ pub fn diagnose(
                 rss_reduction_pct: 100.0 * reduction,
                 delta_aic,
                 significant,
+                screened_only,
             });
             if significant && best.as_ref().is_none_or(|b| delta_aic > b.0) {
                 best = Some((delta_aic, e, cand, f));

@@ -167,7 +167,7 @@ pub(super) fn profile_scan(
                 max_iterations: 8,
                 starts: vec![p],
             };
-            fit::fit(m, data, &settings)
+            fit::minimise(m, data, &settings)
                 .ok()
                 .map(|f| (f.cost, f.params))
         })

@@ -149,10 +149,15 @@ impl Problem<'_> {
     }
 
     fn residuals(&self, z: &[f64]) -> Option<Vec<f64>> {
+        self.simulated(z).map(|(r, _)| r)
+    }
+
+    /// The weighted residuals at `z` and the outputs they come from.
+    fn simulated(&self, z: &[f64]) -> Option<(Vec<f64>, Vec<Vec<f64>>)> {
         let p = self.to_p(z);
         let y = self.model.predict(&p, self.data).ok()?;
         let r = residuals(self.data, &y, self.weights);
-        r.iter().all(|v| v.is_finite()).then_some(r)
+        r.iter().all(|v| v.is_finite()).then_some((r, y))
     }
 
     fn jacobian(&self, z: &[f64], r0: &[f64]) -> DMatrix<f64> {
@@ -190,11 +195,39 @@ pub fn fit(model: &dyn GreyBox, data: &Dataset, s: &FitSettings) -> Result<Fit, 
     fit_predictor(model, data, s)
 }
 
+/// The parameters and cost of a fit, without its uncertainty: for the intermediate fits of
+/// a search (a profile, an alternation), where the covariance's extra Jacobian would be
+/// thrown away.
+#[derive(Debug, Clone)]
+pub struct Minimum {
+    pub params: Vec<f64>,
+    pub cost: f64,
+}
+
+/// [`fit`] without the covariance.
+pub fn minimise(model: &dyn GreyBox, data: &Dataset, s: &FitSettings) -> Result<Minimum, FitError> {
+    best_of_starts(model, data, s, false).map(|f| Minimum {
+        params: f.params,
+        cost: f.cost,
+    })
+}
+
 /// [`fit`] for any [`Predictor`]: the simulator replaying a record as well as a grey box.
 pub fn fit_predictor(
     model: &dyn Predictor,
     data: &Dataset,
     s: &FitSettings,
+) -> Result<Fit, FitError> {
+    best_of_starts(model, data, s, true)
+}
+
+/// Runs the solver from each start and keeps the lowest cost; the covariance (one more
+/// Jacobian) only when `uncertainty` is asked for.
+fn best_of_starts(
+    model: &dyn Predictor,
+    data: &Dataset,
+    s: &FitSettings,
+    uncertainty: bool,
 ) -> Result<Fit, FitError> {
     let n_res = data.measured_cells();
     if n_res <= s.free.len() {
@@ -235,7 +268,7 @@ pub fn fit_predictor(
             coords,
             weights: &s.weights,
         };
-        match run_lm(&problem, s.max_iterations) {
+        match run_lm(&problem, s.max_iterations, uncertainty) {
             Ok(mut f) => {
                 f.start_index = si;
                 if best.as_ref().is_none_or(|b| f.cost < b.cost) {
@@ -250,11 +283,11 @@ pub fn fit_predictor(
     best.ok_or_else(|| first_error.unwrap_or(FitError::NoStart))
 }
 
-fn run_lm(pb: &Problem, max_iterations: usize) -> Result<Fit, FitError> {
+fn run_lm(pb: &Problem, max_iterations: usize, uncertainty: bool) -> Result<Fit, FitError> {
     let start_p = pb.to_p(&pb.to_z(&pb.base));
     let mut z = pb.to_z(&start_p);
-    let mut r = match pb.residuals(&z) {
-        Some(r) => r,
+    let (mut r, mut predicted) = match pb.simulated(&z) {
+        Some(ry) => ry,
         None => {
             let t_s = pb
                 .model
@@ -329,7 +362,7 @@ fn run_lm(pb: &Problem, max_iterations: usize) -> Result<Fit, FitError> {
             // Keep z inside the bounds so the clamp does not hide a wasted step.
             let z_new = pb.to_z(&pb.to_p(&z_new));
             evaluations += 1;
-            if let Some(r_new) = pb.residuals(&z_new) {
+            if let Some((r_new, y_new)) = pb.simulated(&z_new) {
                 let c_new = sum_sq(&r_new);
                 if c_new < cost {
                     let rel = (cost - c_new) / cost.max(1e-300);
@@ -340,6 +373,7 @@ fn run_lm(pb: &Problem, max_iterations: usize) -> Result<Fit, FitError> {
                         .fold(0.0, f64::max);
                     z = z_new;
                     r = r_new;
+                    predicted = y_new;
                     cost = c_new;
                     lambda = (lambda * 0.2).max(1e-12);
                     improved = true;
@@ -363,12 +397,13 @@ fn run_lm(pb: &Problem, max_iterations: usize) -> Result<Fit, FitError> {
         }
     }
     let p = pb.to_p(&z);
-    let predicted = pb
-        .model
-        .predict(&p, pb.data)
-        .expect("accepted parameters simulate");
-    let jac = pb.jacobian(&z, &r);
-    let (std, covariance) = covariance(pb, &p, &jac, cost, r.len());
+    let (std, covariance) = if uncertainty {
+        let jac = pb.jacobian(&z, &r);
+        evaluations += n;
+        covariance(pb, &p, &jac, cost, r.len())
+    } else {
+        (vec![None; n], DMatrix::zeros(n, n))
+    };
     Ok(Fit {
         params: p,
         free: pb.free.clone(),
@@ -377,7 +412,7 @@ fn run_lm(pb: &Problem, max_iterations: usize) -> Result<Fit, FitError> {
         cost,
         n_residuals: r.len(),
         iterations,
-        evaluations: evaluations + n,
+        evaluations,
         converged,
         start_index: 0,
         predicted,

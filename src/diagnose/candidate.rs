@@ -1,0 +1,229 @@
+//! Fitting one candidate effect on top of the current stage of a diagnosis, in two steps:
+//!
+//! 1. **Screen** (every candidate): the effect's parameter is placed by scans from the
+//!    stage's fit and from the rig's beliefs, and the candidate is fitted from the best
+//!    places with the nominal free parameters. This is a true fit of the whole record, so
+//!    its gain is a lower bound on what the effect can earn.
+//! 2. **Full search** (only candidates whose screen could still matter): the screen's
+//!    starts, and for a parameter too rough for derivatives (a backlash play) a profile
+//!    over the grid and an alternation of fits and line searches, then the fit from all of
+//!    them.
+//!
+//! Most candidates are absent and their screen shows it; the full search, which costs
+//! several times the screen, is spent only where the evidence could pass the selection.
+
+use crate::ident::data::Dataset;
+use crate::ident::effects::Effect;
+use crate::ident::fit::{self, Fit, FitSettings};
+use crate::ident::model::{simulate, GreyBox};
+use crate::ident::Structure;
+
+use super::search::{effect_grid, golden, profile_scan, scan};
+use super::{Scales, MIN_RSS_REDUCTION};
+
+/// Share of [`MIN_RSS_REDUCTION`] a screen must reach for the full search to be run: a
+/// screened fit is a lower bound, and the full search of a present effect seldom gains
+/// more than a few times its screen.
+pub const SCREEN_SHARE: f64 = 1.0 / 3.0;
+
+/// What the candidate search needs of the diagnosis so far.
+pub(super) struct Context<'a> {
+    pub structure: &'a Structure,
+    /// The stage's fit (the baseline, or the baseline with the effects accepted so far).
+    pub fit: &'a Fit,
+    /// Indices of the nominal model's free parameters.
+    pub free_nominal: &'a [usize],
+    /// The rig's beliefs of every nominal parameter.
+    pub beliefs: &'a [f64],
+    pub data: &'a Dataset,
+    pub weights: &'a [f64],
+    pub scales: &'a Scales,
+    pub max_iterations: usize,
+}
+
+/// A candidate as fitted: the structure with the effect, the fit (if any start
+/// simulated), and whether only its screen was run.
+pub(super) struct Fitted {
+    pub structure: Structure,
+    pub fit: Option<Fit>,
+    pub screened_only: bool,
+}
+
+/// The candidate's structure, the starts found by scanning, and the index sets its fits
+/// need.
+struct Setup {
+    structure: Structure,
+    grid: Vec<f64>,
+    /// Best places of the effect's parameter, the others at the stage's fit.
+    from_fit: Vec<f64>,
+    /// The stage's fit with the nominal free parameters back at the rig's beliefs.
+    believed: Vec<f64>,
+    /// Index of the effect's own parameter.
+    idx: usize,
+    /// Free parameters besides the effect's own.
+    others: Vec<usize>,
+    starts: Vec<Vec<f64>>,
+}
+
+impl Context<'_> {
+    /// Screens the candidate, and runs its full search when the screen could matter.
+    pub fn fit(&self, e: Effect) -> Fitted {
+        let setup = self.setup(e);
+        let screen = self.final_fit(&setup, setup.starts.clone());
+        let promising = screen.as_ref().is_some_and(|f| {
+            1.0 - f.cost / self.fit.cost >= SCREEN_SHARE * MIN_RSS_REDUCTION
+        });
+        let rough = self.rough(&setup);
+        if !promising || !rough {
+            return Fitted {
+                structure: setup.structure,
+                fit: screen,
+                screened_only: rough,
+            };
+        }
+        let mut starts = setup.starts.clone();
+        if let Some(f) = &screen {
+            starts.push(f.params.clone());
+        }
+        let full = self.rough_search(&setup, starts);
+        // The screen is a fit too: keep whichever is lower.
+        let best = match (full, screen) {
+            (Some(a), Some(b)) => Some(if b.cost < a.cost { b } else { a }),
+            (a, b) => a.or(b),
+        };
+        Fitted {
+            structure: setup.structure,
+            fit: best,
+            screened_only: false,
+        }
+    }
+
+    fn setup(&self, e: Effect) -> Setup {
+        let stage = self.fit;
+        let s = self.scales;
+        let (grid, lo, hi) = effect_grid(e, s);
+        let probe = self.structure.with_effect(e, grid[0], lo, hi, s.speed_max);
+        // Scan from the stage's fit, and from the rig's beliefs: a baseline can absorb an
+        // effect into a nominal parameter (a delay into an inflated inductance), which
+        // hides the effect's true value from a scan there.
+        let mut believed = stage.params.clone();
+        for &i in self.free_nominal {
+            believed[i] = self.beliefs[i];
+        }
+        let from_fit = scan(&probe, &stage.params, &grid, self.data, self.weights);
+        let from_rig = scan(&probe, &believed, &grid, self.data, self.weights);
+        let s1 = from_fit.first().copied().unwrap_or(grid[0]);
+        let structure = self.structure.with_effect(e, s1, lo, hi, s.speed_max);
+        let m = structure.model();
+        let idx = m.params().len() - 1;
+        let start_at = |base: &[f64], g: f64| start_with(m, base, stage.params.len(), idx, g);
+        let starts: Vec<Vec<f64>> = from_fit
+            .iter()
+            .take(2)
+            .map(|&g| start_at(&stage.params, g))
+            .chain(from_rig.iter().take(1).map(|&g| start_at(&believed, g)))
+            .collect();
+        // The block's nuisance parameters are fitted with the nominal ones, and so are
+        // parameters the effect makes identifiable that the nominal model could not
+        // separate (a play splits the inertia and damping between its two sides).
+        let mut others = stage.free.clone();
+        others.extend(stage.params.len()..idx);
+        for i in structure.newly_identifiable(e, &self.data.output_names) {
+            if !others.contains(&i) {
+                others.push(i);
+            }
+        }
+        Setup {
+            structure,
+            grid,
+            from_fit,
+            believed,
+            idx,
+            others,
+            starts,
+        }
+    }
+
+    /// A parameter whose cost is too rough for derivatives on small scales.
+    fn rough(&self, setup: &Setup) -> bool {
+        setup.structure.model().params()[setup.idx].fd_step > 1e-6
+    }
+
+    fn settings(&self, free: Vec<usize>, starts: Vec<Vec<f64>>) -> FitSettings {
+        FitSettings {
+            free,
+            weights: self.weights.to_vec(),
+            max_iterations: self.max_iterations,
+            starts,
+        }
+    }
+
+    /// The candidate fitted, every free parameter and the effect's, from `starts`.
+    fn final_fit(&self, setup: &Setup, starts: Vec<Vec<f64>>) -> Option<Fit> {
+        let mut free = setup.others.clone();
+        free.push(setup.idx);
+        fit::fit(setup.structure.model(), self.data, &self.settings(free, starts)).ok()
+    }
+
+    /// The full search of a rough parameter: a profile over every fourth grid value from
+    /// the rig's beliefs adds starts; from each, fits of the others with the parameter
+    /// held alternate with line searches of the parameter with the others held; then the
+    /// final fit from all of them.
+    fn rough_search(&self, setup: &Setup, mut starts: Vec<Vec<f64>>) -> Option<Fit> {
+        let m = setup.structure.model();
+        let s1 = setup.from_fit.first().copied().unwrap_or(setup.grid[0]);
+        let coarse: Vec<f64> = setup.grid.iter().step_by(4).copied().collect();
+        let profile_start = start_with(m, &setup.believed, self.fit.params.len(), setup.idx, s1);
+        starts.extend(profile_scan(
+            &setup.structure,
+            &profile_start,
+            setup.idx,
+            &setup.others,
+            &coarse,
+            self.data,
+            self.weights,
+        ));
+        let starts = starts
+            .into_iter()
+            .map(|p| self.alternate(setup, p))
+            .collect();
+        self.final_fit(setup, starts)
+    }
+
+    /// Three passes of: fit the others with the rough parameter held, then place it by a
+    /// golden-section search within a factor 1.5 with the others held.
+    fn alternate(&self, setup: &Setup, mut p: Vec<f64>) -> Vec<f64> {
+        let m = setup.structure.model();
+        let idx = setup.idx;
+        for _ in 0..3 {
+            let settings = self.settings(setup.others.clone(), vec![p.clone()]);
+            let Ok(f) = fit::minimise(m, self.data, &settings) else {
+                break;
+            };
+            p = f.params;
+            let at = |g: f64| {
+                let mut q = p.clone();
+                q[idx] = g;
+                simulate(m, &q, self.data)
+                    .map(|y| {
+                        fit::residuals(self.data, &y, self.weights)
+                            .iter()
+                            .map(|v| v * v)
+                            .sum()
+                    })
+                    .unwrap_or(f64::INFINITY)
+            };
+            p[idx] = golden(&at, p[idx] / 1.5, p[idx] * 1.5, 16).unwrap_or(p[idx]);
+        }
+        p
+    }
+}
+
+/// A start for the candidate: `base` (the stage's parameters), the block's nuisance
+/// parameters at their nominal values, and the effect's own at `g`.
+fn start_with(m: &dyn GreyBox, base: &[f64], stage_len: usize, idx: usize, g: f64) -> Vec<f64> {
+    let mut p = base.to_vec();
+    p.extend(m.params()[stage_len..].iter().map(|s| s.nominal));
+    p[idx] = g;
+    p
+}
