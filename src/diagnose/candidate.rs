@@ -26,6 +26,9 @@ use super::{Scales, MIN_RSS_REDUCTION};
 /// more than a few times its screen.
 pub const SCREEN_SHARE: f64 = 1.0 / 3.0;
 
+/// Starts of a rough search that are alternated (the lowest-cost ones).
+pub const ALTERNATED_STARTS: usize = 2;
+
 /// What the candidate search needs of the diagnosis so far.
 pub(super) struct Context<'a> {
     pub structure: &'a Structure,
@@ -162,7 +165,7 @@ impl Context<'_> {
     fn final_fit(&self, setup: &Setup, starts: Vec<Vec<f64>>) -> Option<Fit> {
         let mut free = setup.others.clone();
         free.push(setup.idx);
-        fit::fit(setup.structure.model(), self.data, &self.settings(free, starts)).ok()
+        fit::fit_raced(setup.structure.model(), self.data, &self.settings(free, starts)).ok()
     }
 
     /// The full search of a rough parameter: a profile over every fourth grid value from
@@ -183,11 +186,31 @@ impl Context<'_> {
             self.data,
             self.weights,
         ));
-        let starts = starts
+        // Alternation is the costly part: only from the starts that begin lowest.
+        let mut ranked: Vec<(f64, Vec<f64>)> = starts
             .into_iter()
-            .map(|p| self.alternate(setup, p))
+            .map(|p| (self.cost(m, &p), p))
             .collect();
-        self.final_fit(setup, starts)
+        ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // Each alternated start is fitted to convergence: a rough cost ranks starts
+        // poorly after a few iterations, so they are not raced.
+        ranked
+            .into_iter()
+            .take(ALTERNATED_STARTS)
+            .filter_map(|(_, p)| self.final_fit(setup, vec![self.alternate(setup, p)]))
+            .reduce(|a, b| if b.cost < a.cost { b } else { a })
+    }
+
+    /// Weighted residual sum of squares at `p` (infinite where the model diverges).
+    fn cost(&self, m: &dyn GreyBox, p: &[f64]) -> f64 {
+        simulate(m, p, self.data)
+            .map(|y| {
+                fit::residuals(self.data, &y, self.weights)
+                    .iter()
+                    .map(|v| v * v)
+                    .sum()
+            })
+            .unwrap_or(f64::INFINITY)
     }
 
     /// Three passes of: fit the others with the rough parameter held, then place it by a
@@ -204,14 +227,7 @@ impl Context<'_> {
             let at = |g: f64| {
                 let mut q = p.clone();
                 q[idx] = g;
-                simulate(m, &q, self.data)
-                    .map(|y| {
-                        fit::residuals(self.data, &y, self.weights)
-                            .iter()
-                            .map(|v| v * v)
-                            .sum()
-                    })
-                    .unwrap_or(f64::INFINITY)
+                self.cost(m, &q)
             };
             p[idx] = golden(&at, p[idx] / 1.5, p[idx] * 1.5, 16).unwrap_or(p[idx]);
         }

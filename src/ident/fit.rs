@@ -11,7 +11,7 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
 use super::data::Dataset;
-use super::model::{GreyBox, Predictor};
+use super::model::{GreyBox, ParamSpec, Predictor};
 
 /// How a free parameter is searched.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -195,6 +195,15 @@ pub fn fit(model: &dyn GreyBox, data: &Dataset, s: &FitSettings) -> Result<Fit, 
     fit_predictor(model, data, s)
 }
 
+/// [`fit`] with the starts raced: [`RACE_ITERATIONS`] from each, then the leader alone to
+/// convergence. For starts that differ in one placed parameter on a fitted model (a
+/// candidate effect on a converged baseline), where the ranking after a few iterations
+/// is the final one; from widely spread starts (an identification from perturbed beliefs)
+/// a slow start can overtake, so [`fit`] runs them all.
+pub fn fit_raced(model: &dyn GreyBox, data: &Dataset, s: &FitSettings) -> Result<Fit, FitError> {
+    best_of_starts(model, data, s, true, true)
+}
+
 /// The parameters and cost of a fit, without its uncertainty: for the intermediate fits of
 /// a search (a profile, an alternation), where the covariance's extra Jacobian would be
 /// thrown away.
@@ -206,7 +215,7 @@ pub struct Minimum {
 
 /// [`fit`] without the covariance.
 pub fn minimise(model: &dyn GreyBox, data: &Dataset, s: &FitSettings) -> Result<Minimum, FitError> {
-    best_of_starts(model, data, s, false).map(|f| Minimum {
+    best_of_starts(model, data, s, false, false).map(|f| Minimum {
         params: f.params,
         cost: f.cost,
     })
@@ -218,7 +227,7 @@ pub fn fit_predictor(
     data: &Dataset,
     s: &FitSettings,
 ) -> Result<Fit, FitError> {
-    best_of_starts(model, data, s, true)
+    best_of_starts(model, data, s, true, false)
 }
 
 /// Runs the solver from each start and keeps the lowest cost; the covariance (one more
@@ -228,6 +237,7 @@ fn best_of_starts(
     data: &Dataset,
     s: &FitSettings,
     uncertainty: bool,
+    race: bool,
 ) -> Result<Fit, FitError> {
     let n_res = data.measured_cells();
     if n_res <= s.free.len() {
@@ -236,39 +246,69 @@ fn best_of_starts(
             residuals: n_res,
         });
     }
-    let specs = model.param_specs();
+    let problem = |start: &[f64]| Problem {
+        model,
+        data,
+        base: start.to_vec(),
+        free: s.free.clone(),
+        coords: coords(model.param_specs(), &s.free),
+        weights: &s.weights,
+    };
+    if s.starts.len() == 1 {
+        return run_lm(&problem(&s.starts[0]), s.max_iterations, uncertainty);
+    }
+    // A race: a few iterations from every start (enough for each to reach the bottom of
+    // its basin's steep part), then only the leaders to convergence.
+    let mut raced: Vec<Fit> = Vec::new();
+    let mut first_error = None;
+    let mut spent = (0, 0);
+    if !race {
+        return all_starts(s, &problem, uncertainty);
+    }
+    for (si, start) in s.starts.iter().enumerate() {
+        match run_lm(&problem(start), RACE_ITERATIONS.min(s.max_iterations), false) {
+            Ok(mut f) => {
+                spent = (spent.0 + f.iterations, spent.1 + f.evaluations);
+                f.start_index = si;
+                raced.push(f);
+            }
+            Err(e) => {
+                first_error.get_or_insert(e);
+            }
+        }
+    }
+    if raced.is_empty() {
+        return Err(first_error.unwrap_or(FitError::NoStart));
+    }
+    // Stable: among equal costs the earlier start leads.
+    raced.sort_by(|a, b| a.cost.total_cmp(&b.cost));
+    let mut best: Option<Fit> = None;
+    for leader in raced.iter().take(RACE_LEADERS) {
+        let rest = s.max_iterations.saturating_sub(leader.iterations);
+        let Ok(mut f) = run_lm(&problem(&leader.params), rest, uncertainty) else {
+            continue;
+        };
+        f.start_index = leader.start_index;
+        spent = (spent.0 + f.iterations, spent.1 + f.evaluations);
+        if best.as_ref().is_none_or(|b| f.cost < b.cost) {
+            best = Some(f);
+        }
+    }
+    let mut f = best.ok_or(FitError::NoStart)?;
+    (f.iterations, f.evaluations) = spent;
+    Ok(f)
+}
+
+/// Every start fitted to convergence; the lowest cost wins (the earlier start on a tie).
+fn all_starts<'a>(
+    s: &FitSettings,
+    problem: &dyn Fn(&[f64]) -> Problem<'a>,
+    uncertainty: bool,
+) -> Result<Fit, FitError> {
     let mut best: Option<Fit> = None;
     let mut first_error = None;
     for (si, start) in s.starts.iter().enumerate() {
-        let coords = s
-            .free
-            .iter()
-            .map(|&i| {
-                if specs[i].lo > 0.0 {
-                    Coord::Log
-                } else {
-                    Coord::Linear {
-                        // A parameter believed zero is scaled by its search range.
-                        scale: if specs[i].nominal != 0.0 {
-                            specs[i].nominal.abs()
-                        } else if specs[i].hi.is_finite() && specs[i].hi > 0.0 {
-                            0.1 * specs[i].hi
-                        } else {
-                            1e-9
-                        },
-                    }
-                }
-            })
-            .collect();
-        let problem = Problem {
-            model,
-            data,
-            base: start.clone(),
-            free: s.free.clone(),
-            coords,
-            weights: &s.weights,
-        };
-        match run_lm(&problem, s.max_iterations, uncertainty) {
+        match run_lm(&problem(start), s.max_iterations, uncertainty) {
             Ok(mut f) => {
                 f.start_index = si;
                 if best.as_ref().is_none_or(|b| f.cost < b.cost) {
@@ -281,6 +321,33 @@ fn best_of_starts(
         }
     }
     best.ok_or_else(|| first_error.unwrap_or(FitError::NoStart))
+}
+
+/// Iterations every start of a multi-start fit is given before only the leaders go on.
+pub const RACE_ITERATIONS: usize = 3;
+/// Starts of a multi-start fit that go on to convergence after the race.
+pub const RACE_LEADERS: usize = 1;
+
+/// How each free parameter is searched: positive-bounded ones on a log scale, others
+/// linearly, scaled by their belief (or by their range when the belief is zero).
+fn coords(specs: &[ParamSpec], free: &[usize]) -> Vec<Coord> {
+    free.iter()
+        .map(|&i| {
+            if specs[i].lo > 0.0 {
+                Coord::Log
+            } else {
+                Coord::Linear {
+                    scale: if specs[i].nominal != 0.0 {
+                        specs[i].nominal.abs()
+                    } else if specs[i].hi.is_finite() && specs[i].hi > 0.0 {
+                        0.1 * specs[i].hi
+                    } else {
+                        1e-9
+                    },
+                }
+            }
+        })
+        .collect()
 }
 
 fn run_lm(pb: &Problem, max_iterations: usize, uncertainty: bool) -> Result<Fit, FitError> {
