@@ -27,6 +27,7 @@ pub mod experiment;
 pub mod firmware;
 pub mod ident;
 pub mod import;
+pub mod jobs;
 pub mod model;
 pub mod output;
 pub mod plot;

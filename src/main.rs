@@ -124,6 +124,9 @@ enum Command {
         /// Write a plot per fitted output (measured, original and calibrated replays) here.
         #[arg(long, value_name = "DIR")]
         report: Option<PathBuf>,
+        /// Worker threads [default: one per core]; the result is the same for any count.
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+        jobs: Option<u32>,
     },
     /// Convert a recording kept in another format into the exchange format.
     Import {
@@ -231,7 +234,9 @@ enum Command {
         /// Only try these effects (vocabulary names, comma-separated); by default every
         /// effect that applies to the rig.
         #[arg(long, value_delimiter = ',', value_name = "NAME,...")]
-        effects: Option<Vec<String>>,
+        effects: Option<Vec<String>>,        /// Worker threads [default: one per core]; the result is the same for any count.
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+        jobs: Option<u32>,
     },
     /// Prove the diagnosis on agvsim's own recordings with concealed effects (and a clean
     /// one): each effect must be found within 15 % and nothing on the clean case.
@@ -471,6 +476,7 @@ fn main() -> ExitCode {
             report,
             save,
             effects,
+            jobs,
         } => {
             let effects = match effects.map(|names| agvsim::diagnose::parse_effects(&names)) {
                 Some(Err(e)) => {
@@ -495,15 +501,22 @@ fn main() -> ExitCode {
                     ..Default::default()
                 },
             };
-            match agvsim::diagnose::job::run(&job) {
-                Ok((d, written)) => {
+            let ran = agvsim::jobs::with_jobs(jobs.unwrap_or(0) as usize, || {
+                agvsim::diagnose::job::run(&job)
+            });
+            match ran {
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::FAILURE
+                }
+                Ok(Ok((d, written))) => {
                     print!("{}", agvsim::diagnose::job::render(&d));
                     for f in &written {
                         println!("wrote      {}", f.display());
                     }
                     ExitCode::SUCCESS
                 }
-                Err(e) => fail(e),
+                Ok(Err(e)) => fail(e),
             }
         }
         Command::Prove {
@@ -576,18 +589,27 @@ fn main() -> ExitCode {
             set,
             json,
             report,
-        } => cli_recordings::calibrate_command(
-            &scene,
-            &recording,
-            &free,
-            cli_recordings::CalibrateOutputs {
-                write,
-                json,
-                report,
-            },
-            validate,
-            &set,
-        ),
+            jobs,
+        } => {
+            let ran = agvsim::jobs::with_jobs(jobs.unwrap_or(0) as usize, || {
+                cli_recordings::calibrate_command(
+                    &scene,
+                    &recording,
+                    &free,
+                    cli_recordings::CalibrateOutputs {
+                        write,
+                        json,
+                        report,
+                    },
+                    validate,
+                    &set,
+                )
+            });
+            ran.unwrap_or_else(|e| {
+                eprintln!("error: {e}");
+                ExitCode::FAILURE
+            })
+        }
         Command::Import {
             format: ImportFormat::Csv { file, map, out },
         } => cli_recordings::import_csv_command(&file, &map, out),

@@ -101,3 +101,38 @@ fn quick_proof_on_concealed_effects_from_the_simulator() {
         assert!(c.passed, "{}: {:?}", c.name, c.found);
     }
 }
+
+/// Speed without a change of answer: on a clean record the backlash candidate (a rough
+/// parameter) stops at its screen, which removes almost nothing; where backlash is present
+/// (dev_axis_01, key 0.041388 rad) the screen passes, the full search runs and finds it
+/// within 15 %. The diagnosis is the same, byte for byte, on one worker thread and on two.
+#[test]
+fn absent_rough_effects_stop_at_their_screen_and_any_job_count_gives_the_same_diagnosis() {
+    let on = |jobs: usize, name: &str| {
+        agvsim::jobs::with_jobs(jobs, || run("../shared/data/dev", name)).unwrap()
+    };
+    let clean = on(1, "dev_axis_11");
+    let backlash = |d: &agvsim::diagnose::Diagnosis| {
+        d.rounds[0]
+            .iter()
+            .find(|c| c.name == "backlash")
+            .cloned()
+            .expect("backlash tried")
+    };
+    let b = backlash(&clean);
+    println!("clean: {b:?}");
+    assert!(b.screened_only && !b.significant);
+    assert!(b.rss_reduction_pct < 100.0 * agvsim::diagnose::MIN_RSS_REDUCTION / 3.0);
+    let two = on(2, "dev_axis_11");
+    assert_eq!(
+        clean.contract_json().to_string(),
+        two.contract_json().to_string()
+    );
+    let present = on(2, "dev_axis_01");
+    let b = backlash(&present);
+    println!("present: {b:?}");
+    assert!(!b.screened_only && b.significant);
+    let f = present.findings.first().expect("an effect");
+    assert_eq!(f.effect.name(), "backlash");
+    assert!((f.value - 0.041388).abs() / 0.041388 < 0.15, "{}", f.value);
+}

@@ -1,0 +1,12 @@
+//! Worker threads of the commands that fit (diagnose, calibrate): their parallel work
+//! (candidate effects, Jacobian columns) runs on a pool of a chosen size.
+
+/// Runs `work` on a pool of `jobs` worker threads (0: one per core). Parallel results are
+/// collected in a fixed order, so what `work` returns does not depend on the count.
+pub fn with_jobs<R: Send>(jobs: usize, work: impl FnOnce() -> R + Send) -> Result<R, String> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(jobs)
+        .build()
+        .map_err(|e| format!("--jobs {jobs}: cannot start the worker threads: {e}"))?;
+    Ok(pool.install(work))
+}
