@@ -106,5 +106,31 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench);
+/// A whole vehicle: the development recording with wheel slip (20 s, encoders at 200 Hz,
+/// tracker pose at 50 Hz, from an independent simulator), all seven candidate effects.
+/// Skipped when `../shared` is not beside the project.
+fn bench_vehicle(c: &mut Criterion) {
+    let dir = Path::new("../shared/data/dev");
+    let rig_path = dir.join("dev_vehicle_01.rig.toml");
+    let (Ok(rig), Ok(rec)) = (
+        Rig::load(&rig_path),
+        Recording::load(&dir.join("dev_vehicle_01.csv")),
+    ) else {
+        println!("diagnose vehicle: skipped, ../shared/data/dev/dev_vehicle_01 not found");
+        return;
+    };
+    let mut g = c.benchmark_group("diagnose_vehicle_20s");
+    g.sample_size(10);
+    g.bench_function("vehicle_voltages_all_effects", |b| {
+        b.iter(|| {
+            diagnose(&rig, &rig_path, &rec, None, &DiagnoseOptions::default())
+                .unwrap()
+                .findings
+                .len()
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench, bench_vehicle);
 criterion_main!(benches);
