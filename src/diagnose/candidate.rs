@@ -26,6 +26,18 @@ use super::{Scales, MIN_RSS_REDUCTION};
 /// more than a few times its screen.
 pub const SCREEN_SHARE: f64 = 1.0 / 3.0;
 
+/// Share of the record a rough search explores on, and the fewest rows it takes.
+pub const EXPLORE_SHARE: f64 = 0.25;
+pub const MIN_EXPLORE_ROWS: usize = 2000;
+
+/// Rows of the record's first part a rough parameter is explored on: a quarter, but at
+/// least [`MIN_EXPLORE_ROWS`] (enough engagements of a play to place it).
+pub fn exploration_rows(rows: usize) -> usize {
+    ((rows as f64 * EXPLORE_SHARE).ceil() as usize)
+        .max(MIN_EXPLORE_ROWS)
+        .min(rows)
+}
+
 /// Starts of a rough search that are alternated (the lowest-cost ones).
 pub const ALTERNATED_STARTS: usize = 2;
 
@@ -39,6 +51,9 @@ pub(super) struct Context<'a> {
     /// The rig's beliefs of every nominal parameter.
     pub beliefs: &'a [f64],
     pub data: &'a Dataset,
+    /// The record's first part ([`exploration_rows`]), where a rough parameter's search
+    /// (profile and alternation) places its starts before the whole record is fitted.
+    pub explore: &'a Dataset,
     pub weights: &'a [f64],
     pub scales: &'a Scales,
     pub max_iterations: usize,
@@ -183,13 +198,13 @@ impl Context<'_> {
             setup.idx,
             &setup.others,
             &coarse,
-            self.data,
+            self.explore,
             self.weights,
         ));
         // Alternation is the costly part: only from the starts that begin lowest.
         let mut ranked: Vec<(f64, Vec<f64>)> = starts
             .into_iter()
-            .map(|p| (self.cost(m, &p), p))
+            .map(|p| (self.cost(m, &p, self.explore), p))
             .collect();
         ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
         // Each alternated start is fitted to convergence: a rough cost ranks starts
@@ -201,11 +216,12 @@ impl Context<'_> {
             .reduce(|a, b| if b.cost < a.cost { b } else { a })
     }
 
-    /// Weighted residual sum of squares at `p` (infinite where the model diverges).
-    fn cost(&self, m: &dyn GreyBox, p: &[f64]) -> f64 {
-        simulate(m, p, self.data)
+    /// Weighted residual sum of squares at `p` on `data` (infinite where the model
+    /// diverges).
+    fn cost(&self, m: &dyn GreyBox, p: &[f64], data: &Dataset) -> f64 {
+        simulate(m, p, data)
             .map(|y| {
-                fit::residuals(self.data, &y, self.weights)
+                fit::residuals(data, &y, self.weights)
                     .iter()
                     .map(|v| v * v)
                     .sum()
@@ -220,14 +236,14 @@ impl Context<'_> {
         let idx = setup.idx;
         for _ in 0..3 {
             let settings = self.settings(setup.others.clone(), vec![p.clone()]);
-            let Ok(f) = fit::minimise(m, self.data, &settings) else {
+            let Ok(f) = fit::minimise(m, self.explore, &settings) else {
                 break;
             };
             p = f.params;
             let at = |g: f64| {
                 let mut q = p.clone();
                 q[idx] = g;
-                self.cost(m, &q)
+                self.cost(m, &q, self.explore)
             };
             p[idx] = golden(&at, p[idx] / 1.5, p[idx] * 1.5, 16).unwrap_or(p[idx]);
         }

@@ -282,6 +282,7 @@ pub fn diagnose(
     let mut rounds = Vec::new();
     let linear = matches!(structure, Structure::Linear(_));
     let free_nominal = free.clone();
+    let explore = data.prefix(candidate::exploration_rows(data.len()));
     for round_no in 1..=2 {
         let stage_n = effective_n(&data, &stage.fit.predicted);
         let tried: Vec<Effect> = findings.iter().map(|f: &Finding| f.effect).collect();
@@ -303,6 +304,7 @@ pub fn diagnose(
             free_nominal: &free_nominal,
             beliefs: &beliefs,
             data: &data,
+            explore: &explore,
             weights: &weights,
             scales: &scales,
             max_iterations: opts.ident.max_iterations,

@@ -19,6 +19,20 @@ pub struct Dataset {
 }
 
 impl Dataset {
+    /// The first `rows` rows (all of them if there are fewer): a record that starts as
+    /// this one does, from the same state of rest, for a search cheaper than the whole.
+    pub fn prefix(&self, rows: usize) -> Dataset {
+        let n = rows.min(self.t_s.len());
+        Dataset {
+            name: self.name.clone(),
+            t_s: self.t_s[..n].to_vec(),
+            input_names: self.input_names.clone(),
+            inputs: self.inputs.iter().map(|u| u[..n].to_vec()).collect(),
+            output_names: self.output_names.clone(),
+            outputs: self.outputs.iter().map(|y| y[..n].to_vec()).collect(),
+        }
+    }
+
     /// Picks the model's inputs (all required, complete) and those of its outputs the
     /// recording has (at least one, with at least two measured cells).
     pub fn from_recording(
