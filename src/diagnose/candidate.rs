@@ -80,14 +80,24 @@ struct Setup {
     idx: usize,
     /// Free parameters besides the effect's own.
     others: Vec<usize>,
+    /// Starts: first those from the stage's fit ([`Setup::fitted_starts`] of them), then
+    /// the one from the rig's beliefs.
     starts: Vec<Vec<f64>>,
+    fitted_starts: usize,
 }
 
 impl Context<'_> {
     /// Screens the candidate, and runs its full search when the screen could matter.
     pub fn fit(&self, e: Effect) -> Fitted {
         let setup = self.setup(e);
-        let screen = self.final_fit(&setup, setup.starts.clone());
+        // The starts from the stage's fit are raced; the start from the rig's beliefs
+        // is far from converged after a few iterations (that is its point: a basin the
+        // stage's fit has left), so it is fitted on its own.
+        let (from_fit, from_rig) = setup.starts.split_at(setup.fitted_starts);
+        let screen = lower(
+            self.final_fit(&setup, from_fit.to_vec()),
+            self.final_fit(&setup, from_rig.to_vec()),
+        );
         let promising = screen.as_ref().is_some_and(|f| {
             1.0 - f.cost / self.fit.cost >= SCREEN_SHARE * MIN_RSS_REDUCTION
         });
@@ -103,12 +113,8 @@ impl Context<'_> {
         if let Some(f) = &screen {
             starts.push(f.params.clone());
         }
-        let full = self.rough_search(&setup, starts);
         // The screen is a fit too: keep whichever is lower.
-        let best = match (full, screen) {
-            (Some(a), Some(b)) => Some(if b.cost < a.cost { b } else { a }),
-            (a, b) => a.or(b),
-        };
+        let best = lower(self.rough_search(&setup, starts), screen);
         Fitted {
             structure: setup.structure,
             fit: best,
@@ -141,6 +147,7 @@ impl Context<'_> {
             .map(|&g| start_at(&stage.params, g))
             .chain(from_rig.iter().take(1).map(|&g| start_at(&believed, g)))
             .collect();
+        let fitted_starts = from_fit.len().min(2);
         // The block's nuisance parameters are fitted with the nominal ones, and so are
         // parameters the effect makes identifiable that the nominal model could not
         // separate (a play splits the inertia and damping between its two sides).
@@ -159,6 +166,7 @@ impl Context<'_> {
             idx,
             others,
             starts,
+            fitted_starts,
         }
     }
 
@@ -213,7 +221,7 @@ impl Context<'_> {
             .into_iter()
             .take(ALTERNATED_STARTS)
             .filter_map(|(_, p)| self.final_fit(setup, vec![self.alternate(setup, p)]))
-            .reduce(|a, b| if b.cost < a.cost { b } else { a })
+            .fold(None, |best, f| lower(best, Some(f)))
     }
 
     /// Weighted residual sum of squares at `p` on `data` (infinite where the model
@@ -248,6 +256,14 @@ impl Context<'_> {
             p[idx] = golden(&at, p[idx] / 1.5, p[idx] * 1.5, 16).unwrap_or(p[idx]);
         }
         p
+    }
+}
+
+/// The fit of lower cost, or whichever exists.
+fn lower(a: Option<Fit>, b: Option<Fit>) -> Option<Fit> {
+    match (a, b) {
+        (Some(a), Some(b)) => Some(if b.cost < a.cost { b } else { a }),
+        (a, b) => a.or(b),
     }
 }
 
