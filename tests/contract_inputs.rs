@@ -33,7 +33,14 @@ fn rig(dir: &Path, text: &str) -> (Rig, PathBuf) {
 /// A multisine-like excitation with steps, so that speed reverses often.
 fn excitation(t: f64, amplitude: f64) -> f64 {
     let s = (std::f64::consts::TAU * 0.7 * t).sin() + 0.5 * (std::f64::consts::TAU * 2.3 * t).sin();
-    amplitude * if s > 0.2 { 1.0 } else if s < -0.2 { -0.8 } else { s }
+    amplitude
+        * if s > 0.2 {
+            1.0
+        } else if s < -0.2 {
+            -0.8
+        } else {
+            s
+        }
 }
 
 /// Simulates `model` at `p` on the input columns and writes a contract recording with
@@ -122,8 +129,17 @@ fn a_force_commanded_linear_axis_is_fitted_from_force_n() {
     );
     let mut truth = LinearAxis::from_rig(&rig, &rig_path, true).unwrap();
     truth.force_input = true;
-    let force: Vec<f64> = (0..4000).map(|k| excitation(k as f64 * 1e-3, 150.0)).collect();
-    let rec = record(&dir, "force", &truth, &[96.0, 221.0], &[("force_N", force)], 1e-3);
+    let force: Vec<f64> = (0..4000)
+        .map(|k| excitation(k as f64 * 1e-3, 150.0))
+        .collect();
+    let rec = record(
+        &dir,
+        "force",
+        &truth,
+        &[96.0, 221.0],
+        &[("force_N", force)],
+        1e-3,
+    );
     let id = identify(&rig, &rig_path, &rec, None, &IdentifyOptions::default()).unwrap();
     println!("{}", agvsim::ident::report::render(&id));
     assert!(id.model.contains("open loop"), "{}", id.model);
@@ -148,7 +164,9 @@ fn a_torque_driven_rotary_axis_is_fitted_from_torque_nm_or_command_v() {
     };
     for (column, amplitude) in [("torque_Nm", 0.2), ("command_V", 4.0)] {
         let truth = rotary(&rig, &rig_path, &[column]);
-        let u: Vec<f64> = (0..4000).map(|k| excitation(k as f64 * 1e-3, amplitude)).collect();
+        let u: Vec<f64> = (0..4000)
+            .map(|k| excitation(k as f64 * 1e-3, amplitude))
+            .collect();
         let rec = record(&dir, column, &truth, &truth_p(&truth), &[(column, u)], 1e-3);
         let id = identify(&rig, &rig_path, &rec, None, &IdentifyOptions::default()).unwrap();
         println!("{column}:\n{}", agvsim::ident::report::render(&id));
@@ -158,8 +176,10 @@ fn a_torque_driven_rotary_axis_is_fitted_from_torque_nm_or_command_v() {
         assert!((j / 2.5e-4 - 1.0).abs() < 0.02, "{column}: J {j}");
         assert!((b / 1.3e-4 - 1.0).abs() < 0.02, "{column}: b {b}");
         assert!(
-            !id.params.iter().any(|p| p.name.starts_with("motor.resistance")
-                || p.name.starts_with("motor.torque_constant")),
+            !id.params
+                .iter()
+                .any(|p| p.name.starts_with("motor.resistance")
+                    || p.name.starts_with("motor.torque_constant")),
             "armature values reported for a torque-driven axis"
         );
         assert!(id.ignored_inputs.is_empty(), "{:?}", id.ignored_inputs);
@@ -215,5 +235,8 @@ fn replay_names_the_inputs_the_simulated_machine_cannot_take() {
         .expect("refused")
         .to_string();
     println!("{err}");
-    assert!(err.contains("torque_Nm") && err.contains("current amplifier"), "{err}");
+    assert!(
+        err.contains("torque_Nm") && err.contains("current amplifier"),
+        "{err}"
+    );
 }

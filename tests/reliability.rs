@@ -813,11 +813,20 @@ fn an_interrupted_sweep_keeps_its_finished_runs_and_resumes_to_the_same_bytes() 
     let text = std::fs::read_to_string(&partial).unwrap();
     assert_eq!(text.lines().count(), 1 + done, "{text}");
     assert!(expected.starts_with(text.as_bytes()), "not a prefix");
-    let err = merge(&[cut.clone()], &dir.join("m")).unwrap_err().to_string();
-    assert!(err.contains("interrupted shard") && err.contains("--resume"), "{err}");
+    let err = merge(&[cut.clone()], &dir.join("m"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("interrupted shard") && err.contains("--resume"),
+        "{err}"
+    );
 
     // A kill in the middle of a row: the cut row is dropped and run again.
-    std::fs::write(&partial, format!("{text}{}", &text[text.len() - 40..text.len() - 1])).unwrap();
+    std::fs::write(
+        &partial,
+        format!("{text}{}", &text[text.len() - 40..text.len() - 1]),
+    )
+    .unwrap();
     let mut o = opts(&cut, "1..2:12", 2);
     o.resume = true;
     let out = run_sweep(&o, &|_, _| {}).unwrap();
@@ -854,7 +863,10 @@ fn a_run_beyond_its_step_budget_is_refused_up_front() {
     // Raised on purpose, it is accepted.
     Scene::load(
         scene,
-        &["sim.duration_s=1e7".into(), "sim.max_steps=10000000000".into()],
+        &[
+            "sim.duration_s=1e7".into(),
+            "sim.max_steps=10000000000".into(),
+        ],
     )
     .unwrap();
 }
@@ -878,11 +890,9 @@ fn zero_rig_values_are_taken_where_meaningful_and_refused_with_the_reason_elsewh
         let p = dir.join(format!("{}.rig.toml", with.replace(['.', ' ', '='], "_")));
         let line = text.lines().find(|l| l.starts_with(edit)).unwrap();
         std::fs::write(&p, text.replace(line, with)).unwrap();
-        Rig::load(&p)
-            .map_err(|e| e.to_string())
-            .and_then(|rig| {
-                identify(&rig, &p, &rec, None, &IdentifyOptions::default()).map_err(|e| e.to_string())
-            })
+        Rig::load(&p).map_err(|e| e.to_string()).and_then(|rig| {
+            identify(&rig, &p, &rec, None, &IdentifyOptions::default()).map_err(|e| e.to_string())
+        })
     };
     let value = |id: &agvsim::ident::Identification, n: &str| {
         id.params.iter().find(|p| p.name == n).unwrap().value
@@ -899,8 +909,15 @@ fn zero_rig_values_are_taken_where_meaningful_and_refused_with_the_reason_elsewh
     let total = |id: &agvsim::ident::Identification| {
         value(id, "motor.rotor_inertia_kg_m2") + value(id, "wheel.inertia_kg_m2") / 23.41f64.powi(2)
     };
-    println!("inertia at the motor: {:e} (rig) against {:e} (wheel lumped)", total(&base), total(&lumped));
+    println!(
+        "inertia at the motor: {:e} (rig) against {:e} (wheel lumped)",
+        total(&base),
+        total(&lumped)
+    );
     assert!((total(&lumped) / total(&base) - 1.0).abs() < 0.01);
     let err = fit("inductance_H", "inductance_H = 0.0").unwrap_err();
-    assert!(err.contains("motor.inductance_H") && err.contains("needs the inductance"), "{err}");
+    assert!(
+        err.contains("motor.inductance_H") && err.contains("needs the inductance"),
+        "{err}"
+    );
 }

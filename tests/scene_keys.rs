@@ -70,9 +70,15 @@ fn outside(a: Allowed) -> Option<&'static str> {
 fn every_rule_refuses_a_value_outside_it_naming_the_key() {
     let mut checked = 0;
     for r in NUMERIC {
-        let Some(bad) = outside(r.allowed) else { continue };
+        let Some(bad) = outside(r.allowed) else {
+            continue;
+        };
         // An integer key (controller.duty_*, sim.max_steps): an integer outside.
-        let integer = ["controller.duty_min", "controller.duty_max", "sim.max_steps"];
+        let integer = [
+            "controller.duty_min",
+            "controller.duty_max",
+            "sim.max_steps",
+        ];
         let bad = match (integer.contains(&r.key), bad) {
             (true, "0.0") => "0",
             (true, _) => "1000",

@@ -15,10 +15,10 @@
 use crate::ident::data::Dataset;
 use crate::ident::effects::Effect;
 use crate::ident::fit::{self, Fit, FitSettings};
-use crate::ident::model::{simulate, GreyBox};
+use crate::ident::model::GreyBox;
 use crate::ident::Structure;
 
-use super::search::{effect_grid, golden, profile_scan, scan};
+use super::search::{effect_grid, golden, profile_scan, scan, start_with};
 use super::{Scales, MIN_RSS_REDUCTION};
 
 /// Share of [`MIN_RSS_REDUCTION`] a screen must reach for the full search to be run: a
@@ -98,9 +98,9 @@ impl Context<'_> {
             self.final_fit(&setup, from_fit.to_vec()),
             self.final_fit(&setup, from_rig.to_vec()),
         );
-        let promising = screen.as_ref().is_some_and(|f| {
-            1.0 - f.cost / self.fit.cost >= SCREEN_SHARE * MIN_RSS_REDUCTION
-        });
+        let promising = screen
+            .as_ref()
+            .is_some_and(|f| 1.0 - f.cost / self.fit.cost >= SCREEN_SHARE * MIN_RSS_REDUCTION);
         let rough = self.rough(&setup);
         if !promising || !rough {
             return Fitted {
@@ -140,7 +140,7 @@ impl Context<'_> {
         let structure = self.structure.with_effect(e, s1, lo, hi, s.speed_max);
         let m = structure.model();
         let idx = m.params().len() - 1;
-        let start_at = |base: &[f64], g: f64| start_with(m, base, stage.params.len(), idx, g);
+        let start_at = |base: &[f64], g: f64| start_with(m, base, idx, g);
         let starts: Vec<Vec<f64>> = from_fit
             .iter()
             .take(2)
@@ -188,7 +188,12 @@ impl Context<'_> {
     fn final_fit(&self, setup: &Setup, starts: Vec<Vec<f64>>) -> Option<Fit> {
         let mut free = setup.others.clone();
         free.push(setup.idx);
-        fit::fit_raced(setup.structure.model(), self.data, &self.settings(free, starts)).ok()
+        fit::fit_raced(
+            setup.structure.model(),
+            self.data,
+            &self.settings(free, starts),
+        )
+        .ok()
     }
 
     /// The full search of a rough parameter: a profile over every fourth grid value from
@@ -199,7 +204,7 @@ impl Context<'_> {
         let m = setup.structure.model();
         let s1 = setup.from_fit.first().copied().unwrap_or(setup.grid[0]);
         let coarse: Vec<f64> = setup.grid.iter().step_by(4).copied().collect();
-        let profile_start = start_with(m, &setup.believed, self.fit.params.len(), setup.idx, s1);
+        let profile_start = start_with(m, &setup.believed, setup.idx, s1);
         starts.extend(profile_scan(
             &setup.structure,
             &profile_start,
@@ -224,17 +229,9 @@ impl Context<'_> {
             .fold(None, |best, f| lower(best, Some(f)))
     }
 
-    /// Weighted residual sum of squares at `p` on `data` (infinite where the model
-    /// diverges).
+    /// Weighted residual sum of squares at `p` on `data`.
     fn cost(&self, m: &dyn GreyBox, p: &[f64], data: &Dataset) -> f64 {
-        simulate(m, p, data)
-            .map(|y| {
-                fit::residuals(data, &y, self.weights)
-                    .iter()
-                    .map(|v| v * v)
-                    .sum()
-            })
-            .unwrap_or(f64::INFINITY)
+        fit::cost_at(m, p, data, self.weights)
     }
 
     /// Three passes of: fit the others with the rough parameter held, then place it by a
@@ -265,13 +262,4 @@ fn lower(a: Option<Fit>, b: Option<Fit>) -> Option<Fit> {
         (Some(a), Some(b)) => Some(if b.cost < a.cost { b } else { a }),
         (a, b) => a.or(b),
     }
-}
-
-/// A start for the candidate: `base` (the stage's parameters), the block's nuisance
-/// parameters at their nominal values, and the effect's own at `g`.
-fn start_with(m: &dyn GreyBox, base: &[f64], stage_len: usize, idx: usize, g: f64) -> Vec<f64> {
-    let mut p = base.to_vec();
-    p.extend(m.params()[stage_len..].iter().map(|s| s.nominal));
-    p[idx] = g;
-    p
 }

@@ -283,6 +283,7 @@ pub fn diagnose(
     let linear = matches!(structure, Structure::Linear(_));
     let free_nominal = free.clone();
     let explore = data.prefix(candidate::exploration_rows(data.len()));
+    let beliefs = model.nominal();
     for round_no in 1..=2 {
         let stage_n = effective_n(&data, &stage.fit.predicted);
         let tried: Vec<Effect> = findings.iter().map(|f: &Finding| f.effect).collect();
@@ -297,7 +298,6 @@ pub fn diagnose(
             candidates.len()
         ));
         let finished = std::sync::atomic::AtomicUsize::new(0);
-        let beliefs = model.nominal();
         let context = candidate::Context {
             structure: &stage.structure,
             fit: &stage.fit,

@@ -31,19 +31,9 @@ pub(crate) fn scales(structure: &Structure, p: &[f64], data: &Dataset, speed: &[
         .map(|u| u.iter().map(|v| v.abs()).fold(0.0, f64::max))
         .unwrap_or(1.0);
     match structure {
-        Structure::Rotary(m) if m.torque_command().is_some() => {
+        Structure::Rotary(m) if let Some(c) = m.torque_command() => {
             use crate::ident::models::rotary_axis::B;
-            let c = m.torque_command().expect("checked");
-            let command = data
-                .output_index("command_V")
-                .map(|j| {
-                    data.outputs[j]
-                        .iter()
-                        .flatten()
-                        .map(|v| v.abs())
-                        .fold(0.0, f64::max)
-                })
-                .unwrap_or(u_max);
+            let command = largest_command(data, u_max);
             Scales {
                 v_max: command,
                 speed_max,
@@ -67,16 +57,7 @@ pub(crate) fn scales(structure: &Structure, p: &[f64], data: &Dataset, speed: &[
         }
         Structure::Linear(m) => {
             use crate::ident::models::linear_axis::{MASS, VISCOUS};
-            let cmd = data
-                .output_index("command_V")
-                .map(|j| {
-                    data.outputs[j]
-                        .iter()
-                        .flatten()
-                        .map(|v| v.abs())
-                        .fold(0.0, f64::max)
-                })
-                .unwrap_or(u_max);
+            let cmd = largest_command(data, u_max);
             Scales {
                 v_max: cmd,
                 speed_max,
@@ -112,4 +93,17 @@ pub(crate) fn scales(structure: &Structure, p: &[f64], data: &Dataset, speed: &[
             weight_n: 0.0,
         },
     }
+}
+
+/// Largest recorded drive command (`command_V`), or `otherwise` when it is not recorded.
+fn largest_command(data: &Dataset, otherwise: f64) -> f64 {
+    data.output_index("command_V")
+        .map(|j| {
+            data.outputs[j]
+                .iter()
+                .flatten()
+                .map(|v| v.abs())
+                .fold(0.0, f64::max)
+        })
+        .unwrap_or(otherwise)
 }

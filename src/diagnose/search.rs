@@ -4,7 +4,7 @@
 use crate::ident::data::Dataset;
 use crate::ident::effects::Effect;
 use crate::ident::fit;
-use crate::ident::model::simulate;
+use crate::ident::model::GreyBox;
 use crate::ident::Structure;
 
 use super::Scales;
@@ -68,23 +68,8 @@ pub(super) fn scan(
     weights: &[f64],
 ) -> Vec<f64> {
     let m = cand.model();
-    let specs = m.params();
-    let cost = |g: f64| -> f64 {
-        let mut p = params.to_vec();
-        p.extend(
-            specs[params.len()..specs.len() - 1]
-                .iter()
-                .map(|s| s.nominal),
-        );
-        p.push(g);
-        match simulate(m, &p, data) {
-            Ok(y) => fit::residuals(data, &y, weights)
-                .iter()
-                .map(|v| v * v)
-                .sum(),
-            Err(_) => f64::INFINITY,
-        }
-    };
+    let idx = m.params().len() - 1;
+    let cost = |g: f64| fit::cost_at(m, &start_with(m, params, idx, g), data, weights);
     let scored: Vec<f64> = grid.iter().map(|&g| cost(g)).collect();
     let mut order: Vec<usize> = (0..grid.len()).filter(|&i| scored[i].is_finite()).collect();
     order.sort_by(|&a, &b| scored[a].total_cmp(&scored[b]));
@@ -190,4 +175,13 @@ pub(super) fn profile_scan(
         .into_iter()
         .filter_map(|i| fitted[i].as_ref().map(|f| f.1.clone()))
         .collect()
+}
+
+/// A start for a candidate: `base` (the stage's parameters), the block's nuisance
+/// parameters at their nominal values, and the effect's own (index `idx`) at `g`.
+pub(super) fn start_with(m: &dyn GreyBox, base: &[f64], idx: usize, g: f64) -> Vec<f64> {
+    let mut p = base.to_vec();
+    p.extend(m.params()[base.len()..].iter().map(|s| s.nominal));
+    p[idx] = g;
+    p
 }

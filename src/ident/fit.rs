@@ -80,6 +80,15 @@ pub fn residuals(data: &Dataset, predicted: &[Vec<f64>], weights: &[f64]) -> Vec
     r
 }
 
+/// Weighted residual sum of squares of `model` at `p` on `data` (infinite where the model
+/// diverges): the cost the fits minimise, for searches that place one parameter.
+pub fn cost_at(model: &dyn GreyBox, p: &[f64], data: &Dataset, weights: &[f64]) -> f64 {
+    model
+        .predict(p, data)
+        .map(|y| sum_sq(&residuals(data, &y, weights)))
+        .unwrap_or(f64::INFINITY)
+}
+
 struct Problem<'a> {
     model: &'a dyn Predictor,
     data: &'a Dataset,
@@ -254,79 +263,66 @@ fn best_of_starts(
         coords: coords(model.param_specs(), &s.free),
         weights: &s.weights,
     };
-    if s.starts.len() == 1 {
-        return run_lm(&problem(&s.starts[0]), s.max_iterations, uncertainty);
+    if !race || s.starts.len() == 1 {
+        let fits = each_start(&s.starts, &problem, s.max_iterations, uncertainty)?;
+        return Ok(lowest(fits));
     }
     // A race: a few iterations from every start (enough for each to reach the bottom of
-    // its basin's steep part), then only the leaders to convergence.
-    let mut raced: Vec<Fit> = Vec::new();
-    let mut first_error = None;
-    let mut spent = (0, 0);
-    if !race {
-        return all_starts(s, &problem, uncertainty);
-    }
-    for (si, start) in s.starts.iter().enumerate() {
-        match run_lm(&problem(start), RACE_ITERATIONS.min(s.max_iterations), false) {
-            Ok(mut f) => {
-                spent = (spent.0 + f.iterations, spent.1 + f.evaluations);
-                f.start_index = si;
-                raced.push(f);
-            }
-            Err(e) => {
-                first_error.get_or_insert(e);
-            }
-        }
-    }
-    if raced.is_empty() {
-        return Err(first_error.unwrap_or(FitError::NoStart));
-    }
-    // Stable: among equal costs the earlier start leads.
-    raced.sort_by(|a, b| a.cost.total_cmp(&b.cost));
-    let mut best: Option<Fit> = None;
-    for leader in raced.iter().take(RACE_LEADERS) {
-        let rest = s.max_iterations.saturating_sub(leader.iterations);
-        let Ok(mut f) = run_lm(&problem(&leader.params), rest, uncertainty) else {
-            continue;
-        };
-        f.start_index = leader.start_index;
-        spent = (spent.0 + f.iterations, spent.1 + f.evaluations);
-        if best.as_ref().is_none_or(|b| f.cost < b.cost) {
-            best = Some(f);
-        }
-    }
-    let mut f = best.ok_or(FitError::NoStart)?;
-    (f.iterations, f.evaluations) = spent;
+    // its basin's steep part), then only the leader to convergence.
+    let raced = each_start(
+        &s.starts,
+        &problem,
+        RACE_ITERATIONS.min(s.max_iterations),
+        false,
+    )?;
+    let spent = raced
+        .iter()
+        .fold((0, 0), |(i, e), f| (i + f.iterations, e + f.evaluations));
+    let leader = lowest(raced);
+    let rest = s.max_iterations.saturating_sub(leader.iterations);
+    let mut f = run_lm(&problem(&leader.params), rest, uncertainty)?;
+    f.start_index = leader.start_index;
+    f.iterations += spent.0;
+    f.evaluations += spent.1;
     Ok(f)
 }
 
-/// Every start fitted to convergence; the lowest cost wins (the earlier start on a tie).
-fn all_starts<'a>(
-    s: &FitSettings,
+/// The solver run from each start for `iterations`: every fit that could be made (with its
+/// start's index), or the first start's error when none could.
+fn each_start<'a>(
+    starts: &[Vec<f64>],
     problem: &dyn Fn(&[f64]) -> Problem<'a>,
+    iterations: usize,
     uncertainty: bool,
-) -> Result<Fit, FitError> {
-    let mut best: Option<Fit> = None;
+) -> Result<Vec<Fit>, FitError> {
+    let mut fits = Vec::new();
     let mut first_error = None;
-    for (si, start) in s.starts.iter().enumerate() {
-        match run_lm(&problem(start), s.max_iterations, uncertainty) {
+    for (si, start) in starts.iter().enumerate() {
+        match run_lm(&problem(start), iterations, uncertainty) {
             Ok(mut f) => {
                 f.start_index = si;
-                if best.as_ref().is_none_or(|b| f.cost < b.cost) {
-                    best = Some(f);
-                }
+                fits.push(f);
             }
             Err(e) => {
                 first_error.get_or_insert(e);
             }
         }
     }
-    best.ok_or_else(|| first_error.unwrap_or(FitError::NoStart))
+    if fits.is_empty() {
+        return Err(first_error.unwrap_or(FitError::NoStart));
+    }
+    Ok(fits)
 }
 
-/// Iterations every start of a multi-start fit is given before only the leaders go on.
+/// The fit of lowest cost (the earlier start on a tie) of a non-empty list.
+fn lowest(fits: Vec<Fit>) -> Fit {
+    fits.into_iter()
+        .reduce(|best, f| if f.cost < best.cost { f } else { best })
+        .expect("each_start returns at least one fit")
+}
+
+/// Iterations every start of a multi-start fit is given before only the leader goes on.
 pub const RACE_ITERATIONS: usize = 3;
-/// Starts of a multi-start fit that go on to convergence after the race.
-pub const RACE_LEADERS: usize = 1;
 
 /// How each free parameter is searched: positive-bounded ones on a log scale, others
 /// linearly, scaled by their belief (or by their range when the belief is zero).

@@ -208,9 +208,9 @@ pub fn build_structure(
                 return Err(wrong_rig("drive_axis"));
             }
             if rig.is_linear() {
-                let force_input =
-                    rec.column("force_N").is_some() && rec.column("command_V").is_none()
-                        && rec.column("reference_m").is_none();
+                let force_input = rec.column("force_N").is_some()
+                    && rec.column("command_V").is_none()
+                    && rec.column("reference_m").is_none();
                 let mut m = LinearAxis::from_rig(rig, rig_path, force_input)?;
                 m.disturbance_input = rec.column("disturbance_force_N").is_some();
                 Structure::Linear(m)

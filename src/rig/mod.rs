@@ -316,7 +316,10 @@ pub fn zero_refused(path: &Path, key: &str, why: &str) -> RigError {
 /// friction believed zero: a drive's mechanical losses are not larger than its motor's
 /// own braking), if the rig gives both.
 pub fn electrical_damping(rig: &Rig) -> Option<f64> {
-    match (rig.get("motor.torque_constant_Nm_A"), rig.get("motor.resistance_ohm")) {
+    match (
+        rig.get("motor.torque_constant_Nm_A"),
+        rig.get("motor.resistance_ohm"),
+    ) {
         (Some(k), Some(r)) if r > 0.0 => Some(k * k / r),
         _ => None,
     }

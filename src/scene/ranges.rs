@@ -84,7 +84,10 @@ impl Allowed {
                     lo_open,
                     hi,
                     hi_open,
-                } => (if lo_open { v > lo } else { v >= lo }) && (if hi_open { v < hi } else { v <= hi }),
+                } => {
+                    (if lo_open { v > lo } else { v >= lo })
+                        && (if hi_open { v < hi } else { v <= hi })
+                }
                 Allowed::NonZeroInteger => v != 0.0,
             }
     }
@@ -258,24 +261,89 @@ fn text(s: &str) -> String {
 /// Every scene key that is not a single number, with what it takes (checked where the
 /// file is read, or by the consistency rules in `validate.rs`).
 pub const OTHER: &[OtherKey] = &[
-    OtherKey { key: "description", takes: || text("text") },
-    OtherKey { key: "sim.fidelity", takes: || text("`linear`, `nonlinear`, `complex`, `full`") },
-    OtherKey { key: "sim.wheels_lifted", takes: || text("true, false") },
-    OtherKey { key: "castors.compound", takes: || format!("one of {}", presets::compound_names()) },
-    OtherKey { key: "tyre.compound", takes: || format!("one of {}", presets::compound_names()) },
-    OtherKey { key: "floor.surface", takes: || format!("one of {}", presets::surface_names()) },
-    OtherKey { key: "floor.regions", takes: || text("`[[floor.regions]]` tables of `surface` and `polygon_m`: at least 3 finite `[x, y]` corners of a convex polygon, m") },
-    OtherKey { key: "dcmc.kind", takes: || text("`gain`, `p`, `pi`") },
-    OtherKey { key: "dcmc.turn_priority", takes: || text("true, false") },
-    OtherKey { key: "sensors.law", takes: || text("`measured`, `physical`") },
-    OtherKey { key: "controller.kind", takes: || text("`pd`, `open_day`, `open_loop`, `swing_away` (needs `reverse = true`)") },
-    OtherKey { key: "controller.reverse", takes: || text("true, false") },
-    OtherKey { key: "controller.pwm_dither", takes: || text("true, false") },
-    OtherKey { key: "controller.bumper", takes: || text("true, false") },
-    OtherKey { key: "wire.points_m", takes: || format!("at least 2 distinct `[x, y]` points (3 when closed), within {:e} m of the origin", super::validate::MAX_FLOOR_M) },
-    OtherKey { key: "wire.closed", takes: || text("true, false") },
-    OtherKey { key: "obstacles", takes: || text("`[[obstacles]]` tables of `center_m` `[x, y]`, exactly one of `half_extents_m` `[hx, hy]` (> 0) or `radius_m` (> 0), and `angle_rad`") },
-    OtherKey { key: "expect", takes: || text("`[expect]`: what a run of the scene shows (`settles`, `rms_error_mm`, `limit_cycle`, `limit_cycle_mm`, `loses_wire`, `on_wire_at_end`, `wire_losses`, `reaches_wire_end`, `bumper_stop`, `sliding_pct`, `distance_m`; ranges as `[lo, hi]`), checked by `run` and the tests") },
+    OtherKey {
+        key: "description",
+        takes: || text("text"),
+    },
+    OtherKey {
+        key: "sim.fidelity",
+        takes: || text("`linear`, `nonlinear`, `complex`, `full`"),
+    },
+    OtherKey {
+        key: "sim.wheels_lifted",
+        takes: || text("true, false"),
+    },
+    OtherKey {
+        key: "castors.compound",
+        takes: || format!("one of {}", presets::compound_names()),
+    },
+    OtherKey {
+        key: "tyre.compound",
+        takes: || format!("one of {}", presets::compound_names()),
+    },
+    OtherKey {
+        key: "floor.surface",
+        takes: || format!("one of {}", presets::surface_names()),
+    },
+    OtherKey {
+        key: "floor.regions",
+        takes: || {
+            text("`[[floor.regions]]` tables of `surface` and `polygon_m`: at least 3 finite `[x, y]` corners of a convex polygon, m")
+        },
+    },
+    OtherKey {
+        key: "dcmc.kind",
+        takes: || text("`gain`, `p`, `pi`"),
+    },
+    OtherKey {
+        key: "dcmc.turn_priority",
+        takes: || text("true, false"),
+    },
+    OtherKey {
+        key: "sensors.law",
+        takes: || text("`measured`, `physical`"),
+    },
+    OtherKey {
+        key: "controller.kind",
+        takes: || text("`pd`, `open_day`, `open_loop`, `swing_away` (needs `reverse = true`)"),
+    },
+    OtherKey {
+        key: "controller.reverse",
+        takes: || text("true, false"),
+    },
+    OtherKey {
+        key: "controller.pwm_dither",
+        takes: || text("true, false"),
+    },
+    OtherKey {
+        key: "controller.bumper",
+        takes: || text("true, false"),
+    },
+    OtherKey {
+        key: "wire.points_m",
+        takes: || {
+            format!(
+                "at least 2 distinct `[x, y]` points (3 when closed), within {:e} m of the origin",
+                super::validate::MAX_FLOOR_M
+            )
+        },
+    },
+    OtherKey {
+        key: "wire.closed",
+        takes: || text("true, false"),
+    },
+    OtherKey {
+        key: "obstacles",
+        takes: || {
+            text("`[[obstacles]]` tables of `center_m` `[x, y]`, exactly one of `half_extents_m` `[hx, hy]` (> 0) or `radius_m` (> 0), and `angle_rad`")
+        },
+    },
+    OtherKey {
+        key: "expect",
+        takes: || {
+            text("`[expect]`: what a run of the scene shows (`settles`, `rms_error_mm`, `limit_cycle`, `limit_cycle_mm`, `loses_wire`, `on_wire_at_end`, `wire_losses`, `reaches_wire_end`, `bumper_stop`, `sliding_pct`, `distance_m`; ranges as `[lo, hi]`), checked by `run` and the tests")
+        },
+    },
 ];
 
 /// Checks every numeric key present against its rule.
@@ -323,13 +391,32 @@ pub fn markdown() -> String {
     }));
     // The schema's order; a key of a section not listed sorts last.
     const SECTIONS: [&str; 19] = [
-        "description", "sim", "chassis", "payload", "castors", "motor", "gearbox", "wheel",
-        "tyre", "floor", "battery", "dcmc", "sensors", "controller", "controller.swing_away",
-        "wire", "start", "obstacles", "expect",
+        "description",
+        "sim",
+        "chassis",
+        "payload",
+        "castors",
+        "motor",
+        "gearbox",
+        "wheel",
+        "tyre",
+        "floor",
+        "battery",
+        "dcmc",
+        "sensors",
+        "controller",
+        "controller.swing_away",
+        "wire",
+        "start",
+        "obstacles",
+        "expect",
     ];
     let rank = |key: &str| {
         let section = key.rsplit_once('.').map_or(key, |(s, _)| s);
-        SECTIONS.iter().position(|s| *s == section).unwrap_or(SECTIONS.len())
+        SECTIONS
+            .iter()
+            .position(|s| *s == section)
+            .unwrap_or(SECTIONS.len())
     };
     rows.sort_by_key(|(k, _, _)| rank(k));
     let mut out = String::from("| key | allowed | default |\n| --- | --- | --- |\n");

@@ -12,7 +12,6 @@ fn bad(key: &str, value: impl std::fmt::Display, expected: &str) -> Invalid {
     }
 }
 
-
 /// Largest coordinate on the floor, m: far beyond any plant, small enough that squared
 /// distances and the field's arithmetic stay exact to well below a millimetre.
 pub const MAX_FLOOR_M: f64 = 1.0e5;
@@ -36,9 +35,6 @@ fn concave_corner(poly: &[[f64; 2]]) -> Option<usize> {
     };
     (0..n).find(|&k| turn(k) * sign < -1e-12)
 }
-
-
-
 
 impl Scene {
     /// Every key against its rule in the table ([`super::ranges`]), then the rules that

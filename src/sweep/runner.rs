@@ -391,8 +391,8 @@ pub fn run_sweep(
         let i = next.fetch_add(1, Ordering::SeqCst);
         let Some(point) = points.get(i) else { break };
         let r = run_point(opts, point);
-        let written = results::write_trace(&opts.out_dir, &r)
-            .and_then(|()| lock(&journal).push(&r));
+        let written =
+            results::write_trace(&opts.out_dir, &r).and_then(|()| lock(&journal).push(&r));
         if let Err(e) = written {
             lock(&failure).get_or_insert(e);
             break;

@@ -189,7 +189,11 @@ impl RotaryAxis {
                         "the model integrates the armature current, so it needs the inductance; if it is negligible, give a value well below the resistance times the sample interval (e.g. 1e-5 H)",
                     ));
                 }
-                let l = if torque_driven { l.clamp(1e-6, 1e-3) } else { l };
+                let l = if torque_driven {
+                    l.clamp(1e-6, 1e-3)
+                } else {
+                    l
+                };
                 ParamSpec::new("motor.inductance_H", l, l / 3.0, 3.0 * l)
             },
             ParamSpec::positive(
@@ -426,7 +430,11 @@ impl GreyBox for RotaryAxis {
         match self.input {
             AxisInput::Voltage => vec!["voltage_V".into()],
             AxisInput::Demand => vec!["demand_pct".into()],
-            AxisInput::Torque(TorqueCommand { feedback: None, column, .. }) => {
+            AxisInput::Torque(TorqueCommand {
+                feedback: None,
+                column,
+                ..
+            }) => {
                 vec![column.into()]
             }
             AxisInput::Torque(_) => vec!["reference_rad".into()],

@@ -101,7 +101,10 @@ impl Vehicle {
             ),
             // Zero: lumped into the rotor's (the two are seen only as their sum without
             // gear play).
-            ParamSpec::positive("wheel.inertia_kg_m2", need("wheel.inertia_kg_m2")?.max(1e-12)),
+            ParamSpec::positive(
+                "wheel.inertia_kg_m2",
+                need("wheel.inertia_kg_m2")?.max(1e-12),
+            ),
             ParamSpec::friction(
                 "motor.viscous_Nm_s_rad",
                 need("motor.viscous_Nm_s_rad")?,
