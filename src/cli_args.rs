@@ -23,6 +23,18 @@ pub struct Cli {
 
 #[derive(Subcommand)]
 pub enum ImportFormat {
+    /// A MATLAB file (MAT level 5, as `save` writes by default) by a map file like the
+    /// CSV's, each `column` naming a variable (a vector); see the README.
+    Mat {
+        /// The MAT-file.
+        file: PathBuf,
+        /// The map file (TOML).
+        #[arg(long, value_name = "MAP.toml")]
+        map: PathBuf,
+        /// Output folder [default: runs/import]; the recording is FILE_STEM.csv there.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// Any CSV whose columns have other names or units, by a map file (see the README):
     /// the time and each contract column with its source column and unit or scale.
     Csv {
@@ -35,6 +47,62 @@ pub enum ImportFormat {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// A WPILib SysId log (SysId's JSON data file, or a DataLog .wpilog written by
+    /// SysIdRoutineLog): one recording per test (FILE_STEM_TEST.csv; rig `vehicle` for a
+    /// drivetrain, `drive_axis` for one mechanism), the nominal rig of the linear machine
+    /// SysId's kV and kA describe (FILE_STEM.rig.toml), and SysId's kS, kV, kA (kG).
+    Wpilib {
+        /// The log (.json or .wpilog).
+        file: PathBuf,
+        /// Output folder [default: runs/import].
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// DataLog only: the routine (the LOG of `sysid-test-state-LOG`) when there are several.
+        #[arg(long)]
+        routine: Option<String>,
+        /// DataLog only: the motor of a single mechanism, or LEFT,RIGHT of a drivetrain
+        /// [default: the routine's one motor, or its motors named left and right].
+        #[arg(long, value_delimiter = ',')]
+        motors: Vec<String>,
+        /// DataLog only: drivetrain, drivetrain-angular, simple, elevator or arm
+        /// [default: a drivetrain for two motors (angular when driven in opposition), else simple].
+        #[arg(long, value_parser = parse_mechanism)]
+        mechanism: Option<agvsim::import::wpilib::Mechanism>,
+        /// Drive wheel (or a linear mechanism's drum) radius, m: needed for a drivetrain
+        /// logged in rotations; the vehicle rig's wheel [default 0.0762].
+        #[arg(long, value_parser = positive_number)]
+        wheel_radius_m: Option<f64>,
+        /// Motor resistance per side, ohm [default: from the logged current, else 0.05, said as assumed].
+        #[arg(long, value_parser = positive_number)]
+        resistance_ohm: Option<f64>,
+        /// Track width, m [default: from a turning test's gyro, else 0.6, said as assumed].
+        #[arg(long, value_parser = positive_number)]
+        track_width_m: Option<f64>,
+        /// Battery voltage, V [default 12].
+        #[arg(long, value_parser = positive_number)]
+        supply_v: Option<f64>,
+    },
+}
+
+fn parse_mechanism(s: &str) -> Result<agvsim::import::wpilib::Mechanism, String> {
+    use agvsim::import::wpilib::Mechanism;
+    match s {
+        "drivetrain" => Ok(Mechanism::Drivetrain),
+        "drivetrain-angular" => Ok(Mechanism::DrivetrainAngular),
+        "simple" => Ok(Mechanism::Simple),
+        "elevator" => Ok(Mechanism::Elevator),
+        "arm" => Ok(Mechanism::Arm),
+        _ => Err(format!(
+            "`{s}`: expected drivetrain, drivetrain-angular, simple, elevator or arm"
+        )),
+    }
+}
+
+pub fn positive_number(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("`{s}`: expected a positive number")),
+    }
 }
 
 #[derive(Subcommand)]
@@ -158,6 +226,10 @@ pub enum Command {
         /// Override a scene value, e.g. --set controller.reverse=true (repeatable).
         #[arg(long = "set", value_name = "KEY=VALUE")]
         set: Vec<String>,
+        /// Also write A, B, C, D (discrete-time, with Ts and the named states, inputs and
+        /// outputs and their units) to FILE.mat (MATLAB `load`, SciPy `loadmat`) or FILE.json.
+        #[arg(long, value_name = "FILE.mat|FILE.json")]
+        export: Option<PathBuf>,
     },
     /// List the tyre compounds and floor surfaces and the tyre values they combine into.
     Presets,

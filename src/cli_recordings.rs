@@ -25,24 +25,133 @@ pub fn import_csv_command(
         Ok(t) => t,
         Err(e) => return bad_input(format!("{}: cannot read: {e}", file.display())),
     };
-    let text = match csv_map::convert(&data, file, &map, map_path) {
-        Ok(t) => t,
+    match csv_map::convert(&data, file, &map, map_path) {
+        Ok(text) => write_import(file, &text, out),
+        Err(e) => bad_input(e),
+    }
+}
+
+/// `agvsim import mat`: read, convert by the map, check, write.
+pub fn import_mat_command(
+    file: &std::path::Path,
+    map_path: &std::path::Path,
+    out: Option<PathBuf>,
+) -> ExitCode {
+    use agvsim::import::{csv_map, mat};
+    let map = match csv_map::load_map(map_path) {
+        Ok(m) => m,
         Err(e) => return bad_input(e),
     };
+    let bytes = match std::fs::read(file) {
+        Ok(b) => b,
+        Err(e) => return bad_input(format!("{}: cannot read: {e}", file.display())),
+    };
+    match mat::convert(&bytes, file, &map, map_path) {
+        Ok(text) => write_import(file, &text, out),
+        Err(e) => bad_input(e),
+    }
+}
+
+/// Writes a converted recording as `DIR/FILE_STEM.csv` after checking it against the
+/// contract.
+fn write_import(file: &std::path::Path, text: &str, out: Option<PathBuf>) -> ExitCode {
     let dir = out.unwrap_or_else(|| PathBuf::from("runs").join("import"));
     let stem = file
         .file_stem()
         .map_or_else(|| "imported".into(), |s| s.to_string_lossy().into_owned());
     let path = dir.join(format!("{stem}.csv"));
-    if let Err(e) = agvsim::record::Recording::parse(&text, &path) {
+    if let Err(e) = agvsim::record::Recording::parse(text, &path) {
         return bad_input(format!("the converted recording breaks the contract: {e}"));
     }
     let written =
-        std::fs::create_dir_all(&dir).and_then(|_| agvsim::output::write_atomically(&path, &text));
+        std::fs::create_dir_all(&dir).and_then(|_| agvsim::output::write_atomically(&path, text));
     if let Err(e) = written {
         return fail(format!("{}: {e}", path.display()));
     }
     println!("recording  {}", path.display());
+    ExitCode::SUCCESS
+}
+
+/// `linearize --export FILE.mat|FILE.json`.
+pub fn export_linearisation(
+    l: &agvsim::sim::linearize::Linearisation,
+    path: &std::path::Path,
+) -> Result<(), String> {
+    use agvsim::sim::linearize::export;
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+    let bytes = match ext {
+        "mat" => export::to_mat(l),
+        "json" => serde_json::to_vec_pretty(&export::to_json(l)).map_err(|e| e.to_string())?,
+        _ => {
+            return Err(format!(
+                "--export {}: expected a name ending in .mat or .json",
+                path.display()
+            ))
+        }
+    };
+    agvsim::output::check_target("--export", path, false)?;
+    agvsim::output::write_atomically(path, bytes)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    println!("exported         {}", path.display());
+    Ok(())
+}
+
+/// `agvsim import wpilib`: read, convert, write every file or none, print the gains.
+pub fn import_wpilib_command(
+    file: &std::path::Path,
+    choice: &agvsim::import::wpilib::wpilog::Choice,
+    assumed: &agvsim::import::wpilib::Assumptions,
+    out: Option<PathBuf>,
+) -> ExitCode {
+    use agvsim::import::wpilib;
+    let imported = match wpilib::import(file, choice, assumed) {
+        Ok(i) => i,
+        Err(e) => return bad_input(e),
+    };
+    let dir = out.unwrap_or_else(|| PathBuf::from("runs").join("import"));
+    let stem = file
+        .file_stem()
+        .map_or_else(|| "sysid".into(), |s| s.to_string_lossy().into_owned());
+    let mut files = Vec::new();
+    for r in &imported.recordings {
+        let path = dir.join(format!("{stem}_{}.csv", r.test));
+        if let Err(e) = agvsim::record::Recording::parse(&r.text, &path) {
+            return fail(format!("the converted recording breaks the contract: {e}"));
+        }
+        files.push((path, r.text.clone()));
+    }
+    let rig_path = dir.join(format!("{stem}.rig.toml"));
+    if let Err(e) = agvsim::rig::Rig::parse(&imported.rig, &rig_path) {
+        return fail(format!("the nominal rig does not load: {e}"));
+    }
+    files.push((rig_path, imported.rig.clone()));
+    if let Err(e) = std::fs::create_dir_all(&dir) {
+        return fail(format!("{}: {e}", dir.display()));
+    }
+    for (path, text) in &files {
+        if let Err(e) = agvsim::output::write_atomically(path, text) {
+            return fail(format!("{}: {e}", path.display()));
+        }
+    }
+    println!("log        {} ({})", file.display(), imported.log.source);
+    for (path, _) in &files[..files.len() - 1] {
+        println!("recording  {}", path.display());
+    }
+    println!("rig        {}", files[files.len() - 1].0.display());
+    println!(
+        "SysId feedforward ({}, per {} of {}):",
+        imported.log.mechanism.name(),
+        imported.speed_unit,
+        if imported.log.mechanism.is_drivetrain() {
+            "wheel rim"
+        } else {
+            "shaft"
+        }
+    );
+    print!(
+        "{}",
+        agvsim::ident::feedforward::render(&imported.feedforward, imported.speed_unit)
+    );
     ExitCode::SUCCESS
 }
 

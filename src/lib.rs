@@ -28,6 +28,7 @@ pub mod firmware;
 pub mod ident;
 pub mod import;
 pub mod jobs;
+pub mod matfile;
 pub mod model;
 pub mod output;
 pub mod plot;

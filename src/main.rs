@@ -286,14 +286,49 @@ fn main() -> ExitCode {
         Command::Import {
             format: ImportFormat::Csv { file, map, out },
         } => cli_recordings::import_csv_command(&file, &map, out),
+        Command::Import {
+            format:
+                ImportFormat::Wpilib {
+                    file,
+                    out,
+                    routine,
+                    motors,
+                    mechanism,
+                    wheel_radius_m,
+                    resistance_ohm,
+                    track_width_m,
+                    supply_v,
+                },
+        } => {
+            let choice = agvsim::import::wpilib::wpilog::Choice {
+                routine,
+                motors,
+                mechanism,
+            };
+            let assumed = agvsim::import::wpilib::Assumptions {
+                wheel_radius_m,
+                resistance_ohm,
+                track_width_m,
+                supply_v,
+            };
+            cli_recordings::import_wpilib_command(&file, &choice, &assumed, out)
+        }
         Command::Sweep(args) => cli_sweep::sweep_command(args),
-        Command::Linearize { scene, set } => {
+        Command::Import {
+            format: ImportFormat::Mat { file, map, out },
+        } => cli_recordings::import_mat_command(&file, &map, out),
+        Command::Linearize { scene, set, export } => {
             let loaded = match Scene::load(&scene, &set) {
                 Ok(s) => s,
                 Err(e) => return bad_input(e),
             };
             match agvsim::sim::linearize::linearise(&loaded) {
                 Ok(l) => {
+                    if let Some(path) = &export {
+                        if let Err(e) = cli_recordings::export_linearisation(&l, path) {
+                            return fail(e);
+                        }
+                    }
                     println!("scene            {}", scene.display());
                     print!(
                         "{}",

@@ -6,6 +6,7 @@
 pub mod data;
 pub mod effects;
 pub mod evaluate;
+pub mod feedforward;
 pub mod fit;
 pub mod job;
 pub mod model;

@@ -2,6 +2,8 @@
 //! whose columns have other names or units, converted by a map file.
 
 pub mod csv_map;
+pub mod mat;
+pub mod wpilib;
 
 use std::path::PathBuf;
 
@@ -16,8 +18,9 @@ pub enum ImportError {
     /// The map file is wrong.
     #[error("{file}: {message}")]
     Map { file: PathBuf, message: String },
-    /// A cell or row of the data that cannot be converted.
-    #[error("{file}:{line}: {message}")]
+    /// A cell or row of the data that cannot be converted (`line` 0: not a text line; the
+    /// message says where).
+    #[error("{}{}: {message}", file.display(), if *line > 0 { format!(":{line}") } else { String::new() })]
     Data {
         file: PathBuf,
         line: usize,

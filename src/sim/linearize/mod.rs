@@ -17,6 +17,7 @@ use crate::model::motor::Terminal;
 use crate::scene::{Fidelity, Scene};
 
 mod closed_loop;
+pub mod export;
 mod reach;
 
 pub use closed_loop::{close_loop, ClosedLoop, LoopGains};

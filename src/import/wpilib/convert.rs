@@ -1,0 +1,367 @@
+//! A SysId log's tests as contract recordings, the speeds the feedforward regression
+//! reads, and the nominal rig a linear fit gives.
+
+use std::fmt::Write as _;
+
+use super::{Mechanism, SysIdLog, Test};
+use crate::ident::feedforward::{self, Feedforward, Gravity, Series};
+use crate::rig::{ChassisRig, GearboxRig, MotorRig, Rig, SupplyRig, WheelRig};
+
+/// What the log cannot say and the user may: each `None` takes the stated default.
+#[derive(Debug, Clone, Default)]
+pub struct Assumptions {
+    /// Drive wheel radius, m (a drivetrain logged in rotations needs it; the vehicle rig
+    /// always does) [default 0.0762 m, a 6-inch wheel].
+    pub wheel_radius_m: Option<f64>,
+    /// Motor resistance per side, ohm [default: from the logged current, else 0.05 ohm].
+    pub resistance_ohm: Option<f64>,
+    /// Track width, m [default: from the gyro of a turning test, else 0.6 m].
+    pub track_width_m: Option<f64>,
+    /// Battery voltage, V [default 12].
+    pub supply_v: Option<f64>,
+}
+
+const DEFAULT_WHEEL_RADIUS_M: f64 = 0.0762;
+const DEFAULT_RESISTANCE_OHM: f64 = 0.05;
+const DEFAULT_TRACK_WIDTH_M: f64 = 0.6;
+/// Electrical time constant assumed for the inductance, s.
+const ELECTRICAL_TIME_S: f64 = 0.001;
+/// Rotor (through the gearbox) and wheel inertia assumed per side of a drivetrain,
+/// referred to the wheel, kg m^2: two small motors through an 8:1 gearbox and a 6-inch
+/// wheel. The chassis dominates kA; this only keeps the tyre's slip mode physical.
+const DRIVE_ROTOR_INERTIA_KG_M2: f64 = 5e-3;
+const DRIVE_WHEEL_INERTIA_KG_M2: f64 = 5e-3;
+
+/// One converted test: its file stem suffix and its recording's text.
+#[derive(Debug, Clone)]
+pub struct Converted {
+    pub test: String,
+    pub text: String,
+}
+
+/// The factor from the log's speed unit to the recording's: m/s for a drivetrain's wheel,
+/// rad/s for a single mechanism's shaft. Also the conversion's wording.
+fn speed_factor(log: &SysIdLog, a: &Assumptions) -> Result<(f64, String), String> {
+    let u = log.unit;
+    if log.mechanism.is_drivetrain() {
+        if u.linear {
+            return Ok((u.to_si, format!("{}/s x {}", u.name, u.to_si)));
+        }
+        let r = a.wheel_radius_m.ok_or_else(|| {
+            format!("the drivetrain's speeds are in {}/s; wheel speeds in m/s need the wheel radius: give --wheel-radius-m", u.name)
+        })?;
+        return Ok((
+            u.to_si * r,
+            format!("{}/s x {} rad x {r} m wheel radius", u.name, u.to_si),
+        ));
+    }
+    if !u.linear {
+        return Ok((
+            u.to_si,
+            format!(
+                "{}/s x {} (the measured shaft is the rig's motor shaft, ratio 1)",
+                u.name, u.to_si
+            ),
+        ));
+    }
+    let r = a.wheel_radius_m.ok_or_else(|| {
+        format!("the mechanism's speeds are in {}/s; a drive axis turns them into shaft speed by a drum radius: give --wheel-radius-m", u.name)
+    })?;
+    Ok((
+        u.to_si / r,
+        format!("{}/s x {} / {r} m drum radius", u.name, u.to_si),
+    ))
+}
+
+/// The tests as recordings.
+pub fn convert(log: &SysIdLog, source: &str, a: &Assumptions) -> Result<Vec<Converted>, String> {
+    let (f, how) = speed_factor(log, a)?;
+    let mut out = Vec::new();
+    for test in &log.tests {
+        super::check_test(test)?;
+        let t0 = test.samples[0].t_s;
+        let mut s = String::new();
+        let drive = log.mechanism.is_drivetrain();
+        let _ = writeln!(s, "# agvsim-recording: 1");
+        let _ = writeln!(s, "# rig: {}", if drive { "vehicle" } else { "drive_axis" });
+        let _ = writeln!(
+            s,
+            "# description: WPILib SysId test {} ({})",
+            test.name,
+            log.mechanism.name()
+        );
+        let _ = writeln!(s, "# source: {source}: {}", log.source);
+        let _ = writeln!(s, "# sample_time_s: {}", median_period(test));
+        let _ = writeln!(
+            s,
+            "# time_origin_s: {t0} (the log's time of the test's first row; t_s counts from it)"
+        );
+        let current = test.samples.iter().any(|x| x.left.current_a.is_some());
+        let rates: Vec<f64> = test
+            .samples
+            .iter()
+            .filter_map(|x| x.gyro_rate_rad_s)
+            .collect();
+        // A gyro that reads one constant (a simulated log, or one not wired) says nothing
+        // a fit can use, and an output reproduced exactly leaves the fit no noise to weigh.
+        let constant = rates.windows(2).all(|w| w[0] == w[1]);
+        let gyro = drive && !rates.is_empty() && !constant;
+        if drive && !rates.is_empty() && constant {
+            let _ = writeln!(
+                s,
+                "# note: yaw_rate_rad_s left out: the gyro reads {} rad/s throughout this test",
+                rates[0]
+            );
+        }
+        let mut header = vec!["t_s"];
+        if drive {
+            let _ = writeln!(
+                s,
+                "# conversion: left_wheel_speed_m_s, right_wheel_speed_m_s = velocity in {how}"
+            );
+            header.extend([
+                "left_voltage_V",
+                "right_voltage_V",
+                "left_wheel_speed_m_s",
+                "right_wheel_speed_m_s",
+            ]);
+            if gyro {
+                let _ = writeln!(s, "# conversion: yaw_rate_rad_s = the gyro's angular rate, rad/s as SysId's drivetrain logger sends it");
+                header.push("yaw_rate_rad_s");
+            }
+        } else {
+            let _ = writeln!(s, "# conversion: motor_speed_rad_s = velocity in {how}; motor_angle_rad likewise from position");
+            header.extend(["voltage_V", "motor_angle_rad", "motor_speed_rad_s"]);
+            if current {
+                header.push("current_A");
+            }
+        }
+        let _ = writeln!(s, "{}", header.join(","));
+        for x in &test.samples {
+            let mut row = vec![format!("{}", x.t_s - t0)];
+            if let (true, Some(r)) = (drive, x.right) {
+                row.extend(
+                    [
+                        x.left.voltage_v,
+                        r.voltage_v,
+                        x.left.velocity * f,
+                        r.velocity * f,
+                    ]
+                    .map(|v| format!("{v}")),
+                );
+                if gyro {
+                    row.push(x.gyro_rate_rad_s.map_or(String::new(), |v| format!("{v}")));
+                }
+            } else {
+                row.extend(
+                    [x.left.voltage_v, x.left.position * f, x.left.velocity * f]
+                        .map(|v| format!("{v}")),
+                );
+                if current {
+                    row.push(x.left.current_a.map_or(String::new(), |v| format!("{v}")));
+                }
+            }
+            let _ = writeln!(s, "{}", row.join(","));
+        }
+        out.push(Converted {
+            test: test.name.clone(),
+            text: s,
+        });
+    }
+    Ok(out)
+}
+
+fn median_period(test: &Test) -> f64 {
+    let mut d: Vec<f64> = test
+        .samples
+        .windows(2)
+        .map(|w| w[1].t_s - w[0].t_s)
+        .collect();
+    d.sort_by(f64::total_cmp);
+    d.get(d.len() / 2).copied().unwrap_or(0.0)
+}
+
+/// The series SysId's regression reads, in the recording's units (m/s of wheel rim for a
+/// drivetrain, both sides together as SysId combines them; rad/s of shaft otherwise). A
+/// turning drivetrain is read as SysId reads it: the mean of the two sides' magnitudes,
+/// signed by the direction of turn.
+pub fn series(log: &SysIdLog, a: &Assumptions) -> Result<Vec<Series>, String> {
+    let (f, _) = speed_factor(log, a)?;
+    let mut out = Vec::new();
+    for test in &log.tests {
+        let mut sides = vec![Series::default()];
+        if log.mechanism == Mechanism::Drivetrain {
+            sides.push(Series::default());
+        }
+        for x in &test.samples {
+            let right = x.right;
+            let (u, v) = match (log.mechanism, right) {
+                (Mechanism::DrivetrainAngular, Some(r)) => {
+                    let turn = x.gyro_rate_rad_s.unwrap_or(r.velocity - x.left.velocity);
+                    let sign = if turn < 0.0 { -1.0 } else { 1.0 };
+                    (
+                        sign * 0.5 * (x.left.voltage_v.abs() + r.voltage_v.abs()),
+                        sign * 0.5 * (x.left.velocity.abs() + r.velocity.abs()) * f,
+                    )
+                }
+                _ => (x.left.voltage_v, x.left.velocity * f),
+            };
+            let angle = if log.unit.linear {
+                0.0
+            } else {
+                x.left.position * log.unit.to_si
+            };
+            push(&mut sides[0], x.t_s, u, v, angle);
+            if let (Some(s), Some(r)) = (sides.get_mut(1), right) {
+                push(s, x.t_s, r.voltage_v, r.velocity * f, 0.0);
+            }
+        }
+        out.extend(sides);
+    }
+    Ok(out)
+}
+
+fn push(s: &mut Series, t: f64, u: f64, v: f64, angle: f64) {
+    s.t_s.push(t);
+    s.voltage_v.push(u);
+    s.speed.push(v);
+    s.angle_rad.push(angle);
+}
+
+/// The gravity term SysId fits for the mechanism.
+pub fn gravity(m: Mechanism) -> Gravity {
+    match m {
+        Mechanism::Elevator => Gravity::Constant,
+        Mechanism::Arm => Gravity::Arm,
+        _ => Gravity::None,
+    }
+}
+
+/// The regression on the whole log.
+pub fn feedforward(log: &SysIdLog, a: &Assumptions) -> Result<Feedforward, String> {
+    let s = series(log, a)?;
+    feedforward::fit(
+        &s,
+        gravity(log.mechanism),
+        feedforward::default_threshold(&s),
+    )
+    .map_err(|e| e.to_string())
+}
+
+/// Resistance from the logged current, by least squares on `u - kV v = R i` (no Coulomb
+/// term: the rig is the linear machine).
+fn resistance_from_current(log: &SysIdLog, kv: f64, f: f64) -> Option<f64> {
+    let (mut num, mut den) = (0.0, 0.0);
+    for x in log.tests.iter().flat_map(|t| &t.samples) {
+        if let Some(i) = x.left.current_a {
+            num += (x.left.voltage_v - kv * x.left.velocity * f) * i;
+            den += i * i;
+        }
+    }
+    (den > 0.0).then(|| num / den).filter(|r| *r > 0.0)
+}
+
+/// The nominal rig of the linear machine SysId's kV and kA describe, as TOML text with a
+/// header that says which values came from the log and which were assumed.
+pub fn nominal_rig(log: &SysIdLog, ff: &Feedforward, a: &Assumptions) -> Result<String, String> {
+    let (f, _) = speed_factor(log, a)?;
+    let kv = ff.kv_v_s_per_unit.value;
+    let ka = ff.ka_v_s2_per_unit.value;
+    if !(kv > 0.0 && ka > 0.0) {
+        return Err(format!("SysId's gains kV = {kv}, kA = {ka} are not both positive: no linear machine has them; the rig is not written"));
+    }
+    let mut notes = vec![format!("kV = {kv:.6}, kA = {ka:.6} from SysId's regression on every test (kS = {:.4} V left out: the rig is the linear machine; diagnosis looks for the friction)", ff.ks_v.value)];
+    let (r_ohm, r_note) = match (a.resistance_ohm, resistance_from_current(log, kv, f)) {
+        (Some(r), _) => (r, "given".to_string()),
+        (None, Some(r)) => (r, "from the logged current".to_string()),
+        (None, None) => (
+            DEFAULT_RESISTANCE_OHM,
+            "ASSUMED: the log has no current, so only J R / K^2 is known; give --resistance-ohm"
+                .to_string(),
+        ),
+    };
+    notes.push(format!("resistance {r_ohm:.5} ohm {r_note}; inductance = resistance x {ELECTRICAL_TIME_S} s (assumed)"));
+    let supply = a.supply_v.unwrap_or(12.0);
+    let mut rig = Rig {
+        motor: Some(MotorRig {
+            resistance_ohm: Some(r_ohm),
+            inductance_H: Some(r_ohm * ELECTRICAL_TIME_S),
+            viscous_Nm_s_rad: Some(0.0),
+            ..MotorRig::default()
+        }),
+        gearbox: Some(GearboxRig { ratio: Some(1.0) }),
+        supply: Some(SupplyRig {
+            voltage_V: Some(supply),
+        }),
+        ..Rig::default()
+    };
+    let motor = rig.motor.as_mut().expect("set above");
+    if log.mechanism.is_drivetrain() {
+        let r = a.wheel_radius_m.unwrap_or(DEFAULT_WHEEL_RADIUS_M);
+        let k = kv * r;
+        let j = DRIVE_ROTOR_INERTIA_KG_M2 + DRIVE_WHEEL_INERTIA_KG_M2;
+        let side_inertia = ka * k / r_ohm - j / r; // kg m: what the side accelerates, times r
+        let w = a
+            .track_width_m
+            .or_else(|| track_width(log))
+            .unwrap_or(DEFAULT_TRACK_WIDTH_M);
+        let (mass, yaw) = if log.mechanism == Mechanism::DrivetrainAngular {
+            let yaw = side_inertia * w * w / (2.0 * r);
+            (6.0 * yaw / (w * w), yaw)
+        } else {
+            let mass = 2.0 * side_inertia / r;
+            (mass, mass * w * w / 6.0)
+        };
+        if !(mass > 0.0) {
+            return Err(format!("kA = {ka} with resistance {r_ohm} ohm leaves no chassis inertia (the rotor and wheel's assumed {j} kg m^2 already exceed it)"));
+        }
+        motor.torque_constant_Nm_A = Some(k);
+        motor.rotor_inertia_kg_m2 = Some(DRIVE_ROTOR_INERTIA_KG_M2);
+        rig.rig = "vehicle".into();
+        rig.wheel = Some(WheelRig {
+            radius_m: Some(r),
+            inertia_kg_m2: Some(DRIVE_WHEEL_INERTIA_KG_M2),
+        });
+        rig.chassis = Some(ChassisRig {
+            mass_kg: Some(mass),
+            yaw_inertia_kg_m2: Some(yaw),
+            track_width_m: Some(w),
+            drive_load_fraction: Some(1.0),
+        });
+        notes.push(format!("gearbox ratio 1 and wheel radius {r} m ({}): the torque constant is kV x radius, referred to the wheel; rotor and wheel inertia {DRIVE_ROTOR_INERTIA_KG_M2} kg m^2 each (assumed)", if a.wheel_radius_m.is_some() { "given" } else { "ASSUMED, give --wheel-radius-m" }));
+        notes.push(format!("track width {w} m ({}); {}", if a.track_width_m.is_some() { "given" } else if track_width(log).is_some() { "from the gyro" } else { "ASSUMED, give --track-width-m" }, if log.mechanism == Mechanism::DrivetrainAngular { "yaw inertia from kA, mass from it as a uniform square of side track width (assumed)" } else { "mass from kA, yaw inertia as a uniform square of side track width (assumed)" }));
+    } else {
+        motor.torque_constant_Nm_A = Some(kv);
+        motor.rotor_inertia_kg_m2 = Some(ka * kv / r_ohm);
+        rig.rig = "drive_axis".into();
+        rig.wheel = Some(WheelRig {
+            radius_m: Some(a.wheel_radius_m.unwrap_or(DEFAULT_WHEEL_RADIUS_M)),
+            inertia_kg_m2: Some(0.0),
+        });
+        notes.push("gearbox ratio 1: the measured shaft is the motor shaft; its whole inertia is the rotor's (kA x kV / resistance)".into());
+    }
+    let body = toml::to_string(&rig).map_err(|e| e.to_string())?;
+    let mut s = format!(
+        "# Nominal rig of {} from a linear fit (agvsim import wpilib)\n",
+        log.source
+    );
+    for n in notes {
+        let _ = writeln!(s, "# {n}");
+    }
+    Ok(s + &body)
+}
+
+/// Track width from the gyro, as SysId computes it: wheel travel over turned angle.
+fn track_width(log: &SysIdLog) -> Option<f64> {
+    if log.mechanism != Mechanism::DrivetrainAngular || !log.unit.linear {
+        return None;
+    }
+    let (mut travel, mut angle) = (0.0, 0.0);
+    for t in &log.tests {
+        let (a, b) = (t.samples.first()?, t.samples.last()?);
+        let (ar, br) = (a.right?, b.right?);
+        travel += (b.left.position - a.left.position).abs() + (br.position - ar.position).abs();
+        angle += (b.gyro_angle_rad? - a.gyro_angle_rad?).abs();
+    }
+    (angle > 0.0).then(|| travel * log.unit.to_si / angle)
+}

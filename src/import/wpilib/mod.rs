@@ -1,0 +1,273 @@
+//! WPILib SysId logs to contract recordings: the JSON data files of SysId (2022-2023) and
+//! the DataLog (`.wpilog`) files that `SysIdRoutineLog` writes (2024 on). Both become a
+//! [`SysIdLog`]: the mechanism, the position unit and the tests (quasistatic and dynamic,
+//! forward and backward), each a list of samples in the log's own units. [`convert`]
+//! turns each test into a recording (rig `vehicle` for drivetrains, `drive_axis` for a
+//! single mechanism) with every unit conversion stated in its header, and [`nominal_rig`]
+//! writes the rig a linear fit (SysId's kV and kA) gives.
+
+pub mod datalog;
+pub mod json;
+pub mod wpilog;
+
+mod convert;
+pub use convert::{convert, feedforward, gravity, nominal_rig, series, Assumptions, Converted};
+
+use std::f64::consts::TAU;
+
+/// The mechanism SysId characterised.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mechanism {
+    /// Left and right sides driven the same way (straight line).
+    Drivetrain,
+    /// Sides driven in opposition (turning in place).
+    DrivetrainAngular,
+    /// One motor, no gravity (flywheel, roller).
+    Simple,
+    /// One motor lifting a constant weight.
+    Elevator,
+    /// One motor swinging a weight about a pivot.
+    Arm,
+}
+
+impl Mechanism {
+    /// The name SysId's JSON uses in `"test"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Mechanism::Drivetrain => "Drivetrain",
+            Mechanism::DrivetrainAngular => "Drivetrain (Angular)",
+            Mechanism::Simple => "Simple",
+            Mechanism::Elevator => "Elevator",
+            Mechanism::Arm => "Arm",
+        }
+    }
+
+    pub fn from_name(s: &str) -> Option<Mechanism> {
+        [
+            Mechanism::Drivetrain,
+            Mechanism::DrivetrainAngular,
+            Mechanism::Simple,
+            Mechanism::Elevator,
+            Mechanism::Arm,
+        ]
+        .into_iter()
+        .find(|m| m.name().eq_ignore_ascii_case(s))
+    }
+
+    pub fn is_drivetrain(self) -> bool {
+        matches!(self, Mechanism::Drivetrain | Mechanism::DrivetrainAngular)
+    }
+}
+
+/// A unit of position as SysId names it, and its SI factor.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Unit {
+    /// The name as the log gives it (`Meters`, `Rotations`, ...).
+    pub name: &'static str,
+    /// Factor to metres (linear) or radians (angular).
+    pub to_si: f64,
+    pub linear: bool,
+}
+
+/// The position units SysId offers.
+pub const UNITS: [Unit; 6] = [
+    Unit {
+        name: "Meters",
+        to_si: 1.0,
+        linear: true,
+    },
+    Unit {
+        name: "Feet",
+        to_si: 0.3048,
+        linear: true,
+    },
+    Unit {
+        name: "Inches",
+        to_si: 0.0254,
+        linear: true,
+    },
+    Unit {
+        name: "Rotations",
+        to_si: TAU,
+        linear: false,
+    },
+    Unit {
+        name: "Radians",
+        to_si: 1.0,
+        linear: false,
+    },
+    Unit {
+        name: "Degrees",
+        to_si: TAU / 360.0,
+        linear: false,
+    },
+];
+
+/// The unit named `s` (SysId's names, singular or plural, any case).
+pub fn unit(s: &str) -> Option<Unit> {
+    let t = s.trim().to_ascii_lowercase();
+    UNITS.iter().copied().find(|u| {
+        let n = u.name.to_ascii_lowercase();
+        t == n
+            || t == n.trim_end_matches('s')
+            || (n == "feet" && t == "foot")
+            || (n == "inches" && t == "inch")
+    })
+}
+
+/// One side's (or the one motor's) measurements at a sample, in the log's units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Side {
+    pub voltage_v: f64,
+    pub position: f64,
+    /// Position unit per second.
+    pub velocity: f64,
+    pub current_a: Option<f64>,
+}
+
+/// One sample of a test.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sample {
+    pub t_s: f64,
+    /// The left side, or the mechanism's one motor.
+    pub left: Side,
+    pub right: Option<Side>,
+    /// Gyro heading, rad, and its rate, rad/s (drivetrains, when logged).
+    pub gyro_angle_rad: Option<f64>,
+    pub gyro_rate_rad_s: Option<f64>,
+}
+
+/// One test of the routine.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Test {
+    /// `quasistatic-forward`, `dynamic-reverse`, ... (SysId's JSON says `slow-forward`,
+    /// `fast-backward`; both are kept as the log names them).
+    pub name: String,
+    pub samples: Vec<Sample>,
+}
+
+/// A whole SysId log.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SysIdLog {
+    pub mechanism: Mechanism,
+    pub unit: Unit,
+    /// What each test says about where the data came from (file kind, entries).
+    pub source: String,
+    pub tests: Vec<Test>,
+}
+
+/// Why a log cannot be imported: the file and the field, test, row or record at fault.
+#[derive(Debug, thiserror::Error)]
+#[error("{file}: {message}")]
+pub struct SysIdError {
+    pub file: std::path::PathBuf,
+    pub message: String,
+}
+
+/// Checks a test's samples as the contract needs them: times strictly increasing, every
+/// value finite. Reported with the test and the row (from 0), never fixed.
+pub fn check_test(test: &Test) -> Result<(), String> {
+    let mut last: Option<f64> = None;
+    for (i, s) in test.samples.iter().enumerate() {
+        let mut values = vec![
+            ("timestamp", s.t_s),
+            ("voltage", s.left.voltage_v),
+            ("position", s.left.position),
+            ("velocity", s.left.velocity),
+        ];
+        if let Some(r) = s.right {
+            values.extend([
+                ("right voltage", r.voltage_v),
+                ("right position", r.position),
+                ("right velocity", r.velocity),
+            ]);
+        }
+        values.extend(s.gyro_angle_rad.map(|v| ("gyro angle", v)));
+        values.extend(s.gyro_rate_rad_s.map(|v| ("gyro rate", v)));
+        if let Some((what, v)) = values.iter().find(|(_, v)| !v.is_finite()) {
+            return Err(format!(
+                "test `{}`, row {i}: {what} is {v}, not a finite number",
+                test.name
+            ));
+        }
+        if let Some(prev) = last.filter(|p| s.t_s <= *p) {
+            let how = if s.t_s == prev {
+                "repeats"
+            } else {
+                "goes back from"
+            };
+            return Err(format!(
+                "test `{}`, row {i}: timestamp {} s {how} the previous row's {prev} s (reported, not fixed)",
+                test.name, s.t_s
+            ));
+        }
+        last = Some(s.t_s);
+    }
+    if test.samples.len() < 2 {
+        return Err(format!(
+            "test `{}` has {} row(s); at least two are needed",
+            test.name,
+            test.samples.len()
+        ));
+    }
+    Ok(())
+}
+
+/// Reads a SysId log, JSON or DataLog (told apart by the DataLog's `WPILOG` mark).
+pub fn load(path: &std::path::Path, choice: &wpilog::Choice) -> Result<SysIdLog, SysIdError> {
+    let fail = |message: String| SysIdError {
+        file: path.to_owned(),
+        message,
+    };
+    let bytes = std::fs::read(path).map_err(|e| fail(format!("cannot read: {e}")))?;
+    if bytes.starts_with(b"WPILOG") {
+        let log = datalog::parse(&bytes).map_err(|e| fail(e.to_string()))?;
+        wpilog::extract(&log, choice).map_err(fail)
+    } else {
+        if !choice.motors.is_empty() || choice.routine.is_some() || choice.mechanism.is_some() {
+            return Err(fail("--routine, --motors and --mechanism choose inside a DataLog (.wpilog); a JSON file says its own".into()));
+        }
+        let text = String::from_utf8(bytes)
+            .map_err(|_| fail("neither a DataLog (no `WPILOG` mark) nor UTF-8 JSON text".into()))?;
+        json::parse(&text).map_err(fail)
+    }
+}
+
+/// An imported log: one recording per test, the nominal rig and SysId's gains.
+#[derive(Debug, Clone)]
+pub struct Imported {
+    pub log: SysIdLog,
+    pub recordings: Vec<Converted>,
+    pub rig: String,
+    pub feedforward: crate::ident::feedforward::Feedforward,
+    /// The speed unit the gains are per (`m/s` or `rad/s`).
+    pub speed_unit: &'static str,
+}
+
+/// Reads, checks and converts a SysId log.
+pub fn import(
+    path: &std::path::Path,
+    choice: &wpilog::Choice,
+    assumptions: &Assumptions,
+) -> Result<Imported, SysIdError> {
+    let log = load(path, choice)?;
+    let fail = |message: String| SysIdError {
+        file: path.to_owned(),
+        message,
+    };
+    let recordings = convert(&log, &path.display().to_string(), assumptions).map_err(fail)?;
+    let feedforward = feedforward(&log, assumptions).map_err(fail)?;
+    let rig = nominal_rig(&log, &feedforward, assumptions).map_err(fail)?;
+    let speed_unit = if log.mechanism.is_drivetrain() {
+        "m/s"
+    } else {
+        "rad/s"
+    };
+    Ok(Imported {
+        log,
+        recordings,
+        rig,
+        feedforward,
+        speed_unit,
+    })
+}

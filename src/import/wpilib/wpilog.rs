@@ -1,0 +1,342 @@
+//! The SysId routine in a WPILib DataLog, as `SysIdRoutineLog` writes it: a string entry
+//! `sysid-test-state-LOG` holding `quasistatic-forward`, `quasistatic-reverse`,
+//! `dynamic-forward`, `dynamic-reverse` or `none`, and per motor `M` the double entries
+//! `voltage-M-LOG`, `position-M-LOG`, `velocity-M-LOG` (optionally `current-M-LOG`),
+//! each with its unit as metadata (`Volts`, `Meters`, `MetersPerSecond`, `Rotations`,
+//! `RotationsPerSecond`, `Amps`).
+//!
+//! A test is a stretch of the log in which the state holds one value other than `none`.
+//! Its rows are the voltage samples of the (left) motor; every other channel is taken at
+//! its sample nearest in time, within half a sample period, so that values logged a few
+//! microseconds apart in one robot loop land in one row.
+
+use super::datalog::{DataLog, Entry, Value};
+use super::{unit, Mechanism, Sample, Side, SysIdLog, Test, Unit};
+
+const STATE_PREFIX: &str = "sysid-test-state-";
+
+/// What the user says when the log alone does not decide.
+#[derive(Debug, Clone, Default)]
+pub struct Choice {
+    /// Which routine (the `LOG` of `sysid-test-state-LOG`), when the log holds several.
+    pub routine: Option<String>,
+    /// The motor of a single mechanism, or the left and right motors of a drivetrain.
+    pub motors: Vec<String>,
+    /// The mechanism [default: a drivetrain for a left and a right motor, else simple].
+    pub mechanism: Option<Mechanism>,
+}
+
+/// One motor's entries.
+struct Motor<'a> {
+    name: String,
+    voltage: &'a Entry,
+    position: &'a Entry,
+    velocity: &'a Entry,
+    current: Option<&'a Entry>,
+}
+
+fn find<'a>(log: &'a DataLog, name: &str) -> Option<&'a Entry> {
+    log.entries.iter().find(|e| e.name == name)
+}
+
+/// The routine's name.
+fn routine(log: &DataLog, choice: &Choice) -> Result<String, String> {
+    let names: Vec<&str> = log
+        .entries
+        .iter()
+        .filter_map(|e| e.name.strip_prefix(STATE_PREFIX))
+        .collect();
+    match (&choice.routine, names.as_slice()) {
+        (Some(r), _) if names.contains(&r.as_str()) => Ok(r.clone()),
+        (Some(r), _) => Err(format!(
+            "no entry `{STATE_PREFIX}{r}`; the log's routines: {}",
+            if names.is_empty() { "none".to_string() } else { names.join(", ") }
+        )),
+        (None, [one]) => Ok(one.to_string()),
+        (None, []) => Err(format!(
+            "no `{STATE_PREFIX}...` entry: not a log of a WPILib SysIdRoutine ({} entries, e.g. {})",
+            log.entries.len(),
+            log.entries.iter().take(5).map(|e| format!("`{}`", e.name)).collect::<Vec<_>>().join(", ")
+        )),
+        (None, many) => Err(format!(
+            "the log holds several routines ({}); choose one with --routine",
+            many.join(", ")
+        )),
+    }
+}
+
+/// The motors of the routine, as chosen or as the names say (left and right).
+fn motors<'a>(log: &'a DataLog, routine: &str, choice: &Choice) -> Result<Vec<Motor<'a>>, String> {
+    let suffix = format!("-{routine}");
+    let all: Vec<String> = log
+        .entries
+        .iter()
+        .filter_map(|e| e.name.strip_prefix("voltage-")?.strip_suffix(&suffix))
+        .map(String::from)
+        .collect();
+    let picked: Vec<String> = if !choice.motors.is_empty() {
+        for m in &choice.motors {
+            if !all.contains(m) {
+                return Err(format!(
+                    "no motor `{m}` in routine `{routine}`; its motors: {}",
+                    all.join(", ")
+                ));
+            }
+        }
+        choice.motors.clone()
+    } else if all.len() == 1 {
+        all.clone()
+    } else {
+        let side = |s: &str| {
+            all.iter()
+                .find(|m| m.to_ascii_lowercase().contains(s))
+                .cloned()
+        };
+        match (all.len(), side("left"), side("right")) {
+            (2, Some(l), Some(r)) => vec![l, r],
+            _ => {
+                return Err(format!(
+                    "routine `{routine}` logs motors {}; name the one motor, or the left and right motors, with --motors",
+                    if all.is_empty() { "(none)".to_string() } else { all.join(", ") }
+                ))
+            }
+        }
+    };
+    if picked.len() > 2 {
+        return Err("--motors takes one motor, or a left and a right motor".into());
+    }
+    picked
+        .into_iter()
+        .map(|name| {
+            let entry = |what: &str| {
+                find(log, &format!("{what}-{name}{suffix}"))
+                    .ok_or_else(|| format!("motor `{name}` has no `{what}-{name}{suffix}` entry"))
+            };
+            Ok(Motor {
+                voltage: entry("voltage")?,
+                position: entry("position")?,
+                velocity: entry("velocity")?,
+                current: entry("current").ok(),
+                name,
+            })
+        })
+        .collect()
+}
+
+/// The position unit the motor's entries declare (velocity must be the same per second).
+fn declared_unit(m: &Motor) -> Result<Unit, String> {
+    let meta = |e: &Entry| e.metadata.trim().trim_matches('"').to_string();
+    let volts = meta(m.voltage);
+    if !matches!(volts.to_ascii_lowercase().as_str(), "volts" | "volt" | "v") {
+        return Err(format!(
+            "entry `{}` declares its unit as `{volts}`; expected Volts",
+            m.voltage.name
+        ));
+    }
+    let p = meta(m.position);
+    let u = unit(&p).ok_or_else(|| {
+        if p.is_empty() {
+            format!("entry `{}` declares no unit (empty metadata); the log must say what its positions are in", m.position.name)
+        } else {
+            format!("entry `{}`: unit `{p}` is not one SysId uses (Meters, Feet, Inches, Rotations, Radians, Degrees)", m.position.name)
+        }
+    })?;
+    let v = meta(m.velocity);
+    let per = v
+        .strip_suffix("PerSecond")
+        .or_else(|| v.strip_suffix(" per second"))
+        .and_then(unit);
+    if per != Some(u) {
+        return Err(format!(
+            "entry `{}` declares `{v}`; expected {}PerSecond to match `{}`",
+            m.velocity.name, u.name, m.position.name
+        ));
+    }
+    Ok(u)
+}
+
+/// The numbers of an entry, (time s, value), NaNs refused.
+fn numbers(e: &Entry) -> Result<Vec<(f64, f64)>, String> {
+    e.values
+        .iter()
+        .map(|(t, v)| match v {
+            Value::Number(x) if x.is_finite() => Ok((*t as f64 * 1e-6, *x)),
+            Value::Number(x) => Err(format!(
+                "entry `{}` at t = {} s: value {x} is not finite",
+                e.name,
+                *t as f64 * 1e-6
+            )),
+            _ => Err(format!(
+                "entry `{}` has type `{}`; expected double",
+                e.name, e.kind
+            )),
+        })
+        .collect()
+}
+
+/// The value of `series` nearest `t`, if within `tol`.
+fn nearest(series: &[(f64, f64)], t: f64, tol: f64) -> Option<f64> {
+    let i = series.partition_point(|(ts, _)| *ts < t);
+    [i.checked_sub(1), Some(i)]
+        .into_iter()
+        .flatten()
+        .filter_map(|j| series.get(j))
+        .filter(|(ts, _)| (ts - t).abs() <= tol)
+        .min_by(|a, b| (a.0 - t).abs().total_cmp(&(b.0 - t).abs()))
+        .map(|p| p.1)
+}
+
+/// The test stretches: (state, start s, end s).
+fn stretches(state: &Entry) -> Result<Vec<(String, f64, f64)>, String> {
+    let mut marks: Vec<(i64, String)> = state
+        .values
+        .iter()
+        .map(|(t, v)| match v {
+            Value::Text(s) => Ok((*t, s.clone())),
+            _ => Err(format!(
+                "entry `{}` has type `{}`; expected string",
+                state.name, state.kind
+            )),
+        })
+        .collect::<Result<_, _>>()?;
+    marks.sort_by_key(|m| m.0);
+    let mut out: Vec<(String, f64, f64)> = Vec::new();
+    let mut open: Option<(String, f64)> = None;
+    for (t, s) in marks {
+        let t = t as f64 * 1e-6;
+        if open.as_ref().is_some_and(|(o, _)| *o == s) {
+            continue;
+        }
+        if let Some((o, start)) = open.take() {
+            out.push((o, start, t));
+        }
+        if s != "none" {
+            open = Some((s, t));
+        }
+    }
+    if let Some((o, start)) = open {
+        out.push((o, start, f64::INFINITY));
+    }
+    Ok(out)
+}
+
+/// Extracts the routine's tests from a parsed log.
+pub fn extract(log: &DataLog, choice: &Choice) -> Result<SysIdLog, String> {
+    let routine = routine(log, choice)?;
+    let state = find(log, &format!("{STATE_PREFIX}{routine}")).expect("found by routine()");
+    let motors = motors(log, &routine, choice)?;
+    let unit = declared_unit(&motors[0])?;
+    if let Some(r) = motors.get(1) {
+        let u = declared_unit(r)?;
+        if u != unit {
+            return Err(format!(
+                "motor `{}` logs {} and motor `{}` {}: one unit is needed",
+                motors[0].name, unit.name, r.name, u.name
+            ));
+        }
+    }
+    let chan = |m: &Motor| -> Result<[Vec<(f64, f64)>; 4], String> {
+        Ok([
+            numbers(m.voltage)?,
+            numbers(m.position)?,
+            numbers(m.velocity)?,
+            m.current.map(numbers).transpose()?.unwrap_or_default(),
+        ])
+    };
+    let channels: Vec<[Vec<(f64, f64)>; 4]> = motors.iter().map(chan).collect::<Result<_, _>>()?;
+    let mut tests: Vec<Test> = Vec::new();
+    for (name, start, end) in stretches(state)? {
+        let clock: Vec<f64> = channels[0][0]
+            .iter()
+            .map(|p| p.0)
+            .filter(|t| *t >= start && *t < end)
+            .collect();
+        let mut periods: Vec<f64> = clock.windows(2).map(|w| w[1] - w[0]).collect();
+        periods.sort_by(f64::total_cmp);
+        let tol = 0.5 * periods.get(periods.len() / 2).copied().unwrap_or(0.0);
+        let side = |c: &[Vec<(f64, f64)>; 4], m: &Motor, t: f64| -> Result<Side, String> {
+            let get = |k: usize, e: &Entry| {
+                nearest(&c[k], t, tol).ok_or_else(|| {
+                    format!(
+                        "test `{name}` at t = {t:.6} s: entry `{}` has no sample within {:.1} ms",
+                        e.name,
+                        tol * 1e3
+                    )
+                })
+            };
+            Ok(Side {
+                voltage_v: get(0, m.voltage)?,
+                position: get(1, m.position)?,
+                velocity: get(2, m.velocity)?,
+                current_a: nearest(&c[3], t, tol),
+            })
+        };
+        let mut samples = Vec::with_capacity(clock.len());
+        for &t in &clock {
+            samples.push(Sample {
+                t_s: t,
+                left: side(&channels[0], &motors[0], t)?,
+                right: match motors.get(1) {
+                    Some(m) => Some(side(&channels[1], m, t)?),
+                    None => None,
+                },
+                gyro_angle_rad: None,
+                gyro_rate_rad_s: None,
+            });
+        }
+        let repeats = tests
+            .iter()
+            .filter(|t| t.name == name || t.name.starts_with(&format!("{name}-")))
+            .count();
+        let name = if repeats == 0 {
+            name
+        } else {
+            format!("{name}-{}", repeats + 1)
+        };
+        tests.push(Test { name, samples });
+    }
+    if tests.is_empty() {
+        return Err(format!(
+            "entry `{}` never leaves `none`: the log holds no test",
+            state.name
+        ));
+    }
+    let mechanism = match (choice.mechanism, motors.len()) {
+        (Some(m), n) if m.is_drivetrain() != (n == 2) => {
+            return Err(format!(
+                "--mechanism {}: needs {} motor(s), the routine gives {n}",
+                m.name(),
+                if m.is_drivetrain() { 2 } else { 1 }
+            ))
+        }
+        (Some(m), _) => m,
+        (None, 1) => Mechanism::Simple,
+        (None, _) => {
+            // Sides driven in opposition turn the robot in place.
+            let opposed = tests
+                .iter()
+                .flat_map(|t| &t.samples)
+                .filter(|s| {
+                    s.right
+                        .is_some_and(|r| r.voltage_v * s.left.voltage_v < 0.0)
+                })
+                .count();
+            let total = tests.iter().map(|t| t.samples.len()).sum::<usize>();
+            if 2 * opposed > total {
+                Mechanism::DrivetrainAngular
+            } else {
+                Mechanism::Drivetrain
+            }
+        }
+    };
+    let names: Vec<&str> = motors.iter().map(|m| m.name.as_str()).collect();
+    Ok(SysIdLog {
+        mechanism,
+        unit,
+        source: format!(
+            "WPILib DataLog, routine `{routine}`, motor(s) {}",
+            names.join(" and ")
+        ),
+        tests,
+    })
+}
