@@ -100,6 +100,16 @@ pub fn render(d: &Diagnosis) -> String {
         let _ = writeln!(s, "  evidence: {}", f.evidence);
         let _ = writeln!(s, "  fit {:.2} % -> {:.2} %", d.baseline_fit_pct, f.fit_pct);
     }
+    if let Some(ff) = &d.feedforward {
+        s.push_str(&crate::ident::feedforward::render_report(ff));
+        if let Some(f) = d.findings.iter().find(|f| f.param == "coulomb_torque_Nm") {
+            let _ = writeln!(
+                s,
+                "  beside it, diagnosis's coulomb_friction: {:.4e} N m at the motor shaft",
+                f.value
+            );
+        }
+    }
     let _ = writeln!(
         s,
         "Relative simulation error |y - yhat| / |y| (baseline -> diagnosed):"

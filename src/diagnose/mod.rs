@@ -113,6 +113,9 @@ pub struct Diagnosis {
     pub relative_error_before_pct: BTreeMap<String, f64>,
     pub relative_error_after_pct: BTreeMap<String, f64>,
     pub validation: Option<(Evaluation, Evaluation)>,
+    /// SysId's kS, kV, kA of the same record, beside what diagnosis finds (voltage-driven
+    /// records; kS as a motor torque with the baseline's torque constant and resistance).
+    pub feedforward: Option<crate::ident::feedforward::Report>,
 }
 
 impl Diagnosis {
@@ -145,6 +148,9 @@ impl Diagnosis {
             "effective_n": self.effective_n,
             "relative_error_pct": {"baseline": self.relative_error_before_pct, "final": self.relative_error_after_pct},
         });
+        if let Some(ff) = &self.feedforward {
+            v["sysid_feedforward"] = serde_json::json!(ff);
+        }
         if let Some((b, d)) = &self.validation {
             v["validation"] = serde_json::json!({
                 "recording": b.recording,
@@ -433,13 +439,20 @@ pub fn diagnose(
     };
     let relative_error_before_pct = relative_errors(&data, &base_fit.predicted);
     let relative_error_after_pct = relative_errors(&data, &stage.fit.predicted);
+    let baseline_params = params_of(&structure, &base_fit.params);
+    let feedforward = crate::ident::feedforward::of_recording(
+        rec,
+        baseline_params.get("motor.torque_constant_Nm_A").copied(),
+        baseline_params.get("motor.resistance_ohm").copied(),
+    );
     Ok(Diagnosis {
+        feedforward,
         relative_error_before_pct,
         relative_error_after_pct,
         recording: data.name.clone(),
         model: model.name(),
         baseline_fit_pct: baseline_eval.fit_pct_mean,
-        baseline_params: params_of(&structure, &base_fit.params),
+        baseline_params,
         baseline_at_bound: at_bound_of(&structure, &base_fit),
         ignored_inputs: crate::ident::ignored_inputs(rec, structure.model()),
         where_before: regimes::shares(&regs, &base_energy, base_total_energy),

@@ -308,6 +308,8 @@ pub struct Identification {
     pub estimation: Evaluation,
     pub validation: Option<Evaluation>,
     pub state_space: Option<StateSpaceReport>,
+    /// SysId's kS, kV, kA of the same record, for comparison (voltage-driven records).
+    pub feedforward: Option<feedforward::Report>,
     #[serde(skip)]
     pub fitted: Vec<f64>,
 }
@@ -451,6 +453,11 @@ pub fn identify(
     };
     let mut id = assemble(&structure, &f, estimation, validation, opts.starts);
     id.ignored_inputs = ignored_inputs(rec, model);
+    id.feedforward = feedforward::of_recording(
+        rec,
+        id.value("motor.torque_constant_Nm_A"),
+        id.value("motor.resistance_ohm"),
+    );
     Ok(id)
 }
 
@@ -581,6 +588,7 @@ fn assemble(
         estimation,
         validation,
         state_space,
+        feedforward: None,
         fitted: f.params.clone(),
     }
 }

@@ -144,6 +144,10 @@ pub fn render(id: &Identification) -> String {
         let _ = writeln!(out);
         out.push_str(&state_space_table(ss));
     }
+    if let Some(ff) = &id.feedforward {
+        let _ = writeln!(out);
+        out.push_str(&super::feedforward::render_report(ff));
+    }
     let _ = writeln!(
         out,
         "\nLoss function V = {:.5e}   Akaike FPE = {:.5e}   AIC = {:.2}   ({} free parameters, {} residuals)",

@@ -208,12 +208,14 @@ fn control(
             };
             log.entries[index].metadata = metadata;
         }
-        other => return Err(FormatError {
-            offset: start,
-            message: format!(
+        other => {
+            return Err(FormatError {
+                offset: start,
+                message: format!(
                 "control record type {other}: expected 0 (Start), 1 (Finish) or 2 (Set Metadata)"
             ),
-        }),
+            })
+        }
     }
     Ok(())
 }
