@@ -153,8 +153,13 @@ impl Vehicle {
     }
 
     /// Effects that can act on the vehicle.
+    /// The effects diagnosis may look for. Castor drag only where castors carry weight:
+    /// a rig whose drive wheels carry all of it (`drive_load_fraction = 1`, a tank or a
+    /// competition drivetrain) has no castor to drag, and on a straight run castor drag is
+    /// the same constant force as Coulomb friction, which it would otherwise stand in for.
     pub fn applicable(&self) -> Vec<Effect> {
-        vec![
+        let castors_carry_load = self.specs[LOAD_FRACTION].nominal < 1.0;
+        [
             Effect::WheelSlip,
             Effect::Backlash,
             Effect::CastorDrag,
@@ -163,6 +168,9 @@ impl Vehicle {
             Effect::BatterySag,
             Effect::TransportDelay,
         ]
+        .into_iter()
+        .filter(|e| *e != Effect::CastorDrag || castors_carry_load)
+        .collect()
     }
 
     /// This model with one more effect, its parameter starting at `start` within
@@ -543,6 +551,19 @@ drive_load_fraction = 0.6
         };
         let y = simulate(model, p, &data).unwrap();
         (data, y)
+    }
+
+    /// Castor drag is a candidate only while castors carry part of the weight.
+    #[test]
+    fn castor_drag_is_looked_for_only_where_castors_carry_weight() {
+        let path = Path::new("r.rig.toml");
+        let with_castors = Vehicle::from_rig(&rig(), path).unwrap();
+        assert!(with_castors.applicable().contains(&Effect::CastorDrag));
+        let mut all_on_drive = rig();
+        all_on_drive.chassis.as_mut().unwrap().drive_load_fraction = Some(1.0);
+        let tank = Vehicle::from_rig(&all_on_drive, path).unwrap();
+        assert!(!tank.applicable().contains(&Effect::CastorDrag));
+        assert!(tank.applicable().contains(&Effect::CoulombFriction));
     }
 
     /// Straight run at constant voltage: with no force needed at constant speed, the motor
