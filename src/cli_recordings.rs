@@ -9,33 +9,13 @@ use agvsim::scene::Scene;
 
 use crate::{bad_input, fail};
 
-/// `agvsim import csv`: convert by the map, check the result reads as a contract
-/// recording, write it whole.
-pub fn import_csv_command(
+/// `agvsim import csv` and `agvsim import mat`: load the map, read the file, convert it
+/// by the map, check the result reads as a contract recording, write it whole.
+pub fn import_mapped_command(
     file: &std::path::Path,
     map_path: &std::path::Path,
     out: Option<PathBuf>,
-) -> ExitCode {
-    use agvsim::import::csv_map;
-    let map = match csv_map::load_map(map_path) {
-        Ok(m) => m,
-        Err(e) => return bad_input(e),
-    };
-    let data = match std::fs::read_to_string(file) {
-        Ok(t) => t,
-        Err(e) => return bad_input(format!("{}: cannot read: {e}", file.display())),
-    };
-    match csv_map::convert(&data, file, &map, map_path) {
-        Ok(text) => write_import(file, &text, out),
-        Err(e) => bad_input(e),
-    }
-}
-
-/// `agvsim import mat`: read, convert by the map, check, write.
-pub fn import_mat_command(
-    file: &std::path::Path,
-    map_path: &std::path::Path,
-    out: Option<PathBuf>,
+    mat: bool,
 ) -> ExitCode {
     use agvsim::import::{csv_map, mat};
     let map = match csv_map::load_map(map_path) {
@@ -46,7 +26,15 @@ pub fn import_mat_command(
         Ok(b) => b,
         Err(e) => return bad_input(format!("{}: cannot read: {e}", file.display())),
     };
-    match mat::convert(&bytes, file, &map, map_path) {
+    let converted = if mat {
+        mat::convert(&bytes, file, &map, map_path)
+    } else {
+        match String::from_utf8(bytes) {
+            Ok(text) => csv_map::convert(&text, file, &map, map_path),
+            Err(_) => return bad_input(format!("{}: not UTF-8 text", file.display())),
+        }
+    };
+    match converted {
         Ok(text) => write_import(file, &text, out),
         Err(e) => bad_input(e),
     }

@@ -285,7 +285,7 @@ fn main() -> ExitCode {
         }),
         Command::Import {
             format: ImportFormat::Csv { file, map, out },
-        } => cli_recordings::import_csv_command(&file, &map, out),
+        } => cli_recordings::import_mapped_command(&file, &map, out, false),
         Command::Import {
             format:
                 ImportFormat::Wpilib {
@@ -316,7 +316,7 @@ fn main() -> ExitCode {
         Command::Sweep(args) => cli_sweep::sweep_command(args),
         Command::Import {
             format: ImportFormat::Mat { file, map, out },
-        } => cli_recordings::import_mat_command(&file, &map, out),
+        } => cli_recordings::import_mapped_command(&file, &map, out, true),
         Command::Linearize { scene, set, export } => {
             let loaded = match Scene::load(&scene, &set) {
                 Ok(s) => s,
