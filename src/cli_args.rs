@@ -283,9 +283,11 @@ pub enum Command {
         /// Rig file (NAME.rig.toml).
         #[arg(long)]
         rig: PathBuf,
-        /// Recording (NAME.csv, exchange format).
-        #[arg(long)]
-        recording: PathBuf,
+        /// Recording (NAME.csv, exchange format). Repeat it to diagnose several tests of
+        /// one machine together (SysId's quasistatic and dynamic tests, forward and
+        /// backward): they share the machine's parameters and each starts from rest.
+        #[arg(long, required = true, value_name = "NAME.csv")]
+        recording: Vec<PathBuf>,
         /// A second recording to check the diagnosed model on.
         #[arg(long)]
         validate: Option<PathBuf>,
@@ -328,9 +330,10 @@ pub enum Command {
         /// Rig file (NAME.rig.toml).
         #[arg(long)]
         rig: PathBuf,
-        /// Recording (NAME.csv, exchange format).
-        #[arg(long)]
-        recording: PathBuf,
+        /// Recording (NAME.csv, exchange format). Repeat it to fit several tests of one
+        /// machine together (they share its parameters; each starts from rest).
+        #[arg(long, required = true, value_name = "NAME.csv")]
+        recording: Vec<PathBuf>,
         /// Model structure: drive-axis, falling-weight, coast-down, gain, p or pi
         /// [default: from the recording's experiment, else the rig kind].
         #[arg(long, value_parser = |s: &str| s.parse::<ModelChoice>())]

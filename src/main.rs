@@ -174,7 +174,7 @@ fn main() -> ExitCode {
             };
             let job = agvsim::diagnose::job::DiagnoseJob {
                 rig,
-                recording,
+                recordings: recording,
                 validate,
                 json,
                 report_dir: report,
@@ -228,7 +228,7 @@ fn main() -> ExitCode {
         } => {
             let job = IdentifyJob {
                 rig,
-                recording,
+                recordings: recording,
                 validate,
                 options: IdentifyOptions {
                     model,

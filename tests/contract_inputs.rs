@@ -63,6 +63,7 @@ fn record(
         inputs: inputs.iter().map(|(_, v)| v.clone()).collect(),
         output_names: outputs.clone(),
         outputs: vec![vec![Some(0.0); n]; outputs.len()],
+        segment_starts: vec![0],
     };
     let mut y = simulate(model, p, &data).unwrap();
     // Sensor noise of 0.2 % of each output's range, seeded.

@@ -575,7 +575,7 @@ fn output_paths_are_checked_before_the_work() {
     let started = std::time::Instant::now();
     let err = identify_job(&IdentifyJob {
         rig: rig.clone(),
-        recording: rec.clone(),
+        recordings: vec![rec.clone()],
         validate: None,
         options: IdentifyOptions::default(),
         json: Some(file.join("x.json")),
@@ -589,7 +589,7 @@ fn output_paths_are_checked_before_the_work() {
     assert!(err.contains("--json") && err.contains("is a file"), "{err}");
     let err = diagnose_job(&DiagnoseJob {
         rig,
-        recording: rec,
+        recordings: vec![rec],
         validate: None,
         json: None,
         report_dir: Some(file.clone()),
@@ -693,6 +693,7 @@ fn known_disturbance_forces_are_used_and_unusable_columns_are_named() {
         inputs: vec![reference.clone(), pulse.clone()],
         output_names: outputs.clone(),
         outputs: vec![vec![Some(0.0); n]; 3],
+        segment_starts: vec![0],
     };
     let y = simulate(&truth, &[96.0, 221.0], &data).unwrap();
     let mut with = String::from("# agvsim-recording: 1\n# rig: drive_axis\nt_s,reference_m,disturbance_force_N,command_V,position_m,speed_m_s\n");

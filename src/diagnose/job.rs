@@ -13,7 +13,9 @@ use crate::rig::Rig;
 #[derive(Debug, Clone, Default)]
 pub struct DiagnoseJob {
     pub rig: PathBuf,
-    pub recording: PathBuf,
+    /// One recording, or several tests of one machine diagnosed together (they share its
+    /// parameters; each starts from rest).
+    pub recordings: Vec<PathBuf>,
     pub validate: Option<PathBuf>,
     pub json: Option<PathBuf>,
     pub report_dir: Option<PathBuf>,
@@ -109,6 +111,12 @@ pub fn render(d: &Diagnosis) -> String {
                 f.value
             );
         }
+        if let Some(ks) = d.coulomb_as_ks_v() {
+            let _ = writeln!(
+                s,
+                "  diagnosis's coulomb_friction as SysId's kS (Tc R / K, diagnosed K and R): {ks:.4} V"
+            );
+        }
     }
     let _ = writeln!(
         s,
@@ -144,7 +152,12 @@ pub fn run(job: &DiagnoseJob) -> Result<(Diagnosis, Vec<PathBuf>), IdentError> {
         }
     }
     let rig = Rig::load(&job.rig)?;
-    let rec = Recording::load(&job.recording)?;
+    let rec = Recording::join(
+        job.recordings
+            .iter()
+            .map(|p| Recording::load(p))
+            .collect::<Result<Vec<_>, _>>()?,
+    )?;
     let val = job.validate.as_deref().map(Recording::load).transpose()?;
     let d = diagnose(&rig, &job.rig, &rec, val.as_ref(), &job.options)?;
     let mut written = Vec::new();

@@ -119,6 +119,19 @@ pub struct Diagnosis {
 }
 
 impl Diagnosis {
+    /// The Coulomb friction diagnosis found, in SysId's terms: the voltage that just
+    /// overcomes it, `kS = Tc R / K`, V (with the diagnosed model's K and R).
+    pub fn coulomb_as_ks_v(&self) -> Option<f64> {
+        let tc = self
+            .findings
+            .iter()
+            .find(|f| f.effect == Effect::CoulombFriction)?
+            .value;
+        let k = self.final_params.get("motor.torque_constant_Nm_A")?;
+        let r = self.final_params.get("motor.resistance_ohm")?;
+        (*k > 0.0).then(|| tc * r / k)
+    }
+
     /// The contract's JSON object.
     pub fn contract_json(&self) -> serde_json::Value {
         let effects: Vec<serde_json::Value> = self
@@ -150,6 +163,9 @@ impl Diagnosis {
         });
         if let Some(ff) = &self.feedforward {
             v["sysid_feedforward"] = serde_json::json!(ff);
+            if let Some(ks) = self.coulomb_as_ks_v() {
+                v["sysid_feedforward"]["diagnosed_ks_v"] = ks.into();
+            }
         }
         if let Some((b, d)) = &self.validation {
             v["validation"] = serde_json::json!({
@@ -258,7 +274,7 @@ pub fn diagnose(
     }
     let data = Dataset::from_recording(rec, &model.input_names(), &model.output_names())?;
     check_decidable(&data, rec)?;
-    let free = model.default_free(&data.output_names);
+    let free = model.default_free_for(&data);
     crate::ident::enough_data(rec, &data, free.len())?;
     let base_fit = fit_structure(model, &data, &free, &opts.ident, &model.nominal())
         .map_err(|e| crate::ident::diverging_start(rec, &data, e))?;
@@ -440,10 +456,14 @@ pub fn diagnose(
     let relative_error_before_pct = relative_errors(&data, &base_fit.predicted);
     let relative_error_after_pct = relative_errors(&data, &stage.fit.predicted);
     let baseline_params = params_of(&structure, &base_fit.params);
+    let final_params = params_of(&stage.structure, &stage.fit.params);
+    // SysId's kS beside the diagnosed model: both as a torque at the motor shaft, with
+    // the diagnosed model's own torque constant and resistance (the baseline's absorbed
+    // the missing friction).
     let feedforward = crate::ident::feedforward::of_recording(
         rec,
-        baseline_params.get("motor.torque_constant_Nm_A").copied(),
-        baseline_params.get("motor.resistance_ohm").copied(),
+        final_params.get("motor.torque_constant_Nm_A").copied(),
+        final_params.get("motor.resistance_ohm").copied(),
     );
     Ok(Diagnosis {
         feedforward,
@@ -459,7 +479,7 @@ pub fn diagnose(
         where_after: regimes::shares(&regs, &final_energy, base_total_energy),
         rounds,
         final_fit_pct: diagnosed_eval.fit_pct_mean,
-        final_params: params_of(&stage.structure, &stage.fit.params),
+        final_params,
         findings,
         effective_n: n_eff,
         baseline: baseline_eval,
@@ -468,7 +488,10 @@ pub fn diagnose(
     })
 }
 
-/// Refuses records that cannot support a decision.
+/// Refuses records that cannot support a decision. An input is excited when it takes at
+/// least two levels and changes: within a test, or, for a test that starts from rest, by
+/// the step from rest to its first value (a dynamic test's step is applied as the record
+/// starts).
 fn check_decidable(data: &Dataset, rec: &Recording) -> Result<(), IdentError> {
     let refuse = |why: String| IdentError::Mismatch {
         file: rec.path.clone(),
@@ -480,21 +503,49 @@ fn check_decidable(data: &Dataset, rec: &Recording) -> Result<(), IdentError> {
             data.len()
         )));
     }
+    let speed = regimes::measured_speed(data);
+    let at_rest: Vec<bool> = data
+        .segments()
+        .into_iter()
+        .map(|r| starts_at_rest(&speed, r))
+        .collect();
     for (i, u) in data.inputs.iter().enumerate() {
-        let (lo, hi) = u
+        let mut levels: Vec<f64> = u.clone();
+        let mut changes = 0;
+        for (segment, rest) in data.segments().into_iter().zip(&at_rest) {
+            let u = &u[segment];
+            changes += u.windows(2).filter(|w| w[0] != w[1]).count();
+            if *rest && u[0] != 0.0 {
+                levels.push(0.0);
+                changes += 1;
+            }
+        }
+        let (lo, hi) = levels
             .iter()
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
                 (a.min(*v), b.max(*v))
             });
-        let changes = u.windows(2).filter(|w| w[0] != w[1]).count();
-        if hi - lo <= 0.0 || changes < 3 {
+        if hi - lo <= 0.0 || changes < MIN_INPUT_CHANGES {
             return Err(refuse(format!(
-                "input `{}` is not excited (range {lo}..{hi}, {changes} changes): the record cannot tell the model's parameters from missing physics",
+                "input `{}` is not excited (range {lo}..{hi}, {changes} changes, counting a step from rest at a test's start): the record cannot tell the model's parameters from missing physics",
                 data.input_names[i]
             )));
         }
     }
     Ok(())
+}
+
+/// Fewest input changes (a step from rest counts as one) a diagnosis decides on: one step
+/// already shows the gain and the lag of the response.
+pub const MIN_INPUT_CHANGES: usize = 1;
+
+/// Whether a test starts at rest: its measured speed (the forward speed of a vehicle,
+/// the shaft's of an axis) on its first row within 2 % of the test's largest (sensor noise
+/// at standstill).
+fn starts_at_rest(speed: &[f64], rows: std::ops::Range<usize>) -> bool {
+    let speed = &speed[rows];
+    let largest = speed.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    largest > 0.0 && speed[0].abs() <= 0.02 * largest
 }
 
 /// The free parameters of a fit that ended on a bound of their search, with the bound.

@@ -158,13 +158,16 @@ pub fn regimes(data: &Dataset, speed: &[f64]) -> Vec<Regime> {
 /// rate of the first position or angle output.
 pub fn measured_speed(data: &Dataset) -> Vec<f64> {
     let pick = |suffix: &str| data.output_names.iter().position(|n| n.ends_with(suffix));
-    // A vehicle: its forward speed is the mean of the two motors'.
-    if let (Some(l), Some(r)) = (
-        data.output_index("left_motor_speed_rad_s"),
-        data.output_index("right_motor_speed_rad_s"),
-    ) {
-        let (l, r) = (filled(&data.outputs[l]), filled(&data.outputs[r]));
-        return l.iter().zip(&r).map(|(a, b)| 0.5 * (a + b)).collect();
+    // A vehicle: its forward speed is the mean of the two motors' (or, without motor
+    // speeds, of the two wheels': never the yaw rate, which is another `_rad_s`).
+    for (left, right) in [
+        ("left_motor_speed_rad_s", "right_motor_speed_rad_s"),
+        ("left_wheel_speed_m_s", "right_wheel_speed_m_s"),
+    ] {
+        if let (Some(l), Some(r)) = (data.output_index(left), data.output_index(right)) {
+            let (l, r) = (filled(&data.outputs[l]), filled(&data.outputs[r]));
+            return l.iter().zip(&r).map(|(a, b)| 0.5 * (a + b)).collect();
+        }
     }
     if let Some(j) = pick("_rad_s").or_else(|| pick("_m_s")) {
         return filled(&data.outputs[j]);

@@ -16,21 +16,49 @@ pub struct Dataset {
     pub output_names: Vec<String>,
     /// `outputs[j][k]`: output j on row k, `None` where not measured.
     pub outputs: Vec<Vec<Option<f64>>>,
+    /// Rows where an independent record starts, each from its own state of rest (`[0]`
+    /// for one record; see [`Recording::join`]).
+    pub segment_starts: Vec<usize>,
 }
 
 impl Dataset {
     /// The first `rows` rows (all of them if there are fewer): a record that starts as
     /// this one does, from the same state of rest, for a search cheaper than the whole.
     pub fn prefix(&self, rows: usize) -> Dataset {
-        let n = rows.min(self.t_s.len());
+        let mut d = self.rows(0..rows.min(self.t_s.len()));
+        d.segment_starts = self
+            .segment_starts
+            .iter()
+            .copied()
+            .filter(|&s| s < d.len())
+            .collect();
+        d
+    }
+
+    /// Rows `range` as a record of their own (one segment).
+    pub fn rows(&self, range: std::ops::Range<usize>) -> Dataset {
         Dataset {
             name: self.name.clone(),
-            t_s: self.t_s[..n].to_vec(),
+            t_s: self.t_s[range.clone()].to_vec(),
             input_names: self.input_names.clone(),
-            inputs: self.inputs.iter().map(|u| u[..n].to_vec()).collect(),
+            inputs: self
+                .inputs
+                .iter()
+                .map(|u| u[range.clone()].to_vec())
+                .collect(),
             output_names: self.output_names.clone(),
-            outputs: self.outputs.iter().map(|y| y[..n].to_vec()).collect(),
+            outputs: self
+                .outputs
+                .iter()
+                .map(|y| y[range.clone()].to_vec())
+                .collect(),
+            segment_starts: vec![0],
         }
+    }
+
+    /// Row ranges of the independent records.
+    pub fn segments(&self) -> Vec<std::ops::Range<usize>> {
+        crate::record::segment_ranges(&self.segment_starts, self.len())
     }
 
     /// Picks the model's inputs (all required, complete) and those of its outputs the
@@ -83,6 +111,7 @@ impl Dataset {
             inputs: input_cols,
             output_names,
             outputs: output_cols,
+            segment_starts: rec.segment_starts.clone(),
         })
     }
 

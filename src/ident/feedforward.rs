@@ -356,13 +356,17 @@ pub fn of_recording(
             .copied()
             .collect()
     };
+    // One series per side and test: SysId pairs samples only within a test.
     let series: Vec<Series> = pairs
         .iter()
-        .map(|(u, v)| Series {
-            t_s: rec.t_s.clone(),
-            voltage_v: values(u),
-            speed: values(v),
-            angle_rad: vec![0.0; rec.t_s.len()],
+        .flat_map(|(u, v)| {
+            let (voltage, speed) = (values(u), values(v));
+            rec.segments().into_iter().map(move |r| Series {
+                t_s: rec.t_s[r.clone()].to_vec(),
+                voltage_v: voltage[r.clone()].to_vec(),
+                speed: speed[r.clone()].to_vec(),
+                angle_rad: vec![0.0; r.len()],
+            })
         })
         .collect();
     let gains = fit(&series, Gravity::None, default_threshold(&series)).ok()?;

@@ -12,7 +12,9 @@ use crate::rig::Rig;
 #[derive(Debug, Clone, Default)]
 pub struct IdentifyJob {
     pub rig: PathBuf,
-    pub recording: PathBuf,
+    /// One recording, or several tests of one machine fitted together (they share its
+    /// parameters; each starts from rest).
+    pub recordings: Vec<PathBuf>,
     pub validate: Option<PathBuf>,
     pub options: IdentifyOptions,
     pub json: Option<PathBuf>,
@@ -44,7 +46,12 @@ pub fn run(job: &IdentifyJob) -> Result<IdentifyOutcome, IdentError> {
         }
     }
     let rig = Rig::load(&job.rig)?;
-    let rec = Recording::load(&job.recording)?;
+    let rec = Recording::join(
+        job.recordings
+            .iter()
+            .map(|p| Recording::load(p))
+            .collect::<Result<Vec<_>, _>>()?,
+    )?;
     let val = job.validate.as_deref().map(Recording::load).transpose()?;
     let mut id = identify(&rig, &job.rig, &rec, val.as_ref(), &job.options)?;
     id.rig = job.rig.display().to_string();

@@ -203,7 +203,11 @@ pub fn build_structure(
                         message: "the whole-vehicle model is driven by `left_voltage_V` and `right_voltage_V`; recordings driven through the motor controller (`demand_fwd_pct`, `demand_turn_pct`) are not supported yet".into(),
                     });
                 }
-                return Ok(Structure::Vehicle(Vehicle::from_rig(rig, rig_path)?));
+                let mut m = Vehicle::from_rig(rig, rig_path)?;
+                m.creeping_tyres = ["x_m", "y_m", "heading_rad"]
+                    .iter()
+                    .any(|c| rec.column(c).is_some());
+                return Ok(Structure::Vehicle(m));
             }
             if rig.rig != "drive_axis" {
                 return Err(wrong_rig("drive_axis"));
@@ -333,10 +337,10 @@ impl Identification {
 fn free_indices(
     model: &dyn GreyBox,
     names: &Option<Vec<String>>,
-    outputs: &[String],
+    data: &Dataset,
 ) -> Result<Vec<usize>, IdentError> {
     match names {
-        None => Ok(model.default_free(outputs)),
+        None => Ok(model.default_free_for(data)),
         Some(names) => names
             .iter()
             .map(|n| {
@@ -434,7 +438,7 @@ pub fn identify(
     let structure = build_structure(rig, rig_path, rec, opts.model)?;
     let model = structure.model();
     let data = Dataset::from_recording(rec, &model.input_names(), &model.output_names())?;
-    let free = free_indices(model, &opts.free, &data.output_names)?;
+    let free = free_indices(model, &opts.free, &data)?;
     enough_data(rec, &data, free.len())?;
     let f = fit_structure(model, &data, &free, opts, &model.nominal())
         .map_err(|e| diverging_start(rec, &data, e))?;

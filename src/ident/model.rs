@@ -92,6 +92,21 @@ pub trait GreyBox: Predictor {
     fn params(&self) -> &[ParamSpec];
     /// Parameters freed by default (indices into `params`), given the outputs measured.
     fn default_free(&self, outputs: &[String]) -> Vec<usize>;
+    /// Parameters a record cannot move, however its outputs are measured (no turn was
+    /// commanded, so the track and yaw inertia act on nothing): left out of the default
+    /// free set, where the search would only drift them.
+    fn unexcited(&self, _data: &Dataset) -> Vec<usize> {
+        Vec::new()
+    }
+    /// The default free set for a record: [`GreyBox::default_free`] without what it
+    /// cannot excite.
+    fn default_free_for(&self, data: &Dataset) -> Vec<usize> {
+        let idle = self.unexcited(data);
+        self.default_free(&data.output_names)
+            .into_iter()
+            .filter(|i| !idle.contains(i))
+            .collect()
+    }
     /// Input columns (all required).
     fn input_names(&self) -> Vec<String>;
     /// Output columns the model can predict (those present in a recording are used).
@@ -150,7 +165,29 @@ pub struct Diverged {
 pub const MAX_SUBSTEPS: usize = 2000;
 
 /// Predicted outputs, `[output][row]`, in the dataset's output order.
+/// A record joined from several tests is simulated test by test, each from its own
+/// initial state (every test starts from rest) and aligned on its own.
 pub fn simulate<M: GreyBox + ?Sized>(
+    model: &M,
+    p: &[f64],
+    data: &Dataset,
+) -> Result<Vec<Vec<f64>>, Diverged> {
+    let segments = data.segments();
+    if segments.len() <= 1 {
+        return simulate_one(model, p, data);
+    }
+    let mut y: Vec<Vec<f64>> = vec![Vec::with_capacity(data.len()); data.output_names.len()];
+    for range in segments {
+        let part = simulate_one(model, p, &data.rows(range))?;
+        for (all, piece) in y.iter_mut().zip(part) {
+            all.extend(piece);
+        }
+    }
+    Ok(y)
+}
+
+/// One record from its initial state.
+fn simulate_one<M: GreyBox + ?Sized>(
     model: &M,
     p: &[f64],
     data: &Dataset,

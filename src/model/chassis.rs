@@ -204,15 +204,10 @@ impl NoSlipParams {
     /// into the effective mass and inertia since the wheels cannot slip.
     pub fn step(&self, s: &mut NoSlipState, wheel_torque_nm: [f64; 2], h: f64) {
         let c = &self.chassis;
-        let r = self.wheel_radius_m;
-        let half = 0.5 * c.track_width_m;
+        let body = self.body();
         let a = c.cg_m[0];
-        let jw = self.wheel_inertia_kg_m2;
-        let m_eff = c.mass_kg + 2.0 * jw / (r * r);
-        let i_axle = c.yaw_inertia_kg_m2 + c.mass_kg * a * a;
-        let i_eff = i_axle + 2.0 * jw * half * half / (r * r);
-        let force = (wheel_torque_nm[0] + wheel_torque_nm[1]) / r;
-        let moment = (wheel_torque_nm[1] - wheel_torque_nm[0]) * half / r;
+        let (m_eff, i_eff) = body.effective_inertias();
+        let [force, moment] = body.wheel_force_and_moment(wheel_torque_nm);
         let (v, w) = (s.speed_m_s, s.yaw_rate_rad_s);
         // Drag implicit, so a large lumped drag cannot destabilise the step.
         let v_new = (v + h * (force + c.mass_kg * a * w * w) / m_eff)
@@ -226,6 +221,92 @@ impl NoSlipParams {
         s.pose.x_m += h * v_new * mid.cos();
         s.pose.y_m += h * v_new * mid.sin();
         s.pose.heading_rad += h * w_new;
+    }
+}
+
+impl NoSlipParams {
+    /// The rolling body these parameters describe.
+    pub fn body(&self) -> NoSlipBody {
+        let c = &self.chassis;
+        NoSlipBody {
+            mass_kg: c.mass_kg,
+            yaw_inertia_kg_m2: c.yaw_inertia_kg_m2,
+            cg_ahead_m: c.cg_m[0],
+            track_width_m: c.track_width_m,
+            wheel_radius_m: self.wheel_radius_m,
+            wheel_inertia_kg_m2: self.wheel_inertia_kg_m2,
+        }
+    }
+}
+
+/// A differential-drive body whose wheels roll without slipping: the chassis and
+/// everything that turns with each drive wheel, seen from the wheels' axles.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NoSlipBody {
+    pub mass_kg: f64,
+    /// Yaw inertia about the centre of gravity, kg m^2.
+    pub yaw_inertia_kg_m2: f64,
+    /// Centre of gravity ahead of the drive-axle midpoint, m.
+    pub cg_ahead_m: f64,
+    pub track_width_m: f64,
+    pub wheel_radius_m: f64,
+    /// Inertia turning with one drive wheel, referred to its axle, kg m^2 (the wheel, and
+    /// through a rigid gear train the rotor times the ratio squared).
+    pub wheel_inertia_kg_m2: f64,
+}
+
+impl NoSlipBody {
+    /// Mass and yaw inertia about the axle midpoint with the wheels' inertia folded in
+    /// (they cannot slip, so they turn with the body): kg and kg m^2.
+    pub fn effective_inertias(&self) -> (f64, f64) {
+        let (r, half, a) = (
+            self.wheel_radius_m,
+            0.5 * self.track_width_m,
+            self.cg_ahead_m,
+        );
+        let jw = self.wheel_inertia_kg_m2;
+        let m_eff = self.mass_kg + 2.0 * jw / (r * r);
+        let i_axle = self.yaw_inertia_kg_m2 + self.mass_kg * a * a;
+        (m_eff, i_axle + 2.0 * jw * half * half / (r * r))
+    }
+
+    /// Forward force (N) and yaw moment (N m) of the wheel torques at the axles (left,
+    /// right) on the body.
+    pub fn wheel_force_and_moment(&self, wheel_torque_nm: [f64; 2]) -> [f64; 2] {
+        let r = self.wheel_radius_m;
+        [
+            (wheel_torque_nm[0] + wheel_torque_nm[1]) / r,
+            (wheel_torque_nm[1] - wheel_torque_nm[0]) * 0.5 * self.track_width_m / r,
+        ]
+    }
+
+    /// Forward acceleration of the axle midpoint (m/s^2) and yaw acceleration (rad/s^2) at
+    /// forward speed `speed_m_s` and yaw rate `yaw_rate_rad_s`, under the wheel torques
+    /// (left, right, N m at the axles) and an external forward force and yaw moment (drag:
+    /// N, N m): `m_eff dv/dt = F + m a w^2`, `I_eff dw/dt = M - m a v w`.
+    pub fn accelerations(
+        &self,
+        speed_m_s: f64,
+        yaw_rate_rad_s: f64,
+        wheel_torque_nm: [f64; 2],
+        external: [f64; 2],
+    ) -> [f64; 2] {
+        let (m_eff, i_eff) = self.effective_inertias();
+        let [force, moment] = self.wheel_force_and_moment(wheel_torque_nm);
+        let (v, w, ma) = (speed_m_s, yaw_rate_rad_s, self.mass_kg * self.cg_ahead_m);
+        [
+            (force + external[0] + ma * w * w) / m_eff,
+            (moment + external[1] - ma * v * w) / i_eff,
+        ]
+    }
+
+    /// Rim speeds of the left and right wheels at this motion, m/s (the no-slip constraint).
+    pub fn rim_speeds_m_s(&self, speed_m_s: f64, yaw_rate_rad_s: f64) -> [f64; 2] {
+        let half = 0.5 * self.track_width_m;
+        [
+            speed_m_s - half * yaw_rate_rad_s,
+            speed_m_s + half * yaw_rate_rad_s,
+        ]
     }
 }
 

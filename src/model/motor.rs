@@ -90,6 +90,19 @@ impl MotorParams {
     }
 }
 
+/// Rate of change of the armature current, A/s: `L di/dt = V - R i - K w` (terminal
+/// voltage V, back-EMF constant K in V s/rad, shaft speed w in rad/s).
+pub fn armature_current_rate(
+    resistance_ohm: f64,
+    inductance_h: f64,
+    torque_constant_nm_a: f64,
+    voltage_v: f64,
+    current_a: f64,
+    speed_rad_s: f64,
+) -> f64 {
+    (voltage_v - resistance_ohm * current_a - torque_constant_nm_a * speed_rad_s) / inductance_h
+}
+
 /// Speed after a step of `J dw/dt = T - b w - Tc sign(w)`: viscous implicit, Coulomb as a
 /// set-valued law (the rotor sticks when the friction impulse could stop it), so that
 /// friction never reverses the motion and standstill is exact.

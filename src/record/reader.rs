@@ -20,6 +20,9 @@ pub struct Recording {
     pub names: Vec<String>,
     /// Columns after `t_s`; `None` where the cell was empty.
     pub columns: Vec<Vec<Option<f64>>>,
+    /// Rows where an independent record starts (`[0]` for one file; a record joined from
+    /// several tests of one machine has one per test, each starting from rest).
+    pub segment_starts: Vec<usize>,
 }
 
 /// A breach of the contract, located.
@@ -202,6 +205,7 @@ impl Recording {
             t_s,
             names,
             columns,
+            segment_starts: vec![0],
         })
     }
 

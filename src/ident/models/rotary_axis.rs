@@ -539,7 +539,7 @@ impl GreyBox for RotaryAxis {
                 Self::commanded_torque(&c, command)
             }
             AxisInput::Voltage | AxisInput::Demand => {
-                dx[0] = (v - p[R] * x[0] - p[K] * x[1]) / p[L];
+                dx[0] = crate::model::motor::armature_current_rate(p[R], p[L], p[K], v, x[0], x[1]);
                 p[K] * x[0]
             }
         };

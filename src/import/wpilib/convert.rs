@@ -26,11 +26,12 @@ const DEFAULT_RESISTANCE_OHM: f64 = 0.05;
 const DEFAULT_TRACK_WIDTH_M: f64 = 0.6;
 /// Electrical time constant assumed for the inductance, s.
 const ELECTRICAL_TIME_S: f64 = 0.001;
-/// Rotor (through the gearbox) and wheel inertia assumed per side of a drivetrain,
-/// referred to the wheel, kg m^2: two small motors through an 8:1 gearbox and a 6-inch
-/// wheel. The chassis dominates kA; this only keeps the tyre's slip mode physical.
-const DRIVE_ROTOR_INERTIA_KG_M2: f64 = 5e-3;
-const DRIVE_WHEEL_INERTIA_KG_M2: f64 = 5e-3;
+/// Share of a drivetrain side's inertia (what kA accelerates, referred to the wheel) that
+/// turns with the wheel: rotors through the gearbox and the wheel, half each (assumed;
+/// two small motors through an 8:1 gearbox on a 6-inch wheel turn about a tenth of it).
+/// The chassis carries the rest. The split is invisible to kA, but it sets how fast a
+/// slipping wheel spins up against its tyre, a mode the wheel-slip model must resolve.
+const DRIVE_ROTATING_SHARE: f64 = 0.1;
 
 /// One converted test: its file stem suffix and its recording's text.
 #[derive(Debug, Clone)]
@@ -299,8 +300,10 @@ pub fn nominal_rig(log: &SysIdLog, ff: &Feedforward, a: &Assumptions) -> Result<
     if log.mechanism.is_drivetrain() {
         let r = a.wheel_radius_m.unwrap_or(DEFAULT_WHEEL_RADIUS_M);
         let k = kv * r;
-        let j = DRIVE_ROTOR_INERTIA_KG_M2 + DRIVE_WHEEL_INERTIA_KG_M2;
-        let side_inertia = ka * k / r_ohm - j / r; // kg m: what the side accelerates, times r
+        // What kA accelerates per side, referred to the wheel: kg m^2.
+        let total = ka * k * r / r_ohm;
+        let j = DRIVE_ROTATING_SHARE * total;
+        let side_inertia = (total - j) / r; // kg m: the chassis's share, over r
         let w = a
             .track_width_m
             .or_else(|| track_width(log))
@@ -313,14 +316,14 @@ pub fn nominal_rig(log: &SysIdLog, ff: &Feedforward, a: &Assumptions) -> Result<
             (mass, mass * w * w / 6.0)
         };
         if !(mass > 0.0) {
-            return Err(format!("kA = {ka} with resistance {r_ohm} ohm leaves no chassis inertia (the rotor and wheel's assumed {j} kg m^2 already exceed it)"));
+            return Err(format!("kA = {ka} with kV = {kv} and resistance {r_ohm} ohm gives no positive chassis inertia: SysId's kA must be positive"));
         }
         motor.torque_constant_Nm_A = Some(k);
-        motor.rotor_inertia_kg_m2 = Some(DRIVE_ROTOR_INERTIA_KG_M2);
+        motor.rotor_inertia_kg_m2 = Some(0.5 * j);
         rig.rig = "vehicle".into();
         rig.wheel = Some(WheelRig {
             radius_m: Some(r),
-            inertia_kg_m2: Some(DRIVE_WHEEL_INERTIA_KG_M2),
+            inertia_kg_m2: Some(0.5 * j),
         });
         rig.chassis = Some(ChassisRig {
             mass_kg: Some(mass),
@@ -328,7 +331,7 @@ pub fn nominal_rig(log: &SysIdLog, ff: &Feedforward, a: &Assumptions) -> Result<
             track_width_m: Some(w),
             drive_load_fraction: Some(1.0),
         });
-        notes.push(format!("gearbox ratio 1 and wheel radius {r} m ({}): the torque constant is kV x radius, referred to the wheel; rotor and wheel inertia {DRIVE_ROTOR_INERTIA_KG_M2} kg m^2 each (assumed)", if a.wheel_radius_m.is_some() { "given" } else { "ASSUMED, give --wheel-radius-m" }));
+        notes.push(format!("gearbox ratio 1 and wheel radius {r} m ({}): the torque constant is kV x radius, referred to the wheel; rotor and wheel inertia {:.4} kg m^2 each: {:.0} % of kA's inertia turns with the wheels (assumed)", if a.wheel_radius_m.is_some() { "given" } else { "ASSUMED, give --wheel-radius-m" }, 0.5 * j, 100.0 * DRIVE_ROTATING_SHARE));
         notes.push(format!("track width {w} m ({}); {}", if a.track_width_m.is_some() { "given" } else if track_width(log).is_some() { "from the gyro" } else { "ASSUMED, give --track-width-m" }, if log.mechanism == Mechanism::DrivetrainAngular { "yaw inertia from kA, mass from it as a uniform square of side track width (assumed)" } else { "mass from kA, yaw inertia as a uniform square of side track width (assumed)" }));
     } else {
         motor.torque_constant_Nm_A = Some(kv);
