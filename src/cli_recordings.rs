@@ -261,7 +261,9 @@ pub fn calibrate_command(
         rec_path.display(),
         scene.sim.fidelity.name()
     );
-    let c = match calibrate::calibrate(&scene, &rec, free) {
+    let c = match calibrate::calibrate_telling(&scene, &rec, free, &|stage| {
+        eprintln!("calibrate  {stage}")
+    }) {
         Ok(c) => c,
         Err(e) => return fail(e),
     };

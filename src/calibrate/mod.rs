@@ -178,6 +178,17 @@ pub fn calibrate(
     rec: &Recording,
     free: &[String],
 ) -> Result<Calibration, CalibrateError> {
+    calibrate_telling(scene, rec, free, &|_| {})
+}
+
+/// [`calibrate`], telling `progress` each stage as it starts (the command prints them on
+/// standard error; each fit iteration replays the recording once per key and once more).
+pub fn calibrate_telling(
+    scene: &Scene,
+    rec: &Recording,
+    free: &[String],
+    progress: &dyn Fn(&str),
+) -> Result<Calibration, CalibrateError> {
     let free: Vec<String> = if free.is_empty() {
         default_free(&rec.rig)
             .iter()
@@ -186,6 +197,7 @@ pub fn calibrate(
     } else {
         free.to_vec()
     };
+    progress("replaying the recording on the scene as written");
     let before = replay(scene, rec)?;
     let outputs: Vec<String> = contract_outputs(&rec.rig)
         .iter()
@@ -231,6 +243,12 @@ pub fn calibrate(
         max_iterations: 30,
         starts: vec![nominal],
     };
+    progress(&format!(
+        "fitting {} keys through the simulator ({} or more replays an iteration, at most {} iterations)",
+        free.len(),
+        free.len() + 1,
+        settings.max_iterations
+    ));
     let fit = fit_predictor(&model, &data, &settings).map_err(|e| CalibrateError::Fit {
         file: rec.path.clone(),
         message: e.to_string(),
@@ -253,6 +271,10 @@ pub fn calibrate(
         .collect();
     let pairs: Vec<(String, f64)> = keys.iter().map(|k| (k.key.clone(), k.after)).collect();
     let calibrated = keys::set(scene, &pairs)?;
+    progress(&format!(
+        "fitted in {} iterations; replaying the recording on the calibrated scene",
+        fit.iterations
+    ));
     let after = replay(&calibrated, rec)?;
     Ok(Calibration {
         keys,
