@@ -120,6 +120,11 @@ pub trait GreyBox: Predictor {
     fn initial_state(&self, p: &[f64], data: &Dataset) -> Vec<f64>;
     /// Longest integration step the dynamics allow at these parameters, s.
     fn max_step_s(&self, p: &[f64]) -> f64;
+    /// Longest integration step over a sample interval starting in state `x`, s (a
+    /// stiffness that depends on the state allows more than the worst case).
+    fn max_step_at(&self, p: &[f64], _x: &[f64]) -> f64 {
+        self.max_step_s(p)
+    }
     /// Dead time between the recorded input and its action, s (inputs are then looked up,
     /// zero-order held, at t - delay at every integration stage).
     fn input_delay_s(&self, _p: &[f64]) -> f64 {
@@ -203,7 +208,7 @@ fn simulate_one<M: GreyBox + ?Sized>(
     let mut held = vec![0.0; model.n_held()];
     let mut u = vec![0.0; data.inputs.len()];
     let mut y = vec![vec![0.0; n]; data.output_names.len()];
-    let max_h = model.max_step_s(p).max(1e-7);
+
     let delay = model.input_delay_s(p);
     let (mut k1, mut k2, mut k3, mut k4) =
         (vec![0.0; nx], vec![0.0; nx], vec![0.0; nx], vec![0.0; nx]);
@@ -228,6 +233,7 @@ fn simulate_one<M: GreyBox + ?Sized>(
             break;
         }
         let interval = data.t_s[k + 1] - t;
+        let max_h = model.max_step_at(p, &x).max(1e-7);
         // A delay moves input changes inside intervals: step finely enough to place them.
         let h_max = if delay > 0.0 {
             max_h.min(interval / 4.0)

@@ -227,6 +227,34 @@ impl Vehicle {
         self.effects.get(e)
     }
 
+    /// Longest integration step, s, with the tyres' slip measured against a contact speed
+    /// of `slip_denominator_m_s` (at least the floor of a tyre at rest).
+    fn step_bound(&self, p: &[f64], slip_denominator_m_s: f64) -> f64 {
+        let n2 = self.ratio * self.ratio;
+        let mut h = p[L] / p[R];
+        if let Some(play) = self.effect(Effect::Backlash) {
+            let rate = self.gearbox(p, play).mesh_rate(p[JM] * n2, p[JW]);
+            h = h.min(0.3 / rate);
+        }
+        if self.effect(Effect::WheelSlip).is_none() && !self.creeping_tyres {
+            // Rolling without slip: no tyre between wheel and floor to resolve.
+            return h;
+        }
+        let load = self.drive_wheel_load_n(p);
+        // The tyre's slip force is a stiff damper on the rim speed: explicit RK4 needs
+        // h lambda below 2.8; at 2 the fast mode still decays monotonically enough, as it
+        // does physically, while the slow dynamics are integrated accurately.
+        let rim_damping = load * p[LONG_STIFFNESS] / slip_denominator_m_s;
+        let wheel_j = if self.effect(Effect::Backlash).is_some() {
+            p[JW]
+        } else {
+            p[JW] + p[JM] * n2
+        };
+        let lambda_long = rim_damping * p[RW] * p[RW] / wheel_j;
+        let lambda_lat = 2.0 * load * p[LAT_STIFFNESS] / slip_denominator_m_s / p[MASS];
+        h.min(2.0 / lambda_long.max(lambda_lat))
+    }
+
     /// The gear train of the backlash block (play at index `play`).
     fn gearbox(&self, p: &[f64], play: usize) -> GearboxParams {
         super::rotary_axis::play_gearbox(self.ratio, p[play])
@@ -486,30 +514,18 @@ impl GreyBox for Vehicle {
     }
 
     fn max_step_s(&self, p: &[f64]) -> f64 {
-        let n2 = self.ratio * self.ratio;
-        let mut h = p[L] / p[R];
-        if let Some(play) = self.effect(Effect::Backlash) {
-            let rate = self.gearbox(p, play).mesh_rate(p[JM] * n2, p[JW]);
-            h = h.min(0.3 / rate);
-        }
-        if self.effect(Effect::WheelSlip).is_none() && !self.creeping_tyres {
-            // Rolling without slip: no tyre between wheel and floor to resolve.
-            return h;
-        }
-        let load = self.drive_wheel_load_n(p);
-        // The tyre's slip force is a stiff damper on the rim speed: explicit RK4 needs
-        // h lambda below 2.8 (lambda taken at its largest, at standstill); at 2 the fast
-        // mode still decays monotonically enough, as it does physically, while the slow
-        // dynamics are integrated accurately.
-        let rim_damping = load * p[LONG_STIFFNESS] / SLIP_SPEED_FLOOR_M_S;
-        let wheel_j = if self.effect(Effect::Backlash).is_some() {
-            p[JW]
-        } else {
-            p[JW] + p[JM] * n2
-        };
-        let lambda_long = rim_damping * p[RW] * p[RW] / wheel_j;
-        let lambda_lat = 2.0 * load * p[LAT_STIFFNESS] / SLIP_SPEED_FLOOR_M_S / p[MASS];
-        h.min(2.0 / lambda_long.max(lambda_lat))
+        self.step_bound(p, SLIP_SPEED_FLOOR_M_S)
+    }
+
+    /// The tyre's stiffness falls as the contact speed rises (slip is measured against
+    /// it), so a moving vehicle allows longer steps than one at rest. The slowest contact
+    /// at the interval's start is taken at half its speed: no record's sample interval is
+    /// long enough for a vehicle to lose half its speed within it.
+    fn max_step_at(&self, p: &[f64], x: &[f64]) -> f64 {
+        let (fwd, yaw_rate) = (x[BODY], x[BODY + 2]);
+        let sweep = (yaw_rate * 0.5 * p[TRACK]).abs();
+        let slowest = (fwd.abs() - sweep).abs();
+        self.step_bound(p, (0.5 * slowest).hypot(SLIP_SPEED_FLOOR_M_S))
     }
 
     fn input_delay_s(&self, p: &[f64]) -> f64 {
