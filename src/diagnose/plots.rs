@@ -27,6 +27,7 @@ pub fn write(dir: &Path, d: &Diagnosis) -> std::io::Result<Vec<PathBuf>> {
                 .join(", ")
         )
     };
+    let breaks = data.segment_start_times();
     for (j, name) in data.output_names.iter().enumerate() {
         let (t, y) = crate::plot::measured_points(&data.t_s, &data.outputs[j]);
         let doc = svg(
@@ -37,14 +38,18 @@ pub fn write(dir: &Path, d: &Diagnosis) -> std::io::Result<Vec<PathBuf>> {
             "t (s)",
             name,
             &[
-                Series::line("measured", &t, &y, "#555").with_style(Style::Measured),
-                Series::line("baseline", &data.t_s, &d.baseline.predicted[j], "#d08000"),
+                Series::line("measured", &t, &y, "#555")
+                    .with_style(Style::Measured)
+                    .broken_at(&breaks),
+                Series::line("baseline", &data.t_s, &d.baseline.predicted[j], "#d08000")
+                    .broken_at(&breaks),
                 Series::line(
                     &name_of_final,
                     &data.t_s,
                     &d.diagnosed.predicted[j],
                     "#1f5fbf",
-                ),
+                )
+                .broken_at(&breaks),
             ],
             None,
         );
@@ -66,8 +71,8 @@ pub fn write(dir: &Path, d: &Diagnosis) -> std::io::Result<Vec<PathBuf>> {
             "t (s)",
             name,
             &[
-                Series::line("baseline", &tb, &rb, "#d08000"),
-                Series::line("diagnosed", &ta, &ra, "#1f5fbf"),
+                Series::line("baseline", &tb, &rb, "#d08000").broken_at(&breaks),
+                Series::line("diagnosed", &ta, &ra, "#1f5fbf").broken_at(&breaks),
             ],
             None,
         );

@@ -56,6 +56,16 @@ impl Dataset {
         }
     }
 
+    /// Times at which an independent record after the first starts, s (where plotted
+    /// lines break).
+    pub fn segment_start_times(&self) -> Vec<f64> {
+        self.segment_starts
+            .iter()
+            .filter(|&&k| k > 0)
+            .map(|&k| self.t_s[k])
+            .collect()
+    }
+
     /// Row ranges of the independent records.
     pub fn segments(&self) -> Vec<std::ops::Range<usize>> {
         crate::record::segment_ranges(&self.segment_starts, self.len())

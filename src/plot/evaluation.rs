@@ -25,6 +25,7 @@ pub fn write_evaluation(dir: &Path, prefix: &str, e: &Evaluation) -> std::io::Re
         ));
     };
     let mut files = Vec::new();
+    let breaks = data.segment_start_times();
     for (j, name) in data.output_names.iter().enumerate() {
         let (t, y) = super::measured_points(&data.t_s, &data.outputs[j]);
         let fit = e.fit_pct[name];
@@ -36,8 +37,10 @@ pub fn write_evaluation(dir: &Path, prefix: &str, e: &Evaluation) -> std::io::Re
             "t (s)",
             name,
             &[
-                Series::line("measured", &t, &y, "#555").with_style(Style::Measured),
-                Series::line("simulated", &data.t_s, &e.predicted[j], "#1f5fbf"),
+                Series::line("measured", &t, &y, "#555")
+                    .with_style(Style::Measured)
+                    .broken_at(&breaks),
+                Series::line("simulated", &data.t_s, &e.predicted[j], "#1f5fbf").broken_at(&breaks),
             ],
             None,
         );

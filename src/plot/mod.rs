@@ -60,6 +60,9 @@ pub struct Series<'a> {
     /// Whether the series sets the axes' range. A series out of scale (a run that lost
     /// the wire) is clipped to the frame and dashed.
     pub in_scale: bool,
+    /// x values where the line is broken: an independent record starts there (a test of
+    /// several joined), so no line joins its first point to the previous record's last.
+    pub breaks: &'a [f64],
 }
 
 impl<'a> Series<'a> {
@@ -72,7 +75,14 @@ impl<'a> Series<'a> {
             colour,
             style: Style::Line,
             in_scale: true,
+            breaks: &[],
         }
+    }
+
+    /// The same series with its line broken at these x values.
+    pub fn broken_at(mut self, breaks: &'a [f64]) -> Self {
+        self.breaks = breaks;
+        self
     }
 
     pub fn with_style(mut self, style: Style) -> Self {
@@ -459,6 +469,22 @@ fn legend_key(
     }
 }
 
+/// The points cut into the runs between breaks (a run starts at the first point at or
+/// past each break).
+fn pieces<'p>(points: &'p [(f64, f64)], breaks: &[f64]) -> Vec<&'p [(f64, f64)]> {
+    let mut out = Vec::new();
+    let mut start = 0;
+    for k in 1..points.len() {
+        let (before, at) = (points[k - 1].0, points[k].0);
+        if breaks.iter().any(|&b| before < b && at >= b) {
+            out.push(&points[start..k]);
+            start = k;
+        }
+    }
+    out.push(&points[start..]);
+    out
+}
+
 fn draw_series(s: &mut String, ser: &Series, px: &dyn Fn(f64) -> f64, py: &dyn Fn(f64) -> f64) {
     let finite: Vec<(f64, f64)> = ser
         .x
@@ -490,11 +516,7 @@ fn draw_series(s: &mut String, ser: &Series, px: &dyn Fn(f64) -> f64, py: &dyn F
         Style::Line | Style::Measured => {
             // Thin long series to about two points per pixel column.
             let stride = (finite.len() / 2000).max(1);
-            let pts: Vec<String> = finite
-                .iter()
-                .step_by(stride)
-                .map(|(x, y)| format!("{:.1},{:.1}", px(*x), py(*y)))
-                .collect();
+            let thinned: Vec<(f64, f64)> = finite.iter().step_by(stride).copied().collect();
             let (width, opacity) = if ser.style == Style::Measured {
                 (4.0, 0.45)
             } else {
@@ -505,12 +527,18 @@ fn draw_series(s: &mut String, ser: &Series, px: &dyn Fn(f64) -> f64, py: &dyn F
             } else {
                 r#" stroke-dasharray="6,3""#
             };
-            let _ = writeln!(
-                s,
-                r#"<polyline fill="none" stroke="{}" stroke-width="{width}" stroke-opacity="{opacity}"{dash}{clip} points="{}"/>"#,
-                ser.colour,
-                pts.join(" ")
-            );
+            for piece in pieces(&thinned, ser.breaks) {
+                let pts: Vec<String> = piece
+                    .iter()
+                    .map(|(x, y)| format!("{:.1},{:.1}", px(*x), py(*y)))
+                    .collect();
+                let _ = writeln!(
+                    s,
+                    r#"<polyline fill="none" stroke="{}" stroke-width="{width}" stroke-opacity="{opacity}"{dash}{clip} points="{}"/>"#,
+                    ser.colour,
+                    pts.join(" ")
+                );
+            }
             if ser.style == Style::Line && finite.len() <= MARKERS_UP_TO && ser.in_scale {
                 for (x, y) in &finite {
                     marker(s, px(*x), py(*y), ser.colour);
@@ -523,6 +551,28 @@ fn draw_series(s: &mut String, ser: &Series, px: &dyn Fn(f64) -> f64, py: &dyn F
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Joined records are drawn as separate lines: none joins the end of one test to the
+    /// start of the next, and without breaks one line runs through every point.
+    #[test]
+    fn a_line_breaks_where_an_independent_record_starts() {
+        let x = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0];
+        let y = [0.0, 1.0, 2.0, -2.0, -1.0, 0.0];
+        let lines = |breaks: &[f64]| {
+            svg(
+                "t",
+                "x",
+                "y",
+                &[Series::line("a", &x, &y, "#000").broken_at(breaks)],
+                None,
+            )
+            .matches("<polyline")
+            .count()
+        };
+        assert_eq!(lines(&[]), 1);
+        assert_eq!(lines(&[3.0]), 2);
+        assert_eq!(lines(&[2.5, 4.0]), 3);
+    }
 
     #[test]
     fn ticks_are_whole_steps_and_labels_are_rounded() {
