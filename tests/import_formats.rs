@@ -451,15 +451,18 @@ fn the_emps_layout_as_a_compressed_mat_file_imports_to_the_shipped_recording_val
     let (mat, map) = (dir.join("DATA_EMPS.mat"), dir.join("emps.toml"));
     std::fs::write(&mat, matfile::compress(&w.finish())).unwrap();
     std::fs::write(&map, EMPS_MAP).unwrap();
-    let (ok, _, stderr) = agvsim(&[
-        "import",
-        "mat",
-        mat.to_str().unwrap(),
-        "--map",
-        map.to_str().unwrap(),
-        "--out",
-        dir.to_str().unwrap(),
-    ]);
+    let import_mat = || {
+        agvsim(&[
+            "import",
+            "mat",
+            mat.to_str().unwrap(),
+            "--map",
+            map.to_str().unwrap(),
+            "--out",
+            dir.to_str().unwrap(),
+        ])
+    };
+    let (ok, _, stderr) = import_mat();
     assert!(ok, "{stderr}");
     let got = Recording::load(&dir.join("DATA_EMPS.csv")).unwrap();
     assert_eq!(got.t_s, shipped.t_s);
@@ -468,15 +471,7 @@ fn the_emps_layout_as_a_compressed_mat_file_imports_to_the_shipped_recording_val
     }
     // A variable the map names but the file lacks, and one of another length.
     std::fs::write(&map, EMPS_MAP.replace("\"qm\"", "\"qx\"")).unwrap();
-    let (ok, _, stderr) = agvsim(&[
-        "import",
-        "mat",
-        mat.to_str().unwrap(),
-        "--map",
-        map.to_str().unwrap(),
-        "--out",
-        dir.to_str().unwrap(),
-    ]);
+    let (ok, _, stderr) = import_mat();
     assert!(
         !ok && stderr.contains("variable `qx` is not in"),
         "{stderr}"
@@ -488,15 +483,7 @@ fn the_emps_layout_as_a_compressed_mat_file_imports_to_the_shipped_recording_val
         .matrix("qm", 3, 1, &[0.0; 3]);
     std::fs::write(&mat, w.finish()).unwrap();
     std::fs::write(&map, EMPS_MAP).unwrap();
-    let (ok, _, stderr) = agvsim(&[
-        "import",
-        "mat",
-        mat.to_str().unwrap(),
-        "--map",
-        map.to_str().unwrap(),
-        "--out",
-        dir.to_str().unwrap(),
-    ]);
+    let (ok, _, stderr) = import_mat();
     assert!(!ok && stderr.contains("`qg` has 2 values"), "{stderr}");
 }
 

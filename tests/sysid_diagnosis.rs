@@ -122,9 +122,19 @@ fn sysid_json(scene: &Scene, step_v: f64, dir: &Path) -> PathBuf {
     path
 }
 
-/// `import wpilib` then `diagnose` on the four tests together: the diagnosis JSON and the
-/// kS `import wpilib` printed.
-fn import_and_diagnose(json: &Path, dir: &Path) -> (serde_json::Value, f64) {
+/// The thesis AGV without gear play, with 0.06 N m of Coulomb friction at each motor, at
+/// a fidelity level.
+fn sysid_scene(fidelity: &str, dir: &Path) -> Scene {
+    Scene::from_toml(
+        &format!("[sim]\nfidelity = \"{fidelity}\"\nduration_s = 10.0\n[motor]\ncoulomb_Nm = 0.06\n[gearbox]\nbacklash_rad = 0.0\n"),
+        &dir.join("sysid.toml"),
+        &[],
+    )
+    .unwrap()
+}
+
+/// `import wpilib` into `dir/imported`: that folder and what the command printed.
+fn import(json: &Path, dir: &Path) -> (PathBuf, String) {
     let imported = dir.join("imported");
     let (ok, out, err) = agvsim(&[
         "import",
@@ -134,6 +144,13 @@ fn import_and_diagnose(json: &Path, dir: &Path) -> (serde_json::Value, f64) {
         imported.to_str().unwrap(),
     ]);
     assert!(ok, "{out}{err}");
+    (imported, out)
+}
+
+/// `import wpilib` then `diagnose` on the four tests together: the diagnosis JSON and the
+/// kS `import wpilib` printed.
+fn import_and_diagnose(json: &Path, dir: &Path) -> (serde_json::Value, f64) {
+    let (imported, out) = import(json, dir);
     let imported_ks: f64 = out
         .lines()
         .find_map(|l| l.trim().strip_prefix("kS = "))
@@ -179,12 +196,7 @@ fn effects(d: &serde_json::Value) -> Vec<String> {
 #[test]
 fn coulomb_friction_is_found_on_sysid_tests_with_ks_within_5_pct() {
     let dir = tmp("coulomb");
-    let scene = Scene::from_toml(
-        "[sim]\nfidelity = \"complex\"\nduration_s = 10.0\n[motor]\ncoulomb_Nm = 0.06\n[gearbox]\nbacklash_rad = 0.0\n",
-        &dir.join("sysid.toml"),
-        &[],
-    )
-    .unwrap();
+    let scene = sysid_scene("complex", &dir);
     let m = &scene.motor;
     let ks_true = m.coulomb_Nm * m.resistance_ohm / m.torque_constant_Nm_A;
     let json = sysid_json(&scene, 6.0, &dir);
@@ -222,12 +234,7 @@ fn coulomb_friction_is_found_on_sysid_tests_with_ks_within_5_pct() {
 #[test]
 fn wheel_slip_on_the_steps_is_found_beside_coulomb_friction() {
     let dir = tmp("slip");
-    let scene = Scene::from_toml(
-        "[sim]\nfidelity = \"full\"\nduration_s = 10.0\n[motor]\ncoulomb_Nm = 0.06\n[gearbox]\nbacklash_rad = 0.0\n",
-        &dir.join("sysid.toml"),
-        &[],
-    )
-    .unwrap();
+    let scene = sysid_scene("full", &dir);
     let m = &scene.motor;
     let castor_load_n = (1.0 - scene.chassis.drive_load_fraction)
         * (scene.chassis.mass_kg + scene.payload.mass_kg)
@@ -255,22 +262,9 @@ fn wheel_slip_on_the_steps_is_found_beside_coulomb_friction() {
 #[test]
 fn a_single_dynamic_test_is_diagnosed_as_a_step_from_rest() {
     let dir = tmp("single");
-    let scene = Scene::from_toml(
-        "[sim]\nfidelity = \"complex\"\nduration_s = 10.0\n[motor]\ncoulomb_Nm = 0.06\n[gearbox]\nbacklash_rad = 0.0\n",
-        &dir.join("sysid.toml"),
-        &[],
-    )
-    .unwrap();
+    let scene = sysid_scene("complex", &dir);
     let json = sysid_json(&scene, 6.0, &dir);
-    let imported = dir.join("imported");
-    let (ok, out, err) = agvsim(&[
-        "import",
-        "wpilib",
-        json.to_str().unwrap(),
-        "--out",
-        imported.to_str().unwrap(),
-    ]);
-    assert!(ok, "{out}{err}");
+    let (imported, _) = import(&json, &dir);
     let rig = imported.join("drive.rig.toml");
     let step = imported.join("drive_fast-forward.csv");
     let (ok, out, err) = agvsim(&[

@@ -152,12 +152,7 @@ pub fn run(job: &DiagnoseJob) -> Result<(Diagnosis, Vec<PathBuf>), IdentError> {
         }
     }
     let rig = Rig::load(&job.rig)?;
-    let rec = Recording::join(
-        job.recordings
-            .iter()
-            .map(|p| Recording::load(p))
-            .collect::<Result<Vec<_>, _>>()?,
-    )?;
+    let rec = Recording::load_joined(&job.recordings)?;
     let val = job.validate.as_deref().map(Recording::load).transpose()?;
     let d = diagnose(&rig, &job.rig, &rec, val.as_ref(), &job.options)?;
     let mut written = Vec::new();

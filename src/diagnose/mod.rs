@@ -504,18 +504,18 @@ fn check_decidable(data: &Dataset, rec: &Recording) -> Result<(), IdentError> {
         )));
     }
     let speed = regimes::measured_speed(data);
-    let at_rest: Vec<bool> = data
+    let segments: Vec<(std::ops::Range<usize>, bool)> = data
         .segments()
         .into_iter()
-        .map(|r| starts_at_rest(&speed, r))
+        .map(|r| (r.clone(), starts_at_rest(&speed, r)))
         .collect();
     for (i, u) in data.inputs.iter().enumerate() {
         let mut levels: Vec<f64> = u.clone();
         let mut changes = 0;
-        for (segment, rest) in data.segments().into_iter().zip(&at_rest) {
-            let u = &u[segment];
+        for (segment, at_rest) in &segments {
+            let u = &u[segment.clone()];
             changes += u.windows(2).filter(|w| w[0] != w[1]).count();
-            if *rest && u[0] != 0.0 {
+            if *at_rest && u[0] != 0.0 {
                 levels.push(0.0);
                 changes += 1;
             }

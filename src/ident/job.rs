@@ -46,12 +46,7 @@ pub fn run(job: &IdentifyJob) -> Result<IdentifyOutcome, IdentError> {
         }
     }
     let rig = Rig::load(&job.rig)?;
-    let rec = Recording::join(
-        job.recordings
-            .iter()
-            .map(|p| Recording::load(p))
-            .collect::<Result<Vec<_>, _>>()?,
-    )?;
+    let rec = Recording::load_joined(&job.recordings)?;
     let val = job.validate.as_deref().map(Recording::load).transpose()?;
     let mut id = identify(&rig, &job.rig, &rec, val.as_ref(), &job.options)?;
     id.rig = job.rig.display().to_string();

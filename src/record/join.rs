@@ -82,6 +82,16 @@ impl Recording {
         Ok(joined)
     }
 
+    /// Loads one recording, or several tests of one machine joined ([`Recording::join`]).
+    pub fn load_joined(paths: &[std::path::PathBuf]) -> Result<Recording, RecordingError> {
+        Recording::join(
+            paths
+                .iter()
+                .map(|p| Recording::load(p))
+                .collect::<Result<Vec<_>, _>>()?,
+        )
+    }
+
     /// Row ranges of the independent records.
     pub fn segments(&self) -> Vec<std::ops::Range<usize>> {
         super::segment_ranges(&self.segment_starts, self.t_s.len())

@@ -20,13 +20,13 @@ use std::path::Path;
 use crate::ident::data::Dataset;
 use crate::ident::effects::{self, Effect};
 use crate::ident::model::{GreyBox, OutputKind, ParamSpec};
-use crate::model::chassis::NoSlipBody;
 use crate::model::gearbox::GearboxParams;
-use crate::model::tyre::{steady_slip_force, ContactKinematics};
 use crate::model::GRAVITY_M_S2;
 use crate::rig::{Rig, RigError};
 
-use super::rotary_axis::{BACKLASH_FD_STEP, WHEEL_SHARE_PARAM};
+use crate::ident::models::rotary_axis::{BACKLASH_FD_STEP, WHEEL_SHARE_PARAM};
+
+mod motion;
 
 pub const R: usize = 0;
 pub const L: usize = 1;
@@ -227,37 +227,9 @@ impl Vehicle {
         self.effects.get(e)
     }
 
-    /// Longest integration step, s, with the tyres' slip measured against a contact speed
-    /// of `slip_denominator_m_s` (at least the floor of a tyre at rest).
-    fn step_bound(&self, p: &[f64], slip_denominator_m_s: f64) -> f64 {
-        let n2 = self.ratio * self.ratio;
-        let mut h = p[L] / p[R];
-        if let Some(play) = self.effect(Effect::Backlash) {
-            let rate = self.gearbox(p, play).mesh_rate(p[JM] * n2, p[JW]);
-            h = h.min(0.3 / rate);
-        }
-        if self.effect(Effect::WheelSlip).is_none() && !self.creeping_tyres {
-            // Rolling without slip: no tyre between wheel and floor to resolve.
-            return h;
-        }
-        let load = self.drive_wheel_load_n(p);
-        // The tyre's slip force is a stiff damper on the rim speed: explicit RK4 needs
-        // h lambda below 2.8; at 2 the fast mode still decays monotonically enough, as it
-        // does physically, while the slow dynamics are integrated accurately.
-        let rim_damping = load * p[LONG_STIFFNESS] / slip_denominator_m_s;
-        let wheel_j = if self.effect(Effect::Backlash).is_some() {
-            p[JW]
-        } else {
-            p[JW] + p[JM] * n2
-        };
-        let lambda_long = rim_damping * p[RW] * p[RW] / wheel_j;
-        let lambda_lat = 2.0 * load * p[LAT_STIFFNESS] / slip_denominator_m_s / p[MASS];
-        h.min(2.0 / lambda_long.max(lambda_lat))
-    }
-
     /// The gear train of the backlash block (play at index `play`).
     fn gearbox(&self, p: &[f64], play: usize) -> GearboxParams {
-        super::rotary_axis::play_gearbox(self.ratio, p[play])
+        crate::ident::models::rotary_axis::play_gearbox(self.ratio, p[play])
     }
 
     /// Normal load on each drive wheel, N.
@@ -290,143 +262,6 @@ impl Vehicle {
             v = [d[0] * bus, d[1] * bus];
         }
         v
-    }
-}
-
-impl Vehicle {
-    /// Torque the gear train delivers to each wheel's axle (N m) and the inertia turning
-    /// with the wheel there (kg m^2), writing the motor side's speed rate when a gear play
-    /// separates motor and wheel. Rigid gears: the motor's torque less its viscous
-    /// friction, times the ratio, with the rotor's inertia times the ratio squared.
-    fn wheel_side(&self, p: &[f64], x: &[f64], drive: [f64; 2], dx: &mut [f64]) -> ([f64; 2], f64) {
-        let n = self.ratio;
-        let mut torque = [0.0; 2];
-        let inertia = match self.effect(Effect::Backlash) {
-            None => {
-                for side in 0..2 {
-                    let wm = x[side * SIDE + 1];
-                    torque[side] = n * (drive[side] - p[B] * wm);
-                }
-                p[JW] + p[JM] * n * n
-            }
-            Some(play) => {
-                let g = self.gearbox(p, play);
-                let share = p[play - 1];
-                let (b_motor, b_wheel) = (p[B] * (1.0 - share), p[B] * share * n * n);
-                for side in 0..2 {
-                    let s = side * SIDE;
-                    let (wm, wm_angle, ww) = (x[s + 1], x[s + 2], x[s + 3]);
-                    let tooth = g.tooth_contact_torque(wm_angle / n - x[s + 4], wm / n - ww);
-                    dx[s + 1] = (drive[side] - b_motor * wm - tooth / n) / p[JM];
-                    torque[side] = tooth - b_wheel * ww;
-                }
-                p[JW]
-            }
-        };
-        (torque, inertia)
-    }
-
-    /// Wheels that roll without slipping: the chassis and everything turning with the
-    /// wheels accelerate together (the simulator's no-slip body, centre of mass at the
-    /// axle), the wheel speeds following the chassis's motion.
-    fn rolling(&self, p: &[f64], x: &[f64], drive: [f64; 2], dx: &mut [f64]) {
-        let (torque, wheel_inertia) = self.wheel_side(p, x, drive, dx);
-        let body = NoSlipBody {
-            mass_kg: p[MASS],
-            yaw_inertia_kg_m2: p[IZ],
-            cg_ahead_m: 0.0,
-            track_width_m: p[TRACK],
-            wheel_radius_m: p[RW],
-            wheel_inertia_kg_m2: wheel_inertia,
-        };
-        let (fwd, yaw_rate) = (x[BODY], x[BODY + 2]);
-        let drag = self.castor_drag(p, fwd, 0.0, yaw_rate);
-        let [acc, yaw_acc] = body.accelerations(fwd, yaw_rate, torque, [drag[0], drag[2]]);
-        let rim_acc = body.rim_speeds_m_s(acc, yaw_acc);
-        for (side, rim_acc) in rim_acc.iter().enumerate() {
-            let s = side * SIDE;
-            let wheel_acc = rim_acc / p[RW];
-            if self.effect(Effect::Backlash).is_some() {
-                dx[s + 3] = wheel_acc;
-                dx[s + 4] = x[s + 3];
-            } else {
-                dx[s + 1] = self.ratio * wheel_acc;
-                dx[s + 3] = 0.0;
-                dx[s + 4] = x[s + 1] / self.ratio;
-            }
-        }
-        dx[BODY] = acc;
-        dx[BODY + 1] = 0.0;
-        dx[BODY + 2] = yaw_acc;
-    }
-
-    /// Wheels and chassis joined by the tyres' slip forces: their creep, and with the
-    /// wheel-slip block their grip limited by the friction coefficient `mu`.
-    fn slipping(&self, p: &[f64], x: &[f64], drive: [f64; 2], mu: Option<f64>, dx: &mut [f64]) {
-        let (fwd, lat, yaw_rate) = (x[BODY], x[BODY + 1], x[BODY + 2]);
-        let load = self.drive_wheel_load_n(p);
-        let (torque, wheel_inertia) = self.wheel_side(p, x, drive, dx);
-        let backlash = self.effect(Effect::Backlash).is_some();
-        let mut force = [[0.0; 2]; 2];
-        for side in 0..2 {
-            let s = side * SIDE;
-            let ww = if backlash {
-                x[s + 3]
-            } else {
-                x[s + 1] / self.ratio
-            };
-            // Left wheel at +track/2 in the chassis frame (y to the left).
-            let offset = if side == 0 { -0.5 } else { 0.5 } * p[TRACK];
-            let kin = ContactKinematics {
-                forward_m_s: fwd + yaw_rate * offset,
-                lateral_m_s: lat,
-                rim_m_s: ww * p[RW],
-            };
-            let f = steady_slip_force(
-                kin,
-                load,
-                [p[LONG_STIFFNESS], p[LAT_STIFFNESS]],
-                SLIP_SPEED_FLOOR_M_S,
-                mu,
-            );
-            // The ground pushes the chassis forward by f[0] and resists the wheel by f[0] R.
-            let wheel_acc = (torque[side] - f[0] * p[RW]) / wheel_inertia;
-            if backlash {
-                dx[s + 3] = wheel_acc;
-                dx[s + 4] = ww;
-            } else {
-                dx[s + 1] = self.ratio * wheel_acc;
-                dx[s + 3] = 0.0;
-                dx[s + 4] = ww;
-            }
-            force[side] = f;
-        }
-        let drag = self.castor_drag(p, fwd, lat, yaw_rate);
-        let fx = force[0][0] + force[1][0] + drag[0];
-        let fy = force[0][1] + force[1][1] + drag[1];
-        let yaw_torque = (force[1][0] - force[0][0]) * 0.5 * p[TRACK] + drag[2];
-        dx[BODY] = fx / p[MASS] + lat * yaw_rate;
-        dx[BODY + 1] = fy / p[MASS] - fwd * yaw_rate;
-        dx[BODY + 2] = yaw_torque / p[IZ];
-    }
-
-    /// The castor-drag block's forward and lateral force (N) and yaw moment (N m) on the
-    /// chassis; zero without the block. The idlers' rolling drag is lumped at a distance
-    /// `lever` from the axle midpoint: it opposes their contact's motion over the floor,
-    /// which is the chassis's motion plus the turn's sweep, so it resists turning as well.
-    fn castor_drag(&self, p: &[f64], fwd: f64, lat: f64, yaw_rate: f64) -> [f64; 3] {
-        let Some(d) = self.effect(Effect::CastorDrag) else {
-            return [0.0; 3];
-        };
-        let lever = p[d - 1];
-        let sweep = yaw_rate * lever;
-        let eps = self.drag_eps_m_s;
-        let speed = (fwd * fwd + lat * lat + sweep * sweep + eps * eps).sqrt();
-        [
-            -p[d] * fwd / speed,
-            -p[d] * lat / speed,
-            -p[d] * lever * sweep / speed,
-        ]
     }
 }
 
@@ -628,13 +463,7 @@ impl GreyBox for Vehicle {
     }
 
     fn output(&self, p: &[f64], name: &str, x: &[f64], _u: &[f64], _held: &[f64]) -> f64 {
-        let wheel = |s: usize| {
-            if self.effect(Effect::Backlash).is_some() {
-                x[s + 3]
-            } else {
-                x[s + 1] / self.ratio
-            }
-        };
+        let wheel = |s: usize| self.wheel_speed_rad_s(x, s);
         match name {
             "x_m" => x[BODY + 3],
             "y_m" => x[BODY + 4],
@@ -652,189 +481,4 @@ impl GreyBox for Vehicle {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::ident::model::simulate;
-
-    fn rig() -> Rig {
-        Rig::parse(
-            r#"rig = "vehicle"
-[motor]
-resistance_ohm = 0.35
-inductance_H = 0.0008
-torque_constant_Nm_A = 0.063
-rotor_inertia_kg_m2 = 2.0e-4
-viscous_Nm_s_rad = 1.0e-4
-[gearbox]
-ratio = 23.41
-[wheel]
-radius_m = 0.075
-inertia_kg_m2 = 0.02
-[chassis]
-mass_kg = 120.0
-yaw_inertia_kg_m2 = 14.0
-track_width_m = 0.5
-drive_load_fraction = 0.6
-"#,
-            Path::new("test.rig.toml"),
-        )
-        .unwrap()
-    }
-
-    /// Constant voltages for `duration` s, sampled every 10 ms.
-    fn run(model: &Vehicle, p: &[f64], v: [f64; 2], duration: f64) -> (Dataset, Vec<Vec<f64>>) {
-        let n = (duration / 0.01) as usize + 1;
-        let outputs = [
-            "x_m",
-            "y_m",
-            "heading_rad",
-            "left_motor_speed_rad_s",
-            "right_motor_speed_rad_s",
-        ];
-        let data = Dataset {
-            name: "test".into(),
-            t_s: (0..n).map(|k| k as f64 * 0.01).collect(),
-            input_names: model.input_names(),
-            inputs: vec![vec![v[0]; n], vec![v[1]; n]],
-            output_names: outputs.map(String::from).to_vec(),
-            outputs: vec![vec![Some(0.0); n]; outputs.len()],
-            segment_starts: vec![0],
-        };
-        let y = simulate(model, p, &data).unwrap();
-        (data, y)
-    }
-
-    /// Castor drag is a candidate only while castors carry part of the weight.
-    #[test]
-    fn castor_drag_is_looked_for_only_where_castors_carry_weight() {
-        let path = Path::new("r.rig.toml");
-        let with_castors = Vehicle::from_rig(&rig(), path).unwrap();
-        assert!(with_castors.applicable().contains(&Effect::CastorDrag));
-        let mut all_on_drive = rig();
-        all_on_drive.chassis.as_mut().unwrap().drive_load_fraction = Some(1.0);
-        let tank = Vehicle::from_rig(&all_on_drive, path).unwrap();
-        assert!(!tank.applicable().contains(&Effect::CastorDrag));
-        assert!(tank.applicable().contains(&Effect::CoulombFriction));
-    }
-
-    /// Straight run at constant voltage: with no force needed at constant speed, the motor
-    /// settles at K V / (K^2 + R b), the tyres stop creeping, and the vehicle moves at the
-    /// rim speed, straight along x.
-    #[test]
-    fn straight_run_settles_at_the_motor_law_and_rolls_without_creep() {
-        let m = Vehicle::from_rig(&rig(), Path::new("test.rig.toml")).unwrap();
-        let p = m.nominal();
-        let (_, y) = run(&m, &p, [12.0, 12.0], 6.0);
-        let w = 0.063 * 12.0 / (0.063 * 0.063 + 0.35 * 1.0e-4);
-        let last = y[3].len() - 1;
-        assert!((y[3][last] - w).abs() < 1e-3 * w, "{} vs {w}", y[3][last]);
-        let ground = w / 23.41 * 0.075;
-        let speed = (y[0][last] - y[0][last - 100]) / 1.0;
-        assert!(
-            (speed - ground).abs() < 1e-3 * ground,
-            "{speed} vs {ground}"
-        );
-        assert!(y[1][last].abs() < 1e-9 && y[2][last].abs() < 1e-9);
-    }
-
-    /// Opposite voltages spin the vehicle on the spot at 2 r w / (N track).
-    #[test]
-    fn opposite_voltages_turn_on_the_spot() {
-        let m = Vehicle::from_rig(&rig(), Path::new("test.rig.toml")).unwrap();
-        let p = m.nominal();
-        let (_, y) = run(&m, &p, [-6.0, 6.0], 4.0);
-        let last = y[2].len() - 1;
-        let w = y[4][last];
-        let yaw_rate = (y[2][last] - y[2][last - 100]) / 1.0;
-        let expected = 2.0 * w / 23.41 * 0.075 / 0.5;
-        assert!(
-            (yaw_rate - expected).abs() < 1e-3 * expected,
-            "{yaw_rate} vs {expected}"
-        );
-        assert!(y[0][last].abs() < 1e-6 && y[1][last].abs() < 1e-6);
-    }
-
-    /// With the wheel-slip block, the floor limits traction: a full-voltage start cannot
-    /// accelerate the vehicle faster than mu times the drive wheels' share of g (and, the
-    /// wheels spinning, keeps at least the law's sliding share of it), while without the
-    /// block the same start accelerates far harder.
-    #[test]
-    fn friction_limit_caps_the_acceleration() {
-        let nominal = Vehicle::from_rig(&rig(), Path::new("test.rig.toml")).unwrap();
-        let slip = nominal.with_effect(Effect::WheelSlip, 0.1, 0.05, 4.0, 300.0);
-        let mut p = nominal.nominal();
-        p.push(0.1);
-        let cap = 0.1 * 0.6 * GRAVITY_M_S2;
-        let peak_accel = |y: &[Vec<f64>]| {
-            let v: Vec<f64> = y[0].windows(2).map(|w| (w[1] - w[0]) / 0.01).collect();
-            v.windows(2)
-                .map(|w| (w[1] - w[0]) / 0.01)
-                .fold(0.0, f64::max)
-        };
-        let (_, y) = run(&slip, &p, [24.0, 24.0], 1.0);
-        let a = peak_accel(&y);
-        // A spinning wheel keeps sin(c pi / 2) of the peak grip (the law's full-slide end).
-        let sliding = (crate::model::tyre::SATURATION_SHAPE * std::f64::consts::FRAC_PI_2).sin();
-        assert!(
-            a <= cap * 1.01 && a > 0.99 * sliding * cap,
-            "{a} vs cap {cap}"
-        );
-        let (_, y) = run(&nominal, &nominal.nominal(), [24.0, 24.0], 1.0);
-        assert!(peak_accel(&y) > 2.0 * cap);
-    }
-
-    /// The nominal wheels roll without slipping (the simulator's no-slip body); the
-    /// wheel-slip block's tyres, with grip to spare, only creep: slip F / (C N), which for a
-    /// tyre pulling half its load at the default stiffness C = 30 is 1.7 %. On a turning
-    /// start the two agree on motor speeds and pose within 2 % of each output's range.
-    #[test]
-    fn rolling_and_gripping_tyres_agree_where_nothing_slides() {
-        let mut rolling = Vehicle::from_rig(&rig(), Path::new("test.rig.toml")).unwrap();
-        rolling.creeping_tyres = false;
-        let gripping = rolling.with_effect(Effect::WheelSlip, 4.0, 0.05, 4.0, 300.0);
-        let p = rolling.nominal();
-        let mut pg = p.clone();
-        pg.push(4.0);
-        let (_, a) = run(&rolling, &p, [6.0, 9.0], 4.0);
-        let (_, b) = run(&gripping, &pg, [6.0, 9.0], 4.0);
-        for j in 0..a.len() {
-            let range = a[j].iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            let worst = a[j]
-                .iter()
-                .zip(&b[j])
-                .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
-            assert!(worst < 0.02 * range, "output {j}: {worst} of {range}");
-        }
-    }
-
-    /// A record joined from two tests is simulated test by test, each from rest: the same
-    /// as simulating each alone (to rounding: the second test's times are shifted).
-    #[test]
-    fn joined_tests_are_simulated_each_from_rest() {
-        let m = Vehicle::from_rig(&rig(), Path::new("test.rig.toml")).unwrap();
-        let p = m.nominal();
-        let (da, ya) = run(&m, &p, [6.0, 6.0], 1.0);
-        let (db, yb) = run(&m, &p, [-3.0, 4.0], 1.0);
-        let mut joined = da.clone();
-        let shift = da.t_s[da.len() - 1] + 0.01;
-        joined.t_s.extend(db.t_s.iter().map(|t| t + shift));
-        for (u, v) in joined.inputs.iter_mut().zip(&db.inputs) {
-            u.extend(v);
-        }
-        for (y, v) in joined.outputs.iter_mut().zip(&db.outputs) {
-            y.extend(v);
-        }
-        joined.segment_starts = vec![0, da.len()];
-        let y = simulate(&m, &p, &joined).unwrap();
-        for j in 0..y.len() {
-            let expected: Vec<f64> = ya[j].iter().chain(&yb[j]).copied().collect();
-            let scale = expected.iter().fold(1e-12f64, |m, v| m.max(v.abs()));
-            for (k, (a, b)) in y[j].iter().zip(&expected).enumerate() {
-                assert!(
-                    (a - b).abs() <= 1e-9 * scale,
-                    "output {j} row {k}: {a} vs {b}"
-                );
-            }
-        }
-    }
-}
+mod tests;
