@@ -83,7 +83,7 @@ fn emps_coulomb_friction_matches_the_published_value() {
 /// voltage limit: found within 15 %.
 #[test]
 fn quick_proof_on_concealed_effects_from_the_simulator() {
-    let dir = std::env::temp_dir().join(format!("agvsim-prove-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("prove");
     let cases = agvsim::diagnose::prove::prove(&dir, true, 1, &[]).unwrap();
     for c in &cases {
         println!(

@@ -7,7 +7,7 @@ use agvsim::study::{self, StudyOptions};
 use agvsim::sweep::{self, Shard, SweepOptions};
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("agvsim_test_{}_{name}", std::process::id()));
+    let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("studies-{name}"));
     let _ = std::fs::remove_dir_all(&d);
     d
 }
