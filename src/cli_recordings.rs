@@ -215,6 +215,7 @@ pub fn calibrate_command(
     scene_path: &std::path::Path,
     rec_path: &std::path::Path,
     free: &[String],
+    effects: &[String],
     outputs: CalibrateOutputs,
     validate: Option<PathBuf>,
     set: &[String],
@@ -261,7 +262,14 @@ pub fn calibrate_command(
         rec_path.display(),
         scene.sim.fidelity.name()
     );
-    let c = match calibrate::calibrate_telling(&scene, &rec, free, &|stage| {
+    let request = match calibrate::effects::parse(effects) {
+        Ok(effects) => calibrate::Request {
+            free: free.to_vec(),
+            effects,
+        },
+        Err(e) => return bad_input(e),
+    };
+    let c = match calibrate::calibrate_telling(&scene, &rec, &request, &|stage| {
         eprintln!("calibrate  {stage}")
     }) {
         Ok(c) => c,

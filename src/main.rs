@@ -263,6 +263,7 @@ fn main() -> ExitCode {
             scene,
             recording,
             free,
+            effects,
             write,
             validate,
             set,
@@ -274,6 +275,7 @@ fn main() -> ExitCode {
                 &scene,
                 &recording,
                 &free,
+                &effects,
                 cli_recordings::CalibrateOutputs {
                     write,
                     json,

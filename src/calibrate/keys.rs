@@ -28,12 +28,13 @@ pub fn get(scene: &Scene, key: &str) -> Result<f64, CalibrateError> {
 /// The scene with each `(key, value)` set, validated as a `--set` would be.
 pub fn set(scene: &Scene, pairs: &[(String, f64)]) -> Result<Scene, CalibrateError> {
     let overrides: Vec<String> = pairs.iter().map(|(k, v)| format!("{k}={v:e}")).collect();
-    Scene::from_toml(
-        &scene.to_toml(),
-        Path::new("<calibrated scene>"),
-        &overrides,
-    )
-    .map_err(|e| CalibrateError::Key(e.to_string()))
+    set_texts(scene, &overrides)
+}
+
+/// The scene with each `KEY=VALUE` text applied, as `--set` applies it.
+pub fn set_texts(scene: &Scene, overrides: &[String]) -> Result<Scene, CalibrateError> {
+    Scene::from_toml(&scene.to_toml(), Path::new("<calibrated scene>"), overrides)
+        .map_err(|e| CalibrateError::Key(e.to_string()))
 }
 
 #[cfg(test)]

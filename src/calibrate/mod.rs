@@ -5,16 +5,22 @@
 //! was fitted goes back into the file the user runs, and the fit is shown before and after
 //! in the simulation itself.
 
+pub mod effects;
 pub mod keys;
 pub mod write;
 
 use std::path::PathBuf;
 
 use crate::ident::data::Dataset;
-use crate::ident::fit::{fit_predictor, FitSettings};
+use rayon::prelude::*;
+
+use crate::diagnose::evidence::{effective_n, likelihood_gain};
+use crate::diagnose::{MIN_DELTA_AIC, MIN_RSS_REDUCTION};
+use crate::ident::effects::Effect;
+use crate::ident::fit::{fit_predictor, residuals, Fit, FitSettings};
 use crate::ident::model::{Diverged, ParamSpec, Predictor};
 use crate::record::Recording;
-use crate::replay::{replay, Replay, ReplayError};
+use crate::replay::{replay, Drive, Replay, ReplayError};
 use crate::scene::Scene;
 
 /// Why a calibration cannot be done.
@@ -147,7 +153,8 @@ impl Predictor for SceneReplay<'_> {
 #[derive(Debug, Clone, PartialEq)]
 pub struct KeyFit {
     pub key: String,
-    /// The scene's value.
+    /// The scene's value (for an effect's key the scene did not set, the value its physics
+    /// had: a tyre compound's friction).
     pub before: f64,
     /// The fitted value (the scene's when the fit ended at a bound).
     pub after: f64,
@@ -158,10 +165,50 @@ pub struct KeyFit {
     pub at_bound: Option<f64>,
 }
 
+/// An effect tried: its key fitted through the simulator with the scene's keys, and the
+/// evidence the recording gives for it (the diagnosis's rule: an AIC gain above
+/// [`MIN_DELTA_AIC`] with the effective sample count, at least [`MIN_RSS_REDUCTION`] of
+/// the residual removed, and the key not at a bound of its search).
+#[derive(Debug, Clone, PartialEq)]
+pub struct EffectTrial {
+    pub effect: Effect,
+    pub key: String,
+    pub value: f64,
+    pub std: Option<f64>,
+    pub at_bound: Option<f64>,
+    pub delta_aic: f64,
+    /// Share of the weighted residual removed, %.
+    pub rss_reduction_pct: f64,
+    pub accepted: bool,
+}
+
+/// A key set (not fitted) to switch an accepted effect's physics on.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Switch {
+    pub effect: Effect,
+    pub key: String,
+    /// The value as TOML text (`"pi"`, `2.4e1`).
+    pub value: String,
+}
+
+/// What to calibrate.
+#[derive(Debug, Clone, Default)]
+pub struct Request {
+    /// Scene keys to fit; empty: the recording kind's [`default_free`] set.
+    pub free: Vec<String>,
+    /// Effects to try, each through its scene key ([`effects::home`]).
+    pub effects: Vec<Effect>,
+}
+
 /// A calibration's result.
 #[derive(Debug, Clone)]
 pub struct Calibration {
+    /// The fitted keys: the free ones, then the accepted effects'.
     pub keys: Vec<KeyFit>,
+    /// Each effect tried, as last fitted (an accepted one as it was accepted).
+    pub effects: Vec<EffectTrial>,
+    /// Keys set to switch the accepted effects on.
+    pub switches: Vec<Switch>,
     /// The outputs fitted (the contract's outputs the recording has).
     pub outputs: Vec<String>,
     /// The recording replayed on the original and on the calibrated scene.
@@ -178,24 +225,175 @@ pub fn calibrate(
     rec: &Recording,
     free: &[String],
 ) -> Result<Calibration, CalibrateError> {
-    calibrate_telling(scene, rec, free, &|_| {})
+    let request = Request {
+        free: free.to_vec(),
+        effects: vec![],
+    };
+    calibrate_telling(scene, rec, &request, &|_| {})
 }
 
-/// [`calibrate`], telling `progress` each stage as it starts (the command prints them on
-/// standard error; each fit iteration replays the recording once per key and once more).
+/// One fit of the scene's keys: the scene as fitted (a key at a bound keeps its start).
+#[derive(Clone)]
+struct Stage {
+    scene: Scene,
+    free: Vec<String>,
+    fit: Fit,
+    specs: Vec<ParamSpec>,
+}
+
+impl Stage {
+    fn at_bound(&self, i: usize) -> Option<f64> {
+        crate::ident::bound_reached(self.fit.params[i], self.specs[i].lo, self.specs[i].hi)
+    }
+}
+
+/// What every fit of one calibration shares.
+struct Problem<'a> {
+    rec: &'a Recording,
+    data: Dataset,
+    weights: Vec<f64>,
+}
+
+impl Problem<'_> {
+    /// Fits the `free` keys of `scene` from its values.
+    fn fit(&self, scene: &Scene, free: &[String]) -> Result<Stage, CalibrateError> {
+        let model = SceneReplay::new(scene, self.rec, free)?;
+        let nominal: Vec<f64> = model.param_specs().iter().map(|s| s.nominal).collect();
+        let settings = FitSettings {
+            free: (0..free.len()).collect(),
+            weights: self.weights.clone(),
+            max_iterations: 30,
+            starts: vec![nominal.clone()],
+        };
+        let fit = fit_predictor(&model, &self.data, &settings).map_err(|e| CalibrateError::Fit {
+            file: self.rec.path.clone(),
+            message: e.to_string(),
+        })?;
+        let specs = model.param_specs().to_vec();
+        let kept: Vec<f64> = (0..free.len())
+            .map(|i| {
+                let b = crate::ident::bound_reached(fit.params[i], specs[i].lo, specs[i].hi);
+                if b.is_some() {
+                    nominal[i]
+                } else {
+                    fit.params[i]
+                }
+            })
+            .collect();
+        Ok(Stage {
+            scene: model.scene_with(&kept)?,
+            free: free.to_vec(),
+            fit,
+            specs,
+        })
+    }
+
+    /// Where the effect's key starts its fit: the lowest cost of a scan over its search
+    /// range (a tenth to ten times its start, nine values a factor 1.78 apart), the other
+    /// keys held. A play or a clipping limit moves the outputs in steps the gradient
+    /// cannot see across, so the fit must start in the right basin.
+    fn scan_start(&self, scene: &Scene, home: &effects::Home) -> Result<f64, CalibrateError> {
+        let model = SceneReplay::new(scene, self.rec, &[home.key.to_string()])?;
+        let values: Vec<f64> = (-4..=4)
+            .map(|i| home.start * 10f64.powf(i as f64 / 4.0))
+            .collect();
+        let costs: Vec<f64> = values
+            .par_iter()
+            .map(|&v| {
+                model.predict(&[v], &self.data).map_or(f64::INFINITY, |y| {
+                    residuals(&self.data, &y, &self.weights)
+                        .iter()
+                        .map(|r| r * r)
+                        .sum()
+                })
+            })
+            .collect();
+        let best = (0..values.len()).fold(0, |b, i| if costs[i] < costs[b] { i } else { b });
+        Ok(values[best])
+    }
+
+    /// The effect's key fitted with the stage's, and the evidence for it.
+    fn try_effect(
+        &self,
+        stage: &Stage,
+        home: &effects::Home,
+    ) -> Result<(EffectTrial, Stage), CalibrateError> {
+        let scan = effects::Home {
+            start: self.scan_start(&effects::switched_on(&stage.scene, home)?, home)?,
+            ..home.clone()
+        };
+        let scene = effects::switched_on(&stage.scene, &scan)?;
+        let mut free = stage.free.clone();
+        free.push(home.key.to_string());
+        let next = self.fit(&scene, &free)?;
+        let n_stage = effective_n(&self.data, &stage.fit.predicted);
+        let delta_aic =
+            likelihood_gain(&self.data, &stage.fit.predicted, &n_stage, &next.fit.predicted)
+                - 2.0;
+        let reduction = 1.0 - next.fit.cost / stage.fit.cost;
+        let i = free.len() - 1;
+        let at_bound = next.at_bound(i);
+        let trial = EffectTrial {
+            effect: home.effect,
+            key: home.key.to_string(),
+            value: next.fit.params[i],
+            std: next.fit.std[i],
+            at_bound,
+            delta_aic,
+            rss_reduction_pct: 100.0 * reduction,
+            accepted: delta_aic > MIN_DELTA_AIC
+                && reduction >= MIN_RSS_REDUCTION
+                && at_bound.is_none(),
+        };
+        Ok((trial, next))
+    }
+}
+
+/// Each output weighted by its spread, so outputs in different units count alike.
+fn spread_weights(data: &Dataset) -> Vec<f64> {
+    data.outputs
+        .iter()
+        .map(|col| {
+            let v: Vec<f64> = col.iter().flatten().copied().collect();
+            let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
+            let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len().max(1) as f64;
+            1.0 / var.sqrt().max(1e-12)
+        })
+        .collect()
+}
+
+/// Largest voltage command in the recording's inputs, V, when it commands voltages.
+fn max_command_v(replayed: &Replay) -> Option<f64> {
+    matches!(replayed.drive, Drive::Voltages | Drive::AxisVoltage).then(|| {
+        replayed
+            .inputs
+            .iter()
+            .flatten()
+            .fold(0.0_f64, |m, v| m.max(v.abs()))
+    })
+}
+
+/// [`calibrate`] with effects, telling `progress` each stage as it starts (the command
+/// prints them on standard error; each fit iteration replays the recording once per key
+/// and once more).
+///
+/// The free keys are fitted first. Then, in rounds as the diagnosis does, each effect not
+/// yet accepted is switched on in the scene and its key fitted with the free keys; the one
+/// with the most evidence is accepted, and the next round starts from that scene. An
+/// effect the recording does not support leaves its keys as the scene had them.
 pub fn calibrate_telling(
     scene: &Scene,
     rec: &Recording,
-    free: &[String],
+    request: &Request,
     progress: &dyn Fn(&str),
 ) -> Result<Calibration, CalibrateError> {
-    let free: Vec<String> = if free.is_empty() {
+    let free: Vec<String> = if request.free.is_empty() {
         default_free(&rec.rig)
             .iter()
             .map(|s| s.to_string())
             .collect()
     } else {
-        free.to_vec()
+        request.free.clone()
     };
     progress("replaying the recording on the scene as written");
     let before = replay(scene, rec)?;
@@ -224,64 +422,111 @@ pub fn calibrate_telling(
             file: rec.path.clone(),
             message: e.to_string(),
         })?;
-    let model = SceneReplay::new(scene, rec, &free)?;
-    // Each output weighted by its spread, so outputs in different units count alike.
-    let weights = data
-        .outputs
-        .iter()
-        .map(|col| {
-            let v: Vec<f64> = col.iter().flatten().copied().collect();
-            let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
-            let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len().max(1) as f64;
-            1.0 / var.sqrt().max(1e-12)
-        })
-        .collect();
-    let nominal: Vec<f64> = model.param_specs().iter().map(|s| s.nominal).collect();
-    let settings = FitSettings {
-        free: (0..free.len()).collect(),
-        weights,
-        max_iterations: 30,
-        starts: vec![nominal],
+    let driven = effects::Driven {
+        drive: before.drive,
+        on_floor: rec.rig == "vehicle",
+        max_command_v: max_command_v(&before),
+    };
+    // Every effect's home is checked before any fit's work.
+    for &e in &request.effects {
+        effects::home(e, scene, driven)?;
+    }
+    let problem = Problem {
+        rec,
+        weights: spread_weights(&data),
+        data,
     };
     progress(&format!(
-        "fitting {} keys through the simulator ({} or more replays an iteration, at most {} iterations)",
+        "fitting {} keys through the simulator ({} or more replays an iteration, at most 30 iterations)",
         free.len(),
         free.len() + 1,
-        settings.max_iterations
     ));
-    let fit = fit_predictor(&model, &data, &settings).map_err(|e| CalibrateError::Fit {
-        file: rec.path.clone(),
-        message: e.to_string(),
-    })?;
-    let keys: Vec<KeyFit> = model
-        .param_specs()
+    let mut stage = problem.fit(scene, &free)?;
+    let mut iterations = stage.fit.iterations;
+    let mut trials: Vec<EffectTrial> = vec![];
+    let mut switches: Vec<Switch> = vec![];
+    let mut starts: Vec<(String, f64)> = vec![];
+    let mut remaining = request.effects.clone();
+    let mut round = 0;
+    while !remaining.is_empty() {
+        round += 1;
+        let names: Vec<&str> = remaining.iter().map(|e| e.name()).collect();
+        progress(&format!(
+            "effects, round {round}: fitting {} with the keys",
+            names.join(", ")
+        ));
+        let homes = remaining
+            .iter()
+            .map(|&e| effects::home(e, &stage.scene, driven))
+            .collect::<Result<Vec<_>, _>>()?;
+        let tried = homes
+            .par_iter()
+            .map(|h| problem.try_effect(&stage, h))
+            .collect::<Result<Vec<_>, _>>()?;
+        for (t, next) in &tried {
+            iterations += next.fit.iterations;
+            trials.retain(|old| old.effect != t.effect);
+            trials.push(t.clone());
+        }
+        let best = tried
+            .into_iter()
+            .zip(&homes)
+            .filter(|((t, _), _)| t.accepted)
+            .max_by(|((a, _), _), ((b, _), _)| a.delta_aic.total_cmp(&b.delta_aic));
+        let Some(((t, next), home)) = best else { break };
+        progress(&format!(
+            "effects, round {round}: {} accepted ({} = {:.4e}, AIC gain {:.0})",
+            t.effect.name(),
+            t.key,
+            t.value,
+            t.delta_aic
+        ));
+        switches.extend(home.switches.iter().map(|(k, v)| Switch {
+            effect: home.effect,
+            key: k.to_string(),
+            value: v.clone(),
+        }));
+        starts.push((home.key.to_string(), home.start));
+        remaining.retain(|&e| e != t.effect);
+        stage = next;
+    }
+    let keys: Vec<KeyFit> = stage
+        .free
         .iter()
         .enumerate()
-        .map(|(i, s)| {
-            let v = fit.params[i];
-            let at_bound = crate::ident::bound_reached(v, s.lo, s.hi);
+        .map(|(i, key)| {
+            let at_bound = stage.at_bound(i);
+            let before = keys::get(scene, key).unwrap_or_else(|_| {
+                starts
+                    .iter()
+                    .find(|(k, _)| k == key)
+                    .map_or(f64::NAN, |(_, v)| *v)
+            });
             KeyFit {
-                key: s.name.clone(),
-                before: s.nominal,
-                after: if at_bound.is_some() { s.nominal } else { v },
-                std: if at_bound.is_some() { None } else { fit.std[i] },
+                key: key.clone(),
+                before,
+                after: keys::get(&stage.scene, key).unwrap_or(before),
+                std: if at_bound.is_some() {
+                    None
+                } else {
+                    stage.fit.std[i]
+                },
                 at_bound,
             }
         })
         .collect();
-    let pairs: Vec<(String, f64)> = keys.iter().map(|k| (k.key.clone(), k.after)).collect();
-    let calibrated = keys::set(scene, &pairs)?;
     progress(&format!(
-        "fitted in {} iterations; replaying the recording on the calibrated scene",
-        fit.iterations
+        "fitted in {iterations} iterations; replaying the recording on the calibrated scene"
     ));
-    let after = replay(&calibrated, rec)?;
+    let after = replay(&stage.scene, rec)?;
     Ok(Calibration {
         keys,
+        effects: trials,
+        switches,
         outputs,
         before,
         after,
-        scene: calibrated,
-        iterations: fit.iterations,
+        scene: stage.scene,
+        iterations,
     })
 }

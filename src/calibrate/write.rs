@@ -9,6 +9,26 @@ fn rounded(v: f64) -> f64 {
     format!("{v:.5e}").parse().unwrap_or(v)
 }
 
+/// The table at `path` in the document, made (implicit) where the scene left it out.
+fn table_at<'d>(
+    doc: &'d mut toml_edit::DocumentMut,
+    path: &[&str],
+    key: &str,
+) -> Result<&'d mut toml_edit::Table, CalibrateError> {
+    let mut table = doc.as_table_mut();
+    for p in path {
+        if !table.contains_key(p) {
+            let mut t = toml_edit::Table::new();
+            t.set_implicit(true);
+            table.insert(p, toml_edit::Item::Table(t));
+        }
+        table = table[p].as_table_mut().ok_or_else(|| {
+            CalibrateError::Key(format!("`{key}`: `{p}` is not a table in the scene"))
+        })?;
+    }
+    Ok(table)
+}
+
 /// The original scene text with the calibration's changed keys (those not at a bound).
 pub fn calibrated_text(
     original: &str,
@@ -21,17 +41,7 @@ pub fn calibrated_text(
     for k in c.keys.iter().filter(|k| k.at_bound.is_none()) {
         let parts: Vec<&str> = k.key.split('.').collect();
         let (leaf, path) = parts.split_last().expect("a key has a name");
-        let mut table = doc.as_table_mut();
-        for p in path {
-            if !table.contains_key(p) {
-                let mut t = toml_edit::Table::new();
-                t.set_implicit(true);
-                table.insert(p, toml_edit::Item::Table(t));
-            }
-            table = table[p].as_table_mut().ok_or_else(|| {
-                CalibrateError::Key(format!("`{}`: `{p}` is not a table in the scene", k.key))
-            })?;
-        }
+        let table = table_at(&mut doc, path, &k.key)?;
         let std = k
             .std
             .map_or("undetermined".to_string(), |s| format!("{:.2e}", s));
@@ -42,6 +52,26 @@ pub fn calibrated_text(
             rounded(k.after)
         ));
         table.insert(leaf, toml_edit::Item::Value(value));
+    }
+    for sw in &c.switches {
+        let parts: Vec<&str> = sw.key.split('.').collect();
+        let (leaf, path) = parts.split_last().expect("a key has a name");
+        let table = table_at(&mut doc, path, &sw.key)?;
+        let was = table
+            .get(leaf)
+            .map_or("unset".to_string(), |v| v.to_string().trim().to_string());
+        let mut item: toml_edit::Value = match crate::scene::parse_value(&sw.value) {
+            toml::Value::String(t) => t.into(),
+            toml::Value::Float(f) => rounded(f).into(),
+            toml::Value::Integer(i) => i.into(),
+            toml::Value::Boolean(b) => b.into(),
+            other => other.to_string().into(),
+        };
+        item.decor_mut().set_suffix(format!(
+            "  # calibrated against {source}: set to switch on {} (was {was})",
+            sw.effect.name()
+        ));
+        table.insert(leaf, toml_edit::Item::Value(item));
     }
     let mut text = format!(
         "# Calibrated by `agvsim calibrate` against {source}; the fitted keys carry a `# calibrated` comment.\n"
@@ -77,6 +107,38 @@ pub fn render(c: &Calibration) -> String {
                     k.key, k.before, k.after, std
                 );
             }
+        }
+    }
+    if !c.effects.is_empty() {
+        let _ = writeln!(
+            s,
+            "{:<20} {:<32} {:>11} {:>9} {:>10}  verdict",
+            "effect", "key", "value", "AIC gain", "residual"
+        );
+        for t in &c.effects {
+            let verdict = match (t.accepted, t.at_bound) {
+                (true, _) => "accepted: written into the scene".to_string(),
+                (false, Some(b)) => format!("not supported: the key ended at its bound {b:.3e}"),
+                (false, None) => "not supported by the recording: the scene keeps its value".into(),
+            };
+            let _ = writeln!(
+                s,
+                "{:<20} {:<32} {:>11.4e} {:>9.1} {:>9.1}%  {verdict}",
+                t.effect.name(),
+                t.key,
+                t.value,
+                t.delta_aic,
+                -t.rss_reduction_pct
+            );
+        }
+        for sw in &c.switches {
+            let _ = writeln!(
+                s,
+                "{:<20} {:<32} {:>11}  set to switch it on",
+                sw.effect.name(),
+                sw.key,
+                sw.value
+            );
         }
     }
     let _ = writeln!(
@@ -131,10 +193,33 @@ pub fn json(c: &Calibration, scene: &str, recording: &str) -> serde_json::Value 
             ))
         })
         .collect();
+    let effects: Vec<serde_json::Value> = c
+        .effects
+        .iter()
+        .map(|t| {
+            serde_json::json!({
+                "name": t.effect.name(),
+                "key": t.key,
+                "value": t.value,
+                "std": t.std,
+                "at_bound": t.at_bound,
+                "delta_aic": t.delta_aic,
+                "rss_reduction_pct": t.rss_reduction_pct,
+                "accepted": t.accepted,
+            })
+        })
+        .collect();
+    let switches: Vec<serde_json::Value> = c
+        .switches
+        .iter()
+        .map(|s| serde_json::json!({"effect": s.effect.name(), "key": s.key, "value": s.value}))
+        .collect();
     serde_json::json!({
         "scene": scene,
         "recording": recording,
         "keys": keys,
+        "effects": effects,
+        "switches": switches,
         "replay_fit": fits,
         "mean_fit_pct": {"original": mean_fit(&c.before, &c.outputs), "calibrated": mean_fit(&c.after, &c.outputs)},
         "iterations": c.iterations,

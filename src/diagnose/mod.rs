@@ -15,7 +15,7 @@
 //!    second effect.
 
 mod candidate;
-mod evidence;
+pub(crate) mod evidence;
 pub mod job;
 pub mod plots;
 pub mod prove;

@@ -2,6 +2,8 @@
 //! models. Each effect brings its parameter (named as the contract names it) and, where
 //! needed, its own state; the physical laws are the simulator's own (`crate::model`).
 
+use crate::model::battery::BatteryParams;
+
 /// One effect of the vocabulary.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Effect {
@@ -105,8 +107,9 @@ pub fn asymmetric_viscous(b: f64, ratio: f64, speed: f64) -> f64 {
     }
 }
 
-/// Terminal voltage of a PWM bridge on a sagging battery: duty `d = clip(V_cmd / V_rated)`,
-/// applied `d (V_oc - R_int d i)`.
+/// Terminal voltage of a PWM bridge on a sagging battery: the simulator's battery and
+/// bridge law ([`BatteryParams::bridge_output_v`]) with the battery current the duty draws,
+/// `d i`: duty `d = clip(V_cmd / V_rated)`, applied `d (V_oc - R_int d i)`.
 pub fn bridge_voltage(
     command_v: f64,
     rated_v: f64,
@@ -114,6 +117,13 @@ pub fn bridge_voltage(
     r_int: f64,
     current_a: f64,
 ) -> f64 {
-    let d = (command_v / rated_v).clamp(-1.0, 1.0);
-    d * (open_circuit_v - r_int * d * current_a)
+    let battery = BatteryParams {
+        open_circuit_v,
+        internal_resistance_ohm: r_int,
+        drive_limit_v: f64::INFINITY,
+        low_voltage_fault_v: 0.0,
+        bridge_rated_v: rated_v,
+    };
+    let duty = battery.duty_for_command(command_v).unwrap_or(1.0);
+    battery.bridge_output_v(command_v, battery.terminal_voltage_v(duty * current_a))
 }

@@ -8,6 +8,9 @@ pub struct BatteryParams {
     /// Highest motor voltage the bridges deliver, V.
     pub drive_limit_v: f64,
     pub low_voltage_fault_v: f64,
+    /// The supply voltage a bridge assumes when it turns a voltage command into a PWM duty,
+    /// V; 0 for a compensated bridge, which measures its supply (see [`Self::bridge_output_v`]).
+    pub bridge_rated_v: f64,
 }
 
 impl BatteryParams {
@@ -19,6 +22,26 @@ impl BatteryParams {
     /// Highest voltage a motor can be given at a terminal voltage, V.
     pub fn available_drive_v(&self, terminal_v: f64) -> f64 {
         self.drive_limit_v.min(terminal_v).max(0.0)
+    }
+
+    /// PWM duty (-1..1) an uncompensated bridge sets for a voltage command: the command over
+    /// its rated supply. `None` for a compensated bridge (`bridge_rated_v` 0).
+    pub fn duty_for_command(&self, command_v: f64) -> Option<f64> {
+        (self.bridge_rated_v > 0.0).then(|| (command_v / self.bridge_rated_v).clamp(-1.0, 1.0))
+    }
+
+    /// Voltage a bridge applies to a motor for a voltage command at a battery terminal
+    /// voltage, V. A compensated bridge delivers the command while the supply can, so the
+    /// battery's sag shows only once the command exceeds what is left. An uncompensated one
+    /// sets its duty against its rated supply and applies the duty times the terminal
+    /// voltage, so the sag scales every command. Either is clipped to what can be given.
+    pub fn bridge_output_v(&self, command_v: f64, terminal_v: f64) -> f64 {
+        let available = self.available_drive_v(terminal_v);
+        let applied = match self.duty_for_command(command_v) {
+            Some(duty) => duty * terminal_v,
+            None => command_v,
+        };
+        applied.clamp(-available, available)
     }
 
     /// Battery current for the motors' electrical power (ideal bridges: power balance), A.
@@ -38,5 +61,34 @@ impl BatteryParams {
 
     pub fn below_fault(&self, terminal_v: f64) -> bool {
         terminal_v < self.low_voltage_fault_v
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn battery(rated_v: f64) -> BatteryParams {
+        BatteryParams {
+            open_circuit_v: 24.0,
+            internal_resistance_ohm: 0.1,
+            drive_limit_v: 23.5,
+            low_voltage_fault_v: 20.0,
+            bridge_rated_v: rated_v,
+        }
+    }
+
+    #[test]
+    fn an_uncompensated_bridge_passes_the_sag_on_and_a_compensated_one_does_not() {
+        // 20 A from the battery: 2 V of sag on 24 V.
+        let terminal = battery(0.0).terminal_voltage_v(20.0);
+        assert!((terminal - 22.0).abs() < 1e-12);
+        // A 12 V command: the compensated bridge delivers it, the uncompensated one half of
+        // the sagging terminal voltage.
+        assert!((battery(0.0).bridge_output_v(12.0, terminal) - 12.0).abs() < 1e-12);
+        assert!((battery(24.0).bridge_output_v(12.0, terminal) - 11.0).abs() < 1e-12);
+        // Both are clipped by the drive limit and what the terminal gives.
+        assert!((battery(0.0).bridge_output_v(-30.0, 24.0) + 23.5).abs() < 1e-12);
+        assert!((battery(24.0).bridge_output_v(30.0, terminal) - 22.0).abs() < 1e-12);
     }
 }

@@ -202,6 +202,7 @@ pub const NUMERIC: &[NumericKey] = numeric! {
     "battery.internal_resistance_ohm" NonNegative => |s| Some(s.battery.internal_resistance_ohm);
     "battery.drive_limit_V" Positive => |s| Some(s.battery.drive_limit_V);
     "battery.low_voltage_fault_V" NonNegative => |s| Some(s.battery.low_voltage_fault_V);
+    "battery.bridge_rated_V" NonNegative => |s| Some(s.battery.bridge_rated_V);
     "dcmc.forward_gain_V_pct" Finite => |s| Some(s.dcmc.forward_gain_V_pct);
     "dcmc.turn_gain_V_pct" Finite => |s| Some(s.dcmc.turn_gain_V_pct);
     "dcmc.speed_per_pct_rad_s" Positive => |s| Some(s.dcmc.speed_per_pct_rad_s);

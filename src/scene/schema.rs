@@ -365,6 +365,12 @@ pub struct BatterySpec {
     pub drive_limit_V: f64,
     /// The DCMC faults when the battery terminal voltage falls below this, V.
     pub low_voltage_fault_V: f64,
+    /// For motor-voltage commands (a recording's `voltage_V`): the supply voltage the
+    /// bridges assume when they set their PWM duty, V. 0 (default): compensated bridges,
+    /// which deliver the command while the battery can. Above 0: duty = command / this
+    /// (clipped to 1), times the battery's terminal voltage, so its sag under current
+    /// scales every command (the contract's `battery_sag`).
+    pub bridge_rated_V: f64,
 }
 
 impl Default for BatterySpec {
@@ -374,6 +380,7 @@ impl Default for BatterySpec {
             internal_resistance_ohm: 0.02,
             drive_limit_V: 23.5,
             low_voltage_fault_V: 22.0,
+            bridge_rated_V: 0.0,
         }
     }
 }

@@ -209,6 +209,7 @@ impl SimParams {
             internal_resistance_ohm: b.internal_resistance_ohm,
             drive_limit_v: b.drive_limit_V,
             low_voltage_fault_v: b.low_voltage_fault_V,
+            bridge_rated_v: b.bridge_rated_V,
         };
         let d = &scene.dcmc;
         let dcmc = DcmcParams {

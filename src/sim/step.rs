@@ -115,7 +115,7 @@ impl Sim {
         let terminals = match self.actuation {
             Actuation::Firmware | Actuation::Demand { .. } => dcmc.voltage_v.map(Terminal::Voltage),
             Actuation::Voltage(v) => {
-                v.map(|x| Terminal::Voltage(x.clamp(-available_v, available_v)))
+                v.map(|x| Terminal::Voltage(battery.bridge_output_v(x, battery_v)))
             }
             Actuation::Open => [Terminal::Open; 2],
         };

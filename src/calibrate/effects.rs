@@ -1,0 +1,232 @@
+//! Where each effect of the contract's vocabulary lives in the scene: the key that sets its
+//! strength in the simulator, the keys that switch its physics on, and where a calibration
+//! starts it. Calibration fits an effect by fitting that key through the simulator, so what
+//! it finds is the physics the user's scene runs.
+
+use super::{keys, CalibrateError};
+use crate::ident::effects::Effect;
+use crate::replay::Drive;
+use crate::scene::Scene;
+use crate::sim::SimParams;
+
+/// An effect's home in the scene.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Home {
+    pub effect: Effect,
+    /// The scene key holding the effect's strength, fitted by the calibration.
+    pub key: &'static str,
+    /// Other keys set (as `--set` would) to switch the physics on, with their values.
+    pub switches: Vec<(&'static str, String)>,
+    /// Where the fit starts the key.
+    pub start: f64,
+}
+
+/// Why an effect has no home for this recording, or none yet.
+fn homeless(effect: Effect, why: &str) -> CalibrateError {
+    CalibrateError::Key(format!("--effects {}: {why}", effect.name()))
+}
+
+/// How a recording drives the simulator: what decides where an effect can live.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Driven {
+    pub drive: Drive,
+    /// The machine stands on the floor (a vehicle), not on blocks.
+    pub on_floor: bool,
+    /// The largest voltage command, V, when the recording commands voltages.
+    pub max_command_v: Option<f64>,
+}
+
+/// The effect's home in `scene` for a recording driven as `driven` says. The key starts at the scene's
+/// value where that already switches the effect on, otherwise at a small strength that
+/// the recording's gradient can grow from (a key at its null value has none):
+///
+/// | effect | key | start when off |
+/// |---|---|---|
+/// | `backlash` | `gearbox.backlash_rad` | 0.03 rad (1.7 deg) |
+/// | `coulomb_friction` | `motor.coulomb_Nm` | 1 % of the motor's stall torque at the drive limit |
+/// | `voltage_saturation` | `battery.drive_limit_V` | 90 % of the largest voltage command |
+/// | `battery_sag` | `battery.internal_resistance_ohm` (bridges set their duty against `battery.bridge_rated_V`, the open-circuit voltage) | 0.05 ohm |
+/// | `speed_feedback` | `dcmc.ki_V_rad` (with `dcmc.kind = "pi"`) | 4 V/rad |
+/// | `wheel_slip` | `tyre.peak_mu` | the compound's friction on the floor |
+/// | `castor_drag` | `castors.rolling_resistance` | 0.02 |
+///
+/// `transport_delay`, `offset` and `friction_asymmetry` have no scene key yet: asking for
+/// them is an error that says so.
+pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, CalibrateError> {
+    let Driven {
+        drive,
+        on_floor,
+        max_command_v,
+    } = driven;
+    let current = |key: &str| keys::get(scene, key).unwrap_or(0.0);
+    let home = |key: &'static str, start: f64| Home {
+        effect,
+        key,
+        switches: vec![],
+        start,
+    };
+    Ok(match effect {
+        Effect::Backlash => {
+            let b = current("gearbox.backlash_rad");
+            home("gearbox.backlash_rad", if b >= 1e-3 { b } else { 0.03 })
+        }
+        Effect::CoulombFriction => {
+            let m = &scene.motor;
+            let stall_nm = m.torque_constant_Nm_A * scene.battery.drive_limit_V / m.resistance_ohm;
+            let tc = m.coulomb_Nm;
+            home(
+                "motor.coulomb_Nm",
+                if tc > 1e-4 * stall_nm { tc } else { 0.01 * stall_nm },
+            )
+        }
+        Effect::VoltageSaturation => {
+            let limit = scene.battery.drive_limit_V;
+            let start = match max_command_v {
+                Some(v) if v > 0.0 => limit.min(0.9 * v),
+                _ => 0.9 * limit,
+            };
+            home("battery.drive_limit_V", start)
+        }
+        Effect::BatterySag => {
+            let b = &scene.battery;
+            let mut h = home(
+                "battery.internal_resistance_ohm",
+                if b.internal_resistance_ohm >= 0.01 {
+                    b.internal_resistance_ohm
+                } else {
+                    0.05
+                },
+            );
+            if !matches!(drive, Drive::Voltages | Drive::AxisVoltage) {
+                return Err(homeless(
+                    effect,
+                    "the recording drives the DCMC by demand; the simulator's DCMC regulates its voltage against the battery, so its sag shows only as saturation (use voltage_saturation)",
+                ));
+            }
+            if b.bridge_rated_V <= 0.0 {
+                h.switches
+                    .push(("battery.bridge_rated_V", format!("{:e}", b.open_circuit_V)));
+            }
+            h
+        }
+        Effect::SpeedFeedback => {
+            if !matches!(drive, Drive::Demands | Drive::AxisDemand) {
+                return Err(homeless(
+                    effect,
+                    "the DCMC's speed loop acts on demands, and the recording commands motor voltages, which bypass the DCMC",
+                ));
+            }
+            let ki = scene.dcmc.ki_V_rad;
+            let mut h = home("dcmc.ki_V_rad", if ki > 0.0 { ki } else { 4.0 });
+            h.switches.push(("dcmc.kind", "\"pi\"".into()));
+            h
+        }
+        Effect::WheelSlip | Effect::CastorDrag if !on_floor => {
+            return Err(homeless(
+                effect,
+                "a lifted drive has no floor contact: fit it to a vehicle recording",
+            ))
+        }
+        Effect::WheelSlip => {
+            let params = SimParams::from_scene(scene)
+                .map_err(|e| CalibrateError::Key(format!("the scene does not set up: {e}")))?;
+            let mu = params.drive_tyre(params.floor.default).peak_mu;
+            home("tyre.peak_mu", mu)
+        }
+        Effect::CastorDrag => {
+            let rr = scene.castors.rolling_resistance;
+            home("castors.rolling_resistance", if rr > 1e-4 { rr } else { 0.02 })
+        }
+        Effect::TransportDelay | Effect::Offset | Effect::FrictionAsymmetry => {
+            return Err(homeless(
+                effect,
+                "the simulator has no scene key for this physics yet (diagnose names it on a rig's fitting model)",
+            ))
+        }
+    })
+}
+
+/// The scene with the effect switched on at its start (validated as a `--set` would be).
+pub fn switched_on(scene: &Scene, home: &Home) -> Result<Scene, CalibrateError> {
+    let mut sets: Vec<String> = home
+        .switches
+        .iter()
+        .map(|(k, v)| format!("{k}={v}"))
+        .collect();
+    sets.push(format!("{}={:e}", home.key, home.start));
+    keys::set_texts(scene, &sets)
+}
+
+/// The effects named on the command line (`--effects backlash,coulomb_friction`).
+pub fn parse(names: &[String]) -> Result<Vec<Effect>, CalibrateError> {
+    let mut out: Vec<Effect> = vec![];
+    for n in names {
+        let e = Effect::from_name(n.trim()).ok_or_else(|| {
+            let all: Vec<&str> = Effect::ALL.iter().map(|e| e.name()).collect();
+            CalibrateError::Key(format!(
+                "--effects {n}: not an effect of the contract's vocabulary ({})",
+                all.join(", ")
+            ))
+        })?;
+        if !out.contains(&e) {
+            out.push(e);
+        }
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_effect_is_switched_on_in_the_scene_or_refused_with_its_reason() {
+        let scene = Scene::default();
+        let axis = Driven {
+            drive: Drive::AxisVoltage,
+            on_floor: false,
+            max_command_v: Some(14.0),
+        };
+        let volts = |e| home(e, &scene, axis);
+        let h = volts(Effect::VoltageSaturation).unwrap();
+        assert_eq!(h.key, "battery.drive_limit_V");
+        assert!((h.start - 12.6).abs() < 1e-12);
+        let sag = volts(Effect::BatterySag).unwrap();
+        let on = switched_on(&scene, &sag).unwrap();
+        assert_eq!(on.battery.bridge_rated_V, scene.battery.open_circuit_V);
+        // The scene's own 0.02 ohm already sags: the fit starts there.
+        assert_eq!(on.battery.internal_resistance_ohm, 0.02);
+        let e = volts(Effect::SpeedFeedback).unwrap_err().to_string();
+        assert!(e.contains("speed_feedback") && e.contains("bypass"), "{e}");
+        let pi = home(
+            Effect::SpeedFeedback,
+            &scene,
+            Driven {
+                drive: Drive::AxisDemand,
+                max_command_v: None,
+                ..axis
+            },
+        ).unwrap();
+        let on = switched_on(&scene, &pi).unwrap();
+        assert_eq!(on.dcmc.kind, crate::scene::DcmcKind::Pi);
+        let e = volts(Effect::WheelSlip).unwrap_err().to_string();
+        assert!(e.contains("lifted"), "{e}");
+        let slip = home(
+            Effect::WheelSlip,
+            &scene,
+            Driven {
+                drive: Drive::Voltages,
+                on_floor: true,
+                ..axis
+            },
+        ).unwrap();
+        assert!(slip.start > 0.1 && slip.start < 2.0, "{}", slip.start);
+        assert_eq!(switched_on(&scene, &slip).unwrap().tyre.peak_mu, Some(slip.start));
+        for e in [Effect::TransportDelay, Effect::Offset, Effect::FrictionAsymmetry] {
+            let m = volts(e).unwrap_err().to_string();
+            assert!(m.contains(e.name()) && m.contains("no scene key"), "{m}");
+        }
+        let m = parse(&["backlash".into(), "slip".into()]).unwrap_err().to_string();
+        assert!(m.contains("slip") && m.contains("wheel_slip"), "{m}");
+    }
+}
