@@ -324,7 +324,7 @@ pub fn calibrate_command(
             || "the recording".into(),
             |n| n.to_string_lossy().into_owned(),
         );
-        let out = match cw::calibrated_text(&text, &c, &source) {
+        let out = match cw::calibrated_text(&text, &c, &source, set) {
             Ok(t) => t,
             Err(e) => return fail(e),
         };

@@ -4,7 +4,8 @@
 
 use std::path::{Path, PathBuf};
 
-use agvsim::calibrate::{calibrate, write::calibrated_text, write::mean_fit};
+use agvsim::calibrate::{calibrate, calibrate_telling, write::calibrated_text, write::mean_fit, Request};
+use agvsim::ident::effects::Effect;
 use agvsim::record::Recording;
 use agvsim::replay::{replay, report::simulated_csv};
 use agvsim::scene::Scene;
@@ -102,7 +103,7 @@ fn a_calibrated_scene_recovers_the_machine_and_replays_it_better() {
     assert!(va > vb + 5.0, "{vb} -> {va}");
 
     let text = std::fs::read_to_string(SCENE).unwrap();
-    let written = calibrated_text(&text, &c, "multisine_inputs.replay.csv").unwrap();
+    let written = calibrated_text(&text, &c, "multisine_inputs.replay.csv", &[]).unwrap();
     let no_play = ["gearbox.backlash_rad=0".to_string()];
     let reloaded = Scene::from_toml(&written, Path::new("calibrated.toml"), &no_play).unwrap();
     let fitted: Vec<&str> = c.keys.iter().map(|k| k.key.as_str()).collect();
@@ -167,6 +168,182 @@ fn a_key_that_ends_at_its_bound_is_reported_and_not_written() {
     assert_eq!(j["keys"][0]["at_bound"], serde_json::json!(1e-3));
     assert!(j["keys"][0]["std"].is_null());
     let text = std::fs::read_to_string(SCENE).unwrap();
-    let written = calibrated_text(&text, &c, "m.csv").unwrap();
+    let written = calibrated_text(&text, &c, "m.csv", &[]).unwrap();
     assert!(!written.contains("viscous_Nm_s_rad"), "{written}");
+}
+
+/// Inputs for a drive axis: 8 s of a smooth multisine (phases from `seed`) in `column`
+/// (`voltage_V` up to about 14 V, or `demand_pct` up to about 70 %, after 0.6 s at zero so
+/// that the DCMC's enable delay passes), every 5 ms.
+fn axis_inputs(dir: &Path, column: &str, seed: u64) -> Recording {
+    let scale = if column == "demand_pct" { 25.0 } else { 5.0 };
+    let mut text = format!(
+        "# agvsim-recording: 1\n# rig: drive_axis\nt_s,{column},motor_speed_rad_s,current_A\n"
+    );
+    for k in 0..1600 {
+        let t = k as f64 * 0.005;
+        let v: f64 = [(0.3, 1.0), (0.7, 0.8), (1.9, 0.6), (4.3, 0.4)]
+            .iter()
+            .enumerate()
+            .map(|(i, (f, a))| {
+                scale * a * (std::f64::consts::TAU * f * t + (seed * 7 + i as u64) as f64).sin()
+            })
+            .sum();
+        let v = if column == "demand_pct" && t < 0.6 { 0.0 } else { v };
+        text.push_str(&format!("{t},{v},0,0\n"));
+    }
+    let path = dir.join(format!("inputs_{column}_{seed}.csv"));
+    std::fs::write(&path, text).unwrap();
+    Recording::load(&path).unwrap()
+}
+
+/// The machine `truth` on `inputs`, as a rig would log it: each output with white noise
+/// (seeded) of 1 % of its spread (the current of a lifted axis swings 1 A, its speed
+/// 100 rad/s: a sensor ranged to the signal), written and read back.
+fn noisy_recording(dir: &Path, truth: &Scene, inputs: &Recording, seed: u64) -> Recording {
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, StandardNormal};
+    let r = replay(truth, inputs).unwrap();
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
+    let inputs_csv = simulated_csv(&r, inputs, Path::new(SCENE));
+    let mut lines: Vec<String> = inputs_csv.lines().map(str::to_string).collect();
+    let header = lines.iter().position(|l| !l.starts_with('#')).unwrap();
+    let names: Vec<String> = lines[header].split(',').map(str::to_string).collect();
+    let spread = |name: &str| {
+        let o = r.output(name).unwrap();
+        let m = o.simulated.iter().sum::<f64>() / o.simulated.len() as f64;
+        (o.simulated.iter().map(|v| (v - m).powi(2)).sum::<f64>() / o.simulated.len() as f64)
+            .sqrt()
+    };
+    let sd: Vec<Option<f64>> = names
+        .iter()
+        .map(|n| r.output(n).map(|_| 0.01 * spread(n)))
+        .collect();
+    for line in lines.iter_mut().skip(header + 1) {
+        let cells: Vec<String> = line
+            .split(',')
+            .zip(&sd)
+            .map(|(c, sd)| match sd {
+                Some(sd) => {
+                    let n: f64 = StandardNormal.sample(&mut rng);
+                    format!("{}", c.parse::<f64>().unwrap() + sd * n)
+                }
+                None => c.to_string(),
+            })
+            .collect();
+        *line = cells.join(",");
+    }
+    let path = dir.join(format!("machine_{seed}.csv"));
+    std::fs::write(&path, lines.join("\n") + "\n").unwrap();
+    Recording::load(&path).unwrap()
+}
+
+/// One effect's round trip: the simulator records a machine with the effect on (and no
+/// other), a scene with the effect off and its resistance 15 % high and rotor inertia 10 %
+/// low is calibrated with `offered` effects to try; only `expected` is accepted, its key
+/// comes back within 15 % of the machine's, and the calibrated scene replays a second
+/// recording it never saw better than the original. Returns the calibration.
+fn round_trip(
+    name: &str,
+    column: &str,
+    machine: &[&str],
+    off: &[&str],
+    offered: &[Effect],
+    expected: Option<(Effect, &str, f64)>,
+) -> agvsim::calibrate::Calibration {
+    let dir = tmp(name);
+    let mut truth_sets = vec!["gearbox.backlash_rad=0", "motor.coulomb_Nm=0"];
+    truth_sets.extend(machine);
+    let truth = scene(&truth_sets);
+    let rec = noisy_recording(&dir, &truth, &axis_inputs(&dir, column, 1), 11);
+    let other = noisy_recording(&dir, &truth, &axis_inputs(&dir, column, 2), 12);
+    let mut belief_sets = vec![
+        "gearbox.backlash_rad=0",
+        "motor.coulomb_Nm=0",
+        "motor.resistance_ohm=0.4025",
+        "motor.rotor_inertia_kg_m2=0.00018",
+    ];
+    belief_sets.extend(off);
+    let belief = scene(&belief_sets);
+    let request = Request {
+        free: vec![],
+        effects: offered.to_vec(),
+    };
+    let c = calibrate_telling(&belief, &rec, &request, &|_| {}).unwrap();
+    print!("{name}:\n{}", agvsim::calibrate::write::render(&c));
+    let accepted: Vec<Effect> = c.effects.iter().filter(|t| t.accepted).map(|t| t.effect).collect();
+    assert_eq!(accepted, expected.iter().map(|e| e.0).collect::<Vec<_>>(), "{name}");
+    if let Some((_, key, value)) = expected {
+        let k = c.keys.iter().find(|k| k.key == key).unwrap();
+        assert!((k.after / value - 1.0).abs() < 0.15, "{name}: {k:?}");
+        let vb = mean_fit(&replay(&belief, &other).unwrap(), &c.outputs);
+        let va = mean_fit(&replay(&c.scene, &other).unwrap(), &c.outputs);
+        println!("{name}: validation {vb:.1} % -> {va:.1} %");
+        assert!(va > vb, "{name}: {vb} -> {va}");
+    }
+    c
+}
+
+const ON_VOLTAGE: [Effect; 4] = [
+    Effect::Backlash,
+    Effect::CoulombFriction,
+    Effect::VoltageSaturation,
+    Effect::BatterySag,
+];
+
+#[test]
+fn coulomb_friction_comes_back_into_the_motor() {
+    let e = Some((Effect::CoulombFriction, "motor.coulomb_Nm", 0.05));
+    round_trip("coulomb", "voltage_V", &["motor.coulomb_Nm=0.05"], &[], &ON_VOLTAGE, e);
+}
+
+#[test]
+fn voltage_saturation_comes_back_as_the_drive_limit() {
+    let e = Some((Effect::VoltageSaturation, "battery.drive_limit_V", 11.0));
+    round_trip("saturation", "voltage_V", &["battery.drive_limit_V=11"], &[], &ON_VOLTAGE, e);
+}
+
+/// The machine's bridges set their duty against 24 V and its battery sags 0.15 ohm; the
+/// scene's bridges are compensated and its battery stiff. The calibrated scene carries
+/// both the resistance and the switch to duty-setting bridges.
+#[test]
+fn battery_sag_comes_back_with_the_bridges_that_show_it() {
+    let e = Some((Effect::BatterySag, "battery.internal_resistance_ohm", 0.15));
+    let machine = ["battery.bridge_rated_V=24", "battery.internal_resistance_ohm=0.15"];
+    let off = ["battery.internal_resistance_ohm=0"];
+    let c = round_trip("sag", "voltage_V", &machine, &off, &ON_VOLTAGE, e);
+    assert_eq!(c.scene.battery.bridge_rated_V, 24.0);
+    let text = std::fs::read_to_string(SCENE).unwrap();
+    let written = calibrated_text(&text, &c, "machine_11.csv", &[]).unwrap();
+    let reloaded = Scene::from_toml(&written, Path::new("calibrated.toml"), &[]).unwrap();
+    assert_eq!(reloaded.battery.bridge_rated_V, 24.0);
+    assert!(written.contains("set to switch on battery_sag (was not in the file)"), "{written}");
+}
+
+/// Offered with the motor's friction, the drivetrain's other mechanical effect. Not with
+/// the battery's: the replay of a wheel rattling in its play has local minima, and the
+/// fit with the play accepted lands in one (resistance 6 % high); a battery_sag switched on
+/// at the scene's own 0.02 ohm then leads the free keys to a deeper one and is accepted for
+/// that (a 35 % lower residual than the same keys refitted without it).
+#[test]
+fn gear_play_comes_back_into_the_gearbox() {
+    let e = Some((Effect::Backlash, "gearbox.backlash_rad", 0.05));
+    let offered = [Effect::Backlash, Effect::CoulombFriction];
+    round_trip("backlash", "voltage_V", &["gearbox.backlash_rad=0.05"], &[], &offered, e);
+}
+
+/// On demands: the machine's DCMC closes a PI speed loop, the scene's is a plain gain.
+#[test]
+fn speed_feedback_comes_back_as_the_dcmc_integral_gain() {
+    let e = Some((Effect::SpeedFeedback, "dcmc.ki_V_rad", 2.0));
+    let machine = ["dcmc.kind=pi", "dcmc.ki_V_rad=2"];
+    let offered = [Effect::SpeedFeedback, Effect::CoulombFriction];
+    let c = round_trip("pi", "demand_pct", &machine, &[], &offered, e);
+    assert_eq!(c.scene.dcmc.kind, agvsim::scene::DcmcKind::Pi);
+}
+
+/// A machine with none of the effects: every one is offered and none is accepted.
+#[test]
+fn a_clean_machine_comes_back_with_no_effect() {
+    round_trip("clean", "voltage_V", &[], &[], &ON_VOLTAGE, None);
 }

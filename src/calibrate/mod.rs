@@ -250,6 +250,9 @@ impl Stage {
 /// What every fit of one calibration shares.
 struct Problem<'a> {
     rec: &'a Recording,
+    /// The scene as the user wrote it, and the keys fitted with every effect.
+    belief: &'a Scene,
+    free: Vec<String>,
     data: Dataset,
     weights: Vec<f64>,
 }
@@ -288,6 +291,29 @@ impl Problem<'_> {
         })
     }
 
+    /// The scene with the free keys back at the user's values (accepted effects' keys kept).
+    fn with_beliefs(&self, scene: &Scene) -> Result<Scene, CalibrateError> {
+        let beliefs: Vec<(String, f64)> = self
+            .free
+            .iter()
+            .map(|k| Ok((k.clone(), keys::get(self.belief, k)?)))
+            .collect::<Result<_, CalibrateError>>()?;
+        keys::set(scene, &beliefs)
+    }
+
+    /// The stage refitted from the beliefs with its effects at their fitted strengths,
+    /// if that fits better: an effect fitted from a distorted start can leave the free
+    /// keys in a poorer minimum, and the next round's effects must not be credited with
+    /// the gain of leaving it.
+    fn polished(&self, stage: Stage) -> Result<Stage, CalibrateError> {
+        let again = self.fit(&self.with_beliefs(&stage.scene)?, &stage.free)?;
+        Ok(if again.fit.cost < stage.fit.cost {
+            again
+        } else {
+            stage
+        })
+    }
+
     /// Where the effect's key starts its fit: the lowest cost of a scan over its search
     /// range (a tenth to ten times its start, nine values a factor 1.78 apart), the other
     /// keys held. A play or a clipping limit moves the outputs in steps the gradient
@@ -318,19 +344,42 @@ impl Problem<'_> {
         stage: &Stage,
         home: &effects::Home,
     ) -> Result<(EffectTrial, Stage), CalibrateError> {
-        let scan = effects::Home {
-            start: self.scan_start(&effects::switched_on(&stage.scene, home)?, home)?,
-            ..home.clone()
-        };
-        let scene = effects::switched_on(&stage.scene, &scan)?;
         let mut free = stage.free.clone();
         free.push(home.key.to_string());
-        let next = self.fit(&scene, &free)?;
-        let n_stage = effective_n(&self.data, &stage.fit.predicted);
+        // From the stage's values, and from the beliefs: a missing effect can drag the
+        // free keys far from the machine (to a bound), into a basin the effect's fit does
+        // not leave.
+        let mut best: Option<Stage> = None;
+        for base in [stage.scene.clone(), self.with_beliefs(&stage.scene)?] {
+            let scan = effects::Home {
+                start: self.scan_start(&effects::switched_on(&base, home)?, home)?,
+                ..home.clone()
+            };
+            let next = self.fit(&effects::switched_on(&base, &scan)?, &free)?;
+            if best.as_ref().is_none_or(|b| next.fit.cost < b.fit.cost) {
+                best = Some(next);
+            }
+        }
+        let next = best.expect("two starts were fitted");
+        // The gain is the effect's only if the stage's own physics, refitted from where the
+        // effect's fit ended, does not reach it: the rough play or limit may have led the
+        // free keys out of a poor minimum, which is no evidence for the effect.
+        let fitted: Vec<(String, f64)> = stage
+            .free
+            .iter()
+            .map(|k| Ok((k.clone(), keys::get(&next.scene, k)?)))
+            .collect::<Result<_, CalibrateError>>()?;
+        let null = self.fit(&keys::set(&stage.scene, &fitted)?, &stage.free)?;
+        let reference = if null.fit.cost < stage.fit.cost {
+            &null
+        } else {
+            stage
+        };
+        let n_ref = effective_n(&self.data, &reference.fit.predicted);
         let delta_aic =
-            likelihood_gain(&self.data, &stage.fit.predicted, &n_stage, &next.fit.predicted)
+            likelihood_gain(&self.data, &reference.fit.predicted, &n_ref, &next.fit.predicted)
                 - 2.0;
-        let reduction = 1.0 - next.fit.cost / stage.fit.cost;
+        let reduction = 1.0 - next.fit.cost / reference.fit.cost;
         let i = free.len() - 1;
         let at_bound = next.at_bound(i);
         let trial = EffectTrial {
@@ -341,9 +390,12 @@ impl Problem<'_> {
             at_bound,
             delta_aic,
             rss_reduction_pct: 100.0 * reduction,
+            // A key the recording does not determine (a limit above every command) is
+            // not what earned a gain.
             accepted: delta_aic > MIN_DELTA_AIC
                 && reduction >= MIN_RSS_REDUCTION
-                && at_bound.is_none(),
+                && at_bound.is_none()
+                && next.fit.std[i].is_some(),
         };
         Ok((trial, next))
     }
@@ -433,6 +485,8 @@ pub fn calibrate_telling(
     }
     let problem = Problem {
         rec,
+        belief: scene,
+        free: free.clone(),
         weights: spread_weights(&data),
         data,
     };
@@ -488,7 +542,8 @@ pub fn calibrate_telling(
         }));
         starts.push((home.key.to_string(), home.start));
         remaining.retain(|&e| e != t.effect);
-        stage = next;
+        stage = problem.polished(next)?;
+        iterations += stage.fit.iterations;
     }
     let keys: Vec<KeyFit> = stage
         .free

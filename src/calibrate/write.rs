@@ -4,7 +4,10 @@
 
 use super::{CalibrateError, Calibration};
 
-/// Six significant digits: more than any fit determines.
+/// Six significant digits, for the comments: more than any fit determines. The keys
+/// themselves are written in full, so that the written scene replays exactly as the
+/// calibrated one did (a lifted wheel rattling in its gear play replays differently at
+/// the sixth digit of its keys).
 fn rounded(v: f64) -> f64 {
     format!("{v:.5e}").parse().unwrap_or(v)
 }
@@ -29,49 +32,71 @@ fn table_at<'d>(
     Ok(table)
 }
 
-/// The original scene text with the calibration's changed keys (those not at a bound).
+/// Writes `KEY = VALUE` (VALUE as `--set` text) into the document with a comment.
+fn set_text(
+    doc: &mut toml_edit::DocumentMut,
+    key: &str,
+    value: &str,
+    comment: impl Fn(&str) -> String,
+) -> Result<(), CalibrateError> {
+    let parts: Vec<&str> = key.split('.').collect();
+    let (leaf, path) = parts.split_last().expect("a key has a name");
+    let table = table_at(doc, path, key)?;
+    let was = table
+        .get(leaf)
+        .and_then(|v| v.as_value())
+        .map_or("not in the file".to_string(), |v| v.clone().decorated("", "").to_string());
+    let mut item: toml_edit::Value = match crate::scene::parse_value(value) {
+        toml::Value::String(t) => t.into(),
+        toml::Value::Float(f) => f.into(),
+        toml::Value::Integer(i) => i.into(),
+        toml::Value::Boolean(b) => b.into(),
+        other => other.to_string().into(),
+    };
+    item.decor_mut().set_suffix(format!("  # {}", comment(&was)));
+    table.insert(leaf, toml_edit::Item::Value(item));
+    Ok(())
+}
+
+/// The original scene text as calibrated: the `--set` values the calibration ran with
+/// (`overrides`), the fitted keys (those not at a bound) and the keys that switch the
+/// accepted effects on, each with a comment. It loads as the calibrated scene.
 pub fn calibrated_text(
     original: &str,
     c: &Calibration,
     source: &str,
+    overrides: &[String],
 ) -> Result<String, CalibrateError> {
     let mut doc: toml_edit::DocumentMut = original
         .parse()
         .map_err(|e| CalibrateError::Key(format!("the scene cannot be edited: {e}")))?;
+    for o in overrides {
+        let (key, value) = o.split_once('=').ok_or_else(|| {
+            CalibrateError::Key(format!("--set {o}: expected KEY=VALUE"))
+        })?;
+        set_text(&mut doc, key.trim(), value.trim(), |was| {
+            format!("set by --set for the calibration against {source} (was {was})")
+        })?;
+    }
     for k in c.keys.iter().filter(|k| k.at_bound.is_none()) {
-        let parts: Vec<&str> = k.key.split('.').collect();
-        let (leaf, path) = parts.split_last().expect("a key has a name");
-        let table = table_at(&mut doc, path, &k.key)?;
         let std = k
             .std
             .map_or("undetermined".to_string(), |s| format!("{:.2e}", s));
-        let mut value = toml_edit::Value::from(rounded(k.after));
-        value.decor_mut().set_suffix(format!(
-            "  # calibrated against {source}: was {}, fitted {} +/- {std}",
-            k.before,
-            rounded(k.after)
-        ));
-        table.insert(leaf, toml_edit::Item::Value(value));
+        set_text(&mut doc, &k.key, &format!("{:e}", k.after), |_| {
+            format!(
+                "calibrated against {source}: was {}, fitted {} +/- {std}",
+                k.before,
+                rounded(k.after)
+            )
+        })?;
     }
     for sw in &c.switches {
-        let parts: Vec<&str> = sw.key.split('.').collect();
-        let (leaf, path) = parts.split_last().expect("a key has a name");
-        let table = table_at(&mut doc, path, &sw.key)?;
-        let was = table
-            .get(leaf)
-            .map_or("unset".to_string(), |v| v.to_string().trim().to_string());
-        let mut item: toml_edit::Value = match crate::scene::parse_value(&sw.value) {
-            toml::Value::String(t) => t.into(),
-            toml::Value::Float(f) => rounded(f).into(),
-            toml::Value::Integer(i) => i.into(),
-            toml::Value::Boolean(b) => b.into(),
-            other => other.to_string().into(),
-        };
-        item.decor_mut().set_suffix(format!(
-            "  # calibrated against {source}: set to switch on {} (was {was})",
-            sw.effect.name()
-        ));
-        table.insert(leaf, toml_edit::Item::Value(item));
+        set_text(&mut doc, &sw.key, &sw.value, |was| {
+            format!(
+                "calibrated against {source}: set to switch on {} (was {was})",
+                sw.effect.name()
+            )
+        })?;
     }
     let mut text = format!(
         "# Calibrated by `agvsim calibrate` against {source}; the fitted keys carry a `# calibrated` comment.\n"
