@@ -206,7 +206,8 @@ mod tests {
                 max_command_v: None,
                 ..axis
             },
-        ).unwrap();
+        )
+        .unwrap();
         let on = switched_on(&scene, &pi).unwrap();
         assert_eq!(on.dcmc.kind, crate::scene::DcmcKind::Pi);
         let e = volts(Effect::WheelSlip).unwrap_err().to_string();
@@ -219,14 +220,24 @@ mod tests {
                 on_floor: true,
                 ..axis
             },
-        ).unwrap();
+        )
+        .unwrap();
         assert!(slip.start > 0.1 && slip.start < 2.0, "{}", slip.start);
-        assert_eq!(switched_on(&scene, &slip).unwrap().tyre.peak_mu, Some(slip.start));
-        for e in [Effect::TransportDelay, Effect::Offset, Effect::FrictionAsymmetry] {
+        assert_eq!(
+            switched_on(&scene, &slip).unwrap().tyre.peak_mu,
+            Some(slip.start)
+        );
+        for e in [
+            Effect::TransportDelay,
+            Effect::Offset,
+            Effect::FrictionAsymmetry,
+        ] {
             let m = volts(e).unwrap_err().to_string();
             assert!(m.contains(e.name()) && m.contains("no scene key"), "{m}");
         }
-        let m = parse(&["backlash".into(), "slip".into()]).unwrap_err().to_string();
+        let m = parse(&["backlash".into(), "slip".into()])
+            .unwrap_err()
+            .to_string();
         assert!(m.contains("slip") && m.contains("wheel_slip"), "{m}");
     }
 }

@@ -268,10 +268,11 @@ impl Problem<'_> {
             max_iterations: 30,
             starts: vec![nominal.clone()],
         };
-        let fit = fit_predictor(&model, &self.data, &settings).map_err(|e| CalibrateError::Fit {
-            file: self.rec.path.clone(),
-            message: e.to_string(),
-        })?;
+        let fit =
+            fit_predictor(&model, &self.data, &settings).map_err(|e| CalibrateError::Fit {
+                file: self.rec.path.clone(),
+                message: e.to_string(),
+            })?;
         let specs = model.param_specs().to_vec();
         let kept: Vec<f64> = (0..free.len())
             .map(|i| {
@@ -376,9 +377,12 @@ impl Problem<'_> {
             stage
         };
         let n_ref = effective_n(&self.data, &reference.fit.predicted);
-        let delta_aic =
-            likelihood_gain(&self.data, &reference.fit.predicted, &n_ref, &next.fit.predicted)
-                - 2.0;
+        let delta_aic = likelihood_gain(
+            &self.data,
+            &reference.fit.predicted,
+            &n_ref,
+            &next.fit.predicted,
+        ) - 2.0;
         let reduction = 1.0 - next.fit.cost / reference.fit.cost;
         let i = free.len() - 1;
         let at_bound = next.at_bound(i);

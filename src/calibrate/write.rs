@@ -45,7 +45,9 @@ fn set_text(
     let was = table
         .get(leaf)
         .and_then(|v| v.as_value())
-        .map_or("not in the file".to_string(), |v| v.clone().decorated("", "").to_string());
+        .map_or("not in the file".to_string(), |v| {
+            v.clone().decorated("", "").to_string()
+        });
     let mut item: toml_edit::Value = match crate::scene::parse_value(value) {
         toml::Value::String(t) => t.into(),
         toml::Value::Float(f) => f.into(),
@@ -53,7 +55,8 @@ fn set_text(
         toml::Value::Boolean(b) => b.into(),
         other => other.to_string().into(),
     };
-    item.decor_mut().set_suffix(format!("  # {}", comment(&was)));
+    item.decor_mut()
+        .set_suffix(format!("  # {}", comment(&was)));
     table.insert(leaf, toml_edit::Item::Value(item));
     Ok(())
 }
@@ -71,9 +74,9 @@ pub fn calibrated_text(
         .parse()
         .map_err(|e| CalibrateError::Key(format!("the scene cannot be edited: {e}")))?;
     for o in overrides {
-        let (key, value) = o.split_once('=').ok_or_else(|| {
-            CalibrateError::Key(format!("--set {o}: expected KEY=VALUE"))
-        })?;
+        let (key, value) = o
+            .split_once('=')
+            .ok_or_else(|| CalibrateError::Key(format!("--set {o}: expected KEY=VALUE")))?;
         set_text(&mut doc, key.trim(), value.trim(), |was| {
             format!("set by --set for the calibration against {source} (was {was})")
         })?;
