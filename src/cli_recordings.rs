@@ -226,6 +226,13 @@ pub fn calibrate_command(
         report,
     } = outputs;
     use agvsim::calibrate::{self, write as cw};
+    let request = match calibrate::effects::parse(effects) {
+        Ok(effects) => calibrate::Request {
+            free: free.to_vec(),
+            effects,
+        },
+        Err(e) => return bad_input(e),
+    };
     let text = match std::fs::read_to_string(scene_path) {
         Ok(t) => t,
         Err(e) => return bad_input(format!("{}: cannot read: {e}", scene_path.display())),
@@ -262,13 +269,6 @@ pub fn calibrate_command(
         rec_path.display(),
         scene.sim.fidelity.name()
     );
-    let request = match calibrate::effects::parse(effects) {
-        Ok(effects) => calibrate::Request {
-            free: free.to_vec(),
-            effects,
-        },
-        Err(e) => return bad_input(e),
-    };
     let c = match calibrate::calibrate_telling(&scene, &rec, &request, &|stage| {
         eprintln!("calibrate  {stage}")
     }) {

@@ -465,3 +465,48 @@ fn castor_drag_comes_back_as_the_castors_rolling_resistance() {
     let offered = [Effect::CastorDrag, Effect::CoulombFriction];
     round_trip_on("castors", &vehicle_inputs, &machine, &beliefs, &offered, e);
 }
+
+/// The README's example with effects: a worn machine (Coulomb friction 0.05 N m, supply
+/// clipping at 11 V) on the shipped inputs; both are found, gear play and sag are not, and
+/// the replay fits the README prints.
+#[test]
+fn the_readme_worn_machine_comes_back_with_its_friction_and_its_clipping() {
+    let dir = tmp("worn");
+    let truth = scene(&[
+        "gearbox.backlash_rad=0",
+        "motor.coulomb_Nm=0.05",
+        "battery.drive_limit_V=11",
+    ]);
+    let inputs = Recording::load(Path::new("data/calibrate_example/multisine_inputs.csv")).unwrap();
+    let path = dir.join("multisine_inputs.replay.csv");
+    let made = replay(&truth, &inputs).unwrap();
+    std::fs::write(&path, simulated_csv(&made, &inputs, Path::new(SCENE))).unwrap();
+    let rec = Recording::load(&path).unwrap();
+    let belief = scene(&["gearbox.backlash_rad=0", "motor.coulomb_Nm=0"]);
+    let request = Request {
+        free: vec![],
+        effects: ON_VOLTAGE.to_vec(),
+    };
+    let c = calibrate_telling(&belief, &rec, &request, &|_| {}).unwrap();
+    print!("{}", agvsim::calibrate::write::render(&c));
+    let accepted: Vec<Effect> = c
+        .effects
+        .iter()
+        .filter(|t| t.accepted)
+        .map(|t| t.effect)
+        .collect();
+    assert_eq!(
+        accepted,
+        [Effect::CoulombFriction, Effect::VoltageSaturation]
+    );
+    for t in c.effects.iter().filter(|t| !t.accepted) {
+        assert!(t.at_bound.is_some(), "{t:?}");
+    }
+    let value = |key: &str| c.keys.iter().find(|k| k.key == key).unwrap().after;
+    assert!((value("motor.coulomb_Nm") - 0.05).abs() < 5e-4);
+    assert!((value("battery.drive_limit_V") - 11.0).abs() < 0.05);
+    let fit = |r: &agvsim::replay::Replay, n: &str| r.output(n).unwrap().fit_pct;
+    assert!((fit(&c.before, "motor_speed_rad_s") - 94.1).abs() < 0.1);
+    assert!((fit(&c.before, "current_A") - 71.5).abs() < 0.1);
+    assert!(fit(&c.after, "motor_speed_rad_s") > 99.95 && fit(&c.after, "current_A") > 99.95);
+}

@@ -688,3 +688,43 @@ fn sweep_runs_shards_merges_and_refuses_bad_values() {
         );
     }
 }
+
+/// An effect outside the contract's vocabulary is refused before any work, naming it and
+/// the vocabulary; one the simulator has no key for is refused with that reason.
+#[test]
+fn calibrate_refuses_effects_it_cannot_switch_on() {
+    let st = agvsim()
+        .args([
+            "calibrate",
+            "--scene",
+            "scenes/lab_offset_120mm.toml",
+            "--recording",
+            "data/calibrate_example/multisine_inputs.csv",
+            "--effects",
+            "slip",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&st.stderr);
+    assert_eq!(st.status.code(), Some(2), "{err}");
+    assert!(err.contains("--effects slip") && err.contains("wheel_slip"), "{err}");
+    assert!(st.stdout.is_empty());
+    let st = agvsim()
+        .args([
+            "calibrate",
+            "--scene",
+            "scenes/lab_offset_120mm.toml",
+            "--recording",
+            "data/calibrate_example/multisine_inputs.csv",
+            "--effects",
+            "transport_delay",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&st.stderr);
+    assert!(!st.status.success());
+    assert!(
+        err.contains("--effects transport_delay") && err.contains("no scene key"),
+        "{err}"
+    );
+}

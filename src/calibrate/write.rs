@@ -149,14 +149,22 @@ pub fn render(c: &Calibration) -> String {
                 (false, Some(b)) => format!("not supported: the key ended at its bound {b:.3e}"),
                 (false, None) => "not supported by the recording: the scene keeps its value".into(),
             };
+            // The residual's change; a fit that ended far off (at a bound) on a clean
+            // record can multiply it by millions, which says no more than "worse".
+            let change = -t.rss_reduction_pct;
+            let residual = if change > 999.0 {
+                ">+999%".to_string()
+            } else {
+                format!("{change:+.1}%")
+            };
             let _ = writeln!(
                 s,
-                "{:<20} {:<32} {:>11.4e} {:>9.1} {:>9.1}%  {verdict}",
+                "{:<20} {:<32} {:>11.4e} {:>9.1} {:>10}  {verdict}",
                 t.effect.name(),
                 t.key,
                 t.value,
                 t.delta_aic,
-                -t.rss_reduction_pct
+                residual
             );
         }
         for sw in &c.switches {
