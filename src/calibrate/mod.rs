@@ -32,6 +32,9 @@ pub enum CalibrateError {
     Key(String),
     #[error("{file}: {message}")]
     Recording { file: PathBuf, message: String },
+    /// The recording cannot be fitted (the message names it).
+    #[error("{0}")]
+    Data(String),
     #[error("{file}: the fit failed: {message}")]
     Fit { file: PathBuf, message: String },
 }
@@ -473,11 +476,6 @@ pub fn calibrate_telling(
         .iter()
         .map(|s| s.to_string())
         .collect();
-    let data =
-        Dataset::from_recording(rec, &inputs, &outputs).map_err(|e| CalibrateError::Recording {
-            file: rec.path.clone(),
-            message: e.to_string(),
-        })?;
     let driven = effects::Driven {
         drive: before.drive,
         on_floor: rec.rig == "vehicle",
@@ -487,6 +485,9 @@ pub fn calibrate_telling(
     for &e in &request.effects {
         effects::home(e, scene, driven)?;
     }
+    // The dataset's error names the recording already.
+    let data = Dataset::from_recording(rec, &inputs, &outputs)
+        .map_err(|e| CalibrateError::Data(e.to_string()))?;
     let problem = Problem {
         rec,
         belief: scene,
