@@ -172,9 +172,10 @@ pub enum Command {
         #[arg(long, value_delimiter = ',')]
         free: Vec<String>,
         /// Comma-separated effects of the contract's vocabulary to try (backlash,
-        /// coulomb_friction, voltage_saturation, battery_sag, speed_feedback, wheel_slip,
-        /// castor_drag): each is switched on through its scene key and fitted with the free
-        /// keys, and kept only where the recording gives evidence for it.
+        /// coulomb_friction, friction_asymmetry, offset, voltage_saturation, battery_sag,
+        /// transport_delay, speed_feedback, wheel_slip, castor_drag): each is switched on
+        /// through its scene key and fitted with the free keys, and kept only where the
+        /// recording gives evidence for it.
         #[arg(long, value_delimiter = ',', value_name = "NAME,...")]
         effects: Vec<String>,
         /// Write the calibrated scene here (the original text with the fitted keys

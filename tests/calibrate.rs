@@ -319,6 +319,14 @@ const ON_VOLTAGE: [Effect; 4] = [
     Effect::BatterySag,
 ];
 
+/// The effects of the motor's own law and of the command's path, for a lifted axis.
+const ON_MOTOR: [Effect; 4] = [
+    Effect::CoulombFriction,
+    Effect::Offset,
+    Effect::FrictionAsymmetry,
+    Effect::TransportDelay,
+];
+
 #[test]
 fn coulomb_friction_comes_back_into_the_motor() {
     let e = Some((Effect::CoulombFriction, "motor.coulomb_Nm", 0.05));
@@ -397,10 +405,13 @@ fn speed_feedback_comes_back_as_the_dcmc_integral_gain() {
     assert_eq!(c.scene.dcmc.kind, agvsim::scene::DcmcKind::Pi);
 }
 
-/// A machine with none of the effects: every one is offered and none is accepted.
+/// A machine with none of the effects: every one a voltage-driven axis can show is
+/// offered and none is accepted.
 #[test]
 fn a_clean_machine_comes_back_with_no_effect() {
-    round_trip("clean", "voltage_V", &[], &[], &ON_VOLTAGE, None);
+    let mut offered = ON_VOLTAGE.to_vec();
+    offered.extend(&ON_MOTOR[1..]);
+    round_trip("clean", "voltage_V", &[], &[], &offered, None);
 }
 
 /// A vehicle on the floor (the scene's `full` level: rapier chassis, tyres, castors)
@@ -509,4 +520,40 @@ fn the_readme_worn_machine_comes_back_with_its_friction_and_its_clipping() {
     assert!((fit(&c.before, "motor_speed_rad_s") - 94.1).abs() < 0.1);
     assert!((fit(&c.before, "current_A") - 71.5).abs() < 0.1);
     assert!(fit(&c.after, "motor_speed_rad_s") > 99.95 && fit(&c.after, "current_A") > 99.95);
+}
+
+#[test]
+fn a_command_dead_time_comes_back_as_the_dcmc_command_delay() {
+    let e = Some((Effect::TransportDelay, "dcmc.command_delay_s", 0.02));
+    round_trip(
+        "delay",
+        "voltage_V",
+        &["dcmc.command_delay_s=0.02"],
+        &[],
+        &ON_MOTOR,
+        e,
+    );
+}
+
+/// A bias torque against forward rotation (a cable's pull), 0.03 N m at the motor.
+#[test]
+fn a_bias_torque_comes_back_as_the_motor_offset() {
+    let e = Some((Effect::Offset, "motor.offset_Nm", -0.03));
+    round_trip(
+        "offset",
+        "voltage_V",
+        &["motor.offset_Nm=-0.03"],
+        &[],
+        &ON_MOTOR,
+        e,
+    );
+}
+
+/// Viscous friction three times as strong forward as in reverse.
+#[test]
+fn friction_asymmetry_comes_back_as_the_viscous_ratio() {
+    let e = Some((Effect::FrictionAsymmetry, "motor.viscous_ratio", 3.0));
+    let machine = ["motor.viscous_ratio=3", "motor.viscous_Nm_s_rad=0.0005"];
+    let off = ["motor.viscous_Nm_s_rad=0.0005"];
+    round_trip("asymmetry", "voltage_V", &machine, &off, &ON_MOTOR, e);
 }

@@ -690,7 +690,8 @@ fn sweep_runs_shards_merges_and_refuses_bad_values() {
 }
 
 /// An effect outside the contract's vocabulary is refused before any work, naming it and
-/// the vocabulary; one the simulator has no key for is refused with that reason.
+/// the vocabulary; one this recording cannot show (tyre slip on a lifted wheel) is refused
+/// with that reason.
 #[test]
 fn calibrate_refuses_effects_it_cannot_switch_on() {
     let st = agvsim()
@@ -707,7 +708,10 @@ fn calibrate_refuses_effects_it_cannot_switch_on() {
         .unwrap();
     let err = String::from_utf8_lossy(&st.stderr);
     assert_eq!(st.status.code(), Some(2), "{err}");
-    assert!(err.contains("--effects slip") && err.contains("wheel_slip"), "{err}");
+    assert!(
+        err.contains("--effects slip") && err.contains("wheel_slip"),
+        "{err}"
+    );
     assert!(st.stdout.is_empty());
     let st = agvsim()
         .args([
@@ -717,14 +721,14 @@ fn calibrate_refuses_effects_it_cannot_switch_on() {
             "--recording",
             "data/calibrate_example/multisine_inputs.csv",
             "--effects",
-            "transport_delay",
+            "wheel_slip",
         ])
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&st.stderr);
     assert!(!st.status.success());
     assert!(
-        err.contains("--effects transport_delay") && err.contains("no scene key"),
+        err.contains("--effects wheel_slip") && err.contains("no floor contact"),
         "{err}"
     );
 }

@@ -19,6 +19,9 @@ pub struct Home {
     pub switches: Vec<(&'static str, String)>,
     /// Where the fit starts the key.
     pub start: f64,
+    /// For a key of either sign (a bias torque), the half-width of its linear search
+    /// around zero; `None` for a strictly positive key, searched on a log scale.
+    pub signed_range: Option<f64>,
 }
 
 /// Why an effect has no home for this recording, or none yet.
@@ -49,9 +52,9 @@ pub struct Driven {
 /// | `speed_feedback` | `dcmc.ki_V_rad` (with `dcmc.kind = "pi"`) | 4 V/rad |
 /// | `wheel_slip` | `tyre.peak_mu` | the compound's friction on the floor |
 /// | `castor_drag` | `castors.rolling_resistance` | 0.02 |
-///
-/// `transport_delay`, `offset` and `friction_asymmetry` have no scene key yet: asking for
-/// them is an error that says so.
+/// | `transport_delay` | `dcmc.command_delay_s` | 10 ms |
+/// | `friction_asymmetry` | `motor.viscous_ratio` | the scene's ratio (1: symmetric) |
+/// | `offset` | `motor.offset_Nm`, either sign within 5 % of the stall torque | the scene's bias |
 pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, CalibrateError> {
     let Driven {
         drive,
@@ -64,6 +67,11 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
         key,
         switches: vec![],
         start,
+        signed_range: None,
+    };
+    let stall_nm = {
+        let m = &scene.motor;
+        m.torque_constant_Nm_A * scene.battery.drive_limit_V / m.resistance_ohm
     };
     Ok(match effect {
         Effect::Backlash => {
@@ -71,12 +79,14 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
             home("gearbox.backlash_rad", if b >= 1e-3 { b } else { 0.03 })
         }
         Effect::CoulombFriction => {
-            let m = &scene.motor;
-            let stall_nm = m.torque_constant_Nm_A * scene.battery.drive_limit_V / m.resistance_ohm;
-            let tc = m.coulomb_Nm;
+            let tc = scene.motor.coulomb_Nm;
             home(
                 "motor.coulomb_Nm",
-                if tc > 1e-4 * stall_nm { tc } else { 0.01 * stall_nm },
+                if tc > 1e-4 * stall_nm {
+                    tc
+                } else {
+                    0.01 * stall_nm
+                },
             )
         }
         Effect::VoltageSaturation => {
@@ -135,14 +145,20 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
         }
         Effect::CastorDrag => {
             let rr = scene.castors.rolling_resistance;
-            home("castors.rolling_resistance", if rr > 1e-4 { rr } else { 0.02 })
+            home(
+                "castors.rolling_resistance",
+                if rr > 1e-4 { rr } else { 0.02 },
+            )
         }
-        Effect::TransportDelay | Effect::Offset | Effect::FrictionAsymmetry => {
-            return Err(homeless(
-                effect,
-                "the simulator has no scene key for this physics yet (diagnose names it on a rig's fitting model)",
-            ))
+        Effect::TransportDelay => {
+            let d = scene.dcmc.command_delay_s;
+            home("dcmc.command_delay_s", if d >= 1e-4 { d } else { 0.01 })
         }
+        Effect::FrictionAsymmetry => home("motor.viscous_ratio", scene.motor.viscous_ratio),
+        Effect::Offset => Home {
+            signed_range: Some(0.05 * stall_nm),
+            ..home("motor.offset_Nm", scene.motor.offset_Nm)
+        },
     })
 }
 
@@ -227,13 +243,26 @@ mod tests {
             switched_on(&scene, &slip).unwrap().tyre.peak_mu,
             Some(slip.start)
         );
-        for e in [
-            Effect::TransportDelay,
-            Effect::Offset,
-            Effect::FrictionAsymmetry,
-        ] {
-            let m = volts(e).unwrap_err().to_string();
-            assert!(m.contains(e.name()) && m.contains("no scene key"), "{m}");
+        let bias = volts(Effect::Offset).unwrap();
+        assert_eq!(bias.key, "motor.offset_Nm");
+        assert!(bias.signed_range.unwrap() > 0.0);
+        // Every effect of the vocabulary has a home on some recording.
+        let floor = Driven {
+            drive: Drive::Voltages,
+            on_floor: true,
+            ..axis
+        };
+        let demand = Driven {
+            drive: Drive::AxisDemand,
+            ..axis
+        };
+        for e in Effect::ALL {
+            assert!(
+                [axis, floor, demand]
+                    .iter()
+                    .any(|d| home(e, &scene, *d).is_ok()),
+                "{e:?}"
+            );
         }
         let m = parse(&["backlash".into(), "slip".into()])
             .unwrap_err()

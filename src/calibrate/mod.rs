@@ -102,10 +102,24 @@ impl<'a> SceneReplay<'a> {
     /// on its time grid, so its outputs are rough in the parameters below about 1e-4
     /// relative: the Jacobian is differenced over 0.1 %.
     pub fn new(scene: &Scene, rec: &'a Recording, free: &[String]) -> Result<Self, CalibrateError> {
+        Self::with_signed(scene, rec, free, &[])
+    }
+
+    /// [`SceneReplay::new`] where the keys in `signed` (key, half-width) may take either
+    /// sign: searched on a linear scale within the half-width around zero.
+    pub fn with_signed(
+        scene: &Scene,
+        rec: &'a Recording,
+        free: &[String],
+        signed: &[(String, f64)],
+    ) -> Result<Self, CalibrateError> {
         let specs = free
             .iter()
             .map(|k| {
                 let v = keys::get(scene, k)?;
+                if let Some((_, range)) = signed.iter().find(|(s, _)| s == k) {
+                    return Ok(ParamSpec::new(k, v, -range, *range).with_fd_step(1e-2));
+                }
                 if !(v.is_finite() && v > 0.0) {
                     return Err(CalibrateError::Key(format!(
                         "--free {k}: the scene's value is {v}; a fitted key needs a positive starting value (set one with --set {k}=...)"
@@ -256,6 +270,8 @@ struct Problem<'a> {
     /// The scene as the user wrote it, and the keys fitted with every effect.
     belief: &'a Scene,
     free: Vec<String>,
+    /// Effect keys of either sign, with their search half-widths.
+    signed: Vec<(String, f64)>,
     data: Dataset,
     weights: Vec<f64>,
 }
@@ -263,7 +279,7 @@ struct Problem<'a> {
 impl Problem<'_> {
     /// Fits the `free` keys of `scene` from its values.
     fn fit(&self, scene: &Scene, free: &[String]) -> Result<Stage, CalibrateError> {
-        let model = SceneReplay::new(scene, self.rec, free)?;
+        let model = SceneReplay::with_signed(scene, self.rec, free, &self.signed)?;
         let nominal: Vec<f64> = model.param_specs().iter().map(|s| s.nominal).collect();
         let settings = FitSettings {
             free: (0..free.len()).collect(),
@@ -319,13 +335,18 @@ impl Problem<'_> {
     }
 
     /// Where the effect's key starts its fit: the lowest cost of a scan over its search
-    /// range (a tenth to ten times its start, nine values a factor 1.78 apart), the other
+    /// range (a tenth to ten times its start, nine values a factor 1.78 apart; for a key of
+    /// either sign, nine values evenly across its range), the other
     /// keys held. A play or a clipping limit moves the outputs in steps the gradient
     /// cannot see across, so the fit must start in the right basin.
     fn scan_start(&self, scene: &Scene, home: &effects::Home) -> Result<f64, CalibrateError> {
-        let model = SceneReplay::new(scene, self.rec, &[home.key.to_string()])?;
+        let model =
+            SceneReplay::with_signed(scene, self.rec, &[home.key.to_string()], &self.signed)?;
         let values: Vec<f64> = (-4..=4)
-            .map(|i| home.start * 10f64.powf(i as f64 / 4.0))
+            .map(|i| match home.signed_range {
+                Some(range) => range * i as f64 / 4.0,
+                None => home.start * 10f64.powf(i as f64 / 4.0),
+            })
             .collect();
         let costs: Vec<f64> = values
             .par_iter()
@@ -488,10 +509,19 @@ pub fn calibrate_telling(
     // The dataset's error names the recording already.
     let data = Dataset::from_recording(rec, &inputs, &outputs)
         .map_err(|e| CalibrateError::Data(e.to_string()))?;
+    let signed: Vec<(String, f64)> = request
+        .effects
+        .iter()
+        .filter_map(|&e| {
+            let h = effects::home(e, scene, driven).ok()?;
+            Some((h.key.to_string(), h.signed_range?))
+        })
+        .collect();
     let problem = Problem {
         rec,
         belief: scene,
         free: free.clone(),
+        signed,
         weights: spread_weights(&data),
         data,
     };

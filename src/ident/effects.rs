@@ -96,15 +96,10 @@ pub fn smooth_coulomb(level: f64, speed: f64, eps: f64) -> f64 {
     level * (speed / eps).tanh()
 }
 
-/// Viscous friction that differs by direction: `b+ / b- = ratio`, with the mean of the two
-/// equal to `b` so that the ratio does not also rescale the nominal coefficient.
+/// Viscous friction torque that differs by direction: the motor block's law
+/// ([`crate::model::motor::viscous_coefficient`]), `b+ / b- = ratio` around the mean `b`.
 pub fn asymmetric_viscous(b: f64, ratio: f64, speed: f64) -> f64 {
-    let (pos, neg) = (2.0 * b * ratio / (1.0 + ratio), 2.0 * b / (1.0 + ratio));
-    if speed >= 0.0 {
-        pos * speed
-    } else {
-        neg * speed
-    }
+    crate::model::motor::viscous_coefficient(b, ratio, speed) * speed
 }
 
 /// Terminal voltage of a PWM bridge on a sagging battery: the simulator's battery and

@@ -1,6 +1,7 @@
 //! Permanent-magnet DC motor: armature circuit and rotor, with viscous and Coulomb friction.
 //!
-//! `L di/dt = V - R i - Kv w`, `J dw/dt = Kt i - b w - Tc sign(w) - T_load`, Kt = Kv.
+//! `L di/dt = V - R i - Kv w`, `J dw/dt = Kt i + T_bias - b(w) w - Tc sign(w) - T_load`,
+//! Kt = Kv, with the viscous coefficient `b(w)` allowed to differ by direction.
 
 /// Motor parameters (SI, at the motor shaft).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -10,8 +11,14 @@ pub struct MotorParams {
     /// Torque constant, N m/A; equal to the back-EMF constant in V s/rad.
     pub torque_constant_nm_a: f64,
     pub rotor_inertia_kg_m2: f64,
+    /// Mean of the two directions' viscous coefficients, N m s/rad.
     pub viscous_nm_s_rad: f64,
+    /// Forward over reverse viscous coefficient (1: the same both ways).
+    pub viscous_ratio: f64,
     pub coulomb_nm: f64,
+    /// Constant torque on the shaft, driving positive rotation when positive (a slope's
+    /// gravity, a cable, a bias), N m.
+    pub offset_nm: f64,
 }
 
 /// What is integrated.
@@ -65,23 +72,24 @@ impl MotorParams {
     /// `Kt (V - Kv w)/R = b w + Tc`.
     pub fn steady_speed_rad_s(&self, voltage_v: f64, load_nm: f64) -> f64 {
         let k = self.torque_constant_nm_a;
-        let drive = k * voltage_v / self.resistance_ohm - load_nm;
+        let drive = k * voltage_v / self.resistance_ohm - load_nm + self.offset_nm;
         let stall = self.coulomb_nm;
         if drive.abs() <= stall {
             return 0.0;
         }
-        (drive - stall * drive.signum()) / (k * k / self.resistance_ohm + self.viscous_nm_s_rad)
+        let b = viscous_coefficient(self.viscous_nm_s_rad, self.viscous_ratio, drive);
+        (drive - stall * drive.signum()) / (k * k / self.resistance_ohm + b)
     }
 
     /// One sub-step of the rotor: electrical, then mechanical with the load torque
     /// (N m at the motor shaft, opposing positive rotation when positive).
     pub fn step(&self, s: &mut MotorState, terminal: Terminal, load_nm: f64, h: f64) {
         s.current_a = self.current_after(s.current_a, terminal, s.speed_rad_s, h);
-        let driving = self.torque_constant_nm_a * s.current_a - load_nm;
+        let driving = self.torque_constant_nm_a * s.current_a - load_nm + self.offset_nm;
         s.speed_rad_s = coulomb_viscous_update(
             s.speed_rad_s,
             driving,
-            self.viscous_nm_s_rad,
+            viscous_coefficient(self.viscous_nm_s_rad, self.viscous_ratio, s.speed_rad_s),
             self.coulomb_nm,
             self.rotor_inertia_kg_m2,
             h,
@@ -101,6 +109,18 @@ pub fn armature_current_rate(
     speed_rad_s: f64,
 ) -> f64 {
     (voltage_v - resistance_ohm * current_a - torque_constant_nm_a * speed_rad_s) / inductance_h
+}
+
+/// Viscous coefficient in the direction of `speed`, N m s/rad, when the forward and
+/// reverse coefficients stand in `ratio` (forward over reverse) around the mean `b`:
+/// `2 b r / (1 + r)` forward, `2 b / (1 + r)` in reverse, so that the ratio does not also
+/// rescale the mean.
+pub fn viscous_coefficient(b: f64, ratio: f64, speed: f64) -> f64 {
+    if speed >= 0.0 {
+        2.0 * b * ratio / (1.0 + ratio)
+    } else {
+        2.0 * b / (1.0 + ratio)
+    }
 }
 
 /// Speed after a step of `J dw/dt = T - b w - Tc sign(w)`: viscous implicit, Coulomb as a
@@ -135,8 +155,43 @@ mod tests {
             torque_constant_nm_a: 0.063,
             rotor_inertia_kg_m2: 2e-4,
             viscous_nm_s_rad: 1e-4,
+            viscous_ratio: 1.0,
             coulomb_nm: 0.02,
+            offset_nm: 0.0,
         }
+    }
+
+    #[test]
+    fn a_forward_bias_or_a_stiffer_reverse_shows_in_the_steady_speeds() {
+        let m = motor();
+        let (fwd, rev) = (
+            m.steady_speed_rad_s(12.0, 0.0),
+            m.steady_speed_rad_s(-12.0, 0.0),
+        );
+        assert!((fwd + rev).abs() < 1e-12);
+        // A bias of one Coulomb level: forward it cancels the friction's loss, in reverse
+        // it doubles it.
+        let biased = MotorParams {
+            offset_nm: 0.02,
+            ..m
+        };
+        let k2r = m.torque_constant_nm_a.powi(2) / m.resistance_ohm + m.viscous_nm_s_rad;
+        assert!((biased.steady_speed_rad_s(12.0, 0.0) - fwd - 0.02 / k2r).abs() < 1e-9);
+        assert!((biased.steady_speed_rad_s(-12.0, 0.0) - rev - 0.02 / k2r).abs() < 1e-9);
+        // Viscous friction three times as strong forward as in reverse, same mean.
+        let skewed = MotorParams {
+            viscous_ratio: 3.0,
+            ..m
+        };
+        assert!(skewed.steady_speed_rad_s(12.0, 0.0) < fwd);
+        assert!(-skewed.steady_speed_rad_s(-12.0, 0.0) > fwd);
+        let b = m.viscous_nm_s_rad;
+        let mean = 0.5 * (viscous_coefficient(b, 3.0, 1.0) + viscous_coefficient(b, 3.0, -1.0));
+        assert!((mean - b).abs() < 1e-18);
+        assert!(
+            (viscous_coefficient(b, 3.0, 1.0) / viscous_coefficient(b, 3.0, -1.0) - 3.0).abs()
+                < 1e-12
+        );
     }
 
     #[test]

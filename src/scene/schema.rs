@@ -233,6 +233,12 @@ pub struct MotorSpec {
     pub viscous_Nm_s_rad: f64,
     /// Coulomb friction at the motor shaft (brushes, bearings), N m (*assumed*).
     pub coulomb_Nm: f64,
+    /// Forward over reverse viscous friction (1: the same both ways; `viscous_Nm_s_rad`
+    /// is their mean). The contract's `friction_asymmetry`.
+    pub viscous_ratio: f64,
+    /// Constant torque on the motor shaft, driving forward rotation when positive: a
+    /// slope's gravity, a cable's pull, a bias, N m (default 0). The contract's `offset`.
+    pub offset_Nm: f64,
 }
 
 impl Default for MotorSpec {
@@ -244,6 +250,8 @@ impl Default for MotorSpec {
             rotor_inertia_kg_m2: 2.0e-4,
             viscous_Nm_s_rad: 1.0e-4,
             coulomb_Nm: 0.02,
+            viscous_ratio: 1.0,
+            offset_Nm: 0.0,
         }
     }
 }
@@ -452,6 +460,11 @@ pub struct DcmcSpec {
     /// loop at the thesis's gains is unstable (`agvsim linearize`) and loses the wire,
     /// where the real vehicle followed it (`agvsim study thesis-dcmc` sweeps it).
     pub turn_response_time_s: f64,
+    /// Dead time between an external command (a recording's `voltage_V`/`demand_pct` or
+    /// left/right voltages and demands, as `replay` applies them) and the drive acting on
+    /// it, s (default 0). The contract's `transport_delay`. The firmware's own delay is
+    /// `controller.compute_delay_s`.
+    pub command_delay_s: f64,
 }
 
 impl Default for DcmcSpec {
@@ -474,6 +487,7 @@ impl Default for DcmcSpec {
             response_time_left_s: 0.699,
             response_time_right_s: 0.699,
             turn_response_time_s: 0.0,
+            command_delay_s: 0.0,
         }
     }
 }

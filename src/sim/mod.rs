@@ -2,6 +2,7 @@
 //! the blocks act (see its doc comment). Observers (CSV, Rerun, metrics) read
 //! [`Snapshot`]s; the physics knows nothing of them.
 
+mod command_delay;
 pub mod expectation;
 pub mod linearize;
 pub mod metrics;
@@ -88,6 +89,8 @@ pub struct Sim {
     pwm_filtered: [f64; 2],
     rng: Pcg64,
     last: LastStep,
+    /// External commands in their dead time (`dcmc.command_delay_s` > 0).
+    command_delay: Option<command_delay::CommandDelay>,
 }
 
 impl Sim {
@@ -129,6 +132,9 @@ impl Sim {
             dcmc: DcmcState::default(),
             firmware,
             pwm_filtered: [half, half],
+            command_delay: (params.command_delay_s > 0.0).then(|| {
+                command_delay::CommandDelay::new(params.command_delay_s, Actuation::Firmware)
+            }),
             last: LastStep {
                 battery_v: params.battery.open_circuit_v,
                 ..LastStep::default()
@@ -141,9 +147,13 @@ impl Sim {
         &self.params
     }
 
-    /// Changes how the motors are driven from the next step on.
+    /// Changes how the motors are driven from the next step on, or, with a command dead
+    /// time (`dcmc.command_delay_s`), from the step it arrives in.
     pub fn set_actuation(&mut self, a: Actuation) {
-        self.actuation = a;
+        match &mut self.command_delay {
+            Some(d) => d.push(self.t_s, a),
+            None => self.actuation = a,
+        }
     }
 
     pub fn time_s(&self) -> f64 {

@@ -102,7 +102,9 @@ pub fn motor_params(m: &crate::scene::MotorSpec) -> MotorParams {
         torque_constant_nm_a: m.torque_constant_Nm_A,
         rotor_inertia_kg_m2: m.rotor_inertia_kg_m2,
         viscous_nm_s_rad: m.viscous_Nm_s_rad,
+        viscous_ratio: m.viscous_ratio,
         coulomb_nm: m.coulomb_Nm,
+        offset_nm: m.offset_Nm,
     }
 }
 
@@ -129,6 +131,8 @@ pub struct SimParams {
     pub tyre_overrides: TyreSpec,
     pub floor: Floor,
     pub battery: BatteryParams,
+    /// Dead time between an external command and the drive, s (0: none).
+    pub command_delay_s: f64,
     pub dcmc: DcmcParams,
     pub firmware: FirmwareParams,
     pub pwm: PwmFilter,
@@ -338,6 +342,7 @@ impl SimParams {
             tyre_overrides: scene.tyre.clone(),
             floor,
             battery,
+            command_delay_s: scene.dcmc.command_delay_s,
             dcmc,
             firmware,
             pwm: PwmFilter {

@@ -17,6 +17,8 @@ const MAX_SPEED_RAD_S: f64 = 1.0e4;
 impl Sim {
     /// Advances the simulation by one physics step `dt`. The order is fixed:
     ///
+    /// 0. **Command dead time**: external commands whose dead time has passed act (one
+    ///    arriving within the step is blended in for the part of the step it acts).
     /// 1. **Sensors**: coil readings at the current pose (field, noise, ADC), bumper contact.
     /// 2. **Controller**: the firmware runs its interrupt if one is due (sample and hold),
     ///    and writes PWM values whose computation delay has elapsed.
@@ -32,6 +34,9 @@ impl Sim {
     ///    [`SimError::Diverged`].
     pub fn step(&mut self) -> Result<(), SimError> {
         let dt = self.params.dt_s;
+        if let Some(d) = &mut self.command_delay {
+            self.actuation = d.acting(self.t_s, dt);
+        }
         let body_pose = self.pose();
         let pose = body_pose.frame();
 
