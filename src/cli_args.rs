@@ -194,6 +194,10 @@ pub enum Command {
         /// Write a plot per fitted output (measured, original and calibrated replays) here.
         #[arg(long, value_name = "DIR")]
         report: Option<PathBuf>,
+        /// Also write the measured outputs with the original and calibrated scenes' replays,
+        /// overlaid per output on one timeline, to this Rerun .rrd file.
+        #[arg(long, value_name = "FILE.rrd")]
+        save: Option<PathBuf>,
         /// Worker threads [default: one per core]; the result is the same for any count.
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
         jobs: Option<u32>,

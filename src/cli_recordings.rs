@@ -208,6 +208,7 @@ pub struct CalibrateOutputs {
     pub write: Option<PathBuf>,
     pub json: Option<PathBuf>,
     pub report: Option<PathBuf>,
+    pub save: Option<PathBuf>,
 }
 
 /// `agvsim calibrate`: load, fit through the simulator, print, write the scene.
@@ -224,6 +225,7 @@ pub fn calibrate_command(
         write,
         json,
         report,
+        save,
     } = outputs;
     use agvsim::calibrate::{self, write as cw};
     let request = match calibrate::effects::parse(effects) {
@@ -255,6 +257,7 @@ pub fn calibrate_command(
         ("--write", &write, false),
         ("--json", &json, false),
         ("--report", &report, true),
+        ("--save", &save, false),
     ];
     for (option, path, folder) in targets {
         if let Some(p) = path {
@@ -328,14 +331,20 @@ pub fn calibrate_command(
             Ok(t) => t,
             Err(e) => return fail(e),
         };
-        // The written scene must load (and with the original's overrides, run as fitted).
-        if let Err(e) = Scene::from_toml(&out, &w, set) {
+        // The written scene must load on its own: it carries the --set values too.
+        if let Err(e) = Scene::from_toml(&out, &w, &[]) {
             return fail(format!("the calibrated scene does not load: {e}"));
         }
         if let Err(e) = agvsim::replay::report::write_atomically(&w, &out) {
             return fail(format!("{}: {e}", w.display()));
         }
         println!("scene      {}", w.display());
+    }
+    if let Some(p) = &save {
+        if let Err(e) = agvsim::viz::save_calibration(p, &source_name, &c) {
+            return fail(e);
+        }
+        println!("rerun      {}", p.display());
     }
     ExitCode::SUCCESS
 }

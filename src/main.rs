@@ -269,6 +269,7 @@ fn main() -> ExitCode {
             set,
             json,
             report,
+            save,
             jobs,
         } => on_workers(jobs, || {
             cli_recordings::calibrate_command(
@@ -280,6 +281,7 @@ fn main() -> ExitCode {
                     write,
                     json,
                     report,
+                    save,
                 },
                 validate,
                 &set,

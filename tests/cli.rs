@@ -732,3 +732,115 @@ fn calibrate_refuses_effects_it_cannot_switch_on() {
         "{err}"
     );
 }
+
+/// `calibrate` with every output: the written scene loads on its own (it carries the
+/// `--set` values) and replays as the printed fit; the JSON lists the effects tried; the
+/// Rerun file is complete (no partial file is left).
+#[test]
+fn calibrate_writes_a_scene_a_json_and_a_rerun_overlay() {
+    let dir = tmp("calibrate-outputs");
+    let st = agvsim()
+        .args([
+            "replay",
+            "--scene",
+            "scenes/lab_offset_120mm.toml",
+            "--recording",
+            "data/calibrate_example/multisine_inputs.csv",
+            "--set",
+            "gearbox.backlash_rad=0",
+            "--set",
+            "motor.coulomb_Nm=0.05",
+            "--out",
+        ])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
+    let (scene, json, rrd) = (
+        dir.join("calibrated.toml"),
+        dir.join("c.json"),
+        dir.join("c.rrd"),
+    );
+    let st = agvsim()
+        .args([
+            "calibrate",
+            "--scene",
+            "scenes/lab_offset_120mm.toml",
+            "--set",
+            "gearbox.backlash_rad=0",
+            "--set",
+            "motor.coulomb_Nm=0",
+            "--effects",
+            "coulomb_friction,voltage_saturation",
+            "--recording",
+        ])
+        .arg(dir.join("multisine_inputs.replay.csv"))
+        .arg("--write")
+        .arg(&scene)
+        .arg("--json")
+        .arg(&json)
+        .arg("--save")
+        .arg(&rrd)
+        .output()
+        .unwrap();
+    let out = String::from_utf8_lossy(&st.stdout);
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
+    assert!(
+        out.contains("coulomb_friction") && out.contains("accepted"),
+        "{out}"
+    );
+    let bytes = std::fs::read(&rrd).unwrap();
+    assert!(bytes.len() > 1000 && &bytes[..4] == b"RRF2");
+    assert!(!dir.join("c.rrd.partial").exists());
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let tried: Vec<(&str, bool)> = j["effects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| {
+            (
+                e["name"].as_str().unwrap(),
+                e["accepted"].as_bool().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        tried,
+        [("coulomb_friction", true), ("voltage_saturation", false)]
+    );
+    let written = agvsim::scene::Scene::load(&scene, &[]).unwrap();
+    assert_eq!(written.gearbox.backlash_rad, 0.0);
+    assert!((written.motor.coulomb_Nm - 0.05).abs() < 1e-3);
+    let st = agvsim()
+        .args(["replay", "--scene"])
+        .arg(&scene)
+        .arg("--recording")
+        .arg(dir.join("multisine_inputs.replay.csv"))
+        .arg("--out")
+        .arg(dir.join("again"))
+        .output()
+        .unwrap();
+    let again = String::from_utf8_lossy(&st.stdout);
+    let mean = |text: &str, prefix: &str| -> f64 {
+        let line = text.lines().find(|l| l.starts_with(prefix)).unwrap();
+        line.split_whitespace()
+            .nth(if prefix == "mean       " { 4 } else { 1 })
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    assert_eq!(
+        mean(&out, "mean       "),
+        mean(&again, "mean "),
+        "{out}\n{again}"
+    );
+}

@@ -18,7 +18,7 @@ mod reports;
 
 use frames::{FrameBuffer, PLOT_BATCH_FRAMES};
 pub use layout::send_blueprint;
-pub use reports::{save_diagnosis, save_identification, save_replay};
+pub use reports::{save_calibration, save_diagnosis, save_identification, save_replay};
 
 /// Where the recording goes.
 #[derive(Debug, Clone)]

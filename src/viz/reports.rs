@@ -165,3 +165,93 @@ pub fn save_replay(
     rec.flush_blocking().map_err(err)?;
     Ok(())
 }
+
+/// Saves a calibration: per fitted output, the measured output under the original and the
+/// calibrated scene's replays in one plot on one timeline (`t`, the recording's time), and
+/// below it each scene's difference from the measurement, to a `.rrd` file. The file is
+/// written beside its name and takes it only when complete.
+pub fn save_calibration(
+    path: &std::path::Path,
+    name: &str,
+    c: &crate::calibrate::Calibration,
+) -> Result<(), VizError> {
+    use rerun::blueprint::{Blueprint, Grid, TimeSeriesView, Vertical};
+    let outputs: Vec<(
+        &crate::replay::ReplayedOutput,
+        &crate::replay::ReplayedOutput,
+    )> = c
+        .outputs
+        .iter()
+        .filter_map(|n| Some((c.before.output(n)?, c.after.output(n)?)))
+        .collect();
+    let columns = outputs.iter().map(|(b, a)| {
+        Vertical::new([
+            TimeSeriesView::new(format!(
+                "{}: fit {:.1} % -> {:.1} %",
+                b.name, b.fit_pct, a.fit_pct
+            ))
+            .with_origin(format!("/{}/fit", b.name))
+            .into(),
+            TimeSeriesView::new(format!("{}: measured - simulated", b.name))
+                .with_origin(format!("/{}/difference", b.name))
+                .into(),
+        ])
+        .with_row_shares([0.65, 0.35])
+        .into()
+    });
+    let partial = crate::output::partial_name(path);
+    let rec = RecordingStreamBuilder::new("agvsim")
+        .recording_id(format!("agvsim-calibrate-{name}"))
+        .with_blueprint(Blueprint::new(Grid::new(columns)))
+        .save(&partial)
+        .map_err(err)?;
+    rec.send_recording_name(format!("calibration against {name}"))
+        .map_err(err)?;
+    let grey = [170, 170, 170, 255];
+    let (orange, blue) = ([208, 128, 0, 255], [31, 95, 191, 255]);
+    for (b, a) in &outputs {
+        // The measurement wide and pale, so that a replay on top of it stays visible; the
+        // numbered paths draw the measurement first and the calibrated scene last.
+        let style = |n: &str, c: [u8; 4], w: f32| {
+            rerun::SeriesLines::new()
+                .with_names([n])
+                .with_colors([c])
+                .with_widths([w])
+        };
+        let series = [
+            ("fit/1_measured", style("measured", grey, 5.0)),
+            ("fit/2_original", style("original scene", orange, 1.5)),
+            ("fit/3_calibrated", style("calibrated scene", blue, 1.5)),
+            (
+                "difference/1_original",
+                style("measured - original", orange, 1.5),
+            ),
+            (
+                "difference/2_calibrated",
+                style("measured - calibrated", blue, 1.5),
+            ),
+        ];
+        for (path, s) in &series {
+            rec.log_static(format!("{}/{path}", b.name), s)
+                .map_err(err)?;
+        }
+        for (k, t) in c.before.t_s.iter().enumerate() {
+            rec.set_duration_secs("t", *t);
+            let log = |path: &str, v: f64| {
+                rec.log(format!("{}/{path}", b.name), &rerun::Scalars::new([v]))
+                    .map_err(err)
+            };
+            log("fit/2_original", b.simulated[k])?;
+            log("fit/3_calibrated", a.simulated[k])?;
+            if let Some(y) = b.measured[k] {
+                log("fit/1_measured", y)?;
+                log("difference/1_original", y - b.simulated[k])?;
+                log("difference/2_calibrated", y - a.simulated[k])?;
+            }
+        }
+    }
+    rec.flush_blocking().map_err(err)?;
+    drop(rec);
+    std::fs::rename(&partial, path).map_err(err)?;
+    Ok(())
+}
