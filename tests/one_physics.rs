@@ -1,7 +1,8 @@
-//! One physics: on the same inputs and parameters, the simulator (`replay`, the scene's
-//! lifted drive) and the drive-axis fitting model that diagnosis fits (`RotaryAxis`, built
-//! from the simulator's motor, gear and friction blocks) give the same outputs, with and
-//! without Coulomb friction and gear play.
+//! One physics: on the same inputs and parameters, the simulator (`replay`) and the
+//! fitting models that diagnosis fits (`RotaryAxis`, `Vehicle`, built from the simulator's
+//! motor, gear, friction, chassis and tyre blocks) give the same outputs: the lifted drive
+//! with and without Coulomb friction and gear play, the vehicle rolling without slip and
+//! sliding.
 
 use std::path::Path;
 
@@ -135,4 +136,158 @@ fn the_lifted_drive_and_its_fitting_model_agree_through_gear_play() {
     p[share] = 0.0;
     let d = disagreement(&simulated(&s, "play"), &m, &p);
     assert!(d < 0.005, "{d}");
+}
+
+/// The scene's vehicle as a rig file: the chassis and payload together, their yaw inertia
+/// taken about the axle midpoint (the fitting model's reference point).
+fn vehicle_rig_of(s: &Scene) -> Rig {
+    let p = agvsim::sim::SimParams::from_scene(s).unwrap();
+    let c = &p.chassis;
+    let a2 = c.cg_m[0].powi(2) + c.cg_m[1].powi(2);
+    let m = &s.motor;
+    let text = format!(
+        "rig = \"vehicle\"\n[motor]\nresistance_ohm = {}\ninductance_H = {}\ntorque_constant_Nm_A = {}\nrotor_inertia_kg_m2 = {}\nviscous_Nm_s_rad = {}\n[gearbox]\nratio = {}\n[wheel]\nradius_m = {}\ninertia_kg_m2 = {}\n[supply]\nvoltage_V = {}\n[chassis]\nmass_kg = {}\nyaw_inertia_kg_m2 = {}\ntrack_width_m = {}\ndrive_load_fraction = {}\n",
+        m.resistance_ohm,
+        m.inductance_H,
+        m.torque_constant_Nm_A,
+        m.rotor_inertia_kg_m2,
+        m.viscous_Nm_s_rad,
+        s.gearbox.ratio,
+        s.wheel.radius_m,
+        s.wheel.inertia_kg_m2,
+        s.battery.open_circuit_V,
+        c.mass_kg,
+        c.yaw_inertia_kg_m2 + c.mass_kg * a2,
+        c.track_width_m,
+        c.drive_load_fraction,
+    );
+    Rig::parse(&text, Path::new("scene.rig.toml")).unwrap()
+}
+
+/// A start, a turn, a reverse and a turn the other way on motor voltages, 6 s every 5 ms;
+/// replayed on `scene`.
+fn vehicle_run(scene: &Scene, name: &str) -> Recording {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("one-physics-{name}"));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut text = String::from(
+        "# agvsim-recording: 1\n# rig: vehicle\nt_s,left_voltage_V,right_voltage_V,x_m,y_m,heading_rad,left_motor_speed_rad_s,right_motor_speed_rad_s\n",
+    );
+    for k in 0..1200 {
+        let t = k as f64 * 0.005;
+        let (l, r) = match t {
+            t if t < 0.5 => (0.0, 0.0),
+            t if t < 2.0 => (12.0, 12.0),
+            t if t < 3.5 => (12.0, 4.0),
+            t if t < 4.5 => (-12.0, -12.0),
+            _ => (-4.0, 8.0),
+        };
+        text.push_str(&format!("{t},{l},{r},0,0,0,0,0\n"));
+    }
+    let inputs = dir.join("inputs.csv");
+    std::fs::write(&inputs, text).unwrap();
+    let inputs = Recording::load(&inputs).unwrap();
+    let r = replay(scene, &inputs).unwrap();
+    let path = dir.join("sim.csv");
+    std::fs::write(&path, simulated_csv(&r, &inputs, Path::new(SCENE))).unwrap();
+    Recording::load(&path).unwrap()
+}
+
+/// Largest RMS difference over the vehicle's outputs as a share of each one's range.
+fn vehicle_disagreement(rec: &Recording, model: &dyn Predictor, p: &[f64]) -> f64 {
+    let outputs: Vec<String> = [
+        "x_m",
+        "y_m",
+        "heading_rad",
+        "left_motor_speed_rad_s",
+        "right_motor_speed_rad_s",
+    ]
+    .map(String::from)
+    .to_vec();
+    let inputs = ["left_voltage_V".to_string(), "right_voltage_V".to_string()];
+    let data = Dataset::from_recording(rec, &inputs, &outputs).unwrap();
+    let y = model.predict(p, &data).unwrap();
+    let mut worst: f64 = 0.0;
+    for (j, name) in outputs.iter().enumerate() {
+        let sim: Vec<f64> = data.outputs[j].iter().map(|v| v.unwrap()).collect();
+        let range = sim.iter().cloned().fold(f64::MIN, f64::max)
+            - sim.iter().cloned().fold(f64::MAX, f64::min);
+        let rms = (sim
+            .iter()
+            .zip(&y[j])
+            .map(|(a, b)| (a - b).powi(2))
+            .sum::<f64>()
+            / sim.len() as f64)
+            .sqrt();
+        println!(
+            "{name}: RMS difference {:.3} % of the range",
+            100.0 * rms / range
+        );
+        worst = worst.max(rms / range);
+    }
+    worst
+}
+
+/// The simulator's no-slip level (`complex`: wheels rolling, the shared no-slip body)
+/// and the fitting vehicle with rolling wheels, without gear play, friction or the
+/// level's lumped castor drag (which the fitting model brings only as an effect).
+#[test]
+fn the_no_slip_vehicle_and_its_fitting_model_agree() {
+    use agvsim::ident::models::vehicle::Vehicle;
+    let s = machine(&[
+        "sim.fidelity=complex",
+        "gearbox.backlash_rad=0",
+        "motor.coulomb_Nm=0",
+        "castors.lumped_linear_drag_N_s_m=0",
+        "castors.lumped_angular_drag_Nm_s_rad=0",
+    ]);
+    let mut m = Vehicle::from_rig(&vehicle_rig_of(&s), Path::new("scene.rig.toml")).unwrap();
+    m.creeping_tyres = false;
+    let p: Vec<f64> = m.param_specs().iter().map(|s| s.nominal).collect();
+    let d = vehicle_disagreement(&vehicle_run(&s, "rolling"), &m, &p);
+    assert!(d < 0.01, "{d}");
+}
+
+/// The simulator's `full` level (rapier chassis, tyres, castors) with tyres gripping to
+/// 0.25 on 18 V steps that spin them, against the fitting vehicle with its wheel-slip
+/// block at the same friction, the castors rolling freely.
+#[test]
+fn the_sliding_vehicle_and_its_fitting_model_agree() {
+    use agvsim::ident::models::vehicle::Vehicle;
+    let s = machine(&[
+        "sim.fidelity=full",
+        "gearbox.backlash_rad=0",
+        "motor.coulomb_Nm=0",
+        "tyre.peak_mu=0.25",
+        "castors.rolling_resistance=0",
+        "castors.swivel_friction_Nm=0",
+    ]);
+    let base = Vehicle::from_rig(&vehicle_rig_of(&s), Path::new("scene.rig.toml")).unwrap();
+    let m = base.with_effect(Effect::WheelSlip, 0.25, 0.05, 2.0, 500.0);
+    let p: Vec<f64> = m.param_specs().iter().map(|s| s.nominal).collect();
+    let rec = vehicle_run(&s, "sliding");
+    let d = vehicle_disagreement(&rec, &m, &p);
+    assert!(d < 0.05, "{d}");
+    // The manoeuvre slides: on gripping tyres the simulator's heading misses the sliding
+    // one's by more than a tenth of its range.
+    let mut grip = s.clone();
+    grip.tyre.peak_mu = Some(5.0);
+    let on_grip = replay(&grip, &rec).unwrap();
+    let heading = on_grip.output("heading_rad").unwrap();
+    let range = heading
+        .measured
+        .iter()
+        .flatten()
+        .cloned()
+        .fold(f64::MIN, f64::max)
+        - heading
+            .measured
+            .iter()
+            .flatten()
+            .cloned()
+            .fold(f64::MAX, f64::min);
+    println!(
+        "gripping tyres: heading RMS {:.3} rad of {range:.3}",
+        heading.rms_error
+    );
+    assert!(heading.rms_error > 0.1 * range);
 }
