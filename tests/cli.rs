@@ -844,3 +844,32 @@ fn calibrate_writes_a_scene_a_json_and_a_rerun_overlay() {
         "{out}\n{again}"
     );
 }
+
+/// A recording too short to fit is refused, naming it, before any fit.
+#[test]
+fn calibrate_refuses_a_recording_too_short_to_fit() {
+    let dir = tmp("calibrate-short");
+    let rec = dir.join("short.csv");
+    std::fs::write(
+        &rec,
+        "# agvsim-recording: 1\n# rig: drive_axis\nt_s,voltage_V,motor_speed_rad_s,current_A\n0,1,0,0\n0.005,1,1,1\n0.01,1,2,2\n",
+    )
+    .unwrap();
+    let st = agvsim()
+        .args([
+            "calibrate",
+            "--scene",
+            "scenes/lab_offset_120mm.toml",
+            "--recording",
+        ])
+        .arg(&rec)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&st.stderr);
+    assert!(!st.status.success());
+    assert!(
+        err.contains("short.csv") && err.contains("too short"),
+        "{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+}

@@ -509,6 +509,16 @@ pub fn calibrate_telling(
     // The dataset's error names the recording already.
     let data = Dataset::from_recording(rec, &inputs, &outputs)
         .map_err(|e| CalibrateError::Data(e.to_string()))?;
+    if data.len() < crate::diagnose::MIN_SAMPLES {
+        return Err(CalibrateError::Recording {
+            file: rec.path.clone(),
+            message: format!(
+                "{} rows: too short to calibrate on (at least {} are needed, as for diagnose)",
+                data.len(),
+                crate::diagnose::MIN_SAMPLES
+            ),
+        });
+    }
     let signed: Vec<(String, f64)> = request
         .effects
         .iter()
