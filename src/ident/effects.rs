@@ -91,9 +91,10 @@ impl EffectSlots {
 /// of the record's largest speed: a set-valued law cannot be differentiated for fitting.
 pub const COULOMB_SMOOTHING_FRACTION: f64 = 0.005;
 
-/// Coulomb friction, smoothed: `Tc tanh(w / eps)`.
+/// Coulomb friction, smoothed: `Tc tanh(w / eps)`, the motor block's law
+/// ([`crate::model::motor::coulomb_torque_nm`]) with the fit's smoothing speed.
 pub fn smooth_coulomb(level: f64, speed: f64, eps: f64) -> f64 {
-    level * (speed / eps).tanh()
+    crate::model::motor::coulomb_torque_nm(level, speed, eps)
 }
 
 /// Viscous friction torque that differs by direction: the motor block's law

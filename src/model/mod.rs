@@ -4,6 +4,7 @@
 //! battery -> DCMC -> motor -> gearbox (backlash) -> wheel/tyre -> chassis.
 
 pub mod battery;
+pub mod castor;
 pub mod chassis;
 pub mod dcmc;
 pub mod drivetrain;

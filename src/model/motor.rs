@@ -111,6 +111,20 @@ pub fn armature_current_rate(
     (voltage_v - resistance_ohm * current_a - torque_constant_nm_a * speed_rad_s) / inductance_h
 }
 
+/// Coulomb friction torque opposing a shaft speed, N m: `Tc sign(w)`, or with a smoothing
+/// speed `eps` > 0 (rad/s), `Tc tanh(w / eps)`. The simulator integrates the set-valued law
+/// (`eps` 0, with sticking: [`coulomb_viscous_update`]); a fit needs a law it can
+/// differentiate, so it sets a small `eps`.
+pub fn coulomb_torque_nm(level_nm: f64, speed_rad_s: f64, smoothing_rad_s: f64) -> f64 {
+    if smoothing_rad_s > 0.0 {
+        level_nm * (speed_rad_s / smoothing_rad_s).tanh()
+    } else if speed_rad_s == 0.0 {
+        0.0
+    } else {
+        level_nm * speed_rad_s.signum()
+    }
+}
+
 /// Viscous coefficient in the direction of `speed`, N m s/rad, when the forward and
 /// reverse coefficients stand in `ratio` (forward over reverse) around the mean `b`:
 /// `2 b r / (1 + r)` forward, `2 b / (1 + r)` in reverse, so that the ratio does not also

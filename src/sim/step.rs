@@ -5,6 +5,7 @@ use rand_distr::{Distribution, StandardNormal};
 use super::{Actuation, Body, Sim, SimError};
 use crate::firmware::pwm::duty_to_pct;
 use crate::firmware::FirmwareInput;
+use crate::model::castor::rolling_drag_n;
 use crate::model::chassis::PoseFrame;
 use crate::model::dcmc::DcmcInput;
 use crate::model::motor::Terminal;
@@ -283,7 +284,7 @@ impl Sim {
                         dt,
                     );
                     // Rolling resistance, smoothed through zero speed over 5 mm/s.
-                    let rr = -p.castor_rolling_resistance * load * roll / roll.hypot(0.005);
+                    let [rr] = rolling_drag_n(p.castor_rolling_resistance * load, [roll], 0.005);
                     let local = [rr, out.force_n[1]];
                     let (s, c) = m.heading_rad.sin_cos();
                     castor_forces[k] = [c * local[0] - s * local[1], s * local[0] + c * local[1]];

@@ -173,13 +173,11 @@ impl Vehicle {
             return [0.0; 3];
         };
         let lever = p[d - 1];
-        let sweep = yaw_rate * lever;
-        let eps = self.drag_eps_m_s;
-        let speed = (fwd * fwd + lat * lat + sweep * sweep + eps * eps).sqrt();
-        [
-            -p[d] * fwd / speed,
-            -p[d] * lat / speed,
-            -p[d] * lever * sweep / speed,
-        ]
+        let [f_fwd, f_lat, f_sweep] = crate::model::castor::rolling_drag_n(
+            p[d],
+            [fwd, lat, yaw_rate * lever],
+            self.drag_eps_m_s,
+        );
+        [f_fwd, f_lat, lever * f_sweep]
     }
 }
