@@ -363,6 +363,37 @@ impl Problem<'_> {
         Ok(values[best])
     }
 
+    /// The fit moved on while the effect's key ends at the edge of its search window where
+    /// the effect grows (a window is a factor of 10 around where the scan started it, not a
+    /// physical limit): up to twice, the window is centred on that edge and the fit
+    /// resumed, kept if it fits better. At the edge where the effect vanishes it stays: the
+    /// recording does not support the effect.
+    fn beyond_the_window(
+        &self,
+        mut stage: Stage,
+        home: &effects::Home,
+        free: &[String],
+    ) -> Result<Stage, CalibrateError> {
+        let i = free.len() - 1;
+        for _ in 0..2 {
+            let Some(edge) = stage.at_bound(i) else { break };
+            // A key of either sign searches a fixed range: no window to move.
+            let grows = edge == stage.specs[i].hi && home.signed_range.is_none();
+            if !grows {
+                break;
+            }
+            let resumed = self.fit(
+                &keys::set(&stage.scene, &[(home.key.to_string(), edge)])?,
+                free,
+            )?;
+            if resumed.fit.cost >= stage.fit.cost {
+                break;
+            }
+            stage = resumed;
+        }
+        Ok(stage)
+    }
+
     /// The effect's key fitted with the stage's, and the evidence for it.
     fn try_effect(
         &self,
@@ -385,7 +416,7 @@ impl Problem<'_> {
                 best = Some(next);
             }
         }
-        let next = best.expect("two starts were fitted");
+        let next = self.beyond_the_window(best.expect("two starts were fitted"), home, &free)?;
         // The gain is the effect's only if the stage's own physics, refitted from where the
         // effect's fit ended, does not reach it: the rough play or limit may have led the
         // free keys out of a poor minimum, which is no evidence for the effect.
