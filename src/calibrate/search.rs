@@ -1,0 +1,238 @@
+//! The staged search of a calibration: the free keys fitted through the simulator (a
+//! stage), each effect tried on a stage from a scan over its key's range, and the evidence
+//! that decides whether the recording supports it.
+
+use rayon::prelude::*;
+
+use super::{effects, keys, CalibrateError, EffectTrial, SceneReplay};
+use crate::diagnose::evidence::{effective_n, likelihood_gain};
+use crate::diagnose::{MIN_DELTA_AIC, MIN_RSS_REDUCTION};
+use crate::ident::data::Dataset;
+use crate::ident::fit::{fit_predictor, residuals, Fit, FitSettings};
+use crate::ident::model::{ParamSpec, Predictor};
+use crate::record::Recording;
+use crate::scene::Scene;
+
+/// One fit of the scene's keys: the scene as fitted (a key at a bound keeps its start).
+#[derive(Clone)]
+pub(super) struct Stage {
+    pub scene: Scene,
+    pub free: Vec<String>,
+    pub fit: Fit,
+    pub specs: Vec<ParamSpec>,
+}
+
+impl Stage {
+    pub fn at_bound(&self, i: usize) -> Option<f64> {
+        crate::ident::bound_reached(self.fit.params[i], self.specs[i].lo, self.specs[i].hi)
+    }
+}
+
+/// What every fit of one calibration shares.
+pub(super) struct Problem<'a> {
+    pub rec: &'a Recording,
+    /// The scene as the user wrote it, and the keys fitted with every effect.
+    pub belief: &'a Scene,
+    pub free: Vec<String>,
+    /// Effect keys of either sign, with their search half-widths.
+    pub signed: Vec<(String, f64)>,
+    pub data: Dataset,
+    pub weights: Vec<f64>,
+}
+
+impl Problem<'_> {
+    /// Fits the `free` keys of `scene` from its values.
+    pub fn fit(&self, scene: &Scene, free: &[String]) -> Result<Stage, CalibrateError> {
+        let model = SceneReplay::with_signed(scene, self.rec, free, &self.signed)?;
+        let nominal: Vec<f64> = model.param_specs().iter().map(|s| s.nominal).collect();
+        let settings = FitSettings {
+            free: (0..free.len()).collect(),
+            weights: self.weights.clone(),
+            max_iterations: 30,
+            starts: vec![nominal.clone()],
+        };
+        let fit =
+            fit_predictor(&model, &self.data, &settings).map_err(|e| CalibrateError::Fit {
+                file: self.rec.path.clone(),
+                message: e.to_string(),
+            })?;
+        let specs = model.param_specs().to_vec();
+        let kept: Vec<f64> = (0..free.len())
+            .map(|i| {
+                let b = crate::ident::bound_reached(fit.params[i], specs[i].lo, specs[i].hi);
+                if b.is_some() {
+                    nominal[i]
+                } else {
+                    fit.params[i]
+                }
+            })
+            .collect();
+        Ok(Stage {
+            scene: model.scene_with(&kept)?,
+            free: free.to_vec(),
+            fit,
+            specs,
+        })
+    }
+
+    /// The scene with the free keys back at the user's values (accepted effects' keys kept).
+    fn with_beliefs(&self, scene: &Scene) -> Result<Scene, CalibrateError> {
+        let beliefs: Vec<(String, f64)> = self
+            .free
+            .iter()
+            .map(|k| Ok((k.clone(), keys::get(self.belief, k)?)))
+            .collect::<Result<_, CalibrateError>>()?;
+        keys::set(scene, &beliefs)
+    }
+
+    /// The stage refitted from the beliefs with its effects at their fitted strengths,
+    /// if that fits better: an effect fitted from a distorted start can leave the free
+    /// keys in a poorer minimum, and the next round's effects must not be credited with
+    /// the gain of leaving it.
+    pub fn polished(&self, stage: Stage) -> Result<Stage, CalibrateError> {
+        let again = self.fit(&self.with_beliefs(&stage.scene)?, &stage.free)?;
+        Ok(if again.fit.cost < stage.fit.cost {
+            again
+        } else {
+            stage
+        })
+    }
+
+    /// Where the effect's key starts its fit: the lowest cost of a scan over its search
+    /// range (a tenth to ten times its start, nine values a factor 1.78 apart; for a key of
+    /// either sign, nine values evenly across its range), the other
+    /// keys held. A play or a clipping limit moves the outputs in steps the gradient
+    /// cannot see across, so the fit must start in the right basin.
+    fn scan_start(&self, scene: &Scene, home: &effects::Home) -> Result<f64, CalibrateError> {
+        let model =
+            SceneReplay::with_signed(scene, self.rec, &[home.key.to_string()], &self.signed)?;
+        let values: Vec<f64> = (-4..=4)
+            .map(|i| match home.signed_range {
+                Some(range) => range * i as f64 / 4.0,
+                None => home.start * 10f64.powf(i as f64 / 4.0),
+            })
+            .collect();
+        let costs: Vec<f64> = values
+            .par_iter()
+            .map(|&v| {
+                model.predict(&[v], &self.data).map_or(f64::INFINITY, |y| {
+                    residuals(&self.data, &y, &self.weights)
+                        .iter()
+                        .map(|r| r * r)
+                        .sum()
+                })
+            })
+            .collect();
+        let best = (0..values.len()).fold(0, |b, i| if costs[i] < costs[b] { i } else { b });
+        Ok(values[best])
+    }
+
+    /// The fit moved on while the effect's key ends at the edge of its search window where
+    /// the effect grows (a window is a factor of 10 around where the scan started it, not a
+    /// physical limit): up to twice, the window is centred on that edge and the fit
+    /// resumed, kept if it fits better. At the edge where the effect vanishes it stays: the
+    /// recording does not support the effect.
+    fn beyond_the_window(
+        &self,
+        mut stage: Stage,
+        home: &effects::Home,
+        free: &[String],
+    ) -> Result<Stage, CalibrateError> {
+        let i = free.len() - 1;
+        for _ in 0..2 {
+            let Some(edge) = stage.at_bound(i) else { break };
+            // A key of either sign searches a fixed range: no window to move.
+            let grows = edge == stage.specs[i].hi && home.signed_range.is_none();
+            if !grows {
+                break;
+            }
+            let resumed = self.fit(
+                &keys::set(&stage.scene, &[(home.key.to_string(), edge)])?,
+                free,
+            )?;
+            if resumed.fit.cost >= stage.fit.cost {
+                break;
+            }
+            stage = resumed;
+        }
+        Ok(stage)
+    }
+
+    /// The effect's key fitted with the stage's, and the evidence for it.
+    pub fn try_effect(
+        &self,
+        stage: &Stage,
+        home: &effects::Home,
+    ) -> Result<(EffectTrial, Stage), CalibrateError> {
+        let mut free = stage.free.clone();
+        free.push(home.key.to_string());
+        // From the stage's values, and from the beliefs: a missing effect can drag the
+        // free keys far from the machine (to a bound), into a basin the effect's fit does
+        // not leave.
+        let mut best: Option<Stage> = None;
+        for base in [stage.scene.clone(), self.with_beliefs(&stage.scene)?] {
+            let scan = effects::Home {
+                start: self.scan_start(&effects::switched_on(&base, home)?, home)?,
+                ..home.clone()
+            };
+            let next = self.fit(&effects::switched_on(&base, &scan)?, &free)?;
+            if best.as_ref().is_none_or(|b| next.fit.cost < b.fit.cost) {
+                best = Some(next);
+            }
+        }
+        let next = self.beyond_the_window(best.expect("two starts were fitted"), home, &free)?;
+        // The gain is the effect's only if the stage's own physics, refitted from where the
+        // effect's fit ended, does not reach it: the rough play or limit may have led the
+        // free keys out of a poor minimum, which is no evidence for the effect.
+        let fitted: Vec<(String, f64)> = stage
+            .free
+            .iter()
+            .map(|k| Ok((k.clone(), keys::get(&next.scene, k)?)))
+            .collect::<Result<_, CalibrateError>>()?;
+        let null = self.fit(&keys::set(&stage.scene, &fitted)?, &stage.free)?;
+        let reference = if null.fit.cost < stage.fit.cost {
+            &null
+        } else {
+            stage
+        };
+        let n_ref = effective_n(&self.data, &reference.fit.predicted);
+        let delta_aic = likelihood_gain(
+            &self.data,
+            &reference.fit.predicted,
+            &n_ref,
+            &next.fit.predicted,
+        ) - 2.0;
+        let reduction = 1.0 - next.fit.cost / reference.fit.cost;
+        let i = free.len() - 1;
+        let at_bound = next.at_bound(i);
+        let trial = EffectTrial {
+            effect: home.effect,
+            key: home.key.to_string(),
+            value: next.fit.params[i],
+            std: next.fit.std[i],
+            at_bound,
+            delta_aic,
+            rss_reduction_pct: 100.0 * reduction,
+            // A key the recording does not determine (a limit above every command) is
+            // not what earned a gain.
+            accepted: delta_aic > MIN_DELTA_AIC
+                && reduction >= MIN_RSS_REDUCTION
+                && at_bound.is_none()
+                && next.fit.std[i].is_some(),
+        };
+        Ok((trial, next))
+    }
+}
+
+/// Each output weighted by its spread, so outputs in different units count alike.
+pub(super) fn spread_weights(data: &Dataset) -> Vec<f64> {
+    data.outputs
+        .iter()
+        .map(|col| {
+            let v: Vec<f64> = col.iter().flatten().copied().collect();
+            let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
+            let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len().max(1) as f64;
+            1.0 / var.sqrt().max(1e-12)
+        })
+        .collect()
+}
