@@ -175,7 +175,7 @@ pub enum Command {
         /// coulomb_friction, friction_asymmetry, offset, voltage_saturation, battery_sag,
         /// transport_delay, speed_feedback, wheel_slip, castor_drag): each is switched on
         /// through its scene key and fitted with the free keys, and kept only where the
-        /// recording gives evidence for it.
+        /// recording gives evidence for it. `all`: every effect this recording can show.
         #[arg(long, value_delimiter = ',', value_name = "NAME,...")]
         effects: Vec<String>,
         /// Write the calibrated scene here (the original text with the fitted keys

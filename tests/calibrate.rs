@@ -4,6 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
+use agvsim::calibrate::effects::Choice;
 use agvsim::calibrate::{
     calibrate, calibrate_telling, write::calibrated_text, write::mean_fit, Request,
 };
@@ -286,7 +287,7 @@ fn round_trip_on(
     let belief = scene(&belief_sets);
     let request = Request {
         free: vec![],
-        effects: offered.to_vec(),
+        effects: Choice::Named(offered.to_vec()),
     };
     let c = calibrate_telling(&belief, &rec, &request, &|_| {}).unwrap();
     print!("{name}:\n{}", agvsim::calibrate::write::render(&c));
@@ -496,10 +497,27 @@ fn the_readme_worn_machine_comes_back_with_its_friction_and_its_clipping() {
     let belief = scene(&["gearbox.backlash_rad=0", "motor.coulomb_Nm=0"]);
     let request = Request {
         free: vec![],
-        effects: ON_VOLTAGE.to_vec(),
+        effects: Choice::Named(ON_VOLTAGE.to_vec()),
     };
     let c = calibrate_telling(&belief, &rec, &request, &|_| {}).unwrap();
     print!("{}", agvsim::calibrate::write::render(&c));
+    // `--effects all` tries every effect a voltage-driven axis can show, and finds the same.
+    let every = Request {
+        free: vec![],
+        effects: Choice::All,
+    };
+    let all = calibrate_telling(&belief, &rec, &every, &|_| {}).unwrap();
+    assert_eq!(all.effects.len(), 7);
+    let accepted: Vec<Effect> = all
+        .effects
+        .iter()
+        .filter(|t| t.accepted)
+        .map(|t| t.effect)
+        .collect();
+    assert_eq!(
+        accepted,
+        [Effect::CoulombFriction, Effect::VoltageSaturation]
+    );
     let accepted: Vec<Effect> = c
         .effects
         .iter()

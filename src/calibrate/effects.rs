@@ -173,8 +173,30 @@ pub fn switched_on(scene: &Scene, home: &Home) -> Result<Scene, CalibrateError> 
     keys::set_texts(scene, &sets)
 }
 
-/// The effects named on the command line (`--effects backlash,coulomb_friction`).
-pub fn parse(names: &[String]) -> Result<Vec<Effect>, CalibrateError> {
+/// Which effects a calibration tries.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum Choice {
+    /// None: the scene's keys only.
+    #[default]
+    None,
+    /// These, each of which must have a home for the recording.
+    Named(Vec<Effect>),
+    /// Every effect of the vocabulary that has a home for the recording (`--effects all`).
+    All,
+}
+
+/// The effects named on the command line (`--effects backlash,coulomb_friction`, or
+/// `--effects all`).
+pub fn parse(names: &[String]) -> Result<Choice, CalibrateError> {
+    if names.iter().any(|n| n.trim() == "all") {
+        return if names.len() == 1 {
+            Ok(Choice::All)
+        } else {
+            Err(CalibrateError::Key(
+                "--effects all: give `all` alone, or name the effects".into(),
+            ))
+        };
+    }
     let mut out: Vec<Effect> = vec![];
     for n in names {
         let e = Effect::from_name(n.trim()).ok_or_else(|| {
@@ -188,7 +210,33 @@ pub fn parse(names: &[String]) -> Result<Vec<Effect>, CalibrateError> {
             out.push(e);
         }
     }
-    Ok(out)
+    Ok(if out.is_empty() {
+        Choice::None
+    } else {
+        Choice::Named(out)
+    })
+}
+
+/// The effects a choice names for this recording: named ones must have a home (the first
+/// that has none is the error); `all` keeps those that have one.
+pub fn chosen(
+    choice: &Choice,
+    scene: &Scene,
+    driven: Driven,
+) -> Result<Vec<Effect>, CalibrateError> {
+    match choice {
+        Choice::None => Ok(vec![]),
+        Choice::Named(list) => {
+            for &e in list {
+                home(e, scene, driven)?;
+            }
+            Ok(list.clone())
+        }
+        Choice::All => Ok(Effect::ALL
+            .into_iter()
+            .filter(|&e| home(e, scene, driven).is_ok())
+            .collect()),
+    }
 }
 
 #[cfg(test)]
@@ -264,6 +312,13 @@ mod tests {
                 "{e:?}"
             );
         }
+        assert_eq!(parse(&["all".into()]).unwrap(), Choice::All);
+        let all = chosen(&Choice::All, &scene, axis).unwrap();
+        assert!(all.contains(&Effect::BatterySag) && !all.contains(&Effect::WheelSlip));
+        assert!(
+            !all.contains(&Effect::SpeedFeedback),
+            "voltages bypass the DCMC"
+        );
         let m = parse(&["backlash".into(), "slip".into()])
             .unwrap_err()
             .to_string();

@@ -213,7 +213,7 @@ pub struct Request {
     /// Scene keys to fit; empty: the recording kind's [`default_free`] set.
     pub free: Vec<String>,
     /// Effects to try, each through its scene key ([`effects::home`]).
-    pub effects: Vec<Effect>,
+    pub effects: effects::Choice,
 }
 
 /// A calibration's result.
@@ -243,7 +243,7 @@ pub fn calibrate(
 ) -> Result<Calibration, CalibrateError> {
     let request = Request {
         free: free.to_vec(),
-        effects: vec![],
+        effects: effects::Choice::None,
     };
     calibrate_telling(scene, rec, &request, &|_| {})
 }
@@ -309,9 +309,7 @@ pub fn calibrate_telling(
         max_command_v: max_command_v(&before),
     };
     // Every effect's home is checked before any fit's work.
-    for &e in &request.effects {
-        effects::home(e, scene, driven)?;
-    }
+    let tried = effects::chosen(&request.effects, scene, driven)?;
     // The dataset's error names the recording already.
     let data = Dataset::from_recording(rec, &inputs, &outputs)
         .map_err(|e| CalibrateError::Data(e.to_string()))?;
@@ -325,8 +323,7 @@ pub fn calibrate_telling(
             ),
         });
     }
-    let signed: Vec<(String, f64)> = request
-        .effects
+    let signed: Vec<(String, f64)> = tried
         .iter()
         .filter_map(|&e| {
             let h = effects::home(e, scene, driven).ok()?;
@@ -347,7 +344,7 @@ pub fn calibrate_telling(
         free.len() + 1,
     ));
     let stage = problem.fit(scene, &free)?;
-    let rounds = effect_rounds(&problem, stage, &request.effects, driven, progress)?;
+    let rounds = effect_rounds(&problem, stage, &tried, driven, progress)?;
     let iterations = rounds.iterations;
     let keys = key_fits(scene, &rounds.stage, &rounds.starts);
     progress(&format!(
