@@ -7,8 +7,10 @@
 //! axis's `voltage_V`) bypass the DCMC; demands (`demand_fwd_pct`, `demand_turn_pct`; a
 //! drive axis's `demand_pct`) go through it. Each input is held from its row to the next
 //! (zero-order hold, as a controller's output is). A drive axis is the scene's left drive
-//! with the wheels lifted; a `drive_pair` recording, both drives lifted. The simulator starts from rest, at the recording's first pose
-//! when it has one.
+//! with the wheels lifted; a `drive_pair` recording, both drives lifted. The simulator starts from rest, at the recording's start
+//! pose when it has one: the mean of the pose samples taken before the command first
+//! changes (the machine is still then), so that one sample's tracker noise does not
+//! offset the whole replay.
 
 pub mod report;
 
@@ -258,6 +260,38 @@ fn channels(rec: &Recording, drive: Drive) -> (Vec<Channel>, Vec<String>) {
     (found, missing)
 }
 
+/// Rows at the start over which the inputs hold their first value (at least one): while
+/// the command has not changed, a machine that starts from rest is still at its start.
+fn rows_before_first_command_change(inputs: &[Vec<f64>]) -> usize {
+    let n = inputs.first().map_or(0, Vec::len);
+    (1..n)
+        .find(|&k| inputs.iter().any(|col| col[k] != col[0]))
+        .unwrap_or(n)
+        .max(1)
+}
+
+/// Mean of the measured cells, if any.
+fn mean_of(cells: &[Option<f64>]) -> Option<f64> {
+    let v: Vec<f64> = cells.iter().flatten().copied().collect();
+    (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+}
+
+/// Mean direction of the measured headings (through their sines and cosines, so that
+/// samples either side of +-pi average correctly); a single sample is returned as it is.
+fn mean_heading(cells: &[Option<f64>]) -> Option<f64> {
+    let v: Vec<f64> = cells.iter().flatten().copied().collect();
+    match v.len() {
+        0 => None,
+        1 => Some(v[0]),
+        _ => {
+            let (s, c) = v
+                .iter()
+                .fold((0.0, 0.0), |(s, c), h| (s + h.sin(), c + h.cos()));
+            Some(s.atan2(c))
+        }
+    }
+}
+
 /// Runs the scene's simulator on the recording's inputs and compares its outputs.
 pub fn replay(scene: &Scene, rec: &Recording) -> Result<Replay, ReplayError> {
     if rec.t_s.len() < 2 {
@@ -279,13 +313,16 @@ pub fn replay(scene: &Scene, rec: &Recording) -> Result<Replay, ReplayError> {
     // A drive axis, and this project's lifted pair, are recorded with the wheels off
     // the floor.
     scene.sim.wheels_lifted = drive.lifted() || rec.rig == "drive_pair";
-    let first = |name: &str| rec.column(name).and_then(|c| c[0]);
-    if let (Some(x), Some(y)) = (first("x_m"), first("y_m")) {
+    let still = rows_before_first_command_change(&inputs);
+    let start = |name: &str| rec.column(name).and_then(|c| mean_of(&c[..still]));
+    if let (Some(x), Some(y)) = (start("x_m"), start("y_m")) {
         scene.start.x_m = x;
         scene.start.y_m = y;
     }
-    if let Some(h) = first("heading_rad") {
-        scene.start.heading_rad = h;
+    if let Some(c) = rec.column("heading_rad") {
+        if let Some(h) = mean_heading(&c[..still]) {
+            scene.start.heading_rad = h;
+        }
     }
     let mut sim = Sim::new(&scene)?;
     let dt = sim.params().dt_s;
