@@ -272,9 +272,10 @@ pub fn calibrate_command(
         rec_path.display(),
         scene.sim.fidelity.name()
     );
-    let c = match calibrate::calibrate_telling(&scene, &rec, &request, &|stage| {
-        eprintln!("calibrate  {stage}")
-    }) {
+    crate::cli_progress::start("calibrate");
+    let result = calibrate::calibrate_telling(&scene, &rec, &request, &crate::cli_progress::stage);
+    crate::cli_progress::finish();
+    let c = match result {
         Ok(c) => c,
         Err(e) => return fail(e),
     };

@@ -8,6 +8,7 @@ use clap::Parser;
 use cli_args::{Cli, Command, ImportFormat};
 
 mod cli_args;
+mod cli_progress;
 mod cli_recordings;
 mod cli_sweep;
 
@@ -181,21 +182,24 @@ fn main() -> ExitCode {
                 save_rrd: save,
                 options: agvsim::diagnose::DiagnoseOptions {
                     effects,
-                    // Progress on standard error, a line per stage: the report on standard
-                    // output stays clean for pipes.
-                    progress: Some(|stage: &str| eprintln!("diagnose   {stage}")),
+                    progress: Some(cli_progress::stage),
                     ..Default::default()
                 },
             };
-            on_workers(jobs, || match agvsim::diagnose::job::run(&job) {
-                Ok((d, written)) => {
-                    print!("{}", agvsim::diagnose::job::render(&d));
-                    for f in &written {
-                        println!("wrote      {}", f.display());
+            cli_progress::start("diagnose");
+            on_workers(jobs, || {
+                let result = agvsim::diagnose::job::run(&job);
+                cli_progress::finish();
+                match result {
+                    Ok((d, written)) => {
+                        print!("{}", agvsim::diagnose::job::render(&d));
+                        for f in &written {
+                            println!("wrote      {}", f.display());
+                        }
+                        ExitCode::SUCCESS
                     }
-                    ExitCode::SUCCESS
+                    Err(e) => fail(e),
                 }
-                Err(e) => fail(e),
             })
         }
         Command::Prove {

@@ -583,6 +583,35 @@ fn diagnose_writes_contract_json_report_and_rerun() {
     let regimes = std::fs::read_to_string(report.join("regimes.svg")).unwrap();
     assert!(regimes.contains("after a speed reversal"));
     assert!(std::fs::metadata(&rrd).unwrap().len() > 1000);
+    // Progress, not on a terminal: a plain line per stage on standard error, each with the
+    // solver iterations and record simulations so far, which only grow; the report on
+    // standard output carries none of it.
+    let err = String::from_utf8_lossy(&out.stderr);
+    let stages: Vec<(u64, u64)> = err
+        .lines()
+        .filter(|l| l.starts_with("diagnose   "))
+        .map(|l| {
+            let counts = l.rsplit_once('[').map(|(_, c)| c).unwrap_or("");
+            let number = |unit: &str| -> u64 {
+                let before = counts.split(unit).next().unwrap_or("");
+                let word = before.trim_end().rsplit([' ', '[']).next().unwrap_or("");
+                word.replace(',', "")
+                    .parse()
+                    .unwrap_or_else(|_| panic!("{unit} in `{l}`"))
+            };
+            (number(" iterations"), number(" simulations"))
+        })
+        .collect();
+    assert!(stages.len() >= 3, "{err}");
+    assert!(
+        stages
+            .windows(2)
+            .all(|w| w[1].0 >= w[0].0 && w[1].1 >= w[0].1),
+        "{err}"
+    );
+    let (first, last) = (stages[0], stages[stages.len() - 1]);
+    assert!(first.0 > 0 && last.1 > first.1, "{err}");
+    assert!(!String::from_utf8_lossy(&out.stdout).contains("simulations"));
 }
 
 /// `--effects` takes vocabulary names only, and only effects that apply to the rig's model.

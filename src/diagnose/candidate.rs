@@ -57,6 +57,8 @@ pub(super) struct Context<'a> {
     pub weights: &'a [f64],
     pub scales: &'a Scales,
     pub max_iterations: usize,
+    /// Whether the stage already carries an accepted effect (a round after the first).
+    pub stage_has_effects: bool,
 }
 
 /// A candidate as fitted: the structure with the effect, the fit (if any start
@@ -90,14 +92,23 @@ impl Context<'_> {
     /// Screens the candidate, and runs its full search when the screen could matter.
     pub fn fit(&self, e: Effect) -> Fitted {
         let setup = self.setup(e);
-        // The starts from the stage's fit are raced; the start from the rig's beliefs
-        // is far from converged after a few iterations (that is its point: a basin the
-        // stage's fit has left), so it is fitted on its own.
-        let (from_fit, from_rig) = setup.starts.split_at(setup.fitted_starts);
-        let screen = lower(
-            self.final_fit(&setup, from_fit.to_vec()),
-            self.final_fit(&setup, from_rig.to_vec()),
-        );
+        let screen = if self.stage_has_effects {
+            // A later round: the stage's nominal parameters were themselves fitted with an
+            // effect from the rig's beliefs, so the start from the beliefs is raced with
+            // the others (on the development records it never won a later round, and
+            // fitted on its own it was half of a vehicle's diagnosis time).
+            self.final_fit(&setup, setup.starts.clone())
+        } else {
+            // The starts from the stage's fit are raced; the start from the rig's beliefs
+            // is far from converged after a few iterations (that is its point: a basin
+            // the baseline has left by absorbing the effect into a nominal parameter,
+            // a delay into the inductance), so it is fitted on its own.
+            let (from_fit, from_rig) = setup.starts.split_at(setup.fitted_starts);
+            lower(
+                self.final_fit(&setup, from_fit.to_vec()),
+                self.final_fit(&setup, from_rig.to_vec()),
+            )
+        };
         let promising = screen
             .as_ref()
             .is_some_and(|f| 1.0 - f.cost / self.fit.cost >= SCREEN_SHARE * MIN_RSS_REDUCTION);

@@ -83,6 +83,7 @@ pub fn residuals(data: &Dataset, predicted: &[Vec<f64>], weights: &[f64]) -> Vec
 /// Weighted residual sum of squares of `model` at `p` on `data` (infinite where the model
 /// diverges): the cost the fits minimise, for searches that place one parameter.
 pub fn cost_at(model: &dyn GreyBox, p: &[f64], data: &Dataset, weights: &[f64]) -> f64 {
+    super::activity::count_evaluation();
     model
         .predict(p, data)
         .map(|y| sum_sq(&residuals(data, &y, weights)))
@@ -164,6 +165,7 @@ impl Problem<'_> {
     /// The weighted residuals at `z` and the outputs they come from.
     fn simulated(&self, z: &[f64]) -> Option<(Vec<f64>, Vec<Vec<f64>>)> {
         let p = self.to_p(z);
+        super::activity::count_evaluation();
         let y = self.model.predict(&p, self.data).ok()?;
         let r = residuals(self.data, &y, self.weights);
         r.iter().all(|v| v.is_finite()).then_some((r, y))
@@ -374,6 +376,7 @@ fn run_lm(pb: &Problem, max_iterations: usize, uncertainty: bool) -> Result<Fit,
     let n = z.len();
     while iterations < max_iterations && !converged {
         iterations += 1;
+        super::activity::count_iteration();
         let jac = pb.jacobian(&z, &r);
         evaluations += n;
         let h = jac.transpose() * &jac;

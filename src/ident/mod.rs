@@ -3,6 +3,7 @@
 //! its standard deviation, the loss, FPE and AIC, the fit per output and the residual
 //! checks (`resid`), on the estimation recording and optionally on a validation one.
 
+pub mod activity;
 pub mod data;
 pub mod effects;
 pub mod evaluate;

@@ -210,10 +210,7 @@ fn simulate_one<M: GreyBox + ?Sized>(
     let mut y = vec![vec![0.0; n]; data.output_names.len()];
 
     let delay = model.input_delay_s(p);
-    let (mut k1, mut k2, mut k3, mut k4) =
-        (vec![0.0; nx], vec![0.0; nx], vec![0.0; nx], vec![0.0; nx]);
-    let mut tmp = vec![0.0; nx];
-    let mut before = vec![0.0; nx];
+    let mut rk4 = Rk4::new(nx);
     for k in 0..n {
         data.input_row(k, &mut u);
         let t = data.t_s[k];
@@ -232,55 +229,40 @@ fn simulate_one<M: GreyBox + ?Sized>(
         if k + 1 == n {
             break;
         }
-        let interval = data.t_s[k + 1] - t;
+        let t_next = data.t_s[k + 1];
         let max_h = model.max_step_at(p, &x).max(1e-7);
-        // A delay moves input changes inside intervals: step finely enough to place them.
-        let h_max = if delay > 0.0 {
-            max_h.min(interval / 4.0)
-        } else {
-            max_h
-        };
-        let steps = (interval / h_max).ceil().max(1.0) as usize;
-        if steps > MAX_SUBSTEPS {
-            // Parameters this stiff are outside any physical reading of the record.
-            return Err(Diverged { t_s: t });
-        }
-        let h = interval / steps as f64;
         let start = x.clone();
-        for step in 0..steps {
-            before.copy_from_slice(&x);
-            let t0 = t + step as f64 * h;
-            let at = |tau: f64, u: &mut Vec<f64>| {
-                if delay > 0.0 {
-                    data.input_at(tau - delay, u);
-                }
-            };
-            at(t0, &mut u);
-            model.derivatives(p, &x, &u, &held, &mut k1);
-            for i in 0..nx {
-                tmp[i] = x[i] + 0.5 * h * k1[i];
+        // Without a delay the input is held over the whole interval. A delayed input
+        // changes where a delayed sample instant `t_j + delay` falls inside it: the
+        // interval is split there, so that every step sees one input and the switch is
+        // placed exactly (and the cost varies smoothly with the delay).
+        let mut from = t;
+        let switches = if delay > 0.0 {
+            delayed_switches(data, t, t_next, delay)
+        } else {
+            Vec::new()
+        };
+        for to in switches.into_iter().chain(std::iter::once(t_next)) {
+            if delay > 0.0 {
+                data.input_at(0.5 * (from + to) - delay, &mut u);
             }
-            at(t0 + 0.5 * h, &mut u);
-            model.derivatives(p, &tmp, &u, &held, &mut k2);
-            for i in 0..nx {
-                tmp[i] = x[i] + 0.5 * h * k2[i];
+            let steps = ((to - from) / max_h).ceil().max(1.0) as usize;
+            if steps > MAX_SUBSTEPS {
+                // Parameters this stiff are outside any physical reading of the record.
+                return Err(Diverged { t_s: t });
             }
-            model.derivatives(p, &tmp, &u, &held, &mut k3);
-            for i in 0..nx {
-                tmp[i] = x[i] + h * k3[i];
+            let h = (to - from) / steps as f64;
+            for _ in 0..steps {
+                rk4.step(model, p, &mut x, &u, &held, h);
             }
-            at(t0 + h, &mut u);
-            model.derivatives(p, &tmp, &u, &held, &mut k4);
-            for i in 0..nx {
-                x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
-            }
-            model.after_step(p, &before, &mut x);
+            from = to;
         }
         if x.iter().any(|v| !v.is_finite() || v.abs() > 1e12) {
             return Err(Diverged {
                 t_s: data.t_s[k + 1],
             });
         }
+        let interval = t_next - t;
         for (j, kind) in kinds.iter().enumerate() {
             if let OutputKind::IntervalRate(s) = kind {
                 y[j][k + 1] = (x[*s] - start[*s]) / interval;
@@ -291,4 +273,144 @@ fn simulate_one<M: GreyBox + ?Sized>(
     }
     model.align_outputs(data, &mut y);
     Ok(y)
+}
+
+/// Instants strictly inside `(t, t_next)` where the input delayed by `delay` (s) changes:
+/// the record's sample instants shifted by the delay.
+fn delayed_switches(data: &Dataset, t: f64, t_next: f64, delay: f64) -> Vec<f64> {
+    let first = data.t_s.partition_point(|&s| s + delay <= t);
+    data.t_s[first..]
+        .iter()
+        .map(|&s| s + delay)
+        .take_while(|&s| s < t_next)
+        .collect()
+}
+
+/// Classic fourth-order Runge-Kutta with its stage buffers, the input held over a step.
+struct Rk4 {
+    k: [Vec<f64>; 4],
+    tmp: Vec<f64>,
+    before: Vec<f64>,
+}
+
+impl Rk4 {
+    fn new(nx: usize) -> Rk4 {
+        Rk4 {
+            k: std::array::from_fn(|_| vec![0.0; nx]),
+            tmp: vec![0.0; nx],
+            before: vec![0.0; nx],
+        }
+    }
+
+    /// Advances `x` by `h` seconds, then lets the model's set-valued laws act.
+    fn step<M: GreyBox + ?Sized>(
+        &mut self,
+        model: &M,
+        p: &[f64],
+        x: &mut [f64],
+        u: &[f64],
+        held: &[f64],
+        h: f64,
+    ) {
+        let [k1, k2, k3, k4] = &mut self.k;
+        let tmp = &mut self.tmp;
+        self.before.copy_from_slice(x);
+        model.derivatives(p, x, u, held, k1);
+        for i in 0..x.len() {
+            tmp[i] = x[i] + 0.5 * h * k1[i];
+        }
+        model.derivatives(p, tmp, u, held, k2);
+        for i in 0..x.len() {
+            tmp[i] = x[i] + 0.5 * h * k2[i];
+        }
+        model.derivatives(p, tmp, u, held, k3);
+        for i in 0..x.len() {
+            tmp[i] = x[i] + h * k3[i];
+        }
+        model.derivatives(p, tmp, u, held, k4);
+        for i in 0..x.len() {
+            x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+        }
+        model.after_step(p, &self.before, x);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `dx/dt = u`: the state is the integral of the (delayed) input.
+    struct Integrator {
+        specs: Vec<ParamSpec>,
+    }
+
+    impl GreyBox for Integrator {
+        fn name(&self) -> String {
+            "integrator".into()
+        }
+        fn params(&self) -> &[ParamSpec] {
+            &self.specs
+        }
+        fn default_free(&self, _outputs: &[String]) -> Vec<usize> {
+            vec![0]
+        }
+        fn input_names(&self) -> Vec<String> {
+            vec!["u".into()]
+        }
+        fn output_names(&self) -> Vec<String> {
+            vec!["x".into()]
+        }
+        fn n_states(&self) -> usize {
+            1
+        }
+        fn initial_state(&self, _p: &[f64], _data: &Dataset) -> Vec<f64> {
+            vec![0.0]
+        }
+        fn max_step_s(&self, _p: &[f64]) -> f64 {
+            1.0
+        }
+        fn input_delay_s(&self, p: &[f64]) -> f64 {
+            p[0]
+        }
+        fn derivatives(&self, _p: &[f64], _x: &[f64], u: &[f64], _h: &[f64], dx: &mut [f64]) {
+            dx[0] = u[0];
+        }
+        fn output_kind(&self, _name: &str) -> OutputKind {
+            OutputKind::Instant
+        }
+        fn output(&self, _p: &[f64], _name: &str, x: &[f64], _u: &[f64], _h: &[f64]) -> f64 {
+            x[0]
+        }
+    }
+
+    #[test]
+    fn a_delayed_input_switches_exactly_at_the_delayed_sample_instant() {
+        // A unit step at t = 0.01 s, sampled every 10 ms, delayed by 3.7 ms: the integral
+        // at t is (t - 0.0137) once the step has acted, to rounding, whatever the delay's
+        // place inside the interval (a step-size grid would round it to a stage time).
+        let n = 6;
+        let data = Dataset {
+            name: "step".into(),
+            t_s: (0..n).map(|k| k as f64 * 0.01).collect(),
+            input_names: vec!["u".into()],
+            inputs: vec![(0..n).map(|k| if k >= 1 { 1.0 } else { 0.0 }).collect()],
+            output_names: vec!["x".into()],
+            outputs: vec![vec![Some(0.0); n]],
+            segment_starts: vec![0],
+        };
+        let model = Integrator {
+            specs: vec![ParamSpec::new("delay_s", 0.0037, 0.0, 0.1)],
+        };
+        for delay in [0.0037, 0.0123, 0.0] {
+            let y = simulate(&model, &[delay], &data).unwrap();
+            for (k, x) in y[0].iter().enumerate() {
+                let expected = (data.t_s[k] - 0.01 - delay).max(0.0);
+                assert!(
+                    (x - expected).abs() < 1e-12,
+                    "delay {delay}: x({}) = {x}, expected {expected}",
+                    data.t_s[k]
+                );
+            }
+        }
+    }
 }

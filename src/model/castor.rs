@@ -12,9 +12,12 @@ pub fn rolling_drag_n<const N: usize>(
     velocity_m_s: [f64; N],
     smoothing_m_s: f64,
 ) -> [f64; N] {
+    // A root of the sum of squares rather than `hypot`: the arguments are speeds, far
+    // from overflow, and this sits in the fitting vehicle's innermost loop.
     let speed = velocity_m_s
         .iter()
-        .fold(smoothing_m_s, |norm, v| norm.hypot(*v));
+        .fold(smoothing_m_s * smoothing_m_s, |sum, v| sum + v * v)
+        .sqrt();
     velocity_m_s.map(|v| -level_n * v / speed)
 }
 

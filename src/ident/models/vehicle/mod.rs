@@ -360,7 +360,10 @@ impl GreyBox for Vehicle {
         let (fwd, yaw_rate) = (x[BODY], x[BODY + 2]);
         let sweep = (yaw_rate * 0.5 * p[TRACK]).abs();
         let slowest = (fwd.abs() - sweep).abs();
-        self.step_bound(p, (0.5 * slowest).hypot(SLIP_SPEED_FLOOR_M_S))
+        self.step_bound(
+            p,
+            (0.25 * slowest * slowest + SLIP_SPEED_FLOOR_M_S * SLIP_SPEED_FLOOR_M_S).sqrt(),
+        )
     }
 
     fn input_delay_s(&self, p: &[f64]) -> f64 {
