@@ -16,6 +16,8 @@ struct Display {
     command: &'static str,
     start: Instant,
     bar: Option<indicatif::ProgressBar>,
+    /// The last stage told, for the live line.
+    stage: Arc<Mutex<String>>,
     stop: Arc<AtomicBool>,
     ticker: Mutex<Option<std::thread::JoinHandle<()>>>,
 }
@@ -38,7 +40,7 @@ fn grouped(n: u64) -> String {
     let digits = n.to_string();
     let mut out = String::new();
     for (i, c) in digits.chars().enumerate() {
-        if i > 0 && (digits.len() - i) % 3 == 0 {
+        if i > 0 && (digits.len() - i).is_multiple_of(3) {
             out.push(',');
         }
         out.push(c);
@@ -59,11 +61,13 @@ pub fn start(command: &'static str) {
         b.set_prefix(command);
         b
     });
+    let stage = Arc::new(Mutex::new(String::new()));
     let ticker = bar.clone().map(|b| {
-        let stop = stop.clone();
+        let (stop, stage) = (stop.clone(), stage.clone());
         std::thread::spawn(move || {
             while !stop.load(Ordering::Relaxed) {
-                b.set_message(format!("{}  [{}]", stage_text(), counts(start)));
+                let now = stage.lock().map(|s| s.clone()).unwrap_or_default();
+                b.set_message(format!("{now}  [{}]", counts(start)));
                 b.tick();
                 std::thread::sleep(Duration::from_millis(200));
             }
@@ -73,15 +77,10 @@ pub fn start(command: &'static str) {
         command,
         start,
         bar,
+        stage,
         stop,
         ticker: Mutex::new(ticker),
     });
-}
-
-static STAGE: Mutex<String> = Mutex::new(String::new());
-
-fn stage_text() -> String {
-    STAGE.lock().map(|s| s.clone()).unwrap_or_default()
 }
 
 /// Tells the stage the command has reached (callable from worker threads).
@@ -90,7 +89,7 @@ pub fn stage(msg: &str) {
         eprintln!("{msg}");
         return;
     };
-    if let Ok(mut s) = STAGE.lock() {
+    if let Ok(mut s) = d.stage.lock() {
         *s = msg.to_string();
     }
     let line = format!("{:<10} {msg}  [{}]", d.command, counts(d.start));

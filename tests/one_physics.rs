@@ -64,26 +64,7 @@ fn simulated(scene: &Scene, name: &str) -> Recording {
 fn disagreement(rec: &Recording, model: &RotaryAxis, p: &[f64]) -> f64 {
     let outputs = ["motor_speed_rad_s".to_string(), "current_A".to_string()];
     let data = Dataset::from_recording(rec, &["voltage_V".to_string()], &outputs).unwrap();
-    let y = model.predict(p, &data).unwrap();
-    let mut worst: f64 = 0.0;
-    for (j, name) in outputs.iter().enumerate() {
-        let sim: Vec<f64> = data.outputs[j].iter().map(|v| v.unwrap()).collect();
-        let range = sim.iter().cloned().fold(f64::MIN, f64::max)
-            - sim.iter().cloned().fold(f64::MAX, f64::min);
-        let rms = (sim
-            .iter()
-            .zip(&y[j])
-            .map(|(a, b)| (a - b).powi(2))
-            .sum::<f64>()
-            / sim.len() as f64)
-            .sqrt();
-        println!(
-            "{name}: RMS difference {:.3} % of the range",
-            100.0 * rms / range
-        );
-        worst = worst.max(rms / range);
-    }
-    worst
+    worst_rms_share(&data, &model.predict(p, &data).unwrap())
 }
 
 fn axis(scene: &Scene) -> RotaryAxis {
@@ -205,26 +186,7 @@ fn vehicle_disagreement(rec: &Recording, model: &dyn Predictor, p: &[f64]) -> f6
     .to_vec();
     let inputs = ["left_voltage_V".to_string(), "right_voltage_V".to_string()];
     let data = Dataset::from_recording(rec, &inputs, &outputs).unwrap();
-    let y = model.predict(p, &data).unwrap();
-    let mut worst: f64 = 0.0;
-    for (j, name) in outputs.iter().enumerate() {
-        let sim: Vec<f64> = data.outputs[j].iter().map(|v| v.unwrap()).collect();
-        let range = sim.iter().cloned().fold(f64::MIN, f64::max)
-            - sim.iter().cloned().fold(f64::MAX, f64::min);
-        let rms = (sim
-            .iter()
-            .zip(&y[j])
-            .map(|(a, b)| (a - b).powi(2))
-            .sum::<f64>()
-            / sim.len() as f64)
-            .sqrt();
-        println!(
-            "{name}: RMS difference {:.3} % of the range",
-            100.0 * rms / range
-        );
-        worst = worst.max(rms / range);
-    }
-    worst
+    worst_rms_share(&data, &model.predict(p, &data).unwrap())
 }
 
 /// The simulator's no-slip level (`complex`: wheels rolling, the shared no-slip body)
@@ -290,4 +252,28 @@ fn the_sliding_vehicle_and_its_fitting_model_agree() {
         heading.rms_error
     );
     assert!(heading.rms_error > 0.1 * range);
+}
+
+/// Largest RMS difference between the simulator's outputs (the dataset's) and a model's
+/// prediction `y`, as a share of each output's range; each printed.
+fn worst_rms_share(data: &Dataset, y: &[Vec<f64>]) -> f64 {
+    let mut worst: f64 = 0.0;
+    for (j, name) in data.output_names.iter().enumerate() {
+        let sim: Vec<f64> = data.outputs[j].iter().map(|v| v.unwrap()).collect();
+        let range = sim.iter().cloned().fold(f64::MIN, f64::max)
+            - sim.iter().cloned().fold(f64::MAX, f64::min);
+        let rms = (sim
+            .iter()
+            .zip(&y[j])
+            .map(|(a, b)| (a - b).powi(2))
+            .sum::<f64>()
+            / sim.len() as f64)
+            .sqrt();
+        println!(
+            "{name}: RMS difference {:.3} % of the range",
+            100.0 * rms / range
+        );
+        worst = worst.max(rms / range);
+    }
+    worst
 }

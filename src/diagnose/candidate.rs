@@ -57,8 +57,6 @@ pub(super) struct Context<'a> {
     pub weights: &'a [f64],
     pub scales: &'a Scales,
     pub max_iterations: usize,
-    /// Whether the stage already carries an accepted effect (a round after the first).
-    pub stage_has_effects: bool,
 }
 
 /// A candidate as fitted: the structure with the effect, the fit (if any start
@@ -92,7 +90,7 @@ impl Context<'_> {
     /// Screens the candidate, and runs its full search when the screen could matter.
     pub fn fit(&self, e: Effect) -> Fitted {
         let setup = self.setup(e);
-        let screen = if self.stage_has_effects {
+        let screen = if self.stage_has_effects() {
             // A later round: the stage's nominal parameters were themselves fitted with an
             // effect from the rig's beliefs, so the start from the beliefs is raced with
             // the others (on the development records it never won a later round, and
@@ -131,6 +129,12 @@ impl Context<'_> {
             fit: best,
             screened_only: false,
         }
+    }
+
+    /// Whether the stage already carries an accepted effect (a round after the first):
+    /// every effect adds its parameters to the nominal ones.
+    fn stage_has_effects(&self) -> bool {
+        self.fit.params.len() > self.beliefs.len()
     }
 
     fn setup(&self, e: Effect) -> Setup {

@@ -330,7 +330,6 @@ pub fn diagnose(
             weights: &weights,
             scales: &scales,
             max_iterations: opts.ident.max_iterations,
-            stage_has_effects: !findings.is_empty(),
         };
         let results: Vec<(Effect, candidate::Fitted)> = candidates
             .par_iter()

@@ -211,6 +211,7 @@ fn simulate_one<M: GreyBox + ?Sized>(
 
     let delay = model.input_delay_s(p);
     let mut rk4 = Rk4::new(nx);
+    let mut start = vec![0.0; nx];
     for k in 0..n {
         data.input_row(k, &mut u);
         let t = data.t_s[k];
@@ -231,18 +232,13 @@ fn simulate_one<M: GreyBox + ?Sized>(
         }
         let t_next = data.t_s[k + 1];
         let max_h = model.max_step_at(p, &x).max(1e-7);
-        let start = x.clone();
+        start.copy_from_slice(&x);
         // Without a delay the input is held over the whole interval. A delayed input
         // changes where a delayed sample instant `t_j + delay` falls inside it: the
         // interval is split there, so that every step sees one input and the switch is
         // placed exactly (and the cost varies smoothly with the delay).
         let mut from = t;
-        let switches = if delay > 0.0 {
-            delayed_switches(data, t, t_next, delay)
-        } else {
-            Vec::new()
-        };
-        for to in switches.into_iter().chain(std::iter::once(t_next)) {
+        for to in delayed_switches(data, t, t_next, delay).chain(std::iter::once(t_next)) {
             if delay > 0.0 {
                 data.input_at(0.5 * (from + to) - delay, &mut u);
             }
@@ -276,14 +272,19 @@ fn simulate_one<M: GreyBox + ?Sized>(
 }
 
 /// Instants strictly inside `(t, t_next)` where the input delayed by `delay` (s) changes:
-/// the record's sample instants shifted by the delay.
-fn delayed_switches(data: &Dataset, t: f64, t_next: f64, delay: f64) -> Vec<f64> {
+/// the record's sample instants shifted by the delay (none without a delay, since the
+/// interval runs between two sample instants).
+fn delayed_switches(
+    data: &Dataset,
+    t: f64,
+    t_next: f64,
+    delay: f64,
+) -> impl Iterator<Item = f64> + '_ {
     let first = data.t_s.partition_point(|&s| s + delay <= t);
     data.t_s[first..]
         .iter()
-        .map(|&s| s + delay)
-        .take_while(|&s| s < t_next)
-        .collect()
+        .map(move |&s| s + delay)
+        .take_while(move |&s| s < t_next)
 }
 
 /// Classic fourth-order Runge-Kutta with its stage buffers, the input held over a step.
