@@ -1,16 +1,21 @@
 //! Fitting one candidate effect on top of the current stage of a diagnosis, in two steps:
 //!
-//! 1. **Screen** (every candidate): the effect's parameter is placed by scans from the
-//!    stage's fit and from the rig's beliefs, and the candidate is fitted from the best
-//!    places with the nominal free parameters. This is a true fit of the whole record, so
-//!    its gain is a lower bound on what the effect can earn.
-//! 2. **Full search** (only candidates whose screen could still matter): the screen's
-//!    starts, and for a parameter too rough for derivatives (a backlash play) a profile
-//!    over the grid and an alternation of fits and line searches, then the fit from all of
-//!    them.
+//! 1. **Screen** (every candidate), on the record's first part ([`exploration_rows`]):
+//!    the effect's parameter is placed by scans from the stage's fit and from the rig's
+//!    beliefs, and the candidate is fitted from the best places with the nominal free
+//!    parameters. Unless the full search follows, the whole record is then fitted from
+//!    the screen's fits (a few iterations from there): a true fit of the whole record,
+//!    whose gain is a lower bound on what the effect can earn.
+//! 2. **Full search** (only a parameter too rough for derivatives, a backlash play, whose
+//!    screen could still matter on the first part or on the whole record): a profile over
+//!    the grid and an alternation of fits and line searches on the first part, then the
+//!    whole record's fit from the best of them.
 //!
-//! Most candidates are absent and their screen shows it; the full search, which costs
-//! several times the screen, is spent only where the evidence could pass the selection.
+//! Most candidates are absent and their screen shows it; the searching is done on a
+//! fraction of the record, and the whole record is fitted once per candidate from where
+//! the search ended.
+
+use rayon::prelude::*;
 
 use crate::ident::data::Dataset;
 use crate::ident::effects::Effect;
@@ -26,12 +31,14 @@ use super::{Scales, MIN_RSS_REDUCTION};
 /// more than a few times its screen.
 pub const SCREEN_SHARE: f64 = 1.0 / 3.0;
 
-/// Share of the record a rough search explores on, and the fewest rows it takes.
-pub const EXPLORE_SHARE: f64 = 0.25;
+/// Share of the record the screens and the rough searches explore on, and the fewest rows
+/// they take. The development records (4,000 to 20,000 rows) mostly explore on the
+/// fewest; the bench's 30,000-row axis on 4,500.
+pub const EXPLORE_SHARE: f64 = 0.15;
 pub const MIN_EXPLORE_ROWS: usize = 2000;
 
-/// Rows of the record's first part a rough parameter is explored on: a quarter, but at
-/// least [`MIN_EXPLORE_ROWS`] (enough engagements of a play to place it).
+/// Rows of the record's first part the searching is done on: [`EXPLORE_SHARE`] of them,
+/// but at least [`MIN_EXPLORE_ROWS`] (enough engagements of a play to place it).
 pub fn exploration_rows(rows: usize) -> usize {
     ((rows as f64 * EXPLORE_SHARE).ceil() as usize)
         .max(MIN_EXPLORE_ROWS)
@@ -51,9 +58,12 @@ pub(super) struct Context<'a> {
     /// The rig's beliefs of every nominal parameter.
     pub beliefs: &'a [f64],
     pub data: &'a Dataset,
-    /// The record's first part ([`exploration_rows`]), where a rough parameter's search
-    /// (profile and alternation) places its starts before the whole record is fitted.
+    /// The record's first part ([`exploration_rows`]), where the scans, the screens and a
+    /// rough parameter's search (profile and alternation) place the starts of the whole
+    /// record's fit.
     pub explore: &'a Dataset,
+    /// The stage's cost on [`Context::explore`].
+    pub explore_stage_cost: f64,
     pub weights: &'a [f64],
     pub scales: &'a Scales,
     pub max_iterations: usize,
@@ -90,27 +100,34 @@ impl Context<'_> {
     /// Screens the candidate, and runs its full search when the screen could matter.
     pub fn fit(&self, e: Effect) -> Fitted {
         let setup = self.setup(e);
-        let screen = if self.stage_has_effects() {
-            // A later round: the stage's nominal parameters were themselves fitted with an
-            // effect from the rig's beliefs, so the start from the beliefs is raced with
-            // the others (on the development records it never won a later round, and
-            // fitted on its own it was half of a vehicle's diagnosis time).
-            self.final_fit(&setup, setup.starts.clone())
-        } else {
-            // The starts from the stage's fit are raced; the start from the rig's beliefs
-            // is far from converged after a few iterations (that is its point: a basin
-            // the baseline has left by absorbing the effect into a nominal parameter,
-            // a delay into the inductance), so it is fitted on its own.
-            let (from_fit, from_rig) = setup.starts.split_at(setup.fitted_starts);
-            lower(
-                self.final_fit(&setup, from_fit.to_vec()),
-                self.final_fit(&setup, from_rig.to_vec()),
-            )
-        };
+        let screened = self.screen(&setup);
+        let rough = self.rough(&setup);
+        let gain = |f: &Fit, stage_cost: f64| 1.0 - f.cost / stage_cost;
+        let promising_on_part = screened
+            .iter()
+            .any(|f| gain(f, self.explore_stage_cost) >= SCREEN_SHARE * MIN_RSS_REDUCTION);
+        let mut starts = setup.starts.clone();
+        starts.extend(screened.iter().map(|f| f.params.clone()));
+        if rough && promising_on_part {
+            // The full search ends in fits of the whole record from its best starts, the
+            // screen's among them: a whole-record fit of the screen first would be spent.
+            return Fitted {
+                fit: self.rough_search(&setup, starts),
+                structure: setup.structure,
+                screened_only: false,
+            };
+        }
+        let screen = (!screened.is_empty())
+            .then(|| {
+                let from: Vec<Vec<f64>> = screened.into_iter().map(|f| f.params).collect();
+                self.fit_from(&setup, from, self.data)
+            })
+            .flatten();
+        // The first part can miss what the rest of the record shows: the whole record's fit
+        // can still call for the full search.
         let promising = screen
             .as_ref()
-            .is_some_and(|f| 1.0 - f.cost / self.fit.cost >= SCREEN_SHARE * MIN_RSS_REDUCTION);
-        let rough = self.rough(&setup);
+            .is_some_and(|f| gain(f, self.fit.cost) >= SCREEN_SHARE * MIN_RSS_REDUCTION);
         if !promising || !rough {
             return Fitted {
                 structure: setup.structure,
@@ -118,7 +135,6 @@ impl Context<'_> {
                 screened_only: rough,
             };
         }
-        let mut starts = setup.starts.clone();
         if let Some(f) = &screen {
             starts.push(f.params.clone());
         }
@@ -129,6 +145,34 @@ impl Context<'_> {
             fit: best,
             screened_only: false,
         }
+    }
+
+    /// The screen's fits on the record's first part, from the scans' starts: where the
+    /// whole record's fit starts from (raced). A fit of the first part costs a fraction of
+    /// the whole record's, and lands close enough to its minimum that the whole record's
+    /// fit from there takes a few iterations.
+    fn screen(&self, setup: &Setup) -> Vec<Fit> {
+        let fitted = if self.stage_has_effects() {
+            // A later round: the stage's nominal parameters were themselves fitted with an
+            // effect from the rig's beliefs, so the start from the beliefs is raced with
+            // the others (on the development records it never won a later round, and
+            // fitted on its own it was half of a vehicle's diagnosis time).
+            vec![self.fit_from(setup, setup.starts.clone(), self.explore)]
+        } else {
+            // The starts from the stage's fit are raced; the start from the rig's beliefs
+            // is far from converged after a few iterations (that is its point: a basin
+            // the baseline has left by absorbing the effect into a nominal parameter,
+            // a delay into the inductance), so it is fitted on its own, and both basins go
+            // on to the whole record (the first part can rank them wrongly: a DCMC's speed
+            // loop whose integral barely acts in the record's first seconds).
+            let (from_fit, from_rig) = setup.starts.split_at(setup.fitted_starts);
+            let (a, b) = rayon::join(
+                || self.fit_from(setup, from_fit.to_vec(), self.explore),
+                || self.fit_from(setup, from_rig.to_vec(), self.explore),
+            );
+            vec![a, b]
+        };
+        fitted.into_iter().flatten().collect()
     }
 
     /// Whether the stage already carries an accepted effect (a round after the first):
@@ -149,8 +193,10 @@ impl Context<'_> {
         for &i in self.free_nominal {
             believed[i] = self.beliefs[i];
         }
-        let from_fit = scan(&probe, &stage.params, &grid, self.data, self.weights);
-        let from_rig = scan(&probe, &believed, &grid, self.data, self.weights);
+        let (from_fit, from_rig) = rayon::join(
+            || scan(&probe, &stage.params, &grid, self.explore, self.weights),
+            || scan(&probe, &believed, &grid, self.explore, self.weights),
+        );
         let s1 = from_fit.first().copied().unwrap_or(grid[0]);
         let structure = self.structure.with_effect(e, s1, lo, hi, s.speed_max);
         let m = structure.model();
@@ -199,16 +245,11 @@ impl Context<'_> {
         }
     }
 
-    /// The candidate fitted, every free parameter and the effect's, from `starts`.
-    fn final_fit(&self, setup: &Setup, starts: Vec<Vec<f64>>) -> Option<Fit> {
+    /// The candidate fitted on `data`, every free parameter and the effect's, from `starts`.
+    fn fit_from(&self, setup: &Setup, starts: Vec<Vec<f64>>, data: &Dataset) -> Option<Fit> {
         let mut free = setup.others.clone();
         free.push(setup.idx);
-        fit::fit_raced(
-            setup.structure.model(),
-            self.data,
-            &self.settings(free, starts),
-        )
-        .ok()
+        fit::fit_raced(setup.structure.model(), data, &self.settings(free, starts)).ok()
     }
 
     /// The full search of a rough parameter: a profile over every fourth grid value from
@@ -235,13 +276,14 @@ impl Context<'_> {
             .map(|p| (self.cost(m, &p, self.explore), p))
             .collect();
         ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
-        // Each alternated start is fitted to convergence: a rough cost ranks starts
-        // poorly after a few iterations, so they are not raced.
-        ranked
-            .into_iter()
-            .take(ALTERNATED_STARTS)
-            .filter_map(|(_, p)| self.final_fit(setup, vec![self.alternate(setup, p)]))
-            .fold(None, |best, f| lower(best, Some(f)))
+        ranked.truncate(ALTERNATED_STARTS);
+        let alternated: Vec<Vec<f64>> = ranked
+            .into_par_iter()
+            .map(|(_, p)| self.alternate(setup, p))
+            .collect();
+        // Each alternated start sits at the bottom of its basin on the first part, so a
+        // few iterations on the whole record rank them as the end would.
+        self.fit_from(setup, alternated, self.data)
     }
 
     /// Weighted residual sum of squares at `p` on `data`.

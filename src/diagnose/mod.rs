@@ -327,6 +327,12 @@ pub fn diagnose(
             beliefs: &beliefs,
             data: &data,
             explore: &explore,
+            explore_stage_cost: crate::ident::fit::cost_at(
+                stage.structure.model(),
+                &stage.fit.params,
+                &explore,
+                &weights,
+            ),
             weights: &weights,
             scales: &scales,
             max_iterations: opts.ident.max_iterations,

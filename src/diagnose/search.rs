@@ -1,6 +1,8 @@
 //! Placing an effect's parameter before the local fit: a scan grid per effect, a grid
 //! scan with golden-section refinement, and the golden-section search itself.
 
+use rayon::prelude::*;
+
 use crate::ident::data::Dataset;
 use crate::ident::effects::Effect;
 use crate::ident::fit;
@@ -70,7 +72,7 @@ pub(super) fn scan(
     let m = cand.model();
     let idx = m.params().len() - 1;
     let cost = |g: f64| fit::cost_at(m, &start_with(m, params, idx, g), data, weights);
-    let scored: Vec<f64> = grid.iter().map(|&g| cost(g)).collect();
+    let scored: Vec<f64> = grid.par_iter().map(|&g| cost(g)).collect();
     let mut order: Vec<usize> = (0..grid.len()).filter(|&i| scored[i].is_finite()).collect();
     order.sort_by(|&a, &b| scored[a].total_cmp(&scored[b]));
     let mut picked: Vec<usize> = Vec::new();
@@ -83,11 +85,11 @@ pub(super) fn scan(
         }
     }
     picked
-        .iter()
+        .par_iter()
         .map(|&i| {
             let lo = grid[i.saturating_sub(1)];
             let hi = grid[(i + 1).min(grid.len() - 1)];
-            golden(&cost, lo, hi, 14).unwrap_or(grid[i])
+            golden(&cost, lo, hi, 8).unwrap_or(grid[i])
         })
         .collect()
 }
@@ -139,7 +141,6 @@ pub(super) fn profile_scan(
     data: &Dataset,
     weights: &[f64],
 ) -> Vec<Vec<f64>> {
-    use rayon::prelude::*;
     let m = cand.model();
     let fitted: Vec<Option<(f64, Vec<f64>)>> = grid
         .par_iter()

@@ -41,6 +41,38 @@ impl GearboxParams {
         }
     }
 
+    /// Where, as a fraction of a step that takes the twist from `before_rad` to
+    /// `after_rad`, the teeth first meet or part (a flank at plus or minus half the play
+    /// is crossed); `None` when the mesh does not change. The instant is estimated from
+    /// the twist rate at the step's start (`before_rate_rad`: that rate times the step,
+    /// rad), which the step's end does not yet feel; where that rate does not reach the
+    /// flank (the crossing is the acceleration's doing), by linear interpolation.
+    pub fn flank_crossing(
+        &self,
+        before_rad: f64,
+        after_rad: f64,
+        before_rate_rad: f64,
+    ) -> Option<f64> {
+        if self.mesh(before_rad) == self.mesh(after_rad) {
+            return None;
+        }
+        let half = self.half_play_rad();
+        let at = |flank: f64| {
+            let by_rate = (flank - before_rad) / before_rate_rad;
+            if by_rate.is_finite() && by_rate > 0.0 && by_rate < 1.0 {
+                by_rate
+            } else {
+                (flank - before_rad) / (after_rad - before_rad)
+            }
+        };
+        [half, -half]
+            .into_iter()
+            .filter(|flank| (before_rad - flank).signum() != (after_rad - flank).signum())
+            .map(at)
+            .filter(|a| a.is_finite())
+            .reduce(f64::min)
+    }
+
     /// Fastest rate of the tooth mesh, 1/s: `sqrt(k / J) + c / J` on the reduced inertia of
     /// the two sides (`motor_side` referred to the wheel, `wheel_side`, kg m^2). Explicit
     /// integrators keep `h * rate` small against it.
@@ -67,6 +99,26 @@ impl GearboxParams {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn teeth_meet_and_part_where_the_twist_crosses_a_flank() {
+        let g = GearboxParams {
+            ratio: 23.41,
+            backlash_rad: 0.2,
+            tooth_stiffness_nm_rad: 1000.0,
+            tooth_damping_nm_s_rad: 10.0,
+        };
+        // Flanks at +-0.1 rad: no change inside the play or within one contact.
+        assert_eq!(g.flank_crossing(-0.05, 0.05, 0.1), None);
+        assert_eq!(g.flank_crossing(0.12, 0.15, 0.03), None);
+        // Approaching at 0.02 rad a step, the teeth meet half way through it (the step's
+        // end, 0.13, shows the contact's braking, not the approach).
+        assert!((g.flank_crossing(0.09, 0.13, 0.02).unwrap() - 0.5).abs() < 1e-12);
+        // From rest, pushed by an acceleration: a quarter of the way from 0.09 to 0.13.
+        assert!((g.flank_crossing(0.09, 0.13, 0.0).unwrap() - 0.25).abs() < 1e-12);
+        // Crossing the whole play backwards: the forward flank is left first.
+        assert!((g.flank_crossing(0.15, -0.25, -0.4).unwrap() - 0.125).abs() < 1e-12);
+    }
 
     #[test]
     fn no_torque_inside_the_play_and_push_only_outside() {

@@ -118,6 +118,14 @@ pub const GAIN: usize = 6;
 /// is insensitive to it once it is stiff against the sample rate).
 pub const TOOTH_STIFFNESS_NM_RAD: f64 = 5000.0;
 pub const TOOTH_DAMPING_NM_S_RAD: f64 = 3.0;
+/// Longest RK4 step against the tooth mesh's rate ([`GearboxParams::mesh_rate`]), as
+/// `h * rate`: the standard the electrical mode is held to (`h <= L / R`). What limits the
+/// accuracy through a play is the timing of the teeth meeting and parting, which the
+/// integrator places by splitting the step there ([`GreyBox::event_fraction`]). Measured
+/// on the one-physics test's 0.05 rad play (8 s of multisine voltage): the outputs lie
+/// within 0.35 % of their range of a 100 times finer integration, as they did at 0.3
+/// without the split (0.38 %), at a third of the steps; the simulator's within 0.31 %.
+pub const MESH_STEP_RATE: f64 = 1.0;
 
 /// The backlash block's gear train: the fitted play between teeth of the identification
 /// models' fixed mesh stiffness and damping.
@@ -508,13 +516,22 @@ impl GreyBox for RotaryAxis {
             let rate = self
                 .gearbox(p, play)
                 .mesh_rate(p[JM] * self.ratio * self.ratio, p[JW]);
-            h = h.min(0.3 / rate);
+            h = h.min(MESH_STEP_RATE / rate);
         }
         h
     }
 
     fn input_delay_s(&self, p: &[f64]) -> f64 {
         self.effect(Effect::TransportDelay).map_or(0.0, |i| p[i])
+    }
+
+    fn event_fraction(&self, p: &[f64], before: &[f64], after: &[f64], h: f64) -> Option<f64> {
+        let play = self.effect(Effect::Backlash)?;
+        let n = self.ratio;
+        let twist = |x: &[f64]| x[2] / n - x[4];
+        let twist_rate = before[1] / n - before[3];
+        self.gearbox(p, play)
+            .flank_crossing(twist(before), twist(after), twist_rate * h)
     }
 
     fn derivatives(&self, p: &[f64], x: &[f64], u: &[f64], held: &[f64], dx: &mut [f64]) {

@@ -352,6 +352,21 @@ impl GreyBox for Vehicle {
         self.step_bound(p, SLIP_SPEED_FLOOR_M_S)
     }
 
+    /// With a gear play: the first of the two sides' teeth to meet or part.
+    fn event_fraction(&self, p: &[f64], before: &[f64], after: &[f64], h: f64) -> Option<f64> {
+        let play = self.effect(Effect::Backlash)?;
+        let g = self.gearbox(p, play);
+        let n = self.ratio;
+        let twist = |x: &[f64], s: usize| x[s + 2] / n - x[s + 4];
+        (0..2)
+            .map(|side| side * SIDE)
+            .filter_map(|s| {
+                let rate = before[s + 1] / n - before[s + 3];
+                g.flank_crossing(twist(before, s), twist(after, s), rate * h)
+            })
+            .reduce(f64::min)
+    }
+
     /// The tyre's stiffness falls as the contact speed rises (slip is measured against
     /// it), so a moving vehicle allows longer steps than one at rest. The slowest contact
     /// at the interval's start is taken at half its speed: no record's sample interval is

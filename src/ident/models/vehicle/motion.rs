@@ -3,6 +3,7 @@
 //! the castors' drag, and the longest integration step the tyres' stiffness allows.
 
 use crate::ident::effects::Effect;
+use crate::ident::models::rotary_axis::MESH_STEP_RATE;
 use crate::model::chassis::NoSlipBody;
 use crate::model::tyre::{steady_slip_force, ContactKinematics};
 
@@ -19,7 +20,7 @@ impl Vehicle {
         let mut h = p[L] / p[R];
         if let Some(play) = self.effect(Effect::Backlash) {
             let rate = self.gearbox(p, play).mesh_rate(p[JM] * n2, p[JW]);
-            h = h.min(0.3 / rate);
+            h = h.min(MESH_STEP_RATE / rate);
         }
         if self.effect(Effect::WheelSlip).is_none() && !self.creeping_tyres {
             // Rolling without slip: no tyre between wheel and floor to resolve.
