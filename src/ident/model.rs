@@ -414,20 +414,29 @@ impl Rk4 {
 mod tests {
     use super::*;
 
-    /// `dx/dt = u`: the state is the integral of the (delayed) input.
-    struct Integrator {
+    /// One state `x` from 0, one input `u`, measured as `x`, under one of two laws.
+    struct OneState {
+        law: Law,
         specs: Vec<ParamSpec>,
     }
 
-    impl GreyBox for Integrator {
+    enum Law {
+        /// `dx/dt = u` delayed by the parameter: the integral of the delayed input.
+        DelayedIntegral,
+        /// `dx/dt = 1` up to `x = 0.3`, `1 + 2 (x - 0.3)` above: a kink in the law (as a
+        /// gear's teeth meeting), met inside a step; the integrator told of it or not.
+        Kinked { told: bool },
+    }
+
+    impl GreyBox for OneState {
         fn name(&self) -> String {
-            "integrator".into()
+            "one state".into()
         }
         fn params(&self) -> &[ParamSpec] {
             &self.specs
         }
         fn default_free(&self, _outputs: &[String]) -> Vec<usize> {
-            vec![0]
+            (0..self.specs.len()).collect()
         }
         fn input_names(&self) -> Vec<String> {
             vec!["u".into()]
@@ -445,57 +454,21 @@ mod tests {
             1.0
         }
         fn input_delay_s(&self, p: &[f64]) -> f64 {
-            p[0]
-        }
-        fn derivatives(&self, _p: &[f64], _x: &[f64], u: &[f64], _h: &[f64], dx: &mut [f64]) {
-            dx[0] = u[0];
-        }
-        fn output_kind(&self, _name: &str) -> OutputKind {
-            OutputKind::Instant
-        }
-        fn output(&self, _p: &[f64], _name: &str, x: &[f64], _u: &[f64], _h: &[f64]) -> f64 {
-            x[0]
-        }
-    }
-
-    /// `dx/dt = 1` up to `x = 0.3`, `1 + 2 (x - 0.3)` above: a kink in the law (as a
-    /// gear's teeth meeting), met inside a step.
-    struct Kinked {
-        specs: Vec<ParamSpec>,
-        locate: bool,
-    }
-
-    impl GreyBox for Kinked {
-        fn name(&self) -> String {
-            "kinked".into()
-        }
-        fn params(&self) -> &[ParamSpec] {
-            &self.specs
-        }
-        fn default_free(&self, _outputs: &[String]) -> Vec<usize> {
-            vec![]
-        }
-        fn input_names(&self) -> Vec<String> {
-            vec!["u".into()]
-        }
-        fn output_names(&self) -> Vec<String> {
-            vec!["x".into()]
-        }
-        fn n_states(&self) -> usize {
-            1
-        }
-        fn initial_state(&self, _p: &[f64], _data: &Dataset) -> Vec<f64> {
-            vec![0.0]
-        }
-        fn max_step_s(&self, _p: &[f64]) -> f64 {
-            1.0
+            match self.law {
+                Law::DelayedIntegral => p[0],
+                Law::Kinked { .. } => 0.0,
+            }
         }
         fn event_fraction(&self, _p: &[f64], before: &[f64], after: &[f64], h: f64) -> Option<f64> {
             // The rate at the start (1) reaches the kink at (0.3 - x) / 1.
-            (self.locate && before[0] <= 0.3 && after[0] > 0.3).then(|| (0.3 - before[0]) / h)
+            let told = matches!(self.law, Law::Kinked { told: true });
+            (told && before[0] <= 0.3 && after[0] > 0.3).then(|| (0.3 - before[0]) / h)
         }
-        fn derivatives(&self, _p: &[f64], x: &[f64], _u: &[f64], _h: &[f64], dx: &mut [f64]) {
-            dx[0] = 1.0 + 2.0 * (x[0] - 0.3).max(0.0);
+        fn derivatives(&self, _p: &[f64], x: &[f64], u: &[f64], _h: &[f64], dx: &mut [f64]) {
+            dx[0] = match self.law {
+                Law::DelayedIntegral => u[0],
+                Law::Kinked { .. } => 1.0 + 2.0 * (x[0] - 0.3).max(0.0),
+            };
         }
         fn output_kind(&self, _name: &str) -> OutputKind {
             OutputKind::Instant
@@ -519,10 +492,10 @@ mod tests {
             outputs: vec![vec![Some(0.0); 2]],
             segment_starts: vec![0],
         };
-        let end = |locate: bool| {
-            let m = Kinked {
+        let end = |told: bool| {
+            let m = OneState {
+                law: Law::Kinked { told },
                 specs: vec![],
-                locate,
             };
             simulate(&m, &[], &data).unwrap()[0][1]
         };
@@ -546,7 +519,8 @@ mod tests {
             outputs: vec![vec![Some(0.0); n]],
             segment_starts: vec![0],
         };
-        let model = Integrator {
+        let model = OneState {
+            law: Law::DelayedIntegral,
             specs: vec![ParamSpec::new("delay_s", 0.0037, 0.0, 0.1)],
         };
         for delay in [0.0037, 0.0123, 0.0] {

@@ -335,6 +335,13 @@ impl RotaryAxis {
         self.effects.get(e)
     }
 
+    /// The gear's twist across the play (rad, the motor's angle through the ratio less
+    /// the wheel's) and its rate (rad/s), from the two-inertia states.
+    fn twist(&self, x: &[f64]) -> (f64, f64) {
+        let n = self.ratio;
+        (x[2] / n - x[4], x[1] / n - x[3])
+    }
+
     fn gearbox(&self, p: &[f64], play: usize) -> GearboxParams {
         play_gearbox(self.ratio, p[play])
     }
@@ -527,11 +534,9 @@ impl GreyBox for RotaryAxis {
 
     fn event_fraction(&self, p: &[f64], before: &[f64], after: &[f64], h: f64) -> Option<f64> {
         let play = self.effect(Effect::Backlash)?;
-        let n = self.ratio;
-        let twist = |x: &[f64]| x[2] / n - x[4];
-        let twist_rate = before[1] / n - before[3];
+        let (twist_before, twist_rate) = self.twist(before);
         self.gearbox(p, play)
-            .flank_crossing(twist(before), twist(after), twist_rate * h)
+            .flank_crossing(twist_before, self.twist(after).0, twist_rate * h)
     }
 
     fn derivatives(&self, p: &[f64], x: &[f64], u: &[f64], held: &[f64], dx: &mut [f64]) {
@@ -570,7 +575,8 @@ impl GreyBox for RotaryAxis {
             Some(play) => {
                 let n = self.ratio;
                 let g = self.gearbox(p, play);
-                let tooth = g.tooth_contact_torque(x[2] / n - x[4], x[1] / n - x[3]);
+                let (twist, twist_rate) = self.twist(x);
+                let tooth = g.tooth_contact_torque(twist, twist_rate);
                 let share = p[play - 1];
                 let b_motor = p[B] * (1.0 - share);
                 let b_wheel = p[B] * share * n * n;

@@ -356,13 +356,10 @@ impl GreyBox for Vehicle {
     fn event_fraction(&self, p: &[f64], before: &[f64], after: &[f64], h: f64) -> Option<f64> {
         let play = self.effect(Effect::Backlash)?;
         let g = self.gearbox(p, play);
-        let n = self.ratio;
-        let twist = |x: &[f64], s: usize| x[s + 2] / n - x[s + 4];
         (0..2)
-            .map(|side| side * SIDE)
-            .filter_map(|s| {
-                let rate = before[s + 1] / n - before[s + 3];
-                g.flank_crossing(twist(before, s), twist(after, s), rate * h)
+            .filter_map(|side| {
+                let (twist_before, twist_rate) = self.twist(before, side);
+                g.flank_crossing(twist_before, self.twist(after, side).0, twist_rate * h)
             })
             .reduce(f64::min)
     }

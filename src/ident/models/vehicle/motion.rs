@@ -41,6 +41,14 @@ impl Vehicle {
         h.min(2.0 / lambda_long.max(lambda_lat))
     }
 
+    /// One side's gear twist across the play (rad, its motor's angle through the ratio
+    /// less its wheel's) and the twist's rate (rad/s), from the side's states.
+    pub(super) fn twist(&self, x: &[f64], side: usize) -> (f64, f64) {
+        let s = side * SIDE;
+        let n = self.ratio;
+        (x[s + 2] / n - x[s + 4], x[s + 1] / n - x[s + 3])
+    }
+
     /// Torque the gear train delivers to each wheel's axle (N m) and the inertia turning
     /// with the wheel there (kg m^2), writing the motor side's speed rate when a gear play
     /// separates motor and wheel. Rigid gears: the motor's torque less its viscous
@@ -62,8 +70,9 @@ impl Vehicle {
                 let (b_motor, b_wheel) = (p[B] * (1.0 - share), p[B] * share * n * n);
                 for side in 0..2 {
                     let s = side * SIDE;
-                    let (wm, wm_angle, ww) = (x[s + 1], x[s + 2], x[s + 3]);
-                    let tooth = g.tooth_contact_torque(wm_angle / n - x[s + 4], wm / n - ww);
+                    let (wm, ww) = (x[s + 1], x[s + 3]);
+                    let (twist, twist_rate) = self.twist(x, side);
+                    let tooth = g.tooth_contact_torque(twist, twist_rate);
                     dx[s + 1] = (drive[side] - b_motor * wm - tooth / n) / p[JM];
                     torque[side] = tooth - b_wheel * ww;
                 }
