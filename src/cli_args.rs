@@ -175,8 +175,14 @@ pub enum Command {
         /// coulomb_friction, friction_asymmetry, offset, voltage_saturation, battery_sag,
         /// transport_delay, speed_feedback, wheel_slip, castor_drag): each is switched on
         /// through its scene key and fitted with the free keys, and kept only where the
-        /// recording gives evidence for it. `all`: every effect this recording can show.
-        #[arg(long, value_delimiter = ',', value_name = "NAME,...")]
+        /// recording gives evidence for it. `all`: every effect this recording can show;
+        /// `none`: the free keys only.
+        #[arg(
+            long,
+            value_delimiter = ',',
+            value_name = "NAME,...",
+            default_value = "all"
+        )]
         effects: Vec<String>,
         /// Write the calibrated scene here (the original text with the fitted keys
         /// replaced and commented).

@@ -1,8 +1,9 @@
 //! One physics: on the same inputs and parameters, the simulator (`replay`) and the
 //! fitting models that diagnosis fits (`RotaryAxis`, `Vehicle`, built from the simulator's
 //! motor, gear, friction, chassis and tyre blocks) give the same outputs: the lifted drive
-//! with and without Coulomb friction and gear play, the vehicle rolling without slip and
-//! sliding.
+//! with and without Coulomb friction and gear play (with the wheel's bearings on its side
+//! of the play), on demands through the DCMC's speed loop, the vehicle rolling without
+//! slip and sliding.
 
 use std::path::Path;
 
@@ -31,20 +32,24 @@ fn machine(set: &[&str]) -> Scene {
 
 /// The scene's drive as a rig file: what a user's rig would state.
 fn rig_of(s: &Scene) -> Rig {
+    Rig::parse(&rig_text_of(s), Path::new("scene.rig.toml")).unwrap()
+}
+
+fn rig_text_of(s: &Scene) -> String {
     let m = &s.motor;
-    let text = format!(
+    format!(
         "rig = \"drive_axis\"\n[motor]\nresistance_ohm = {}\ninductance_H = {}\ntorque_constant_Nm_A = {}\nrotor_inertia_kg_m2 = {}\nviscous_Nm_s_rad = {}\n[gearbox]\nratio = {}\n[wheel]\nradius_m = {}\ninertia_kg_m2 = {}\n[supply]\nvoltage_V = {}\n",
         m.resistance_ohm,
         m.inductance_H,
         m.torque_constant_Nm_A,
         m.rotor_inertia_kg_m2,
-        m.viscous_Nm_s_rad,
+        // The rig's viscous friction is all of it, referred to the motor shaft.
+        m.viscous_Nm_s_rad + s.wheel.viscous_Nm_s_rad / s.gearbox.ratio.powi(2),
         s.gearbox.ratio,
         s.wheel.radius_m,
         s.wheel.inertia_kg_m2,
         s.battery.open_circuit_V,
-    );
-    Rig::parse(&text, Path::new("scene.rig.toml")).unwrap()
+    )
 }
 
 /// The simulator's replay of the shipped multisine voltages (8 s, up to 14 V, every
@@ -109,14 +114,118 @@ fn the_lifted_drive_and_its_fitting_model_agree_through_gear_play() {
     ]);
     let m = axis(&s).with_effect(Effect::Backlash, 0.05, 1e-4, 0.5, 200.0);
     let mut p = nominal(&m);
-    let share = m
-        .param_specs()
-        .iter()
-        .position(|s| s.name == WHEEL_SHARE_PARAM)
-        .unwrap();
-    p[share] = 0.0;
+    p[wheel_share(&m)] = 0.0;
     let d = disagreement(&simulated(&s, "play"), &m, &p);
     assert!(d < 0.005, "{d}");
+}
+
+fn wheel_share(m: &RotaryAxis) -> usize {
+    m.param_specs()
+        .iter()
+        .position(|s| s.name == WHEEL_SHARE_PARAM)
+        .unwrap()
+}
+
+/// The simulator's wheel bearings (`wheel.viscous_Nm_s_rad`, on the wheel's side of the
+/// play) are the fitting block's wheel-side share of the viscous friction: with 40 % of it
+/// there, the model agrees with the simulator best at a share of 0.4, and far worse with
+/// all of it at the motor. The wheel rattling in its play is sensitive to the exact
+/// friction (the impacts' timing), so the agreement at 0.4 is held to 1 % of the range.
+#[test]
+fn the_wheel_bearings_are_the_fitting_blocks_wheel_side_share() {
+    let s = machine(&[
+        "gearbox.backlash_rad=0.05",
+        "motor.coulomb_Nm=0",
+        "sim.dt_s=0.0005",
+        "motor.viscous_Nm_s_rad=1.2e-4",
+        // 0.4 / 0.6 of the motor's, referred to the wheel's axle.
+        "wheel.viscous_Nm_s_rad=0.04384",
+    ]);
+    let n2 = s.gearbox.ratio.powi(2);
+    let at_wheel = s.wheel.viscous_Nm_s_rad / n2;
+    assert!((at_wheel / (s.motor.viscous_Nm_s_rad + at_wheel) - 0.4).abs() < 1e-3);
+    let rec = simulated(&s, "bearings");
+    let m = axis(&s).with_effect(Effect::Backlash, 0.05, 1e-4, 0.5, 200.0);
+    let shares = [0.0, 0.2, 0.4, 0.6, 0.8];
+    let d: Vec<f64> = shares
+        .iter()
+        .map(|&k| {
+            let mut p = nominal(&m);
+            p[wheel_share(&m)] = k;
+            disagreement(&rec, &m, &p)
+        })
+        .collect();
+    eprintln!("disagreement per share {shares:?}: {d:?}");
+    let best = (0..d.len()).min_by(|&i, &j| d[i].total_cmp(&d[j])).unwrap();
+    assert_eq!(shares[best], 0.4, "{d:?}");
+    assert!(d[2] < 0.01, "{d:?}");
+    assert!(d[0] > 2.0 * d[2], "{d:?}");
+}
+
+/// On demands through the DCMC's speed loop (`gain_pi`, the vocabulary's
+/// `speed_feedback`): the simulator's DCMC, stepped with the simulation, and the fitting
+/// model's speed-feedback block, integrated by RK4, run the one law
+/// (`SpeedLoopGains::calibrated_to_motor`). The DCMC's lags and ramps are off: the rig
+/// gives a plain gain, and they are not the speed loop. The demand starts after the
+/// DCMC's enable delay.
+#[test]
+fn the_dcmc_speed_loop_and_the_fitting_models_speed_feedback_agree() {
+    let s = machine(&[
+        "gearbox.backlash_rad=0",
+        "motor.coulomb_Nm=0",
+        "dcmc.kind=gain_pi",
+        "dcmc.ki_V_rad=0.3",
+        "dcmc.response_time_left_s=0",
+        "dcmc.response_time_right_s=0",
+        "dcmc.turn_response_time_s=0",
+        "dcmc.ramp_left_pct_s=0",
+        "dcmc.ramp_right_pct_s=0",
+        "dcmc.turn_ramp_pct_s=0",
+    ]);
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("one-physics-speed-loop");
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut text =
+        "# agvsim-recording: 1\n# rig: drive_axis\nt_s,demand_pct,motor_speed_rad_s,current_A\n"
+            .to_string();
+    for k in 0..1600 {
+        let t = k as f64 * 0.005;
+        let d: f64 = if t < 0.6 {
+            0.0
+        } else {
+            [(0.3, 25.0), (0.7, 20.0), (1.9, 15.0)]
+                .iter()
+                .map(|(f, a)| a * (std::f64::consts::TAU * f * t).sin())
+                .sum()
+        };
+        text.push_str(&format!("{t},{d},0,0\n"));
+    }
+    std::fs::write(dir.join("inputs.csv"), text).unwrap();
+    let inputs = Recording::load(&dir.join("inputs.csv")).unwrap();
+    let r = replay(&s, &inputs).unwrap();
+    std::fs::write(
+        dir.join("sim.csv"),
+        simulated_csv(&r, &inputs, Path::new(SCENE)),
+    )
+    .unwrap();
+    let rec = Recording::load(&dir.join("sim.csv")).unwrap();
+    let rig = Rig::parse(
+        &format!(
+            "{}[controller]\nkind = \"gain\"\ngain_V_pct = {}\n",
+            rig_text_of(&s),
+            s.dcmc.forward_gain_V_pct
+        ),
+        Path::new("scene.rig.toml"),
+    )
+    .unwrap();
+    let plain = RotaryAxis::from_rig(&rig, Path::new("scene.rig.toml"), AxisInput::Demand).unwrap();
+    let m = plain.with_effect(Effect::SpeedFeedback, 0.3, 0.0, 10.0, 200.0);
+    let outputs = ["motor_speed_rad_s".to_string(), "current_A".to_string()];
+    let data = Dataset::from_recording(&rec, &["demand_pct".to_string()], &outputs).unwrap();
+    let d = worst_rms_share(&data, &m.predict(&nominal(&m), &data).unwrap());
+    assert!(d < 0.005, "{d}");
+    // The loop matters here: without it the model is another machine.
+    let without = worst_rms_share(&data, &plain.predict(&nominal(&plain), &data).unwrap());
+    assert!(without > 4.0 * d, "{without} against {d}");
 }
 
 /// The scene's vehicle as a rig file: the chassis and payload together, their yaw inertia
@@ -132,7 +241,8 @@ fn vehicle_rig_of(s: &Scene) -> Rig {
         m.inductance_H,
         m.torque_constant_Nm_A,
         m.rotor_inertia_kg_m2,
-        m.viscous_Nm_s_rad,
+        // The rig's viscous friction is all of it, referred to the motor shaft.
+        m.viscous_Nm_s_rad + s.wheel.viscous_Nm_s_rad / s.gearbox.ratio.powi(2),
         s.gearbox.ratio,
         s.wheel.radius_m,
         s.wheel.inertia_kg_m2,

@@ -49,7 +49,7 @@ pub struct Driven {
 /// | `coulomb_friction` | `motor.coulomb_Nm` | 1 % of the motor's stall torque at the drive limit |
 /// | `voltage_saturation` | `battery.drive_limit_V` | 90 % of the largest voltage command |
 /// | `battery_sag` | `battery.internal_resistance_ohm` (bridges set their duty against `battery.bridge_rated_V`, the open-circuit voltage) | 0.05 ohm |
-/// | `speed_feedback` | `dcmc.ki_V_rad` (with `dcmc.kind = "pi"`) | 4 V/rad |
+/// | `speed_feedback` | `dcmc.ki_V_rad` (with `dcmc.kind = "gain_pi"`, or `"pi"` from `"p"`) | the motor's constant per second |
 /// | `wheel_slip` | `tyre.peak_mu` | the compound's friction on the floor |
 /// | `castor_drag` | `castors.rolling_resistance` | 0.02 |
 /// | `transport_delay` | `dcmc.command_delay_s` | 10 ms |
@@ -126,10 +126,7 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
                     "the DCMC's speed loop acts on demands, and the recording commands motor voltages, which bypass the DCMC",
                 ));
             }
-            let ki = scene.dcmc.ki_V_rad;
-            let mut h = home("dcmc.ki_V_rad", if ki > 0.0 { ki } else { 4.0 });
-            h.switches.push(("dcmc.kind", "\"pi\"".into()));
-            h
+            speed_loop_home(scene, home("dcmc.ki_V_rad", 0.0))
         }
         Effect::WheelSlip | Effect::CastorDrag if !on_floor => {
             return Err(homeless(
@@ -162,6 +159,28 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
     })
 }
 
+/// The DCMC's speed loop switched on as the vocabulary's `speed_feedback` describes it: a
+/// scene whose DCMC is a plain gain becomes `gain_pi` (the same voltage fed forward, its
+/// speed set-point calibrated to the motor, and integral action on the speed error: the
+/// law the fitting models run, [`crate::model::dcmc::SpeedLoopGains`]); one that already
+/// closes a speed loop (`p`) gains the integral (`pi`). The integral gain starts at the
+/// motor's constant per second (the loop corrects a speed error within about a second).
+fn speed_loop_home(scene: &Scene, mut h: Home) -> Home {
+    use crate::scene::DcmcKind;
+    let d = &scene.dcmc;
+    h.start = if d.ki_V_rad > 0.0 && d.kind != DcmcKind::Gain {
+        d.ki_V_rad
+    } else {
+        scene.motor.torque_constant_Nm_A / 1.0
+    };
+    let kind = match d.kind {
+        DcmcKind::Gain | DcmcKind::GainPi => "\"gain_pi\"",
+        DcmcKind::P | DcmcKind::Pi => "\"pi\"",
+    };
+    h.switches.push(("dcmc.kind", kind.into()));
+    h
+}
+
 /// The scene with the effect switched on at its start (validated as a `--set` would be).
 pub fn switched_on(scene: &Scene, home: &Home) -> Result<Scene, CalibrateError> {
     let mut sets: Vec<String> = home
@@ -185,17 +204,19 @@ pub enum Choice {
     All,
 }
 
-/// The effects named on the command line (`--effects backlash,coulomb_friction`, or
-/// `--effects all`).
+/// The effects named on the command line (`--effects backlash,coulomb_friction`,
+/// `--effects all` or `--effects none`).
 pub fn parse(names: &[String]) -> Result<Choice, CalibrateError> {
-    if names.iter().any(|n| n.trim() == "all") {
-        return if names.len() == 1 {
-            Ok(Choice::All)
-        } else {
-            Err(CalibrateError::Key(
-                "--effects all: give `all` alone, or name the effects".into(),
-            ))
-        };
+    for (word, choice) in [("all", Choice::All), ("none", Choice::None)] {
+        if names.iter().any(|n| n.trim() == word) {
+            return if names.len() == 1 {
+                Ok(choice)
+            } else {
+                Err(CalibrateError::Key(format!(
+                    "--effects {word}: give `{word}` alone, or name the effects"
+                )))
+            };
+        }
     }
     let mut out: Vec<Effect> = vec![];
     for n in names {
@@ -273,7 +294,7 @@ mod tests {
         )
         .unwrap();
         let on = switched_on(&scene, &pi).unwrap();
-        assert_eq!(on.dcmc.kind, crate::scene::DcmcKind::Pi);
+        assert_eq!(on.dcmc.kind, crate::scene::DcmcKind::GainPi);
         let e = volts(Effect::WheelSlip).unwrap_err().to_string();
         assert!(e.contains("lifted"), "{e}");
         let slip = home(
@@ -313,6 +334,8 @@ mod tests {
             );
         }
         assert_eq!(parse(&["all".into()]).unwrap(), Choice::All);
+        assert_eq!(parse(&["none".into()]).unwrap(), Choice::None);
+        assert!(parse(&["none".into(), "backlash".into()]).is_err());
         let all = chosen(&Choice::All, &scene, axis).unwrap();
         assert!(all.contains(&Effect::BatterySag) && !all.contains(&Effect::WheelSlip));
         assert!(

@@ -245,6 +245,17 @@ impl Context<'_> {
         }
     }
 
+    /// The stage's own structure refitted from where a candidate's fit ended (its
+    /// parameters without the effect's, which come last): a rough candidate's search can
+    /// lead the shared parameters out of a poor minimum of the stage, a gain that is no
+    /// evidence for the effect.
+    pub fn stage_refit_from(&self, candidate_params: &[f64]) -> Option<Fit> {
+        let m = self.structure.model();
+        let start = candidate_params[..m.params().len()].to_vec();
+        let settings = self.settings(self.fit.free.clone(), vec![start]);
+        fit::fit_raced(m, self.data, &settings).ok()
+    }
+
     /// The candidate fitted on `data`, every free parameter and the effect's, from `starts`.
     fn fit_from(&self, setup: &Setup, starts: Vec<Vec<f64>>, data: &Dataset) -> Option<Fit> {
         let mut free = setup.others.clone();

@@ -78,6 +78,8 @@ pub fn render(d: &Diagnosis) -> String {
                 c.delta_aic,
                 if c.significant {
                     "significant"
+                } else if c.reached_without_it {
+                    "not the effect's: the stage refitted from its fit reaches it"
                 } else if c.screened_only {
                     "screened (full search skipped)"
                 } else {

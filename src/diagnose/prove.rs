@@ -7,8 +7,9 @@
 //! Effects the simulator itself has on a lifted drive axis: backlash, Coulomb friction and
 //! voltage saturation (the bridges' limit); on the floor (full level): wheel slip (the
 //! drive tyres' friction limit) and castor drag (the castors' rolling resistance). Battery
-//! sag only clips in the simulator (no PWM duty model), and its DCMC speed loop is a PI
-//! without feed-forward, unlike the vocabulary's `speed_feedback`; neither is proved here.
+//! sag and the DCMC's speed loop (`dcmc.kind = "gain_pi"`, the vocabulary's
+//! `speed_feedback`) act on other inputs (duty-setting bridges, demands) than this proof's
+//! voltages; their round trips are the calibration tests'.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

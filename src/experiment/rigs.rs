@@ -54,7 +54,9 @@ fn controller_rig(scene: &Scene) -> ControllerRig {
     ControllerRig {
         kind: Some(
             match d.kind {
-                DcmcKind::Gain => "gain",
+                // The contract's rigs know the gain structure; its speed loop is the
+                // effect `speed_feedback` a diagnosis finds.
+                DcmcKind::Gain | DcmcKind::GainPi => "gain",
                 DcmcKind::P => "p",
                 DcmcKind::Pi => "pi",
             }
@@ -62,8 +64,9 @@ fn controller_rig(scene: &Scene) -> ControllerRig {
         ),
         gain_V_pct: Some(d.forward_gain_V_pct),
         turn_gain_V_pct: Some(d.turn_gain_V_pct),
-        speed_per_pct_rad_s: (d.kind != DcmcKind::Gain).then_some(d.speed_per_pct_rad_s),
-        kp_V_s_rad: (d.kind != DcmcKind::Gain).then_some(d.kp_V_s_rad),
+        speed_per_pct_rad_s: matches!(d.kind, DcmcKind::P | DcmcKind::Pi)
+            .then_some(d.speed_per_pct_rad_s),
+        kp_V_s_rad: matches!(d.kind, DcmcKind::P | DcmcKind::Pi).then_some(d.kp_V_s_rad),
         ki_V_rad: (d.kind == DcmcKind::Pi).then_some(d.ki_V_rad),
     }
 }

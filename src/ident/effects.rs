@@ -72,18 +72,31 @@ impl Effect {
     }
 }
 
-/// The effects switched on in a model, each with the index of its parameter.
+/// The effects switched on in a model, each with the positions of its parameters in the
+/// model's parameter vector: an effect's nuisance parameters first, its strength (the
+/// contract's parameter) last. Indexed by the effect, so a model's every evaluation finds
+/// its blocks at once.
 #[derive(Debug, Clone, Default, PartialEq)]
-pub struct EffectSlots(Vec<(Effect, usize)>);
+pub struct EffectSlots([Option<(usize, usize)>; Effect::ALL.len()]);
 
 impl EffectSlots {
-    pub fn add(&mut self, effect: Effect, param_index: usize) {
-        self.0.push((effect, param_index));
+    /// Switches an effect on with its parameters at `params`.
+    pub fn add(&mut self, effect: Effect, params: std::ops::Range<usize>) {
+        debug_assert!(!params.is_empty());
+        self.0[effect as usize] = Some((params.start, params.end));
     }
 
-    /// The parameter index of an effect, if it is on.
+    /// The position of an effect's strength parameter, if it is on.
+    #[inline]
     pub fn get(&self, effect: Effect) -> Option<usize> {
-        self.0.iter().find(|(e, _)| *e == effect).map(|(_, i)| *i)
+        self.0[effect as usize].map(|(_, end)| end - 1)
+    }
+
+    /// An effect's parameter values in `p`, in the order the effect names them, if it is
+    /// on: what a model destructures into named values.
+    #[inline]
+    pub fn values<'a>(&self, effect: Effect, p: &'a [f64]) -> Option<&'a [f64]> {
+        self.0[effect as usize].map(|(start, end)| &p[start..end])
     }
 }
 
@@ -106,6 +119,7 @@ pub fn asymmetric_viscous(b: f64, ratio: f64, speed: f64) -> f64 {
 /// Terminal voltage of a PWM bridge on a sagging battery: the simulator's battery and
 /// bridge law ([`BatteryParams::bridge_output_v`]) with the battery current the duty draws,
 /// `d i`: duty `d = clip(V_cmd / V_rated)`, applied `d (V_oc - R_int d i)`.
+#[inline]
 pub fn bridge_voltage(
     command_v: f64,
     rated_v: f64,

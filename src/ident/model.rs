@@ -120,10 +120,11 @@ pub trait GreyBox: Predictor {
     fn initial_state(&self, p: &[f64], data: &Dataset) -> Vec<f64>;
     /// Longest integration step the dynamics allow at these parameters, s.
     fn max_step_s(&self, p: &[f64]) -> f64;
-    /// Longest integration step over a sample interval starting in state `x`, s (a
-    /// stiffness that depends on the state allows more than the worst case).
-    fn max_step_at(&self, p: &[f64], _x: &[f64]) -> f64 {
-        self.max_step_s(p)
+    /// Longest integration step over a sample interval starting in state `x`, s, when a
+    /// stiffness that depends on the state allows more than the worst case
+    /// ([`GreyBox::max_step_s`]); `None` (the default): the worst case holds throughout.
+    fn max_step_at(&self, _p: &[f64], _x: &[f64]) -> Option<f64> {
+        None
     }
     /// Dead time between the recorded input and its action, s (inputs are then looked up,
     /// zero-order held, at t - delay at every integration stage).
@@ -218,6 +219,7 @@ fn simulate_one<M: GreyBox + ?Sized>(
     let mut y = vec![vec![0.0; n]; data.output_names.len()];
 
     let delay = model.input_delay_s(p);
+    let worst_step = model.max_step_s(p);
     let mut rk4 = Rk4::new(nx);
     let mut start = vec![0.0; nx];
     let mut switches = DelayedSwitches::new(delay);
@@ -240,7 +242,7 @@ fn simulate_one<M: GreyBox + ?Sized>(
             break;
         }
         let t_next = data.t_s[k + 1];
-        let max_h = model.max_step_at(p, &x).max(1e-7);
+        let max_h = model.max_step_at(p, &x).unwrap_or(worst_step).max(1e-7);
         start.copy_from_slice(&x);
         // Without a delay the input is held over the whole interval. A delayed input
         // changes where a delayed sample instant `t_j + delay` falls inside it: the

@@ -15,17 +15,20 @@ pub struct BatteryParams {
 
 impl BatteryParams {
     /// Terminal voltage while delivering `current_a` (negative: charging by regeneration), V.
+    #[inline]
     pub fn terminal_voltage_v(&self, current_a: f64) -> f64 {
         self.open_circuit_v - self.internal_resistance_ohm * current_a
     }
 
     /// Highest voltage a motor can be given at a terminal voltage, V.
+    #[inline]
     pub fn available_drive_v(&self, terminal_v: f64) -> f64 {
         self.drive_limit_v.min(terminal_v).max(0.0)
     }
 
     /// PWM duty (-1..1) an uncompensated bridge sets for a voltage command: the command over
     /// its rated supply. `None` for a compensated bridge (`bridge_rated_v` 0).
+    #[inline]
     pub fn duty_for_command(&self, command_v: f64) -> Option<f64> {
         (self.bridge_rated_v > 0.0).then(|| (command_v / self.bridge_rated_v).clamp(-1.0, 1.0))
     }
@@ -35,6 +38,7 @@ impl BatteryParams {
     /// battery's sag shows only once the command exceeds what is left. An uncompensated one
     /// sets its duty against its rated supply and applies the duty times the terminal
     /// voltage, so the sag scales every command. Either is clipped to what can be given.
+    #[inline]
     pub fn bridge_output_v(&self, command_v: f64, terminal_v: f64) -> f64 {
         let available = self.available_drive_v(terminal_v);
         let applied = match self.duty_for_command(command_v) {

@@ -258,6 +258,7 @@ pub struct NoSlipBody {
 impl NoSlipBody {
     /// Mass and yaw inertia about the axle midpoint with the wheels' inertia folded in
     /// (they cannot slip, so they turn with the body): kg and kg m^2.
+    #[inline]
     pub fn effective_inertias(&self) -> (f64, f64) {
         let (r, half, a) = (
             self.wheel_radius_m,
@@ -272,6 +273,7 @@ impl NoSlipBody {
 
     /// Forward force (N) and yaw moment (N m) of the wheel torques at the axles (left,
     /// right) on the body.
+    #[inline]
     pub fn wheel_force_and_moment(&self, wheel_torque_nm: [f64; 2]) -> [f64; 2] {
         let r = self.wheel_radius_m;
         [
@@ -284,6 +286,7 @@ impl NoSlipBody {
     /// forward speed `speed_m_s` and yaw rate `yaw_rate_rad_s`, under the wheel torques
     /// (left, right, N m at the axles) and an external forward force and yaw moment (drag:
     /// N, N m): `m_eff dv/dt = F + m a w^2`, `I_eff dw/dt = M - m a v w`.
+    #[inline]
     pub fn accelerations(
         &self,
         speed_m_s: f64,
@@ -301,6 +304,7 @@ impl NoSlipBody {
     }
 
     /// Rim speeds of the left and right wheels at this motion, m/s (the no-slip constraint).
+    #[inline]
     pub fn rim_speeds_m_s(&self, speed_m_s: f64, yaw_rate_rad_s: f64) -> [f64; 2] {
         let half = 0.5 * self.track_width_m;
         [

@@ -23,8 +23,8 @@ pub struct DcmcParams {
     pub forward_gain_v_pct: f64,
     pub turn_gain_v_pct: f64,
     pub speed_per_pct_rad_s: f64,
-    pub kp_v_s_rad: f64,
-    pub ki_v_rad: f64,
+    /// `p`/`pi`: the speed loop's gains.
+    pub speed_loop: SpeedLoopGains,
     pub enable_delay_s: f64,
     pub combined_fault_pct: f64,
     pub turn_priority: bool,
@@ -33,6 +33,9 @@ pub struct DcmcParams {
     /// measures and the armature resistance it is set up for).
     pub current_limit_a: f64,
     pub armature_resistance_ohm: f64,
+    /// The motors' back-EMF constant the unit is calibrated to, V s/rad (`gain_pi`: its
+    /// set-point is the speed its voltage gives the unloaded motor).
+    pub back_emf_v_s_rad: f64,
     /// Whether the unit's faults are modelled at all.
     pub faults: bool,
     /// The unit's acceleration setting: a rate limit on each side's demand; `None`: none.
@@ -43,6 +46,50 @@ pub struct DcmcParams {
     /// The unit's demand smoothing: a first-order lag on each side's request; `None`:
     /// none.
     pub response: Option<DcmcResponse>,
+}
+
+/// The gains of the unit's speed loop (structures `p` and `pi`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SpeedLoopGains {
+    /// Feed-forward of the set-point, V s/rad: the voltage per rad/s of set speed a unit
+    /// calibrated to its motor applies before any error acts (the motor's back-EMF
+    /// constant for such a unit; 0: none, the thesis's case-2 structures).
+    pub feedforward_v_s_rad: f64,
+    /// Proportional gain on the speed error, V s/rad.
+    pub kp_v_s_rad: f64,
+    /// Integral gain (`pi`), V/rad; 0 for `p`.
+    pub ki_v_rad: f64,
+}
+
+impl SpeedLoopGains {
+    /// The loop of a unit calibrated to its motor (`gain_pi`, the contract's
+    /// `speed_feedback`): the gain structure's voltage fed forward through the motor's
+    /// back-EMF constant (V s/rad), integral action (V/rad), no proportional term.
+    #[inline]
+    pub fn calibrated_to_motor(back_emf_v_s_rad: f64, ki_v_rad: f64) -> SpeedLoopGains {
+        SpeedLoopGains {
+            feedforward_v_s_rad: back_emf_v_s_rad,
+            kp_v_s_rad: 0.0,
+            ki_v_rad,
+        }
+    }
+
+    /// The set-point (rad/s) such a unit makes of its gain structure's voltage (V): the
+    /// speed that voltage gives the unloaded motor.
+    #[inline]
+    pub fn calibrated_setpoint_rad_s(&self, voltage_v: f64) -> f64 {
+        voltage_v / self.feedforward_v_s_rad
+    }
+
+    /// One side's voltage request, V: `ff w_set + kp (w_set - w) + ki z`, with `z` the
+    /// integral of the speed error `w_set - w` (rad). The simulator's DCMC and the fitting
+    /// models' speed-feedback block both call this law; each integrates `z` its own way.
+    #[inline]
+    pub fn voltage_v(&self, setpoint_rad_s: f64, speed_rad_s: f64, integral_rad: f64) -> f64 {
+        self.feedforward_v_s_rad * setpoint_rad_s
+            + self.kp_v_s_rad * (setpoint_rad_s - speed_rad_s)
+            + self.ki_v_rad * integral_rad
+    }
 }
 
 /// Rate limit of each side's demand, percent of full demand per second: a wheelchair
@@ -179,7 +226,7 @@ impl DcmcParams {
     /// `back_emf_v_s_rad` is the motors' back-EMF constant.
     pub fn motor_speed_difference_per_turn_pct(&self, back_emf_v_s_rad: f64) -> f64 {
         match self.kind {
-            DcmcKind::Gain => 2.0 * self.turn_gain_v_pct / back_emf_v_s_rad,
+            DcmcKind::Gain | DcmcKind::GainPi => 2.0 * self.turn_gain_v_pct / back_emf_v_s_rad,
             DcmcKind::P | DcmcKind::Pi => {
                 let [l, r] = self.speed_setpoints(0.0, 1.0);
                 r - l
@@ -218,27 +265,28 @@ impl DcmcParams {
             return self.brake(u);
         }
         let shaped = self.shape(s, u.forward_pct, u.turn_pct, dt);
-        let request = match self.kind {
-            DcmcKind::Gain => shaped,
-            DcmcKind::P | DcmcKind::Pi => {
-                let set = shaped;
-                let mut v = [0.0; 2];
-                for i in 0..2 {
-                    let e = set[i] - u.motor_speed_rad_s[i];
-                    if self.kind == DcmcKind::Pi {
-                        s.integral_rad[i] += e * dt;
-                    }
-                    v[i] = self.kp_v_s_rad * e + self.ki_v_rad * s.integral_rad[i];
-                }
-                v
-            }
+        let Some((gains, setpoints)) = self.speed_loop_on(shaped) else {
+            let limited = self.limit_current(self.limit(shaped, u.available_v), u.back_emf_v);
+            return DcmcOutput {
+                voltage_v: limited,
+                braking: false,
+            };
         };
+        let integrates = self.kind != DcmcKind::P;
+        let mut request = [0.0; 2];
+        for i in 0..2 {
+            let error = setpoints[i] - u.motor_speed_rad_s[i];
+            if integrates {
+                s.integral_rad[i] += error * dt;
+            }
+            request[i] = gains.voltage_v(setpoints[i], u.motor_speed_rad_s[i], s.integral_rad[i]);
+        }
         let limited = self.limit_current(self.limit(request, u.available_v), u.back_emf_v);
-        if self.kind == DcmcKind::Pi {
+        if integrates {
             // Anti-windup: do not integrate while the output is clipped.
             for i in 0..2 {
                 if (limited[i] - request[i]).abs() > 1e-9 {
-                    s.integral_rad[i] -= (shaped[i] - u.motor_speed_rad_s[i]) * dt;
+                    s.integral_rad[i] -= (setpoints[i] - u.motor_speed_rad_s[i]) * dt;
                 }
             }
         }
@@ -248,12 +296,29 @@ impl DcmcParams {
         }
     }
 
+    /// The speed loop's gains and each side's set-point (rad/s) for the shaped request, if
+    /// the unit closes one: `p`/`pi` on their set-points; `gain_pi` feeds its voltage
+    /// forward and sets the speed it gives the unloaded motor.
+    fn speed_loop_on(&self, shaped: [f64; 2]) -> Option<(SpeedLoopGains, [f64; 2])> {
+        match self.kind {
+            DcmcKind::Gain => None,
+            DcmcKind::P | DcmcKind::Pi => Some((self.speed_loop, shaped)),
+            DcmcKind::GainPi => {
+                let gains = SpeedLoopGains::calibrated_to_motor(
+                    self.back_emf_v_s_rad,
+                    self.speed_loop.ki_v_rad,
+                );
+                Some((gains, shaped.map(|v| gains.calibrated_setpoint_rad_s(v))))
+            }
+        }
+    }
+
     /// Each side's request from the demands: its forward part through that side's lag,
     /// its turn part through the turn lag, then the sum through the ramp (each only if
     /// modelled). Keeps the stages in the state.
     fn shape(&self, s: &mut DcmcState, forward_pct: f64, turn_pct: f64, dt: f64) -> [f64; 2] {
         let (fwd, turn) = match self.kind {
-            DcmcKind::Gain => (
+            DcmcKind::Gain | DcmcKind::GainPi => (
                 self.gain_voltages(forward_pct, 0.0),
                 self.gain_voltages(0.0, turn_pct),
             ),
@@ -297,7 +362,7 @@ impl DcmcParams {
     /// A side's turn part per percent of turn demand: V for `gain`, rad/s for `p`/`pi`.
     fn turn_request_per_pct(&self) -> f64 {
         match self.kind {
-            DcmcKind::Gain => self.turn_gain_v_pct.abs(),
+            DcmcKind::Gain | DcmcKind::GainPi => self.turn_gain_v_pct.abs(),
             DcmcKind::P | DcmcKind::Pi => {
                 (self.speed_per_pct_rad_s * self.turn_gain_v_pct / self.forward_gain_v_pct).abs()
             }
@@ -307,7 +372,7 @@ impl DcmcParams {
     /// A side's request per percent of (forward) demand: V for `gain`, rad/s for `p`/`pi`.
     fn request_per_pct(&self) -> f64 {
         match self.kind {
-            DcmcKind::Gain => self.forward_gain_v_pct,
+            DcmcKind::Gain | DcmcKind::GainPi => self.forward_gain_v_pct,
             DcmcKind::P | DcmcKind::Pi => self.speed_per_pct_rad_s,
         }
     }
@@ -363,14 +428,18 @@ mod tests {
             forward_gain_v_pct: 0.235,
             turn_gain_v_pct: 0.12,
             speed_per_pct_rad_s: 3.5,
-            kp_v_s_rad: 0.5,
-            ki_v_rad: 4.0,
+            speed_loop: SpeedLoopGains {
+                feedforward_v_s_rad: 0.0,
+                kp_v_s_rad: 0.5,
+                ki_v_rad: 4.0,
+            },
             enable_delay_s: 0.5,
             combined_fault_pct: 185.0,
             turn_priority: true,
             brake_gain_v_s_rad: 0.3,
             current_limit_a: 1000.0,
             armature_resistance_ohm: 0.35,
+            back_emf_v_s_rad: 0.063,
             faults: true,
             ramp: None,
             turn_ramp_pct_s: None,
@@ -404,6 +473,41 @@ mod tests {
         let out = d.step(&mut s, &input(0.6, 50.0, 0.0), 0.001);
         assert_eq!(s.fault, None);
         assert!((out.voltage_v[0] - 11.75).abs() < 1e-9);
+    }
+
+    /// `gain_pi`: at the set-point its gain voltage would give the unloaded motor it
+    /// applies exactly that voltage; held below it (a load), the integral raises the
+    /// voltage by `ki` times the accumulated speed error.
+    #[test]
+    fn a_unit_calibrated_to_its_motor_feeds_its_gain_forward_and_integrates_the_error() {
+        let d = DcmcParams {
+            kind: DcmcKind::GainPi,
+            ..dcmc()
+        };
+        let gain_v = 0.235 * 40.0;
+        let set = gain_v / d.back_emf_v_s_rad;
+        let mut s = DcmcState::default();
+        let at = |w: f64, t: f64| DcmcInput {
+            motor_speed_rad_s: [w, w],
+            ..input(t, 40.0, 0.0)
+        };
+        let resting = DcmcInput {
+            motor_speed_rad_s: [0.0; 2],
+            ..input(0.0, 0.0, 0.0)
+        };
+        d.step(&mut s, &resting, 0.001);
+        let out = d.step(&mut s, &at(set, 0.6), 0.001);
+        assert!((out.voltage_v[0] - gain_v).abs() < 1e-9, "{out:?}");
+        let slow = set - 10.0;
+        let mut out = out;
+        for k in 0..100 {
+            out = d.step(&mut s, &at(slow, 0.601 + 0.001 * k as f64), 0.001);
+        }
+        let expected = gain_v + d.speed_loop.ki_v_rad * 10.0 * 0.1;
+        assert!(
+            (out.voltage_v[0] - expected).abs() < 1e-9,
+            "{out:?} against {expected}"
+        );
     }
 
     #[test]

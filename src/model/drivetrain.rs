@@ -12,6 +12,9 @@ pub struct DrivetrainParams {
     /// Wheel plus output gear about its axle, kg m^2.
     pub wheel_inertia_kg_m2: f64,
     pub wheel_radius_m: f64,
+    /// Viscous friction of the wheel's bearings and output stage, at the wheel's axle,
+    /// N m s/rad: it acts on the wheel's side of the play.
+    pub wheel_viscous_nm_s_rad: f64,
 }
 
 /// What is integrated: the motor and the wheel (the gear output angle is motor angle / ratio).
@@ -31,6 +34,7 @@ impl DrivetrainState {
 
 impl DrivetrainParams {
     /// Gear output angle minus wheel angle, rad, and its rate.
+    #[inline]
     pub fn twist(&self, s: &DrivetrainState) -> (f64, f64) {
         let n = self.gearbox.ratio;
         (
@@ -40,12 +44,20 @@ impl DrivetrainParams {
     }
 
     /// Torque the teeth pass to the wheel now, N m.
+    #[inline]
     pub fn tooth_torque_nm(&self, s: &DrivetrainState) -> f64 {
         let (twist, rate) = self.twist(s);
         self.gearbox.tooth_contact_torque(twist, rate)
     }
 
+    /// The wheel bearings' friction torque at a wheel speed, N m (opposing it).
+    #[inline]
+    pub fn wheel_bearing_torque_nm(&self, wheel_speed_rad_s: f64) -> f64 {
+        self.wheel_viscous_nm_s_rad * wheel_speed_rad_s
+    }
+
     /// Motor inertia seen at the wheel, kg m^2.
+    #[inline]
     pub fn reflected_motor_inertia(&self) -> f64 {
         self.motor.rotor_inertia_kg_m2 * self.gearbox.ratio.powi(2)
     }
@@ -82,7 +94,8 @@ impl DrivetrainParams {
     }
 
     /// Wheel half of a sub-step when the wheel turns on its own (lifted, or on a tyre whose
-    /// torque about the axle is `ground_torque_nm`, positive forward).
+    /// torque about the axle is `ground_torque_nm`, positive forward); the bearings'
+    /// viscous friction implicit, as the motor's is.
     pub fn wheel_substep(
         &self,
         s: &mut DrivetrainState,
@@ -90,7 +103,9 @@ impl DrivetrainParams {
         ground_torque_nm: f64,
         h: f64,
     ) {
-        s.wheel_speed_rad_s += h * (tooth_torque_nm + ground_torque_nm) / self.wheel_inertia_kg_m2;
+        let j = self.wheel_inertia_kg_m2;
+        let trial = s.wheel_speed_rad_s + h * (tooth_torque_nm + ground_torque_nm) / j;
+        s.wheel_speed_rad_s = trial / (1.0 + h * self.wheel_viscous_nm_s_rad / j);
         s.wheel_angle_rad += h * s.wheel_speed_rad_s;
     }
 }

@@ -25,11 +25,13 @@ pub enum Mesh {
 
 impl GearboxParams {
     /// Half the play, rad: the twist at which a flank engages.
+    #[inline]
     pub fn half_play_rad(&self) -> f64 {
         0.5 * self.backlash_rad
     }
 
     /// Which flank touches at a twist (gear output angle minus wheel angle, rad).
+    #[inline]
     pub fn mesh(&self, twist_rad: f64) -> Mesh {
         let half = self.half_play_rad();
         if twist_rad > half {
@@ -47,6 +49,7 @@ impl GearboxParams {
     /// the twist rate at the step's start (`before_rate_rad`: that rate times the step,
     /// rad), which the step's end does not yet feel; where that rate does not reach the
     /// flank (the crossing is the acceleration's doing), by linear interpolation.
+    #[inline]
     pub fn flank_crossing(
         &self,
         before_rad: f64,
@@ -76,6 +79,7 @@ impl GearboxParams {
     /// Fastest rate of the tooth mesh, 1/s: `sqrt(k / J) + c / J` on the reduced inertia of
     /// the two sides (`motor_side` referred to the wheel, `wheel_side`, kg m^2). Explicit
     /// integrators keep `h * rate` small against it.
+    #[inline]
     pub fn mesh_rate(&self, motor_side_kg_m2: f64, wheel_side_kg_m2: f64) -> f64 {
         let j_red = motor_side_kg_m2 * wheel_side_kg_m2 / (motor_side_kg_m2 + wheel_side_kg_m2);
         (self.tooth_stiffness_nm_rad / j_red).sqrt() + self.tooth_damping_nm_s_rad / j_red
@@ -84,6 +88,7 @@ impl GearboxParams {
     /// Torque the teeth pass to the wheel (N m, wheel side; the motor feels `-T/ratio`).
     /// A spring-damper on the penetration past the play; teeth push but never pull, so
     /// the damping term cannot make a separating contact sticky.
+    #[inline]
     pub fn tooth_contact_torque(&self, twist_rad: f64, twist_rate_rad_s: f64) -> f64 {
         let half = self.half_play_rad();
         let k = self.tooth_stiffness_nm_rad;

@@ -45,6 +45,7 @@ impl MotorParams {
     }
 
     /// Electrical time constant L/R, s.
+    #[inline]
     pub fn electrical_time_constant_s(&self) -> f64 {
         self.inductance_h / self.resistance_ohm
     }
@@ -81,11 +82,62 @@ impl MotorParams {
         (drive - stall * drive.signum()) / (k * k / self.resistance_ohm + b)
     }
 
+    /// Rate of change of the armature current at a terminal voltage, A/s
+    /// ([`armature_current_rate`]).
+    #[inline]
+    pub fn current_rate_a_s(&self, voltage_v: f64, current_a: f64, speed_rad_s: f64) -> f64 {
+        armature_current_rate(
+            self.resistance_ohm,
+            self.inductance_h,
+            self.torque_constant_nm_a,
+            voltage_v,
+            current_a,
+            speed_rad_s,
+        )
+    }
+
+    /// Torque the armature current makes, N m.
+    #[inline]
+    pub fn electromagnetic_torque_nm(&self, current_a: f64) -> f64 {
+        self.torque_constant_nm_a * current_a
+    }
+
+    /// Torque driving the rotor before its friction, N m: the motor's own (N m, from the
+    /// current, or commanded by a torque amplifier) plus the bias, less the load
+    /// (N m at the shaft, opposing positive rotation when positive).
+    #[inline]
+    pub fn driving_torque_nm(&self, motor_torque_nm: f64, load_nm: f64) -> f64 {
+        motor_torque_nm - load_nm + self.offset_nm
+    }
+
+    /// Friction torque opposing a shaft speed, N m: the viscous part, which may differ by
+    /// direction, and the Coulomb part with a smoothing speed (rad/s; 0: the set-valued
+    /// law, see [`coulomb_torque_nm`]).
+    #[inline]
+    pub fn friction_torque_nm(&self, speed_rad_s: f64, coulomb_smoothing_rad_s: f64) -> f64 {
+        viscous_coefficient(self.viscous_nm_s_rad, self.viscous_ratio, speed_rad_s) * speed_rad_s
+            + coulomb_torque_nm(self.coulomb_nm, speed_rad_s, coulomb_smoothing_rad_s)
+    }
+
+    /// Rotor acceleration, rad/s^2, for the continuous-time models (a fit's RK4):
+    /// `J dw/dt = T_drive - b(w) w - Tc(w)`, with the Coulomb law smoothed over
+    /// `coulomb_smoothing_rad_s` and `inertia_kg_m2` everything turning with the rotor.
+    #[inline]
+    pub fn rotor_acceleration_rad_s2(
+        &self,
+        driving_nm: f64,
+        speed_rad_s: f64,
+        coulomb_smoothing_rad_s: f64,
+        inertia_kg_m2: f64,
+    ) -> f64 {
+        (driving_nm - self.friction_torque_nm(speed_rad_s, coulomb_smoothing_rad_s)) / inertia_kg_m2
+    }
+
     /// One sub-step of the rotor: electrical, then mechanical with the load torque
     /// (N m at the motor shaft, opposing positive rotation when positive).
     pub fn step(&self, s: &mut MotorState, terminal: Terminal, load_nm: f64, h: f64) {
         s.current_a = self.current_after(s.current_a, terminal, s.speed_rad_s, h);
-        let driving = self.torque_constant_nm_a * s.current_a - load_nm + self.offset_nm;
+        let driving = self.driving_torque_nm(self.electromagnetic_torque_nm(s.current_a), load_nm);
         s.speed_rad_s = coulomb_viscous_update(
             s.speed_rad_s,
             driving,
@@ -100,6 +152,7 @@ impl MotorParams {
 
 /// Rate of change of the armature current, A/s: `L di/dt = V - R i - K w` (terminal
 /// voltage V, back-EMF constant K in V s/rad, shaft speed w in rad/s).
+#[inline]
 pub fn armature_current_rate(
     resistance_ohm: f64,
     inductance_h: f64,
@@ -115,8 +168,12 @@ pub fn armature_current_rate(
 /// speed `eps` > 0 (rad/s), `Tc tanh(w / eps)`. The simulator integrates the set-valued law
 /// (`eps` 0, with sticking: [`coulomb_viscous_update`]); a fit needs a law it can
 /// differentiate, so it sets a small `eps`.
+#[inline]
 pub fn coulomb_torque_nm(level_nm: f64, speed_rad_s: f64, smoothing_rad_s: f64) -> f64 {
-    if smoothing_rad_s > 0.0 {
+    if level_nm == 0.0 {
+        // No friction of this kind: the common case, and the fit's hot loop.
+        0.0
+    } else if smoothing_rad_s > 0.0 {
         level_nm * (speed_rad_s / smoothing_rad_s).tanh()
     } else if speed_rad_s == 0.0 {
         0.0
@@ -129,8 +186,12 @@ pub fn coulomb_torque_nm(level_nm: f64, speed_rad_s: f64, smoothing_rad_s: f64) 
 /// reverse coefficients stand in `ratio` (forward over reverse) around the mean `b`:
 /// `2 b r / (1 + r)` forward, `2 b / (1 + r)` in reverse, so that the ratio does not also
 /// rescale the mean.
+#[inline]
 pub fn viscous_coefficient(b: f64, ratio: f64, speed: f64) -> f64 {
-    if speed >= 0.0 {
+    if ratio == 1.0 {
+        // The same both ways: the common case, and the fit's hot loop (no division).
+        b
+    } else if speed >= 0.0 {
         2.0 * b * ratio / (1.0 + ratio)
     } else {
         2.0 * b / (1.0 + ratio)

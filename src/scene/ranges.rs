@@ -195,6 +195,7 @@ pub const NUMERIC: &[NumericKey] = numeric! {
     "gearbox.tooth_damping_Nm_s_rad" NonNegative => |s| Some(s.gearbox.tooth_damping_Nm_s_rad);
     "wheel.radius_m" Positive => |s| Some(s.wheel.radius_m);
     "wheel.inertia_kg_m2" Positive => |s| Some(s.wheel.inertia_kg_m2);
+    "wheel.viscous_Nm_s_rad" NonNegative => |s| Some(s.wheel.viscous_Nm_s_rad);
     "tyre.peak_mu" Positive => |s| s.tyre.peak_mu;
     "tyre.sliding_ratio" open_closed(0.0, 1.0) => |s| s.tyre.sliding_ratio;
     "tyre.long_stiffness_per_N" Positive => |s| s.tyre.long_stiffness_per_N;
@@ -297,7 +298,7 @@ pub const OTHER: &[OtherKey] = &[
     },
     OtherKey {
         key: "dcmc.kind",
-        takes: || text("`gain`, `p`, `pi`"),
+        takes: || text("`gain`, `p`, `pi`, `gain_pi`"),
     },
     OtherKey {
         key: "dcmc.turn_priority",

@@ -290,6 +290,12 @@ pub struct WheelSpec {
     pub radius_m: f64,
     /// Wheel plus output gear inertia about the axle, kg m^2 (*assumed*).
     pub inertia_kg_m2: f64,
+    /// Viscous friction of the wheel's bearings and the gear's output stage, at the
+    /// wheel's axle, N m s/rad (default 0: all viscous friction lumped at the motor,
+    /// `motor.viscous_Nm_s_rad`). It acts on the wheel's side of the gear play, so it
+    /// matters apart from the motor's only with backlash; through rigid gears it adds
+    /// `this / ratio^2` to the motor's.
+    pub viscous_Nm_s_rad: f64,
 }
 
 impl Default for WheelSpec {
@@ -297,6 +303,7 @@ impl Default for WheelSpec {
         WheelSpec {
             radius_m: 0.075,
             inertia_kg_m2: 0.02,
+            viscous_Nm_s_rad: 0.0,
         }
     }
 }
@@ -404,6 +411,12 @@ pub enum DcmcKind {
     P,
     /// Case 2-II: proportional-integral speed loop.
     Pi,
+    /// The gain structure's voltage plus integral action on the speed error, the set-point
+    /// being the speed that voltage gives the unloaded motor (a unit calibrated to its
+    /// motor: forward gain over the back-EMF constant per percent); no proportional term.
+    /// The contract's `speed_feedback`, its integral gain `ki_V_rad`.
+    #[serde(rename = "gain_pi")]
+    GainPi,
 }
 
 /// The wheelchair motor controller (Dynamic Controls DCMC).
@@ -421,7 +434,7 @@ pub struct DcmcSpec {
     pub speed_per_pct_rad_s: f64,
     /// `p`/`pi`: proportional gain, V s/rad.
     pub kp_V_s_rad: f64,
-    /// `pi`: integral gain, V/rad.
+    /// `pi`, `gain_pi`: integral gain, V/rad.
     pub ki_V_rad: f64,
     /// A non-zero demand within this time of enabling faults the DCMC, s.
     pub enable_delay_s: f64,

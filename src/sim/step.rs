@@ -206,8 +206,10 @@ impl Sim {
                 for _ in 0..n {
                     let mut torque = [0.0; 2];
                     for i in 0..2 {
-                        torque[i] = dtp.tooth_torque_nm(&self.drive[i]);
-                        dtp.motor_substep(&mut self.drive[i], terminals[i], torque[i], h);
+                        let tooth = dtp.tooth_torque_nm(&self.drive[i]);
+                        dtp.motor_substep(&mut self.drive[i], terminals[i], tooth, h);
+                        torque[i] =
+                            tooth - dtp.wheel_bearing_torque_nm(self.drive[i].wheel_speed_rad_s);
                     }
                     p.noslip.step(state, torque, h);
                     let w = p.noslip.wheel_speeds_rad_s(state);

@@ -124,9 +124,10 @@ impl LinearAxis {
         max_speed: f64,
     ) -> LinearAxis {
         let mut m = self.clone();
+        let first = m.specs.len();
         m.specs
             .push(ParamSpec::new(effect.param_name(true), start, lo, hi));
-        m.effects.add(effect, m.specs.len() - 1);
+        m.effects.add(effect, first..m.specs.len());
         m.coulomb_eps_m_s = (effects::COULOMB_SMOOTHING_FRACTION * max_speed).max(1e-6);
         m
     }

@@ -54,13 +54,15 @@ impl ClosedLoop {
 }
 
 /// The P-D law's gains and the DCMC's local slopes at the operating point (`sim` holds it);
-/// `None` for other controllers and for the PI DCMC (whose integrators would be states).
+/// `None` for other controllers and for the DCMCs with integral action (whose integrators
+/// would be states).
 pub(super) fn loop_gains(params: &SimParams, sim: &Sim) -> Option<LoopGains> {
     use crate::firmware::pwm::PCT_PER_COUNT;
     use crate::model::dcmc::{DcmcInput, DcmcState};
     use crate::scene::{ControllerKind, DcmcKind};
     let fw = &params.firmware;
-    if fw.kind != ControllerKind::Pd || params.dcmc.kind == DcmcKind::Pi {
+    if fw.kind != ControllerKind::Pd || matches!(params.dcmc.kind, DcmcKind::Pi | DcmcKind::GainPi)
+    {
         return None;
     }
     let sign = if fw.reverse { -1.0 } else { 1.0 };

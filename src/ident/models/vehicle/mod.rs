@@ -20,12 +20,11 @@ use std::path::Path;
 use crate::ident::data::Dataset;
 use crate::ident::effects::{self, Effect};
 use crate::ident::model::{GreyBox, OutputKind, ParamSpec};
-use crate::model::gearbox::GearboxParams;
-use crate::model::GRAVITY_M_S2;
 use crate::rig::{Rig, RigError};
 
 use crate::ident::models::rotary_axis::{BACKLASH_FD_STEP, WHEEL_SHARE_PARAM};
 
+mod blocks;
 mod motion;
 
 pub const R: usize = 0;
@@ -195,6 +194,7 @@ impl Vehicle {
         max_speed: f64,
     ) -> Vehicle {
         let mut m = self.clone();
+        let first = m.specs.len();
         let spec = ParamSpec::new(effect.param_name(false), start, lo, hi);
         match effect {
             Effect::Backlash => {
@@ -216,7 +216,7 @@ impl Vehicle {
             }
             _ => m.specs.push(spec),
         }
-        m.effects.add(effect, m.specs.len() - 1);
+        m.effects.add(effect, first..m.specs.len());
         m.coulomb_eps_rad_s = (effects::COULOMB_SMOOTHING_FRACTION * max_speed).max(1e-3);
         let ground = max_speed / self.ratio * self.specs[RW].nominal;
         m.drag_eps_m_s = (effects::COULOMB_SMOOTHING_FRACTION * ground).max(1e-4);
@@ -227,14 +227,9 @@ impl Vehicle {
         self.effects.get(e)
     }
 
-    /// The gear train of the backlash block (play at index `play`).
-    fn gearbox(&self, p: &[f64], play: usize) -> GearboxParams {
-        crate::ident::models::rotary_axis::play_gearbox(self.ratio, p[play])
-    }
-
     /// Normal load on each drive wheel, N.
     pub fn drive_wheel_load_n(&self, p: &[f64]) -> f64 {
-        p[LOAD_FRACTION] * p[MASS] * GRAVITY_M_S2 / 2.0
+        self.blocks(p).drive_wheel_load_n
     }
 
     /// Inertia at a motor shaft of its motor, gear and wheel, kg m^2.
@@ -249,17 +244,23 @@ impl Vehicle {
         j / (p[B] + p[K] * p[K] / p[R])
     }
 
-    /// Terminal voltages of the two motors from the commands and the currents, V.
-    fn terminal_voltages(&self, p: &[f64], cmd: [f64; 2], current: [f64; 2]) -> [f64; 2] {
+    /// Terminal voltages of the two motors from the commands and the currents, V: the
+    /// bridges' limit, then both bridges' duty against one sagging battery.
+    fn terminal_voltages(
+        &self,
+        b: &blocks::VehicleBlocks,
+        cmd: [f64; 2],
+        current: [f64; 2],
+    ) -> [f64; 2] {
         let mut v = cmd;
-        if let Some(i) = self.effect(Effect::VoltageSaturation) {
-            v = v.map(|v| v.clamp(-p[i], p[i]));
+        if let Some(limit) = b.drive_limit_v {
+            v = v.map(|v| v.clamp(-limit, limit));
         }
-        if let Some(i) = self.effect(Effect::BatterySag) {
+        if let Some(battery) = b.battery {
             // Both bridges draw on one battery: duty d = V / V_rated, bus current sum d i.
-            let d = v.map(|v| (v / self.supply_v).clamp(-1.0, 1.0));
-            let bus = self.supply_v - p[i] * (d[0] * current[0] + d[1] * current[1]);
-            v = [d[0] * bus, d[1] * bus];
+            let d = v.map(|v| battery.duty_for_command(v).unwrap_or(1.0));
+            let terminal = battery.terminal_voltage_v(d[0] * current[0] + d[1] * current[1]);
+            v = v.map(|v| battery.bridge_output_v(v, terminal));
         }
         v
     }
@@ -349,17 +350,20 @@ impl GreyBox for Vehicle {
     }
 
     fn max_step_s(&self, p: &[f64]) -> f64 {
-        self.step_bound(p, SLIP_SPEED_FLOOR_M_S)
+        self.step_bound(&self.blocks(p), SLIP_SPEED_FLOOR_M_S)
     }
 
     /// With a gear play: the first of the two sides' teeth to meet or part.
     fn event_fraction(&self, p: &[f64], before: &[f64], after: &[f64], h: f64) -> Option<f64> {
-        let play = self.effect(Effect::Backlash)?;
-        let g = self.gearbox(p, play);
+        self.effect(Effect::Backlash)?;
+        let b = self.blocks(p);
         (0..2)
             .filter_map(|side| {
-                let (twist_before, twist_rate) = self.twist(before, side);
-                g.flank_crossing(twist_before, self.twist(after, side).0, twist_rate * h)
+                let (twist_before, twist_rate) = Self::twist(&b, before, side);
+                let twist_after = Self::twist(&b, after, side).0;
+                b.drivetrain
+                    .gearbox
+                    .flank_crossing(twist_before, twist_after, twist_rate * h)
             })
             .reduce(f64::min)
     }
@@ -368,14 +372,15 @@ impl GreyBox for Vehicle {
     /// it), so a moving vehicle allows longer steps than one at rest. The slowest contact
     /// at the interval's start is taken at half its speed: no record's sample interval is
     /// long enough for a vehicle to lose half its speed within it.
-    fn max_step_at(&self, p: &[f64], x: &[f64]) -> f64 {
+    fn max_step_at(&self, p: &[f64], x: &[f64]) -> Option<f64> {
+        let b = self.blocks(p);
         let (fwd, yaw_rate) = (x[BODY], x[BODY + 2]);
-        let sweep = (yaw_rate * 0.5 * p[TRACK]).abs();
+        let sweep = (yaw_rate * 0.5 * b.body.track_width_m).abs();
         let slowest = (fwd.abs() - sweep).abs();
-        self.step_bound(
-            p,
+        Some(self.step_bound(
+            &b,
             (0.25 * slowest * slowest + SLIP_SPEED_FLOOR_M_S * SLIP_SPEED_FLOOR_M_S).sqrt(),
-        )
+        ))
     }
 
     fn input_delay_s(&self, p: &[f64]) -> f64 {
@@ -383,26 +388,26 @@ impl GreyBox for Vehicle {
     }
 
     /// The order of one evaluation: terminal voltages (saturation, sag), each side's
-    /// armature and motor torque (Coulomb friction), then the wheels and the chassis,
-    /// rolling without slip (the simulator's no-slip body) unless the wheel-slip block puts
-    /// the tyres' slip forces between them, then the pose.
+    /// armature and the torque driving its rotor, then the motors' friction, the gears and
+    /// the wheels with the chassis, rolling without slip (the simulator's no-slip body)
+    /// unless the tyres' slip forces join them (a tracked pose, or the wheel-slip block),
+    /// then the pose.
     fn derivatives(&self, p: &[f64], x: &[f64], u: &[f64], _held: &[f64], dx: &mut [f64]) {
-        let v = self.terminal_voltages(p, [u[0], u[1]], [x[0], x[SIDE]]);
-        let mut drive = [0.0; 2];
-        for (side, drive) in drive.iter_mut().enumerate() {
+        let b = self.blocks(p);
+        let motor = &b.drivetrain.motor;
+        let v = self.terminal_voltages(&b, [u[0], u[1]], [x[0], x[SIDE]]);
+        let mut driving = [0.0; 2];
+        for (side, driving) in driving.iter_mut().enumerate() {
             let s = side * SIDE;
             let (i, wm) = (x[s], x[s + 1]);
-            dx[s] = crate::model::motor::armature_current_rate(p[R], p[L], p[K], v[side], i, wm);
-            *drive = p[K] * i;
-            if let Some(c) = self.effect(Effect::CoulombFriction) {
-                *drive -= effects::smooth_coulomb(p[c], wm, self.coulomb_eps_rad_s);
-            }
+            dx[s] = motor.current_rate_a_s(v[side], i, wm);
+            *driving = motor.driving_torque_nm(motor.electromagnetic_torque_nm(i), 0.0);
             dx[s + 2] = wm;
         }
-        match self.effect(Effect::WheelSlip) {
-            Some(mu) => self.slipping(p, x, drive, Some(p[mu]), dx),
-            None if self.creeping_tyres => self.slipping(p, x, drive, None, dx),
-            None => self.rolling(p, x, drive, dx),
+        if b.peak_mu.is_some() || self.creeping_tyres {
+            self.slipping(&b, x, driving, dx);
+        } else {
+            self.rolling(&b, x, driving, dx);
         }
         let (fwd, lat, heading) = (x[BODY], x[BODY + 1], x[BODY + 5]);
         let (sin, cos) = heading.sin_cos();

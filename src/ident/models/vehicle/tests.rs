@@ -3,6 +3,7 @@
 
 use super::*;
 use crate::ident::model::simulate;
+use crate::model::GRAVITY_M_S2;
 
 fn rig() -> Rig {
     Rig::parse(

@@ -2,13 +2,17 @@
 //! a terminal voltage or by a demand through a controller gain (the rig's `[controller]`).
 //!
 //! `L di/dt = V - R i - K w`, `(Jm + Jw/N^2) dw/dt = K i - b w`, `dtheta/dt = w`, with all
-//! viscous friction `b` referred to the motor shaft, as the rig format defines it.
+//! viscous friction `b` referred to the motor shaft, as the rig format defines it. The laws
+//! are the simulator's blocks (`crate::model`), assembled in [`dynamics`].
+
+mod dynamics;
+
+pub(crate) use dynamics::{drivetrain_blocks, drivetrain_state};
 
 use std::path::Path;
 
-use crate::ident::data::Dataset;
 use crate::ident::effects::{self, Effect};
-use crate::ident::model::{GreyBox, OutputKind, ParamSpec};
+use crate::ident::model::ParamSpec;
 use crate::model::gearbox::GearboxParams;
 use crate::rig::{Rig, RigError};
 
@@ -129,6 +133,7 @@ pub const MESH_STEP_RATE: f64 = 1.0;
 
 /// The backlash block's gear train: the fitted play between teeth of the identification
 /// models' fixed mesh stiffness and damping.
+#[inline]
 pub fn play_gearbox(ratio: f64, backlash_rad: f64) -> GearboxParams {
     GearboxParams {
         ratio,
@@ -293,6 +298,7 @@ impl RotaryAxis {
         max_speed: f64,
     ) -> RotaryAxis {
         let mut m = self.clone();
+        let first = m.specs.len();
         let spec = ParamSpec::new(effect.param_name(false), start, lo, hi);
         if effect == Effect::Backlash {
             // Teeth meeting and parting make the output a rough function of every
@@ -312,7 +318,7 @@ impl RotaryAxis {
         } else {
             m.specs.push(spec);
         }
-        m.effects.add(effect, m.specs.len() - 1);
+        m.effects.add(effect, first..m.specs.len());
         m.coulomb_eps_rad_s = (effects::COULOMB_SMOOTHING_FRACTION * max_speed).max(1e-3);
         m
     }
@@ -335,49 +341,11 @@ impl RotaryAxis {
         self.effects.get(e)
     }
 
-    /// The gear's twist across the play (rad, the motor's angle through the ratio less
-    /// the wheel's) and its rate (rad/s), from the two-inertia states.
-    fn twist(&self, x: &[f64]) -> (f64, f64) {
-        let n = self.ratio;
-        (x[2] / n - x[4], x[1] / n - x[3])
-    }
-
-    fn gearbox(&self, p: &[f64], play: usize) -> GearboxParams {
-        play_gearbox(self.ratio, p[play])
-    }
-
-    /// Friction torque at the motor shaft besides its viscous part, N m.
-    fn extra_friction(&self, p: &[f64], w: f64) -> f64 {
-        let mut t = 0.0;
-        if let Some(i) = self.effect(Effect::CoulombFriction) {
-            t += effects::smooth_coulomb(p[i], w, self.coulomb_eps_rad_s);
-        }
-        if let Some(i) = self.effect(Effect::Offset) {
-            t -= p[i];
-        }
-        t
-    }
-
-    fn viscous(&self, p: &[f64], b: f64, w: f64) -> f64 {
-        match self.effect(Effect::FrictionAsymmetry) {
-            Some(i) => effects::asymmetric_viscous(b, p[i], w),
-            None => b * w,
-        }
-    }
-
     /// The torque amplifier's command, when a torque (not a voltage) drives the axis.
     pub fn torque_command(&self) -> Option<TorqueCommand> {
         match self.input {
             AxisInput::Torque(c) => Some(c),
             _ => None,
-        }
-    }
-
-    /// Wheel speed, rad/s: its own state once a play separates it from the motor.
-    fn wheel_speed(&self, x: &[f64]) -> f64 {
-        match self.effect(Effect::Backlash) {
-            Some(_) => x[3],
-            None => x[1] / self.ratio,
         }
     }
 
@@ -403,207 +371,5 @@ impl RotaryAxis {
             _ => p[K] * p[K] / p[R],
         };
         self.inertia_at_motor(p) / (p[B] + electrical)
-    }
-}
-
-impl GreyBox for RotaryAxis {
-    fn name(&self) -> String {
-        match self.input {
-            AxisInput::Voltage => "rotary drive axis, voltage-driven".into(),
-            AxisInput::Demand => "rotary drive axis, demand through a controller gain".into(),
-            AxisInput::Torque(TorqueCommand { feedback: None, .. }) => {
-                "rotary drive axis, current (torque) amplifier, open loop".into()
-            }
-            AxisInput::Torque(_) => {
-                "rotary drive axis, current (torque) amplifier, position-velocity cascade".into()
-            }
-        }
-    }
-
-    fn params(&self) -> &[ParamSpec] {
-        &self.specs
-    }
-
-    fn default_free(&self, outputs: &[String]) -> Vec<usize> {
-        // Only the sum of the inertias is seen through a rigid gear train: the wheel's stays
-        // at the rig value and the rotor's absorbs the difference. Without a current
-        // measurement R and L are not separable from K and J, so they stay fixed.
-        let mut free = if matches!(self.input, AxisInput::Torque(_)) {
-            vec![JM, B]
-        } else if outputs.iter().any(|o| o == "current_A") {
-            vec![R, L, K, JM, B]
-        } else {
-            vec![K, JM, B]
-        };
-        if self.input == AxisInput::Demand {
-            free.push(GAIN);
-        }
-        free
-    }
-
-    fn input_names(&self) -> Vec<String> {
-        match self.input {
-            AxisInput::Voltage => vec!["voltage_V".into()],
-            AxisInput::Demand => vec!["demand_pct".into()],
-            AxisInput::Torque(TorqueCommand {
-                feedback: None,
-                column,
-                ..
-            }) => {
-                vec![column.into()]
-            }
-            AxisInput::Torque(_) => vec!["reference_rad".into()],
-        }
-    }
-
-    fn output_names(&self) -> Vec<String> {
-        let mut o: Vec<String> = ["motor_speed_rad_s", "motor_angle_rad", "wheel_angle_rad"]
-            .map(String::from)
-            .to_vec();
-        match self.input {
-            // The armature current follows the command, not a law of this model.
-            AxisInput::Torque(TorqueCommand {
-                feedback: Some(_),
-                column,
-                ..
-            }) => o.push(column.into()),
-            AxisInput::Torque(_) => {}
-            AxisInput::Voltage | AxisInput::Demand => o.insert(1, "current_A".into()),
-        }
-        o
-    }
-
-    fn reports(&self, i: usize) -> bool {
-        !(matches!(self.input, AxisInput::Torque(_)) && [R, L, K].contains(&i))
-    }
-
-    fn n_held(&self) -> usize {
-        1
-    }
-
-    fn hold(&self, _p: &[f64], _t_s: f64, x: &[f64], u: &[f64], held: &mut [f64]) {
-        held[0] = match self.input {
-            AxisInput::Torque(TorqueCommand {
-                feedback: Some(c),
-                limit,
-                ..
-            }) => {
-                // The digital loop samples the wheel and holds its command.
-                (c.kv_v_s_rad * (c.kp_1_s * (u[0] - x[4]) - self.wheel_speed(x)))
-                    .clamp(-limit, limit)
-            }
-            _ => u[0],
-        };
-    }
-
-    /// Current, motor speed, motor angle, wheel speed and angle (backlash block), and the
-    /// speed-loop integral (speed-feedback block).
-    fn n_states(&self) -> usize {
-        6
-    }
-
-    fn initial_state(&self, _p: &[f64], data: &Dataset) -> Vec<f64> {
-        let angle = data
-            .first_measured("motor_angle_rad")
-            .or_else(|| {
-                data.first_measured("wheel_angle_rad")
-                    .map(|a| a * self.ratio)
-            })
-            .unwrap_or(0.0);
-        vec![0.0, 0.0, angle, 0.0, angle / self.ratio, 0.0]
-    }
-
-    fn max_step_s(&self, p: &[f64]) -> f64 {
-        // RK4 is accurate to 2 % on a decaying mode at h = its time constant.
-        let mut h = match self.input {
-            AxisInput::Torque(_) => 0.2 * self.mechanical_time_constant_s(p),
-            _ => (p[L] / p[R]).min(0.2 * self.mechanical_time_constant_s(p)),
-        };
-        if let Some(play) = self.effect(Effect::Backlash) {
-            let rate = self
-                .gearbox(p, play)
-                .mesh_rate(p[JM] * self.ratio * self.ratio, p[JW]);
-            h = h.min(MESH_STEP_RATE / rate);
-        }
-        h
-    }
-
-    fn input_delay_s(&self, p: &[f64]) -> f64 {
-        self.effect(Effect::TransportDelay).map_or(0.0, |i| p[i])
-    }
-
-    fn event_fraction(&self, p: &[f64], before: &[f64], after: &[f64], h: f64) -> Option<f64> {
-        let play = self.effect(Effect::Backlash)?;
-        let (twist_before, twist_rate) = self.twist(before);
-        self.gearbox(p, play)
-            .flank_crossing(twist_before, self.twist(after).0, twist_rate * h)
-    }
-
-    fn derivatives(&self, p: &[f64], x: &[f64], u: &[f64], held: &[f64], dx: &mut [f64]) {
-        let mut v = self.voltage(p, u[0]);
-        dx[5] = 0.0;
-        if let Some(i) = self.effect(Effect::SpeedFeedback) {
-            // The DCMC's own loop: set-point from the demand, calibrated to the motor.
-            let w_ref = v / p[K];
-            v += p[i] * x[5];
-            dx[5] = w_ref - x[1];
-        }
-        if let Some(i) = self.effect(Effect::VoltageSaturation) {
-            v = v.clamp(-p[i], p[i]);
-        }
-        if let Some(i) = self.effect(Effect::BatterySag) {
-            v = effects::bridge_voltage(v, self.supply_v, self.supply_v, p[i], x[0]);
-        }
-        let motor_torque = match self.input {
-            AxisInput::Torque(c) => {
-                dx[0] = 0.0;
-                let command = if c.feedback.is_some() { held[0] } else { u[0] };
-                Self::commanded_torque(&c, command)
-            }
-            AxisInput::Voltage | AxisInput::Demand => {
-                dx[0] = crate::model::motor::armature_current_rate(p[R], p[L], p[K], v, x[0], x[1]);
-                p[K] * x[0]
-            }
-        };
-        let drive = motor_torque - self.extra_friction(p, x[1]);
-        match self.effect(Effect::Backlash) {
-            None => {
-                dx[1] = (drive - self.viscous(p, p[B], x[1])) / self.inertia_at_motor(p);
-                dx[3] = 0.0;
-                dx[4] = x[1] / self.ratio;
-            }
-            Some(play) => {
-                let n = self.ratio;
-                let g = self.gearbox(p, play);
-                let (twist, twist_rate) = self.twist(x);
-                let tooth = g.tooth_contact_torque(twist, twist_rate);
-                let share = p[play - 1];
-                let b_motor = p[B] * (1.0 - share);
-                let b_wheel = p[B] * share * n * n;
-                dx[1] = (drive - self.viscous(p, b_motor, x[1]) - tooth / n) / p[JM];
-                dx[3] = (tooth - self.viscous(p, b_wheel, x[3])) / p[JW];
-                dx[4] = x[3];
-            }
-        }
-        dx[2] = x[1];
-    }
-
-    fn output_kind(&self, name: &str) -> OutputKind {
-        if name == "motor_speed_rad_s" && self.encoder {
-            OutputKind::IntervalRate(2)
-        } else {
-            OutputKind::Instant
-        }
-    }
-
-    fn output(&self, _p: &[f64], name: &str, x: &[f64], _u: &[f64], held: &[f64]) -> f64 {
-        match name {
-            "command_V" => held[0],
-            "motor_speed_rad_s" => x[1],
-            "current_A" => x[0],
-            "motor_angle_rad" => x[2],
-            "wheel_angle_rad" => x[4],
-            _ => f64::NAN,
-        }
     }
 }

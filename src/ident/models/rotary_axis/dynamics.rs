@@ -1,0 +1,354 @@
+//! The rotary axis's dynamics: the simulator's blocks (motor, gear train with its play,
+//! wheel bearings, the DCMC's speed loop, the battery and bridges) built from one
+//! parameter vector as named values, and the order one evaluation runs them in.
+
+use crate::ident::data::Dataset;
+use crate::ident::effects::{self, Effect, EffectSlots};
+use crate::ident::model::{GreyBox, OutputKind, ParamSpec};
+use crate::model::dcmc::SpeedLoopGains;
+use crate::model::drivetrain::{DrivetrainParams, DrivetrainState};
+use crate::model::motor::{MotorParams, MotorState};
+
+use super::{
+    play_gearbox, AxisInput, RotaryAxis, TorqueCommand, B, GAIN, JM, JW, K, L, MESH_STEP_RATE, R,
+};
+
+/// The simulator's blocks this model assembles, with the values of one parameter vector.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct AxisBlocks {
+    /// Motor (with the friction effects switched on), gear train and wheel. Through rigid
+    /// gears all viscous friction is the motor's and the gear has no play.
+    pub drivetrain: DrivetrainParams,
+    /// Whether a play separates the motor's and the wheel's motion (the backlash block).
+    pub play: bool,
+    /// The DCMC's voltage per percent of demand, V/pct (demand-driven axes).
+    pub demand_gain_v_pct: f64,
+    /// The DCMC's own speed loop (the speed-feedback block).
+    pub speed_loop: Option<SpeedLoopGains>,
+    /// The bridges' voltage limit, V (the voltage-saturation block).
+    pub drive_limit_v: Option<f64>,
+    /// The battery's internal resistance, ohm (the battery-sag block).
+    pub battery_resistance_ohm: Option<f64>,
+}
+
+/// The states of the drive train, named: `[current, motor speed, motor angle, wheel speed,
+/// wheel angle]`, the layout both fitting models use per side.
+#[inline]
+pub(crate) fn drivetrain_state(x: &[f64]) -> DrivetrainState {
+    DrivetrainState {
+        motor: MotorState {
+            current_a: x[0],
+            speed_rad_s: x[1],
+            angle_rad: x[2],
+        },
+        wheel_speed_rad_s: x[3],
+        wheel_angle_rad: x[4],
+    }
+}
+
+/// One drive's motor, gear train and wheel from a parameter vector whose first values are
+/// the motor's and the wheel's (`R`, `L`, `K`, `JM`, `JW`, `B`, as both fitting models
+/// order them), with the blocks of the effects switched on: a gear play with its share of
+/// the viscous friction in the wheel's bearings, Coulomb friction, a direction-dependent
+/// viscous friction and a bias torque. Through rigid gears all viscous friction is the
+/// motor's and the gear has no play.
+#[inline(always)]
+pub(crate) fn drivetrain_blocks(
+    p: &[f64],
+    ratio: f64,
+    effects: &EffectSlots,
+    wheel_radius_m: f64,
+) -> DrivetrainParams {
+    let value = |e: Effect| effects.get(e).map(|i| p[i]);
+    let (gearbox, wheel_share) = match effects.values(Effect::Backlash, p) {
+        Some(&[wheel_viscous_share, backlash_rad]) => {
+            (play_gearbox(ratio, backlash_rad), wheel_viscous_share)
+        }
+        _ => (play_gearbox(ratio, 0.0), 0.0),
+    };
+    DrivetrainParams {
+        motor: MotorParams {
+            resistance_ohm: p[R],
+            inductance_h: p[L],
+            torque_constant_nm_a: p[K],
+            rotor_inertia_kg_m2: p[JM],
+            viscous_nm_s_rad: p[B] * (1.0 - wheel_share),
+            viscous_ratio: value(Effect::FrictionAsymmetry).unwrap_or(1.0),
+            coulomb_nm: value(Effect::CoulombFriction).unwrap_or(0.0),
+            offset_nm: value(Effect::Offset).unwrap_or(0.0),
+        },
+        gearbox,
+        wheel_inertia_kg_m2: p[JW],
+        wheel_radius_m,
+        wheel_viscous_nm_s_rad: p[B] * wheel_share * ratio * ratio,
+    }
+}
+
+/// Where the speed loop's integral is kept.
+const SPEED_LOOP_INTEGRAL: usize = 5;
+
+impl RotaryAxis {
+    /// The blocks at the parameter values `p`.
+    // Built at every evaluation: inlined, so that an evaluation builds only what it reads.
+    #[inline(always)]
+    pub(super) fn blocks(&self, p: &[f64]) -> AxisBlocks {
+        let value = |e: Effect| self.effect(e).map(|i| p[i]);
+        AxisBlocks {
+            // The lifted wheel's radius does not enter its dynamics.
+            drivetrain: drivetrain_blocks(p, self.ratio, &self.effects, 1.0),
+            play: self.effect(Effect::Backlash).is_some(),
+            demand_gain_v_pct: if self.input == AxisInput::Demand {
+                p[GAIN]
+            } else {
+                1.0
+            },
+            // The vocabulary's speed loop: the DCMC's `gain_pi`.
+            speed_loop: value(Effect::SpeedFeedback)
+                .map(|ki| SpeedLoopGains::calibrated_to_motor(p[K], ki)),
+            drive_limit_v: value(Effect::VoltageSaturation),
+            battery_resistance_ohm: value(Effect::BatterySag),
+        }
+    }
+
+    /// Terminal voltage and the speed loop's integral rate for an input value, through the
+    /// DCMC (gain, speed loop), the bridges' limit and the battery's sag.
+    #[inline]
+    fn terminal_voltage(
+        &self,
+        b: &AxisBlocks,
+        s: &DrivetrainState,
+        integral: f64,
+        u: f64,
+    ) -> (f64, f64) {
+        let mut v = match self.input {
+            AxisInput::Voltage => u,
+            AxisInput::Demand => b.demand_gain_v_pct * u,
+            AxisInput::Torque(_) => 0.0,
+        };
+        let mut integral_rate = 0.0;
+        if let Some(gains) = b.speed_loop {
+            let setpoint = gains.calibrated_setpoint_rad_s(v);
+            v = gains.voltage_v(setpoint, s.motor.speed_rad_s, integral);
+            integral_rate = setpoint - s.motor.speed_rad_s;
+        }
+        if let Some(limit) = b.drive_limit_v {
+            v = v.clamp(-limit, limit);
+        }
+        if let Some(r) = b.battery_resistance_ohm {
+            v = effects::bridge_voltage(v, self.supply_v, self.supply_v, r, s.motor.current_a);
+        }
+        (v, integral_rate)
+    }
+
+    /// Wheel speed, rad/s: its own state once a play separates it from the motor.
+    fn wheel_speed(&self, x: &[f64]) -> f64 {
+        match self.effect(Effect::Backlash) {
+            Some(_) => x[3],
+            None => x[1] / self.ratio,
+        }
+    }
+}
+
+impl GreyBox for RotaryAxis {
+    fn name(&self) -> String {
+        match self.input {
+            AxisInput::Voltage => "rotary drive axis, voltage-driven".into(),
+            AxisInput::Demand => "rotary drive axis, demand through a controller gain".into(),
+            AxisInput::Torque(TorqueCommand { feedback: None, .. }) => {
+                "rotary drive axis, current (torque) amplifier, open loop".into()
+            }
+            AxisInput::Torque(_) => {
+                "rotary drive axis, current (torque) amplifier, position-velocity cascade".into()
+            }
+        }
+    }
+
+    fn params(&self) -> &[ParamSpec] {
+        &self.specs
+    }
+
+    fn default_free(&self, outputs: &[String]) -> Vec<usize> {
+        // Only the sum of the inertias is seen through a rigid gear train: the wheel's stays
+        // at the rig value and the rotor's absorbs the difference. Without a current
+        // measurement R and L are not separable from K and J, so they stay fixed.
+        let mut free = if matches!(self.input, AxisInput::Torque(_)) {
+            vec![JM, B]
+        } else if outputs.iter().any(|o| o == "current_A") {
+            vec![R, L, K, JM, B]
+        } else {
+            vec![K, JM, B]
+        };
+        if self.input == AxisInput::Demand {
+            free.push(GAIN);
+        }
+        free
+    }
+
+    fn input_names(&self) -> Vec<String> {
+        match self.input {
+            AxisInput::Voltage => vec!["voltage_V".into()],
+            AxisInput::Demand => vec!["demand_pct".into()],
+            AxisInput::Torque(TorqueCommand {
+                feedback: None,
+                column,
+                ..
+            }) => {
+                vec![column.into()]
+            }
+            AxisInput::Torque(_) => vec!["reference_rad".into()],
+        }
+    }
+
+    fn output_names(&self) -> Vec<String> {
+        let mut o: Vec<String> = ["motor_speed_rad_s", "motor_angle_rad", "wheel_angle_rad"]
+            .map(String::from)
+            .to_vec();
+        match self.input {
+            // The armature current follows the command, not a law of this model.
+            AxisInput::Torque(TorqueCommand {
+                feedback: Some(_),
+                column,
+                ..
+            }) => o.push(column.into()),
+            AxisInput::Torque(_) => {}
+            AxisInput::Voltage | AxisInput::Demand => o.insert(1, "current_A".into()),
+        }
+        o
+    }
+
+    fn reports(&self, i: usize) -> bool {
+        !(matches!(self.input, AxisInput::Torque(_)) && [R, L, K].contains(&i))
+    }
+
+    fn n_held(&self) -> usize {
+        1
+    }
+
+    fn hold(&self, _p: &[f64], _t_s: f64, x: &[f64], u: &[f64], held: &mut [f64]) {
+        held[0] = match self.input {
+            AxisInput::Torque(TorqueCommand {
+                feedback: Some(c),
+                limit,
+                ..
+            }) => {
+                // The digital loop samples the wheel and holds its command.
+                (c.kv_v_s_rad * (c.kp_1_s * (u[0] - x[4]) - self.wheel_speed(x)))
+                    .clamp(-limit, limit)
+            }
+            _ => u[0],
+        };
+    }
+
+    /// Current, motor speed, motor angle, wheel speed and angle (backlash block), and the
+    /// speed-loop integral (speed-feedback block).
+    fn n_states(&self) -> usize {
+        6
+    }
+
+    fn initial_state(&self, _p: &[f64], data: &Dataset) -> Vec<f64> {
+        let angle = data
+            .first_measured("motor_angle_rad")
+            .or_else(|| {
+                data.first_measured("wheel_angle_rad")
+                    .map(|a| a * self.ratio)
+            })
+            .unwrap_or(0.0);
+        vec![0.0, 0.0, angle, 0.0, angle / self.ratio, 0.0]
+    }
+
+    fn max_step_s(&self, p: &[f64]) -> f64 {
+        // RK4 is accurate to 2 % on a decaying mode at h = its time constant.
+        let b = self.blocks(p);
+        let d = &b.drivetrain;
+        let mut h = match self.input {
+            AxisInput::Torque(_) => 0.2 * self.mechanical_time_constant_s(p),
+            _ => d
+                .motor
+                .electrical_time_constant_s()
+                .min(0.2 * self.mechanical_time_constant_s(p)),
+        };
+        if b.play {
+            let rate = d
+                .gearbox
+                .mesh_rate(d.reflected_motor_inertia(), d.wheel_inertia_kg_m2);
+            h = h.min(MESH_STEP_RATE / rate);
+        }
+        h
+    }
+
+    fn input_delay_s(&self, p: &[f64]) -> f64 {
+        self.effect(Effect::TransportDelay).map_or(0.0, |i| p[i])
+    }
+
+    fn event_fraction(&self, p: &[f64], before: &[f64], after: &[f64], h: f64) -> Option<f64> {
+        self.effect(Effect::Backlash)?;
+        let d = self.blocks(p).drivetrain;
+        let (twist_before, twist_rate) = d.twist(&drivetrain_state(before));
+        let twist_after = d.twist(&drivetrain_state(after)).0;
+        d.gearbox
+            .flank_crossing(twist_before, twist_after, twist_rate * h)
+    }
+
+    /// The order of one evaluation: the terminal voltage (DCMC, bridges, battery), the
+    /// armature (or the torque amplifier's command), the rotor's torque balance, then the
+    /// wheel: turning with the rotor through rigid gears, or on its own side of the play,
+    /// driven by the teeth and braked by its bearings.
+    fn derivatives(&self, p: &[f64], x: &[f64], u: &[f64], held: &[f64], dx: &mut [f64]) {
+        let b = self.blocks(p);
+        let d = &b.drivetrain;
+        let s = drivetrain_state(x);
+        let (v, integral_rate) = self.terminal_voltage(&b, &s, x[SPEED_LOOP_INTEGRAL], u[0]);
+        dx[SPEED_LOOP_INTEGRAL] = integral_rate;
+        let w = s.motor.speed_rad_s;
+        let motor_torque = match self.input {
+            AxisInput::Torque(c) => {
+                dx[0] = 0.0;
+                let command = if c.feedback.is_some() { held[0] } else { u[0] };
+                Self::commanded_torque(&c, command)
+            }
+            AxisInput::Voltage | AxisInput::Demand => {
+                dx[0] = d.motor.current_rate_a_s(v, s.motor.current_a, w);
+                d.motor.electromagnetic_torque_nm(s.motor.current_a)
+            }
+        };
+        let eps = self.coulomb_eps_rad_s;
+        if b.play {
+            let n = d.gearbox.ratio;
+            let tooth = d.tooth_torque_nm(&s);
+            let driving = d.motor.driving_torque_nm(motor_torque, tooth / n);
+            dx[1] = d
+                .motor
+                .rotor_acceleration_rad_s2(driving, w, eps, d.motor.rotor_inertia_kg_m2);
+            let ww = s.wheel_speed_rad_s;
+            dx[3] = (tooth - d.wheel_bearing_torque_nm(ww)) / d.wheel_inertia_kg_m2;
+            dx[4] = ww;
+        } else {
+            let driving = d.motor.driving_torque_nm(motor_torque, 0.0);
+            let inertia =
+                d.motor.rotor_inertia_kg_m2 + d.wheel_inertia_kg_m2 / (self.ratio * self.ratio);
+            dx[1] = d.motor.rotor_acceleration_rad_s2(driving, w, eps, inertia);
+            dx[3] = 0.0;
+            dx[4] = w / self.ratio;
+        }
+        dx[2] = w;
+    }
+
+    fn output_kind(&self, name: &str) -> OutputKind {
+        if name == "motor_speed_rad_s" && self.encoder {
+            OutputKind::IntervalRate(2)
+        } else {
+            OutputKind::Instant
+        }
+    }
+
+    fn output(&self, _p: &[f64], name: &str, x: &[f64], _u: &[f64], held: &[f64]) -> f64 {
+        match name {
+            "command_V" => held[0],
+            "motor_speed_rad_s" => x[1],
+            "current_A" => x[0],
+            "motor_angle_rad" => x[2],
+            "wheel_angle_rad" => x[4],
+            _ => f64::NAN,
+        }
+    }
+}
