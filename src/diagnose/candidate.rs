@@ -23,8 +23,9 @@ use crate::ident::fit::{self, Fit, FitSettings};
 use crate::ident::model::GreyBox;
 use crate::ident::Structure;
 
+use super::evidence::{effective_n, likelihood_gain};
 use super::search::{effect_grid, golden, profile_scan, scan, start_with};
-use super::{Scales, MIN_RSS_REDUCTION};
+use super::{Candidate, Scales, MIN_DELTA_AIC, MIN_RSS_REDUCTION};
 
 /// Share of [`MIN_RSS_REDUCTION`] a screen must reach for the full search to be run: a
 /// screened fit is a lower bound, and the full search of a present effect seldom gains
@@ -330,4 +331,36 @@ fn lower(a: Option<Fit>, b: Option<Fit>) -> Option<Fit> {
         (Some(a), Some(b)) => Some(if b.cost < a.cost { b } else { a }),
         (a, b) => a.or(b),
     }
+}
+
+/// The most significant candidate whose gain is its effect's: it must also beat the stage's
+/// own structure refitted from where the candidate's fit ended
+/// ([`Context::stage_refit_from`]) by the same rule (AIC gain, share of the
+/// residual). A candidate that does not is marked not significant in `round`.
+pub(super) fn earned_beyond_the_stage(
+    context: &Context,
+    data: &Dataset,
+    significants: &mut Vec<(f64, Effect, Structure, Fit)>,
+    round: &mut [Candidate],
+) -> Option<(f64, Effect, Structure, Fit)> {
+    significants.sort_by(|a, b| b.0.total_cmp(&a.0));
+    for (delta_aic, e, cand, f) in significants.drain(..) {
+        let earned = match context.stage_refit_from(&f.params) {
+            Some(null) if null.cost < context.fit.cost => {
+                let added = (f.free.len() - null.free.len()) as f64;
+                let n = effective_n(data, &null.predicted);
+                let gain = likelihood_gain(data, &null.predicted, &n, &f.predicted) - 2.0 * added;
+                gain > MIN_DELTA_AIC && 1.0 - f.cost / null.cost >= MIN_RSS_REDUCTION
+            }
+            _ => true,
+        };
+        if earned {
+            return Some((delta_aic, e, cand, f));
+        }
+        if let Some(c) = round.iter_mut().find(|c| c.name == e.name()) {
+            c.significant = false;
+            c.reached_without_it = true;
+        }
+    }
+    None
 }

@@ -403,7 +403,8 @@ pub fn diagnose(
                 significants.push((delta_aic, e, cand, f));
             }
         }
-        let best = earned_beyond_the_stage(&context, &data, &mut significants, &mut round);
+        let best =
+            candidate::earned_beyond_the_stage(&context, &data, &mut significants, &mut round);
         round.sort_by(|a, b| b.delta_aic.total_cmp(&a.delta_aic));
         rounds.push(round);
         let Some((_, e, cand, f)) = best else { break };
@@ -569,36 +570,4 @@ fn at_bound_of(s: &Structure, f: &crate::ident::fit::Fit) -> BTreeMap<String, f6
             crate::ident::bound_reached(f.params[i], p.lo, p.hi).map(|b| (p.name.clone(), b))
         })
         .collect()
-}
-
-/// The most significant candidate whose gain is its effect's: it must also beat the stage's
-/// own structure refitted from where the candidate's fit ended
-/// ([`candidate::Context::stage_refit_from`]) by the same rule (AIC gain, share of the
-/// residual). A candidate that does not is marked not significant in `round`.
-fn earned_beyond_the_stage(
-    context: &candidate::Context,
-    data: &Dataset,
-    significants: &mut Vec<(f64, Effect, Structure, Fit)>,
-    round: &mut [Candidate],
-) -> Option<(f64, Effect, Structure, Fit)> {
-    significants.sort_by(|a, b| b.0.total_cmp(&a.0));
-    for (delta_aic, e, cand, f) in significants.drain(..) {
-        let earned = match context.stage_refit_from(&f.params) {
-            Some(null) if null.cost < context.fit.cost => {
-                let added = (f.free.len() - null.free.len()) as f64;
-                let n = effective_n(data, &null.predicted);
-                let gain = likelihood_gain(data, &null.predicted, &n, &f.predicted) - 2.0 * added;
-                gain > MIN_DELTA_AIC && 1.0 - f.cost / null.cost >= MIN_RSS_REDUCTION
-            }
-            _ => true,
-        };
-        if earned {
-            return Some((delta_aic, e, cand, f));
-        }
-        if let Some(c) = round.iter_mut().find(|c| c.name == e.name()) {
-            c.significant = false;
-            c.reached_without_it = true;
-        }
-    }
-    None
 }
