@@ -11,6 +11,13 @@ use crate::model::GRAVITY_M_S2;
 
 use super::{Vehicle, IZ, JW, LAT_STIFFNESS, LOAD_FRACTION, LONG_STIFFNESS, MASS, RW, TRACK};
 
+// The vehicle's drive parameters sit where [`drivetrain_blocks`] reads them.
+const _: () = {
+    use crate::ident::models::{rotary_axis as axis, vehicle as v};
+    assert!(v::R == axis::R && v::L == axis::L && v::K == axis::K);
+    assert!(v::JM == axis::JM && v::JW == axis::JW && v::B == axis::B);
+};
+
 /// The castor-drag block: the idlers' rolling drag, lumped at a distance from the axle.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct CastorDrag {
