@@ -159,19 +159,25 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
     })
 }
 
+/// Time in which a speed loop switched on by a calibration starts out correcting a speed
+/// error, s: a wheelchair unit's loop is slow beside the motor.
+const SPEED_LOOP_START_CORRECTION_S: f64 = 1.0;
+
 /// The DCMC's speed loop switched on as the vocabulary's `speed_feedback` describes it: a
 /// scene whose DCMC is a plain gain becomes `gain_pi` (the same voltage fed forward, its
 /// speed set-point calibrated to the motor, and integral action on the speed error: the
-/// law the fitting models run, [`crate::model::dcmc::SpeedLoopGains`]); one that already
-/// closes a speed loop (`p`) gains the integral (`pi`). The integral gain starts at the
-/// motor's constant per second (the loop corrects a speed error within about a second).
+/// law the fitting models run, [`crate::model::speed_loop::SpeedLoopGains`]); one that already
+/// closes a speed loop (`p`) gains the integral (`pi`). The integral gain starts where
+/// the loop corrects a speed error in [`SPEED_LOOP_START_CORRECTION_S`].
 fn speed_loop_home(scene: &Scene, mut h: Home) -> Home {
     use crate::scene::DcmcKind;
     let d = &scene.dcmc;
     h.start = if d.ki_V_rad > 0.0 && d.kind != DcmcKind::Gain {
         d.ki_V_rad
     } else {
-        scene.motor.torque_constant_Nm_A / 1.0
+        // An error held for the time raises the voltage by ki t times it, which moves the
+        // speed by ki t / K times it: all of it at ki = K / t.
+        scene.motor.torque_constant_Nm_A / SPEED_LOOP_START_CORRECTION_S
     };
     let kind = match d.kind {
         DcmcKind::Gain | DcmcKind::GainPi => "\"gain_pi\"",

@@ -5,8 +5,7 @@
 use rayon::prelude::*;
 
 use super::{effects, keys, CalibrateError, EffectTrial, SceneReplay};
-use crate::diagnose::evidence::{effective_n, likelihood_gain};
-use crate::diagnose::{MIN_DELTA_AIC, MIN_RSS_REDUCTION};
+use crate::diagnose::evidence::{effective_n, Gain};
 use crate::ident::data::Dataset;
 use crate::ident::fit::{fit_predictor, residuals, Fit, FitSettings};
 use crate::ident::model::{ParamSpec, Predictor};
@@ -196,13 +195,7 @@ impl Problem<'_> {
             stage
         };
         let n_ref = effective_n(&self.data, &reference.fit.predicted);
-        let delta_aic = likelihood_gain(
-            &self.data,
-            &reference.fit.predicted,
-            &n_ref,
-            &next.fit.predicted,
-        ) - 2.0;
-        let reduction = 1.0 - next.fit.cost / reference.fit.cost;
+        let gain = Gain::of(&self.data, &reference.fit, &n_ref, &next.fit);
         let i = free.len() - 1;
         let at_bound = next.at_bound(i);
         let trial = EffectTrial {
@@ -211,14 +204,11 @@ impl Problem<'_> {
             value: next.fit.params[i],
             std: next.fit.std[i],
             at_bound,
-            delta_aic,
-            rss_reduction_pct: 100.0 * reduction,
+            delta_aic: gain.delta_aic,
+            rss_reduction_pct: 100.0 * gain.reduction,
             // A key the recording does not determine (a limit above every command) is
             // not what earned a gain.
-            accepted: delta_aic > MIN_DELTA_AIC
-                && reduction >= MIN_RSS_REDUCTION
-                && at_bound.is_none()
-                && next.fit.std[i].is_some(),
+            accepted: gain.passes() && at_bound.is_none() && next.fit.std[i].is_some(),
         };
         Ok((trial, next))
     }

@@ -23,9 +23,9 @@ use crate::ident::fit::{self, Fit, FitSettings};
 use crate::ident::model::GreyBox;
 use crate::ident::Structure;
 
-use super::evidence::{effective_n, likelihood_gain};
+use super::evidence::{effective_n, Gain};
 use super::search::{effect_grid, golden, profile_scan, scan, start_with};
-use super::{Candidate, Scales, MIN_DELTA_AIC, MIN_RSS_REDUCTION};
+use super::{Candidate, Scales, MIN_RSS_REDUCTION};
 
 /// Share of [`MIN_RSS_REDUCTION`] a screen must reach for the full search to be run: a
 /// screened fit is a lower bound, and the full search of a present effect seldom gains
@@ -347,10 +347,7 @@ pub(super) fn earned_beyond_the_stage(
     for (delta_aic, e, cand, f) in significants.drain(..) {
         let earned = match context.stage_refit_from(&f.params) {
             Some(null) if null.cost < context.fit.cost => {
-                let added = (f.free.len() - null.free.len()) as f64;
-                let n = effective_n(data, &null.predicted);
-                let gain = likelihood_gain(data, &null.predicted, &n, &f.predicted) - 2.0 * added;
-                gain > MIN_DELTA_AIC && 1.0 - f.cost / null.cost >= MIN_RSS_REDUCTION
+                Gain::of(data, &null, &effective_n(data, &null.predicted), &f).passes()
             }
             _ => true,
         };

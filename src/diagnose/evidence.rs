@@ -5,8 +5,10 @@
 use std::collections::BTreeMap;
 
 use super::regimes::RegimeShare;
+use super::{MIN_DELTA_AIC, MIN_RSS_REDUCTION};
 use crate::ident::data::Dataset;
 use crate::ident::effects::Effect;
+use crate::ident::fit::Fit;
 
 /// What the fitted effect is, in words, with its value and units.
 pub(crate) fn describe(e: Effect, v: f64, linear: bool) -> String {
@@ -110,7 +112,7 @@ fn output_rss(data: &Dataset, predicted: &[Vec<f64>]) -> Vec<f64> {
 /// colours the baseline residual, the richer model's residual is whiter). An output that
 /// drifts (a pose integrated from speeds) is strongly coloured and counts for little; the
 /// others keep their weight.
-pub(crate) fn likelihood_gain(
+fn likelihood_gain(
     data: &Dataset,
     before: &[Vec<f64>],
     n_before: &[f64],
@@ -170,5 +172,33 @@ pub(crate) fn evidence(shares: &[RegimeShare], reduction_pct: f64) -> String {
             s.energy_pct, s.samples_pct, s.regime
         ),
         _ => format!("the fit improves throughout the record, in no regime more than elsewhere (RSS down {reduction_pct:.0}%)"),
+    }
+}
+
+/// What a richer fit earns over a reference fit of the same record.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Gain {
+    /// Likelihood gain with the reference's effective residual counts ([`effective_n`]),
+    /// less the AIC's two per added free parameter.
+    pub delta_aic: f64,
+    /// Share of the reference's residual sum of squares removed.
+    pub reduction: f64,
+}
+
+impl Gain {
+    /// `richer` against `reference`, whose effective residual counts are `reference_n`.
+    pub fn of(data: &Dataset, reference: &Fit, reference_n: &[f64], richer: &Fit) -> Gain {
+        let added = (richer.free.len() - reference.free.len()) as f64;
+        Gain {
+            delta_aic: likelihood_gain(data, &reference.predicted, reference_n, &richer.predicted)
+                - 2.0 * added,
+            reduction: 1.0 - richer.cost / reference.cost,
+        }
+    }
+
+    /// Whether the gain passes the selection rule: an AIC gain above [`MIN_DELTA_AIC`] and
+    /// at least [`MIN_RSS_REDUCTION`] of the residual removed.
+    pub fn passes(&self) -> bool {
+        self.delta_aic > MIN_DELTA_AIC && self.reduction >= MIN_RSS_REDUCTION
     }
 }

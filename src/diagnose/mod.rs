@@ -40,7 +40,7 @@ use crate::ident::{
 };
 use crate::record::Recording;
 use crate::rig::Rig;
-use evidence::{describe, effective_n, evidence, likelihood_gain};
+use evidence::{describe, effective_n, evidence, Gain};
 use regimes::RegimeShare;
 use scales::{scales, Scales};
 
@@ -367,10 +367,7 @@ pub fn diagnose(
                 screened_only,
             } = fitted;
             let Some(f) = f else { continue };
-            let reduction = 1.0 - f.cost / stage.fit.cost;
-            let added = (f.free.len() - stage.fit.free.len()) as f64;
-            let delta_aic =
-                likelihood_gain(&data, &stage.fit.predicted, &stage_n, &f.predicted) - 2.0 * added;
+            let gain = Gain::of(&data, &stage.fit, &stage_n, &f);
             // An effect whose own parameter sits at the bound where the effect vanishes
             // (a play of 0.1 mrad) did not earn the gain: its block's other physics did.
             let lo = cand.model().params()[f.params.len() - 1].lo;
@@ -382,8 +379,7 @@ pub fn diagnose(
                 Effect::WheelSlip => value > hi / 1.5,
                 _ => lo > 0.0 && value < 1.5 * lo,
             };
-            let significant =
-                delta_aic > MIN_DELTA_AIC && reduction >= MIN_RSS_REDUCTION && !at_null_bound;
+            let significant = gain.passes() && !at_null_bound;
             let idx = f.params.len() - 1;
             let slot = f.free.len() - 1;
             let eval = crate::ident::fit_pct_mean(&data, &f.predicted);
@@ -393,14 +389,14 @@ pub fn diagnose(
                 value: f.params[idx],
                 std: f.std[slot],
                 fit_pct: eval,
-                rss_reduction_pct: 100.0 * reduction,
-                delta_aic,
+                rss_reduction_pct: 100.0 * gain.reduction,
+                delta_aic: gain.delta_aic,
                 significant,
                 screened_only,
                 reached_without_it: false,
             });
             if significant {
-                significants.push((delta_aic, e, cand, f));
+                significants.push((gain.delta_aic, e, cand, f));
             }
         }
         let best =

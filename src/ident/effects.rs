@@ -116,24 +116,15 @@ pub fn asymmetric_viscous(b: f64, ratio: f64, speed: f64) -> f64 {
     crate::model::motor::viscous_coefficient(b, ratio, speed) * speed
 }
 
-/// Terminal voltage of a PWM bridge on a sagging battery: the simulator's battery and
-/// bridge law ([`BatteryParams::bridge_output_v`]) with the battery current the duty draws,
-/// `d i`: duty `d = clip(V_cmd / V_rated)`, applied `d (V_oc - R_int d i)`.
-#[inline]
-pub fn bridge_voltage(
-    command_v: f64,
-    rated_v: f64,
-    open_circuit_v: f64,
-    r_int: f64,
-    current_a: f64,
-) -> f64 {
-    let battery = BatteryParams {
-        open_circuit_v,
-        internal_resistance_ohm: r_int,
+/// The battery-sag block's battery: the rig's supply voltage open-circuit, sagging by
+/// its internal resistance (ohm) under the bridges' current, the bridges setting their
+/// duty against the supply voltage (so the sag scales every command) and no other limit.
+pub fn sagging_battery(supply_v: f64, internal_resistance_ohm: f64) -> BatteryParams {
+    BatteryParams {
+        open_circuit_v: supply_v,
+        internal_resistance_ohm,
         drive_limit_v: f64::INFINITY,
         low_voltage_fault_v: 0.0,
-        bridge_rated_v: rated_v,
-    };
-    let duty = battery.duty_for_command(command_v).unwrap_or(1.0);
-    battery.bridge_output_v(command_v, battery.terminal_voltage_v(duty * current_a))
+        bridge_rated_v: supply_v,
+    }
 }

@@ -480,20 +480,26 @@ mod tests {
         }
     }
 
+    /// A record of [`OneState`]: input `u` at the instants `t_s`, `x` measured as 0.
+    fn one_state_data(t_s: Vec<f64>, u: Vec<f64>) -> Dataset {
+        let n = t_s.len();
+        Dataset {
+            name: "one state".into(),
+            t_s,
+            input_names: vec!["u".into()],
+            inputs: vec![u],
+            output_names: vec!["x".into()],
+            outputs: vec![vec![Some(0.0); n]],
+            segment_starts: vec![0],
+        }
+    }
+
     #[test]
     fn a_step_across_a_kink_is_split_where_the_law_changes() {
         // One step of 0.5 s: x reaches 0.3 at t = 0.3 s, then grows as
         // 0.3 + (e^(2 (t - 0.3)) - 1) / 2. Split at the kink, each piece is smooth and RK4
         // is accurate to its order (5e-5 here); across it, RK4 averages the two laws.
-        let data = Dataset {
-            name: "kink".into(),
-            t_s: vec![0.0, 0.5],
-            input_names: vec!["u".into()],
-            inputs: vec![vec![0.0, 0.0]],
-            output_names: vec!["x".into()],
-            outputs: vec![vec![Some(0.0); 2]],
-            segment_starts: vec![0],
-        };
+        let data = one_state_data(vec![0.0, 0.5], vec![0.0, 0.0]);
         let end = |told: bool| {
             let m = OneState {
                 law: Law::Kinked { told },
@@ -512,15 +518,10 @@ mod tests {
         // at t is (t - 0.0137) once the step has acted, to rounding, whatever the delay's
         // place inside the interval (a step-size grid would round it to a stage time).
         let n = 6;
-        let data = Dataset {
-            name: "step".into(),
-            t_s: (0..n).map(|k| k as f64 * 0.01).collect(),
-            input_names: vec!["u".into()],
-            inputs: vec![(0..n).map(|k| if k >= 1 { 1.0 } else { 0.0 }).collect()],
-            output_names: vec!["x".into()],
-            outputs: vec![vec![Some(0.0); n]],
-            segment_starts: vec![0],
-        };
+        let data = one_state_data(
+            (0..n).map(|k| k as f64 * 0.01).collect(),
+            (0..n).map(|k| if k >= 1 { 1.0 } else { 0.0 }).collect(),
+        );
         let model = OneState {
             law: Law::DelayedIntegral,
             specs: vec![ParamSpec::new("delay_s", 0.0037, 0.0, 0.1)],

@@ -48,6 +48,26 @@ impl BatteryParams {
         applied.clamp(-available, available)
     }
 
+    /// Voltages that bridges sharing this battery apply for their commands (V), feeding
+    /// motors that draw `currents_a`: each sets its duty from its command (a compensated
+    /// bridge counted at full duty), the battery delivers the sum of duty times current,
+    /// and each applies its command through [`Self::bridge_output_v`] at the terminal
+    /// voltage that leaves.
+    #[inline]
+    pub fn bridges_output_v<const N: usize>(
+        &self,
+        commands_v: [f64; N],
+        currents_a: [f64; N],
+    ) -> [f64; N] {
+        let battery_current_a: f64 = commands_v
+            .iter()
+            .zip(&currents_a)
+            .map(|(&v, &i)| self.duty_for_command(v).unwrap_or(1.0) * i)
+            .sum();
+        let terminal_v = self.terminal_voltage_v(battery_current_a);
+        commands_v.map(|v| self.bridge_output_v(v, terminal_v))
+    }
+
     /// Battery current for the motors' electrical power (ideal bridges: power balance), A.
     pub fn current_for_power_a(&self, motor_power_w: f64) -> f64 {
         // Solve P = (Voc - R i) i for the smaller root (the physical one).

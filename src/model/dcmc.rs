@@ -15,6 +15,7 @@
 //! (voltage for `gain`, speed set-point for `p`/`pi`) then goes through the bridges'
 //! limits.
 
+use super::speed_loop::SpeedLoopGains;
 pub use crate::scene::DcmcKind;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -23,8 +24,10 @@ pub struct DcmcParams {
     pub forward_gain_v_pct: f64,
     pub turn_gain_v_pct: f64,
     pub speed_per_pct_rad_s: f64,
-    /// `p`/`pi`: the speed loop's gains.
-    pub speed_loop: SpeedLoopGains,
+    /// `p`/`pi`: proportional gain of the speed loop, V s/rad.
+    pub kp_v_s_rad: f64,
+    /// `pi`/`gain_pi`: integral gain of the speed loop, V/rad.
+    pub ki_v_rad: f64,
     pub enable_delay_s: f64,
     pub combined_fault_pct: f64,
     pub turn_priority: bool,
@@ -46,50 +49,6 @@ pub struct DcmcParams {
     /// The unit's demand smoothing: a first-order lag on each side's request; `None`:
     /// none.
     pub response: Option<DcmcResponse>,
-}
-
-/// The gains of the unit's speed loop (structures `p` and `pi`).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SpeedLoopGains {
-    /// Feed-forward of the set-point, V s/rad: the voltage per rad/s of set speed a unit
-    /// calibrated to its motor applies before any error acts (the motor's back-EMF
-    /// constant for such a unit; 0: none, the thesis's case-2 structures).
-    pub feedforward_v_s_rad: f64,
-    /// Proportional gain on the speed error, V s/rad.
-    pub kp_v_s_rad: f64,
-    /// Integral gain (`pi`), V/rad; 0 for `p`.
-    pub ki_v_rad: f64,
-}
-
-impl SpeedLoopGains {
-    /// The loop of a unit calibrated to its motor (`gain_pi`, the contract's
-    /// `speed_feedback`): the gain structure's voltage fed forward through the motor's
-    /// back-EMF constant (V s/rad), integral action (V/rad), no proportional term.
-    #[inline]
-    pub fn calibrated_to_motor(back_emf_v_s_rad: f64, ki_v_rad: f64) -> SpeedLoopGains {
-        SpeedLoopGains {
-            feedforward_v_s_rad: back_emf_v_s_rad,
-            kp_v_s_rad: 0.0,
-            ki_v_rad,
-        }
-    }
-
-    /// The set-point (rad/s) such a unit makes of its gain structure's voltage (V): the
-    /// speed that voltage gives the unloaded motor.
-    #[inline]
-    pub fn calibrated_setpoint_rad_s(&self, voltage_v: f64) -> f64 {
-        voltage_v / self.feedforward_v_s_rad
-    }
-
-    /// One side's voltage request, V: `ff w_set + kp (w_set - w) + ki z`, with `z` the
-    /// integral of the speed error `w_set - w` (rad). The simulator's DCMC and the fitting
-    /// models' speed-feedback block both call this law; each integrates `z` its own way.
-    #[inline]
-    pub fn voltage_v(&self, setpoint_rad_s: f64, speed_rad_s: f64, integral_rad: f64) -> f64 {
-        self.feedforward_v_s_rad * setpoint_rad_s
-            + self.kp_v_s_rad * (setpoint_rad_s - speed_rad_s)
-            + self.ki_v_rad * integral_rad
-    }
 }
 
 /// Rate limit of each side's demand, percent of full demand per second: a wheelchair
@@ -302,12 +261,17 @@ impl DcmcParams {
     fn speed_loop_on(&self, shaped: [f64; 2]) -> Option<(SpeedLoopGains, [f64; 2])> {
         match self.kind {
             DcmcKind::Gain => None,
-            DcmcKind::P | DcmcKind::Pi => Some((self.speed_loop, shaped)),
+            DcmcKind::P | DcmcKind::Pi => {
+                let gains = SpeedLoopGains {
+                    feedforward_v_s_rad: 0.0,
+                    kp_v_s_rad: self.kp_v_s_rad,
+                    ki_v_rad: self.ki_v_rad,
+                };
+                Some((gains, shaped))
+            }
             DcmcKind::GainPi => {
-                let gains = SpeedLoopGains::calibrated_to_motor(
-                    self.back_emf_v_s_rad,
-                    self.speed_loop.ki_v_rad,
-                );
+                let gains =
+                    SpeedLoopGains::calibrated_to_motor(self.back_emf_v_s_rad, self.ki_v_rad);
                 Some((gains, shaped.map(|v| gains.calibrated_setpoint_rad_s(v))))
             }
         }
@@ -428,11 +392,8 @@ mod tests {
             forward_gain_v_pct: 0.235,
             turn_gain_v_pct: 0.12,
             speed_per_pct_rad_s: 3.5,
-            speed_loop: SpeedLoopGains {
-                feedforward_v_s_rad: 0.0,
-                kp_v_s_rad: 0.5,
-                ki_v_rad: 4.0,
-            },
+            kp_v_s_rad: 0.5,
+            ki_v_rad: 4.0,
             enable_delay_s: 0.5,
             combined_fault_pct: 185.0,
             turn_priority: true,
@@ -503,7 +464,7 @@ mod tests {
         for k in 0..100 {
             out = d.step(&mut s, &at(slow, 0.601 + 0.001 * k as f64), 0.001);
         }
-        let expected = gain_v + d.speed_loop.ki_v_rad * 10.0 * 0.1;
+        let expected = gain_v + d.ki_v_rad * 10.0 * 0.1;
         assert!(
             (out.voltage_v[0] - expected).abs() < 1e-9,
             "{out:?} against {expected}"

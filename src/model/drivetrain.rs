@@ -56,6 +56,14 @@ impl DrivetrainParams {
         self.wheel_viscous_nm_s_rad * wheel_speed_rad_s
     }
 
+    /// Fastest rate of the tooth mesh between the rotor and the wheel, 1/s
+    /// ([`GearboxParams::mesh_rate`]).
+    #[inline]
+    pub fn mesh_rate(&self) -> f64 {
+        self.gearbox
+            .mesh_rate(self.reflected_motor_inertia(), self.wheel_inertia_kg_m2)
+    }
+
     /// Motor inertia seen at the wheel, kg m^2.
     #[inline]
     pub fn reflected_motor_inertia(&self) -> f64 {
@@ -69,8 +77,7 @@ impl DrivetrainParams {
     /// `ground_stiffness_n_m` and `ground_damping_n_s_m` are the tyre's at the rim.
     pub fn substeps(&self, dt: f64, ground_stiffness_n_m: f64, ground_damping_n_s_m: f64) -> usize {
         let jw = self.wheel_inertia_kg_m2;
-        let jm = self.reflected_motor_inertia();
-        let mesh_rate = self.gearbox.mesh_rate(jm, jw);
+        let mesh_rate = self.mesh_rate();
         let r2 = self.wheel_radius_m.powi(2);
         let ground_rate = (ground_stiffness_n_m * r2 / jw).sqrt() + ground_damping_n_s_m * r2 / jw;
         let rate = mesh_rate.max(ground_rate);

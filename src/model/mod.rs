@@ -10,6 +10,7 @@ pub mod dcmc;
 pub mod drivetrain;
 pub mod gearbox;
 pub mod motor;
+pub mod speed_loop;
 pub mod tyre;
 
 /// Standard gravity, m/s^2.

@@ -7,7 +7,7 @@ use crate::firmware::swing_away::SwingAwayParams;
 use crate::firmware::FirmwareParams;
 use crate::model::battery::BatteryParams;
 use crate::model::chassis::{ChassisParams, NoSlipParams, NormalLoads, Pose};
-use crate::model::dcmc::{DcmcParams, DcmcRamp, DcmcResponse, SpeedLoopGains};
+use crate::model::dcmc::{DcmcParams, DcmcRamp, DcmcResponse};
 use crate::model::drivetrain::DrivetrainParams;
 use crate::model::gearbox::GearboxParams;
 use crate::model::motor::MotorParams;
@@ -222,11 +222,8 @@ impl SimParams {
             forward_gain_v_pct: d.forward_gain_V_pct,
             turn_gain_v_pct: d.turn_gain_V_pct,
             speed_per_pct_rad_s: d.speed_per_pct_rad_s,
-            speed_loop: SpeedLoopGains {
-                feedforward_v_s_rad: 0.0,
-                kp_v_s_rad: d.kp_V_s_rad,
-                ki_v_rad: d.ki_V_rad,
-            },
+            kp_v_s_rad: d.kp_V_s_rad,
+            ki_v_rad: d.ki_V_rad,
             back_emf_v_s_rad: motor.torque_constant_nm_a,
             enable_delay_s: d.enable_delay_s,
             combined_fault_pct: d.combined_fault_pct,

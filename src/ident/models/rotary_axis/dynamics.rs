@@ -5,9 +5,10 @@
 use crate::ident::data::Dataset;
 use crate::ident::effects::{self, Effect, EffectSlots};
 use crate::ident::model::{GreyBox, OutputKind, ParamSpec};
-use crate::model::dcmc::SpeedLoopGains;
+use crate::model::battery::BatteryParams;
 use crate::model::drivetrain::{DrivetrainParams, DrivetrainState};
 use crate::model::motor::{MotorParams, MotorState};
+use crate::model::speed_loop::SpeedLoopGains;
 
 use super::{
     play_gearbox, AxisInput, RotaryAxis, TorqueCommand, B, GAIN, JM, JW, K, L, MESH_STEP_RATE, R,
@@ -27,8 +28,8 @@ pub(super) struct AxisBlocks {
     pub speed_loop: Option<SpeedLoopGains>,
     /// The bridges' voltage limit, V (the voltage-saturation block).
     pub drive_limit_v: Option<f64>,
-    /// The battery's internal resistance, ohm (the battery-sag block).
-    pub battery_resistance_ohm: Option<f64>,
+    /// The battery under the bridge (the battery-sag block).
+    pub battery: Option<BatteryParams>,
 }
 
 /// The states of the drive train, named: `[current, motor speed, motor angle, wheel speed,
@@ -106,7 +107,7 @@ impl RotaryAxis {
             speed_loop: value(Effect::SpeedFeedback)
                 .map(|ki| SpeedLoopGains::calibrated_to_motor(p[K], ki)),
             drive_limit_v: value(Effect::VoltageSaturation),
-            battery_resistance_ohm: value(Effect::BatterySag),
+            battery: value(Effect::BatterySag).map(|r| effects::sagging_battery(self.supply_v, r)),
         }
     }
 
@@ -120,11 +121,7 @@ impl RotaryAxis {
         integral: f64,
         u: f64,
     ) -> (f64, f64) {
-        let mut v = match self.input {
-            AxisInput::Voltage => u,
-            AxisInput::Demand => b.demand_gain_v_pct * u,
-            AxisInput::Torque(_) => 0.0,
-        };
+        let mut v = self.command_voltage(b.demand_gain_v_pct, u);
         let mut integral_rate = 0.0;
         if let Some(gains) = b.speed_loop {
             let setpoint = gains.calibrated_setpoint_rad_s(v);
@@ -134,8 +131,8 @@ impl RotaryAxis {
         if let Some(limit) = b.drive_limit_v {
             v = v.clamp(-limit, limit);
         }
-        if let Some(r) = b.battery_resistance_ohm {
-            v = effects::bridge_voltage(v, self.supply_v, self.supply_v, r, s.motor.current_a);
+        if let Some(battery) = b.battery {
+            v = battery.bridges_output_v([v], [s.motor.current_a])[0];
         }
         (v, integral_rate)
     }
@@ -268,10 +265,7 @@ impl GreyBox for RotaryAxis {
                 .min(0.2 * self.mechanical_time_constant_s(p)),
         };
         if b.play {
-            let rate = d
-                .gearbox
-                .mesh_rate(d.reflected_motor_inertia(), d.wheel_inertia_kg_m2);
-            h = h.min(MESH_STEP_RATE / rate);
+            h = h.min(MESH_STEP_RATE / d.mesh_rate());
         }
         h
     }

@@ -354,11 +354,18 @@ impl RotaryAxis {
         p[JM] + p[JW] / (self.ratio * self.ratio)
     }
 
-    /// Terminal voltage for an input value, V.
+    /// Terminal voltage for an input value, V (before the effects' blocks).
     pub fn voltage(&self, p: &[f64], u: f64) -> f64 {
+        self.command_voltage(self.blocks(p).demand_gain_v_pct, u)
+    }
+
+    /// The voltage an input value commands, V: a voltage itself, a demand through the
+    /// DCMC's gain (V/pct); none behind a torque amplifier.
+    #[inline]
+    fn command_voltage(&self, demand_gain_v_pct: f64, u: f64) -> f64 {
         match self.input {
             AxisInput::Voltage => u,
-            AxisInput::Demand => p[GAIN] * u,
+            AxisInput::Demand => demand_gain_v_pct * u,
             AxisInput::Torque(_) => 0.0,
         }
     }

@@ -2,14 +2,14 @@
 //! wheel bearings, no-slip body, tyres, castors, battery and bridges), built from one
 //! parameter vector as named values.
 
-use crate::ident::effects::Effect;
+use crate::ident::effects::{self, Effect};
 use crate::ident::models::rotary_axis::drivetrain_blocks;
 use crate::model::battery::BatteryParams;
 use crate::model::chassis::NoSlipBody;
 use crate::model::drivetrain::DrivetrainParams;
 use crate::model::GRAVITY_M_S2;
 
-use super::{Vehicle, IZ, JW, LAT_STIFFNESS, LOAD_FRACTION, LONG_STIFFNESS, MASS, RW, TRACK};
+use super::{Vehicle, IZ, LAT_STIFFNESS, LOAD_FRACTION, LONG_STIFFNESS, MASS, RW, TRACK};
 
 // The vehicle's drive parameters sit where [`drivetrain_blocks`] reads them.
 const _: () = {
@@ -36,8 +36,7 @@ pub(super) struct VehicleBlocks {
     /// Whether a play separates each motor's motion from its wheel's (the backlash block).
     pub play: bool,
     /// The chassis rolling on its wheels (centre of mass at the drive-axle midpoint: the
-    /// rig gives no offset); its wheel inertia is the wheel's alone here, the rotor's
-    /// added where the gears are rigid.
+    /// rig gives no offset), with the inertia turning with each wheel.
     pub body: NoSlipBody,
     /// Normal load on each drive wheel, N.
     pub drive_wheel_load_n: f64,
@@ -62,29 +61,32 @@ impl Vehicle {
             Some(&[lever_m, drag_n]) => Some(CastorDrag { drag_n, lever_m }),
             _ => None,
         };
+        let drivetrain = drivetrain_blocks(p, self.ratio, &self.effects, p[RW]);
+        let play = self.effect(Effect::Backlash).is_some();
+        // What turns with a wheel: behind a play the wheel alone, through rigid gears the
+        // rotor too.
+        let wheel_side_kg_m2 = if play {
+            drivetrain.wheel_inertia_kg_m2
+        } else {
+            drivetrain.wheel_inertia_kg_m2 + drivetrain.reflected_motor_inertia()
+        };
         VehicleBlocks {
-            drivetrain: drivetrain_blocks(p, self.ratio, &self.effects, p[RW]),
-            play: self.effect(Effect::Backlash).is_some(),
+            drivetrain,
+            play,
             body: NoSlipBody {
                 mass_kg: p[MASS],
                 yaw_inertia_kg_m2: p[IZ],
                 cg_ahead_m: 0.0,
                 track_width_m: p[TRACK],
                 wheel_radius_m: p[RW],
-                wheel_inertia_kg_m2: p[JW],
+                wheel_inertia_kg_m2: wheel_side_kg_m2,
             },
             drive_wheel_load_n: p[LOAD_FRACTION] * p[MASS] * GRAVITY_M_S2 / 2.0,
             tyre_stiffness_per_n: [p[LONG_STIFFNESS], p[LAT_STIFFNESS]],
             peak_mu: value(Effect::WheelSlip),
             castors,
             drive_limit_v: value(Effect::VoltageSaturation),
-            battery: value(Effect::BatterySag).map(|r| BatteryParams {
-                open_circuit_v: self.supply_v,
-                internal_resistance_ohm: r,
-                drive_limit_v: f64::INFINITY,
-                low_voltage_fault_v: 0.0,
-                bridge_rated_v: self.supply_v,
-            }),
+            battery: value(Effect::BatterySag).map(|r| effects::sagging_battery(self.supply_v, r)),
         }
     }
 }

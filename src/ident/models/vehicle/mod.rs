@@ -227,11 +227,6 @@ impl Vehicle {
         self.effects.get(e)
     }
 
-    /// Normal load on each drive wheel, N.
-    pub fn drive_wheel_load_n(&self, p: &[f64]) -> f64 {
-        self.blocks(p).drive_wheel_load_n
-    }
-
     /// Inertia at a motor shaft of its motor, gear and wheel, kg m^2.
     pub fn drivetrain_inertia_at_motor(&self, p: &[f64]) -> f64 {
         p[JM] + p[JW] / (self.ratio * self.ratio)
@@ -257,10 +252,8 @@ impl Vehicle {
             v = v.map(|v| v.clamp(-limit, limit));
         }
         if let Some(battery) = b.battery {
-            // Both bridges draw on one battery: duty d = V / V_rated, bus current sum d i.
-            let d = v.map(|v| battery.duty_for_command(v).unwrap_or(1.0));
-            let terminal = battery.terminal_voltage_v(d[0] * current[0] + d[1] * current[1]);
-            v = v.map(|v| battery.bridge_output_v(v, terminal));
+            // Both bridges draw on one battery.
+            v = battery.bridges_output_v(v, current);
         }
         v
     }

@@ -17,10 +17,7 @@ impl Vehicle {
         let d = &b.drivetrain;
         let mut h = d.motor.electrical_time_constant_s();
         if b.play {
-            let rate = d
-                .gearbox
-                .mesh_rate(d.reflected_motor_inertia(), d.wheel_inertia_kg_m2);
-            h = h.min(MESH_STEP_RATE / rate);
+            h = h.min(MESH_STEP_RATE / d.mesh_rate());
         }
         if b.peak_mu.is_none() && !self.creeping_tyres {
             // Rolling without slip: no tyre between wheel and floor to resolve.
@@ -32,11 +29,7 @@ impl Vehicle {
         // h lambda below 2.8; at 2 the fast mode still decays monotonically enough, as it
         // does physically, while the slow dynamics are integrated accurately.
         let rim_damping = load * long_stiffness / slip_denominator_m_s;
-        let wheel_j = if b.play {
-            d.wheel_inertia_kg_m2
-        } else {
-            d.wheel_inertia_kg_m2 + d.reflected_motor_inertia()
-        };
+        let wheel_j = b.body.wheel_inertia_kg_m2;
         let r = d.wheel_radius_m;
         let lambda_long = rim_damping * r * r / wheel_j;
         let lambda_lat = 2.0 * load * lat_stiffness / slip_denominator_m_s / b.body.mass_kg;
@@ -49,18 +42,17 @@ impl Vehicle {
         b.drivetrain.twist(&drivetrain_state(&x[side * SIDE..]))
     }
 
-    /// Torque the gear train delivers to each wheel's axle (N m) and the inertia turning
-    /// with the wheel there (kg m^2), writing the motor side's speed rate when a gear play
-    /// separates motor and wheel. `driving` is each motor's torque before its friction.
-    /// Rigid gears: the motor's torque less its friction, times the ratio, with the rotor's
-    /// inertia times the ratio squared.
+    /// Torque the gear train delivers to each wheel's axle (N m), writing the motor side's
+    /// speed rate when a gear play separates motor and wheel. `driving` is each motor's
+    /// torque before its friction. Rigid gears: the motor's torque less its friction,
+    /// times the ratio (the rotor turns with the wheel: `VehicleBlocks::body`).
     fn wheel_side(
         &self,
         b: &VehicleBlocks,
         x: &[f64],
         driving: [f64; 2],
         dx: &mut [f64],
-    ) -> ([f64; 2], f64) {
+    ) -> [f64; 2] {
         let d = &b.drivetrain;
         let eps = self.coulomb_eps_rad_s;
         let mut torque = [0.0; 2];
@@ -79,23 +71,15 @@ impl Vehicle {
                     d.gearbox.ratio * (driving[side] - d.motor.friction_torque_nm(w, eps));
             }
         }
-        let inertia = if b.play {
-            d.wheel_inertia_kg_m2
-        } else {
-            d.wheel_inertia_kg_m2 + d.reflected_motor_inertia()
-        };
-        (torque, inertia)
+        torque
     }
 
     /// Wheels that roll without slipping: the chassis and everything turning with the
     /// wheels accelerate together (the simulator's no-slip body), the wheel speeds
     /// following the chassis's motion.
     pub(super) fn rolling(&self, b: &VehicleBlocks, x: &[f64], driving: [f64; 2], dx: &mut [f64]) {
-        let (torque, wheel_inertia) = self.wheel_side(b, x, driving, dx);
-        let body = crate::model::chassis::NoSlipBody {
-            wheel_inertia_kg_m2: wheel_inertia,
-            ..b.body
-        };
+        let torque = self.wheel_side(b, x, driving, dx);
+        let body = &b.body;
         let (fwd, yaw_rate) = (x[BODY], x[BODY + 2]);
         let drag = self.castor_drag(b, fwd, 0.0, yaw_rate);
         let [acc, yaw_acc] = body.accelerations(fwd, yaw_rate, torque, [drag[0], drag[2]]);
@@ -112,7 +96,8 @@ impl Vehicle {
     /// wheel-slip block their grip limited by the friction coefficient.
     pub(super) fn slipping(&self, b: &VehicleBlocks, x: &[f64], driving: [f64; 2], dx: &mut [f64]) {
         let (fwd, lat, yaw_rate) = (x[BODY], x[BODY + 1], x[BODY + 2]);
-        let (torque, wheel_inertia) = self.wheel_side(b, x, driving, dx);
+        let torque = self.wheel_side(b, x, driving, dx);
+        let wheel_inertia = b.body.wheel_inertia_kg_m2;
         let (r, track) = (b.body.wheel_radius_m, b.body.track_width_m);
         let mut force = [[0.0; 2]; 2];
         for side in 0..2 {
