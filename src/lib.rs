@@ -31,6 +31,7 @@ pub mod jobs;
 pub mod matfile;
 pub mod model;
 pub mod output;
+pub mod param;
 pub mod plot;
 pub mod record;
 pub mod replay;

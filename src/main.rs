@@ -15,8 +15,9 @@ mod cli_sweep;
 use agvsim::experiment::{run_experiment, ExperimentOptions};
 use agvsim::ident::job::{self, IdentifyJob};
 use agvsim::ident::{report, IdentifyOptions};
+use agvsim::model::tyre_presets as presets;
 use agvsim::run::{run_scene, RunOptions};
-use agvsim::scene::{presets, Scene};
+use agvsim::scene::Scene;
 use agvsim::viz::RerunTarget;
 
 /// A failure of the job: the library's error, exit status 1.
@@ -381,7 +382,7 @@ fn main() -> ExitCode {
             ExitCode::SUCCESS
         }
         Command::Keys => {
-            print!("{}", agvsim::scene::ranges::markdown());
+            print!("{}", agvsim::scene::keys::markdown());
             ExitCode::SUCCESS
         }
     }

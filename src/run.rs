@@ -91,10 +91,10 @@ pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutput, RunError
             format!(
                 "agvsim {} simulation, fidelity {}",
                 env!("CARGO_PKG_VERSION"),
-                params.fidelity.name()
+                params.sim.fidelity.name()
             ),
         ),
-        ("seed", format!("{}", params.seed)),
+        ("seed", format!("{}", params.sim.seed)),
         (
             "heading",
             "rad, counter-clockwise from world x, unwrapped".to_string(),
@@ -103,14 +103,14 @@ pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutput, RunError
     let mut writer =
         RecordingWriter::new(BufWriter::new(file), "vehicle", &meta, vehicle_columns())
             .map_err(io(&recording))?;
-    let record_every = ((scene.sim.record_interval_s / params.dt_s).round() as u64).max(1);
-    let duration = params.duration_s;
+    let record_every = ((scene.sim.record_interval_s / params.sim.dt_s).round() as u64).max(1);
+    let duration = params.sim.duration_s;
     let mut sim = Sim::from_params(params)?;
     let mut metrics = MetricsObserver::default();
     let first = sim.snapshot();
     writer.row(&first).map_err(io(&recording))?;
     metrics.observe(&first);
-    let steps = (duration / sim.params().dt_s).round() as u64;
+    let steps = (duration / sim.params().sim.dt_s).round() as u64;
     let mut viz_err = None;
     for k in 1..=steps {
         if let Err(e) = sim.step() {

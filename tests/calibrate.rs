@@ -366,11 +366,11 @@ fn battery_sag_comes_back_with_the_bridges_that_show_it() {
     ];
     let off = ["battery.internal_resistance_ohm=0"];
     let c = round_trip("sag", "voltage_V", &machine, &off, &ON_VOLTAGE, e);
-    assert_eq!(c.scene.battery.bridge_rated_V, 24.0);
+    assert_eq!(c.scene.battery.bridge_rated_v, 24.0);
     let text = std::fs::read_to_string(SCENE).unwrap();
     let written = calibrated_text(&text, &c, "machine_11.csv", &[]).unwrap();
     let reloaded = Scene::from_toml(&written, Path::new("calibrated.toml"), &[]).unwrap();
-    assert_eq!(reloaded.battery.bridge_rated_V, 24.0);
+    assert_eq!(reloaded.battery.bridge_rated_v, 24.0);
     assert!(
         written.contains("set to switch on battery_sag (was not in the file)"),
         "{written}"
@@ -405,7 +405,7 @@ fn speed_feedback_comes_back_as_the_dcmc_integral_gain() {
     let machine = ["dcmc.kind=gain_pi", "dcmc.ki_V_rad=0.3"];
     let offered = [Effect::SpeedFeedback, Effect::CoulombFriction];
     let c = round_trip("pi", "demand_pct", &machine, &[], &offered, e);
-    assert_eq!(c.scene.dcmc.kind, agvsim::scene::DcmcKind::GainPi);
+    assert_eq!(c.scene.dcmc.kind, agvsim::model::dcmc::DcmcKind::GainPi);
 }
 
 /// A machine with none of the effects: every one a voltage-driven axis can show is

@@ -848,7 +848,7 @@ fn calibrate_writes_a_scene_a_json_and_a_rerun_overlay() {
     );
     let written = agvsim::scene::Scene::load(&scene, &[]).unwrap();
     assert_eq!(written.gearbox.backlash_rad, 0.0);
-    assert!((written.motor.coulomb_Nm - 0.05).abs() < 1e-3);
+    assert!((written.motor.coulomb_nm - 0.05).abs() < 1e-3);
     let st = agvsim()
         .args(["replay", "--scene"])
         .arg(&scene)

@@ -68,10 +68,10 @@ fn ident(
 fn true_gain_model(s: &Scene) -> Vec<(&'static str, f64)> {
     let m = &s.motor;
     let j = m.rotor_inertia_kg_m2 + s.wheel.inertia_kg_m2 / s.gearbox.ratio.powi(2);
-    let k = m.torque_constant_Nm_A;
-    let a = -(m.viscous_Nm_s_rad + k * k / m.resistance_ohm) / j;
+    let k = m.torque_constant_nm_a;
+    let a = -(m.viscous_nm_s_rad + k * k / m.resistance_ohm) / j;
     let beta = k / (m.resistance_ohm * j);
-    let (gf, gt) = (s.dcmc.forward_gain_V_pct, s.dcmc.turn_gain_V_pct);
+    let (gf, gt) = (s.dcmc.forward_gain_v_pct, s.dcmc.turn_gain_v_pct);
     vec![
         ("a_left_1_s", a),
         ("a_right_1_s", a),
@@ -214,28 +214,30 @@ fn falling_weight_and_coast_down_recover_the_motor() {
     check(
         "falling weight: Coulomb friction",
         fw.value("motor.coulomb_Nm").unwrap(),
-        m.coulomb_Nm,
+        m.coulomb_nm,
     );
     check(
         "falling weight: Kv",
         fw.value("motor.torque_constant_Nm_A").unwrap(),
-        m.torque_constant_Nm_A,
+        m.torque_constant_nm_a,
     );
 
     // Coast-down: the rig knows the wheel's inertia and takes the rotor's from the falling
     // weight; its friction beliefs are off by +30 % and -30 %.
     let (mut rig, _, rec) = experiment(ExperimentKind::CoastDown, &scene, &dir, "cd", 4, 0.0);
-    let motor = rig.motor.as_mut().unwrap();
-    motor.rotor_inertia_kg_m2 = fw.value("motor.rotor_inertia_kg_m2");
-    motor.viscous_Nm_s_rad = Some(1.3 * m.viscous_Nm_s_rad);
-    motor.coulomb_Nm = Some(0.7 * m.coulomb_Nm);
+    rig.set(
+        "motor.rotor_inertia_kg_m2",
+        fw.value("motor.rotor_inertia_kg_m2").unwrap(),
+    );
+    rig.set("motor.viscous_Nm_s_rad", 1.3 * m.viscous_nm_s_rad);
+    rig.set("motor.coulomb_Nm", 0.7 * m.coulomb_nm);
     let cd_rig = dir.join("cd_from_fw.rig.toml");
     std::fs::write(&cd_rig, rig.to_toml()).unwrap();
     let cd = ident(&rig, &cd_rig, &rec, None);
     check(
         "coast-down: viscous damping",
         cd.value("motor.viscous_Nm_s_rad").unwrap(),
-        m.viscous_Nm_s_rad,
+        m.viscous_nm_s_rad,
     );
 }
 

@@ -40,15 +40,15 @@ fn rig_text_of(s: &Scene) -> String {
     format!(
         "rig = \"drive_axis\"\n[motor]\nresistance_ohm = {}\ninductance_H = {}\ntorque_constant_Nm_A = {}\nrotor_inertia_kg_m2 = {}\nviscous_Nm_s_rad = {}\n[gearbox]\nratio = {}\n[wheel]\nradius_m = {}\ninertia_kg_m2 = {}\n[supply]\nvoltage_V = {}\n",
         m.resistance_ohm,
-        m.inductance_H,
-        m.torque_constant_Nm_A,
+        m.inductance_h,
+        m.torque_constant_nm_a,
         m.rotor_inertia_kg_m2,
         // The rig's viscous friction is all of it, referred to the motor shaft.
-        m.viscous_Nm_s_rad + s.wheel.viscous_Nm_s_rad / s.gearbox.ratio.powi(2),
+        m.viscous_nm_s_rad + s.wheel.viscous_nm_s_rad / s.gearbox.ratio.powi(2),
         s.gearbox.ratio,
         s.wheel.radius_m,
         s.wheel.inertia_kg_m2,
-        s.battery.open_circuit_V,
+        s.battery.open_circuit_v,
     )
 }
 
@@ -142,8 +142,8 @@ fn the_wheel_bearings_are_the_fitting_blocks_wheel_side_share() {
         "wheel.viscous_Nm_s_rad=0.04384",
     ]);
     let n2 = s.gearbox.ratio.powi(2);
-    let at_wheel = s.wheel.viscous_Nm_s_rad / n2;
-    assert!((at_wheel / (s.motor.viscous_Nm_s_rad + at_wheel) - 0.4).abs() < 1e-3);
+    let at_wheel = s.wheel.viscous_nm_s_rad / n2;
+    assert!((at_wheel / (s.motor.viscous_nm_s_rad + at_wheel) - 0.4).abs() < 1e-3);
     let rec = simulated(&s, "bearings");
     let m = axis(&s).with_effect(Effect::Backlash, 0.05, 1e-4, 0.5, 200.0);
     let shares = [0.0, 0.2, 0.4, 0.6, 0.8];
@@ -212,7 +212,7 @@ fn the_dcmc_speed_loop_and_the_fitting_models_speed_feedback_agree() {
         &format!(
             "{}[controller]\nkind = \"gain\"\ngain_V_pct = {}\n",
             rig_text_of(&s),
-            s.dcmc.forward_gain_V_pct
+            s.dcmc.forward_gain_v_pct
         ),
         Path::new("scene.rig.toml"),
     )
@@ -238,15 +238,15 @@ fn vehicle_rig_of(s: &Scene) -> Rig {
     let text = format!(
         "rig = \"vehicle\"\n[motor]\nresistance_ohm = {}\ninductance_H = {}\ntorque_constant_Nm_A = {}\nrotor_inertia_kg_m2 = {}\nviscous_Nm_s_rad = {}\n[gearbox]\nratio = {}\n[wheel]\nradius_m = {}\ninertia_kg_m2 = {}\n[supply]\nvoltage_V = {}\n[chassis]\nmass_kg = {}\nyaw_inertia_kg_m2 = {}\ntrack_width_m = {}\ndrive_load_fraction = {}\n",
         m.resistance_ohm,
-        m.inductance_H,
-        m.torque_constant_Nm_A,
+        m.inductance_h,
+        m.torque_constant_nm_a,
         m.rotor_inertia_kg_m2,
         // The rig's viscous friction is all of it, referred to the motor shaft.
-        m.viscous_Nm_s_rad + s.wheel.viscous_Nm_s_rad / s.gearbox.ratio.powi(2),
+        m.viscous_nm_s_rad + s.wheel.viscous_nm_s_rad / s.gearbox.ratio.powi(2),
         s.gearbox.ratio,
         s.wheel.radius_m,
         s.wheel.inertia_kg_m2,
-        s.battery.open_circuit_V,
+        s.battery.open_circuit_v,
         c.mass_kg,
         c.yaw_inertia_kg_m2 + c.mass_kg * a2,
         c.track_width_m,

@@ -13,7 +13,7 @@ fn scene(toml: &str, overrides: &[&str]) -> Scene {
 }
 
 fn run(sim: &mut Sim, seconds: f64) {
-    let n = (seconds / sim.params().dt_s).round() as usize;
+    let n = (seconds / sim.params().sim.dt_s).round() as usize;
     for _ in 0..n {
         sim.step().expect("simulation step");
     }
@@ -88,9 +88,9 @@ fn lifted_wheel_reaches_dc_motor_steady_speed() {
     sim.set_actuation(Actuation::Voltage([v, v]));
     run(&mut sim, 4.0);
     let m = &sc.motor;
-    let k = m.torque_constant_Nm_A;
+    let k = m.torque_constant_nm_a;
     let expect =
-        (k * v / m.resistance_ohm - m.coulomb_Nm) / (k * k / m.resistance_ohm + m.viscous_Nm_s_rad);
+        (k * v / m.resistance_ohm - m.coulomb_nm) / (k * k / m.resistance_ohm + m.viscous_nm_s_rad);
     let got = sim.drivetrains()[0].motor.speed_rad_s;
     println!("lifted wheel at {v} V: {got:.3} rad/s, DC motor equations {expect:.3} rad/s");
     assert!((got - expect).abs() / expect < 0.01);

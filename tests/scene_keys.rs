@@ -1,12 +1,12 @@
-//! The scene reference is one table (`src/scene/ranges.rs`): validation reads it, the
-//! README prints it. These tests keep the three in step: every key of the schema has a
+//! The scene reference is one table (`src/scene/keys.rs`, the blocks' declarations under
+//! their sections): validation reads it, the README prints it. These tests keep the three in step: every key of the schema has a
 //! row, every row is a key the schema takes, every rule refuses what it says it refuses
 //! (naming the key), and the README holds the table's text.
 
 use std::path::Path;
 
-use agvsim::scene::ranges::{Allowed, NUMERIC, OTHER};
-use agvsim::scene::{Scene, SceneError};
+use agvsim::param::Allowed;
+use agvsim::scene::{keys, Scene, SceneError};
 
 /// Dotted paths of every leaf in a TOML tree (arrays are leaves).
 fn leaves(prefix: &str, v: &toml::Value, out: &mut Vec<String>) {
@@ -30,19 +30,20 @@ fn every_schema_key_has_a_row_and_every_row_is_a_key() {
     let tree = toml::Value::try_from(Scene::default()).unwrap();
     let mut keys = vec![];
     leaves("", &tree, &mut keys);
+    let table = keys::table();
     let covered = |k: &str| {
-        NUMERIC.iter().any(|r| r.key == k)
-            || OTHER
-                .iter()
-                .any(|r| r.key == k || k.starts_with(&format!("{}.", r.key)))
+        table
+            .keys()
+            .iter()
+            .any(|r| r.key == k || k.starts_with(&format!("{}.", r.key)))
     };
     let missing: Vec<&String> = keys.iter().filter(|k| !covered(k)).collect();
     assert!(missing.is_empty(), "keys without a row: {missing:?}");
     // A row names a key the schema takes (unknown keys are refused when read).
-    for r in NUMERIC {
+    for (r, _) in table.numbers() {
         // The default (an integer where it is one, which float keys also take), or a
         // value inside the rule for an optional key left out.
-        let value = (r.get)(&Scene::default()).unwrap_or(0.5).to_string();
+        let value = r.get(&Scene::default()).unwrap_or(0.5).to_string();
         let arg = format!("{}={value}", r.key);
         match Scene::from_toml("", Path::new("t.toml"), &[arg.clone()]) {
             Err(SceneError::Override { message, .. }) => panic!("{arg}: {message}"),
@@ -69,8 +70,8 @@ fn outside(a: Allowed) -> Option<&'static str> {
 #[test]
 fn every_rule_refuses_a_value_outside_it_naming_the_key() {
     let mut checked = 0;
-    for r in NUMERIC {
-        let Some(bad) = outside(r.allowed) else {
+    for (r, allowed) in keys::table().numbers() {
+        let Some(bad) = outside(allowed) else {
             continue;
         };
         // An integer key (controller.duty_*, sim.max_steps): an integer outside.
@@ -79,7 +80,7 @@ fn every_rule_refuses_a_value_outside_it_naming_the_key() {
             "controller.duty_max",
             "sim.max_steps",
         ];
-        let bad = match (integer.contains(&r.key), bad) {
+        let bad = match (integer.contains(&r.key.as_str()), bad) {
             (true, "0.0") => "0",
             (true, _) => "1000",
             (false, b) => b,
@@ -90,7 +91,7 @@ fn every_rule_refuses_a_value_outside_it_naming_the_key() {
             .unwrap_or_else(|| panic!("{arg} was accepted"));
         let text = err.to_string();
         assert!(
-            matches!(err, SceneError::Invalid { ref key, .. } if key == r.key),
+            matches!(err, SceneError::Invalid { ref key, .. } if *key == r.key),
             "{arg}: {text}"
         );
         checked += 1;
@@ -101,7 +102,7 @@ fn every_rule_refuses_a_value_outside_it_naming_the_key() {
 #[test]
 fn the_readme_scene_reference_is_the_table() {
     let readme = std::fs::read_to_string("README.md").unwrap();
-    let table = agvsim::scene::ranges::markdown();
+    let table = agvsim::scene::keys::markdown();
     assert!(
         readme.contains(&table),
         "README.md's scene reference differs from `agvsim keys`; paste its output between the markers"

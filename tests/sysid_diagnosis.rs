@@ -198,7 +198,7 @@ fn coulomb_friction_is_found_on_sysid_tests_with_ks_within_5_pct() {
     let dir = tmp("coulomb");
     let scene = sysid_scene("complex", &dir);
     let m = &scene.motor;
-    let ks_true = m.coulomb_Nm * m.resistance_ohm / m.torque_constant_Nm_A;
+    let ks_true = m.coulomb_nm * m.resistance_ohm / m.torque_constant_nm_a;
     let json = sysid_json(&scene, 6.0, &dir);
     let (d, imported_ks) = import_and_diagnose(&json, &dir);
     assert_eq!(effects(&d), ["coulomb_friction"], "{d:#}");
@@ -242,7 +242,7 @@ fn wheel_slip_on_the_steps_is_found_beside_coulomb_friction() {
     let castor_torque_nm = scene.castors.rolling_resistance * castor_load_n * scene.wheel.radius_m
         / scene.gearbox.ratio
         / 2.0;
-    let ks_true = (m.coulomb_Nm + castor_torque_nm) * m.resistance_ohm / m.torque_constant_Nm_A;
+    let ks_true = (m.coulomb_nm + castor_torque_nm) * m.resistance_ohm / m.torque_constant_nm_a;
     let json = sysid_json(&scene, 8.0, &dir);
     let (d, _) = import_and_diagnose(&json, &dir);
     let mut found = effects(&d);

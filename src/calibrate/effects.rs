@@ -71,7 +71,7 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
     };
     let stall_nm = {
         let m = &scene.motor;
-        m.torque_constant_Nm_A * scene.battery.drive_limit_V / m.resistance_ohm
+        m.torque_constant_nm_a * scene.battery.drive_limit_v / m.resistance_ohm
     };
     Ok(match effect {
         Effect::Backlash => {
@@ -79,7 +79,7 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
             home("gearbox.backlash_rad", if b >= 1e-3 { b } else { 0.03 })
         }
         Effect::CoulombFriction => {
-            let tc = scene.motor.coulomb_Nm;
+            let tc = scene.motor.coulomb_nm;
             home(
                 "motor.coulomb_Nm",
                 if tc > 1e-4 * stall_nm {
@@ -90,7 +90,7 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
             )
         }
         Effect::VoltageSaturation => {
-            let limit = scene.battery.drive_limit_V;
+            let limit = scene.battery.drive_limit_v;
             let start = match max_command_v {
                 Some(v) if v > 0.0 => limit.min(0.9 * v),
                 _ => 0.9 * limit,
@@ -113,9 +113,9 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
                     "the recording drives the DCMC by demand; the simulator's DCMC regulates its voltage against the battery, so its sag shows only as saturation (use voltage_saturation)",
                 ));
             }
-            if b.bridge_rated_V <= 0.0 {
+            if b.bridge_rated_v <= 0.0 {
                 h.switches
-                    .push(("battery.bridge_rated_V", format!("{:e}", b.open_circuit_V)));
+                    .push(("battery.bridge_rated_V", format!("{:e}", b.open_circuit_v)));
             }
             h
         }
@@ -154,7 +154,7 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
         Effect::FrictionAsymmetry => home("motor.viscous_ratio", scene.motor.viscous_ratio),
         Effect::Offset => Home {
             signed_range: Some(0.05 * stall_nm),
-            ..home("motor.offset_Nm", scene.motor.offset_Nm)
+            ..home("motor.offset_Nm", scene.motor.offset_nm)
         },
     })
 }
@@ -170,14 +170,14 @@ const SPEED_LOOP_START_CORRECTION_S: f64 = 1.0;
 /// closes a speed loop (`p`) gains the integral (`pi`). The integral gain starts where
 /// the loop corrects a speed error in [`SPEED_LOOP_START_CORRECTION_S`].
 fn speed_loop_home(scene: &Scene, mut h: Home) -> Home {
-    use crate::scene::DcmcKind;
+    use crate::model::dcmc::DcmcKind;
     let d = &scene.dcmc;
-    h.start = if d.ki_V_rad > 0.0 && d.kind != DcmcKind::Gain {
-        d.ki_V_rad
+    h.start = if d.ki_v_rad > 0.0 && d.kind != DcmcKind::Gain {
+        d.ki_v_rad
     } else {
         // An error held for the time raises the voltage by ki t times it, which moves the
         // speed by ki t / K times it: all of it at ki = K / t.
-        scene.motor.torque_constant_Nm_A / SPEED_LOOP_START_CORRECTION_S
+        scene.motor.torque_constant_nm_a / SPEED_LOOP_START_CORRECTION_S
     };
     let kind = match d.kind {
         DcmcKind::Gain | DcmcKind::GainPi => "\"gain_pi\"",
@@ -284,7 +284,7 @@ mod tests {
         assert!((h.start - 12.6).abs() < 1e-12);
         let sag = volts(Effect::BatterySag).unwrap();
         let on = switched_on(&scene, &sag).unwrap();
-        assert_eq!(on.battery.bridge_rated_V, scene.battery.open_circuit_V);
+        assert_eq!(on.battery.bridge_rated_v, scene.battery.open_circuit_v);
         // The scene's own 0.02 ohm already sags: the fit starts there.
         assert_eq!(on.battery.internal_resistance_ohm, 0.02);
         let e = volts(Effect::SpeedFeedback).unwrap_err().to_string();
@@ -300,7 +300,7 @@ mod tests {
         )
         .unwrap();
         let on = switched_on(&scene, &pi).unwrap();
-        assert_eq!(on.dcmc.kind, crate::scene::DcmcKind::GainPi);
+        assert_eq!(on.dcmc.kind, crate::model::dcmc::DcmcKind::GainPi);
         let e = volts(Effect::WheelSlip).unwrap_err().to_string();
         assert!(e.contains("lifted"), "{e}");
         let slip = home(

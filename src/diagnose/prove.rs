@@ -23,7 +23,7 @@ use crate::experiment::{EncoderSpeed, ENCODER_COUNTS};
 use crate::ident::effects::Effect;
 use crate::ident::IdentError;
 use crate::record::Recording;
-use crate::rig::{GearboxRig, MotorRig, Rig, SensorsRig, SupplyRig, WheelRig};
+use crate::rig::Rig;
 use crate::scene::Scene;
 use crate::sim::{Actuation, Sim};
 
@@ -154,14 +154,14 @@ fn record(
     rng: &mut Pcg64,
 ) -> Result<String, IdentError> {
     let mut sim = Sim::new(scene).map_err(|e| IdentError::Setup(e.to_string()))?;
-    let dt = sim.params().dt_s;
+    let dt = sim.params().sim.dt_s;
     let per = ((1.0 / rate_hz) / dt).round().max(1.0) as usize;
     let interval = per as f64 * dt;
     let n = (duration_s / interval) as usize;
     let mut csv = format!(
         "# agvsim-recording: 1\n# rig: drive_axis\n# description: agvsim proof case, lifted wheel, random voltage\n# sample_time_s: {interval}\n# source: agvsim {} simulation, fidelity {}\nt_s,voltage_V,motor_speed_rad_s,current_A\n",
         env!("CARGO_PKG_VERSION"),
-        sim.params().fidelity.name()
+        sim.params().sim.fidelity.name()
     );
     let (mut v, mut hold) = (0.0, 0usize);
     let mut encoder = EncoderSpeed::new(sim.drivetrains()[0].motor.angle_rad);
@@ -199,33 +199,20 @@ fn nominal_rig(scene: &Scene, rng: &mut Pcg64) -> Rig {
         x * (1.0 + sign * rng.random_range(0.05..0.25))
     };
     let m = &scene.motor;
-    Rig {
-        rig: "drive_axis".into(),
-        motor: Some(MotorRig {
-            resistance_ohm: Some(off(m.resistance_ohm)),
-            inductance_H: Some(off(m.inductance_H)),
-            torque_constant_Nm_A: Some(off(m.torque_constant_Nm_A)),
-            rotor_inertia_kg_m2: Some(off(m.rotor_inertia_kg_m2)),
-            viscous_Nm_s_rad: Some(off(m.viscous_Nm_s_rad)),
-            coulomb_Nm: None,
-        }),
-        gearbox: Some(GearboxRig {
-            ratio: Some(scene.gearbox.ratio),
-        }),
-        wheel: Some(WheelRig {
-            radius_m: Some(scene.wheel.radius_m),
-            inertia_kg_m2: Some(off(scene.wheel.inertia_kg_m2)),
-        }),
-        supply: Some(SupplyRig {
-            voltage_V: Some(scene.battery.open_circuit_V),
-        }),
-        sensors: Some(SensorsRig {
-            motor_encoder_counts_per_rev: Some(ENCODER_COUNTS),
-            current_noise_A: Some(0.2),
-            ..SensorsRig::default()
-        }),
-        ..Rig::default()
-    }
+    let mut rig = Rig::new("drive_axis");
+    // In this order: each belief draws its error in turn.
+    rig.set("motor.resistance_ohm", off(m.resistance_ohm));
+    rig.set("motor.inductance_H", off(m.inductance_h));
+    rig.set("motor.torque_constant_Nm_A", off(m.torque_constant_nm_a));
+    rig.set("motor.rotor_inertia_kg_m2", off(m.rotor_inertia_kg_m2));
+    rig.set("motor.viscous_Nm_s_rad", off(m.viscous_nm_s_rad));
+    rig.set("gearbox.ratio", scene.gearbox.ratio);
+    rig.set("wheel.radius_m", scene.wheel.radius_m);
+    rig.set("wheel.inertia_kg_m2", off(scene.wheel.inertia_kg_m2));
+    rig.set("supply.voltage_V", scene.battery.open_circuit_v);
+    rig.set("sensors.motor_encoder_counts_per_rev", ENCODER_COUNTS);
+    rig.set("sensors.current_noise_A", 0.2);
+    rig
 }
 
 /// Runs the proof: `quick` keeps the clean, Coulomb-friction and voltage-saturation cases at
@@ -393,14 +380,14 @@ fn record_vehicle(
     rng: &mut Pcg64,
 ) -> Result<String, IdentError> {
     let mut sim = Sim::new(scene).map_err(|e| IdentError::Setup(e.to_string()))?;
-    let dt = sim.params().dt_s;
+    let dt = sim.params().sim.dt_s;
     let per = ((1.0 / rate_hz) / dt).round().max(1.0) as usize;
     let interval = per as f64 * dt;
     let n = (duration_s / interval) as usize;
     let mut csv = format!(
         "# agvsim-recording: 1\n# rig: vehicle\n# description: agvsim proof case, vehicle on the floor, open-loop random voltages, tracker on every fourth row\n# sample_time_s: {interval}\n# source: agvsim {} simulation, fidelity {}\nt_s,left_voltage_V,right_voltage_V,x_m,y_m,heading_rad,left_motor_speed_rad_s,right_motor_speed_rad_s,left_current_A,right_current_A\n",
         env!("CARGO_PKG_VERSION"),
-        sim.params().fidelity.name()
+        sim.params().sim.fidelity.name()
     );
     let (mut target, mut level, mut hold) = ([0.0f64; 2], [0.0f64; 2], 0usize);
     let mut encoders = [0, 1].map(|s| EncoderSpeed::new(sim.drivetrains()[s].motor.angle_rad));
@@ -473,21 +460,18 @@ fn nominal_vehicle_rig(scene: &Scene, rng: &mut Pcg64) -> Result<Rig, IdentError
     rig.rig = "vehicle".into();
     let c = &params.chassis;
     let load_fraction = params.loads.drive_n.iter().sum::<f64>() / params.weight_n();
-    rig.chassis = Some(crate::rig::ChassisRig {
-        mass_kg: Some(off(c.mass_kg, 0.05, 0.25)),
-        yaw_inertia_kg_m2: Some(off(c.yaw_inertia_kg_m2, 0.05, 0.25)),
-        track_width_m: Some(off(c.track_width_m, 0.01, 0.03)),
-        drive_load_fraction: Some(load_fraction),
-    });
-    if let Some(w) = rig.wheel.as_mut() {
-        w.radius_m = Some(off(scene.wheel.radius_m, 0.01, 0.03));
-    }
-    if let Some(s) = rig.sensors.as_mut() {
-        s.current_noise_A = Some(0.2);
-        s.tracker_position_noise_m = Some(0.002);
-        s.tracker_heading_noise_rad = Some(0.005);
-        s.tracker_rate_hz = Some(rate_hz_of_tracker());
-    }
+    rig.set("chassis.mass_kg", off(c.mass_kg, 0.05, 0.25));
+    rig.set(
+        "chassis.yaw_inertia_kg_m2",
+        off(c.yaw_inertia_kg_m2, 0.05, 0.25),
+    );
+    rig.set("chassis.track_width_m", off(c.track_width_m, 0.01, 0.03));
+    rig.set("chassis.drive_load_fraction", load_fraction);
+    rig.set("wheel.radius_m", off(scene.wheel.radius_m, 0.01, 0.03));
+    rig.set("sensors.current_noise_A", 0.2);
+    rig.set("sensors.tracker_position_noise_m", 0.002);
+    rig.set("sensors.tracker_heading_noise_rad", 0.005);
+    rig.set("sensors.tracker_rate_hz", rate_hz_of_tracker());
     Ok(rig)
 }
 
@@ -505,7 +489,7 @@ fn vehicle_truth(scene: &Scene, effect: Option<Effect>) -> Result<f64, IdentErro
     Ok(match effect {
         Some(Effect::WheelSlip) => params.drive_tyre(params.floor.default).peak_mu,
         Some(Effect::CastorDrag) => {
-            params.castor_rolling_resistance * params.loads.castor_n.iter().sum::<f64>()
+            params.castors.rolling_resistance * params.loads.castor_n.iter().sum::<f64>()
         }
         _ => 0.0,
     })

@@ -27,7 +27,7 @@ use crate::model::GRAVITY_M_S2;
 use crate::record::Recording;
 use crate::run::{run_scene, RunError, RunOptions};
 use crate::scene::Scene;
-use crate::sim::{motor_params, Actuation, Sim, SimError};
+use crate::sim::{Actuation, Sim, SimError};
 use rigs::{axis_rig, falling_weight_rig, pair_rig, perturb, vehicle_rig};
 
 /// Which experiment.
@@ -360,7 +360,7 @@ fn lifted_random_demand(
 ) -> Result<(String, usize), ExperimentError> {
     let scene = lifted_scene(scene);
     let mut sim = Sim::new(&scene)?;
-    let per = steps_per(interval, sim.params().dt_s)?;
+    let per = steps_per(interval, sim.params().sim.dt_s)?;
     let n = (opts.duration_s / interval).round() as usize;
     // Zero demand for the DCMC's enable delay, so that the unit does not fault.
     let quiet = ((scene.dcmc.enable_delay_s + 0.1) / interval).ceil() as usize;
@@ -372,7 +372,7 @@ fn lifted_random_demand(
         &[
             ("description", format!("wheels lifted, {:?} forward and turn demands into the DCMC, motor encoders ({} counts/rev)", opts.pattern, ENCODER_COUNTS).to_lowercase()),
             ("sample_time_s", format!("{interval}")),
-            ("source", format!("agvsim {} simulation, fidelity {}", env!("CARGO_PKG_VERSION"), sim.params().fidelity.name())),
+            ("source", format!("agvsim {} simulation, fidelity {}", env!("CARGO_PKG_VERSION"), sim.params().sim.fidelity.name())),
             ("experiment", "lifted-random-demand".into()),
             ("seed", format!("{}", scene.sim.seed)),
         ],
@@ -436,7 +436,7 @@ fn falling_weight(
     interval: f64,
     rng: &mut Pcg64,
 ) -> (String, usize) {
-    let motor = motor_params(&scene.motor);
+    let motor = scene.motor;
     let (m, r) = (opts.weight_mass_kg, opts.pulley_radius_m);
     // While the cord is taut the weight's inertia rides on the rotor.
     let loaded = MotorParams {
@@ -503,11 +503,11 @@ fn coast_down(
 ) -> Result<(String, usize), ExperimentError> {
     let scene = lifted_scene(scene);
     let mut sim = Sim::new(&scene)?;
-    let per = steps_per(interval, sim.params().dt_s)?;
-    let full = scene.battery.drive_limit_V;
+    let per = steps_per(interval, sim.params().sim.dt_s)?;
+    let full = scene.battery.drive_limit_v;
     sim.set_actuation(Actuation::Voltage([full, full]));
     // Run up until the speed has settled (five mechanical time constants, at least 2 s).
-    let m = motor_params(&scene.motor);
+    let m = scene.motor;
     let j = m.rotor_inertia_kg_m2 + scene.wheel.inertia_kg_m2 / scene.gearbox.ratio.powi(2);
     let tau = j / (m.viscous_nm_s_rad + m.torque_constant_nm_a.powi(2) / m.resistance_ohm);
     sim.run_for((5.0 * tau).max(2.0), |_| {})?;
@@ -525,7 +525,7 @@ fn coast_down(
                 format!(
                     "agvsim {} simulation, fidelity {}",
                     env!("CARGO_PKG_VERSION"),
-                    sim.params().fidelity.name()
+                    sim.params().sim.fidelity.name()
                 ),
             ),
             ("experiment", "coast-down".into()),

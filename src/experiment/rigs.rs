@@ -1,146 +1,136 @@
 //! The rig files the experiments write: the scene's values as the experimenter's beliefs,
-//! optionally off by a seeded random error.
+//! optionally off by a seeded random error. Each rig key is read from the scene key it
+//! names ([`crate::rig::keys`]).
 
 use rand::Rng;
 use rand_pcg::Pcg64;
 
 use super::{ExperimentOptions, ENCODER_COUNTS};
-use crate::rig::{
-    ChassisRig, ControllerRig, FallingWeightRig, GearboxRig, MotorRig, Rig, SensorsRig, SupplyRig,
-    WheelRig,
-};
-use crate::scene::{DcmcKind, Scene};
+use crate::model::dcmc::DcmcKind;
+use crate::rig::Rig;
+use crate::scene::Scene;
 
-fn motor_rig(scene: &Scene) -> MotorRig {
-    let m = &scene.motor;
-    MotorRig {
-        resistance_ohm: Some(m.resistance_ohm),
-        inductance_H: Some(m.inductance_H),
-        torque_constant_Nm_A: Some(m.torque_constant_Nm_A),
-        rotor_inertia_kg_m2: Some(m.rotor_inertia_kg_m2),
-        viscous_Nm_s_rad: Some(m.viscous_Nm_s_rad),
-        coulomb_Nm: Some(m.coulomb_Nm),
+/// The motor's rig keys.
+const MOTOR: [&str; 6] = [
+    "motor.resistance_ohm",
+    "motor.inductance_H",
+    "motor.torque_constant_Nm_A",
+    "motor.rotor_inertia_kg_m2",
+    "motor.viscous_Nm_s_rad",
+    "motor.coulomb_Nm",
+];
+
+/// A rig of `kind` stating the scene's value of each rig key in `keys`.
+fn from_scene(kind: &str, scene: &Scene, keys: &[&str]) -> Rig {
+    let mut rig = Rig::new(kind);
+    let table = crate::scene::keys::table();
+    for key in keys {
+        let value = crate::rig::keys::find(key)
+            .and_then(|k| k.scene_key)
+            .and_then(|scene_key| table.find(scene_key))
+            .and_then(|k| k.get(scene));
+        if let Some(v) = value {
+            rig.set(key, v);
+        }
     }
+    rig
 }
 
-fn encoder() -> Option<SensorsRig> {
-    Some(SensorsRig {
-        motor_encoder_counts_per_rev: Some(ENCODER_COUNTS),
-        ..SensorsRig::default()
-    })
-}
-
+/// A lifted drive axis: motor, gearbox, wheel, supply and the motor encoder.
 pub(super) fn axis_rig(scene: &Scene) -> Rig {
-    Rig {
-        rig: "drive_axis".into(),
-        motor: Some(motor_rig(scene)),
-        gearbox: Some(GearboxRig {
-            ratio: Some(scene.gearbox.ratio),
-        }),
-        wheel: Some(WheelRig {
-            radius_m: Some(scene.wheel.radius_m),
-            inertia_kg_m2: Some(scene.wheel.inertia_kg_m2),
-        }),
-        supply: Some(SupplyRig {
-            voltage_V: Some(scene.battery.open_circuit_V),
-        }),
-        sensors: encoder(),
-        ..Rig::default()
-    }
+    let mut keys = MOTOR.to_vec();
+    keys.extend([
+        "gearbox.ratio",
+        "wheel.radius_m",
+        "wheel.inertia_kg_m2",
+        "supply.voltage_V",
+    ]);
+    with_encoder(from_scene("drive_axis", scene, &keys))
 }
 
-fn controller_rig(scene: &Scene) -> ControllerRig {
+fn with_encoder(mut rig: Rig) -> Rig {
+    rig.set("sensors.motor_encoder_counts_per_rev", ENCODER_COUNTS);
+    rig
+}
+
+/// The DCMC as the contract's rigs describe it: its gains, and its speed loop for `p` and
+/// `pi` (the contract knows the gain structure; its speed loop is the effect
+/// `speed_feedback` a diagnosis finds).
+fn with_controller(mut rig: Rig, scene: &Scene) -> Rig {
     let d = &scene.dcmc;
-    ControllerRig {
-        kind: Some(
-            match d.kind {
-                // The contract's rigs know the gain structure; its speed loop is the
-                // effect `speed_feedback` a diagnosis finds.
-                DcmcKind::Gain | DcmcKind::GainPi => "gain",
-                DcmcKind::P => "p",
-                DcmcKind::Pi => "pi",
-            }
-            .into(),
-        ),
-        gain_V_pct: Some(d.forward_gain_V_pct),
-        turn_gain_V_pct: Some(d.turn_gain_V_pct),
-        speed_per_pct_rad_s: matches!(d.kind, DcmcKind::P | DcmcKind::Pi)
-            .then_some(d.speed_per_pct_rad_s),
-        kp_V_s_rad: matches!(d.kind, DcmcKind::P | DcmcKind::Pi).then_some(d.kp_V_s_rad),
-        ki_V_rad: (d.kind == DcmcKind::Pi).then_some(d.ki_V_rad),
+    let kind = match d.kind {
+        DcmcKind::Gain | DcmcKind::GainPi => "gain",
+        DcmcKind::P => "p",
+        DcmcKind::Pi => "pi",
+    };
+    rig.set_text("controller.kind", kind);
+    rig.set("controller.gain_V_pct", d.forward_gain_v_pct);
+    rig.set("controller.turn_gain_V_pct", d.turn_gain_v_pct);
+    if matches!(d.kind, DcmcKind::P | DcmcKind::Pi) {
+        rig.set("controller.speed_per_pct_rad_s", d.speed_per_pct_rad_s);
+        rig.set("controller.kp_V_s_rad", d.kp_v_s_rad);
     }
+    if d.kind == DcmcKind::Pi {
+        rig.set("controller.ki_V_rad", d.ki_v_rad);
+    }
+    rig
 }
 
+/// Two lifted drive axes behind the DCMC.
 pub(super) fn pair_rig(scene: &Scene) -> Rig {
-    Rig {
-        rig: "drive_pair".into(),
-        controller: Some(controller_rig(scene)),
-        ..axis_rig(scene)
-    }
+    let mut rig = with_controller(axis_rig(scene), scene);
+    rig.rig = "drive_pair".into();
+    rig
 }
 
+/// The motor off the vehicle under a falling weight.
 pub(super) fn falling_weight_rig(scene: &Scene, opts: &ExperimentOptions) -> Rig {
-    Rig {
-        rig: "drive_axis".into(),
-        motor: Some(motor_rig(scene)),
-        falling_weight: Some(FallingWeightRig {
-            mass_kg: Some(opts.weight_mass_kg),
-            pulley_radius_m: Some(opts.pulley_radius_m),
-            drop_m: Some(opts.drop_m),
-        }),
-        sensors: encoder(),
-        ..Rig::default()
-    }
+    let mut rig = with_encoder(from_scene("drive_axis", scene, &MOTOR));
+    rig.set("falling_weight.mass_kg", opts.weight_mass_kg);
+    rig.set("falling_weight.pulley_radius_m", opts.pulley_radius_m);
+    rig.set("falling_weight.drop_m", opts.drop_m);
+    rig
 }
 
+/// The whole vehicle: the axis's keys, the DCMC and the chassis with its payload.
 pub(super) fn vehicle_rig(scene: &Scene) -> Rig {
+    let mut rig = with_controller(axis_rig(scene), scene);
+    rig.rig = "vehicle".into();
     let c = &scene.chassis;
-    Rig {
-        rig: "vehicle".into(),
-        controller: Some(controller_rig(scene)),
-        chassis: Some(ChassisRig {
-            mass_kg: Some(c.mass_kg + scene.payload.mass_kg),
-            yaw_inertia_kg_m2: Some(c.yaw_inertia_kg_m2),
-            track_width_m: Some(c.track_width_m),
-            drive_load_fraction: Some(c.drive_load_fraction),
-        }),
-        ..axis_rig(scene)
-    }
+    rig.set("chassis.mass_kg", c.mass_kg + scene.payload.mass_kg);
+    rig.set("chassis.yaw_inertia_kg_m2", c.yaw_inertia_kg_m2);
+    rig.set("chassis.track_width_m", c.track_width_m);
+    rig.set("chassis.drive_load_fraction", c.drive_load_fraction);
+    rig
 }
 
-/// Multiplies each uncertain value by a factor uniform in [1 - e, 1 + e]. Gear ratio,
-/// wheel radius, track and the test set-up (weight, pulley, drop) are measured, not believed.
+/// Keys that are measured, not believed: gear ratio, wheel radius, track, the supply and
+/// the test set-up (weight, pulley, drop, encoder).
+fn measured(key: &str) -> bool {
+    matches!(
+        key,
+        "gearbox.ratio"
+            | "wheel.radius_m"
+            | "supply.voltage_V"
+            | "chassis.track_width_m"
+            | "chassis.drive_load_fraction"
+    ) || key.starts_with("falling_weight.")
+        || key.starts_with("sensors.")
+}
+
+/// Multiplies each uncertain value by a factor uniform in [1 - e, 1 + e], in the rig's
+/// key order.
 pub(super) fn perturb(rig: Rig, e: f64, rng: &mut Pcg64) -> Rig {
     if e <= 0.0 {
         return rig;
     }
-    let mut f = |v: &mut Option<f64>| {
-        if let Some(x) = v {
-            *x *= 1.0 + e * rng.random_range(-1.0..=1.0);
-        }
-    };
     let mut rig = rig;
-    if let Some(m) = rig.motor.as_mut() {
-        f(&mut m.resistance_ohm);
-        f(&mut m.inductance_H);
-        f(&mut m.torque_constant_Nm_A);
-        f(&mut m.rotor_inertia_kg_m2);
-        f(&mut m.viscous_Nm_s_rad);
-        f(&mut m.coulomb_Nm);
-    }
-    if let Some(w) = rig.wheel.as_mut() {
-        f(&mut w.inertia_kg_m2);
-    }
-    if let Some(c) = rig.controller.as_mut() {
-        f(&mut c.gain_V_pct);
-        f(&mut c.turn_gain_V_pct);
-        f(&mut c.speed_per_pct_rad_s);
-        f(&mut c.kp_V_s_rad);
-        f(&mut c.ki_V_rad);
-    }
-    if let Some(c) = rig.chassis.as_mut() {
-        f(&mut c.mass_kg);
-        f(&mut c.yaw_inertia_kg_m2);
-    }
+    rig.map_numbers(|key, x| {
+        if measured(key) {
+            x
+        } else {
+            x * (1.0 + e * rng.random_range(-1.0..=1.0))
+        }
+    });
     rig
 }

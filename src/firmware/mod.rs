@@ -8,44 +8,120 @@
 pub mod pwm;
 pub mod swing_away;
 
-use swing_away::{SwingAwayInput, SwingAwayParams, SwingAwayState};
+use swing_away::{SwingAwayDesign, SwingAwayInput, SwingAwayParams, SwingAwayState};
 
-use crate::scene::ControllerKind;
+/// What the firmware does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize, serde::Serialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum ControllerKind {
+    /// The lab runs: P-D wire following at a constant forward demand.
+    #[default]
+    Pd,
+    /// PLAYTIME.C: follow, lose the wire, stop and spin to find it, re-centre, go on.
+    OpenDay,
+    /// No controller: constant demands (for identification and property tests).
+    OpenLoop,
+    /// The thesis's "swing away" reversing strategy on the front pair alone: steer the
+    /// drive axle onto a wire assumed straight, by dead reckoning from wheel odometry
+    /// (`[controller.swing_away]`; needs `reverse = true`). The thesis describes it but
+    /// did not build it.
+    SwingAway,
+}
+
+impl crate::param::Value for ControllerKind {}
+impl crate::param::Value for SwingAwayDesign {}
+
+/// What `controller.kind` takes.
+fn controller_kinds() -> String {
+    "`pd`, `open_day`, `open_loop`, `swing_away` (needs `reverse = true`)".into()
+}
+
+/// What `controller.swing_away` takes.
+fn swing_away_table() -> String {
+    "`[controller.swing_away]`: the keys below".into()
+}
+
+crate::declare_params! {
+    /// The 80C552 firmware: fixed-point P-D law, timer period, PWM outputs and filter
+    /// (scene section `[controller]`).
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    pub struct ControllerParams {
+        /// What the firmware does: `pd` (the lab runs), `open_day` (PLAYTIME.C),
+        /// `open_loop` (constant demands) or `swing_away` (reversing).
+        kind: ControllerKind = ControllerKind::Pd, "", other(controller_kinds);
+        /// Proportional gain numerator (firmware: -1).
+        kp_num: i32 = -1, "", Integer;
+        /// Proportional gain denominator (firmware: 20).
+        kp_den: i32 = 20, "", NonZeroInteger;
+        /// Derivative gain numerator (firmware: 1).
+        kd_num: i32 = 1, "", Integer;
+        /// Derivative gain denominator (firmware: 8).
+        kd_den: i32 = 8, "", NonZeroInteger;
+        /// Multiplies the proportional gain; 1.0 is the firmware's Kp = kp_num/kp_den.
+        /// This is the "proportional gain" of the thesis's simulation sweeps (0.1-6.0).
+        gain_scale: f64 = 1.0, "", NonNegative;
+        /// Control period (CNTRLPERIOD 0x10 on timer 2: 4096 ticks of 7.63 us = 31.25 ms).
+        period_s: f64 = 0.03125, "s", Positive;
+        /// Delay from sampling the ADC to writing the PWM registers (*assumed*).
+        compute_delay_s: f64 = 0.004, "s", NonNegative;
+        /// Forward demand as PWM counts above 127 (lab runs: ForwardVelocity 100).
+        forward_counts: i32 = 100, "counts", Integer;
+        /// Reversing: drive backwards and steer on the rear coil pair if there is one.
+        reverse: bool = false, "", other(crate::param::true_or_false);
+        /// Set-point of the sensor difference.
+        reference_counts: i32 = 0, "counts", Integer;
+        /// Lowest PWM duty the DCMC accepts, counts of 255 (127 = stop).
+        duty_min: i32 = 20, "counts", closed_open(0.0, 127.0);
+        /// Highest PWM duty the DCMC accepts, counts of 255.
+        duty_max: i32 = 236, "counts", open_closed(127.0, 255.0);
+        /// PWM low-pass filter corner (-3 dB).
+        pwm_filter_hz: f64 = 100.0, "Hz", Positive;
+        /// Keep the P-D law's fraction of a count and dither the 8-bit PWM registers
+        /// (each interrupt's rounding residue carried to the next), so the filtered
+        /// demand averages the fractional command; `false`: the C as printed, each term
+        /// truncated to whole counts. *Assumed* `true` for the thesis machine: the
+        /// printed arithmetic would never turn it from the floor runs' start, yet it did.
+        pwm_dither: bool = true, "", other(crate::param::true_or_false);
+        /// The firmware waits this long after enabling the DCMC before it drives (Delay(60)).
+        start_delay_s: f64 = 1.0, "s", NonNegative;
+        /// Open loop: constant forward demand.
+        open_loop_forward_pct: f64 = 0.0, "pct", Finite;
+        /// Open loop: constant turn demand.
+        open_loop_turn_pct: f64 = 0.0, "pct", Finite;
+        /// Open day: crawl speed (CRAWLSPEED 0x20).
+        crawl_counts: i32 = 0x20, "counts", Integer;
+        /// Open day: spin speed (TURNSPEED 0x20).
+        spin_counts: i32 = 0x20, "counts", Integer;
+        /// Open day: a reading above this ends the spin (COOEE 0x60).
+        found_adc: i32 = 0x60, "counts", Integer;
+        /// Open day: re-centring ends within this sensor difference (CLOSETOHOME 0x30).
+        centred_counts: i32 = 0x30, "counts", Integer;
+        /// Open day: denominator of the stronger re-centring gain (Kpt = -1/4).
+        centring_kp_den: i32 = 4, "", NonZeroInteger;
+        /// Stop (bumper interrupt) on contact with an obstacle.
+        bumper: bool = true, "", other(crate::param::true_or_false);
+        /// The swing-away reversing strategy's design (kind `swing_away`).
+        swing_away: SwingAwayDesign = SwingAwayDesign::default(), "", other(swing_away_table);
+    }
+}
 
 /// PWM duty that means "stop" (half of 255).
 pub const HALF_DUTY: i32 = 127;
 
+/// The firmware as it runs on its machine: its settings, and what the fidelity level and
+/// the rest of the vehicle decide of it.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FirmwareParams {
-    pub kind: ControllerKind,
-    pub kp_num: i32,
-    pub kp_den: i32,
-    pub kd_num: i32,
-    pub kd_den: i32,
-    pub gain_scale: f64,
+pub struct Firmware {
+    /// The firmware's settings.
+    pub controller: ControllerParams,
     /// Sampling period, s; `None`: a continuous controller (evaluated every physics step).
     pub period_s: Option<f64>,
+    /// Delay from sampling to writing the PWM registers, s (0 for a continuous controller).
     pub compute_delay_s: f64,
     /// Integer arithmetic as on the 8-bit micro (C division truncates toward zero).
     pub integer_math: bool,
-    /// Keep the law's fraction and dither the PWM registers by error feedback (the
-    /// rounding residue of each interrupt carried to the next) instead of truncating.
-    pub pwm_dither: bool,
-    pub forward_counts: i32,
-    pub reverse: bool,
-    pub reference_counts: i32,
-    pub duty_min: i32,
-    pub duty_max: i32,
-    pub start_delay_s: f64,
-    pub open_loop_forward_pct: f64,
-    pub open_loop_turn_pct: f64,
-    pub crawl_counts: i32,
-    pub spin_counts: i32,
-    pub found_adc: i32,
-    pub centred_counts: i32,
-    pub centring_kp_den: i32,
+    /// The wire counts as lost when both readings are below this, counts.
     pub lost_threshold_adc: f64,
-    pub bumper: bool,
     /// The swing-away reversing strategy (controller kind `swing_away` only).
     pub swing_away: Option<SwingAwayParams>,
 }
@@ -120,7 +196,7 @@ pub struct FirmwareInput {
     pub wheel_speed_m_s: [f64; 2],
 }
 
-impl FirmwareParams {
+impl Firmware {
     /// Starting state: DCMC enabled at t = 0, drives after the start delay.
     pub fn initial_state(&self) -> FirmwareState {
         FirmwareState {
@@ -143,7 +219,7 @@ impl FirmwareParams {
     /// `num * e / den` as the firmware computes it (integer: truncation toward zero).
     fn gain_times(&self, num: i32, den: i32, scale: f64, e: f64) -> f64 {
         let v = num as f64 * scale * e / den as f64;
-        if self.integer_math && !self.pwm_dither {
+        if self.integer_math && !self.controller.pwm_dither {
             v.trunc()
         } else {
             v
@@ -153,12 +229,17 @@ impl FirmwareParams {
     /// `Ut = Kp (R - X[1]) + Kd (X[0] - X[1])`.
     fn pd_turn(&self, s: &FirmwareState, kp_den: i32) -> f64 {
         let p = self.gain_times(
-            self.kp_num,
+            self.controller.kp_num,
             kp_den,
-            self.gain_scale,
-            self.reference_counts as f64 - s.x_hist[1],
+            self.controller.gain_scale,
+            self.controller.reference_counts as f64 - s.x_hist[1],
         );
-        let d = self.gain_times(self.kd_num, self.kd_den, 1.0, s.x_hist[0] - s.x_hist[1]);
+        let d = self.gain_times(
+            self.controller.kd_num,
+            self.controller.kd_den,
+            1.0,
+            s.x_hist[0] - s.x_hist[1],
+        );
         p + d
     }
 
@@ -169,16 +250,17 @@ impl FirmwareParams {
         for (i, v) in [forward, turn].into_iter().enumerate() {
             let wanted = HALF_DUTY as f64
                 + v
-                + if self.pwm_dither {
+                + if self.controller.pwm_dither {
                     s.dither_residue[i]
                 } else {
                     0.0
                 };
-            let written = wanted
-                .round()
-                .clamp(self.duty_min as f64, self.duty_max as f64);
+            let written = wanted.round().clamp(
+                self.controller.duty_min as f64,
+                self.controller.duty_max as f64,
+            );
             // A clipped register carries nothing over (no wind-up against the limit).
-            s.dither_residue[i] = if self.pwm_dither && written == wanted.round() {
+            s.dither_residue[i] = if self.controller.pwm_dither && written == wanted.round() {
                 wanted - written
             } else {
                 0.0
@@ -197,7 +279,7 @@ impl FirmwareParams {
                 s.pending = None;
             }
         }
-        if self.bumper && u.bumper && s.phase != Phase::Stopped {
+        if self.controller.bumper && u.bumper && s.phase != Phase::Stopped {
             // The bumper interrupt: both channels to half duty, DCMC disabled, at once.
             s.phase = Phase::Stopped;
             s.duty = [HALF_DUTY, HALF_DUTY];
@@ -236,20 +318,20 @@ impl FirmwareParams {
     fn command(&self, s: &mut FirmwareState, u: &FirmwareInput) -> [f64; 2] {
         let t_s = u.t_s;
         if s.phase == Phase::Starting {
-            if t_s + 1e-9 < self.start_delay_s {
+            if t_s + 1e-9 < self.controller.start_delay_s {
                 return [0.0, 0.0];
             }
             s.phase = Phase::Follow;
         }
-        let sign = if self.reverse { -1.0 } else { 1.0 };
-        match self.kind {
+        let sign = if self.controller.reverse { -1.0 } else { 1.0 };
+        match self.controller.kind {
             ControllerKind::OpenLoop => [
-                self.open_loop_forward_pct * crate::firmware::pwm::COUNTS_PER_PCT,
-                self.open_loop_turn_pct * crate::firmware::pwm::COUNTS_PER_PCT,
+                self.controller.open_loop_forward_pct * crate::firmware::pwm::COUNTS_PER_PCT,
+                self.controller.open_loop_turn_pct * crate::firmware::pwm::COUNTS_PER_PCT,
             ],
             ControllerKind::Pd => [
-                sign * self.forward_counts as f64,
-                sign * self.pd_turn(s, self.kp_den),
+                sign * self.controller.forward_counts as f64,
+                sign * self.pd_turn(s, self.controller.kp_den),
             ],
             ControllerKind::SwingAway => {
                 let turn = self.swing_away.map_or(0.0, |p| {
@@ -263,7 +345,7 @@ impl FirmwareParams {
                         },
                     )
                 });
-                [sign * self.forward_counts as f64, turn]
+                [sign * self.controller.forward_counts as f64, turn]
             }
             ControllerKind::OpenDay => match s.phase {
                 Phase::Follow => {
@@ -271,24 +353,30 @@ impl FirmwareParams {
                         s.phase = Phase::Spin;
                         self.spin(s)
                     } else {
-                        [self.crawl_counts as f64, self.pd_turn(s, self.kp_den)]
+                        [
+                            self.controller.crawl_counts as f64,
+                            self.pd_turn(s, self.controller.kp_den),
+                        ]
                     }
                 }
                 Phase::Spin => {
                     // Spin until either reading exceeds COOEE, then re-centre.
-                    if s.peak_reading_adc > self.found_adc as f64 {
+                    if s.peak_reading_adc > self.controller.found_adc as f64 {
                         s.phase = Phase::Centre;
-                        [0.0, self.pd_turn(s, self.centring_kp_den)]
+                        [0.0, self.pd_turn(s, self.controller.centring_kp_den)]
                     } else {
                         self.spin(s)
                     }
                 }
                 Phase::Centre => {
-                    if s.x_hist[0].abs() < self.centred_counts as f64 {
+                    if s.x_hist[0].abs() < self.controller.centred_counts as f64 {
                         s.phase = Phase::Follow;
-                        [self.crawl_counts as f64, self.pd_turn(s, self.kp_den)]
+                        [
+                            self.controller.crawl_counts as f64,
+                            self.pd_turn(s, self.controller.kp_den),
+                        ]
                     } else {
-                        [0.0, self.pd_turn(s, self.centring_kp_den)]
+                        [0.0, self.pd_turn(s, self.controller.centring_kp_den)]
                     }
                 }
                 Phase::Starting | Phase::Stopped => [0.0, 0.0],
@@ -299,9 +387,9 @@ impl FirmwareParams {
     /// Spin on the spot towards the side the wire was last seen (positive turn = left).
     fn spin(&self, s: &FirmwareState) -> [f64; 2] {
         let turn = if s.last_seen_right {
-            -self.spin_counts
+            -self.controller.spin_counts
         } else {
-            self.spin_counts
+            self.controller.spin_counts
         };
         [0.0, turn as f64]
     }

@@ -66,6 +66,27 @@ pub struct SwingAwayInput {
     pub t_s: f64,
 }
 
+crate::declare_params! {
+    /// The swing-away reversing strategy's gains (scene section `[controller.swing_away]`).
+    /// The defaults are ours (*assumed*): a heading loop several times faster than the
+    /// axle loop.
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    pub struct SwingAwayDesign {
+        /// Rate at which the axle closes on the assumed line.
+        axle_gain_per_s: f64 = 0.5, "1/s", Positive;
+        /// Yaw-rate demand per rad of heading error.
+        heading_gain_per_s: f64 = 2.5, "1/s", Positive;
+        /// Largest heading demand relative to the line.
+        max_heading_rad: f64 = 0.35, "rad", open(0.0, std::f64::consts::FRAC_PI_2);
+        /// Share of the disagreement between sensed and estimated pair offset the
+        /// estimate takes at each interrupt.
+        correction: f64 = 0.2, "", closed(0.0, 1.0);
+        /// Reverse straight this long after first seeing the wire (the wheels spin up and
+        /// would mislead the odometry) before taking the line estimate and steering.
+        straight_start_s: f64 = 1.0, "s", NonNegative;
+    }
+}
+
 /// The strategy's design: what it knows of the vehicle, and its gains.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SwingAwayParams {
@@ -79,18 +100,8 @@ pub struct SwingAwayParams {
     pub track_width_m: f64,
     /// Steady yaw rate of one count of turn demand, rad/s (from the DCMC and drivetrain).
     pub yaw_rate_per_turn_count: f64,
-    /// Axle-offset gain: the heading demand makes the axle close on the line at this rate,
-    /// 1/s.
-    pub axle_gain_per_s: f64,
-    /// Heading gain: yaw-rate demand per rad of heading error, 1/s.
-    pub heading_gain_per_s: f64,
-    /// Largest heading demand, rad.
-    pub max_heading_rad: f64,
-    /// Share of the sensed offset's disagreement the estimate takes at each interrupt.
-    pub correction: f64,
-    /// The strategy reverses straight for this long after it first sees the wire, while
-    /// the wheels spin up, and only then takes its line estimate and steers, s.
-    pub straight_start_s: f64,
+    /// The strategy's gains.
+    pub design: SwingAwayDesign,
 }
 
 /// The heading demand divides by the reversing speed; below this it uses this, m/s.
@@ -153,7 +164,7 @@ impl SwingAwayParams {
                     return 0.0;
                 }
                 let since = *s.straight_since_s.get_or_insert(u.t_s);
-                if u.t_s - since < self.straight_start_s {
+                if u.t_s - since < self.design.straight_start_s {
                     return 0.0;
                 }
                 // The strategy starts from where it assumes it is: parallel to the wire,
@@ -169,14 +180,15 @@ impl SwingAwayParams {
                 if u.wire_seen {
                     let predicted = e.axle_offset_m + l * e.heading_rad.sin();
                     let sensed = self.sensed_offset_m(u.readings_adc);
-                    e.axle_offset_m += self.correction * (sensed - predicted);
+                    e.axle_offset_m += self.design.correction * (sensed - predicted);
                 }
                 e
             }
         };
         let reversing_m_s = (-speed_m_s).max(MIN_REVERSING_M_S);
         let heading_demand = self.heading_to_close(e.axle_offset_m, reversing_m_s);
-        let yaw_rate_demand = self.heading_gain_per_s * wrap_angle(heading_demand - e.heading_rad);
+        let yaw_rate_demand =
+            self.design.heading_gain_per_s * wrap_angle(heading_demand - e.heading_rad);
         yaw_rate_demand / self.yaw_rate_per_turn_count
     }
 
@@ -184,8 +196,8 @@ impl SwingAwayParams {
     /// closes on it at `axle_gain_per_s`: the axle moves by `-speed sin(heading)`, so the
     /// nose swings away from the side the axle is on. Rad.
     pub fn heading_to_close(&self, axle_offset_m: f64, reversing_m_s: f64) -> f64 {
-        let limit = self.max_heading_rad.sin();
-        (self.axle_gain_per_s * axle_offset_m / reversing_m_s)
+        let limit = self.design.max_heading_rad.sin();
+        (self.design.axle_gain_per_s * axle_offset_m / reversing_m_s)
             .clamp(-limit, limit)
             .asin()
     }
@@ -206,11 +218,10 @@ mod tests {
             sensor_ahead_m: 0.45,
             track_width_m: 0.5,
             yaw_rate_per_turn_count: 0.04,
-            axle_gain_per_s: 0.5,
-            heading_gain_per_s: 2.5,
-            max_heading_rad: 0.35,
-            correction: 0.2,
-            straight_start_s: 0.0,
+            design: SwingAwayDesign {
+                straight_start_s: 0.0,
+                ..SwingAwayDesign::default()
+            },
         }
     }
 

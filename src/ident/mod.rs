@@ -166,7 +166,7 @@ pub fn build_structure(
             Some("falling-weight") => ModelChoice::FallingWeight,
             Some("coast-down") => ModelChoice::CoastDown,
             _ => match rig.rig.as_str() {
-                "drive_pair" => match rig.controller.as_ref().and_then(|c| c.kind.as_deref()) {
+                "drive_pair" => match rig.text("controller.kind") {
                     Some("p") => ModelChoice::P,
                     Some("pi") => ModelChoice::Pi,
                     _ => ModelChoice::Gain,

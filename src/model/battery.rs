@@ -1,16 +1,26 @@
 //! Battery: two 12 V lead-acid cells in series with internal resistance, the H-bridge's
 //! voltage ceiling under load, and the DCMC's low-voltage threshold.
 
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct BatteryParams {
-    pub open_circuit_v: f64,
-    pub internal_resistance_ohm: f64,
-    /// Highest motor voltage the bridges deliver, V.
-    pub drive_limit_v: f64,
-    pub low_voltage_fault_v: f64,
-    /// The supply voltage a bridge assumes when it turns a voltage command into a PWM duty,
-    /// V; 0 for a compensated bridge, which measures its supply (see [`Self::bridge_output_v`]).
-    pub bridge_rated_v: f64,
+crate::declare_params! {
+    /// The battery and the H-bridges' limits (scene section `[battery]`): two 12 V
+    /// lead-acid batteries in series on the thesis machine.
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    pub struct BatteryParams {
+        /// Open-circuit voltage.
+        open_circuit_v as "open_circuit_V": f64 = 24.0, "V", Positive;
+        /// Internal resistance (*assumed*).
+        internal_resistance_ohm: f64 = 0.02, "ohm", NonNegative;
+        /// Highest voltage the H-bridges deliver to a motor under load (23.5 V measured).
+        drive_limit_v as "drive_limit_V": f64 = 23.5, "V", Positive;
+        /// The DCMC faults when the battery's terminal voltage falls below this.
+        low_voltage_fault_v as "low_voltage_fault_V": f64 = 22.0, "V", NonNegative;
+        /// For motor-voltage commands (a recording's `voltage_V`): the supply voltage the
+        /// bridges assume when they set their PWM duty. 0 (default): compensated bridges,
+        /// which deliver the command while the battery can. Above 0: duty = command / this
+        /// (clipped to 1), times the battery's terminal voltage, so its sag under current
+        /// scales every command (the contract's `battery_sag`).
+        bridge_rated_v as "bridge_rated_V": f64 = 0.0, "V", NonNegative;
+    }
 }
 
 impl BatteryParams {

@@ -5,9 +5,53 @@
 
 use super::GRAVITY_M_S2;
 
-/// Rigid-body and geometry parameters of the vehicle (payload included).
+crate::declare_params! {
+    /// The bare vehicle with its batteries (scene section `[chassis]`). The body frame
+    /// has its origin at the midpoint of the drive axle, x forward, y to the left.
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    pub struct ChassisParams {
+        /// Mass with batteries ("a 120 kg Logo turtle").
+        mass_kg: f64 = 120.0, "kg", Positive;
+        /// Yaw inertia about the centre of gravity (*assumed*: from CAD, not given).
+        yaw_inertia_kg_m2: f64 = 14.0, "kg m^2", Positive;
+        /// Distance between the drive wheels (*assumed*).
+        track_width_m: f64 = 0.50, "m", Positive;
+        /// Centre of gravity ahead of the drive axle (*assumed*).
+        cg_x_m: f64 = 0.05, "m", Finite;
+        /// Centre of gravity left of the centre line.
+        cg_y_m: f64 = 0.0, "m", Finite;
+        /// Share of the weight on the two drive wheels (the hinged chassis keeps them
+        /// loaded).
+        drive_load_fraction: f64 = 0.6, "", OpenFraction;
+        /// Front edge of the body ahead of the drive axle: outline and bumper (*assumed*).
+        front_m: f64 = 0.55, "m", Positive;
+        /// Rear edge of the body behind the drive axle (*assumed*).
+        rear_m: f64 = 0.45, "m", Positive;
+        /// Body width (*assumed*).
+        width_m: f64 = 0.62, "m", Positive;
+    }
+}
+
+crate::declare_params! {
+    /// Load on the scissor-lift platform (scene section `[payload]`): adds mass and
+    /// inertia and may shift the centre of gravity.
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    pub struct PayloadParams {
+        /// Payload mass (design payload 200 kg).
+        mass_kg: f64 = 0.0, "kg", NonNegative;
+        /// Payload centre of gravity ahead of the drive axle.
+        cg_x_m: f64 = 0.05, "m", Finite;
+        /// Payload centre of gravity left of the centre line.
+        cg_y_m: f64 = 0.0, "m", Finite;
+        /// Payload yaw inertia about its own centre of gravity.
+        yaw_inertia_kg_m2: f64 = 0.0, "kg m^2", NonNegative;
+    }
+}
+
+/// The vehicle as it runs: chassis and payload combined (mass, yaw inertia and centre of
+/// gravity), the track and where the castors stand.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ChassisParams {
+pub struct LoadedChassis {
     pub mass_kg: f64,
     /// Yaw inertia about the centre of gravity, kg m^2.
     pub yaw_inertia_kg_m2: f64,
@@ -29,7 +73,7 @@ pub struct NormalLoads {
     pub castor_n: [f64; 4],
 }
 
-impl ChassisParams {
+impl LoadedChassis {
     /// Combines the bare vehicle and a payload (parallel-axis theorem for the yaw inertia).
     pub fn with_payload(
         mass_kg: f64,
@@ -104,13 +148,18 @@ impl ChassisParams {
     }
 }
 
-/// Pose of the drive-axle midpoint, world frame.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Pose {
-    pub x_m: f64,
-    pub y_m: f64,
-    /// Heading, rad, unwrapped.
-    pub heading_rad: f64,
+crate::declare_params! {
+    /// Pose of the drive-axle midpoint, world frame (a scene's start is one: section
+    /// `[start]`).
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    pub struct Pose {
+        /// Position along the world's x axis.
+        x_m: f64 = 0.0, "m", Finite;
+        /// Position along the world's y axis.
+        y_m: f64 = 0.0, "m", Finite;
+        /// Heading from the x axis, counter-clockwise, unwrapped.
+        heading_rad: f64 = 0.0, "rad", Finite;
+    }
 }
 
 /// A pose with its heading's sine and cosine worked out once, for mapping several points
@@ -172,7 +221,7 @@ impl Pose {
 /// Parameters of the no-slip chassis (thesis levels 1-3).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NoSlipParams {
-    pub chassis: ChassisParams,
+    pub chassis: LoadedChassis,
     pub wheel_radius_m: f64,
     pub wheel_inertia_kg_m2: f64,
     pub linear_drag_n_s_m: f64,
@@ -330,8 +379,8 @@ pub fn wrap_angle(a: f64) -> f64 {
 mod tests {
     use super::*;
 
-    fn params(cg: [f64; 2]) -> ChassisParams {
-        ChassisParams {
+    fn params(cg: [f64; 2]) -> LoadedChassis {
+        LoadedChassis {
             mass_kg: 120.0,
             yaw_inertia_kg_m2: 14.0,
             cg_m: cg,

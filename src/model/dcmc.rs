@@ -16,39 +16,157 @@
 //! limits.
 
 use super::speed_loop::SpeedLoopGains;
-pub use crate::scene::DcmcKind;
 
+/// How the DCMC turns demand into motor voltage (the thesis's identification cases).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize, serde::Serialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum DcmcKind {
+    /// Case 1: a gain matrix from (forward, turn) to (left, right) voltage.
+    #[default]
+    Gain,
+    /// Case 2-I: proportional speed loop.
+    P,
+    /// Case 2-II: proportional-integral speed loop.
+    Pi,
+    /// The gain structure's voltage plus integral action on the speed error, the set-point
+    /// being the speed that voltage gives the unloaded motor (a unit calibrated to its
+    /// motor: forward gain over the back-EMF constant per percent); no proportional term.
+    /// The contract's `speed_feedback`, its integral gain `ki_V_rad`.
+    #[serde(rename = "gain_pi")]
+    GainPi,
+}
+
+impl crate::param::Value for DcmcKind {}
+
+/// What `dcmc.kind` takes.
+fn dcmc_kinds() -> String {
+    "`gain`, `p`, `pi`, `gain_pi`".into()
+}
+
+crate::declare_params! {
+    /// The wheelchair motor controller (Dynamic Controls DCMC; scene section `[dcmc]`).
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    pub struct DcmcParams {
+        /// How demand becomes motor voltage: a gain matrix (`gain`), a proportional
+        /// (`p`) or proportional-integral (`pi`) speed loop, or the gain's voltage with
+        /// integral action on the speed error (`gain_pi`).
+        kind: DcmcKind = DcmcKind::Gain, "", other(dcmc_kinds);
+        /// `gain`: volts per percent of forward demand. Default matched to the thesis's
+        /// case-1 identification (see `response_time_left_s`).
+        forward_gain_v_pct as "forward_gain_V_pct": f64 = 0.1623, "V/pct", Finite;
+        /// `gain`: volts per percent of turn demand (added right, subtracted left). Default
+        /// matched likewise: the identified turn/forward column ratio is the thesis's 0.72.
+        turn_gain_v_pct as "turn_gain_V_pct": f64 = 0.1020, "V/pct", Finite;
+        /// `p`/`pi`: motor speed set-point per percent of demand.
+        speed_per_pct_rad_s: f64 = 3.5, "rad/s per pct", Positive;
+        /// `p`/`pi`: proportional gain of the speed loop.
+        kp_v_s_rad as "kp_V_s_rad": f64 = 0.5, "V s/rad", NonNegative;
+        /// `pi`, `gain_pi`: integral gain of the speed loop.
+        ki_v_rad as "ki_V_rad": f64 = 4.0, "V/rad", NonNegative;
+        /// A non-zero demand within this time of enabling faults the DCMC.
+        enable_delay_s: f64 = 0.5, "s", NonNegative;
+        /// |forward| + |turn| demand above this faults the DCMC.
+        combined_fault_pct: f64 = 185.0, "pct", Positive;
+        /// When a side would saturate, keep the turn and slow the common speed.
+        turn_priority: bool = true, "", other(crate::param::true_or_false);
+        /// Active braking gain when disabled or faulted (drives the speed to zero).
+        brake_gain_v_s_rad as "brake_gain_V_s_rad": f64 = 0.3, "V s/rad", NonNegative;
+        /// Armature current limit per motor (*assumed*: wheelchair controllers limit at
+        /// 40-70 A).
+        current_limit_a as "current_limit_A": f64 = 40.0, "A", Positive;
+        /// The unit's acceleration setting: the left side's demand may change by at most
+        /// this, percent of full demand per second (0: no limit). See `agvsim study
+        /// thesis-dcmc`.
+        ramp_left_pct_s: f64 = 0.0, "pct/s", NonNegative;
+        /// The same for the right side (0: no limit).
+        ramp_right_pct_s: f64 = 0.0, "pct/s", NonNegative;
+        /// The unit's turn acceleration setting: the turn demand may change by at most
+        /// this, percent of full turn demand per second (0: no limit).
+        turn_ramp_pct_s: f64 = 0.0, "pct/s", NonNegative;
+        /// Time constant of the unit's first-order lag on the left side's forward demand
+        /// (0: none). Default matched, with the two gains, so that the machine's
+        /// lifted-wheel runs identified with the thesis's case-1 structure give the
+        /// thesis's A and B (section 5.2.1; `agvsim study thesis-dcmc`). Equal on both
+        /// sides: a 12 % side difference would yaw the vehicle 0.1 rad at every start.
+        response_time_left_s: f64 = 0.699, "s", NonNegative;
+        /// The same for the right side (0: none).
+        response_time_right_s: f64 = 0.699, "s", NonNegative;
+        /// Time constant of the lag on the turn demand (0: none). *Assumed* 0: the
+        /// thesis's case-1 structure cannot tell a turn lag from a forward one, and with
+        /// the forward lags on the turn demand too the firmware's P-D loop at the thesis's
+        /// gains loses the wire, which the thesis's vehicle did not.
+        turn_response_time_s: f64 = 0.0, "s", NonNegative;
+        /// Dead time between an external command (a recording's voltages or demands, as
+        /// `replay` applies them) and the drive acting on it (default 0). The contract's
+        /// `transport_delay`. The firmware's own delay is `controller.compute_delay_s`.
+        command_delay_s: f64 = 0.0, "s", NonNegative;
+    }
+}
+
+impl DcmcParams {
+    /// The unit's acceleration setting as a rate limit per side, if either side has one
+    /// (a side set to 0 is unlimited).
+    pub fn ramp(&self) -> Option<DcmcRamp> {
+        (self.ramp_left_pct_s > 0.0 || self.ramp_right_pct_s > 0.0).then_some(DcmcRamp {
+            left_pct_s: positive_or_unlimited(self.ramp_left_pct_s),
+            right_pct_s: positive_or_unlimited(self.ramp_right_pct_s),
+        })
+    }
+
+    /// The unit's turn acceleration setting, pct/s, if it has one.
+    pub fn turn_ramp(&self) -> Option<f64> {
+        (self.turn_ramp_pct_s > 0.0).then_some(self.turn_ramp_pct_s)
+    }
+
+    /// The unit's demand lags, if it has any.
+    pub fn response(&self) -> Option<DcmcResponse> {
+        (self.response_time_left_s > 0.0
+            || self.response_time_right_s > 0.0
+            || self.turn_response_time_s > 0.0)
+            .then_some(DcmcResponse {
+                left_time_constant_s: self.response_time_left_s,
+                right_time_constant_s: self.response_time_right_s,
+                turn_time_constant_s: self.turn_response_time_s,
+            })
+    }
+
+    /// The unit with its lags and rate limits taken out (what a linearisation sees).
+    pub fn without_shaping(&self) -> DcmcParams {
+        DcmcParams {
+            ramp_left_pct_s: 0.0,
+            ramp_right_pct_s: 0.0,
+            turn_ramp_pct_s: 0.0,
+            response_time_left_s: 0.0,
+            response_time_right_s: 0.0,
+            turn_response_time_s: 0.0,
+            ..*self
+        }
+    }
+}
+
+/// A rate limit of 0 means "no limit".
+fn positive_or_unlimited(rate: f64) -> f64 {
+    if rate > 0.0 {
+        rate
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// The DCMC as wired to its machine: its settings, the motors it drives and whether its
+/// faults are modelled at all.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct DcmcParams {
-    pub kind: DcmcKind,
-    pub forward_gain_v_pct: f64,
-    pub turn_gain_v_pct: f64,
-    pub speed_per_pct_rad_s: f64,
-    /// `p`/`pi`: proportional gain of the speed loop, V s/rad.
-    pub kp_v_s_rad: f64,
-    /// `pi`/`gain_pi`: integral gain of the speed loop, V/rad.
-    pub ki_v_rad: f64,
-    pub enable_delay_s: f64,
-    pub combined_fault_pct: f64,
-    pub turn_priority: bool,
-    pub brake_gain_v_s_rad: f64,
-    /// Armature current limit per motor, A (the unit limits current from the back-EMF it
-    /// measures and the armature resistance it is set up for).
-    pub current_limit_a: f64,
+pub struct Dcmc {
+    /// The unit's settings.
+    pub params: DcmcParams,
+    /// The armature resistance the unit is set up for, ohm (its current limit works from
+    /// the back-EMF it measures and this).
     pub armature_resistance_ohm: f64,
     /// The motors' back-EMF constant the unit is calibrated to, V s/rad (`gain_pi`: its
     /// set-point is the speed its voltage gives the unloaded motor).
     pub back_emf_v_s_rad: f64,
     /// Whether the unit's faults are modelled at all.
     pub faults: bool,
-    /// The unit's acceleration setting: a rate limit on each side's demand; `None`: none.
-    pub ramp: Option<DcmcRamp>,
-    /// The unit's turn acceleration setting: a rate limit on the turn demand, percent of
-    /// full turn demand per second; `None`: none.
-    pub turn_ramp_pct_s: Option<f64>,
-    /// The unit's demand smoothing: a first-order lag on each side's request; `None`:
-    /// none.
-    pub response: Option<DcmcResponse>,
 }
 
 /// Rate limit of each side's demand, percent of full demand per second: a wheelchair
@@ -193,138 +311,8 @@ impl DcmcParams {
         }
     }
 
-    /// One control step of length `dt`.
-    pub fn step(&self, s: &mut DcmcState, u: &DcmcInput, dt: f64) -> DcmcOutput {
-        if !u.enabled {
-            s.enabled_since_s = None;
-            s.fault = None;
-            s.integral_rad = [0.0; 2];
-            s.forward_request = [0.0; 2];
-            s.turn_request = [0.0; 2];
-            s.shaped_request = [0.0; 2];
-            return self.brake(u);
-        }
-        let since = *s.enabled_since_s.get_or_insert(u.t_s);
-        if s.fault.is_none() && self.faults {
-            let demanding =
-                u.forward_pct.abs() > ZERO_DEMAND_PCT || u.turn_pct.abs() > ZERO_DEMAND_PCT;
-            if demanding && u.t_s - since < self.enable_delay_s {
-                s.fault = Some(DcmcFault::EnableDelay);
-            } else if u.forward_pct.abs() + u.turn_pct.abs() > self.combined_fault_pct {
-                s.fault = Some(DcmcFault::CombinedDemand);
-            } else if u.low_battery {
-                s.fault = Some(DcmcFault::LowVoltage);
-            }
-        }
-        if s.fault.is_some() {
-            s.integral_rad = [0.0; 2];
-            s.forward_request = [0.0; 2];
-            s.turn_request = [0.0; 2];
-            s.shaped_request = [0.0; 2];
-            return self.brake(u);
-        }
-        let shaped = self.shape(s, u.forward_pct, u.turn_pct, dt);
-        let Some((gains, setpoints)) = self.speed_loop_on(shaped) else {
-            let limited = self.limit_current(self.limit(shaped, u.available_v), u.back_emf_v);
-            return DcmcOutput {
-                voltage_v: limited,
-                braking: false,
-            };
-        };
-        let integrates = self.kind != DcmcKind::P;
-        let mut request = [0.0; 2];
-        for i in 0..2 {
-            let error = setpoints[i] - u.motor_speed_rad_s[i];
-            if integrates {
-                s.integral_rad[i] += error * dt;
-            }
-            request[i] = gains.voltage_v(setpoints[i], u.motor_speed_rad_s[i], s.integral_rad[i]);
-        }
-        let limited = self.limit_current(self.limit(request, u.available_v), u.back_emf_v);
-        if integrates {
-            // Anti-windup: do not integrate while the output is clipped.
-            for i in 0..2 {
-                if (limited[i] - request[i]).abs() > 1e-9 {
-                    s.integral_rad[i] -= (setpoints[i] - u.motor_speed_rad_s[i]) * dt;
-                }
-            }
-        }
-        DcmcOutput {
-            voltage_v: limited,
-            braking: false,
-        }
-    }
-
-    /// The speed loop's gains and each side's set-point (rad/s) for the shaped request, if
-    /// the unit closes one: `p`/`pi` on their set-points; `gain_pi` feeds its voltage
-    /// forward and sets the speed it gives the unloaded motor.
-    fn speed_loop_on(&self, shaped: [f64; 2]) -> Option<(SpeedLoopGains, [f64; 2])> {
-        match self.kind {
-            DcmcKind::Gain => None,
-            DcmcKind::P | DcmcKind::Pi => {
-                let gains = SpeedLoopGains {
-                    feedforward_v_s_rad: 0.0,
-                    kp_v_s_rad: self.kp_v_s_rad,
-                    ki_v_rad: self.ki_v_rad,
-                };
-                Some((gains, shaped))
-            }
-            DcmcKind::GainPi => {
-                let gains =
-                    SpeedLoopGains::calibrated_to_motor(self.back_emf_v_s_rad, self.ki_v_rad);
-                Some((gains, shaped.map(|v| gains.calibrated_setpoint_rad_s(v))))
-            }
-        }
-    }
-
-    /// Each side's request from the demands: its forward part through that side's lag,
-    /// its turn part through the turn lag, then the sum through the ramp (each only if
-    /// modelled). Keeps the stages in the state.
-    fn shape(&self, s: &mut DcmcState, forward_pct: f64, turn_pct: f64, dt: f64) -> [f64; 2] {
-        let (fwd, turn) = match self.kind {
-            DcmcKind::Gain | DcmcKind::GainPi => (
-                self.gain_voltages(forward_pct, 0.0),
-                self.gain_voltages(0.0, turn_pct),
-            ),
-            DcmcKind::P | DcmcKind::Pi => (
-                self.speed_setpoints(forward_pct, 0.0),
-                self.speed_setpoints(0.0, turn_pct),
-            ),
-        };
-        let (tau_fwd, tau_turn) = self.response.map_or(([0.0; 2], 0.0), |r| {
-            (r.time_constants_s(), r.turn_time_constant_s)
-        });
-        for i in 0..2 {
-            s.forward_request[i] =
-                DcmcResponse::shaped_request(tau_fwd[i], s.forward_request[i], fwd[i], dt);
-            // The turn ramp limits each side's turn part at the same rate, so the two move
-            // together (equal and opposite).
-            let turn_i = match self.turn_ramp_pct_s {
-                Some(rate) => DcmcRamp::ramped(
-                    s.turn_request[i],
-                    turn[i],
-                    rate * self.turn_request_per_pct(),
-                    dt,
-                ),
-                None => turn[i],
-            };
-            s.turn_request[i] =
-                DcmcResponse::shaped_request(tau_turn, s.turn_request[i], turn_i, dt);
-        }
-        let mut x = [0, 1].map(|i| s.forward_request[i] + s.turn_request[i]);
-        if let Some(r) = self.ramp {
-            let rates = r.rates_pct_s();
-            for (i, xi) in x.iter_mut().enumerate() {
-                let rate = rates[i] * self.request_per_pct().abs();
-                *xi = DcmcRamp::ramped(s.shaped_request[i], *xi, rate, dt);
-            }
-        }
-        s.shaped_request = x;
-        x
-    }
-
     /// A side's turn part per percent of turn demand: V for `gain`, rad/s for `p`/`pi`.
-    fn turn_request_per_pct(&self) -> f64 {
+    pub fn turn_request_per_pct(&self) -> f64 {
         match self.kind {
             DcmcKind::Gain | DcmcKind::GainPi => self.turn_gain_v_pct.abs(),
             DcmcKind::P | DcmcKind::Pi => {
@@ -334,7 +322,7 @@ impl DcmcParams {
     }
 
     /// A side's request per percent of (forward) demand: V for `gain`, rad/s for `p`/`pi`.
-    fn request_per_pct(&self) -> f64 {
+    pub fn request_per_pct(&self) -> f64 {
         match self.kind {
             DcmcKind::Gain | DcmcKind::GainPi => self.forward_gain_v_pct,
             DcmcKind::P | DcmcKind::Pi => self.speed_per_pct_rad_s,
@@ -358,10 +346,145 @@ impl DcmcParams {
             [v[0].clamp(-a, a), v[1].clamp(-a, a)]
         }
     }
+}
+
+impl Dcmc {
+    /// One control step of length `dt`.
+    pub fn step(&self, s: &mut DcmcState, u: &DcmcInput, dt: f64) -> DcmcOutput {
+        if !u.enabled {
+            s.enabled_since_s = None;
+            s.fault = None;
+            s.integral_rad = [0.0; 2];
+            s.forward_request = [0.0; 2];
+            s.turn_request = [0.0; 2];
+            s.shaped_request = [0.0; 2];
+            return self.brake(u);
+        }
+        let since = *s.enabled_since_s.get_or_insert(u.t_s);
+        if s.fault.is_none() && self.faults {
+            let demanding =
+                u.forward_pct.abs() > ZERO_DEMAND_PCT || u.turn_pct.abs() > ZERO_DEMAND_PCT;
+            if demanding && u.t_s - since < self.params.enable_delay_s {
+                s.fault = Some(DcmcFault::EnableDelay);
+            } else if u.forward_pct.abs() + u.turn_pct.abs() > self.params.combined_fault_pct {
+                s.fault = Some(DcmcFault::CombinedDemand);
+            } else if u.low_battery {
+                s.fault = Some(DcmcFault::LowVoltage);
+            }
+        }
+        if s.fault.is_some() {
+            s.integral_rad = [0.0; 2];
+            s.forward_request = [0.0; 2];
+            s.turn_request = [0.0; 2];
+            s.shaped_request = [0.0; 2];
+            return self.brake(u);
+        }
+        let shaped = self.shape(s, u.forward_pct, u.turn_pct, dt);
+        let Some((gains, setpoints)) = self.speed_loop_on(shaped) else {
+            let limited =
+                self.limit_current(self.params.limit(shaped, u.available_v), u.back_emf_v);
+            return DcmcOutput {
+                voltage_v: limited,
+                braking: false,
+            };
+        };
+        let integrates = self.params.kind != DcmcKind::P;
+        let mut request = [0.0; 2];
+        for i in 0..2 {
+            let error = setpoints[i] - u.motor_speed_rad_s[i];
+            if integrates {
+                s.integral_rad[i] += error * dt;
+            }
+            request[i] = gains.voltage_v(setpoints[i], u.motor_speed_rad_s[i], s.integral_rad[i]);
+        }
+        let limited = self.limit_current(self.params.limit(request, u.available_v), u.back_emf_v);
+        if integrates {
+            // Anti-windup: do not integrate while the output is clipped.
+            for i in 0..2 {
+                if (limited[i] - request[i]).abs() > 1e-9 {
+                    s.integral_rad[i] -= (setpoints[i] - u.motor_speed_rad_s[i]) * dt;
+                }
+            }
+        }
+        DcmcOutput {
+            voltage_v: limited,
+            braking: false,
+        }
+    }
+
+    /// The speed loop's gains and each side's set-point (rad/s) for the shaped request, if
+    /// the unit closes one: `p`/`pi` on their set-points; `gain_pi` feeds its voltage
+    /// forward and sets the speed it gives the unloaded motor.
+    fn speed_loop_on(&self, shaped: [f64; 2]) -> Option<(SpeedLoopGains, [f64; 2])> {
+        match self.params.kind {
+            DcmcKind::Gain => None,
+            DcmcKind::P | DcmcKind::Pi => {
+                let gains = SpeedLoopGains {
+                    feedforward_v_s_rad: 0.0,
+                    kp_v_s_rad: self.params.kp_v_s_rad,
+                    ki_v_rad: self.params.ki_v_rad,
+                };
+                Some((gains, shaped))
+            }
+            DcmcKind::GainPi => {
+                let gains = SpeedLoopGains::calibrated_to_motor(
+                    self.back_emf_v_s_rad,
+                    self.params.ki_v_rad,
+                );
+                Some((gains, shaped.map(|v| gains.calibrated_setpoint_rad_s(v))))
+            }
+        }
+    }
+
+    /// Each side's request from the demands: its forward part through that side's lag,
+    /// its turn part through the turn lag, then the sum through the ramp (each only if
+    /// modelled). Keeps the stages in the state.
+    fn shape(&self, s: &mut DcmcState, forward_pct: f64, turn_pct: f64, dt: f64) -> [f64; 2] {
+        let (fwd, turn) = match self.params.kind {
+            DcmcKind::Gain | DcmcKind::GainPi => (
+                self.params.gain_voltages(forward_pct, 0.0),
+                self.params.gain_voltages(0.0, turn_pct),
+            ),
+            DcmcKind::P | DcmcKind::Pi => (
+                self.params.speed_setpoints(forward_pct, 0.0),
+                self.params.speed_setpoints(0.0, turn_pct),
+            ),
+        };
+        let (tau_fwd, tau_turn) = self.params.response().map_or(([0.0; 2], 0.0), |r| {
+            (r.time_constants_s(), r.turn_time_constant_s)
+        });
+        for i in 0..2 {
+            s.forward_request[i] =
+                DcmcResponse::shaped_request(tau_fwd[i], s.forward_request[i], fwd[i], dt);
+            // The turn ramp limits each side's turn part at the same rate, so the two move
+            // together (equal and opposite).
+            let turn_i = match self.params.turn_ramp() {
+                Some(rate) => DcmcRamp::ramped(
+                    s.turn_request[i],
+                    turn[i],
+                    rate * self.params.turn_request_per_pct(),
+                    dt,
+                ),
+                None => turn[i],
+            };
+            s.turn_request[i] =
+                DcmcResponse::shaped_request(tau_turn, s.turn_request[i], turn_i, dt);
+        }
+        let mut x = [0, 1].map(|i| s.forward_request[i] + s.turn_request[i]);
+        if let Some(r) = self.params.ramp() {
+            let rates = r.rates_pct_s();
+            for (i, xi) in x.iter_mut().enumerate() {
+                let rate = rates[i] * self.params.request_per_pct().abs();
+                *xi = DcmcRamp::ramped(s.shaped_request[i], *xi, rate, dt);
+            }
+        }
+        s.shaped_request = x;
+        x
+    }
 
     /// Keeps each armature current within the limit: `|V - emf| <= R I_max`.
     pub fn limit_current(&self, v: [f64; 2], back_emf_v: [f64; 2]) -> [f64; 2] {
-        let band = self.armature_resistance_ohm * self.current_limit_a;
+        let band = self.armature_resistance_ohm * self.params.current_limit_a;
         [
             v[0].clamp(back_emf_v[0] - band, back_emf_v[0] + band),
             v[1].clamp(back_emf_v[1] - band, back_emf_v[1] + band),
@@ -372,8 +495,8 @@ impl DcmcParams {
     fn brake(&self, u: &DcmcInput) -> DcmcOutput {
         let a = u.available_v.max(0.0);
         let v = [
-            (-self.brake_gain_v_s_rad * u.motor_speed_rad_s[0]).clamp(-a, a),
-            (-self.brake_gain_v_s_rad * u.motor_speed_rad_s[1]).clamp(-a, a),
+            (-self.params.brake_gain_v_s_rad * u.motor_speed_rad_s[0]).clamp(-a, a),
+            (-self.params.brake_gain_v_s_rad * u.motor_speed_rad_s[1]).clamp(-a, a),
         ];
         DcmcOutput {
             voltage_v: self.limit_current(v, u.back_emf_v),
@@ -386,25 +509,27 @@ impl DcmcParams {
 mod tests {
     use super::*;
 
-    fn dcmc() -> DcmcParams {
-        DcmcParams {
-            kind: DcmcKind::Gain,
-            forward_gain_v_pct: 0.235,
-            turn_gain_v_pct: 0.12,
-            speed_per_pct_rad_s: 3.5,
-            kp_v_s_rad: 0.5,
-            ki_v_rad: 4.0,
-            enable_delay_s: 0.5,
-            combined_fault_pct: 185.0,
-            turn_priority: true,
-            brake_gain_v_s_rad: 0.3,
-            current_limit_a: 1000.0,
+    fn dcmc() -> Dcmc {
+        Dcmc {
+            params: DcmcParams {
+                kind: DcmcKind::Gain,
+                forward_gain_v_pct: 0.235,
+                turn_gain_v_pct: 0.12,
+                speed_per_pct_rad_s: 3.5,
+                kp_v_s_rad: 0.5,
+                ki_v_rad: 4.0,
+                enable_delay_s: 0.5,
+                combined_fault_pct: 185.0,
+                turn_priority: true,
+                brake_gain_v_s_rad: 0.3,
+                current_limit_a: 1000.0,
+                response_time_left_s: 0.0,
+                response_time_right_s: 0.0,
+                ..DcmcParams::default()
+            },
             armature_resistance_ohm: 0.35,
             back_emf_v_s_rad: 0.063,
             faults: true,
-            ramp: None,
-            turn_ramp_pct_s: None,
-            response: None,
         }
     }
 
@@ -441,10 +566,8 @@ mod tests {
     /// voltage by `ki` times the accumulated speed error.
     #[test]
     fn a_unit_calibrated_to_its_motor_feeds_its_gain_forward_and_integrates_the_error() {
-        let d = DcmcParams {
-            kind: DcmcKind::GainPi,
-            ..dcmc()
-        };
+        let mut d = dcmc();
+        d.params.kind = DcmcKind::GainPi;
         let gain_v = 0.235 * 40.0;
         let set = gain_v / d.back_emf_v_s_rad;
         let mut s = DcmcState::default();
@@ -464,7 +587,7 @@ mod tests {
         for k in 0..100 {
             out = d.step(&mut s, &at(slow, 0.601 + 0.001 * k as f64), 0.001);
         }
-        let expected = gain_v + d.ki_v_rad * 10.0 * 0.1;
+        let expected = gain_v + d.params.ki_v_rad * 10.0 * 0.1;
         assert!(
             (out.voltage_v[0] - expected).abs() < 1e-9,
             "{out:?} against {expected}"
@@ -474,7 +597,9 @@ mod tests {
     #[test]
     fn turn_priority_slows_the_inner_wheel_and_keeps_the_turn() {
         let d = dcmc();
-        let v = d.limit([100.0 * 0.235 - 6.0, 100.0 * 0.235 + 6.0], 23.5);
+        let v = d
+            .params
+            .limit([100.0 * 0.235 - 6.0, 100.0 * 0.235 + 6.0], 23.5);
         assert!((v[1] - v[0] - 12.0).abs() < 1e-9, "turn kept: {v:?}");
         assert!(v[1] <= 23.5 + 1e-12);
         assert!(v[0] < 23.5 - 6.0 - 1e-9, "inner wheel slowed: {v:?}");
@@ -483,11 +608,8 @@ mod tests {
     #[test]
     fn response_lag_reaches_63_percent_after_one_time_constant_per_side() {
         let mut d = dcmc();
-        d.response = Some(DcmcResponse {
-            left_time_constant_s: 0.6,
-            right_time_constant_s: 0.3,
-            turn_time_constant_s: 0.0,
-        });
+        d.params.response_time_left_s = 0.6;
+        d.params.response_time_right_s = 0.3;
         let mut s = DcmcState::default();
         d.step(&mut s, &input(0.0, 0.0, 0.0), 0.001);
         let dt = 0.001;
@@ -534,10 +656,8 @@ mod tests {
     #[test]
     fn ramp_passes_small_steps_at_once_and_limits_large_ones() {
         let mut d = dcmc();
-        d.ramp = Some(DcmcRamp {
-            left_pct_s: 100.0,
-            right_pct_s: 100.0,
-        });
+        d.params.ramp_left_pct_s = 100.0;
+        d.params.ramp_right_pct_s = 100.0;
         let mut s = DcmcState::default();
         d.step(&mut s, &input(0.0, 0.0, 0.0), 0.001);
         // A 50 % step at 100 %/s takes 0.5 s: halfway after 0.25 s.

@@ -3,18 +3,15 @@
 
 use super::gearbox::GearboxParams;
 use super::motor::{MotorParams, MotorState, Terminal};
+use super::wheel::WheelParams;
 
 /// Motor, gearbox and wheel of one side.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DrivetrainParams {
     pub motor: MotorParams,
     pub gearbox: GearboxParams,
-    /// Wheel plus output gear about its axle, kg m^2.
-    pub wheel_inertia_kg_m2: f64,
-    pub wheel_radius_m: f64,
-    /// Viscous friction of the wheel's bearings and output stage, at the wheel's axle,
-    /// N m s/rad: it acts on the wheel's side of the play.
-    pub wheel_viscous_nm_s_rad: f64,
+    /// The wheel with its output gear and bearings (on the wheel's side of the play).
+    pub wheel: WheelParams,
 }
 
 /// What is integrated: the motor and the wheel (the gear output angle is motor angle / ratio).
@@ -53,7 +50,7 @@ impl DrivetrainParams {
     /// The wheel bearings' friction torque at a wheel speed, N m (opposing it).
     #[inline]
     pub fn wheel_bearing_torque_nm(&self, wheel_speed_rad_s: f64) -> f64 {
-        self.wheel_viscous_nm_s_rad * wheel_speed_rad_s
+        self.wheel.bearing_torque_nm(wheel_speed_rad_s)
     }
 
     /// Fastest rate of the tooth mesh between the rotor and the wheel, 1/s
@@ -61,7 +58,7 @@ impl DrivetrainParams {
     #[inline]
     pub fn mesh_rate(&self) -> f64 {
         self.gearbox
-            .mesh_rate(self.reflected_motor_inertia(), self.wheel_inertia_kg_m2)
+            .mesh_rate(self.reflected_motor_inertia(), self.wheel.inertia_kg_m2)
     }
 
     /// Motor inertia seen at the wheel, kg m^2.
@@ -76,9 +73,9 @@ impl DrivetrainParams {
     /// acting on the wheel, which also keeps the phase error of the mesh ringing small.
     /// `ground_stiffness_n_m` and `ground_damping_n_s_m` are the tyre's at the rim.
     pub fn substeps(&self, dt: f64, ground_stiffness_n_m: f64, ground_damping_n_s_m: f64) -> usize {
-        let jw = self.wheel_inertia_kg_m2;
+        let jw = self.wheel.inertia_kg_m2;
         let mesh_rate = self.mesh_rate();
-        let r2 = self.wheel_radius_m.powi(2);
+        let r2 = self.wheel.radius_m.powi(2);
         let ground_rate = (ground_stiffness_n_m * r2 / jw).sqrt() + ground_damping_n_s_m * r2 / jw;
         let rate = mesh_rate.max(ground_rate);
         ((dt * rate / 0.3).ceil() as usize).max(1)
@@ -110,9 +107,9 @@ impl DrivetrainParams {
         ground_torque_nm: f64,
         h: f64,
     ) {
-        let j = self.wheel_inertia_kg_m2;
+        let j = self.wheel.inertia_kg_m2;
         let trial = s.wheel_speed_rad_s + h * (tooth_torque_nm + ground_torque_nm) / j;
-        s.wheel_speed_rad_s = trial / (1.0 + h * self.wheel_viscous_nm_s_rad / j);
+        s.wheel_speed_rad_s = trial / (1.0 + h * self.wheel.viscous_nm_s_rad / j);
         s.wheel_angle_rad += h * s.wheel_speed_rad_s;
     }
 }

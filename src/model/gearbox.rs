@@ -1,15 +1,22 @@
 //! Gear train: ratio, and backlash as a dead band between the gear output and the wheel,
 //! the teeth a damped spring once the play is taken up (the thesis's Fig. 2.18).
 
-/// Gearbox parameters; angles and torques referred to the wheel side.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct GearboxParams {
-    /// Motor turns per wheel turn.
-    pub ratio: f64,
-    /// Total play at the wheel, rad.
-    pub backlash_rad: f64,
-    pub tooth_stiffness_nm_rad: f64,
-    pub tooth_damping_nm_s_rad: f64,
+crate::declare_params! {
+    /// Gear train between motor and wheel (scene section `[gearbox]`): backlash is a dead
+    /// band between the gear output and the wheel, the teeth a damped spring once the
+    /// play is taken up. Angles and torques are referred to the wheel side.
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    pub struct GearboxParams {
+        /// Motor turns per wheel turn.
+        ratio: f64 = 23.41, "", Positive;
+        /// Total play at the wheel (about 10 degrees on the thesis AGV).
+        backlash_rad: f64 = 10.0_f64.to_radians(), "rad", closed_open(0.0, 1.0);
+        /// Tooth (mesh) stiffness referred to the wheel (*assumed*; the thesis softened
+        /// its tooth springs to keep a 5 ms step).
+        tooth_stiffness_nm_rad as "tooth_stiffness_Nm_rad": f64 = 3000.0, "N m/rad", Positive;
+        /// Tooth damping referred to the wheel (*assumed*).
+        tooth_damping_nm_s_rad as "tooth_damping_Nm_s_rad": f64 = 4.0, "N m s/rad", NonNegative;
+    }
 }
 
 /// Which flank of the teeth is in contact.

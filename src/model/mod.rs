@@ -12,6 +12,8 @@ pub mod gearbox;
 pub mod motor;
 pub mod speed_loop;
 pub mod tyre;
+pub mod tyre_presets;
+pub mod wheel;
 
 /// Standard gravity, m/s^2.
 pub const GRAVITY_M_S2: f64 = 9.81;

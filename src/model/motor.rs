@@ -3,22 +3,31 @@
 //! `L di/dt = V - R i - Kv w`, `J dw/dt = Kt i + T_bias - b(w) w - Tc sign(w) - T_load`,
 //! Kt = Kv, with the viscous coefficient `b(w)` allowed to differ by direction.
 
-/// Motor parameters (SI, at the motor shaft).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MotorParams {
-    pub resistance_ohm: f64,
-    pub inductance_h: f64,
-    /// Torque constant, N m/A; equal to the back-EMF constant in V s/rad.
-    pub torque_constant_nm_a: f64,
-    pub rotor_inertia_kg_m2: f64,
-    /// Mean of the two directions' viscous coefficients, N m s/rad.
-    pub viscous_nm_s_rad: f64,
-    /// Forward over reverse viscous coefficient (1: the same both ways).
-    pub viscous_ratio: f64,
-    pub coulomb_nm: f64,
-    /// Constant torque on the shaft, driving positive rotation when positive (a slope's
-    /// gravity, a cable, a bias), N m.
-    pub offset_nm: f64,
+crate::declare_params! {
+    /// Permanent-magnet DC motor, one per side, at the motor shaft (scene section
+    /// `[motor]`).
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    pub struct MotorParams {
+        /// Armature resistance (*assumed* 0.35 ohm for the thesis machine).
+        resistance_ohm: f64 = 0.35, "ohm", Positive;
+        /// Armature inductance (*assumed* 0.8 mH).
+        inductance_h as "inductance_H": f64 = 0.0008, "H", Positive;
+        /// Torque constant; equals the back-EMF constant in V s/rad (measured 0.063).
+        torque_constant_nm_a as "torque_constant_Nm_A": f64 = 0.063, "N m/A", Positive;
+        /// Rotor inertia including the worm (*assumed*).
+        rotor_inertia_kg_m2: f64 = 2.0e-4, "kg m^2", Positive;
+        /// Viscous friction at the motor shaft, the mean of the two directions'
+        /// coefficients (*assumed*).
+        viscous_nm_s_rad as "viscous_Nm_s_rad": f64 = 1.0e-4, "N m s/rad", NonNegative;
+        /// Coulomb friction at the motor shaft: brushes, bearings (*assumed*).
+        coulomb_nm as "coulomb_Nm": f64 = 0.02, "N m", NonNegative;
+        /// Forward over reverse viscous friction (1: the same both ways; the viscous
+        /// coefficient is their mean). The contract's `friction_asymmetry`.
+        viscous_ratio: f64 = 1.0, "", Positive;
+        /// Constant torque on the motor shaft, driving forward rotation when positive: a
+        /// slope's gravity, a cable's pull, a bias. The contract's `offset`.
+        offset_nm as "offset_Nm": f64 = 0.0, "N m", Finite;
+    }
 }
 
 /// What is integrated.

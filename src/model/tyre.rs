@@ -14,7 +14,71 @@
 //! value as the sliding speed grows (the Stribeck drop that makes a spinning wheel keep
 //! spinning: "the spinning wheels have less tractive effort").
 
-/// Tyre parameters on a given floor (compound x surface, see `scene::presets`).
+use super::tyre_presets::{self, Compound, Surface};
+
+/// What `tyre.compound` takes.
+fn compound_choice() -> String {
+    format!("one of {}", tyre_presets::compound_names())
+}
+
+crate::declare_params! {
+    /// The drive tyres (scene section `[tyre]`): a named compound, whose values on each
+    /// floor surface come from the presets (`agvsim presets`), and any value overriding
+    /// the preset.
+    #[derive(Debug, Clone, PartialEq)]
+    pub struct TyreChoice {
+        /// The tread compound: `hard_polyurethane`, `soft_rubber` or `high_grip` (an
+        /// idealised no-slip tyre); see `agvsim presets`.
+        compound: String = "hard_polyurethane".into(), "", other(compound_choice);
+        /// Peak (static) friction coefficient; overrides the preset (the sliding
+        /// friction keeps the preset's ratio to it).
+        peak_mu: Option<f64> = None, "", Positive, unset "the compound's on the floor";
+        /// Sliding friction as a fraction of the peak; overrides the preset.
+        sliding_ratio: Option<f64> = None, "", open_closed(0.0, 1.0), unset "the compound's";
+        /// Longitudinal slip stiffness per newton of load (N per unit slip ratio per N);
+        /// overrides the preset.
+        long_stiffness_per_n as "long_stiffness_per_N": Option<f64> = None, "1/N per unit slip", Positive, unset "the compound's";
+        /// Cornering stiffness per newton of load (N per rad of slip angle per N);
+        /// overrides the preset.
+        lat_stiffness_per_n as "lat_stiffness_per_N": Option<f64> = None, "1/rad", Positive, unset "the compound's";
+        /// Relaxation length; overrides the preset.
+        relaxation_length_m: Option<f64> = None, "m", Positive, unset "the compound's";
+    }
+}
+
+impl TyreChoice {
+    /// The tyre's law on a surface: the compound's preset there, then each override.
+    /// `None` for a compound that is not a preset.
+    pub fn on(&self, surface: &Surface) -> Option<TyreParams> {
+        Some(self.law(tyre_presets::compound(&self.compound)?, surface))
+    }
+
+    /// The tyre's law for a compound (this choice's, looked up once) on a surface: the
+    /// preset, then each override.
+    pub fn law(&self, compound: &Compound, surface: &Surface) -> TyreParams {
+        let mut t = tyre_presets::combine(compound, surface);
+        if let Some(mu) = self.peak_mu {
+            let ratio = t.sliding_mu / t.peak_mu;
+            t.peak_mu = mu;
+            t.sliding_mu = mu * ratio;
+        }
+        if let Some(r) = self.sliding_ratio {
+            t.sliding_mu = t.peak_mu * r;
+        }
+        if let Some(v) = self.long_stiffness_per_n {
+            t.long_stiffness_per_N = v;
+        }
+        if let Some(v) = self.lat_stiffness_per_n {
+            t.lat_stiffness_per_N = v;
+        }
+        if let Some(v) = self.relaxation_length_m {
+            t.relaxation_length_m = v;
+        }
+        t
+    }
+}
+
+/// Tyre parameters on a given floor (compound x surface, see `tyre_presets`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TyreParams {
     /// Peak (static) friction coefficient.

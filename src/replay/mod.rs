@@ -325,7 +325,7 @@ pub fn replay(scene: &Scene, rec: &Recording) -> Result<Replay, ReplayError> {
         }
     }
     let mut sim = Sim::new(&scene)?;
-    let dt = sim.params().dt_s;
+    let dt = sim.params().sim.dt_s;
     let t0 = rec.t_s[0];
     let span_s = rec.t_s[rec.t_s.len() - 1] - t0;
     if !(span_s / dt <= MAX_REPLAY_STEPS) {

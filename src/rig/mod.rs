@@ -3,185 +3,79 @@
 //! contract is accepted; unknown keys are refused with the file, line and key, because a
 //! misspelt parameter silently left at a default would corrupt an identification.
 //!
+//! A rig's keys are the scene's keys ([`keys`]): the same name (`motor.resistance_ohm`),
+//! or a named alias where the contract calls a scene key otherwise
+//! (`supply.voltage_V` is `battery.open_circuit_V`, `controller.gain_V_pct` is
+//! `dcmc.forward_gain_V_pct`); the parts of other machines that the AGV's scene has no
+//! block for declare their keys in [`blocks`]. Each key's unit, rule and meaning come
+//! from its declaration.
+//!
 //! Keys this project adds (the contract allows additions): rig kind `drive_pair` (two
 //! lifted drive axes behind the DCMC, the thesis's random-demand runs), `motor.coulomb_Nm`,
 //! `controller.turn_gain_V_pct`, `controller.speed_per_pct_rad_s`,
-//! `controller.kp_V_s_rad`, `controller.ki_V_rad`, and the `[falling_weight]` section.
+//! `controller.kp_V_s_rad`, `controller.ki_V_rad`, `feedback.kv_V_s_rad` and the
+//! `[falling_weight]` section.
+
+pub mod blocks;
+pub mod keys;
 
 use std::path::{Path, PathBuf};
 
-use serde::{Deserialize, Serialize};
+use keys::RigKey;
 
-/// A rig file as read. Every value is optional: a rig states only what it believes.
-#[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
+/// A value a rig states.
+#[derive(Debug, Clone, PartialEq)]
+enum Stated {
+    Number(f64),
+    Text(String),
+}
+
+/// A rig file as read: its kind and every value it states, by key. A rig states only what
+/// it believes; every value is optional.
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct Rig {
     /// `drive_axis`, `vehicle` or `drive_pair`.
     pub rig: String,
     /// `rotary` (default) or `linear` (drive axis only).
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub motion: Option<String>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub motor: Option<MotorRig>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub gearbox: Option<GearboxRig>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub wheel: Option<WheelRig>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub supply: Option<SupplyRig>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub controller: Option<ControllerRig>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub chassis: Option<ChassisRig>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub load: Option<LoadRig>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub drive: Option<DriveRig>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub feedback: Option<FeedbackRig>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub sensors: Option<SensorsRig>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub falling_weight: Option<FallingWeightRig>,
-}
-
-/// Permanent-magnet DC motor.
-#[allow(non_snake_case)]
-#[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct MotorRig {
-    pub resistance_ohm: Option<f64>,
-    pub inductance_H: Option<f64>,
-    /// Torque constant, N m/A (= back-EMF constant, V s/rad).
-    pub torque_constant_Nm_A: Option<f64>,
-    pub rotor_inertia_kg_m2: Option<f64>,
-    /// All viscous friction of the drive train referred to the motor shaft, N m s/rad.
-    pub viscous_Nm_s_rad: Option<f64>,
-    /// Coulomb friction at the motor shaft, N m (project key).
-    pub coulomb_Nm: Option<f64>,
-}
-
-#[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct GearboxRig {
-    /// Motor turns per wheel turn.
-    pub ratio: Option<f64>,
-}
-
-#[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct WheelRig {
-    pub radius_m: Option<f64>,
-    /// Wheel plus output gear about its axle, kg m^2.
-    pub inertia_kg_m2: Option<f64>,
-}
-
-#[allow(non_snake_case)]
-#[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct SupplyRig {
-    pub voltage_V: Option<f64>,
-}
-
-/// How `demand_*_pct` becomes motor voltage.
-#[allow(non_snake_case)]
-#[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct ControllerRig {
-    /// `gain` (contract), `p` or `pi` (project).
-    pub kind: Option<String>,
-    /// Volts per percent of (forward) demand.
-    pub gain_V_pct: Option<f64>,
-    /// Volts per percent of turn demand (project key, drive pairs).
-    pub turn_gain_V_pct: Option<f64>,
-    /// Speed-loop set-point per percent of demand, rad/s (project key).
-    pub speed_per_pct_rad_s: Option<f64>,
-    /// Speed-loop proportional gain, V s/rad (project key).
-    pub kp_V_s_rad: Option<f64>,
-    /// Speed-loop integral gain, V/rad (project key).
-    pub ki_V_rad: Option<f64>,
-}
-
-#[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct ChassisRig {
-    pub mass_kg: Option<f64>,
-    pub yaw_inertia_kg_m2: Option<f64>,
-    pub track_width_m: Option<f64>,
-    pub drive_load_fraction: Option<f64>,
-}
-
-/// Linear axis load.
-#[allow(non_snake_case)]
-#[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct LoadRig {
-    pub mass_kg: Option<f64>,
-    pub viscous_N_s_m: Option<f64>,
-}
-
-/// Current amplifier: force (or torque) = gain x command.
-#[allow(non_snake_case)]
-#[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct DriveRig {
-    pub force_per_volt_N_V: Option<f64>,
-    pub torque_per_volt_Nm_V: Option<f64>,
-    pub limit_V: Option<f64>,
-}
-
-/// The loop that produced a closed-loop command.
-#[allow(non_snake_case)]
-#[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct FeedbackRig {
-    /// `position_velocity_cascade`: command = kv (kp (reference - position) - speed).
-    pub kind: Option<String>,
-    pub kp_1_s: Option<f64>,
-    pub kv_V_s_m: Option<f64>,
-    /// The velocity-loop gain of a rotary axis's cascade, V per rad/s of the wheel (an
-    /// agvsim key beside the contract's linear `kv_V_s_m`).
-    pub kv_V_s_rad: Option<f64>,
-}
-
-#[allow(non_snake_case)]
-#[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct SensorsRig {
-    pub motor_encoder_counts_per_rev: Option<f64>,
-    pub current_noise_A: Option<f64>,
-    pub tracker_position_noise_m: Option<f64>,
-    pub tracker_heading_noise_rad: Option<f64>,
-    pub tracker_rate_hz: Option<f64>,
-}
-
-/// The falling-weight test (project section): motor off the vehicle, a mass on a pulley on
-/// the motor shaft, dropping from rest until it lands.
-#[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct FallingWeightRig {
-    pub mass_kg: Option<f64>,
-    pub pulley_radius_m: Option<f64>,
-    /// Height the mass falls before it lands, m.
-    pub drop_m: Option<f64>,
+    /// Stated values by their key's place in the table ([`keys::table`]), in that order.
+    values: Vec<(usize, Stated)>,
 }
 
 /// A rig file that cannot be used.
 #[derive(Debug, thiserror::Error)]
 pub enum RigError {
+    /// The file could not be read.
     #[error("{file}: cannot read: {source}")]
     Read {
+        /// The rig file.
         file: PathBuf,
+        /// Why.
         source: std::io::Error,
     },
+    /// The file breaks the format or a model cannot use one of its values.
     #[error("{file}: {message}")]
-    Invalid { file: PathBuf, message: String },
+    Invalid {
+        /// The rig file.
+        file: PathBuf,
+        /// What is wrong, naming the key (and line where it came from the file).
+        message: String,
+    },
 }
 
 /// Rig kinds this reader knows.
 pub const RIG_KINDS: [&str; 3] = ["drive_axis", "vehicle", "drive_pair"];
 
 impl Rig {
+    /// A rig of a kind stating nothing yet.
+    pub fn new(kind: &str) -> Rig {
+        Rig {
+            rig: kind.to_string(),
+            ..Rig::default()
+        }
+    }
+
+    /// Reads and checks a rig file.
     pub fn load(path: &Path) -> Result<Rig, RigError> {
         let text = std::fs::read_to_string(path).map_err(|source| RigError::Read {
             file: path.to_owned(),
@@ -198,7 +92,7 @@ impl Rig {
             file: path.to_owned(),
             message,
         };
-        let rig: Rig = toml::from_str(text).map_err(|e| {
+        let table: toml::Table = toml::from_str(text).map_err(|e| {
             let mut msg = e.message().to_string();
             if let Some(span) = e.span() {
                 let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
@@ -206,47 +100,153 @@ impl Rig {
             }
             invalid(msg)
         })?;
-        if !RIG_KINDS.contains(&rig.rig.as_str()) {
+        let mut rig = Rig::default();
+        for (name, value) in &table {
+            match (name.as_str(), value) {
+                ("rig", toml::Value::String(k)) => rig.rig = k.clone(),
+                ("motion", toml::Value::String(m)) => rig.motion = Some(m.clone()),
+                ("rig" | "motion", other) => {
+                    return Err(invalid(format!(
+                        "{}`{name}` = {other}: expected a quoted name",
+                        at_line(text, None, name)
+                    )))
+                }
+                (section, toml::Value::Table(entries)) => {
+                    for (key, v) in entries {
+                        rig.read_value(text, section, key, v).map_err(invalid)?;
+                    }
+                }
+                (other, _) => {
+                    return Err(invalid(format!(
+                        "{}unknown key `{other}`: a rig has `rig`, `motion` and sections {}",
+                        at_line(text, None, other),
+                        keys::sections().join(", ")
+                    )))
+                }
+            }
+        }
+        if rig.rig.is_empty() {
             return Err(invalid(format!(
-                "rig = \"{}\": expected one of {}",
-                rig.rig,
+                "no `rig = \"...\"`: expected the rig kind, one of {}",
                 RIG_KINDS.join(", ")
             )));
         }
-        match rig.motion.as_deref() {
+        rig.check().map_err(invalid)?;
+        Ok(rig)
+    }
+
+    /// Takes one `[section] key = value` of a file, refusing a key the rig format does not
+    /// have or a value of the wrong type, with its line.
+    fn read_value(
+        &mut self,
+        text: &str,
+        section: &str,
+        key: &str,
+        v: &toml::Value,
+    ) -> Result<(), String> {
+        let dotted = format!("{section}.{key}");
+        let line = at_line(text, Some(section), key);
+        let Some(k) = keys::find(&dotted) else {
+            let known = keys::in_section(section);
+            return Err(if known.is_empty() {
+                format!(
+                    "{line}unknown section `[{section}]`: a rig has {}",
+                    keys::sections().join(", ")
+                )
+            } else {
+                format!(
+                    "{line}unknown key `{dotted}`: [{section}] takes {}",
+                    known.join(", ")
+                )
+            });
+        };
+        let stated = match (k.takes.allowed(), v) {
+            (Some(_), toml::Value::Float(x)) => Stated::Number(*x),
+            (Some(_), toml::Value::Integer(i)) => Stated::Number(*i as f64),
+            (None, toml::Value::String(t)) => Stated::Text(t.clone()),
+            (Some(_), other) => {
+                return Err(format!(
+                    "{line}`{dotted}` = {other}: expected a number{}",
+                    in_unit(k.unit)
+                ))
+            }
+            (None, other) => {
+                return Err(format!(
+                    "{line}`{dotted}` = {other}: expected a quoted name ({})",
+                    k.takes.text()
+                ))
+            }
+        };
+        self.state(k, stated);
+        Ok(())
+    }
+
+    /// Checks the kind, the motion and every stated number against its key's rule.
+    fn check(&self) -> Result<(), String> {
+        if !RIG_KINDS.contains(&self.rig.as_str()) {
+            return Err(format!(
+                "rig = \"{}\": expected one of {}",
+                self.rig,
+                RIG_KINDS.join(", ")
+            ));
+        }
+        match self.motion.as_deref() {
             None | Some("rotary") | Some("linear") => {}
             Some(m) => {
-                return Err(invalid(format!(
+                return Err(format!(
                     "motion = \"{m}\": expected \"rotary\" or \"linear\""
-                )))
+                ))
             }
         }
-        for (key, value) in rig.numbers() {
-            if !value.is_finite() {
-                return Err(invalid(format!(
-                    "`{key}` = {value}: expected a finite number"
-                )));
-            }
-            let may_be_zero_or_negative =
-                key.starts_with("controller.") || key == "motor.coulomb_Nm";
-            if ZERO_MEANINGFUL.contains(&key.as_str()) && value == 0.0 {
-                // Each model accepts it or refuses it with its reason.
-                continue;
-            }
-            if !may_be_zero_or_negative && value <= 0.0 {
-                return Err(invalid(format!(
-                    "`{key}` = {value}: expected a positive value (SI units, see the key's suffix)"
-                )));
+        for (k, v) in self.stated() {
+            if let (Stated::Number(x), Some(rule)) = (v, k.takes.allowed()) {
+                if !rule.admits(*x) {
+                    return Err(format!(
+                        "`{}` = {x}: expected {}{}",
+                        k.key,
+                        rule.expected(),
+                        in_unit(k.unit)
+                    ));
+                }
             }
         }
-        if let Some(f) = rig.chassis.as_ref().and_then(|c| c.drive_load_fraction) {
-            if f > 1.0 {
-                return Err(invalid(format!(
-                    "`chassis.drive_load_fraction` = {f}: expected a share of the weight, 0..1"
-                )));
+        Ok(())
+    }
+
+    /// Sets (or replaces) a stated value, keeping the table's order.
+    fn state(&mut self, k: &RigKey, v: Stated) {
+        match self.values.iter_mut().find(|(have, _)| *have == k.order) {
+            Some(slot) => slot.1 = v,
+            None => {
+                let at = self
+                    .values
+                    .iter()
+                    .position(|(have, _)| *have > k.order)
+                    .unwrap_or(self.values.len());
+                self.values.insert(at, (k.order, v));
             }
         }
-        Ok(rig)
+    }
+
+    /// The stated values with their keys, in the table's order.
+    fn stated(&self) -> impl Iterator<Item = (&'static RigKey, &Stated)> {
+        let table = keys::table();
+        self.values.iter().map(move |(i, v)| (&table[*i], v))
+    }
+
+    /// This rig stating `key = value` as well (a number), replacing any value it had.
+    /// `None` for a key the rig format does not have.
+    pub fn set(&mut self, key: &str, value: f64) -> Option<()> {
+        let k = keys::find(key)?;
+        self.state(k, Stated::Number(value));
+        Some(())
+    }
+
+    /// This rig stating a name (`controller.kind`, `feedback.kind`).
+    pub fn set_text(&mut self, key: &str, value: &str) -> Option<()> {
+        let k = keys::find(key)?;
+        self.state(k, Stated::Text(value.to_string()));
+        Some(())
     }
 
     /// Whether this is a linear drive axis.
@@ -254,30 +254,30 @@ impl Rig {
         self.motion.as_deref() == Some("linear")
     }
 
-    /// Every numeric key with its dotted name.
+    /// Every numeric value with its dotted key, in the key table's order.
     pub fn numbers(&self) -> Vec<(String, f64)> {
-        let value = toml::Value::try_from(self).unwrap_or(toml::Value::Boolean(false));
-        let mut out = Vec::new();
-        if let toml::Value::Table(t) = value {
-            for (section, v) in t {
-                if let toml::Value::Table(inner) = v {
-                    for (k, v) in inner {
-                        if let Some(x) = v.as_float().or(v.as_integer().map(|i| i as f64)) {
-                            out.push((format!("{section}.{k}"), x));
-                        }
-                    }
-                }
-            }
-        }
-        out
+        self.stated()
+            .filter_map(|(k, v)| match v {
+                Stated::Number(x) => Some((k.key.clone(), *x)),
+                Stated::Text(_) => None,
+            })
+            .collect()
     }
 
     /// A numeric value by dotted key (`motor.resistance_ohm`).
     pub fn get(&self, key: &str) -> Option<f64> {
-        self.numbers()
-            .into_iter()
-            .find(|(k, _)| k == key)
-            .map(|(_, v)| v)
+        self.stated().find_map(|(k, v)| match v {
+            Stated::Number(x) if k.key == key => Some(*x),
+            _ => None,
+        })
+    }
+
+    /// A name by dotted key (`controller.kind`).
+    pub fn text(&self, key: &str) -> Option<&str> {
+        self.stated().find_map(|(k, v)| match v {
+            Stated::Text(t) if k.key == key => Some(t.as_str()),
+            _ => None,
+        })
     }
 
     /// A value the model needs, or an error naming the key.
@@ -288,21 +288,66 @@ impl Rig {
         })
     }
 
-    /// The rig as TOML text.
+    /// Every numeric value scaled by `f(key, value)` (a perturbed belief).
+    pub fn map_numbers(&mut self, mut f: impl FnMut(&str, f64) -> f64) {
+        let table = keys::table();
+        for (i, v) in &mut self.values {
+            if let Stated::Number(x) = v {
+                *x = f(&table[*i].key, *x);
+            }
+        }
+    }
+
+    /// The rig as TOML text: `rig`, `motion`, then each section in the key table's order.
     pub fn to_toml(&self) -> String {
-        toml::to_string(self).expect("a rig always serialises")
+        let mut doc = toml_edit::DocumentMut::new();
+        doc["rig"] = toml_edit::value(self.rig.as_str());
+        if let Some(m) = &self.motion {
+            doc["motion"] = toml_edit::value(m.as_str());
+        }
+        for (k, v) in self.stated() {
+            let (section, key) = k.key.split_once('.').unwrap_or(("", &k.key));
+            if doc.get(section).is_none() {
+                doc[section] = toml_edit::table();
+            }
+            doc[section][key] = match v {
+                Stated::Number(x) => toml_edit::value(*x),
+                Stated::Text(t) => toml_edit::value(t.as_str()),
+            };
+        }
+        doc.to_string()
     }
 }
 
-/// Rig values that mean something at zero: no viscous friction, an inertia lumped into
-/// another one, a negligible inductance. The reader takes them; a model that cannot use a
-/// zero refuses it with its reason ([`zero_refused`]).
-pub const ZERO_MEANINGFUL: [&str; 4] = [
-    "motor.viscous_Nm_s_rad",
-    "wheel.inertia_kg_m2",
-    "load.viscous_N_s_m",
-    "motor.inductance_H",
-];
+/// "line N: " for a key of a rig's text (in `section`, or at the top), if it is found.
+fn at_line(text: &str, section: Option<&str>, key: &str) -> String {
+    let mut current: Option<String> = None;
+    for (i, line) in text.lines().enumerate() {
+        let t = line.trim();
+        if let Some(name) = t.strip_prefix('[').and_then(|r| r.split(']').next()) {
+            current = Some(name.trim().to_string());
+            continue;
+        }
+        let here = t
+            .split('=')
+            .next()
+            .map(|k| k.trim().trim_matches('"'))
+            .unwrap_or("");
+        if here == key && current.as_deref() == section {
+            return format!("line {}: ", i + 1);
+        }
+    }
+    String::new()
+}
+
+/// ", in UNIT" for a key with a unit.
+fn in_unit(unit: &str) -> String {
+    if unit.is_empty() {
+        String::new()
+    } else {
+        format!(", in {unit}")
+    }
+}
 
 /// The error for a rig value of zero that a model cannot use, with the reason.
 pub fn zero_refused(path: &Path, key: &str, why: &str) -> RigError {
@@ -400,7 +445,7 @@ tracker_rate_hz = 50
             .unwrap_err()
             .to_string();
         assert!(
-            e.contains("motor.resistance_ohm") && e.contains("positive"),
+            e.contains("motor.resistance_ohm") && e.contains("greater than zero"),
             "{e}"
         );
         let e = parse("[motor]\nresistance_ohm = 1\n")

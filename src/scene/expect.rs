@@ -37,6 +37,11 @@ pub struct ExpectSpec {
 }
 
 impl ExpectSpec {
+    /// What the `[expect]` table takes.
+    pub fn takes() -> String {
+        "`[expect]`: what a run of the scene shows (`settles`, `rms_error_mm`, `limit_cycle`, `limit_cycle_mm`, `loses_wire`, `on_wire_at_end`, `wire_losses`, `reaches_wire_end`, `bumper_stop`, `sliding_pct`, `distance_m`; ranges as `[lo, hi]`), checked by `run` and the tests".into()
+    }
+
     /// True when the table claims nothing.
     pub fn is_empty(&self) -> bool {
         *self == ExpectSpec::default()

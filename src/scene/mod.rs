@@ -1,16 +1,12 @@
 //! Scenes: the TOML files a user writes, their schema, presets, `--set` overrides and
 //! validation. Everything a scene gets wrong is reported with the file, the key and what
 //! was expected.
-#![allow(non_snake_case)]
 
-mod controller_spec;
 mod expect;
-pub mod presets;
-pub mod ranges;
+pub mod keys;
 mod schema;
 mod validate;
 
-pub use controller_spec::*;
 pub use expect::ExpectSpec;
 pub use schema::*;
 

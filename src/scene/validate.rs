@@ -2,7 +2,10 @@
 //! rules that tie keys together. Each failure names the key, the value and what was
 //! expected.
 
-use super::{presets, ControllerKind, Invalid, Scene};
+use super::{Invalid, Scene};
+use crate::firmware::ControllerKind;
+use crate::model::tyre_presets as presets;
+use crate::sensing::wire::MAX_FLOOR_M;
 
 fn bad(key: &str, value: impl std::fmt::Display, expected: &str) -> Invalid {
     Invalid {
@@ -11,10 +14,6 @@ fn bad(key: &str, value: impl std::fmt::Display, expected: &str) -> Invalid {
         expected: expected.to_string(),
     }
 }
-
-/// Largest coordinate on the floor, m: far beyond any plant, small enough that squared
-/// distances and the field's arithmetic stay exact to well below a millimetre.
-pub const MAX_FLOOR_M: f64 = 1.0e5;
 
 /// The first corner where a polygon's outline turns against its overall direction (a
 /// concave or self-crossing outline), if any.
@@ -41,7 +40,7 @@ impl Scene {
     /// tie keys together.
     pub fn validate(&self) -> Result<(), Invalid> {
         self.expect.validate()?;
-        super::ranges::check(self)?;
+        super::keys::check(self)?;
         self.check_timing()?;
         self.check_loads()?;
         self.check_choices()?;
@@ -74,10 +73,10 @@ impl Scene {
             ));
         }
         let b = &self.battery;
-        if b.low_voltage_fault_V >= b.open_circuit_V {
+        if b.low_voltage_fault_v >= b.open_circuit_v {
             return Err(bad(
                 "battery.low_voltage_fault_V",
-                b.low_voltage_fault_V,
+                b.low_voltage_fault_v,
                 "a fault threshold below battery.open_circuit_V",
             ));
         }

@@ -6,18 +6,37 @@ use parry2d_f64::query;
 use parry2d_f64::shape::{Ball, Cuboid, SharedShape};
 
 use crate::model::chassis::Pose as BodyPose;
-use crate::scene::ObstacleSpec;
+
+/// A fixed obstacle on the floor as a scene gives it (`[[obstacles]]`); the bumper stops
+/// the vehicle on contact.
+#[derive(Debug, Clone, serde::Deserialize, serde::Serialize, Default, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct ObstacleParams {
+    /// Centre, world frame, m.
+    pub center_m: [f64; 2],
+    /// Rectangle half extents, m (give this or `radius_m`).
+    pub half_extents_m: Option<[f64; 2]>,
+    /// Circle radius, m.
+    pub radius_m: Option<f64>,
+    /// Rotation of a rectangle, rad.
+    pub angle_rad: f64,
+}
+
+/// What `obstacles` takes.
+pub fn obstacle_tables() -> String {
+    "`[[obstacles]]` tables of `center_m` `[x, y]`, exactly one of `half_extents_m` `[hx, hy]` (> 0) or `radius_m` (> 0), and `angle_rad`".into()
+}
 
 /// A fixed obstacle on the floor.
 #[derive(Clone)]
 pub struct Obstacle {
     pub shape: SharedShape,
     pub pose: Pose,
-    pub spec: ObstacleSpec,
+    pub params: ObstacleParams,
 }
 
 impl Obstacle {
-    pub fn from_spec(o: &ObstacleSpec) -> Obstacle {
+    pub fn from_params(o: &ObstacleParams) -> Obstacle {
         let shape = match (o.half_extents_m, o.radius_m) {
             (Some(h), _) => SharedShape::new(Cuboid::new(Vector::new(h[0], h[1]))),
             (None, Some(r)) => SharedShape::new(Ball::new(r)),
@@ -26,7 +45,7 @@ impl Obstacle {
         Obstacle {
             shape,
             pose: Pose::new(Vector::new(o.center_m[0], o.center_m[1]), o.angle_rad),
-            spec: o.clone(),
+            params: o.clone(),
         }
     }
 }

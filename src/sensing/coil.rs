@@ -9,6 +9,65 @@
 
 use super::response::ResponseCurve;
 
+/// Which law turns the field at a coil into its reading.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize, serde::Serialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum SensorLaw {
+    /// The thesis's coils as measured: the calibration table (`AGVPOS.C`) as one coil's
+    /// response against distance, interpolated monotonically, zero beyond 164 mm.
+    #[default]
+    Measured,
+    /// Reading proportional to the Biot-Savart field component along the coil's axis
+    /// (`full_scale_adc h^2 / (h^2 + y^2)` off a straight wire): for other machines.
+    Physical,
+}
+
+impl crate::param::Value for SensorLaw {}
+
+/// What `sensors.law` takes.
+fn sensor_laws() -> String {
+    "`measured`, `physical`".into()
+}
+
+crate::declare_params! {
+    /// The two guide-wire pick-up coils and their ADC, body frame (scene section
+    /// `[sensors]`).
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    pub struct SensorParams {
+        /// Coil pair ahead of the drive axle (*assumed*).
+        x_m: f64 = 0.45, "m", Finite;
+        /// Half the spacing between the coils (37 mm: where the thesis's calibration
+        /// table puts them, see `sensing::response`).
+        half_spacing_m: f64 = 0.037, "m", Positive;
+        /// Height of the coils above the wire (about 38 mm).
+        height_m: f64 = 0.038, "m", Positive;
+        /// `measured` (the thesis's calibration table) or `physical` (Biot-Savart).
+        law: SensorLaw = SensorLaw::Measured, "", other(sensor_laws);
+        /// Reading directly over a straight wire (the `physical` law's scale).
+        full_scale_adc: f64 = 250.0, "counts", Positive;
+        /// RMS noise added before quantisation.
+        noise_adc: f64 = 0.0, "counts", NonNegative;
+        /// The wire counts as lost when both readings are below this.
+        lost_threshold_adc: f64 = 4.0, "counts", NonNegative;
+        /// A second, rear coil pair for reversing (body frame x).
+        rear_x_m: Option<f64> = None, "m", Finite, unset "no rear pair";
+    }
+}
+
+impl SensorParams {
+    /// The pair's sensing law.
+    pub fn coil(&self) -> CoilParams {
+        CoilParams {
+            height_m: self.height_m,
+            full_scale_adc: self.full_scale_adc,
+            law: match self.law {
+                SensorLaw::Physical => CoilLaw::Physical,
+                SensorLaw::Measured => CoilLaw::Measured(ResponseCurve::thesis()),
+            },
+        }
+    }
+}
+
 /// How a coil's reading follows the field at it.
 // The measured curve is about 1 KB of knots held inline so that the sensing parameters
 // stay `Copy` (the firmware's and the simulator's parameters are); it is read by

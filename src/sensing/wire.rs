@@ -5,6 +5,31 @@ use parry2d_f64::math::Vector;
 use parry2d_f64::query::PointQuery;
 use parry2d_f64::shape::Polyline;
 
+/// What `wire.points_m` takes.
+fn wire_points() -> String {
+    format!(
+        "at least 2 distinct `[x, y]` points (3 when closed), within {:e} m of the origin",
+        MAX_FLOOR_M
+    )
+}
+
+/// Largest coordinate on the floor, m: far beyond any plant, small enough that squared
+/// distances and the field's arithmetic stay exact to well below a millimetre.
+pub const MAX_FLOOR_M: f64 = 1.0e5;
+
+crate::declare_params! {
+    /// The buried guide wire: a polyline or a closed loop, world frame (scene section
+    /// `[wire]`).
+    #[derive(Debug, Clone, PartialEq)]
+    pub struct WireParams {
+        /// Vertices, world frame.
+        #[serde(deserialize_with = "crate::param::points_2d")]
+        points_m: Vec<[f64; 2]> = vec![[-2.0, 0.0], [40.0, 0.0]], "m", other(wire_points);
+        /// Joins the last point to the first.
+        closed: bool = false, "", other(crate::param::true_or_false);
+    }
+}
+
 /// A guide wire, world frame, carrying current in the order of its points.
 #[derive(Clone)]
 pub struct Wire {

@@ -10,7 +10,7 @@ mod params;
 mod snapshot;
 mod step;
 
-pub use params::{motor_params, Features, SimParams, MAX_SUBSTEPS};
+pub use params::{Features, SimParams, MAX_SUBSTEPS};
 pub use snapshot::{CastorSnapshot, SideSnapshot, Snapshot};
 
 use rand::SeedableRng;
@@ -100,15 +100,15 @@ impl Sim {
     }
 
     pub fn from_params(params: SimParams) -> Result<Sim, SimError> {
-        let body = if params.wheels_lifted {
+        let body = if params.sim.wheels_lifted {
             Body::Lifted(params.start)
         } else if params.features.tyres_and_castors {
             Body::Rapier(Box::new(Engine::new(
                 &params.chassis,
-                params.castor,
-                params.outline_m,
+                params.castors.clone(),
+                params.outline_m(),
                 params.start,
-                params.dt_s,
+                params.sim.dt_s,
                 &params.obstacles,
             )))
         } else {
@@ -121,7 +121,7 @@ impl Sim {
         let firmware = params.firmware.initial_state();
         let half = crate::firmware::HALF_DUTY as f64;
         Ok(Sim {
-            rng: Pcg64::seed_from_u64(params.seed),
+            rng: Pcg64::seed_from_u64(params.sim.seed),
             actuation: Actuation::Firmware,
             t_s: 0.0,
             steps: 0,
@@ -132,8 +132,11 @@ impl Sim {
             dcmc: DcmcState::default(),
             firmware,
             pwm_filtered: [half, half],
-            command_delay: (params.command_delay_s > 0.0).then(|| {
-                command_delay::CommandDelay::new(params.command_delay_s, Actuation::Firmware)
+            command_delay: (params.dcmc.params.command_delay_s > 0.0).then(|| {
+                command_delay::CommandDelay::new(
+                    params.dcmc.params.command_delay_s,
+                    Actuation::Firmware,
+                )
             }),
             last: LastStep {
                 battery_v: params.battery.open_circuit_v,
@@ -172,7 +175,7 @@ impl Sim {
     /// Drive wheels' rim speeds (left, right), m/s: what encoders on the wheels would
     /// measure (tyre slip unseen).
     pub fn rim_speeds_m_s(&self) -> [f64; 2] {
-        let r = self.params.drivetrain.wheel_radius_m;
+        let r = self.params.drivetrain.wheel.radius_m;
         self.drive.map(|w| w.wheel_speed_rad_s * r)
     }
 
@@ -187,7 +190,7 @@ impl Sim {
         duration_s: f64,
         mut observe: impl FnMut(&Sim),
     ) -> Result<(), SimError> {
-        let steps = (duration_s / self.params.dt_s).round() as u64;
+        let steps = (duration_s / self.params.sim.dt_s).round() as u64;
         for _ in 0..steps {
             self.step()?;
             observe(self);

@@ -151,7 +151,7 @@ impl Sim {
                 .map(|c| pose.unrotate(c.force_n)[0])
                 .sum::<f64>()
         };
-        let coils_m = [pose.to_world(p.coils_m[0]), pose.to_world(p.coils_m[1])];
+        let coils_m = [pose.to_world(p.coils_m()[0]), pose.to_world(p.coils_m()[1])];
         let mid = [
             0.5 * (coils_m[0][0] + coils_m[1][0]),
             0.5 * (coils_m[0][1] + coils_m[1][1]),

@@ -34,7 +34,7 @@ impl Sim {
     /// 7. **Finiteness check**: any non-finite or unphysical state stops the run with
     ///    [`SimError::Diverged`].
     pub fn step(&mut self) -> Result<(), SimError> {
-        let dt = self.params.dt_s;
+        let dt = self.params.sim.dt_s;
         if let Some(d) = &mut self.command_delay {
             self.actuation = d.acting(self.t_s, dt);
         }
@@ -42,20 +42,26 @@ impl Sim {
         let pose = body_pose.frame();
 
         // 1. Sensors.
-        let sensors = self.read_coils(&pose, self.params.coils_m);
-        let rear = self.params.rear_coils_m.map(|c| self.read_coils(&pose, c));
+        let sensors = self.read_coils(&pose, self.params.coils_m());
+        let rear = self
+            .params
+            .rear_coils_m()
+            .map(|c| self.read_coils(&pose, c));
         let bumper = self
             .params
             .bumper
             .touches(&body_pose, &self.params.obstacles);
-        let steer_on = match (self.params.firmware.reverse, rear) {
+        let steer_on = match (self.params.firmware.controller.reverse, rear) {
             (true, Some(r)) => r,
             _ => sensors,
         };
         let ideal = self.params.features.ideal_feedback.then(|| {
-            let coils = match (self.params.firmware.reverse, self.params.rear_coils_m) {
+            let coils = match (
+                self.params.firmware.controller.reverse,
+                self.params.rear_coils_m(),
+            ) {
                 (true, Some(r)) => r,
-                _ => self.params.coils_m,
+                _ => self.params.coils_m(),
             };
             let mid = [
                 0.5 * (coils[0][0] + coils[1][0]),
@@ -167,9 +173,9 @@ impl Sim {
                 .wire
                 .horizontal_field(pose.to_world(*c), self.params.coil.height_m);
             let mut s = self.params.coil.reading(field, axis);
-            if self.params.noise_adc > 0.0 {
+            if self.params.sensors.noise_adc > 0.0 {
                 let n: f64 = StandardNormal.sample(&mut self.rng);
-                s += self.params.noise_adc * n;
+                s += self.params.sensors.noise_adc * n;
             }
             out[i] = if self.params.features.quantisation {
                 adc_counts(s)
@@ -222,7 +228,7 @@ impl Sim {
             Body::Rapier(engine) => {
                 let pose = engine.pose();
                 let wheels = p.chassis.wheel_points_m();
-                let r = dtp.wheel_radius_m;
+                let r = dtp.wheel.radius_m;
                 let mut kin = [ContactKinematics::default(); 2];
                 let mut tyre_params = [p.drive_tyre(p.floor.default); 2];
                 for i in 0..2 {
@@ -286,7 +292,7 @@ impl Sim {
                         dt,
                     );
                     // Rolling resistance, smoothed through zero speed over 5 mm/s.
-                    let [rr] = rolling_drag_n(p.castor_rolling_resistance * load, [roll], 0.005);
+                    let [rr] = rolling_drag_n(p.castors.rolling_resistance * load, [roll], 0.005);
                     let local = [rr, out.force_n[1]];
                     let (s, c) = m.heading_rad.sin_cos();
                     castor_forces[k] = [c * local[0] - s * local[1], s * local[0] + c * local[1]];

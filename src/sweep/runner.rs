@@ -210,8 +210,8 @@ pub fn summarise(scene: &Scene) -> Result<RunSummary, SimError> {
 
 fn simulate(scene: &Scene, mut trace: Option<&mut Trace>) -> Result<RunSummary, SimError> {
     let mut sim = Sim::new(scene)?;
-    let dt = sim.params().dt_s;
-    let steps = (sim.params().duration_s / dt).round() as u64;
+    let dt = sim.params().sim.dt_s;
+    let steps = (sim.params().sim.duration_s / dt).round() as u64;
     let trace_every = ((scene.sim.record_interval_s / dt).round() as u64).max(1);
     let mut metrics = MetricsObserver::default();
     let mut distance = 0.0;

@@ -128,7 +128,7 @@ impl RerunRecorder {
         log_interval_s: f64,
     ) -> Result<Self, VizError> {
         let builder = RecordingStreamBuilder::new("agvsim")
-            .recording_id(format!("agvsim-{name}-seed{}", params.seed))
+            .recording_id(format!("agvsim-{name}-seed{}", params.sim.seed))
             .batcher_config(batcher_config());
         let rec = match target {
             RerunTarget::Save(p) => builder.save(p).map_err(err)?,
@@ -142,7 +142,7 @@ impl RerunRecorder {
         // with the travelled region when the run ends.
         let (x, y) = (params.start.x_m, params.start.y_m);
         send_blueprint(&rec, ([x - 5.0, y - 3.0], [x + 5.0, y + 3.0]))?;
-        let every = ((log_interval_s / params.dt_s).round() as u64).max(1);
+        let every = ((log_interval_s / params.sim.dt_s).round() as u64).max(1);
         let mut r = RerunRecorder {
             rec,
             every,
@@ -185,9 +185,9 @@ impl RerunRecorder {
 
     fn log_obstacles(&self, p: &SimParams) -> Result<(), VizError> {
         for (i, o) in p.obstacles.iter().enumerate() {
-            let c = o.spec.center_m;
-            let strip: Vec<[f32; 3]> = match (o.spec.half_extents_m, o.spec.radius_m) {
-                (Some(h), _) => rectangle(c, h, o.spec.angle_rad),
+            let c = o.params.center_m;
+            let strip: Vec<[f32; 3]> = match (o.params.half_extents_m, o.params.radius_m) {
+                (Some(h), _) => rectangle(c, h, o.params.angle_rad),
                 (None, Some(r)) => (0..=32)
                     .map(|k| {
                         let a = k as f64 / 32.0 * std::f64::consts::TAU;
@@ -210,7 +210,7 @@ impl RerunRecorder {
     /// (they do not steer), coil positions, and the styles and origins of the arrows.
     fn log_vehicle(&self, p: &SimParams) -> Result<(), VizError> {
         let rec = &self.rec;
-        let (front, rear, width) = p.outline_m;
+        let (front, rear, width) = p.outline_m();
         let outline = rectangle(
             [0.5 * (front - rear), 0.0],
             [0.5 * (front + rear), 0.5 * width],
@@ -222,7 +222,7 @@ impl RerunRecorder {
             &rerun::LineStrips3D::new([outline, nose]).with_colors([BODY]),
         )
         .map_err(err)?;
-        let r = p.drivetrain.wheel_radius_m;
+        let r = p.drivetrain.wheel.radius_m;
         let wheels: Vec<Vec<[f32; 3]>> = p
             .chassis
             .wheel_points_m()
@@ -238,7 +238,7 @@ impl RerunRecorder {
         .map_err(err)?;
         rec.log_static(
             "world/agv/coils",
-            &rerun::Points3D::new(p.coils_m.iter().map(|c| w(*c))).with_radii([0.02f32]),
+            &rerun::Points3D::new(p.coils_m().iter().map(|c| w(*c))).with_radii([0.02f32]),
         )
         .map_err(err)?;
         rec.log_static(

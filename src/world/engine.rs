@@ -7,18 +7,9 @@
 
 use rapier2d_f64::prelude::*;
 
-use crate::model::chassis::{wrap_angle, ChassisParams, Pose};
+use crate::model::castor::CastorParams;
+use crate::model::chassis::{wrap_angle, LoadedChassis, Pose};
 use crate::sensing::bumper::Obstacle;
-
-/// Castor bodies and joints.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CastorParams {
-    /// Contact patch behind the swivel axis, m.
-    pub trail_m: f64,
-    pub mass_kg: f64,
-    pub swivel_friction_nm: f64,
-    pub initial_angle_rad: f64,
-}
 
 /// Motion of one castor's contact patch.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -58,7 +49,7 @@ fn v(p: [f64; 2]) -> Vector {
 impl Engine {
     /// Builds the world. `outline` is the body rectangle: (front_m, rear_m, width_m).
     pub fn new(
-        chassis: &ChassisParams,
+        chassis: &LoadedChassis,
         castor: CastorParams,
         outline: (f64, f64, f64),
         start: Pose,

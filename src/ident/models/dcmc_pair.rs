@@ -71,12 +71,11 @@ impl DcmcPair {
             alpha: (b + k * k / r) / j,
             beta: k / (r * j),
         };
-        let c = rig.controller.clone().unwrap_or_default();
-        let gf = c.gain_V_pct.unwrap_or(0.24);
-        let gt = c.turn_gain_V_pct.unwrap_or(gf);
+        let gf = rig.get("controller.gain_V_pct").unwrap_or(0.24);
+        let gt = rig.get("controller.turn_gain_V_pct").unwrap_or(gf);
         // Left = forward - turn, right = forward + turn (the DCMC's mix).
         let mix = [[1.0, -1.0], [1.0, 1.0]];
-        let (a_nom, b_nom, e_nom, s_nom) = match c.kind.as_deref().unwrap_or("gain") {
+        let (a_nom, b_nom, e_nom, s_nom) = match rig.text("controller.kind").unwrap_or("gain") {
             "gain" => {
                 let bm = |i: usize, jj: usize| m.beta * [gf, gt][jj] * mix[i][jj];
                 let a = -m.alpha;
@@ -85,9 +84,9 @@ impl DcmcPair {
                 (a, bb, 1e-3 * m.alpha * m.alpha, s)
             }
             "p" | "pi" => {
-                let sp = c.speed_per_pct_rad_s.unwrap_or(3.5);
-                let kp = c.kp_V_s_rad.unwrap_or(0.5);
-                let ki = c.ki_V_rad.unwrap_or(0.0);
+                let sp = rig.get("controller.speed_per_pct_rad_s").unwrap_or(3.5);
+                let kp = rig.get("controller.kp_V_s_rad").unwrap_or(0.5);
+                let ki = rig.get("controller.ki_V_rad").unwrap_or(0.0);
                 let s = [0, 1].map(|i| [0, 1].map(|jj| sp * [1.0, gt / gf][jj] * mix[i][jj]));
                 let a = -(m.alpha + m.beta * kp);
                 let bb = s.map(|row| row.map(|v| m.beta * kp * v));

@@ -64,7 +64,7 @@ impl LinearAxis {
                 need("load.viscous_N_s_m", "the linear axis's viscous friction")?,
             ),
         ];
-        let feedback = match rig.feedback.as_ref().and_then(|f| f.kind.as_deref()) {
+        let feedback = match rig.text("feedback.kind") {
             None => Loop::Open,
             Some("position_velocity_cascade") => Loop::PositionVelocityCascade {
                 kp_1_s: need("feedback.kp_1_s", "the position loop gain")?,

@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 
 use super::{Mechanism, SysIdLog, Test};
 use crate::ident::feedforward::{self, Feedforward, Gravity, Series};
-use crate::rig::{ChassisRig, GearboxRig, MotorRig, Rig, SupplyRig, WheelRig};
+use crate::rig::Rig;
 
 /// What the log cannot say and the user may: each `None` takes the stated default.
 #[derive(Debug, Clone, Default)]
@@ -283,20 +283,12 @@ pub fn nominal_rig(log: &SysIdLog, ff: &Feedforward, a: &Assumptions) -> Result<
     };
     notes.push(format!("resistance {r_ohm:.5} ohm {r_note}; inductance = resistance x {ELECTRICAL_TIME_S} s (assumed)"));
     let supply = a.supply_v.unwrap_or(12.0);
-    let mut rig = Rig {
-        motor: Some(MotorRig {
-            resistance_ohm: Some(r_ohm),
-            inductance_H: Some(r_ohm * ELECTRICAL_TIME_S),
-            viscous_Nm_s_rad: Some(0.0),
-            ..MotorRig::default()
-        }),
-        gearbox: Some(GearboxRig { ratio: Some(1.0) }),
-        supply: Some(SupplyRig {
-            voltage_V: Some(supply),
-        }),
-        ..Rig::default()
-    };
-    let motor = rig.motor.as_mut().expect("set above");
+    let mut rig = Rig::default();
+    rig.set("motor.resistance_ohm", r_ohm);
+    rig.set("motor.inductance_H", r_ohm * ELECTRICAL_TIME_S);
+    rig.set("motor.viscous_Nm_s_rad", 0.0);
+    rig.set("gearbox.ratio", 1.0);
+    rig.set("supply.voltage_V", supply);
     if log.mechanism.is_drivetrain() {
         let r = a.wheel_radius_m.unwrap_or(DEFAULT_WHEEL_RADIUS_M);
         let k = kv * r;
@@ -318,32 +310,29 @@ pub fn nominal_rig(log: &SysIdLog, ff: &Feedforward, a: &Assumptions) -> Result<
         if !(mass > 0.0) {
             return Err(format!("kA = {ka} with kV = {kv} and resistance {r_ohm} ohm gives no positive chassis inertia: SysId's kA must be positive"));
         }
-        motor.torque_constant_Nm_A = Some(k);
-        motor.rotor_inertia_kg_m2 = Some(0.5 * j);
+        rig.set("motor.torque_constant_Nm_A", k);
+        rig.set("motor.rotor_inertia_kg_m2", 0.5 * j);
         rig.rig = "vehicle".into();
-        rig.wheel = Some(WheelRig {
-            radius_m: Some(r),
-            inertia_kg_m2: Some(0.5 * j),
-        });
-        rig.chassis = Some(ChassisRig {
-            mass_kg: Some(mass),
-            yaw_inertia_kg_m2: Some(yaw),
-            track_width_m: Some(w),
-            drive_load_fraction: Some(1.0),
-        });
+        rig.set("wheel.radius_m", r);
+        rig.set("wheel.inertia_kg_m2", 0.5 * j);
+        rig.set("chassis.mass_kg", mass);
+        rig.set("chassis.yaw_inertia_kg_m2", yaw);
+        rig.set("chassis.track_width_m", w);
+        rig.set("chassis.drive_load_fraction", 1.0);
         notes.push(format!("gearbox ratio 1 and wheel radius {r} m ({}): the torque constant is kV x radius, referred to the wheel; rotor and wheel inertia {:.4} kg m^2 each: {:.0} % of kA's inertia turns with the wheels (assumed)", if a.wheel_radius_m.is_some() { "given" } else { "ASSUMED, give --wheel-radius-m" }, 0.5 * j, 100.0 * DRIVE_ROTATING_SHARE));
         notes.push(format!("track width {w} m ({}); {}", if a.track_width_m.is_some() { "given" } else if track_width(log).is_some() { "from the gyro" } else { "ASSUMED, give --track-width-m" }, if log.mechanism == Mechanism::DrivetrainAngular { "yaw inertia from kA, mass from it as a uniform square of side track width (assumed)" } else { "mass from kA, yaw inertia as a uniform square of side track width (assumed)" }));
     } else {
-        motor.torque_constant_Nm_A = Some(kv);
-        motor.rotor_inertia_kg_m2 = Some(ka * kv / r_ohm);
+        rig.set("motor.torque_constant_Nm_A", kv);
+        rig.set("motor.rotor_inertia_kg_m2", ka * kv / r_ohm);
         rig.rig = "drive_axis".into();
-        rig.wheel = Some(WheelRig {
-            radius_m: Some(a.wheel_radius_m.unwrap_or(DEFAULT_WHEEL_RADIUS_M)),
-            inertia_kg_m2: Some(0.0),
-        });
+        rig.set(
+            "wheel.radius_m",
+            a.wheel_radius_m.unwrap_or(DEFAULT_WHEEL_RADIUS_M),
+        );
+        rig.set("wheel.inertia_kg_m2", 0.0);
         notes.push("gearbox ratio 1: the measured shaft is the motor shaft; its whole inertia is the rotor's (kA x kV / resistance)".into());
     }
-    let body = toml::to_string(&rig).map_err(|e| e.to_string())?;
+    let body = rig.to_toml();
     let mut s = format!(
         "# Nominal rig of {} from a linear fit (agvsim import wpilib)\n",
         log.source

@@ -58,19 +58,21 @@ impl ClosedLoop {
 /// would be states).
 pub(super) fn loop_gains(params: &SimParams, sim: &Sim) -> Option<LoopGains> {
     use crate::firmware::pwm::PCT_PER_COUNT;
+    use crate::firmware::ControllerKind;
+    use crate::model::dcmc::DcmcKind;
     use crate::model::dcmc::{DcmcInput, DcmcState};
-    use crate::scene::{ControllerKind, DcmcKind};
     let fw = &params.firmware;
-    if fw.kind != ControllerKind::Pd || matches!(params.dcmc.kind, DcmcKind::Pi | DcmcKind::GainPi)
+    if fw.controller.kind != ControllerKind::Pd
+        || matches!(params.dcmc.params.kind, DcmcKind::Pi | DcmcKind::GainPi)
     {
         return None;
     }
-    let sign = if fw.reverse { -1.0 } else { 1.0 };
+    let sign = if fw.controller.reverse { -1.0 } else { 1.0 };
     let speeds = [
         sim.drive[0].motor.speed_rad_s,
         sim.drive[1].motor.speed_rad_s,
     ];
-    let forward_pct = sign * fw.forward_counts as f64 * PCT_PER_COUNT;
+    let forward_pct = sign * fw.controller.forward_counts as f64 * PCT_PER_COUNT;
     let available_v = params
         .battery
         .available_drive_v(params.battery.open_circuit_v);
@@ -79,9 +81,7 @@ pub(super) fn loop_gains(params: &SimParams, sim: &Sim) -> Option<LoopGains> {
         dcmc.faults = false;
         // Steady slopes: the response lag is a state of the loop (below), not a gain, and
         // the ramp passes small signals untouched.
-        dcmc.response = None;
-        dcmc.ramp = None;
-        dcmc.turn_ramp_pct_s = None;
+        dcmc.params = dcmc.params.without_shaping();
         let mut state = DcmcState {
             enabled_since_s: Some(0.0),
             ..DcmcState::default()
@@ -98,7 +98,7 @@ pub(super) fn loop_gains(params: &SimParams, sim: &Sim) -> Option<LoopGains> {
                 low_battery: false,
                 available_v,
             },
-            params.dt_s,
+            params.sim.dt_s,
         )
         .voltage_v
     };
@@ -113,15 +113,16 @@ pub(super) fn loop_gains(params: &SimParams, sim: &Sim) -> Option<LoopGains> {
         per_speed[k] = (volts(0.0, wp)[k] - volts(0.0, wm)[k]) / (2.0 * dw);
     }
     Some(LoopGains {
-        kp: fw.kp_num as f64 * fw.gain_scale / fw.kp_den as f64,
-        kd: fw.kd_num as f64 / fw.kd_den as f64,
-        period_s: fw.period_s.unwrap_or(params.dt_s),
+        kp: fw.controller.kp_num as f64 * fw.controller.gain_scale / fw.controller.kp_den as f64,
+        kd: fw.controller.kd_num as f64 / fw.controller.kd_den as f64,
+        period_s: fw.period_s.unwrap_or(params.sim.dt_s),
         sign,
         volts_per_turn_count: [(up[0] - um[0]) / (2.0 * du), (up[1] - um[1]) / (2.0 * du)],
         volts_per_motor_speed: per_speed,
         turn_response_time_s: params
             .dcmc
-            .response
+            .params
+            .response()
             .map(|r| r.turn_time_constant_s)
             .filter(|t| *t > 0.0),
     })

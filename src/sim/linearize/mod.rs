@@ -160,7 +160,7 @@ impl Linearisation {
 /// is linearised as its no-slip counterpart `complex` (tyres that do not slip).
 pub fn linearise(scene: &Scene) -> Result<Linearisation, LinearizeError> {
     let mut params = SimParams::from_scene(scene)?;
-    let level = match params.fidelity {
+    let level = match params.sim.fidelity {
         Fidelity::Full => {
             let mut s = scene.clone();
             s.sim.fidelity = Fidelity::Complex;
@@ -169,24 +169,24 @@ pub fn linearise(scene: &Scene) -> Result<Linearisation, LinearizeError> {
         }
         l => l,
     };
-    if params.wheels_lifted {
+    if params.sim.wheels_lifted {
         return Err(LinearizeError::Unsupported(
             "the scene has the wheels lifted: there is no vehicle motion to linearise".into(),
         ));
     }
     // On the wire: the start projected onto the wire, heading along it.
     let near = params.wire.offset([params.start.x_m, params.start.y_m]);
-    let reverse = params.firmware.reverse;
+    let reverse = params.firmware.controller.reverse;
     params.start = Pose {
         x_m: near.nearest_m[0],
         y_m: near.nearest_m[1],
         heading_rad: near.direction_rad,
     };
-    params.noise_adc = 0.0;
+    params.sensors.noise_adc = 0.0;
     // The firmware's forward voltage: mean terminal voltage over the last second of a
     // 4 s run on the wire.
     let mut sim = Sim::from_params(params.clone())?;
-    let dt = params.dt_s;
+    let dt = params.sim.dt_s;
     let steps = (4.0 / dt).round() as usize;
     let mut v_sum = 0.0;
     let mut v_n = 0usize;
@@ -211,11 +211,11 @@ pub fn linearise(scene: &Scene) -> Result<Linearisation, LinearizeError> {
         sim.step()?;
     }
     let x0 = sim.plant_vector();
-    let coils = match (reverse, params.rear_coils_m) {
+    let coils = match (reverse, params.rear_coils_m()) {
         (true, Some(r)) => r,
-        _ => params.coils_m,
+        _ => params.coils_m(),
     };
-    let sensors = if reverse && params.rear_coils_m.is_some() {
+    let sensors = if reverse && params.rear_coils_m().is_some() {
         "rear"
     } else {
         "front"

@@ -106,8 +106,8 @@ pub(super) fn starting_value(scene: &Scene, key: &str) -> f64 {
     let d = &scene.dcmc;
     let or = |v: f64, start: f64| if v > 0.0 { v } else { start };
     match key {
-        "dcmc.forward_gain_V_pct" => d.forward_gain_V_pct,
-        "dcmc.turn_gain_V_pct" => d.turn_gain_V_pct,
+        "dcmc.forward_gain_V_pct" => d.forward_gain_v_pct,
+        "dcmc.turn_gain_V_pct" => d.turn_gain_v_pct,
         "dcmc.response_time_left_s" => or(d.response_time_left_s, 0.3),
         "dcmc.response_time_right_s" => or(d.response_time_right_s, 0.3),
         "dcmc.turn_response_time_s" => or(d.turn_response_time_s, 0.3),
@@ -122,8 +122,8 @@ pub(super) fn starting_value(scene: &Scene, key: &str) -> f64 {
 pub(super) fn set_dcmc_key(scene: &mut Scene, key: &str, v: f64) {
     let d = &mut scene.dcmc;
     match key {
-        "dcmc.forward_gain_V_pct" => d.forward_gain_V_pct = v,
-        "dcmc.turn_gain_V_pct" => d.turn_gain_V_pct = v,
+        "dcmc.forward_gain_V_pct" => d.forward_gain_v_pct = v,
+        "dcmc.turn_gain_V_pct" => d.turn_gain_v_pct = v,
         "dcmc.response_time_left_s" => d.response_time_left_s = v,
         "dcmc.response_time_right_s" => d.response_time_right_s = v,
         "dcmc.turn_response_time_s" => d.turn_response_time_s = v,
@@ -187,7 +187,7 @@ impl Predictor for LiftedDcmcReplay {
     fn predict(&self, p: &[f64], data: &Dataset) -> Result<Vec<Vec<f64>>, Diverged> {
         let scene = self.scene_with(p);
         let mut sim = Sim::new(&scene).map_err(|_| Diverged { t_s: data.t_s[0] })?;
-        let dt = sim.params().dt_s;
+        let dt = sim.params().sim.dt_s;
         let out_index: Vec<usize> = data
             .output_names
             .iter()

@@ -181,8 +181,8 @@ pub(super) fn summary(r: &ThesisDcmcResult, scene: &Scene) -> String {
     let _ = writeln!(
         s,
         "\nThe shipped machine: `dcmc.forward_gain_V_pct` {}, `turn_gain_V_pct` {}, `response_time_left_s` {}, `response_time_right_s` {}, `turn_response_time_s` {}; its column is the mean of `agvsim experiment lifted-random-demand scenes/lab_offset_120mm.toml --seed N --peak-demand 90 --hold 20..60` identified with `--model gain`, N = 1-4.",
-        scene.dcmc.forward_gain_V_pct,
-        scene.dcmc.turn_gain_V_pct,
+        scene.dcmc.forward_gain_v_pct,
+        scene.dcmc.turn_gain_v_pct,
         scene.dcmc.response_time_left_s,
         scene.dcmc.response_time_right_s,
         scene.dcmc.turn_response_time_s

@@ -9,6 +9,7 @@ use crate::model::battery::BatteryParams;
 use crate::model::drivetrain::{DrivetrainParams, DrivetrainState};
 use crate::model::motor::{MotorParams, MotorState};
 use crate::model::speed_loop::SpeedLoopGains;
+use crate::model::wheel::WheelParams;
 
 use super::{
     play_gearbox, AxisInput, RotaryAxis, TorqueCommand, B, GAIN, JM, JW, K, L, MESH_STEP_RATE, R,
@@ -79,9 +80,11 @@ pub(crate) fn drivetrain_blocks(
             offset_nm: value(Effect::Offset).unwrap_or(0.0),
         },
         gearbox,
-        wheel_inertia_kg_m2: p[JW],
-        wheel_radius_m,
-        wheel_viscous_nm_s_rad: p[B] * wheel_share * ratio * ratio,
+        wheel: WheelParams {
+            radius_m: wheel_radius_m,
+            inertia_kg_m2: p[JW],
+            viscous_nm_s_rad: p[B] * wheel_share * ratio * ratio,
+        },
     }
 }
 
@@ -314,12 +317,12 @@ impl GreyBox for RotaryAxis {
                 .motor
                 .rotor_acceleration_rad_s2(driving, w, eps, d.motor.rotor_inertia_kg_m2);
             let ww = s.wheel_speed_rad_s;
-            dx[3] = (tooth - d.wheel_bearing_torque_nm(ww)) / d.wheel_inertia_kg_m2;
+            dx[3] = (tooth - d.wheel_bearing_torque_nm(ww)) / d.wheel.inertia_kg_m2;
             dx[4] = ww;
         } else {
             let driving = d.motor.driving_torque_nm(motor_torque, 0.0);
             let inertia =
-                d.motor.rotor_inertia_kg_m2 + d.wheel_inertia_kg_m2 / (self.ratio * self.ratio);
+                d.motor.rotor_inertia_kg_m2 + d.wheel.inertia_kg_m2 / (self.ratio * self.ratio);
             dx[1] = d.motor.rotor_acceleration_rad_s2(driving, w, eps, inertia);
             dx[3] = 0.0;
             dx[4] = w / self.ratio;

@@ -80,7 +80,7 @@ impl TorqueCommand {
             "command_V drives a current amplifier"
         };
         let feedback = if closed {
-            match rig.feedback.as_ref().and_then(|f| f.kind.as_deref()) {
+            match rig.text("feedback.kind") {
                 Some("position_velocity_cascade") => Some(WheelCascade {
                     kp_1_s: need("feedback.kp_1_s", "the position loop gain")?,
                     kv_v_s_rad: need(

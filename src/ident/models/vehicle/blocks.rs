@@ -66,9 +66,9 @@ impl Vehicle {
         // What turns with a wheel: behind a play the wheel alone, through rigid gears the
         // rotor too.
         let wheel_side_kg_m2 = if play {
-            drivetrain.wheel_inertia_kg_m2
+            drivetrain.wheel.inertia_kg_m2
         } else {
-            drivetrain.wheel_inertia_kg_m2 + drivetrain.reflected_motor_inertia()
+            drivetrain.wheel.inertia_kg_m2 + drivetrain.reflected_motor_inertia()
         };
         VehicleBlocks {
             drivetrain,

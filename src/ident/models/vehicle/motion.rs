@@ -30,7 +30,7 @@ impl Vehicle {
         // does physically, while the slow dynamics are integrated accurately.
         let rim_damping = load * long_stiffness / slip_denominator_m_s;
         let wheel_j = b.body.wheel_inertia_kg_m2;
-        let r = d.wheel_radius_m;
+        let r = d.wheel.radius_m;
         let lambda_long = rim_damping * r * r / wheel_j;
         let lambda_lat = 2.0 * load * lat_stiffness / slip_denominator_m_s / b.body.mass_kg;
         h.min(2.0 / lambda_long.max(lambda_lat))

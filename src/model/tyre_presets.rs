@@ -19,7 +19,7 @@
 //!
 //! These are defaults to reason with; a scene can override any of them in `[tyre]`.
 
-use crate::model::tyre::TyreParams;
+use super::tyre::TyreParams;
 
 /// A tyre compound: what the tread brings regardless of the floor.
 #[derive(Debug, Clone, Copy)]

@@ -1,0 +1,553 @@
+//! How a block declares its parameters: once, beside its law. Each parameter has its key
+//! (the scene's name for it, unit in the name), its unit, what values it allows, its
+//! default and a one-line meaning. [`declare_params!`](crate::declare_params) writes from
+//! that one declaration the block's struct (which the scene deserialises), its documented
+//! `Default`, and its table of keys ([`Block::PARAMS`]).
+//!
+//! Everything that names a parameter reads the tables: the scene is the composition of
+//! the blocks ([`crate::scene::keys`]), and its validation, `--set`, `--vary`,
+//! `agvsim keys`, the rig's keys and the fits' parameter vectors go through them, so a
+//! new parameter is declared in its block's file and nowhere else.
+
+/// What a numeric key allows.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Allowed {
+    /// Finite and above zero.
+    Positive,
+    /// Finite, zero or more.
+    NonNegative,
+    /// Finite and below zero.
+    Negative,
+    /// Any finite number.
+    Finite,
+    /// Strictly between 0 and 1.
+    OpenFraction,
+    /// Within `[lo, hi]`, each end open or closed.
+    Interval {
+        /// Lower end.
+        lo: f64,
+        /// Whether the lower end is excluded.
+        lo_open: bool,
+        /// Upper end.
+        hi: f64,
+        /// Whether the upper end is excluded.
+        hi_open: bool,
+    },
+    /// Any integer (the type is checked when the file is read).
+    Integer,
+    /// An integer other than zero (a denominator).
+    NonZeroInteger,
+}
+
+/// `[lo, hi]`.
+pub const fn closed(lo: f64, hi: f64) -> Allowed {
+    Allowed::Interval {
+        lo,
+        lo_open: false,
+        hi,
+        hi_open: false,
+    }
+}
+
+/// `(lo, hi]`.
+pub const fn open_closed(lo: f64, hi: f64) -> Allowed {
+    Allowed::Interval {
+        lo,
+        lo_open: true,
+        hi,
+        hi_open: false,
+    }
+}
+
+/// `[lo, hi)`.
+pub const fn closed_open(lo: f64, hi: f64) -> Allowed {
+    Allowed::Interval {
+        lo,
+        lo_open: false,
+        hi,
+        hi_open: true,
+    }
+}
+
+/// `(lo, hi)`.
+pub const fn open(lo: f64, hi: f64) -> Allowed {
+    Allowed::Interval {
+        lo,
+        lo_open: true,
+        hi,
+        hi_open: true,
+    }
+}
+
+impl Allowed {
+    /// The rule as the reference prints it.
+    pub fn text(&self) -> String {
+        match *self {
+            Allowed::Positive => "> 0".into(),
+            Allowed::Negative => "< 0".into(),
+            Allowed::NonNegative => ">= 0".into(),
+            Allowed::Finite => "finite".into(),
+            Allowed::OpenFraction => "(0, 1)".into(),
+            Allowed::Interval {
+                lo,
+                lo_open,
+                hi,
+                hi_open,
+            } => format!(
+                "{}{}, {}{}",
+                if lo_open { "(" } else { "[" },
+                bound(lo),
+                bound(hi),
+                if hi_open { ")" } else { "]" }
+            ),
+            Allowed::Integer => "integer".into(),
+            Allowed::NonZeroInteger => "integer, not 0".into(),
+        }
+    }
+
+    /// What an error message says was expected.
+    pub fn expected(&self) -> String {
+        match self {
+            Allowed::Positive => "a finite number greater than zero".into(),
+            Allowed::Negative => "a finite number below zero".into(),
+            Allowed::NonNegative => "a finite number, zero or more".into(),
+            Allowed::Finite => "a finite number".into(),
+            Allowed::OpenFraction => "a fraction strictly between 0 and 1".into(),
+            Allowed::Interval { .. } => format!("a number in {}", self.text()),
+            Allowed::Integer => "an integer".into(),
+            Allowed::NonZeroInteger => "a non-zero integer".into(),
+        }
+    }
+
+    /// Whether `v` satisfies the rule.
+    pub fn admits(&self, v: f64) -> bool {
+        v.is_finite()
+            && match *self {
+                Allowed::Positive => v > 0.0,
+                Allowed::Negative => v < 0.0,
+                Allowed::NonNegative => v >= 0.0,
+                Allowed::Finite | Allowed::Integer => true,
+                Allowed::OpenFraction => v > 0.0 && v < 1.0,
+                Allowed::Interval {
+                    lo,
+                    lo_open,
+                    hi,
+                    hi_open,
+                } => {
+                    (if lo_open { v > lo } else { v >= lo })
+                        && (if hi_open { v < hi } else { v <= hi })
+                }
+                Allowed::NonZeroInteger => v != 0.0,
+            }
+    }
+
+    /// Whether the rule is about whole numbers.
+    pub fn is_integer(&self) -> bool {
+        matches!(self, Allowed::Integer | Allowed::NonZeroInteger)
+    }
+}
+
+/// An interval's end as the reference prints it.
+fn bound(v: f64) -> String {
+    if v == std::f64::consts::FRAC_PI_2 {
+        "pi/2".into()
+    } else {
+        format!("{v}")
+    }
+}
+
+/// What a key takes.
+#[derive(Clone, Copy)]
+pub enum Takes {
+    /// A number within a rule.
+    Number(Allowed),
+    /// Something else (a name from a list, true or false, text, a table), described.
+    Other(fn() -> String),
+}
+
+impl std::fmt::Debug for Takes {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Takes::Number(a) => write!(f, "Number({})", a.text()),
+            Takes::Other(t) => write!(f, "Other({})", t()),
+        }
+    }
+}
+
+impl Takes {
+    /// The numeric rule, if the key is a number.
+    pub fn allowed(&self) -> Option<Allowed> {
+        match self {
+            Takes::Number(a) => Some(*a),
+            Takes::Other(_) => None,
+        }
+    }
+
+    /// What the reference prints in its "allowed" column.
+    pub fn text(&self) -> String {
+        match self {
+            Takes::Number(a) => a.text(),
+            Takes::Other(t) => t(),
+        }
+    }
+}
+
+/// `true` or `false`.
+pub fn true_or_false() -> String {
+    "true, false".into()
+}
+
+/// A list of floor points, each exactly `[x, y]` (m): a third coordinate is an error, not
+/// silently dropped. For `#[serde(deserialize_with = ...)]`.
+pub fn points_2d<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<[f64; 2]>, D::Error> {
+    use serde::Deserialize;
+    let raw: Vec<Vec<f64>> = Vec::deserialize(d)?;
+    raw.iter()
+        .enumerate()
+        .map(|(i, p)| match p.as_slice() {
+            [x, y] => Ok([*x, *y]),
+            _ => Err(serde::de::Error::custom(format!(
+                "point {i} has {} coordinates ({p:?}): expected two, [x, y] in metres on the floor",
+                p.len()
+            ))),
+        })
+        .collect()
+}
+
+/// One parameter of block `B`, as the block declares it.
+pub struct Param<B: 'static> {
+    /// The key inside the block's section (`resistance_ohm`).
+    pub key: &'static str,
+    /// The unit (`ohm`, `N m/A`); empty for a ratio, a count or a choice.
+    pub unit: &'static str,
+    /// What it takes.
+    pub takes: Takes,
+    /// What it is: the doc comment of its field.
+    pub meaning: &'static str,
+    /// What an optional parameter left out means (`""` for one that always has a value).
+    pub unset: &'static str,
+    /// Its value as a number (`None`: an optional one left out, or not a number).
+    pub get: fn(&B) -> Option<f64>,
+    /// Sets it from a number (whole numbers for integer keys; nothing for keys that are
+    /// not numbers).
+    pub set: fn(&mut B, f64),
+}
+
+/// A block's declared parameters: its struct is the block's section of a scene.
+pub trait Block: Default + 'static {
+    /// Every parameter in declaration order.
+    const PARAMS: &'static [Param<Self>];
+}
+
+/// How a field's value reads and takes a number, for the key tables.
+pub trait Value {
+    /// The value as a number, if it is one.
+    fn number(&self) -> Option<f64> {
+        None
+    }
+    /// Sets the value from a number (no-op for values that are not numbers).
+    fn set_number(&mut self, _v: f64) {}
+}
+
+impl Value for f64 {
+    fn number(&self) -> Option<f64> {
+        Some(*self)
+    }
+    fn set_number(&mut self, v: f64) {
+        *self = v;
+    }
+}
+
+impl Value for Option<f64> {
+    fn number(&self) -> Option<f64> {
+        *self
+    }
+    fn set_number(&mut self, v: f64) {
+        *self = Some(v);
+    }
+}
+
+impl Value for i32 {
+    fn number(&self) -> Option<f64> {
+        Some(f64::from(*self))
+    }
+    fn set_number(&mut self, v: f64) {
+        *self = v as i32;
+    }
+}
+
+impl Value for u64 {
+    fn number(&self) -> Option<f64> {
+        Some(*self as f64)
+    }
+    fn set_number(&mut self, v: f64) {
+        *self = v as u64;
+    }
+}
+
+impl Value for bool {}
+impl Value for String {}
+impl<T> Value for Vec<T> {}
+
+/// Declares a block's parameters once: the struct (serde, unknown keys refused, every
+/// field defaulted), its `Default`, and its [`Block::PARAMS`] table. Each field:
+///
+/// ```text
+/// /// Meaning (the field's doc and the key's meaning).
+/// field as "key_Unit": type = default, "unit", takes [, unset "what leaving it out means"];
+/// ```
+///
+/// `as "key"` is needed where the key is not the field's name (mixed-case units);
+/// `takes` is an [`Allowed`] rule for numbers, or `other(fn)` with a function describing
+/// what the key takes. A field may carry `#[serde(...)]` attributes after its doc.
+#[macro_export]
+macro_rules! declare_params {
+    (
+        $(#[doc = $sdoc:literal])*
+        #[derive($($derive:path),*)]
+        pub struct $name:ident {
+            $(
+                $(#[doc = $doc:literal])+
+                $(#[serde($($serde:tt)*)])*
+                $field:ident $(as $key:literal)? : $ty:ty = $default:expr,
+                    $unit:literal, $kind:ident $(($($rule:tt)*))? $(, unset $unset:literal)?;
+            )*
+        }
+    ) => {
+        $(#[doc = $sdoc])*
+        #[derive($($derive),*, serde::Deserialize, serde::Serialize)]
+        #[serde(deny_unknown_fields, default)]
+        pub struct $name {
+            $(
+                $(#[doc = $doc])+
+                #[doc = ""]
+                #[doc = concat!(
+                    "Key `", $crate::declare_params!(@key $field $(, $key)?), "`",
+                    $crate::declare_params!(@unit $unit),
+                    ", default `", stringify!($default), "`."
+                )]
+                $(#[serde(rename = $key)])?
+                $(#[serde($($serde)*)])*
+                pub $field: $ty,
+            )*
+        }
+
+        impl Default for $name {
+            fn default() -> Self {
+                $name { $($field: $default),* }
+            }
+        }
+
+        impl $crate::param::Block for $name {
+            const PARAMS: &'static [$crate::param::Param<Self>] = &[
+                $(
+                    $crate::param::Param {
+                        key: $crate::declare_params!(@key $field $(, $key)?),
+                        unit: $unit,
+                        takes: $crate::declare_params!(@takes $kind $(($($rule)*))?),
+                        meaning: concat!($($doc),+),
+                        unset: $crate::declare_params!(@unset $($unset)?),
+                        get: |b: &$name| $crate::param::Value::number(&b.$field),
+                        set: |b: &mut $name, v: f64| $crate::param::Value::set_number(&mut b.$field, v),
+                    },
+                )*
+            ];
+        }
+    };
+    (@key $field:ident) => { stringify!($field) };
+    (@key $field:ident, $key:literal) => { $key };
+    (@unit "") => { "" };
+    (@unit $unit:literal) => { concat!(", ", $unit) };
+    (@unset) => { "" };
+    (@unset $unset:literal) => { $unset };
+    (@takes other($describe:expr)) => { $crate::param::Takes::Other($describe) };
+    (@takes closed($lo:expr, $hi:expr)) => { $crate::param::Takes::Number($crate::param::closed($lo, $hi)) };
+    (@takes open_closed($lo:expr, $hi:expr)) => { $crate::param::Takes::Number($crate::param::open_closed($lo, $hi)) };
+    (@takes closed_open($lo:expr, $hi:expr)) => { $crate::param::Takes::Number($crate::param::closed_open($lo, $hi)) };
+    (@takes open($lo:expr, $hi:expr)) => { $crate::param::Takes::Number($crate::param::open($lo, $hi)) };
+    (@takes $rule:ident) => { $crate::param::Takes::Number($crate::param::Allowed::$rule) };
+}
+
+/// One key of a composition of blocks (a scene, a fitting model's blocks): the block's
+/// declaration with the section it sits in.
+pub struct Key<T> {
+    /// The dotted key (`motor.resistance_ohm`).
+    pub key: String,
+    /// The unit, as declared.
+    pub unit: &'static str,
+    /// What it takes, as declared.
+    pub takes: Takes,
+    /// What it is, as declared (whitespace as in the doc comment).
+    pub meaning: &'static str,
+    /// What an optional key left out means.
+    pub unset: &'static str,
+    get: Box<dyn Fn(&T) -> Option<f64> + Send + Sync>,
+    set: Box<dyn Fn(&mut T, f64) + Send + Sync>,
+}
+
+impl<T> Key<T> {
+    /// The key's value in `t` as a number (`None`: an optional key left out, or not a
+    /// number).
+    pub fn get(&self, t: &T) -> Option<f64> {
+        (self.get)(t)
+    }
+
+    /// Sets the key's value in `t` (whole numbers for integer keys).
+    pub fn set(&self, t: &mut T, v: f64) {
+        (self.set)(t, v)
+    }
+
+    /// The numeric rule, if the key is a number.
+    pub fn allowed(&self) -> Option<Allowed> {
+        self.takes.allowed()
+    }
+
+    /// The meaning on one line, as the reference prints it.
+    pub fn meaning_line(&self) -> String {
+        self.meaning
+            .split_whitespace()
+            .collect::<Vec<_>>()
+            .join(" ")
+    }
+}
+
+impl<T> std::fmt::Debug for Key<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Key({} {:?})", self.key, self.takes)
+    }
+}
+
+/// The keys of a composition of blocks, section by section, in the order they were
+/// added.
+pub struct KeyTable<T> {
+    keys: Vec<Key<T>>,
+}
+
+impl<T> Default for KeyTable<T> {
+    fn default() -> Self {
+        KeyTable { keys: Vec::new() }
+    }
+}
+
+impl<T: 'static> KeyTable<T> {
+    /// An empty table.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Adds a block's keys under `prefix` (`motor`), the block reached through `get` and
+    /// `get_mut`.
+    pub fn section<B: Block>(
+        mut self,
+        prefix: &str,
+        get: fn(&T) -> &B,
+        get_mut: fn(&mut T) -> &mut B,
+    ) -> Self {
+        for p in B::PARAMS {
+            let (read, write) = (p.get, p.set);
+            self.keys.push(Key {
+                key: format!("{prefix}.{}", p.key),
+                unit: p.unit,
+                takes: p.takes,
+                meaning: p.meaning,
+                unset: p.unset,
+                get: Box::new(move |t| read(get(t))),
+                set: Box::new(move |t, v| write(get_mut(t), v)),
+            });
+        }
+        self
+    }
+
+    /// Adds a key that is not a block's parameter (a scene's description, a list of
+    /// tables), described.
+    pub fn other(mut self, key: &str, takes: fn() -> String, meaning: &'static str) -> Self {
+        self.keys.push(Key {
+            key: key.to_string(),
+            unit: "",
+            takes: Takes::Other(takes),
+            meaning,
+            unset: "",
+            get: Box::new(|_| None),
+            set: Box::new(|_, _| {}),
+        });
+        self
+    }
+
+    /// Every key in order.
+    pub fn keys(&self) -> &[Key<T>] {
+        &self.keys
+    }
+
+    /// A key by its dotted name.
+    pub fn find(&self, key: &str) -> Option<&Key<T>> {
+        self.keys.iter().find(|k| k.key == key)
+    }
+
+    /// Every numeric key.
+    pub fn numbers(&self) -> impl Iterator<Item = (&Key<T>, Allowed)> {
+        self.keys.iter().filter_map(|k| k.allowed().map(|a| (k, a)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    crate::declare_params! {
+        /// A block for the test.
+        #[derive(Debug, Clone, PartialEq)]
+        pub struct Thing {
+            /// Its mass.
+            mass_kg: f64 = 2.0, "kg", Positive;
+            /// Its stiffness.
+            stiffness as "stiffness_N_m": f64 = 10.0, "N/m", closed(0.0, 100.0);
+            /// A count.
+            teeth: i32 = 12, "", Integer;
+            /// An optional value.
+            bias as "bias_N": Option<f64> = None, "N", Finite, unset "no bias";
+            /// A name.
+            colour: String = "red".into(), "", other(|| "a colour".into());
+        }
+    }
+
+    #[test]
+    fn a_declaration_gives_the_struct_its_default_and_its_table() {
+        let t = Thing::default();
+        assert_eq!(t.mass_kg, 2.0);
+        assert_eq!(t.colour, "red");
+        let keys: Vec<&str> = Thing::PARAMS.iter().map(|p| p.key).collect();
+        assert_eq!(
+            keys,
+            ["mass_kg", "stiffness_N_m", "teeth", "bias_N", "colour"]
+        );
+        let back: Thing = toml::from_str("stiffness_N_m = 5.0\nbias_N = -1.0\n").unwrap();
+        assert_eq!(back.stiffness, 5.0);
+        assert_eq!(back.bias, Some(-1.0));
+        assert!(toml::from_str::<Thing>("stiffness = 5.0\n").is_err());
+        let mut t = t;
+        (Thing::PARAMS[2].set)(&mut t, 15.0);
+        assert_eq!(t.teeth, 15);
+        assert_eq!((Thing::PARAMS[3].get)(&t), None);
+        assert_eq!((Thing::PARAMS[4].get)(&t), None);
+        assert_eq!(Thing::PARAMS[1].meaning.trim(), "Its stiffness.");
+        assert!(!Thing::PARAMS[1].takes.allowed().unwrap().admits(101.0));
+    }
+
+    #[test]
+    fn a_table_addresses_a_blocks_keys_under_its_section() {
+        #[derive(Default)]
+        struct Two {
+            a: Thing,
+            b: Thing,
+        }
+        let table = KeyTable::<Two>::new()
+            .section("a", |t| &t.a, |t| &mut t.a)
+            .section("b", |t| &t.b, |t| &mut t.b);
+        let mut two = Two::default();
+        table.find("b.mass_kg").unwrap().set(&mut two, 7.0);
+        assert_eq!((two.a.mass_kg, two.b.mass_kg), (2.0, 7.0));
+        assert_eq!(table.find("b.mass_kg").unwrap().get(&two), Some(7.0));
+        assert_eq!(table.numbers().count(), 8);
+        assert!(table.find("c.mass_kg").is_none());
+    }
+}

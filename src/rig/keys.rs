@@ -1,0 +1,190 @@
+//! Every key a rig file may hold, each read from its declaration: the scene's keys a rig
+//! states under the same name, the contract's aliases of scene keys, and the keys of the
+//! parts of other machines ([`super::blocks`]).
+
+use std::sync::OnceLock;
+
+use super::blocks::{CurrentAmplifier, FallingWeight, Instruments, LinearLoad, PositionLoop};
+use crate::param::{open_closed, Allowed, Block, Takes};
+
+/// One key a rig may hold.
+#[derive(Debug)]
+pub struct RigKey {
+    /// The dotted key as a rig file writes it.
+    pub key: String,
+    /// The scene key it is (the same name, or the one the contract's alias names), if the
+    /// scene has it.
+    pub scene_key: Option<&'static str>,
+    /// Its unit, as declared.
+    pub unit: &'static str,
+    /// What it takes: the declaration's rule, or the rig's where a rig may state less
+    /// (a zero that a model then accepts or refuses with its reason).
+    pub takes: Takes,
+    /// What it is, as declared.
+    pub meaning: &'static str,
+    /// Its place in the table: a rig is written in this order.
+    pub order: usize,
+}
+
+/// The rig keys that are scene keys, in the contract's order: (rig key, scene key). Most
+/// have the scene's name; the contract calls the supply and the DCMC otherwise.
+const FROM_SCENE: [(&str, &str); 20] = [
+    ("motor.resistance_ohm", "motor.resistance_ohm"),
+    ("motor.inductance_H", "motor.inductance_H"),
+    ("motor.torque_constant_Nm_A", "motor.torque_constant_Nm_A"),
+    ("motor.rotor_inertia_kg_m2", "motor.rotor_inertia_kg_m2"),
+    ("motor.viscous_Nm_s_rad", "motor.viscous_Nm_s_rad"),
+    ("motor.coulomb_Nm", "motor.coulomb_Nm"),
+    ("gearbox.ratio", "gearbox.ratio"),
+    ("wheel.radius_m", "wheel.radius_m"),
+    ("wheel.inertia_kg_m2", "wheel.inertia_kg_m2"),
+    ("supply.voltage_V", "battery.open_circuit_V"),
+    ("controller.kind", "dcmc.kind"),
+    ("controller.gain_V_pct", "dcmc.forward_gain_V_pct"),
+    ("controller.turn_gain_V_pct", "dcmc.turn_gain_V_pct"),
+    ("controller.speed_per_pct_rad_s", "dcmc.speed_per_pct_rad_s"),
+    ("controller.kp_V_s_rad", "dcmc.kp_V_s_rad"),
+    ("controller.ki_V_rad", "dcmc.ki_V_rad"),
+    ("chassis.mass_kg", "chassis.mass_kg"),
+    ("chassis.yaw_inertia_kg_m2", "chassis.yaw_inertia_kg_m2"),
+    ("chassis.track_width_m", "chassis.track_width_m"),
+    ("chassis.drive_load_fraction", "chassis.drive_load_fraction"),
+];
+
+/// Where a rig allows what the scene does not: a zero that means "lumped" or "negligible"
+/// (each model accepts it or refuses it with its reason), and a drivetrain whose wheels
+/// carry all the weight.
+fn rig_rule(key: &str) -> Option<Allowed> {
+    match key {
+        "motor.inductance_H" | "wheel.inertia_kg_m2" => Some(Allowed::NonNegative),
+        "chassis.drive_load_fraction" => Some(open_closed(0.0, 1.0)),
+        // A rig may state a name for what the model then checks (`gain`, `p`, `pi`).
+        _ => None,
+    }
+}
+
+/// The table, built once.
+pub fn table() -> &'static [RigKey] {
+    static TABLE: OnceLock<Vec<RigKey>> = OnceLock::new();
+    TABLE.get_or_init(build)
+}
+
+fn build() -> Vec<RigKey> {
+    let scene = crate::scene::keys::table();
+    let mut out: Vec<RigKey> = Vec::new();
+    for (key, scene_key) in FROM_SCENE {
+        let Some(k) = scene.find(scene_key) else {
+            continue;
+        };
+        let takes = match (k.takes, rig_rule(key)) {
+            (_, Some(rule)) => Takes::Number(rule),
+            // A rig states its controller's kind by name; the model checks it.
+            (Takes::Other(_), None) => Takes::Other(|| "a name".into()),
+            (t, None) => t,
+        };
+        out.push(RigKey {
+            key: key.to_string(),
+            scene_key: Some(scene_key),
+            unit: k.unit,
+            takes,
+            meaning: k.meaning,
+            order: out.len(),
+        });
+    }
+    block::<LinearLoad>(&mut out, "load");
+    block::<CurrentAmplifier>(&mut out, "drive");
+    block::<PositionLoop>(&mut out, "feedback");
+    block::<Instruments>(&mut out, "sensors");
+    block::<FallingWeight>(&mut out, "falling_weight");
+    out
+}
+
+/// A rig-only block's keys under its section.
+fn block<B: Block>(out: &mut Vec<RigKey>, section: &str) {
+    for p in B::PARAMS {
+        out.push(RigKey {
+            key: format!("{section}.{}", p.key),
+            scene_key: None,
+            unit: p.unit,
+            takes: p.takes,
+            meaning: p.meaning,
+            order: out.len(),
+        });
+    }
+}
+
+/// A key by its dotted name.
+pub fn find(key: &str) -> Option<&'static RigKey> {
+    table().iter().find(|k| k.key == key)
+}
+
+/// The sections a rig has, in order.
+pub fn sections() -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    for k in table() {
+        let s = k.key.split('.').next().unwrap_or("");
+        if !out.iter().any(|have| have == s) {
+            out.push(s.to_string());
+        }
+    }
+    out.into_iter().map(|s| format!("[{s}]")).collect()
+}
+
+/// The keys of one section (without the section's name).
+pub fn in_section(section: &str) -> Vec<String> {
+    table()
+        .iter()
+        .filter_map(|k| k.key.strip_prefix(&format!("{section}.")).map(String::from))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_contract_key_is_in_the_table_and_scene_keys_resolve() {
+        let contract = [
+            "motor.resistance_ohm",
+            "motor.inductance_H",
+            "motor.torque_constant_Nm_A",
+            "motor.rotor_inertia_kg_m2",
+            "motor.viscous_Nm_s_rad",
+            "gearbox.ratio",
+            "wheel.radius_m",
+            "wheel.inertia_kg_m2",
+            "supply.voltage_V",
+            "controller.kind",
+            "controller.gain_V_pct",
+            "chassis.mass_kg",
+            "chassis.yaw_inertia_kg_m2",
+            "chassis.track_width_m",
+            "chassis.drive_load_fraction",
+            "load.mass_kg",
+            "load.viscous_N_s_m",
+            "drive.force_per_volt_N_V",
+            "drive.torque_per_volt_Nm_V",
+            "drive.limit_V",
+            "feedback.kind",
+            "feedback.kp_1_s",
+            "feedback.kv_V_s_m",
+            "sensors.motor_encoder_counts_per_rev",
+            "sensors.current_noise_A",
+            "sensors.tracker_position_noise_m",
+            "sensors.tracker_heading_noise_rad",
+            "sensors.tracker_rate_hz",
+        ];
+        for key in contract {
+            assert!(find(key).is_some(), "{key} missing");
+        }
+        // Every key that names a scene key names one the scene has.
+        let n_scene = FROM_SCENE.len();
+        let resolved = table().iter().filter(|k| k.scene_key.is_some()).count();
+        assert_eq!(resolved, n_scene);
+        assert_eq!(
+            find("supply.voltage_V").and_then(|k| k.scene_key),
+            Some("battery.open_circuit_V")
+        );
+        assert_eq!(find("motor.resistance_ohm").map(|k| k.unit), Some("ohm"));
+    }
+}
