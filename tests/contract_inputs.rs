@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use agvsim::diagnose::{diagnose, DiagnoseOptions};
 use agvsim::ident::data::Dataset;
 use agvsim::ident::effects::Effect;
-use agvsim::ident::model::{simulate, GreyBox};
+use agvsim::ident::model::GreyBox;
 use agvsim::ident::models::linear_axis::LinearAxis;
 use agvsim::ident::models::rotary_axis::{AxisInput, RotaryAxis, TorqueCommand};
 use agvsim::ident::{identify, IdentifyOptions};
@@ -65,7 +65,7 @@ fn record(
         outputs: vec![vec![Some(0.0); n]; outputs.len()],
         segment_starts: vec![0],
     };
-    let mut y = simulate(model, p, &data).unwrap();
+    let mut y = model.simulate_record(p, &data).unwrap();
     // Sensor noise of 0.2 % of each output's range, seeded.
     use rand::SeedableRng;
     use rand_distr::Distribution;

@@ -62,7 +62,8 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
         max_command_v,
     } = driven;
     let current = |key: &str| keys::get(scene, key).unwrap_or(0.0);
-    let home = |key: &'static str, start: f64| Home {
+    let key = effect.scene_key();
+    let home = |start: f64| Home {
         effect,
         key,
         switches: vec![],
@@ -75,19 +76,16 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
     };
     Ok(match effect {
         Effect::Backlash => {
-            let b = current("gearbox.backlash_rad");
-            home("gearbox.backlash_rad", if b >= 1e-3 { b } else { 0.03 })
+            let b = current(key);
+            home(if b >= 1e-3 { b } else { 0.03 })
         }
         Effect::CoulombFriction => {
             let tc = scene.motor.coulomb_nm;
-            home(
-                "motor.coulomb_Nm",
-                if tc > 1e-4 * stall_nm {
-                    tc
-                } else {
-                    0.01 * stall_nm
-                },
-            )
+            home(if tc > 1e-4 * stall_nm {
+                tc
+            } else {
+                0.01 * stall_nm
+            })
         }
         Effect::VoltageSaturation => {
             let limit = scene.battery.drive_limit_v;
@@ -95,18 +93,15 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
                 Some(v) if v > 0.0 => limit.min(0.9 * v),
                 _ => 0.9 * limit,
             };
-            home("battery.drive_limit_V", start)
+            home(start)
         }
         Effect::BatterySag => {
             let b = &scene.battery;
-            let mut h = home(
-                "battery.internal_resistance_ohm",
-                if b.internal_resistance_ohm >= 0.01 {
-                    b.internal_resistance_ohm
-                } else {
-                    0.05
-                },
-            );
+            let mut h = home(if b.internal_resistance_ohm >= 0.01 {
+                b.internal_resistance_ohm
+            } else {
+                0.05
+            });
             if !matches!(drive, Drive::Voltages | Drive::AxisVoltage) {
                 return Err(homeless(
                     effect,
@@ -126,7 +121,7 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
                     "the DCMC's speed loop acts on demands, and the recording commands motor voltages, which bypass the DCMC",
                 ));
             }
-            speed_loop_home(scene, home("dcmc.ki_V_rad", 0.0))
+            speed_loop_home(scene, home(0.0))
         }
         Effect::WheelSlip | Effect::CastorDrag if !on_floor => {
             return Err(homeless(
@@ -138,23 +133,20 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
             let params = SimParams::from_scene(scene)
                 .map_err(|e| CalibrateError::Key(format!("the scene does not set up: {e}")))?;
             let mu = params.drive_tyre(params.floor.default).peak_mu;
-            home("tyre.peak_mu", mu)
+            home(mu)
         }
         Effect::CastorDrag => {
             let rr = scene.castors.rolling_resistance;
-            home(
-                "castors.rolling_resistance",
-                if rr > 1e-4 { rr } else { 0.02 },
-            )
+            home(if rr > 1e-4 { rr } else { 0.02 })
         }
         Effect::TransportDelay => {
             let d = scene.dcmc.command_delay_s;
-            home("dcmc.command_delay_s", if d >= 1e-4 { d } else { 0.01 })
+            home(if d >= 1e-4 { d } else { 0.01 })
         }
-        Effect::FrictionAsymmetry => home("motor.viscous_ratio", scene.motor.viscous_ratio),
+        Effect::FrictionAsymmetry => home(scene.motor.viscous_ratio),
         Effect::Offset => Home {
             signed_range: Some(0.05 * stall_nm),
-            ..home("motor.offset_Nm", scene.motor.offset_nm)
+            ..home(scene.motor.offset_nm)
         },
     })
 }

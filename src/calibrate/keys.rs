@@ -8,21 +8,20 @@ use crate::scene::Scene;
 
 /// The number a dotted key holds in the scene.
 pub fn get(scene: &Scene, key: &str) -> Result<f64, CalibrateError> {
-    let value = toml::Value::try_from(scene)
-        .map_err(|e| CalibrateError::Key(format!("the scene cannot be read as a table: {e}")))?;
-    let mut v = &value;
-    for part in key.split('.') {
-        v = v
-            .get(part)
-            .ok_or_else(|| CalibrateError::Key(format!("`{key}`: no such scene key")))?;
-    }
-    v.as_float()
-        .or_else(|| v.as_integer().map(|i| i as f64))
-        .ok_or_else(|| {
+    let table = crate::scene::keys::table();
+    match table.find(key) {
+        None => Err(CalibrateError::Key(format!("`{key}`: no such scene key"))),
+        Some(k) if k.allowed().is_none() => Err(CalibrateError::Key(format!(
+            "`{key}`: not a number ({}), so it cannot be fitted",
+            k.takes.text()
+        ))),
+        Some(k) => k.get(scene).ok_or_else(|| {
             CalibrateError::Key(format!(
-                "`{key}` = {v}: not a number, so it cannot be fitted"
+                "`{key}` is not set in the scene ({}): give it a value to fit",
+                k.unset
             ))
-        })
+        }),
+    }
 }
 
 /// The scene with each `(key, value)` set, validated as a `--set` would be.

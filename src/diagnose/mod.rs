@@ -34,7 +34,6 @@ use serde::Serialize;
 use crate::ident::data::Dataset;
 use crate::ident::effects::Effect;
 use crate::ident::fit::Fit;
-use crate::ident::model::simulate;
 use crate::ident::{
     build_structure, evaluate, fit_structure, Evaluation, IdentError, IdentifyOptions, Structure,
 };
@@ -446,10 +445,12 @@ pub fn diagnose(
         Some(v) => {
             let vd = Dataset::from_recording(v, &model.input_names(), &model.output_names())?;
             let sim = |s: &Structure, p: &[f64]| {
-                simulate(s.model(), p, &vd).map_err(|d| IdentError::Mismatch {
-                    file: v.path.clone(),
-                    message: format!("the model {d} on the validation recording"),
-                })
+                s.model()
+                    .simulate_record(p, &vd)
+                    .map_err(|d| IdentError::Mismatch {
+                        file: v.path.clone(),
+                        message: format!("the model {d} on the validation recording"),
+                    })
             };
             let b = evaluate(&vd, sim(&structure, &base_fit.params)?, opts.ident.max_lag);
             let d = evaluate(

@@ -32,43 +32,43 @@ pub(crate) fn scales(structure: &Structure, p: &[f64], data: &Dataset, speed: &[
         .unwrap_or(1.0);
     match structure {
         Structure::Rotary(m) if let Some(c) = m.torque_command() => {
-            use crate::ident::models::rotary_axis::B;
+            let a = m.declared(p);
             let command = largest_command(data, u_max);
             Scales {
                 v_max: command,
                 speed_max,
                 dt,
                 effort: (c.per_volt_nm_v * command).max(1e-9),
-                tau: m.inertia_at_motor(p) / p[B],
+                tau: m.inertia_at_motor(&a) / a.motor.viscous_nm_s_rad,
                 weight_n: 0.0,
             }
         }
         Structure::Rotary(m) => {
-            use crate::ident::models::rotary_axis::{K, R};
-            let v_max = m.voltage(p, u_max).abs().max(1e-6);
+            let a = m.declared(p);
+            let v_max = m.voltage(&a, u_max).abs().max(1e-6);
             Scales {
                 v_max,
                 speed_max,
                 dt,
-                effort: p[K] * v_max / p[R],
-                tau: m.mechanical_time_constant_s(p),
+                effort: a.motor.torque_constant_nm_a * v_max / a.motor.resistance_ohm,
+                tau: m.mechanical_time_constant_s(&a),
                 weight_n: 0.0,
             }
         }
         Structure::Linear(m) => {
-            use crate::ident::models::linear_axis::{MASS, VISCOUS};
+            let load = m.declared(p).load;
             let cmd = largest_command(data, u_max);
             Scales {
                 v_max: cmd,
                 speed_max,
                 dt,
                 effort: (m.force_per_volt * cmd).max(1e-6),
-                tau: p[MASS] / p[VISCOUS],
+                tau: load.mass_kg / load.viscous_n_s_m,
                 weight_n: 0.0,
             }
         }
         Structure::Vehicle(m) => {
-            use crate::ident::models::vehicle::{K, R};
+            let a = m.declared(p);
             let v_max = data
                 .inputs
                 .iter()
@@ -79,9 +79,9 @@ pub(crate) fn scales(structure: &Structure, p: &[f64], data: &Dataset, speed: &[
                 v_max,
                 speed_max,
                 dt,
-                effort: p[K] * v_max / p[R],
-                tau: m.mechanical_time_constant_s(p),
-                weight_n: p[crate::ident::models::vehicle::MASS] * crate::model::GRAVITY_M_S2,
+                effort: a.motor.torque_constant_nm_a * v_max / a.motor.resistance_ohm,
+                tau: m.mechanical_time_constant_s(&a),
+                weight_n: a.chassis.mass_kg * crate::model::GRAVITY_M_S2,
             }
         }
         _ => Scales {

@@ -2,6 +2,7 @@
 //! models. Each effect brings its parameter (named as the contract names it) and, where
 //! needed, its own state; the physical laws are the simulator's own (`crate::model`).
 
+use crate::ident::model::ParamSpec;
 use crate::model::battery::BatteryParams;
 
 /// One effect of the vocabulary.
@@ -67,6 +68,45 @@ impl Effect {
         }
     }
 
+    /// The key of a fitting model's blocks that the effect's strength sets: the
+    /// simulator's own key where the scene has the physics (a rotary axis, the vehicle),
+    /// the linear axis's effect block otherwise.
+    pub fn key(self, linear: bool) -> &'static str {
+        match self {
+            Effect::Backlash => "gearbox.backlash_rad",
+            Effect::CoulombFriction if linear => "effect.coulomb_force_N",
+            Effect::CoulombFriction => "motor.coulomb_Nm",
+            Effect::FrictionAsymmetry if linear => "effect.viscous_ratio",
+            Effect::FrictionAsymmetry => "motor.viscous_ratio",
+            Effect::Offset if linear => "effect.offset_N",
+            Effect::Offset => "motor.offset_Nm",
+            Effect::WheelSlip => "tyre.peak_mu",
+            Effect::VoltageSaturation => "battery.drive_limit_V",
+            Effect::BatterySag => "battery.internal_resistance_ohm",
+            Effect::TransportDelay if linear => "effect.delay_s",
+            Effect::TransportDelay => "dcmc.command_delay_s",
+            Effect::SpeedFeedback => "dcmc.ki_V_rad",
+            Effect::CastorDrag => "castor_drag.drag_N",
+        }
+    }
+
+    /// The scene key that sets the effect's strength in the simulator (where a
+    /// calibration fits it): the fitting model's key ([`Effect::key`]), but for castor
+    /// drag, which the scene sets as the castors' rolling resistance.
+    pub fn scene_key(self) -> &'static str {
+        match self {
+            Effect::CastorDrag => "castors.rolling_resistance",
+            other => other.key(false),
+        }
+    }
+
+    /// The effect's strength as a fit's parameter: the vocabulary's name, setting the
+    /// model's key ([`Effect::key`]), starting at `start` within `[lo, hi]`.
+    pub fn param(self, linear: bool, start: f64, lo: f64, hi: f64) -> ParamSpec {
+        ParamSpec::new(self.param_name(linear), start, lo, hi).setting(self.key(linear))
+    }
+
+    /// The effect by its contract name.
     pub fn from_name(s: &str) -> Option<Effect> {
         Effect::ALL.into_iter().find(|e| e.name() == s)
     }

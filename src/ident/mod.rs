@@ -31,7 +31,7 @@ use crate::rig::{Rig, RigError};
 use data::Dataset;
 pub use evaluate::{evaluate, fit_pct, fit_pct_mean, Evaluation, OutputChecks};
 use fit::{Fit, FitError, FitSettings};
-use model::{simulate, GreyBox};
+use model::GreyBox;
 use models::coast_down::CoastDown;
 use models::dcmc_pair::{Case, DcmcPair};
 use models::falling_weight::FallingWeight;
@@ -448,10 +448,12 @@ pub fn identify(
     let validation = match validation {
         Some(v) => {
             let vdata = Dataset::from_recording(v, &model.input_names(), &model.output_names())?;
-            let y = simulate(model, &f.params, &vdata).map_err(|d| IdentError::Mismatch {
-                file: v.path.clone(),
-                message: format!("the identified model {d} on the validation recording"),
-            })?;
+            let y = model
+                .simulate_record(&f.params, &vdata)
+                .map_err(|d| IdentError::Mismatch {
+                    file: v.path.clone(),
+                    message: format!("the identified model {d} on the validation recording"),
+                })?;
             Some(evaluate(&vdata, y, opts.max_lag))
         }
         None => None,
@@ -654,9 +656,11 @@ pub fn predict(
 ) -> Result<(Dataset, Vec<Vec<f64>>), IdentError> {
     let model = structure.model();
     let data = Dataset::from_recording(rec, &model.input_names(), &model.output_names())?;
-    let y = simulate(model, params, &data).map_err(|d| IdentError::Mismatch {
-        file: rec.path.clone(),
-        message: format!("the model {d}"),
-    })?;
+    let y = model
+        .simulate_record(params, &data)
+        .map_err(|d| IdentError::Mismatch {
+            file: rec.path.clone(),
+            message: format!("the model {d}"),
+        })?;
     Ok((data, y))
 }

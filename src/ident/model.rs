@@ -3,12 +3,17 @@
 //! where measured).
 
 use super::data::Dataset;
+use crate::param::KeyTable;
 
-/// One model parameter.
+/// One model parameter: a key of the model's blocks with its bounds and search step.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ParamSpec {
-    /// Rig key or vocabulary name, e.g. `motor.resistance_ohm`.
+    /// Rig key or vocabulary name, e.g. `motor.resistance_ohm`: how reports name it.
     pub name: String,
+    /// The key of the model's blocks its value sets (the name, unless it is the
+    /// vocabulary's name of an effect's strength: `backlash_rad` sets
+    /// `gearbox.backlash_rad`).
+    pub key: String,
     /// Starting (nominal) value.
     pub nominal: f64,
     /// Physical bounds.
@@ -24,11 +29,19 @@ impl ParamSpec {
     pub fn new(name: &str, nominal: f64, lo: f64, hi: f64) -> ParamSpec {
         ParamSpec {
             name: name.to_string(),
+            key: name.to_string(),
             nominal,
             lo,
             hi,
             fd_step: 1e-6,
         }
+    }
+
+    /// The same parameter, setting the model's key `key` (a name that is not a key of the
+    /// model's blocks: an effect's strength under its vocabulary name).
+    pub fn setting(mut self, key: &str) -> ParamSpec {
+        self.key = key.to_string();
+        self
     }
 
     /// The same parameter with a wider finite-difference step.
@@ -66,13 +79,13 @@ pub enum OutputKind {
     IntervalRate(usize),
 }
 
-/// A grey-box model. Parameters are immutable during a simulation; everything that evolves
-/// is in the state vector or the held vector.
 /// What the output-error fitter needs of a model: its parameters and its prediction of
 /// a record's outputs, `[output][row]` in the dataset's output order. Every [`GreyBox`] is
 /// one (integrated by [`simulate`]); the simulator replaying a record is another.
 pub trait Predictor: Sync {
+    /// The parameters, free or fixed.
     fn param_specs(&self) -> &[ParamSpec];
+    /// The outputs at the parameter values `p`.
     fn predict(&self, p: &[f64], data: &Dataset) -> Result<Vec<Vec<f64>>, Diverged>;
 }
 
@@ -81,11 +94,87 @@ impl<T: GreyBox + ?Sized> Predictor for T {
         self.params()
     }
     fn predict(&self, p: &[f64], data: &Dataset) -> Result<Vec<Vec<f64>>, Diverged> {
+        self.simulate_record(p, data)
+    }
+}
+
+/// A model's dynamics: continuous-time state equations on its blocks, which are built
+/// from a parameter vector once per simulation and immutable during it (the system half
+/// of Drake's system/context split); everything that evolves is in the state vector or
+/// the held vector.
+pub trait Dynamics: Sync {
+    /// The model's blocks at one parameter vector's values.
+    type Blocks;
+    /// The blocks at the parameter values `p` (each written through its key,
+    /// [`Binding`]).
+    fn blocks(&self, p: &[f64]) -> Self::Blocks;
+    /// Number of states.
+    fn n_states(&self) -> usize;
+    /// Number of values computed at each sample instant and held until the next (a
+    /// digital controller's command, a delay line's output...).
+    fn n_held(&self) -> usize {
+        0
+    }
+    /// The state at a record's start.
+    fn initial_state(&self, b: &Self::Blocks, data: &Dataset) -> Vec<f64>;
+    /// Longest integration step the dynamics allow at these parameters, s.
+    fn max_step_s(&self, b: &Self::Blocks) -> f64;
+    /// Longest integration step over a sample interval starting in state `x`, s, when a
+    /// stiffness that depends on the state allows more than the worst case
+    /// ([`Dynamics::max_step_s`]); `None` (the default): the worst case holds throughout.
+    fn max_step_at(&self, _b: &Self::Blocks, _x: &[f64]) -> Option<f64> {
+        None
+    }
+    /// Dead time between the recorded input and its action, s (inputs are then looked up,
+    /// zero-order held, at t - delay at every integration stage).
+    fn input_delay_s(&self, _b: &Self::Blocks) -> f64 {
+        0.0
+    }
+    /// Called at each sample instant before integrating over the next interval.
+    fn hold(&self, _b: &Self::Blocks, _t_s: f64, _x: &[f64], _u: &[f64], _held: &mut [f64]) {}
+    /// The state's rate of change.
+    fn derivatives(&self, b: &Self::Blocks, x: &[f64], u: &[f64], held: &[f64], dx: &mut [f64]);
+    /// Where inside an integration step of `h` seconds from `before` to `after` a
+    /// piecewise law first changes piece (a gear's teeth meeting or parting), as a
+    /// fraction of the step; `None` when no law changes piece. A kink inside a step costs
+    /// RK4 its order, and with it the event's timing, so the integrator retakes such a
+    /// step split there ([`EVENT_SPLITS`]). No piecewise law by default.
+    fn event_fraction(
+        &self,
+        _b: &Self::Blocks,
+        _before: &[f64],
+        _after: &[f64],
+        _h: f64,
+    ) -> Option<f64> {
+        None
+    }
+    /// After each integration step: set-valued laws (stiction) act here.
+    fn after_step(&self, _b: &Self::Blocks, _x_before: &[f64], _x: &mut [f64]) {}
+    /// How output `name` is formed.
+    fn output_kind(&self, name: &str) -> OutputKind;
+    /// Instantaneous value of output `name`.
+    fn output(&self, b: &Self::Blocks, name: &str, x: &[f64], u: &[f64], held: &[f64]) -> f64;
+    /// Adjusts a finished simulation to the recording's frame before it is compared (a
+    /// pose tracker's unknown start pose): called once per simulation.
+    fn align_outputs(&self, _data: &Dataset, _y: &mut [Vec<f64>]) {}
+}
+
+/// A record simulated by a model's dynamics at a parameter vector ([`simulate`]): what
+/// the fitter calls through a [`GreyBox`] whatever the model's blocks.
+pub trait SimulateRecord {
+    /// Predicted outputs, `[output][row]`, in the dataset's output order.
+    fn simulate_record(&self, p: &[f64], data: &Dataset) -> Result<Vec<Vec<f64>>, Diverged>;
+}
+
+impl<T: Dynamics> SimulateRecord for T {
+    fn simulate_record(&self, p: &[f64], data: &Dataset) -> Result<Vec<Vec<f64>>, Diverged> {
         simulate(self, p, data)
     }
 }
 
-pub trait GreyBox: Predictor {
+/// A grey-box model: its parameters (each a key of its blocks, with bounds), what it
+/// frees by default, its inputs and outputs, and its simulation.
+pub trait GreyBox: Predictor + SimulateRecord {
     /// Model name for reports.
     fn name(&self) -> String;
     /// All parameters, free or fixed.
@@ -111,48 +200,6 @@ pub trait GreyBox: Predictor {
     fn input_names(&self) -> Vec<String>;
     /// Output columns the model can predict (those present in a recording are used).
     fn output_names(&self) -> Vec<String>;
-    fn n_states(&self) -> usize;
-    /// Number of values computed at each sample instant and held until the next (a
-    /// digital controller's command, a delay line's output...).
-    fn n_held(&self) -> usize {
-        0
-    }
-    fn initial_state(&self, p: &[f64], data: &Dataset) -> Vec<f64>;
-    /// Longest integration step the dynamics allow at these parameters, s.
-    fn max_step_s(&self, p: &[f64]) -> f64;
-    /// Longest integration step over a sample interval starting in state `x`, s, when a
-    /// stiffness that depends on the state allows more than the worst case
-    /// ([`GreyBox::max_step_s`]); `None` (the default): the worst case holds throughout.
-    fn max_step_at(&self, _p: &[f64], _x: &[f64]) -> Option<f64> {
-        None
-    }
-    /// Dead time between the recorded input and its action, s (inputs are then looked up,
-    /// zero-order held, at t - delay at every integration stage).
-    fn input_delay_s(&self, _p: &[f64]) -> f64 {
-        0.0
-    }
-    /// Called at each sample instant before integrating over the next interval.
-    fn hold(&self, _p: &[f64], _t_s: f64, _x: &[f64], _u: &[f64], _held: &mut [f64]) {}
-    fn derivatives(&self, p: &[f64], x: &[f64], u: &[f64], held: &[f64], dx: &mut [f64]);
-    /// Where inside an integration step of `h` seconds from `before` to `after` a
-    /// piecewise law first changes piece (a gear's teeth meeting or parting), as a
-    /// fraction of the step; `None` when no law changes piece. A kink inside a step costs
-    /// RK4 its order, and with it the event's timing, so the integrator retakes such a
-    /// step split there ([`EVENT_SPLITS`]). No piecewise law by default.
-    fn event_fraction(&self, _p: &[f64], _before: &[f64], _after: &[f64], _h: f64) -> Option<f64> {
-        None
-    }
-    /// After each integration step: set-valued laws (stiction) act here.
-    fn after_step(&self, _p: &[f64], _x_before: &[f64], _x: &mut [f64]) {}
-    /// How output `name` is formed.
-    fn output_kind(&self, name: &str) -> OutputKind;
-    /// Instantaneous value of output `name`.
-    fn output(&self, p: &[f64], name: &str, x: &[f64], u: &[f64], held: &[f64]) -> f64;
-
-    /// Adjusts a finished simulation to the recording's frame before it is compared (a
-    /// pose tracker's unknown start pose): called once per simulation.
-    fn align_outputs(&self, _data: &Dataset, _y: &mut [Vec<f64>]) {}
-
     /// Whether parameter `i` acts in this model's structure and belongs in its report (a
     /// torque-driven axis carries the armature's slots unused).
     fn reports(&self, _i: usize) -> bool {
@@ -162,9 +209,69 @@ pub trait GreyBox: Predictor {
     fn param_index(&self, name: &str) -> Option<usize> {
         self.params().iter().position(|s| s.name == name)
     }
-
+    /// Indices of the named parameters the model has, in the order named.
+    fn indices_of(&self, names: &[&str]) -> Vec<usize> {
+        names.iter().filter_map(|n| self.param_index(n)).collect()
+    }
+    /// Every parameter at its nominal value.
     fn nominal(&self) -> Vec<f64> {
         self.params().iter().map(|s| s.nominal).collect()
+    }
+}
+
+/// A parameter vector bound to a model's blocks by key: each parameter's value is written
+/// into the blocks through the key table the blocks declare, so a model reads its
+/// parameters as named fields and no position in the vector carries a meaning.
+#[derive(Clone)]
+pub struct Binding<T: 'static> {
+    table: &'static KeyTable<T>,
+    /// For each parameter, the place of its key in the table (`None`: a key the table
+    /// does not have, which [`Binding::unbound`] lists).
+    keys: Vec<Option<usize>>,
+}
+
+impl<T: 'static> std::fmt::Debug for Binding<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_list()
+            .entries(
+                self.keys
+                    .iter()
+                    .map(|k| k.map(|i| self.table.keys()[i].key.as_str())),
+            )
+            .finish()
+    }
+}
+
+impl<T: Clone + 'static> Binding<T> {
+    /// Binds each parameter's key in `table`.
+    pub fn new(table: &'static KeyTable<T>, specs: &[ParamSpec]) -> Binding<T> {
+        let keys = specs
+            .iter()
+            .map(|s| table.keys().iter().position(|k| k.key == s.key))
+            .collect();
+        Binding { table, keys }
+    }
+
+    /// `base` with each parameter's value of `p` set by its key.
+    #[inline]
+    pub fn apply(&self, base: &T, p: &[f64]) -> T {
+        let mut t = base.clone();
+        for (value, key) in p.iter().zip(&self.keys) {
+            if let Some(k) = key {
+                self.table.keys()[*k].set(&mut t, *value);
+            }
+        }
+        t
+    }
+
+    /// Parameters whose key the blocks do not have (a model's bug; tests check none).
+    pub fn unbound<'a>(&self, specs: &'a [ParamSpec]) -> Vec<&'a str> {
+        specs
+            .iter()
+            .zip(&self.keys)
+            .filter(|(_, k)| k.is_none())
+            .map(|(s, _)| s.key.as_str())
+            .collect()
     }
 }
 
@@ -181,18 +288,20 @@ pub const MAX_SUBSTEPS: usize = 2000;
 /// Predicted outputs, `[output][row]`, in the dataset's output order.
 /// A record joined from several tests is simulated test by test, each from its own
 /// initial state (every test starts from rest) and aligned on its own.
-pub fn simulate<M: GreyBox + ?Sized>(
+pub fn simulate<M: Dynamics + ?Sized>(
     model: &M,
     p: &[f64],
     data: &Dataset,
 ) -> Result<Vec<Vec<f64>>, Diverged> {
+    // The parameters are immutable during the simulation: the blocks are built once.
+    let b = model.blocks(p);
     let segments = data.segments();
     if segments.len() <= 1 {
-        return simulate_one(model, p, data);
+        return simulate_one(model, &b, data);
     }
     let mut y: Vec<Vec<f64>> = vec![Vec::with_capacity(data.len()); data.output_names.len()];
     for range in segments {
-        let part = simulate_one(model, p, &data.rows(range))?;
+        let part = simulate_one(model, &b, &data.rows(range))?;
         for (all, piece) in y.iter_mut().zip(part) {
             all.extend(piece);
         }
@@ -201,9 +310,9 @@ pub fn simulate<M: GreyBox + ?Sized>(
 }
 
 /// One record from its initial state.
-fn simulate_one<M: GreyBox + ?Sized>(
+fn simulate_one<M: Dynamics + ?Sized>(
     model: &M,
-    p: &[f64],
+    p: &M::Blocks,
     data: &Dataset,
 ) -> Result<Vec<Vec<f64>>, Diverged> {
     let n = data.len();
@@ -323,7 +432,7 @@ impl DelayedSwitches {
     }
 }
 
-/// Most times a step is split at an event ([`GreyBox::event_fraction`]): the first
+/// Most times a step is split at an event ([`Dynamics::event_fraction`]): the first
 /// estimate of the event's instant comes from the state at the step's start, and a
 /// second split catches an estimate that fell short.
 pub const EVENT_SPLITS: usize = 2;
@@ -348,11 +457,11 @@ impl Rk4 {
     }
 
     /// Advances `x` by `h` seconds (split at the events of piecewise laws,
-    /// [`GreyBox::event_fraction`]), then lets the model's set-valued laws act.
-    fn step<M: GreyBox + ?Sized>(
+    /// [`Dynamics::event_fraction`]), then lets the model's set-valued laws act.
+    fn step<M: Dynamics + ?Sized>(
         &mut self,
         model: &M,
-        p: &[f64],
+        p: &M::Blocks,
         x: &mut [f64],
         u: &[f64],
         held: &[f64],
@@ -382,10 +491,10 @@ impl Rk4 {
     }
 
     /// One classic RK4 step of `h` seconds.
-    fn advance<M: GreyBox + ?Sized>(
+    fn advance<M: Dynamics + ?Sized>(
         &mut self,
         model: &M,
-        p: &[f64],
+        p: &M::Blocks,
         x: &mut [f64],
         u: &[f64],
         held: &[f64],
@@ -446,27 +555,35 @@ mod tests {
         fn output_names(&self) -> Vec<String> {
             vec!["x".into()]
         }
+    }
+
+    impl Dynamics for OneState {
+        /// The delay, s (the only parameter).
+        type Blocks = f64;
+        fn blocks(&self, p: &[f64]) -> f64 {
+            p.first().copied().unwrap_or(0.0)
+        }
         fn n_states(&self) -> usize {
             1
         }
-        fn initial_state(&self, _p: &[f64], _data: &Dataset) -> Vec<f64> {
+        fn initial_state(&self, _b: &f64, _data: &Dataset) -> Vec<f64> {
             vec![0.0]
         }
-        fn max_step_s(&self, _p: &[f64]) -> f64 {
+        fn max_step_s(&self, _b: &f64) -> f64 {
             1.0
         }
-        fn input_delay_s(&self, p: &[f64]) -> f64 {
+        fn input_delay_s(&self, delay: &f64) -> f64 {
             match self.law {
-                Law::DelayedIntegral => p[0],
+                Law::DelayedIntegral => *delay,
                 Law::Kinked { .. } => 0.0,
             }
         }
-        fn event_fraction(&self, _p: &[f64], before: &[f64], after: &[f64], h: f64) -> Option<f64> {
+        fn event_fraction(&self, _b: &f64, before: &[f64], after: &[f64], h: f64) -> Option<f64> {
             // The rate at the start (1) reaches the kink at (0.3 - x) / 1.
             let told = matches!(self.law, Law::Kinked { told: true });
             (told && before[0] <= 0.3 && after[0] > 0.3).then(|| (0.3 - before[0]) / h)
         }
-        fn derivatives(&self, _p: &[f64], x: &[f64], u: &[f64], _h: &[f64], dx: &mut [f64]) {
+        fn derivatives(&self, _b: &f64, x: &[f64], u: &[f64], _h: &[f64], dx: &mut [f64]) {
             dx[0] = match self.law {
                 Law::DelayedIntegral => u[0],
                 Law::Kinked { .. } => 1.0 + 2.0 * (x[0] - 0.3).max(0.0),
@@ -475,7 +592,7 @@ mod tests {
         fn output_kind(&self, _name: &str) -> OutputKind {
             OutputKind::Instant
         }
-        fn output(&self, _p: &[f64], _name: &str, x: &[f64], _u: &[f64], _h: &[f64]) -> f64 {
+        fn output(&self, _b: &f64, _name: &str, x: &[f64], _u: &[f64], _h: &[f64]) -> f64 {
             x[0]
         }
     }

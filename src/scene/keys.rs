@@ -50,6 +50,25 @@ pub fn table() -> &'static KeyTable<Scene> {
     })
 }
 
+/// Sets a numeric key of a scene by its dotted name (whole numbers for integer keys);
+/// `false` for a name that is not a numeric scene key. The value is not validated (see
+/// [`check`]).
+pub fn set_number(scene: &mut Scene, key: &str, value: f64) -> bool {
+    match table().find(key) {
+        Some(k) if k.allowed().is_some() => {
+            k.set(scene, value);
+            true
+        }
+        _ => false,
+    }
+}
+
+/// A numeric key's value in a scene by its dotted name (`None`: not a numeric key, or an
+/// optional one left out).
+pub fn number(scene: &Scene, key: &str) -> Option<f64> {
+    table().find(key).and_then(|k| k.get(scene))
+}
+
 /// Checks every numeric key present against its declared rule.
 pub fn check(scene: &Scene) -> Result<(), Invalid> {
     for (k, allowed) in table().numbers() {

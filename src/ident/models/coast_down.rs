@@ -4,60 +4,102 @@
 
 use std::path::Path;
 
+use std::sync::OnceLock;
+
 use crate::ident::data::Dataset;
-use crate::ident::model::{GreyBox, OutputKind, ParamSpec};
+use crate::ident::model::{Binding, Dynamics, GreyBox, OutputKind, ParamSpec};
+use crate::model::motor::MotorParams;
+use crate::model::wheel::WheelParams;
+use crate::param::KeyTable;
 use crate::rig::{Rig, RigError};
 
 use super::falling_weight::rotor_acceleration;
 
-pub const B: usize = 0;
-pub const TC: usize = 1;
-pub const W0: usize = 2;
-pub const JM: usize = 3;
-pub const JW: usize = 4;
+/// The drive train's viscous friction at the motor.
+const VISCOUS: &str = "motor.viscous_Nm_s_rad";
+/// Its Coulomb friction at the motor.
+const COULOMB: &str = "motor.coulomb_Nm";
+/// The speed at the cut.
+const INITIAL_SPEED: &str = "initial_speed_rad_s";
 
+crate::declare_params! {
+    /// Where the record starts (section `coast`).
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    pub struct CoastStart {
+        /// Motor speed when the power is cut.
+        initial_speed_rad_s: f64 = 0.0, "rad/s", Finite;
+    }
+}
+
+/// What the coast-down's parameters set: the motor and wheel, and the start.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CoastParams {
+    /// The motor (inertia, friction).
+    pub motor: MotorParams,
+    /// The wheel (inertia).
+    pub wheel: WheelParams,
+    /// The speed at the cut.
+    pub start: CoastStart,
+}
+
+fn coast_keys() -> &'static KeyTable<CoastParams> {
+    static TABLE: OnceLock<KeyTable<CoastParams>> = OnceLock::new();
+    TABLE.get_or_init(|| {
+        KeyTable::<CoastParams>::new()
+            .section("motor", |c| &c.motor, |c| &mut c.motor)
+            .section("wheel", |c| &c.wheel, |c| &mut c.wheel)
+            .section("coast", |c| &c.start, |c| &mut c.start)
+    })
+}
+
+/// The coast-down test's model.
 #[derive(Debug, Clone)]
 pub struct CoastDown {
     specs: Vec<ParamSpec>,
+    binding: Binding<CoastParams>,
+    /// Motor turns per wheel turn.
     pub ratio: f64,
+    /// The speed is an encoder's.
     pub encoder: bool,
 }
 
 impl CoastDown {
+    /// The test a rig describes, the record starting at `initial_speed` (rad/s).
     pub fn from_rig(rig: &Rig, path: &Path, initial_speed: f64) -> Result<CoastDown, RigError> {
         let why = "the coast-down model needs the inertias and a starting friction";
         let need = |k: &str| rig.require(k, path, why);
+        let specs = vec![
+            ParamSpec::friction(
+                VISCOUS,
+                need(VISCOUS)?,
+                crate::rig::electrical_damping(rig)
+                    .unwrap_or(rig.get("motor.rotor_inertia_kg_m2").unwrap_or(1e-4) / 0.01),
+            ),
+            ParamSpec::positive(
+                COULOMB,
+                rig.get(COULOMB).filter(|v| *v > 0.0).unwrap_or(0.01),
+            ),
+            ParamSpec::positive(INITIAL_SPEED, initial_speed.abs().max(1e-3))
+                .setting("coast.initial_speed_rad_s"),
+            ParamSpec::positive(
+                "motor.rotor_inertia_kg_m2",
+                need("motor.rotor_inertia_kg_m2")?,
+            ),
+            ParamSpec::positive(
+                "wheel.inertia_kg_m2",
+                rig.get("wheel.inertia_kg_m2").unwrap_or(0.0).max(1e-12),
+            ),
+        ];
         Ok(CoastDown {
-            specs: vec![
-                ParamSpec::friction(
-                    "motor.viscous_Nm_s_rad",
-                    need("motor.viscous_Nm_s_rad")?,
-                    crate::rig::electrical_damping(rig)
-                        .unwrap_or(rig.get("motor.rotor_inertia_kg_m2").unwrap_or(1e-4) / 0.01),
-                ),
-                ParamSpec::positive(
-                    "motor.coulomb_Nm",
-                    rig.get("motor.coulomb_Nm")
-                        .filter(|v| *v > 0.0)
-                        .unwrap_or(0.01),
-                ),
-                ParamSpec::positive("initial_speed_rad_s", initial_speed.abs().max(1e-3)),
-                ParamSpec::positive(
-                    "motor.rotor_inertia_kg_m2",
-                    need("motor.rotor_inertia_kg_m2")?,
-                ),
-                ParamSpec::positive(
-                    "wheel.inertia_kg_m2",
-                    rig.get("wheel.inertia_kg_m2").unwrap_or(0.0).max(1e-12),
-                ),
-            ],
+            binding: Binding::new(coast_keys(), &specs),
+            specs,
             ratio: rig.get("gearbox.ratio").unwrap_or(1.0),
             encoder: rig.get("sensors.motor_encoder_counts_per_rev").is_some(),
         })
     }
 
-    fn inertia(&self, p: &[f64]) -> f64 {
-        p[JM] + p[JW] / (self.ratio * self.ratio)
+    fn inertia(&self, c: &CoastParams) -> f64 {
+        c.motor.rotor_inertia_kg_m2 + c.wheel.inertia_kg_m2 / (self.ratio * self.ratio)
     }
 }
 
@@ -71,7 +113,7 @@ impl GreyBox for CoastDown {
     }
 
     fn default_free(&self, _outputs: &[String]) -> Vec<usize> {
-        vec![B, TC, W0]
+        self.indices_of(&[VISCOUS, COULOMB, INITIAL_SPEED])
     }
 
     fn input_names(&self) -> Vec<String> {
@@ -81,25 +123,34 @@ impl GreyBox for CoastDown {
     fn output_names(&self) -> Vec<String> {
         vec!["motor_speed_rad_s".into()]
     }
+}
+
+impl Dynamics for CoastDown {
+    type Blocks = CoastParams;
+
+    fn blocks(&self, p: &[f64]) -> CoastParams {
+        self.binding.apply(&CoastParams::default(), p)
+    }
 
     fn n_states(&self) -> usize {
         2
     }
 
-    fn initial_state(&self, p: &[f64], _data: &Dataset) -> Vec<f64> {
-        vec![p[W0], 0.0]
+    fn initial_state(&self, c: &CoastParams, _data: &Dataset) -> Vec<f64> {
+        vec![c.start.initial_speed_rad_s, 0.0]
     }
 
-    fn max_step_s(&self, p: &[f64]) -> f64 {
-        (0.1 * self.inertia(p) / p[B]).min(2e-3)
+    fn max_step_s(&self, c: &CoastParams) -> f64 {
+        (0.1 * self.inertia(c) / c.motor.viscous_nm_s_rad).min(2e-3)
     }
 
-    fn derivatives(&self, p: &[f64], x: &[f64], _u: &[f64], _held: &[f64], dx: &mut [f64]) {
-        dx[0] = rotor_acceleration(x[0], 0.0, p[TC], p[B], self.inertia(p));
+    fn derivatives(&self, c: &CoastParams, x: &[f64], _u: &[f64], _held: &[f64], dx: &mut [f64]) {
+        let m = &c.motor;
+        dx[0] = rotor_acceleration(x[0], 0.0, m.coulomb_nm, m.viscous_nm_s_rad, self.inertia(c));
         dx[1] = x[0];
     }
 
-    fn after_step(&self, _p: &[f64], before: &[f64], x: &mut [f64]) {
+    fn after_step(&self, _c: &CoastParams, before: &[f64], x: &mut [f64]) {
         if before[0] > 0.0 && x[0] <= 0.0 {
             x[0] = 0.0;
         }
@@ -113,7 +164,7 @@ impl GreyBox for CoastDown {
         }
     }
 
-    fn output(&self, _p: &[f64], _name: &str, x: &[f64], _u: &[f64], _held: &[f64]) -> f64 {
+    fn output(&self, _c: &CoastParams, _name: &str, x: &[f64], _u: &[f64], _held: &[f64]) -> f64 {
         x[0]
     }
 }

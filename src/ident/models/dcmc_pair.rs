@@ -11,12 +11,64 @@
 //!   `dw_i/dt = a_i w_i + sum_j b_ij d_j + e_i z_i`, `dz_i/dt = sum_j s_ij d_j - w_i`.
 
 use std::path::Path;
+use std::sync::OnceLock;
 
 use nalgebra::DMatrix;
 
 use crate::ident::data::Dataset;
-use crate::ident::model::{GreyBox, OutputKind, ParamSpec};
+use crate::ident::model::{Binding, Dynamics, GreyBox, OutputKind, ParamSpec};
+use crate::param::KeyTable;
 use crate::rig::{Rig, RigError};
+
+crate::declare_params! {
+    /// One side of the thesis's structures (sections `left` and `right`): the motor
+    /// speed's rate, the demands' gains, the speed loop's integrator and set-points.
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    pub struct DcmcSide {
+        /// Case 1 and 2-II: the speed's own rate (A's diagonal; negative).
+        a_1_s: f64 = 0.0, "1/s", Finite;
+        /// Case 2-I: the speed loop's rate (positive).
+        k_1_s: f64 = 0.0, "1/s", Finite;
+        /// Case 1 and 2-II: the acceleration per percent of forward demand (B).
+        b_fwd_rad_s2_pct: f64 = 0.0, "rad/s^2 per pct", Finite;
+        /// Case 1 and 2-II: the acceleration per percent of turn demand (B).
+        b_turn_rad_s2_pct: f64 = 0.0, "rad/s^2 per pct", Finite;
+        /// Case 2-II: the integrator's gain into the speed.
+        e_1_s2: f64 = 0.0, "1/s^2", Finite;
+        /// Case 2-I and 2-II: the speed set-point per percent of forward demand.
+        s_fwd_rad_s_pct: f64 = 0.0, "rad/s per pct", Finite;
+        /// Case 2-I and 2-II: the speed set-point per percent of turn demand.
+        s_turn_rad_s_pct: f64 = 0.0, "rad/s per pct", Finite;
+    }
+}
+
+/// Both sides' values: what the structures' parameters set, by key.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct DcmcPairParams {
+    /// Left, right.
+    pub sides: [DcmcSide; 2],
+}
+
+impl DcmcSide {
+    /// The gains of both demands (forward, turn).
+    fn b(&self) -> [f64; 2] {
+        [self.b_fwd_rad_s2_pct, self.b_turn_rad_s2_pct]
+    }
+
+    /// The set-points of both demands (forward, turn).
+    fn s(&self) -> [f64; 2] {
+        [self.s_fwd_rad_s_pct, self.s_turn_rad_s_pct]
+    }
+}
+
+fn pair_keys() -> &'static KeyTable<DcmcPairParams> {
+    static TABLE: OnceLock<KeyTable<DcmcPairParams>> = OnceLock::new();
+    TABLE.get_or_init(|| {
+        KeyTable::<DcmcPairParams>::new()
+            .section("left", |p| &p.sides[0], |p| &mut p.sides[0])
+            .section("right", |p| &p.sides[1], |p| &mut p.sides[1])
+    })
+}
 
 /// Which thesis structure.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -46,6 +98,7 @@ const DEMANDS: [&str; 2] = ["fwd", "turn"];
 pub struct DcmcPair {
     pub case: Case,
     specs: Vec<ParamSpec>,
+    binding: Binding<DcmcPairParams>,
     pub encoder: bool,
 }
 
@@ -101,51 +154,71 @@ impl DcmcPair {
                 })
             }
         };
-        let signed = |name: String, v: f64| {
-            ParamSpec::new(&name, v, -1e6 * v.abs().max(1e-9), 1e6 * v.abs().max(1e-9))
+        // The thesis's names (`b_left_fwd_rad_s2_pct`), each setting its side's key
+        // (`left.b_fwd_rad_s2_pct`).
+        let key = |name: &str, side: &str| {
+            format!("{side}.{}", name.replacen(&format!("_{side}"), "", 1))
         };
-        let rate = |name: String, v: f64| ParamSpec::new(&name, v, -1e5, -1e-6);
+        let signed = |name: String, side: &str, v: f64| {
+            ParamSpec::new(&name, v, -1e6 * v.abs().max(1e-9), 1e6 * v.abs().max(1e-9))
+                .setting(&key(&name, side))
+        };
+        let rate = |name: String, side: &str, v: f64| {
+            ParamSpec::new(&name, v, -1e5, -1e-6).setting(&key(&name, side))
+        };
         let mut specs = Vec::new();
         match case {
             Case::Gain | Case::Pi => {
-                for (i, side) in SIDES.iter().enumerate() {
-                    specs.push(rate(format!("a_{side}_1_s"), a_nom));
-                    let _ = i;
+                for side in SIDES {
+                    specs.push(rate(format!("a_{side}_1_s"), side, a_nom));
                 }
                 for (i, side) in SIDES.iter().enumerate() {
                     for (jj, d) in DEMANDS.iter().enumerate() {
-                        specs.push(signed(format!("b_{side}_{d}_rad_s2_pct"), b_nom[i][jj]));
+                        specs.push(signed(
+                            format!("b_{side}_{d}_rad_s2_pct"),
+                            side,
+                            b_nom[i][jj],
+                        ));
                     }
                 }
             }
             Case::P => {
                 for side in SIDES {
-                    specs.push(ParamSpec::positive(&format!("k_{side}_1_s"), -a_nom));
+                    let name = format!("k_{side}_1_s");
+                    specs.push(ParamSpec::positive(&name, -a_nom).setting(&key(&name, side)));
                 }
                 for (i, side) in SIDES.iter().enumerate() {
                     for (jj, d) in DEMANDS.iter().enumerate() {
-                        specs.push(signed(format!("s_{side}_{d}_rad_s_pct"), s_nom[i][jj]));
+                        specs.push(signed(
+                            format!("s_{side}_{d}_rad_s_pct"),
+                            side,
+                            s_nom[i][jj],
+                        ));
                     }
                 }
             }
         }
         if case == Case::Pi {
             for side in SIDES {
-                specs.push(ParamSpec::new(
-                    &format!("e_{side}_1_s2"),
-                    e_nom,
-                    1e-4 * e_nom,
-                    1e4 * e_nom,
-                ));
+                let name = format!("e_{side}_1_s2");
+                specs.push(
+                    ParamSpec::new(&name, e_nom, 1e-4 * e_nom, 1e4 * e_nom)
+                        .setting(&key(&name, side)),
+                );
             }
             for (i, side) in SIDES.iter().enumerate() {
                 for (jj, d) in DEMANDS.iter().enumerate() {
-                    specs.push(signed(format!("s_{side}_{d}_rad_s_pct"), s_nom[i][jj]));
+                    specs.push(signed(
+                        format!("s_{side}_{d}_rad_s_pct"),
+                        side,
+                        s_nom[i][jj],
+                    ));
                 }
             }
         }
         Ok(DcmcPair {
             case,
+            binding: Binding::new(pair_keys(), &specs),
             specs,
             encoder: rig.get("sensors.motor_encoder_counts_per_rev").is_some(),
         })
@@ -160,34 +233,40 @@ impl DcmcPair {
         }
     }
 
+    /// Both sides' values at the parameters `p`.
+    pub fn sides(&self, p: &[f64]) -> DcmcPairParams {
+        self.binding.apply(&DcmcPairParams::default(), p)
+    }
+
     /// The continuous-time (A, B) of the model at parameters p.
     pub fn state_space(&self, p: &[f64]) -> (DMatrix<f64>, DMatrix<f64>) {
+        self.state_space_of(&self.sides(p))
+    }
+
+    /// The continuous-time (A, B) of both sides' values.
+    fn state_space_of(&self, v: &DcmcPairParams) -> (DMatrix<f64>, DMatrix<f64>) {
         let nx = self.order();
         let mut a = DMatrix::zeros(nx, nx);
         let mut b = DMatrix::zeros(nx, 2);
-        match self.case {
-            Case::Gain | Case::Pi => {
-                for i in 0..2 {
-                    a[(i, i)] = p[i];
-                    for j in 0..2 {
-                        b[(i, j)] = p[2 + 2 * i + j];
+        for (i, side) in v.sides.iter().enumerate() {
+            match self.case {
+                Case::Gain | Case::Pi => {
+                    a[(i, i)] = side.a_1_s;
+                    for (j, bij) in side.b().into_iter().enumerate() {
+                        b[(i, j)] = bij;
                     }
-                }
-                if self.case == Case::Pi {
-                    for i in 0..2 {
-                        a[(i, 2 + i)] = p[6 + i];
+                    if self.case == Case::Pi {
+                        a[(i, 2 + i)] = side.e_1_s2;
                         a[(2 + i, i)] = -1.0;
-                        for j in 0..2 {
-                            b[(2 + i, j)] = p[8 + 2 * i + j];
+                        for (j, sij) in side.s().into_iter().enumerate() {
+                            b[(2 + i, j)] = sij;
                         }
                     }
                 }
-            }
-            Case::P => {
-                for i in 0..2 {
-                    a[(i, i)] = -p[i];
-                    for j in 0..2 {
-                        b[(i, j)] = p[i] * p[2 + 2 * i + j];
+                Case::P => {
+                    a[(i, i)] = -side.k_1_s;
+                    for (j, sij) in side.s().into_iter().enumerate() {
+                        b[(i, j)] = side.k_1_s * sij;
                     }
                 }
             }
@@ -219,42 +298,48 @@ impl GreyBox for DcmcPair {
             "right_motor_speed_rad_s".into(),
         ]
     }
+}
+
+impl Dynamics for DcmcPair {
+    type Blocks = DcmcPairParams;
+
+    fn blocks(&self, p: &[f64]) -> DcmcPairParams {
+        self.sides(p)
+    }
 
     /// Speeds (left, right), angles (left, right), then the integrators in case 2-II.
     fn n_states(&self) -> usize {
         4 + if self.case == Case::Pi { 2 } else { 0 }
     }
 
-    fn initial_state(&self, _p: &[f64], _data: &Dataset) -> Vec<f64> {
+    fn initial_state(&self, _v: &DcmcPairParams, _data: &Dataset) -> Vec<f64> {
         vec![0.0; self.n_states()]
     }
 
-    fn max_step_s(&self, p: &[f64]) -> f64 {
-        let (a, _) = self.state_space(p);
+    fn max_step_s(&self, v: &DcmcPairParams) -> f64 {
+        let (a, _) = self.state_space_of(v);
         let fastest = a.iter().map(|v| v.abs()).fold(1e-9, f64::max);
         0.3 / fastest
     }
 
-    fn derivatives(&self, p: &[f64], x: &[f64], u: &[f64], _held: &[f64], dx: &mut [f64]) {
-        match self.case {
-            Case::Gain => {
-                for i in 0..2 {
-                    dx[i] = p[i] * x[i] + p[2 + 2 * i] * u[0] + p[3 + 2 * i] * u[1];
+    fn derivatives(&self, v: &DcmcPairParams, x: &[f64], u: &[f64], _held: &[f64], dx: &mut [f64]) {
+        for (i, side) in v.sides.iter().enumerate() {
+            match self.case {
+                Case::Gain => {
+                    dx[i] = side.a_1_s * x[i]
+                        + side.b_fwd_rad_s2_pct * u[0]
+                        + side.b_turn_rad_s2_pct * u[1];
                 }
-            }
-            Case::P => {
-                for i in 0..2 {
-                    let set = p[2 + 2 * i] * u[0] + p[3 + 2 * i] * u[1];
-                    dx[i] = p[i] * (set - x[i]);
+                Case::P => {
+                    let set = side.s_fwd_rad_s_pct * u[0] + side.s_turn_rad_s_pct * u[1];
+                    dx[i] = side.k_1_s * (set - x[i]);
                 }
-            }
-            Case::Pi => {
-                for i in 0..2 {
-                    dx[i] = p[i] * x[i]
-                        + p[2 + 2 * i] * u[0]
-                        + p[3 + 2 * i] * u[1]
-                        + p[6 + i] * x[4 + i];
-                    dx[4 + i] = p[8 + 2 * i] * u[0] + p[9 + 2 * i] * u[1] - x[i];
+                Case::Pi => {
+                    dx[i] = side.a_1_s * x[i]
+                        + side.b_fwd_rad_s2_pct * u[0]
+                        + side.b_turn_rad_s2_pct * u[1]
+                        + side.e_1_s2 * x[4 + i];
+                    dx[4 + i] = side.s_fwd_rad_s_pct * u[0] + side.s_turn_rad_s_pct * u[1] - x[i];
                 }
             }
         }
@@ -271,7 +356,7 @@ impl GreyBox for DcmcPair {
         }
     }
 
-    fn output(&self, _p: &[f64], name: &str, x: &[f64], _u: &[f64], _held: &[f64]) -> f64 {
+    fn output(&self, _v: &DcmcPairParams, name: &str, x: &[f64], _u: &[f64], _held: &[f64]) -> f64 {
         x[usize::from(name.starts_with("right"))]
     }
 }

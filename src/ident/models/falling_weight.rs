@@ -6,52 +6,67 @@
 
 use std::path::Path;
 
+use std::sync::OnceLock;
+
 use crate::ident::data::Dataset;
-use crate::ident::model::{GreyBox, OutputKind, ParamSpec};
+use crate::ident::model::{Binding, Dynamics, GreyBox, OutputKind, ParamSpec};
+use crate::model::motor::MotorParams;
 use crate::model::GRAVITY_M_S2;
+use crate::param::KeyTable;
 use crate::rig::{Rig, RigError};
 
-pub const J: usize = 0;
-pub const TC: usize = 1;
-pub const K: usize = 2;
-pub const B: usize = 3;
+/// The rotor's inertia.
+const INERTIA: &str = "motor.rotor_inertia_kg_m2";
+/// Its Coulomb friction.
+const COULOMB: &str = "motor.coulomb_Nm";
+/// Its back-EMF constant.
+const BACK_EMF: &str = "motor.torque_constant_Nm_A";
+/// Its viscous friction.
+const VISCOUS: &str = "motor.viscous_Nm_s_rad";
 
+/// The motor's keys (its block is all the test's parameters set).
+fn motor_keys() -> &'static KeyTable<MotorParams> {
+    static TABLE: OnceLock<KeyTable<MotorParams>> = OnceLock::new();
+    TABLE.get_or_init(|| KeyTable::<MotorParams>::new().section("motor", |m| m, |m| m))
+}
+
+/// The falling-weight test's model: the motor, a mass on a pulley.
 #[derive(Debug, Clone)]
 pub struct FallingWeight {
     specs: Vec<ParamSpec>,
+    binding: Binding<MotorParams>,
+    /// The falling mass, kg.
     pub mass_kg: f64,
+    /// The pulley's radius on the motor shaft, m.
     pub pulley_radius_m: f64,
+    /// How far the mass falls before it lands, m.
     pub drop_m: f64,
+    /// The speed is an encoder's (count difference over the sample interval).
     pub encoder: bool,
 }
 
 impl FallingWeight {
+    /// The test a rig describes.
     pub fn from_rig(rig: &Rig, path: &Path) -> Result<FallingWeight, RigError> {
         let why = "the falling-weight model needs the motor and the [falling_weight] set-up";
         let need = |k: &str| rig.require(k, path, why);
+        let specs = vec![
+            ParamSpec::positive(INERTIA, need(INERTIA)?),
+            ParamSpec::positive(
+                COULOMB,
+                rig.get(COULOMB).filter(|v| *v > 0.0).unwrap_or(0.01),
+            ),
+            ParamSpec::positive(BACK_EMF, need(BACK_EMF)?),
+            ParamSpec::friction(
+                VISCOUS,
+                need(VISCOUS)?,
+                crate::rig::electrical_damping(rig)
+                    .unwrap_or(rig.get(INERTIA).unwrap_or(1e-4) / 0.01),
+            ),
+        ];
         Ok(FallingWeight {
-            specs: vec![
-                ParamSpec::positive(
-                    "motor.rotor_inertia_kg_m2",
-                    need("motor.rotor_inertia_kg_m2")?,
-                ),
-                ParamSpec::positive(
-                    "motor.coulomb_Nm",
-                    rig.get("motor.coulomb_Nm")
-                        .filter(|v| *v > 0.0)
-                        .unwrap_or(0.01),
-                ),
-                ParamSpec::positive(
-                    "motor.torque_constant_Nm_A",
-                    need("motor.torque_constant_Nm_A")?,
-                ),
-                ParamSpec::friction(
-                    "motor.viscous_Nm_s_rad",
-                    need("motor.viscous_Nm_s_rad")?,
-                    crate::rig::electrical_damping(rig)
-                        .unwrap_or(rig.get("motor.rotor_inertia_kg_m2").unwrap_or(1e-4) / 0.01),
-                ),
-            ],
+            binding: Binding::new(motor_keys(), &specs),
+            specs,
             mass_kg: need("falling_weight.mass_kg")?,
             pulley_radius_m: need("falling_weight.pulley_radius_m")?,
             drop_m: need("falling_weight.drop_m")?,
@@ -90,9 +105,9 @@ impl GreyBox for FallingWeight {
     /// Coulomb level, and a wrong fixed value biases the Coulomb estimate.
     fn default_free(&self, outputs: &[String]) -> Vec<usize> {
         if outputs.iter().any(|o| o == "back_emf_V") {
-            vec![J, TC, K, B]
+            self.indices_of(&[INERTIA, COULOMB, BACK_EMF, VISCOUS])
         } else {
-            vec![J, TC, B]
+            self.indices_of(&[INERTIA, COULOMB, VISCOUS])
         }
     }
 
@@ -103,31 +118,42 @@ impl GreyBox for FallingWeight {
     fn output_names(&self) -> Vec<String> {
         vec!["motor_speed_rad_s".into(), "back_emf_V".into()]
     }
+}
+
+impl Dynamics for FallingWeight {
+    type Blocks = MotorParams;
+
+    fn blocks(&self, p: &[f64]) -> MotorParams {
+        self.binding.apply(&MotorParams::default(), p)
+    }
 
     fn n_states(&self) -> usize {
         2
     }
 
-    fn initial_state(&self, _p: &[f64], _data: &Dataset) -> Vec<f64> {
+    fn initial_state(&self, _m: &MotorParams, _data: &Dataset) -> Vec<f64> {
         vec![0.0, 0.0]
     }
 
-    fn max_step_s(&self, _p: &[f64]) -> f64 {
+    fn max_step_s(&self, _m: &MotorParams) -> f64 {
         5e-4
     }
 
-    fn derivatives(&self, p: &[f64], x: &[f64], _u: &[f64], _held: &[f64], dx: &mut [f64]) {
+    fn derivatives(&self, m: &MotorParams, x: &[f64], _u: &[f64], _held: &[f64], dx: &mut [f64]) {
         let (drive, j) = if self.falling(x[1]) {
             let r = self.pulley_radius_m;
-            (self.mass_kg * GRAVITY_M_S2 * r, p[J] + self.mass_kg * r * r)
+            (
+                self.mass_kg * GRAVITY_M_S2 * r,
+                m.rotor_inertia_kg_m2 + self.mass_kg * r * r,
+            )
         } else {
-            (0.0, p[J])
+            (0.0, m.rotor_inertia_kg_m2)
         };
-        dx[0] = rotor_acceleration(x[0], drive, p[TC], p[B], j);
+        dx[0] = rotor_acceleration(x[0], drive, m.coulomb_nm, m.viscous_nm_s_rad, j);
         dx[1] = x[0];
     }
 
-    fn after_step(&self, _p: &[f64], before: &[f64], x: &mut [f64]) {
+    fn after_step(&self, _m: &MotorParams, before: &[f64], x: &mut [f64]) {
         // Friction stops the rotor; it never reverses it.
         if before[0] > 0.0 && x[0] <= 0.0 && !self.falling(x[1]) {
             x[0] = 0.0;
@@ -142,10 +168,10 @@ impl GreyBox for FallingWeight {
         }
     }
 
-    fn output(&self, p: &[f64], name: &str, x: &[f64], _u: &[f64], _held: &[f64]) -> f64 {
+    fn output(&self, m: &MotorParams, name: &str, x: &[f64], _u: &[f64], _held: &[f64]) -> f64 {
         match name {
             "motor_speed_rad_s" => x[0],
-            "back_emf_V" => p[K] * x[0],
+            "back_emf_V" => m.back_emf_v(x[0]),
             _ => f64::NAN,
         }
     }

@@ -6,13 +6,53 @@
 
 use std::path::Path;
 
+use std::sync::OnceLock;
+
 use crate::ident::data::Dataset;
 use crate::ident::effects::{self, Effect};
-use crate::ident::model::{GreyBox, OutputKind, ParamSpec};
+use crate::ident::model::{Binding, Dynamics, GreyBox, OutputKind, ParamSpec};
+use crate::param::KeyTable;
+use crate::rig::blocks::LinearLoad;
 use crate::rig::{Rig, RigError};
 
-pub const MASS: usize = 0;
-pub const VISCOUS: usize = 1;
+/// The moving mass.
+pub const MASS: &str = "load.mass_kg";
+/// The axis's viscous friction.
+pub const VISCOUS: &str = "load.viscous_N_s_m";
+
+crate::declare_params! {
+    /// The linear axis's effects (section `effect`): the vocabulary's physics a linear
+    /// axis can show, each off at its default.
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    pub struct LinearEffects {
+        /// Coulomb friction force.
+        coulomb_force_n as "coulomb_force_N": f64 = 0.0, "N", NonNegative;
+        /// Positive-direction over negative-direction viscous coefficient.
+        viscous_ratio: f64 = 1.0, "", Positive;
+        /// Constant bias force (gravity component, cable, sensor bias).
+        offset_n as "offset_N": f64 = 0.0, "N", Finite;
+        /// Dead time between the command and the force.
+        delay_s: f64 = 0.0, "s", NonNegative;
+    }
+}
+
+/// What the linear axis's parameters set, by key.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct LinearParams {
+    /// The load (mass, viscous friction).
+    pub load: LinearLoad,
+    /// The effects' strengths.
+    pub effect: LinearEffects,
+}
+
+fn linear_keys() -> &'static KeyTable<LinearParams> {
+    static TABLE: OnceLock<KeyTable<LinearParams>> = OnceLock::new();
+    TABLE.get_or_init(|| {
+        KeyTable::<LinearParams>::new()
+            .section("load", |a| &a.load, |a| &mut a.load)
+            .section("effect", |a| &a.effect, |a| &mut a.effect)
+    })
+}
 
 /// The loop that produced the command.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -26,6 +66,7 @@ pub enum Loop {
 #[derive(Debug, Clone)]
 pub struct LinearAxis {
     specs: Vec<ParamSpec>,
+    binding: Binding<LinearParams>,
     /// Force per volt of command, N/V.
     pub force_per_volt: f64,
     /// Command limit, V (infinite when the rig gives none).
@@ -55,13 +96,10 @@ impl LinearAxis {
             ));
         }
         let specs = vec![
+            ParamSpec::positive(MASS, need(MASS, "the linear axis's moving mass")?),
             ParamSpec::positive(
-                "load.mass_kg",
-                need("load.mass_kg", "the linear axis's moving mass")?,
-            ),
-            ParamSpec::positive(
-                "load.viscous_N_s_m",
-                need("load.viscous_N_s_m", "the linear axis's viscous friction")?,
+                VISCOUS,
+                need(VISCOUS, "the linear axis's viscous friction")?,
             ),
         ];
         let feedback = match rig.text("feedback.kind") {
@@ -88,6 +126,7 @@ impl LinearAxis {
             )
         };
         Ok(LinearAxis {
+            binding: Binding::new(linear_keys(), &specs),
             specs,
             force_per_volt,
             limit_v,
@@ -125,15 +164,25 @@ impl LinearAxis {
     ) -> LinearAxis {
         let mut m = self.clone();
         let first = m.specs.len();
-        m.specs
-            .push(ParamSpec::new(effect.param_name(true), start, lo, hi));
+        m.specs.push(effect.param(true, start, lo, hi));
         m.effects.add(effect, first..m.specs.len());
+        m.binding = Binding::new(linear_keys(), &m.specs);
         m.coulomb_eps_m_s = (effects::COULOMB_SMOOTHING_FRACTION * max_speed).max(1e-6);
         m
     }
 
     fn effect(&self, e: Effect) -> Option<usize> {
         self.effects.get(e)
+    }
+
+    /// The parameters at the values `p`, written by key into the axis's blocks.
+    pub fn declared(&self, p: &[f64]) -> LinearParams {
+        self.binding.apply(&LinearParams::default(), p)
+    }
+
+    /// Parameters whose key the axis's blocks do not have (none; a test checks).
+    pub fn unbound(&self) -> Vec<&str> {
+        self.binding.unbound(&self.specs)
     }
 
     /// The controller's command at a state, V.
@@ -162,7 +211,7 @@ impl GreyBox for LinearAxis {
     }
 
     fn default_free(&self, _outputs: &[String]) -> Vec<usize> {
-        vec![MASS, VISCOUS]
+        self.indices_of(&[MASS, VISCOUS])
     }
 
     fn input_names(&self) -> Vec<String> {
@@ -184,6 +233,14 @@ impl GreyBox for LinearAxis {
         }
         o
     }
+}
+
+impl Dynamics for LinearAxis {
+    type Blocks = LinearParams;
+
+    fn blocks(&self, p: &[f64]) -> LinearParams {
+        self.declared(p)
+    }
 
     fn n_states(&self) -> usize {
         2
@@ -193,52 +250,53 @@ impl GreyBox for LinearAxis {
         1
     }
 
-    fn initial_state(&self, _p: &[f64], data: &Dataset) -> Vec<f64> {
+    fn initial_state(&self, _a: &LinearParams, data: &Dataset) -> Vec<f64> {
         vec![data.first_measured("position_m").unwrap_or(0.0), 0.0]
     }
 
-    fn max_step_s(&self, p: &[f64]) -> f64 {
-        0.2 * p[MASS] / p[VISCOUS]
+    fn max_step_s(&self, a: &LinearParams) -> f64 {
+        0.2 * a.load.mass_kg / a.load.viscous_n_s_m
     }
 
-    fn hold(&self, _p: &[f64], _t_s: f64, x: &[f64], u: &[f64], held: &mut [f64]) {
+    fn hold(&self, _a: &LinearParams, _t_s: f64, x: &[f64], u: &[f64], held: &mut [f64]) {
         held[0] = match self.feedback {
             Loop::Open => u[0].clamp(-self.limit_v, self.limit_v),
             Loop::PositionVelocityCascade { .. } => self.command_v(x, u[0]),
         };
     }
 
-    fn input_delay_s(&self, p: &[f64]) -> f64 {
-        self.effect(Effect::TransportDelay).map_or(0.0, |i| p[i])
+    fn input_delay_s(&self, a: &LinearParams) -> f64 {
+        a.effect.delay_s
     }
 
-    fn derivatives(&self, p: &[f64], x: &[f64], u: &[f64], held: &[f64], dx: &mut [f64]) {
+    fn derivatives(&self, a: &LinearParams, x: &[f64], u: &[f64], held: &[f64], dx: &mut [f64]) {
         let mut force = self.force_per_volt * held[0];
         if self.disturbance_input {
             // The known external force on the load, as recorded.
             force += u[u.len() - 1];
         }
         let v = x[1];
+        let (load, effect) = (&a.load, &a.effect);
         let viscous = match self.effect(Effect::FrictionAsymmetry) {
-            Some(i) => effects::asymmetric_viscous(p[VISCOUS], p[i], v),
-            None => p[VISCOUS] * v,
+            Some(_) => effects::asymmetric_viscous(load.viscous_n_s_m, effect.viscous_ratio, v),
+            None => load.viscous_n_s_m * v,
         };
         force -= viscous;
-        if let Some(i) = self.effect(Effect::CoulombFriction) {
-            force -= effects::smooth_coulomb(p[i], v, self.coulomb_eps_m_s);
+        if self.effect(Effect::CoulombFriction).is_some() {
+            force -= effects::smooth_coulomb(effect.coulomb_force_n, v, self.coulomb_eps_m_s);
         }
-        if let Some(i) = self.effect(Effect::Offset) {
-            force += p[i];
+        if self.effect(Effect::Offset).is_some() {
+            force += effect.offset_n;
         }
         dx[0] = x[1];
-        dx[1] = force / p[MASS];
+        dx[1] = force / load.mass_kg;
     }
 
     fn output_kind(&self, _name: &str) -> OutputKind {
         OutputKind::Instant
     }
 
-    fn output(&self, _p: &[f64], name: &str, x: &[f64], _u: &[f64], held: &[f64]) -> f64 {
+    fn output(&self, _a: &LinearParams, name: &str, x: &[f64], _u: &[f64], held: &[f64]) -> f64 {
         match name {
             "position_m" => x[0],
             "speed_m_s" => x[1],

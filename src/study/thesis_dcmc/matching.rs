@@ -4,7 +4,8 @@
 use nalgebra::Matrix2;
 
 use super::reference::{column_ratios, CASE1, THESIS_LIKE_HOLD, THESIS_LIKE_PEAK_PCT};
-use super::replay::{set_dcmc_key, starting_value, ResponseForm};
+use super::replay::{starting_value, ResponseForm};
+use crate::scene::keys::set_number;
 use crate::scene::Scene;
 
 /// A 2x2 continuous-time state-space pair (A, B) with standard deviations.
@@ -147,7 +148,7 @@ pub fn match_case1(scene: &Scene, dir: &std::path::Path) -> Result<Case1Match, S
     let eval = |z: &[f64; 3]| -> Result<(PairModel, [f64; 6]), String> {
         let mut s = base.clone();
         for (k, v) in MATCHED_KEYS.iter().zip(z) {
-            set_dcmc_key(&mut s, k, v.exp());
+            set_number(&mut s, k, v.exp());
         }
         s.dcmc.response_time_right_s = s.dcmc.response_time_left_s;
         let m = identify_lifted_mean(&s, dir)?;

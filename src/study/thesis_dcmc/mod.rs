@@ -49,7 +49,7 @@ pub use reference::{
 };
 pub use replay::{fit_dcmc_keys, LiftedDcmcReplay, ResponseForm};
 
-use replay::set_dcmc_key;
+use crate::scene::keys::set_number;
 
 use crate::ident::data::Dataset;
 use crate::scene::Scene;
@@ -139,7 +139,7 @@ pub fn matched_scene(scene: &Scene, m: &Case1Match) -> Scene {
     let mut s = scene.clone();
     ResponseForm::ForwardLag.isolate(&mut s);
     for (k, v) in MATCHED_KEYS.iter().zip(m.values) {
-        set_dcmc_key(&mut s, k, v);
+        set_number(&mut s, k, v);
     }
     s.dcmc.response_time_right_s = s.dcmc.response_time_left_s;
     s

@@ -72,65 +72,38 @@ impl ResponseForm {
 
     /// The scene with only this form's response: the others' keys at zero.
     pub(super) fn isolate(self, scene: &mut Scene) {
-        let d = &mut scene.dcmc;
-        match self {
-            ResponseForm::ForwardLag => {
-                d.turn_response_time_s = 0.0;
-                d.ramp_left_pct_s = 0.0;
-                d.ramp_right_pct_s = 0.0;
-                d.turn_ramp_pct_s = 0.0;
-            }
-            ResponseForm::ForwardAndTurnLag => {
-                d.ramp_left_pct_s = 0.0;
-                d.ramp_right_pct_s = 0.0;
-                d.turn_ramp_pct_s = 0.0;
-            }
-            ResponseForm::Ramp => {
-                d.response_time_left_s = 0.0;
-                d.response_time_right_s = 0.0;
-                d.turn_response_time_s = 0.0;
-                d.turn_ramp_pct_s = 0.0;
-            }
-            ResponseForm::ForwardLagTurnRamp => {
-                d.turn_response_time_s = 0.0;
-                d.ramp_left_pct_s = 0.0;
-                d.ramp_right_pct_s = 0.0;
-            }
+        for key in RESPONSE_KEYS.iter().filter(|k| !self.keys().contains(k)) {
+            crate::scene::keys::set_number(scene, key, 0.0);
         }
     }
 }
 
-/// A key's value in a scene, where a fit starts: the scene's, or for a response that is
-/// off a neutral start (a lag of 0.3 s, a rate of 100 %/s).
-pub(super) fn starting_value(scene: &Scene, key: &str) -> f64 {
-    let d = &scene.dcmc;
-    let or = |v: f64, start: f64| if v > 0.0 { v } else { start };
-    match key {
-        "dcmc.forward_gain_V_pct" => d.forward_gain_v_pct,
-        "dcmc.turn_gain_V_pct" => d.turn_gain_v_pct,
-        "dcmc.response_time_left_s" => or(d.response_time_left_s, 0.3),
-        "dcmc.response_time_right_s" => or(d.response_time_right_s, 0.3),
-        "dcmc.turn_response_time_s" => or(d.turn_response_time_s, 0.3),
-        "dcmc.ramp_left_pct_s" => or(d.ramp_left_pct_s, 100.0),
-        "dcmc.ramp_right_pct_s" => or(d.ramp_right_pct_s, 100.0),
-        "dcmc.turn_ramp_pct_s" => or(d.turn_ramp_pct_s, 100.0),
-        _ => unreachable!("not a fitted DCMC key: {key}"),
-    }
-}
+/// Every key of the DCMC's slow response (a lag or a rate limit), whichever form uses it.
+const RESPONSE_KEYS: [&str; 6] = [
+    "dcmc.response_time_left_s",
+    "dcmc.response_time_right_s",
+    "dcmc.turn_response_time_s",
+    "dcmc.ramp_left_pct_s",
+    "dcmc.ramp_right_pct_s",
+    "dcmc.turn_ramp_pct_s",
+];
 
-/// Sets one of the DCMC keys a fit uses.
-pub(super) fn set_dcmc_key(scene: &mut Scene, key: &str, v: f64) {
-    let d = &mut scene.dcmc;
-    match key {
-        "dcmc.forward_gain_V_pct" => d.forward_gain_v_pct = v,
-        "dcmc.turn_gain_V_pct" => d.turn_gain_v_pct = v,
-        "dcmc.response_time_left_s" => d.response_time_left_s = v,
-        "dcmc.response_time_right_s" => d.response_time_right_s = v,
-        "dcmc.turn_response_time_s" => d.turn_response_time_s = v,
-        "dcmc.ramp_left_pct_s" => d.ramp_left_pct_s = v,
-        "dcmc.ramp_right_pct_s" => d.ramp_right_pct_s = v,
-        "dcmc.turn_ramp_pct_s" => d.turn_ramp_pct_s = v,
-        _ => unreachable!("not a fitted DCMC key: {key}"),
+/// A key's value in a scene, where a fit starts: the scene's, or for a response that is
+/// off (zero) a neutral start by the key's unit: a lag of 0.3 s, a rate of 100 %/s.
+pub(super) fn starting_value(scene: &Scene, key: &str) -> f64 {
+    let Some(k) = crate::scene::keys::table().find(key) else {
+        return f64::NAN;
+    };
+    let v = k.get(scene).unwrap_or(0.0);
+    let neutral = match k.unit {
+        "s" => 0.3,
+        "pct/s" => 100.0,
+        _ => return v,
+    };
+    if v > 0.0 {
+        v
+    } else {
+        neutral
     }
 }
 
@@ -140,7 +113,6 @@ pub(super) fn set_dcmc_key(scene: &mut Scene, key: &str, v: f64) {
 /// sample (row 0: the speed at the start).
 pub struct LiftedDcmcReplay {
     scene: Scene,
-    form: ResponseForm,
     specs: Vec<ParamSpec>,
 }
 
@@ -163,14 +135,14 @@ impl LiftedDcmcReplay {
                 ParamSpec::new(k, v, 1e-3 * v.abs(), 1e3 * v.abs()).with_fd_step(1e-3)
             })
             .collect();
-        LiftedDcmcReplay { scene, form, specs }
+        LiftedDcmcReplay { scene, specs }
     }
 
     /// The scene with parameters `p` in the form's keys.
     pub fn scene_with(&self, p: &[f64]) -> Scene {
         let mut s = self.scene.clone();
-        for (k, v) in self.form.keys().iter().zip(p) {
-            set_dcmc_key(&mut s, k, *v);
+        for (spec, v) in self.specs.iter().zip(p) {
+            crate::scene::keys::set_number(&mut s, &spec.key, *v);
         }
         s
     }

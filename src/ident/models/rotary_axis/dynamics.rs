@@ -3,21 +3,23 @@
 //! parameter vector as named values, and the order one evaluation runs them in.
 
 use crate::ident::data::Dataset;
-use crate::ident::effects::{self, Effect, EffectSlots};
-use crate::ident::model::{GreyBox, OutputKind, ParamSpec};
+use crate::ident::effects::{self, Effect};
+use crate::ident::model::{Dynamics, GreyBox, OutputKind, ParamSpec};
 use crate::model::battery::BatteryParams;
 use crate::model::drivetrain::{DrivetrainParams, DrivetrainState};
+use crate::model::gearbox::GearboxParams;
 use crate::model::motor::{MotorParams, MotorState};
 use crate::model::speed_loop::SpeedLoopGains;
 use crate::model::wheel::WheelParams;
 
 use super::{
-    play_gearbox, AxisInput, RotaryAxis, TorqueCommand, B, GAIN, JM, JW, K, L, MESH_STEP_RATE, R,
+    play_gearbox, AxisInput, AxisParams, PlayShare, RotaryAxis, TorqueCommand, DEMAND_GAIN,
+    INDUCTANCE, MESH_STEP_RATE, RESISTANCE, ROTOR_INERTIA, TORQUE_CONSTANT, VISCOUS,
 };
 
 /// The simulator's blocks this model assembles, with the values of one parameter vector.
 #[derive(Debug, Clone, Copy)]
-pub(super) struct AxisBlocks {
+pub struct AxisBlocks {
     /// Motor (with the friction effects switched on), gear train and wheel. Through rigid
     /// gears all viscous friction is the motor's and the gear has no play.
     pub drivetrain: DrivetrainParams,
@@ -31,6 +33,10 @@ pub(super) struct AxisBlocks {
     pub drive_limit_v: Option<f64>,
     /// The battery under the bridge (the battery-sag block).
     pub battery: Option<BatteryParams>,
+    /// Dead time between the command and the drive, s (the transport-delay block).
+    pub delay_s: f64,
+    /// Mechanical time constant of the motor and wheel, s.
+    pub mechanical_time_constant_s: f64,
 }
 
 /// The states of the drive train, named: `[current, motor speed, motor angle, wheel speed,
@@ -48,42 +54,39 @@ pub(crate) fn drivetrain_state(x: &[f64]) -> DrivetrainState {
     }
 }
 
-/// One drive's motor, gear train and wheel from a parameter vector whose first values are
-/// the motor's and the wheel's (`R`, `L`, `K`, `JM`, `JW`, `B`, as both fitting models
-/// order them), with the blocks of the effects switched on: a gear play with its share of
-/// the viscous friction in the wheel's bearings, Coulomb friction, a direction-dependent
-/// viscous friction and a bias torque. Through rigid gears all viscous friction is the
-/// motor's and the gear has no play.
+/// One drive's motor, gear train and wheel from the declared motor, gear train (its play
+/// when the backlash block is on) and wheel, with the blocks of the effects switched on:
+/// a gear play with `play.wheel_viscous_share` of the viscous friction in the wheel's
+/// bearings, Coulomb friction, a direction-dependent viscous friction and a bias torque
+/// (the motor's own keys). Through rigid gears all viscous friction is the motor's and the
+/// gear has no play.
 #[inline(always)]
 pub(crate) fn drivetrain_blocks(
-    p: &[f64],
-    ratio: f64,
-    effects: &EffectSlots,
+    motor: &MotorParams,
+    gearbox: &GearboxParams,
+    wheel: &WheelParams,
+    play: Option<&PlayShare>,
     wheel_radius_m: f64,
 ) -> DrivetrainParams {
-    let value = |e: Effect| effects.get(e).map(|i| p[i]);
-    let (gearbox, wheel_share) = match effects.values(Effect::Backlash, p) {
-        Some(&[wheel_viscous_share, backlash_rad]) => {
-            (play_gearbox(ratio, backlash_rad), wheel_viscous_share)
-        }
-        _ => (play_gearbox(ratio, 0.0), 0.0),
+    let ratio = gearbox.ratio;
+    let (gearbox, wheel_share) = match play {
+        Some(share) => (
+            play_gearbox(ratio, gearbox.backlash_rad),
+            share.wheel_viscous_share,
+        ),
+        None => (play_gearbox(ratio, 0.0), 0.0),
     };
+    let total_viscous = motor.viscous_nm_s_rad;
     DrivetrainParams {
         motor: MotorParams {
-            resistance_ohm: p[R],
-            inductance_h: p[L],
-            torque_constant_nm_a: p[K],
-            rotor_inertia_kg_m2: p[JM],
-            viscous_nm_s_rad: p[B] * (1.0 - wheel_share),
-            viscous_ratio: value(Effect::FrictionAsymmetry).unwrap_or(1.0),
-            coulomb_nm: value(Effect::CoulombFriction).unwrap_or(0.0),
-            offset_nm: value(Effect::Offset).unwrap_or(0.0),
+            viscous_nm_s_rad: total_viscous * (1.0 - wheel_share),
+            ..*motor
         },
         gearbox,
         wheel: WheelParams {
             radius_m: wheel_radius_m,
-            inertia_kg_m2: p[JW],
-            viscous_nm_s_rad: p[B] * wheel_share * ratio * ratio,
+            inertia_kg_m2: wheel.inertia_kg_m2,
+            viscous_nm_s_rad: total_viscous * wheel_share * ratio * ratio,
         },
     }
 }
@@ -92,25 +95,39 @@ pub(crate) fn drivetrain_blocks(
 const SPEED_LOOP_INTEGRAL: usize = 5;
 
 impl RotaryAxis {
-    /// The blocks at the parameter values `p`.
-    // Built at every evaluation: inlined, so that an evaluation builds only what it reads.
-    #[inline(always)]
-    pub(super) fn blocks(&self, p: &[f64]) -> AxisBlocks {
-        let value = |e: Effect| self.effect(e).map(|i| p[i]);
+    /// The blocks of the declared parameters `a`.
+    #[inline]
+    pub(super) fn blocks_of(&self, a: &AxisParams) -> AxisBlocks {
+        let on = |e: Effect| self.effect(e).is_some();
+        let gearbox = GearboxParams {
+            ratio: self.ratio,
+            ..a.gearbox
+        };
         AxisBlocks {
             // The lifted wheel's radius does not enter its dynamics.
-            drivetrain: drivetrain_blocks(p, self.ratio, &self.effects, 1.0),
-            play: self.effect(Effect::Backlash).is_some(),
-            demand_gain_v_pct: if self.input == AxisInput::Demand {
-                p[GAIN]
-            } else {
-                1.0
-            },
+            drivetrain: drivetrain_blocks(
+                &a.motor,
+                &gearbox,
+                &a.wheel,
+                on(Effect::Backlash).then_some(&a.play),
+                1.0,
+            ),
+            play: on(Effect::Backlash),
+            demand_gain_v_pct: self.demand_gain_v_pct(a),
             // The vocabulary's speed loop: the DCMC's `gain_pi`.
-            speed_loop: value(Effect::SpeedFeedback)
-                .map(|ki| SpeedLoopGains::calibrated_to_motor(p[K], ki)),
-            drive_limit_v: value(Effect::VoltageSaturation),
-            battery: value(Effect::BatterySag).map(|r| effects::sagging_battery(self.supply_v, r)),
+            speed_loop: on(Effect::SpeedFeedback).then(|| {
+                SpeedLoopGains::calibrated_to_motor(a.motor.torque_constant_nm_a, a.dcmc.ki_v_rad)
+            }),
+            drive_limit_v: on(Effect::VoltageSaturation).then_some(a.battery.drive_limit_v),
+            battery: on(Effect::BatterySag).then(|| {
+                effects::sagging_battery(self.supply_v, a.battery.internal_resistance_ohm)
+            }),
+            delay_s: if on(Effect::TransportDelay) {
+                a.dcmc.command_delay_s
+            } else {
+                0.0
+            },
+            mechanical_time_constant_s: self.mechanical_time_constant_s(a),
         }
     }
 
@@ -172,16 +189,22 @@ impl GreyBox for RotaryAxis {
         // at the rig value and the rotor's absorbs the difference. Without a current
         // measurement R and L are not separable from K and J, so they stay fixed.
         let mut free = if matches!(self.input, AxisInput::Torque(_)) {
-            vec![JM, B]
+            vec![ROTOR_INERTIA, VISCOUS]
         } else if outputs.iter().any(|o| o == "current_A") {
-            vec![R, L, K, JM, B]
+            vec![
+                RESISTANCE,
+                INDUCTANCE,
+                TORQUE_CONSTANT,
+                ROTOR_INERTIA,
+                VISCOUS,
+            ]
         } else {
-            vec![K, JM, B]
+            vec![TORQUE_CONSTANT, ROTOR_INERTIA, VISCOUS]
         };
         if self.input == AxisInput::Demand {
-            free.push(GAIN);
+            free.push(DEMAND_GAIN);
         }
-        free
+        self.indices_of(&free)
     }
 
     fn input_names(&self) -> Vec<String> {
@@ -217,14 +240,25 @@ impl GreyBox for RotaryAxis {
     }
 
     fn reports(&self, i: usize) -> bool {
-        !(matches!(self.input, AxisInput::Torque(_)) && [R, L, K].contains(&i))
+        let armature = [RESISTANCE, INDUCTANCE, TORQUE_CONSTANT];
+        !(matches!(self.input, AxisInput::Torque(_))
+            && armature.contains(&self.specs[i].name.as_str()))
+    }
+}
+
+impl Dynamics for RotaryAxis {
+    type Blocks = AxisBlocks;
+
+    #[inline]
+    fn blocks(&self, p: &[f64]) -> AxisBlocks {
+        self.blocks_of(&self.declared(p))
     }
 
     fn n_held(&self) -> usize {
         1
     }
 
-    fn hold(&self, _p: &[f64], _t_s: f64, x: &[f64], u: &[f64], held: &mut [f64]) {
+    fn hold(&self, _b: &AxisBlocks, _t_s: f64, x: &[f64], u: &[f64], held: &mut [f64]) {
         held[0] = match self.input {
             AxisInput::Torque(TorqueCommand {
                 feedback: Some(c),
@@ -245,7 +279,7 @@ impl GreyBox for RotaryAxis {
         6
     }
 
-    fn initial_state(&self, _p: &[f64], data: &Dataset) -> Vec<f64> {
+    fn initial_state(&self, _b: &AxisBlocks, data: &Dataset) -> Vec<f64> {
         let angle = data
             .first_measured("motor_angle_rad")
             .or_else(|| {
@@ -256,16 +290,15 @@ impl GreyBox for RotaryAxis {
         vec![0.0, 0.0, angle, 0.0, angle / self.ratio, 0.0]
     }
 
-    fn max_step_s(&self, p: &[f64]) -> f64 {
+    fn max_step_s(&self, b: &AxisBlocks) -> f64 {
         // RK4 is accurate to 2 % on a decaying mode at h = its time constant.
-        let b = self.blocks(p);
         let d = &b.drivetrain;
         let mut h = match self.input {
-            AxisInput::Torque(_) => 0.2 * self.mechanical_time_constant_s(p),
+            AxisInput::Torque(_) => 0.2 * b.mechanical_time_constant_s,
             _ => d
                 .motor
                 .electrical_time_constant_s()
-                .min(0.2 * self.mechanical_time_constant_s(p)),
+                .min(0.2 * b.mechanical_time_constant_s),
         };
         if b.play {
             h = h.min(MESH_STEP_RATE / d.mesh_rate());
@@ -273,13 +306,15 @@ impl GreyBox for RotaryAxis {
         h
     }
 
-    fn input_delay_s(&self, p: &[f64]) -> f64 {
-        self.effect(Effect::TransportDelay).map_or(0.0, |i| p[i])
+    fn input_delay_s(&self, b: &AxisBlocks) -> f64 {
+        b.delay_s
     }
 
-    fn event_fraction(&self, p: &[f64], before: &[f64], after: &[f64], h: f64) -> Option<f64> {
-        self.effect(Effect::Backlash)?;
-        let d = self.blocks(p).drivetrain;
+    fn event_fraction(&self, b: &AxisBlocks, before: &[f64], after: &[f64], h: f64) -> Option<f64> {
+        if !b.play {
+            return None;
+        }
+        let d = &b.drivetrain;
         let (twist_before, twist_rate) = d.twist(&drivetrain_state(before));
         let twist_after = d.twist(&drivetrain_state(after)).0;
         d.gearbox
@@ -290,11 +325,10 @@ impl GreyBox for RotaryAxis {
     /// armature (or the torque amplifier's command), the rotor's torque balance, then the
     /// wheel: turning with the rotor through rigid gears, or on its own side of the play,
     /// driven by the teeth and braked by its bearings.
-    fn derivatives(&self, p: &[f64], x: &[f64], u: &[f64], held: &[f64], dx: &mut [f64]) {
-        let b = self.blocks(p);
+    fn derivatives(&self, b: &AxisBlocks, x: &[f64], u: &[f64], held: &[f64], dx: &mut [f64]) {
         let d = &b.drivetrain;
         let s = drivetrain_state(x);
-        let (v, integral_rate) = self.terminal_voltage(&b, &s, x[SPEED_LOOP_INTEGRAL], u[0]);
+        let (v, integral_rate) = self.terminal_voltage(b, &s, x[SPEED_LOOP_INTEGRAL], u[0]);
         dx[SPEED_LOOP_INTEGRAL] = integral_rate;
         let w = s.motor.speed_rad_s;
         let motor_torque = match self.input {
@@ -338,7 +372,7 @@ impl GreyBox for RotaryAxis {
         }
     }
 
-    fn output(&self, _p: &[f64], name: &str, x: &[f64], _u: &[f64], held: &[f64]) -> f64 {
+    fn output(&self, _b: &AxisBlocks, name: &str, x: &[f64], _u: &[f64], held: &[f64]) -> f64 {
         match name {
             "command_V" => held[0],
             "motor_speed_rad_s" => x[1],

@@ -7,13 +7,20 @@
 
 mod dynamics;
 
+pub use dynamics::AxisBlocks;
 pub(crate) use dynamics::{drivetrain_blocks, drivetrain_state};
 
 use std::path::Path;
+use std::sync::OnceLock;
 
 use crate::ident::effects::{self, Effect};
-use crate::ident::model::ParamSpec;
+use crate::ident::model::{Binding, ParamSpec};
+use crate::model::battery::BatteryParams;
+use crate::model::dcmc::DcmcParams;
 use crate::model::gearbox::GearboxParams;
+use crate::model::motor::MotorParams;
+use crate::model::wheel::WheelParams;
+use crate::param::KeyTable;
 use crate::rig::{Rig, RigError};
 
 /// What drives the axis.
@@ -110,13 +117,85 @@ impl TorqueCommand {
     }
 }
 
-pub const R: usize = 0;
-pub const L: usize = 1;
-pub const K: usize = 2;
-pub const JM: usize = 3;
-pub const JW: usize = 4;
-pub const B: usize = 5;
-pub const GAIN: usize = 6;
+/// The drive train's keys a fit may move, as the rig and the scene name them.
+pub const RESISTANCE: &str = "motor.resistance_ohm";
+/// Armature inductance.
+pub const INDUCTANCE: &str = "motor.inductance_H";
+/// Torque (back-EMF) constant.
+pub const TORQUE_CONSTANT: &str = "motor.torque_constant_Nm_A";
+/// Rotor inertia.
+pub const ROTOR_INERTIA: &str = "motor.rotor_inertia_kg_m2";
+/// Wheel (and output gear) inertia.
+pub const WHEEL_INERTIA: &str = "wheel.inertia_kg_m2";
+/// All viscous friction, referred to the motor shaft.
+pub const VISCOUS: &str = "motor.viscous_Nm_s_rad";
+/// The DCMC's volts per percent of demand (the rig's name).
+pub const DEMAND_GAIN: &str = "controller.gain_V_pct";
+
+crate::declare_params! {
+    /// The backlash block's own parameter (section `backlash`).
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    pub struct PlayShare {
+        /// Share of the viscous friction on the wheel's side of the play, in its bearings
+        /// (the rig gives only the total).
+        wheel_viscous_share: f64 = WHEEL_SIDE_VISCOUS_SHARE, "", closed(0.0, 0.95);
+    }
+}
+
+/// What a rotary axis's parameters set, by key: the simulator's blocks (motor, gear
+/// train, wheel, the DCMC's gain and speed loop, the battery) and the backlash block's own
+/// share. The fit's parameters are written into it through [`axis_keys`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AxisParams {
+    /// The motor; its Coulomb friction, direction ratio and bias are the effects'.
+    pub motor: MotorParams,
+    /// The gear train; its play is the backlash block's.
+    pub gearbox: GearboxParams,
+    /// The wheel.
+    pub wheel: WheelParams,
+    /// The DCMC: its forward gain for a demand input, its integral gain and command delay
+    /// for the speed-feedback and transport-delay blocks.
+    pub dcmc: DcmcParams,
+    /// The bridges' limit and the battery's internal resistance.
+    pub battery: BatteryParams,
+    /// The backlash block's share of the viscous friction at the wheel.
+    pub play: PlayShare,
+}
+
+/// The rotary axis's keys.
+pub fn axis_keys() -> &'static KeyTable<AxisParams> {
+    static TABLE: OnceLock<KeyTable<AxisParams>> = OnceLock::new();
+    TABLE.get_or_init(|| {
+        KeyTable::<AxisParams>::new()
+            .section("motor", |a| &a.motor, |a| &mut a.motor)
+            .section("gearbox", |a| &a.gearbox, |a| &mut a.gearbox)
+            .section("wheel", |a| &a.wheel, |a| &mut a.wheel)
+            .section("dcmc", |a| &a.dcmc, |a| &mut a.dcmc)
+            .section("battery", |a| &a.battery, |a| &mut a.battery)
+            .section("backlash", |a| &a.play, |a| &mut a.play)
+    })
+}
+
+/// An axis with none of the effects' physics: no Coulomb friction, the same viscous
+/// friction both ways, no bias, no play.
+fn without_effects() -> AxisParams {
+    AxisParams {
+        motor: MotorParams {
+            coulomb_nm: 0.0,
+            viscous_ratio: 1.0,
+            offset_nm: 0.0,
+            ..MotorParams::default()
+        },
+        gearbox: GearboxParams {
+            backlash_rad: 0.0,
+            ..GearboxParams::default()
+        },
+        wheel: WheelParams::default(),
+        dcmc: DcmcParams::default(),
+        battery: BatteryParams::default(),
+        play: PlayShare::default(),
+    }
+}
 
 /// Tooth contact of the backlash block, referred to the wheel (not in the rig; the fit
 /// is insensitive to it once it is stiff against the sample rate).
@@ -143,7 +222,7 @@ pub fn play_gearbox(ratio: f64, backlash_rad: f64) -> GearboxParams {
     }
 }
 /// Share of the viscous friction on the wheel side of the play when the backlash block is
-/// on (the rig gives only the total); a parameter of the block, held at this value.
+/// on (the rig gives only the total); a parameter of the block, starting at this value.
 pub const WHEEL_SIDE_VISCOUS_SHARE: f64 = 0.3;
 /// Finite-difference step (search coordinate) of every parameter once a play is modelled.
 pub const BACKLASH_FD_STEP: f64 = 1e-3;
@@ -165,6 +244,8 @@ fn viscous_ceiling(rig: &Rig, torque_driven: bool) -> f64 {
 #[derive(Debug, Clone)]
 pub struct RotaryAxis {
     specs: Vec<ParamSpec>,
+    /// Each parameter's key in [`axis_keys`].
+    binding: Binding<AxisParams>,
     pub input: AxisInput,
     /// Motor turns per wheel turn (known exactly from the tooth counts).
     pub ratio: f64,
@@ -236,12 +317,16 @@ impl RotaryAxis {
             ),
         ];
         if input == AxisInput::Demand {
-            specs.push(ParamSpec::positive(
-                "controller.gain_V_pct",
-                rig.require("controller.gain_V_pct", path, "demand_pct is the input")?,
-            ));
+            specs.push(
+                ParamSpec::positive(
+                    DEMAND_GAIN,
+                    rig.require(DEMAND_GAIN, path, "demand_pct is the input")?,
+                )
+                .setting("dcmc.forward_gain_V_pct"),
+            );
         }
         Ok(RotaryAxis {
+            binding: Binding::new(axis_keys(), &specs),
             specs,
             input,
             ratio: rig.get("gearbox.ratio").unwrap_or(1.0),
@@ -299,7 +384,7 @@ impl RotaryAxis {
     ) -> RotaryAxis {
         let mut m = self.clone();
         let first = m.specs.len();
-        let spec = ParamSpec::new(effect.param_name(false), start, lo, hi);
+        let spec = effect.param(false, start, lo, hi);
         if effect == Effect::Backlash {
             // Teeth meeting and parting make the output a rough function of every
             // parameter on the scale of an integration step: differences for the Jacobian
@@ -319,6 +404,7 @@ impl RotaryAxis {
             m.specs.push(spec);
         }
         m.effects.add(effect, first..m.specs.len());
+        m.binding = Binding::new(axis_keys(), &m.specs);
         m.coulomb_eps_rad_s = (effects::COULOMB_SMOOTHING_FRACTION * max_speed).max(1e-3);
         m
     }
@@ -328,13 +414,27 @@ impl RotaryAxis {
     /// while the teeth are apart, which separates the two inertias, and R from K even
     /// without a current.
     pub fn newly_identifiable(&self, effect: Effect, outputs: &[String]) -> Vec<usize> {
+        use crate::ident::model::GreyBox;
         let has_current = outputs.iter().any(|o| o == "current_A");
         match effect {
             // The wheel's inertia is seen apart from the rotor's once the teeth separate.
-            Effect::Backlash if has_current || self.torque_command().is_some() => vec![JW],
-            Effect::Backlash => vec![R, JW],
+            Effect::Backlash if has_current || self.torque_command().is_some() => {
+                self.indices_of(&[WHEEL_INERTIA])
+            }
+            Effect::Backlash => self.indices_of(&[RESISTANCE, WHEEL_INERTIA]),
             _ => vec![],
         }
+    }
+
+    /// The parameters at the values `p`, written by key into the axis's blocks.
+    pub fn declared(&self, p: &[f64]) -> AxisParams {
+        self.binding.apply(&without_effects(), p)
+    }
+
+    /// Parameters whose key the axis's blocks do not have (none, unless the model is
+    /// wrong; a test checks every effect).
+    pub fn unbound(&self) -> Vec<&str> {
+        self.binding.unbound(&self.specs)
     }
 
     fn effect(&self, e: Effect) -> Option<usize> {
@@ -350,13 +450,23 @@ impl RotaryAxis {
     }
 
     /// Total inertia at the motor shaft, kg m^2.
-    pub fn inertia_at_motor(&self, p: &[f64]) -> f64 {
-        p[JM] + p[JW] / (self.ratio * self.ratio)
+    pub fn inertia_at_motor(&self, a: &AxisParams) -> f64 {
+        a.motor.rotor_inertia_kg_m2 + a.wheel.inertia_kg_m2 / (self.ratio * self.ratio)
     }
 
     /// Terminal voltage for an input value, V (before the effects' blocks).
-    pub fn voltage(&self, p: &[f64], u: f64) -> f64 {
-        self.command_voltage(self.blocks(p).demand_gain_v_pct, u)
+    pub fn voltage(&self, a: &AxisParams, u: f64) -> f64 {
+        self.command_voltage(self.demand_gain_v_pct(a), u)
+    }
+
+    /// The DCMC's voltage per percent of demand, V/pct (1 for the other inputs).
+    #[inline]
+    fn demand_gain_v_pct(&self, a: &AxisParams) -> f64 {
+        if self.input == AxisInput::Demand {
+            a.dcmc.forward_gain_v_pct
+        } else {
+            1.0
+        }
     }
 
     /// The voltage an input value commands, V: a voltage itself, a demand through the
@@ -371,12 +481,13 @@ impl RotaryAxis {
     }
 
     /// Mechanical time constant J / (b + K^2/R), s.
-    pub fn mechanical_time_constant_s(&self, p: &[f64]) -> f64 {
+    pub fn mechanical_time_constant_s(&self, a: &AxisParams) -> f64 {
+        let m = &a.motor;
         // Behind a torque amplifier the back-EMF does not damp the motor.
         let electrical = match self.input {
             AxisInput::Torque(_) => 0.0,
-            _ => p[K] * p[K] / p[R],
+            _ => m.torque_constant_nm_a * m.torque_constant_nm_a / m.resistance_ohm,
         };
-        self.inertia_at_motor(p) / (p[B] + electrical)
+        self.inertia_at_motor(a) / (m.viscous_nm_s_rad + electrical)
     }
 }

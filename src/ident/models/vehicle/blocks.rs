@@ -2,34 +2,116 @@
 //! wheel bearings, no-slip body, tyres, castors, battery and bridges), built from one
 //! parameter vector as named values.
 
+use std::sync::OnceLock;
+
 use crate::ident::effects::{self, Effect};
-use crate::ident::models::rotary_axis::drivetrain_blocks;
+use crate::ident::models::rotary_axis::{drivetrain_blocks, PlayShare};
 use crate::model::battery::BatteryParams;
-use crate::model::chassis::NoSlipBody;
+use crate::model::chassis::{ChassisParams, NoSlipBody};
+use crate::model::dcmc::DcmcParams;
 use crate::model::drivetrain::DrivetrainParams;
+use crate::model::gearbox::GearboxParams;
+use crate::model::motor::MotorParams;
+use crate::model::wheel::WheelParams;
 use crate::model::GRAVITY_M_S2;
+use crate::param::KeyTable;
 
-use super::{Vehicle, IZ, LAT_STIFFNESS, LOAD_FRACTION, LONG_STIFFNESS, MASS, RW, TRACK};
+use super::{Vehicle, DEFAULT_LAT_STIFFNESS_PER_N, DEFAULT_LONG_STIFFNESS_PER_N};
 
-// The vehicle's drive parameters sit where [`drivetrain_blocks`] reads them.
-const _: () = {
-    use crate::ident::models::{rotary_axis as axis, vehicle as v};
-    assert!(v::R == axis::R && v::L == axis::L && v::K == axis::K);
-    assert!(v::JM == axis::JM && v::JW == axis::JW && v::B == axis::B);
-};
+crate::declare_params! {
+    /// The castor-drag block (section `castor_drag`): the idlers' rolling drag, lumped
+    /// at a distance from the axle.
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    pub struct CastorDrag {
+        /// The castors' distance from the drive-axle midpoint (not in the rig: it sets
+        /// how much they resist turning).
+        lever_m: f64 = 0.25, "m", NonNegative;
+        /// Drag force while rolling.
+        drag_n as "drag_N": f64 = 0.0, "N", NonNegative;
+    }
+}
 
-/// The castor-drag block: the idlers' rolling drag, lumped at a distance from the axle.
-#[derive(Debug, Clone, Copy)]
-pub(super) struct CastorDrag {
-    /// Drag force while rolling, N.
-    pub drag_n: f64,
-    /// The castors' distance from the drive-axle midpoint, m.
-    pub lever_m: f64,
+crate::declare_params! {
+    /// The drive tyres as the fitting vehicle sees them (section `tyre`): their creep
+    /// below the friction limit, and the limit (the wheel-slip block).
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    pub struct CreepTyre {
+        /// Longitudinal slip stiffness per newton of load (per unit slip ratio).
+        longitudinal_stiffness_per_n as "longitudinal_stiffness_per_N": f64 = DEFAULT_LONG_STIFFNESS_PER_N, "1/N per unit slip", Positive;
+        /// Cornering stiffness per newton of load (per rad of slip angle).
+        lateral_stiffness_per_n as "lateral_stiffness_per_N": f64 = DEFAULT_LAT_STIFFNESS_PER_N, "1/rad", Positive;
+        /// Peak friction coefficient (the wheel-slip block's strength).
+        peak_mu: f64 = 1.0, "", Positive;
+    }
+}
+
+/// What the vehicle's parameters set, by key: the simulator's blocks (motor, gear train,
+/// wheel, chassis, battery, the DCMC's command delay) and the effects' own blocks.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VehicleParams {
+    /// Each side's motor; its Coulomb friction is the effect's.
+    pub motor: MotorParams,
+    /// Each side's gear train; its play is the backlash block's.
+    pub gearbox: GearboxParams,
+    /// Each side's wheel.
+    pub wheel: WheelParams,
+    /// The chassis (centre of mass at the drive-axle midpoint: the rig gives no offset).
+    pub chassis: ChassisParams,
+    /// The tyres' creep and friction limit.
+    pub tyre: CreepTyre,
+    /// The bridges' limit and the battery's internal resistance.
+    pub battery: BatteryParams,
+    /// The DCMC's command delay (the transport-delay block).
+    pub dcmc: DcmcParams,
+    /// The backlash block's share of the viscous friction at the wheel.
+    pub play: PlayShare,
+    /// The castor-drag block.
+    pub castor_drag: CastorDrag,
+}
+
+/// The vehicle's keys.
+pub fn vehicle_keys() -> &'static KeyTable<VehicleParams> {
+    static TABLE: OnceLock<KeyTable<VehicleParams>> = OnceLock::new();
+    TABLE.get_or_init(|| {
+        KeyTable::<VehicleParams>::new()
+            .section("motor", |a| &a.motor, |a| &mut a.motor)
+            .section("gearbox", |a| &a.gearbox, |a| &mut a.gearbox)
+            .section("wheel", |a| &a.wheel, |a| &mut a.wheel)
+            .section("chassis", |a| &a.chassis, |a| &mut a.chassis)
+            .section("tyre", |a| &a.tyre, |a| &mut a.tyre)
+            .section("battery", |a| &a.battery, |a| &mut a.battery)
+            .section("dcmc", |a| &a.dcmc, |a| &mut a.dcmc)
+            .section("backlash", |a| &a.play, |a| &mut a.play)
+            .section("castor_drag", |a| &a.castor_drag, |a| &mut a.castor_drag)
+    })
+}
+
+/// A vehicle with none of the effects' physics: no Coulomb friction, no play.
+pub(super) fn without_effects() -> VehicleParams {
+    VehicleParams {
+        motor: MotorParams {
+            coulomb_nm: 0.0,
+            viscous_ratio: 1.0,
+            offset_nm: 0.0,
+            ..MotorParams::default()
+        },
+        gearbox: GearboxParams {
+            backlash_rad: 0.0,
+            ..GearboxParams::default()
+        },
+        wheel: WheelParams::default(),
+        chassis: ChassisParams::default(),
+        tyre: CreepTyre::default(),
+        battery: BatteryParams::default(),
+        dcmc: DcmcParams::default(),
+        play: PlayShare::default(),
+        castor_drag: CastorDrag::default(),
+    }
 }
 
 /// The blocks at one parameter vector's values.
 #[derive(Debug, Clone, Copy)]
-pub(super) struct VehicleBlocks {
+pub struct VehicleBlocks {
     /// Each side's motor (with Coulomb friction when switched on), gear train and wheel
     /// ([`drivetrain_blocks`]).
     pub drivetrain: DrivetrainParams,
@@ -50,19 +132,27 @@ pub(super) struct VehicleBlocks {
     pub drive_limit_v: Option<f64>,
     /// The battery both bridges draw on, with duty-setting bridges (the battery-sag block).
     pub battery: Option<BatteryParams>,
+    /// Dead time between the commands and the drives, s (the transport-delay block).
+    pub delay_s: f64,
 }
 
 impl Vehicle {
-    /// The blocks at the parameter values `p`.
+    /// The blocks of the declared parameters `a`.
     #[inline]
-    pub(super) fn blocks(&self, p: &[f64]) -> VehicleBlocks {
-        let value = |e: Effect| self.effect(e).map(|i| p[i]);
-        let castors = match self.effects.values(Effect::CastorDrag, p) {
-            Some(&[lever_m, drag_n]) => Some(CastorDrag { drag_n, lever_m }),
-            _ => None,
+    pub(super) fn blocks_of(&self, a: &VehicleParams) -> VehicleBlocks {
+        let on = |e: Effect| self.effect(e).is_some();
+        let play = on(Effect::Backlash);
+        let gearbox = GearboxParams {
+            ratio: self.ratio,
+            ..a.gearbox
         };
-        let drivetrain = drivetrain_blocks(p, self.ratio, &self.effects, p[RW]);
-        let play = self.effect(Effect::Backlash).is_some();
+        let drivetrain = drivetrain_blocks(
+            &a.motor,
+            &gearbox,
+            &a.wheel,
+            play.then_some(&a.play),
+            a.wheel.radius_m,
+        );
         // What turns with a wheel: behind a play the wheel alone, through rigid gears the
         // rotor too.
         let wheel_side_kg_m2 = if play {
@@ -70,23 +160,34 @@ impl Vehicle {
         } else {
             drivetrain.wheel.inertia_kg_m2 + drivetrain.reflected_motor_inertia()
         };
+        let c = &a.chassis;
         VehicleBlocks {
             drivetrain,
             play,
             body: NoSlipBody {
-                mass_kg: p[MASS],
-                yaw_inertia_kg_m2: p[IZ],
+                mass_kg: c.mass_kg,
+                yaw_inertia_kg_m2: c.yaw_inertia_kg_m2,
                 cg_ahead_m: 0.0,
-                track_width_m: p[TRACK],
-                wheel_radius_m: p[RW],
+                track_width_m: c.track_width_m,
+                wheel_radius_m: a.wheel.radius_m,
                 wheel_inertia_kg_m2: wheel_side_kg_m2,
             },
-            drive_wheel_load_n: p[LOAD_FRACTION] * p[MASS] * GRAVITY_M_S2 / 2.0,
-            tyre_stiffness_per_n: [p[LONG_STIFFNESS], p[LAT_STIFFNESS]],
-            peak_mu: value(Effect::WheelSlip),
-            castors,
-            drive_limit_v: value(Effect::VoltageSaturation),
-            battery: value(Effect::BatterySag).map(|r| effects::sagging_battery(self.supply_v, r)),
+            drive_wheel_load_n: c.drive_load_fraction * c.mass_kg * GRAVITY_M_S2 / 2.0,
+            tyre_stiffness_per_n: [
+                a.tyre.longitudinal_stiffness_per_n,
+                a.tyre.lateral_stiffness_per_n,
+            ],
+            peak_mu: on(Effect::WheelSlip).then_some(a.tyre.peak_mu),
+            castors: on(Effect::CastorDrag).then_some(a.castor_drag),
+            drive_limit_v: on(Effect::VoltageSaturation).then_some(a.battery.drive_limit_v),
+            battery: on(Effect::BatterySag).then(|| {
+                effects::sagging_battery(self.supply_v, a.battery.internal_resistance_ohm)
+            }),
+            delay_s: if on(Effect::TransportDelay) {
+                a.dcmc.command_delay_s
+            } else {
+                0.0
+            },
         }
     }
 }

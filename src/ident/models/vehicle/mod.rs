@@ -19,27 +19,28 @@ use std::path::Path;
 
 use crate::ident::data::Dataset;
 use crate::ident::effects::{self, Effect};
-use crate::ident::model::{GreyBox, OutputKind, ParamSpec};
+use crate::ident::model::{Binding, Dynamics, GreyBox, OutputKind, ParamSpec};
 use crate::rig::{Rig, RigError};
 
-use crate::ident::models::rotary_axis::{BACKLASH_FD_STEP, WHEEL_SHARE_PARAM};
+use crate::ident::models::rotary_axis::{
+    BACKLASH_FD_STEP, RESISTANCE, ROTOR_INERTIA, TORQUE_CONSTANT, VISCOUS, WHEEL_SHARE_PARAM,
+};
 
 mod blocks;
 mod motion;
 
-pub const R: usize = 0;
-pub const L: usize = 1;
-pub const K: usize = 2;
-pub const JM: usize = 3;
-pub const JW: usize = 4;
-pub const B: usize = 5;
-pub const MASS: usize = 6;
-pub const IZ: usize = 7;
-pub const RW: usize = 8;
-pub const TRACK: usize = 9;
-pub const LOAD_FRACTION: usize = 10;
-pub const LONG_STIFFNESS: usize = 11;
-pub const LAT_STIFFNESS: usize = 12;
+pub use blocks::{vehicle_keys, CastorDrag, CreepTyre, VehicleBlocks, VehicleParams};
+
+/// The chassis's mass.
+pub const MASS: &str = "chassis.mass_kg";
+/// The chassis's yaw inertia.
+pub const YAW_INERTIA: &str = "chassis.yaw_inertia_kg_m2";
+/// The drive wheels' radius.
+pub const WHEEL_RADIUS: &str = "wheel.radius_m";
+/// The distance between the drive wheels.
+pub const TRACK: &str = "chassis.track_width_m";
+/// The share of the weight on the drive wheels.
+pub const LOAD_FRACTION: &str = "chassis.drive_load_fraction";
 
 /// Tyre slip stiffnesses per newton of load assumed when the rig does not say (the
 /// simulator's hard-compound preset): they only set the small creep of a tyre below its
@@ -65,6 +66,8 @@ const BODY: usize = 2 * SIDE;
 #[derive(Debug, Clone)]
 pub struct Vehicle {
     specs: Vec<ParamSpec>,
+    /// Each parameter's key in [`vehicle_keys`].
+    binding: Binding<VehicleParams>,
     /// Motor turns per wheel turn.
     pub ratio: f64,
     /// Motor speeds come from encoders (count differences over the sample interval).
@@ -147,6 +150,7 @@ impl Vehicle {
             ParamSpec::positive("tyre.lateral_stiffness_per_N", DEFAULT_LAT_STIFFNESS_PER_N),
         ];
         Ok(Vehicle {
+            binding: Binding::new(vehicle_keys(), &specs),
             specs,
             ratio: rig.require("gearbox.ratio", path, "the whole-vehicle model needs it")?,
             encoder: rig.get("sensors.motor_encoder_counts_per_rev").is_some(),
@@ -168,7 +172,7 @@ impl Vehicle {
     /// competition drivetrain) has no castor to drag, and on a straight run castor drag is
     /// the same constant force as Coulomb friction, which it would otherwise stand in for.
     pub fn applicable(&self) -> Vec<Effect> {
-        let castors_carry_load = self.specs[LOAD_FRACTION].nominal < 1.0;
+        let castors_carry_load = self.nominal_of(LOAD_FRACTION) < 1.0;
         [
             Effect::WheelSlip,
             Effect::Backlash,
@@ -195,7 +199,7 @@ impl Vehicle {
     ) -> Vehicle {
         let mut m = self.clone();
         let first = m.specs.len();
-        let spec = ParamSpec::new(effect.param_name(false), start, lo, hi);
+        let spec = effect.param(false, start, lo, hi);
         match effect {
             Effect::Backlash => {
                 for s in &mut m.specs {
@@ -209,7 +213,7 @@ impl Vehicle {
                 // Where the castors sit is not in the rig: their distance from the axle
                 // midpoint, which sets how much they resist turning, is the block's own
                 // parameter, starting at half the track.
-                let t = self.specs[TRACK].nominal;
+                let t = self.nominal_of(TRACK);
                 m.specs
                     .push(ParamSpec::new(CASTOR_LEVER_PARAM, 0.5 * t, 0.0, 3.0 * t));
                 m.specs.push(spec);
@@ -217,8 +221,9 @@ impl Vehicle {
             _ => m.specs.push(spec),
         }
         m.effects.add(effect, first..m.specs.len());
+        m.binding = Binding::new(vehicle_keys(), &m.specs);
         m.coulomb_eps_rad_s = (effects::COULOMB_SMOOTHING_FRACTION * max_speed).max(1e-3);
-        let ground = max_speed / self.ratio * self.specs[RW].nominal;
+        let ground = max_speed / self.ratio * self.nominal_of(WHEEL_RADIUS);
         m.drag_eps_m_s = (effects::COULOMB_SMOOTHING_FRACTION * ground).max(1e-4);
         m
     }
@@ -227,26 +232,42 @@ impl Vehicle {
         self.effects.get(e)
     }
 
+    /// A parameter's nominal value (one the model always has).
+    fn nominal_of(&self, name: &str) -> f64 {
+        self.specs
+            .iter()
+            .find(|s| s.name == name)
+            .map_or(f64::NAN, |s| s.nominal)
+    }
+
+    /// The parameters at the values `p`, written by key into the vehicle's blocks.
+    pub fn declared(&self, p: &[f64]) -> VehicleParams {
+        self.binding.apply(&blocks::without_effects(), p)
+    }
+
+    /// Parameters whose key the vehicle's blocks do not have (none, unless the model is
+    /// wrong; a test checks every effect).
+    pub fn unbound(&self) -> Vec<&str> {
+        self.binding.unbound(&self.specs)
+    }
+
     /// Inertia at a motor shaft of its motor, gear and wheel, kg m^2.
-    pub fn drivetrain_inertia_at_motor(&self, p: &[f64]) -> f64 {
-        p[JM] + p[JW] / (self.ratio * self.ratio)
+    pub fn drivetrain_inertia_at_motor(&self, a: &VehicleParams) -> f64 {
+        a.motor.rotor_inertia_kg_m2 + a.wheel.inertia_kg_m2 / (self.ratio * self.ratio)
     }
 
     /// Forward time constant of the vehicle on its motors, s.
-    pub fn mechanical_time_constant_s(&self, p: &[f64]) -> f64 {
+    pub fn mechanical_time_constant_s(&self, a: &VehicleParams) -> f64 {
         let n2 = self.ratio * self.ratio;
-        let j = self.drivetrain_inertia_at_motor(p) + 0.5 * p[MASS] * p[RW] * p[RW] / n2;
-        j / (p[B] + p[K] * p[K] / p[R])
+        let (m, r) = (a.chassis.mass_kg, a.wheel.radius_m);
+        let j = self.drivetrain_inertia_at_motor(a) + 0.5 * m * r * r / n2;
+        let k = a.motor.torque_constant_nm_a;
+        j / (a.motor.viscous_nm_s_rad + k * k / a.motor.resistance_ohm)
     }
 
     /// Terminal voltages of the two motors from the commands and the currents, V: the
     /// bridges' limit, then both bridges' duty against one sagging battery.
-    fn terminal_voltages(
-        &self,
-        b: &blocks::VehicleBlocks,
-        cmd: [f64; 2],
-        current: [f64; 2],
-    ) -> [f64; 2] {
+    fn terminal_voltages(&self, b: &VehicleBlocks, cmd: [f64; 2], current: [f64; 2]) -> [f64; 2] {
         let mut v = cmd;
         if let Some(limit) = b.drive_limit_v {
             v = v.map(|v| v.clamp(-limit, limit));
@@ -286,23 +307,32 @@ impl GreyBox for Vehicle {
             // rig's values: any change in them is absorbed by those two, so freeing them
             // only lets the search drift to its bounds. Turning shows the track and the
             // yaw inertia.
-            let mut free = vec![K, MASS];
+            let mut free = vec![TORQUE_CONSTANT, MASS];
             if has("yaw_rate_rad_s") || has("heading_rad") {
-                free.extend([IZ, TRACK]);
+                free.extend([YAW_INERTIA, TRACK]);
             }
-            return free;
+            return self.indices_of(&free);
         }
         // R and K separate through the torque per volt K/R and the back-EMF damping K^2/R
         // (the viscous friction is small beside it). L is weakly seen at vehicle sample
         // rates; the wheel's inertia only in sum with the rotor's; the load fraction and
         // the tyre stiffnesses only through the small creep of a rolling tyre.
-        vec![R, K, JM, B, MASS, IZ, RW, TRACK]
+        self.indices_of(&[
+            RESISTANCE,
+            TORQUE_CONSTANT,
+            ROTOR_INERTIA,
+            VISCOUS,
+            MASS,
+            YAW_INERTIA,
+            WHEEL_RADIUS,
+            TRACK,
+        ])
     }
 
     fn unexcited(&self, data: &Dataset) -> Vec<usize> {
         // The same voltage on both sides throughout: the model never turns.
         if data.inputs[0] == data.inputs[1] {
-            vec![IZ, TRACK]
+            self.indices_of(&[YAW_INERTIA, TRACK])
         } else {
             Vec::new()
         }
@@ -328,12 +358,21 @@ impl GreyBox for Vehicle {
         .map(String::from)
         .to_vec()
     }
+}
+
+impl Dynamics for Vehicle {
+    type Blocks = VehicleBlocks;
+
+    #[inline]
+    fn blocks(&self, p: &[f64]) -> VehicleBlocks {
+        self.blocks_of(&self.declared(p))
+    }
 
     fn n_states(&self) -> usize {
         BODY + 6
     }
 
-    fn initial_state(&self, _p: &[f64], data: &Dataset) -> Vec<f64> {
+    fn initial_state(&self, _b: &VehicleBlocks, data: &Dataset) -> Vec<f64> {
         // At rest; the pose where the tracker first saw the vehicle.
         let mut x = vec![0.0; self.n_states()];
         x[BODY + 3] = data.first_measured("x_m").unwrap_or(0.0);
@@ -342,18 +381,25 @@ impl GreyBox for Vehicle {
         x
     }
 
-    fn max_step_s(&self, p: &[f64]) -> f64 {
-        self.step_bound(&self.blocks(p), SLIP_SPEED_FLOOR_M_S)
+    fn max_step_s(&self, b: &VehicleBlocks) -> f64 {
+        self.step_bound(b, SLIP_SPEED_FLOOR_M_S)
     }
 
     /// With a gear play: the first of the two sides' teeth to meet or part.
-    fn event_fraction(&self, p: &[f64], before: &[f64], after: &[f64], h: f64) -> Option<f64> {
-        self.effect(Effect::Backlash)?;
-        let b = self.blocks(p);
+    fn event_fraction(
+        &self,
+        b: &VehicleBlocks,
+        before: &[f64],
+        after: &[f64],
+        h: f64,
+    ) -> Option<f64> {
+        if !b.play {
+            return None;
+        }
         (0..2)
             .filter_map(|side| {
-                let (twist_before, twist_rate) = Self::twist(&b, before, side);
-                let twist_after = Self::twist(&b, after, side).0;
+                let (twist_before, twist_rate) = Self::twist(b, before, side);
+                let twist_after = Self::twist(b, after, side).0;
                 b.drivetrain
                     .gearbox
                     .flank_crossing(twist_before, twist_after, twist_rate * h)
@@ -365,19 +411,18 @@ impl GreyBox for Vehicle {
     /// it), so a moving vehicle allows longer steps than one at rest. The slowest contact
     /// at the interval's start is taken at half its speed: no record's sample interval is
     /// long enough for a vehicle to lose half its speed within it.
-    fn max_step_at(&self, p: &[f64], x: &[f64]) -> Option<f64> {
-        let b = self.blocks(p);
+    fn max_step_at(&self, b: &VehicleBlocks, x: &[f64]) -> Option<f64> {
         let (fwd, yaw_rate) = (x[BODY], x[BODY + 2]);
         let sweep = (yaw_rate * 0.5 * b.body.track_width_m).abs();
         let slowest = (fwd.abs() - sweep).abs();
         Some(self.step_bound(
-            &b,
+            b,
             (0.25 * slowest * slowest + SLIP_SPEED_FLOOR_M_S * SLIP_SPEED_FLOOR_M_S).sqrt(),
         ))
     }
 
-    fn input_delay_s(&self, p: &[f64]) -> f64 {
-        self.effect(Effect::TransportDelay).map_or(0.0, |i| p[i])
+    fn input_delay_s(&self, b: &VehicleBlocks) -> f64 {
+        b.delay_s
     }
 
     /// The order of one evaluation: terminal voltages (saturation, sag), each side's
@@ -385,10 +430,9 @@ impl GreyBox for Vehicle {
     /// the wheels with the chassis, rolling without slip (the simulator's no-slip body)
     /// unless the tyres' slip forces join them (a tracked pose, or the wheel-slip block),
     /// then the pose.
-    fn derivatives(&self, p: &[f64], x: &[f64], u: &[f64], _held: &[f64], dx: &mut [f64]) {
-        let b = self.blocks(p);
+    fn derivatives(&self, b: &VehicleBlocks, x: &[f64], u: &[f64], _held: &[f64], dx: &mut [f64]) {
         let motor = &b.drivetrain.motor;
-        let v = self.terminal_voltages(&b, [u[0], u[1]], [x[0], x[SIDE]]);
+        let v = self.terminal_voltages(b, [u[0], u[1]], [x[0], x[SIDE]]);
         let mut driving = [0.0; 2];
         for (side, driving) in driving.iter_mut().enumerate() {
             let s = side * SIDE;
@@ -398,9 +442,9 @@ impl GreyBox for Vehicle {
             dx[s + 2] = wm;
         }
         if b.peak_mu.is_some() || self.creeping_tyres {
-            self.slipping(&b, x, driving, dx);
+            self.slipping(b, x, driving, dx);
         } else {
-            self.rolling(&b, x, driving, dx);
+            self.rolling(b, x, driving, dx);
         }
         let (fwd, lat, heading) = (x[BODY], x[BODY + 1], x[BODY + 5]);
         let (sin, cos) = heading.sin_cos();
@@ -475,7 +519,7 @@ impl GreyBox for Vehicle {
         }
     }
 
-    fn output(&self, p: &[f64], name: &str, x: &[f64], _u: &[f64], _held: &[f64]) -> f64 {
+    fn output(&self, b: &VehicleBlocks, name: &str, x: &[f64], _u: &[f64], _held: &[f64]) -> f64 {
         let wheel = |s: usize| self.wheel_speed_rad_s(x, s);
         match name {
             "x_m" => x[BODY + 3],
@@ -483,8 +527,8 @@ impl GreyBox for Vehicle {
             "heading_rad" => x[BODY + 5],
             "left_motor_speed_rad_s" => x[1],
             "right_motor_speed_rad_s" => x[SIDE + 1],
-            "left_wheel_speed_m_s" => wheel(0) * p[RW],
-            "right_wheel_speed_m_s" => wheel(SIDE) * p[RW],
+            "left_wheel_speed_m_s" => wheel(0) * b.drivetrain.wheel.radius_m,
+            "right_wheel_speed_m_s" => wheel(SIDE) * b.drivetrain.wheel.radius_m,
             "yaw_rate_rad_s" => x[BODY + 2],
             "left_current_A" => x[0],
             "right_current_A" => x[SIDE],
