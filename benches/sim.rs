@@ -39,13 +39,8 @@ fn levels(c: &mut Criterion) {
 /// Rerun logging overhead: `agvsim run` of 20 s of the lab scene, a typical run (CSV recording and metrics),
 /// with and without saving a Rerun recording at the default frame interval (0.02 s).
 fn logging(c: &mut Criterion) {
-    use agvsim::run::{run_scene, RunOptions};
+    use agvsim::commands::run::{run, RunRequest};
     use agvsim::viz::RerunTarget;
-    let scene = Scene::load(
-        Path::new("scenes/lab_offset_120mm.toml"),
-        &["sim.duration_s=20".to_string()],
-    )
-    .expect("lab scene");
     let dir = std::env::temp_dir().join(format!("agvsim_bench_{}", std::process::id()));
     let mut group = c.benchmark_group("run_lab_20s");
     group.sample_size(10);
@@ -56,15 +51,16 @@ fn logging(c: &mut Criterion) {
             Some(RerunTarget::Save(dir.join("bench.rrd"))),
         ),
     ] {
-        let opts = RunOptions {
-            out_dir: dir.clone(),
-            name: "bench".into(),
+        let req = RunRequest {
+            scene: "scenes/lab_offset_120mm.toml".into(),
+            out: Some(dir.clone()),
+            set: vec![],
+            duration_s: Some(20.0),
+            seed: None,
             rerun,
             rerun_interval_s: 0.02,
         };
-        group.bench_function(name, |b| {
-            b.iter(|| run_scene(&scene, &opts).unwrap().summary)
-        });
+        group.bench_function(name, |b| b.iter(|| run(&req, &|_| {}).unwrap()));
     }
     group.finish();
 }

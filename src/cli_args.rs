@@ -8,8 +8,6 @@ use clap::{Parser, Subcommand};
 use agvsim::experiment::{DemandPattern, ExperimentKind};
 use agvsim::ident::ModelChoice;
 
-use crate::cli_sweep;
-
 #[derive(Parser)]
 #[command(
     name = "agvsim",
@@ -215,7 +213,7 @@ pub enum Command {
     },
     /// Run a scene over a grid of values in parallel and tabulate the metrics of every run
     /// (results.csv, plots); `sweep merge` joins shard folders.
-    Sweep(cli_sweep::SweepArgs),
+    Sweep(SweepArgs),
     /// Run a shipped study (sweeps plus an analysis): tyre-compounds, thesis-figures,
     /// backlash-tolerance or reversing. Writes summary.md, plots and the sweeps' results.
     Study {
@@ -317,10 +315,17 @@ pub enum Command {
         /// Save measured, baseline and diagnosed outputs to a Rerun .rrd file.
         #[arg(long, value_name = "FILE.rrd")]
         save: Option<PathBuf>,
-        /// Only try these effects (vocabulary names, comma-separated); by default every
-        /// effect that applies to the rig.
-        #[arg(long, value_delimiter = ',', value_name = "NAME,...")]
-        effects: Option<Vec<String>>,
+        /// Comma-separated effects of the contract's vocabulary to try (backlash,
+        /// coulomb_friction, friction_asymmetry, offset, voltage_saturation, battery_sag,
+        /// transport_delay, speed_feedback, wheel_slip, castor_drag). `all`: every effect
+        /// that applies to the rig's model; `none`: the nominal model only.
+        #[arg(
+            long,
+            value_delimiter = ',',
+            value_name = "NAME,...",
+            default_value = "all"
+        )]
+        effects: Vec<String>,
         /// Worker threads [default: one per core]; the result is the same for any count.
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
         jobs: Option<u32>,
@@ -418,4 +423,62 @@ fn demand_pct(s: &str) -> Result<f64, String> {
         Ok(v) if v > 0.0 && v <= 100.0 => Ok(v),
         _ => Err(format!("`{s}`: expected a demand in percent, 0 < d <= 100")),
     }
+}
+
+#[derive(clap::Args)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+pub struct SweepArgs {
+    #[command(subcommand)]
+    pub action: Option<SweepAction>,
+    /// Scene file (TOML), e.g. scenes/high_gain_slip.toml.
+    #[arg(required = true)]
+    pub scene: Option<PathBuf>,
+    /// A scene key and its values: a list (tyre.compound=hard_polyurethane,soft_rubber), a
+    /// linear range LO..HI:N (controller.gain_scale=0.1..6:25) or a log range
+    /// log:LO..HI:N. Repeat for a full grid; the first is the slowest in run order.
+    #[arg(long = "vary", value_name = "KEY=VALUES", required = true)]
+    pub vary: Vec<String>,
+    /// Runs per grid point, with noise seeds sim.seed, sim.seed+1, ...
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=10000))]
+    pub repeat: u32,
+    /// Parallel runs [default: one per core]. Results do not depend on it.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub jobs: Option<u32>,
+    /// Run only the I-th of N contiguous slices of the runs (e.g. a cluster job array);
+    /// join the slices' folders with `agvsim sweep merge`.
+    #[arg(long, value_name = "I/N")]
+    pub shard: Option<String>,
+    /// Output folder [default: runs/sweep_SCENE_NAME, with _shard_I_of_N when sharded].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Override a scene value for every run, e.g. --set sim.duration_s=10 (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// Simulated time of each run, s (overrides sim.duration_s).
+    #[arg(long, value_parser = positive_seconds)]
+    pub duration: Option<f64>,
+    /// Also write every run's path and lateral error (traces/run_NNNNN.csv).
+    #[arg(long)]
+    pub traces: bool,
+    /// Refuse grids of more runs than this (a guard against a typo that asks for a
+    /// million runs).
+    #[arg(long, default_value_t = agvsim::sweep::DEFAULT_MAX_RUNS)]
+    pub max_runs: usize,
+    /// Continue an interrupted sweep in its --out folder (same arguments): its finished
+    /// runs are kept and only the rest are run.
+    #[arg(long)]
+    pub resume: bool,
+}
+
+#[derive(Subcommand)]
+pub enum SweepAction {
+    /// Join the folders of `--shard` runs of one sweep into the unsharded result.
+    Merge {
+        /// The shard folders, in any order.
+        #[arg(required = true)]
+        shards: Vec<PathBuf>,
+        /// Folder for the merged results.csv, sweep.toml and plots.
+        #[arg(long)]
+        out: PathBuf,
+    },
 }

@@ -7,6 +7,6 @@ pub fn with_jobs<R: Send>(jobs: usize, work: impl FnOnce() -> R + Send) -> Resul
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(jobs)
         .build()
-        .map_err(|e| format!("--jobs {jobs}: cannot start the worker threads: {e}"))?;
+        .map_err(|e| format!("cannot start the worker threads: {e}"))?;
     Ok(pool.install(work))
 }

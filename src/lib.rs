@@ -22,6 +22,7 @@
 //!   studies built on them.
 
 pub mod calibrate;
+pub mod commands;
 pub mod diagnose;
 pub mod experiment;
 pub mod firmware;

@@ -1,5 +1,5 @@
-//! Running a scene with its observers: the recording CSV, the Rerun recorder and the
-//! metrics, as `agvsim run` does.
+//! Running a scene with its observers: the recording CSV, the metrics, and a watcher
+//! that sees the run as it goes (the Rerun recorder of `agvsim run --save`).
 
 use std::fs::File;
 use std::io::BufWriter;
@@ -8,19 +8,23 @@ use std::path::{Path, PathBuf};
 use crate::record::{vehicle_columns, RecordingWriter};
 use crate::scene::Scene;
 use crate::sim::metrics::{MetricsObserver, RunSummary};
-use crate::sim::{Sim, SimError, SimParams};
-use crate::viz::{RerunRecorder, RerunTarget, VizError};
+use crate::sim::{Sim, SimError, SimParams, Snapshot};
 
 /// Errors of a run.
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
+    /// The simulation could not be set up, or stopped.
     #[error(transparent)]
     Sim(#[from] SimError),
-    #[error(transparent)]
-    Viz(#[from] VizError),
-    #[error("{path}: {source}")]
+    /// The watcher could not take a snapshot (its message names its file or viewer).
+    #[error("{0}")]
+    Watcher(String),
+    /// An output could not be written.
+    #[error("{}: {source}", path.display())]
     Io {
+        /// The file or folder.
         path: PathBuf,
+        /// Why.
         source: std::io::Error,
     },
 }
@@ -30,18 +34,27 @@ pub enum RunError {
 pub struct RunOptions {
     /// Folder for the recording and the scene as run.
     pub out_dir: PathBuf,
-    /// Name used for files and the Rerun recording id.
+    /// Name used for files (and by the watcher).
     pub name: String,
-    pub rerun: Option<RerunTarget>,
-    /// Interval between Rerun frames, s.
-    pub rerun_interval_s: f64,
+}
+
+/// Something that watches a run as it goes: asked at every physics step whether it wants
+/// the snapshot, and given it when it does.
+pub trait Watcher {
+    /// Whether this step's snapshot is wanted (called once per physics step).
+    fn due(&mut self) -> bool;
+    /// Takes a snapshot; an error (a message naming the file or viewer) stops the run.
+    fn observe(&mut self, s: &Snapshot, params: &SimParams) -> Result<(), String>;
 }
 
 /// What a run produced.
 #[derive(Debug, Clone)]
 pub struct RunOutput {
+    /// The run's measures.
     pub summary: RunSummary,
+    /// The recording written.
     pub recording: PathBuf,
+    /// The scene as run, overrides included.
     pub scene_used: PathBuf,
 }
 
@@ -53,20 +66,13 @@ fn io(path: &Path) -> impl Fn(std::io::Error) -> RunError + '_ {
 }
 
 /// Runs a scene for its duration, writing `NAME.csv` and `NAME.scene.toml` (the scene as
-/// run, overrides included) into the output folder.
-pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutput, RunError> {
+/// run, overrides included) into the output folder, and showing the run to `watcher`.
+pub fn run_scene(
+    scene: &Scene,
+    opts: &RunOptions,
+    mut watcher: Option<&mut dyn Watcher>,
+) -> Result<RunOutput, RunError> {
     let params = SimParams::from_scene(scene)?;
-    // The Rerun target first: a file that cannot be written (or a viewer that cannot be
-    // reached) stops the run before any output is left behind.
-    let mut viz = match &opts.rerun {
-        Some(t) => Some(RerunRecorder::new(
-            t,
-            &opts.name,
-            &params,
-            opts.rerun_interval_s,
-        )?),
-        None => None,
-    };
     std::fs::create_dir_all(&opts.out_dir).map_err(io(&opts.out_dir))?;
     let recording = opts.out_dir.join(format!("{}.csv", opts.name));
     let scene_used = opts.out_dir.join(format!("{}.scene.toml", opts.name));
@@ -119,7 +125,7 @@ pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutput, RunError
             return Err(e.into());
         }
         let want_row = k % record_every == 0;
-        let want_viz = viz.as_mut().is_some_and(|v| v.due());
+        let want_viz = watcher.as_mut().is_some_and(|v| v.due());
         if want_row || want_viz || k % 10 == 0 {
             let s = sim.snapshot();
             if want_row {
@@ -128,7 +134,7 @@ pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutput, RunError
             if k % 10 == 0 || want_row {
                 metrics.observe(&s);
             }
-            if let (true, Some(v)) = (want_viz, viz.as_mut()) {
+            if let (true, Some(v)) = (want_viz, watcher.as_mut()) {
                 if let Err(e) = v.observe(&s, sim.params()) {
                     viz_err = Some(e);
                     break;
@@ -139,12 +145,9 @@ pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutput, RunError
     writer.finish().map_err(io(&recording))?;
     if let Some(e) = viz_err {
         let _ = std::fs::remove_file(&partial);
-        return Err(e.into());
+        return Err(RunError::Watcher(e));
     }
     std::fs::rename(&partial, &recording).map_err(io(&recording))?;
-    if let Some(v) = viz {
-        v.finish()?;
-    }
     Ok(RunOutput {
         summary: metrics.summary(),
         recording,

@@ -214,7 +214,7 @@ fn a_closed_loop_rotary_axis_is_fitted_from_reference_rad_and_its_friction_found
     let id = identify(&rig, &rig_path, &rec, None, &IdentifyOptions::default()).unwrap();
     assert!(id.model.contains("cascade"), "{}", id.model);
     let d = diagnose(&rig, &rig_path, &rec, None, &DiagnoseOptions::default()).unwrap();
-    println!("{}", agvsim::diagnose::job::render(&d));
+    println!("{}", agvsim::diagnose::report::render(&d));
     let found: Vec<&str> = d.findings.iter().map(|f| f.effect.name()).collect();
     assert_eq!(found, vec!["coulomb_friction"], "{found:?}");
     let c = d.findings[0].value;

@@ -31,7 +31,7 @@ fn vehicle_wheel_slip_is_found_and_a_clean_vehicle_gives_nothing() {
         STAGES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     }
     let only = || DiagnoseOptions {
-        effects: Some(vec![Effect::WheelSlip, Effect::CastorDrag]),
+        effects: agvsim::ident::effects::Choice::Named(vec![Effect::WheelSlip, Effect::CastorDrag]),
         progress: Some(count_stage),
         ..Default::default()
     };
@@ -39,13 +39,13 @@ fn vehicle_wheel_slip_is_found_and_a_clean_vehicle_gives_nothing() {
     // Progress: the baseline, then per round its start and each of its two candidates.
     let stages = STAGES.load(std::sync::atomic::Ordering::Relaxed);
     assert!(stages >= 4, "{stages} progress lines");
-    println!("{}", agvsim::diagnose::job::render(&d));
+    println!("{}", agvsim::diagnose::report::render(&d));
     let f = d.findings.first().expect("an effect");
     assert_eq!(f.effect, Effect::WheelSlip);
     assert!((f.value - 0.554356).abs() / 0.554356 < 0.15, "{}", f.value);
     assert!(d.final_fit_pct > d.baseline_fit_pct);
     let clean = run_with("../shared/data/dev", "dev_vehicle_03", only());
-    println!("{}", agvsim::diagnose::job::render(&clean));
+    println!("{}", agvsim::diagnose::report::render(&clean));
     assert!(clean.findings.is_empty());
 }
 
@@ -56,10 +56,10 @@ fn vehicle_wheel_slip_is_found_and_a_clean_vehicle_gives_nothing() {
 #[test]
 fn clean_record_gives_nothing_and_concealed_coulomb_friction_is_found() {
     let clean = run("../shared/data/dev", "dev_axis_11");
-    println!("{}", agvsim::diagnose::job::render(&clean));
+    println!("{}", agvsim::diagnose::report::render(&clean));
     assert!(clean.findings.is_empty());
     let c = run("../shared/data/dev", "dev_axis_03");
-    println!("{}", agvsim::diagnose::job::render(&c));
+    println!("{}", agvsim::diagnose::report::render(&c));
     let f = c.findings.first().expect("an effect");
     assert_eq!(f.effect.name(), "coulomb_friction");
     assert!((f.value - 0.021105).abs() / 0.021105 < 0.15, "{}", f.value);
@@ -71,7 +71,7 @@ fn clean_record_gives_nothing_and_concealed_coulomb_friction_is_found() {
 #[test]
 fn emps_coulomb_friction_matches_the_published_value() {
     let d = run("../shared/data/real/emps", "data_emps");
-    println!("{}", agvsim::diagnose::job::render(&d));
+    println!("{}", agvsim::diagnose::report::render(&d));
     let f = d.findings.first().expect("an effect");
     assert_eq!(f.effect.name(), "coulomb_friction");
     assert!((f.value - 20.3935).abs() / 20.3935 < 0.10, "{}", f.value);

@@ -269,22 +269,20 @@ fn scene_geometry_that_cannot_be_meant_is_refused() {
 /// to leave a header-only CSV and the scene behind).
 #[test]
 fn an_unwritable_rerun_file_leaves_no_partial_output() {
-    use agvsim::run::{run_scene, RunOptions};
+    use agvsim::commands::run::{run, RunRequest};
     use agvsim::viz::RerunTarget;
     let dir = tmp("save").join("out");
-    let scene = Scene::load(
-        Path::new("scenes/high_gain_slip.toml"),
-        &["sim.duration_s=0.1".into()],
-    )
-    .unwrap();
-    let err = run_scene(
-        &scene,
-        &RunOptions {
-            out_dir: dir.clone(),
-            name: "x".into(),
+    let err = run(
+        &RunRequest {
+            scene: PathBuf::from("scenes/high_gain_slip.toml"),
+            out: Some(dir.clone()),
+            set: vec![],
+            duration_s: Some(0.1),
+            seed: None,
             rerun: Some(RerunTarget::Save(PathBuf::from("/no/such/dir/y.rrd"))),
             rerun_interval_s: 0.02,
         },
+        &|_| {},
     )
     .err()
     .expect("refused")
@@ -566,36 +564,43 @@ fn merges_check_rows_and_shards_and_reruns_leave_no_stale_files() {
 /// the option, instead of after the whole analysis ("File exists").
 #[test]
 fn output_paths_are_checked_before_the_work() {
-    use agvsim::diagnose::job::{run as diagnose_job, DiagnoseJob};
-    use agvsim::ident::job::{run as identify_job, IdentifyJob};
+    use agvsim::commands::diagnose::{run as diagnose_job, DiagnoseRequest as DiagnoseJob};
+    use agvsim::commands::identify::{run as identify_job, IdentifyRequest as IdentifyJob};
     let dir = tmp("targets");
     let (_, rig, rec) = lifted(&dir, 4.0);
     let file = dir.join("a_file");
     std::fs::write(&file, "x").unwrap();
     let started = std::time::Instant::now();
-    let err = identify_job(&IdentifyJob {
-        rig: rig.clone(),
-        recordings: vec![rec.clone()],
-        validate: None,
-        options: IdentifyOptions::default(),
-        json: Some(file.join("x.json")),
-        plot_dir: None,
-        save_rrd: None,
-    })
+    let err = identify_job(
+        &IdentifyJob {
+            rig: rig.clone(),
+            recordings: vec![rec.clone()],
+            validate: None,
+            options: IdentifyOptions::default(),
+            json: Some(file.join("x.json")),
+            plot_dir: None,
+            save_rrd: None,
+        },
+        &|_| {},
+    )
     .err()
     .expect("refused")
     .to_string();
     println!("{err}");
     assert!(err.contains("--json") && err.contains("is a file"), "{err}");
-    let err = diagnose_job(&DiagnoseJob {
-        rig,
-        recordings: vec![rec],
-        validate: None,
-        json: None,
-        report_dir: Some(file.clone()),
-        save_rrd: None,
-        options: Default::default(),
-    })
+    let err = diagnose_job(
+        &DiagnoseJob {
+            rig,
+            recordings: vec![rec],
+            validate: None,
+            json: None,
+            report_dir: Some(file.clone()),
+            save_rrd: None,
+            options: Default::default(),
+            jobs: 0,
+        },
+        &|_| {},
+    )
     .err()
     .expect("refused")
     .to_string();

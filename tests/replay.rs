@@ -27,9 +27,8 @@ fn lab_recording(dir: &Path) -> Recording {
         &RunOptions {
             out_dir: dir.to_owned(),
             name: "lab".into(),
-            rerun: None,
-            rerun_interval_s: 0.02,
         },
+        None,
     )
     .unwrap();
     Recording::load(&out.recording).unwrap()

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use agvsim::run::render_summary;
 use agvsim::scene::Scene;
 use agvsim::sim::expectation::check;
-use agvsim::sweep::runner::summarise;
+use agvsim::sweep::run::summarise;
 
 fn shipped_scenes() -> Vec<PathBuf> {
     let mut out = vec![];

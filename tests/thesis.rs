@@ -169,7 +169,7 @@ fn low_gain_run_turns_towards_the_wire() {
 /// `soft_tyres` cycles too, sliding under half as much.
 #[test]
 fn shipped_slip_scenes_do_what_they_say() {
-    use agvsim::sweep::runner::summarise;
+    use agvsim::sweep::run::summarise;
     let run = |file: &str, set: &[&str]| {
         let o: Vec<String> = set.iter().map(|s| s.to_string()).collect();
         summarise(&Scene::load(Path::new(file), &o).unwrap()).unwrap()

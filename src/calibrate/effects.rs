@@ -4,6 +4,7 @@
 //! it finds is the physics the user's scene runs.
 
 use super::{keys, CalibrateError};
+pub use crate::ident::effects::Choice;
 use crate::ident::effects::Effect;
 use crate::replay::Drive;
 use crate::scene::Scene;
@@ -190,52 +191,6 @@ pub fn switched_on(scene: &Scene, home: &Home) -> Result<Scene, CalibrateError> 
     keys::set_texts(scene, &sets)
 }
 
-/// Which effects a calibration tries.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub enum Choice {
-    /// None: the scene's keys only.
-    #[default]
-    None,
-    /// These, each of which must have a home for the recording.
-    Named(Vec<Effect>),
-    /// Every effect of the vocabulary that has a home for the recording (`--effects all`).
-    All,
-}
-
-/// The effects named on the command line (`--effects backlash,coulomb_friction`,
-/// `--effects all` or `--effects none`).
-pub fn parse(names: &[String]) -> Result<Choice, CalibrateError> {
-    for (word, choice) in [("all", Choice::All), ("none", Choice::None)] {
-        if names.iter().any(|n| n.trim() == word) {
-            return if names.len() == 1 {
-                Ok(choice)
-            } else {
-                Err(CalibrateError::Key(format!(
-                    "--effects {word}: give `{word}` alone, or name the effects"
-                )))
-            };
-        }
-    }
-    let mut out: Vec<Effect> = vec![];
-    for n in names {
-        let e = Effect::from_name(n.trim()).ok_or_else(|| {
-            let all: Vec<&str> = Effect::ALL.iter().map(|e| e.name()).collect();
-            CalibrateError::Key(format!(
-                "--effects {n}: not an effect of the contract's vocabulary ({})",
-                all.join(", ")
-            ))
-        })?;
-        if !out.contains(&e) {
-            out.push(e);
-        }
-    }
-    Ok(if out.is_empty() {
-        Choice::None
-    } else {
-        Choice::Named(out)
-    })
-}
-
 /// The effects a choice names for this recording: named ones must have a home (the first
 /// that has none is the error); `all` keeps those that have one.
 pub fn chosen(
@@ -331,16 +286,16 @@ mod tests {
                 "{e:?}"
             );
         }
-        assert_eq!(parse(&["all".into()]).unwrap(), Choice::All);
-        assert_eq!(parse(&["none".into()]).unwrap(), Choice::None);
-        assert!(parse(&["none".into(), "backlash".into()]).is_err());
+        assert_eq!(Choice::parse(&["all".into()]).unwrap(), Choice::All);
+        assert_eq!(Choice::parse(&["none".into()]).unwrap(), Choice::None);
+        assert!(Choice::parse(&["none".into(), "backlash".into()]).is_err());
         let all = chosen(&Choice::All, &scene, axis).unwrap();
         assert!(all.contains(&Effect::BatterySag) && !all.contains(&Effect::WheelSlip));
         assert!(
             !all.contains(&Effect::SpeedFeedback),
             "voltages bypass the DCMC"
         );
-        let m = parse(&["backlash".into(), "slip".into()])
+        let m = Choice::parse(&["backlash".into(), "slip".into()])
             .unwrap_err()
             .to_string();
         assert!(m.contains("slip") && m.contains("wheel_slip"), "{m}");

@@ -16,10 +16,10 @@
 
 mod candidate;
 pub(crate) mod evidence;
-pub mod job;
 pub mod plots;
 pub mod prove;
 pub mod regimes;
+pub mod report;
 mod scales;
 mod search;
 
@@ -32,7 +32,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::ident::data::Dataset;
-use crate::ident::effects::Effect;
+use crate::ident::effects::{Choice, Effect};
 use crate::ident::fit::Fit;
 use crate::ident::{
     build_structure, evaluate, fit_structure, Evaluation, IdentError, IdentifyOptions, Structure,
@@ -212,26 +212,12 @@ impl Structure {
 #[derive(Debug, Clone, Default)]
 pub struct DiagnoseOptions {
     pub ident: IdentifyOptions,
-    /// Only these candidate effects (by default every one that applies to the structure).
-    pub effects: Option<Vec<Effect>>,
+    /// Which candidate effects to try (by default every one that applies to the
+    /// structure).
+    pub effects: Choice,
     /// Told each stage as it happens (the baseline, each round's candidates as they
     /// finish), from worker threads too: the command prints it, a test leaves it `None`.
     pub progress: Option<fn(&str)>,
-}
-
-/// Vocabulary names to effects; an unknown name is an error that lists the vocabulary.
-pub fn parse_effects(names: &[String]) -> Result<Vec<Effect>, String> {
-    names
-        .iter()
-        .map(|n| {
-            Effect::from_name(n.trim()).ok_or_else(|| {
-                format!(
-                    "`{n}` is not an effect name; the vocabulary is: {}",
-                    Effect::ALL.map(|e| e.name()).join(", ")
-                )
-            })
-        })
-        .collect()
 }
 
 struct Stage {
@@ -260,7 +246,7 @@ pub fn diagnose(
     }
     let model = structure.model();
     let applicable = structure.applicable();
-    if let Some(asked) = &opts.effects {
+    if let Choice::Named(asked) = &opts.effects {
         if let Some(e) = asked.iter().find(|e| !applicable.contains(e)) {
             return Err(IdentError::Setup(format!(
                 "effect `{}` does not apply to the {} model; these do: {}",
@@ -315,7 +301,7 @@ pub fn diagnose(
             .iter()
             .copied()
             .filter(|e| !tried.contains(e))
-            .filter(|e| opts.effects.as_ref().is_none_or(|only| only.contains(e)))
+            .filter(|e| opts.effects.admits(*e))
             .collect();
         tell(format!(
             "round {round_no}: {} candidate effects, fitted in parallel",
@@ -483,7 +469,10 @@ pub fn diagnose(
         baseline_fit_pct: baseline_eval.fit_pct_mean,
         baseline_params,
         baseline_at_bound: at_bound_of(&structure, &base_fit),
-        ignored_inputs: crate::ident::ignored_inputs(rec, structure.model()),
+        ignored_inputs: crate::ident::ignored_inputs(
+            rec,
+            &crate::ident::model_columns(structure.model()),
+        ),
         where_before: regimes::shares(&regs, &base_energy, base_total_energy),
         where_after: regimes::shares(&regs, &final_energy, base_total_energy),
         rounds,

@@ -54,7 +54,7 @@ pub fn write(dir: &Path, d: &Diagnosis) -> std::io::Result<Vec<PathBuf>> {
             None,
         );
         let f = dir.join(format!("{name}_compare.svg"));
-        std::fs::write(&f, doc)?;
+        crate::output::write_atomically(&f, doc)?;
         files.push(f);
         let residual = |pred: &[f64]| -> (Vec<f64>, Vec<f64>) {
             data.outputs[j]
@@ -77,11 +77,11 @@ pub fn write(dir: &Path, d: &Diagnosis) -> std::io::Result<Vec<PathBuf>> {
             None,
         );
         let f = dir.join(format!("{name}_residual.svg"));
-        std::fs::write(&f, doc)?;
+        crate::output::write_atomically(&f, doc)?;
         files.push(f);
     }
     let f = dir.join("regimes.svg");
-    std::fs::write(&f, regime_bars(&d.where_before, &d.where_after))?;
+    crate::output::write_atomically(&f, regime_bars(&d.where_before, &d.where_after))?;
     files.push(f);
     Ok(files)
 }

@@ -158,10 +158,17 @@ fn record(
     let per = ((1.0 / rate_hz) / dt).round().max(1.0) as usize;
     let interval = per as f64 * dt;
     let n = (duration_s / interval) as usize;
-    let mut csv = format!(
-        "# agvsim-recording: 1\n# rig: drive_axis\n# description: agvsim proof case, lifted wheel, random voltage\n# sample_time_s: {interval}\n# source: agvsim {} simulation, fidelity {}\nt_s,voltage_V,motor_speed_rad_s,current_A\n",
-        env!("CARGO_PKG_VERSION"),
-        sim.params().sim.fidelity.name()
+    let mut csv = crate::record::header(
+        "drive_axis",
+        &[
+            (
+                "description",
+                "agvsim proof case, lifted wheel, random voltage".into(),
+            ),
+            ("sample_time_s", format!("{interval}")),
+            ("source", simulation_source(&sim)),
+        ],
+        &["t_s", "voltage_V", "motor_speed_rad_s", "current_A"],
     );
     let (mut v, mut hold) = (0.0, 0usize);
     let mut encoder = EncoderSpeed::new(sim.drivetrains()[0].motor.angle_rad);
@@ -291,8 +298,8 @@ fn check(
     let rec_path = out_dir.join(format!("prove_{name}.csv"));
     let rig_path = out_dir.join(format!("prove_{name}.rig.toml"));
     let io = |p: &Path, e: std::io::Error| IdentError::Setup(format!("{}: {e}", p.display()));
-    std::fs::write(&rec_path, csv).map_err(|e| io(&rec_path, e))?;
-    std::fs::write(&rig_path, rig.to_toml()).map_err(|e| io(&rig_path, e))?;
+    crate::output::write_atomically(&rec_path, csv).map_err(|e| io(&rec_path, e))?;
+    crate::output::write_atomically(&rig_path, rig.to_toml()).map_err(|e| io(&rig_path, e))?;
     let rec = Recording::load(&rec_path)?;
     let d = diagnose(rig, &rig_path, &rec, None, &DiagnoseOptions::default())?;
     let found: Vec<(Effect, f64)> = d.findings.iter().map(|f| (f.effect, f.value)).collect();
@@ -303,7 +310,7 @@ fn check(
             .is_some_and(|(fe, v)| *fe == e && ((v - truth) / truth).abs() <= PARAM_TOLERANCE),
     };
     let json = out_dir.join(format!("prove_{name}.json"));
-    std::fs::write(
+    crate::output::write_atomically(
         &json,
         serde_json::to_string_pretty(&d.contract_json()).expect("json"),
     )
@@ -384,10 +391,28 @@ fn record_vehicle(
     let per = ((1.0 / rate_hz) / dt).round().max(1.0) as usize;
     let interval = per as f64 * dt;
     let n = (duration_s / interval) as usize;
-    let mut csv = format!(
-        "# agvsim-recording: 1\n# rig: vehicle\n# description: agvsim proof case, vehicle on the floor, open-loop random voltages, tracker on every fourth row\n# sample_time_s: {interval}\n# source: agvsim {} simulation, fidelity {}\nt_s,left_voltage_V,right_voltage_V,x_m,y_m,heading_rad,left_motor_speed_rad_s,right_motor_speed_rad_s,left_current_A,right_current_A\n",
-        env!("CARGO_PKG_VERSION"),
-        sim.params().sim.fidelity.name()
+    let mut csv = crate::record::header(
+        "vehicle",
+        &[
+            (
+                "description",
+                "agvsim proof case, vehicle on the floor, open-loop random voltages, tracker on every fourth row".into(),
+            ),
+            ("sample_time_s", format!("{interval}")),
+            ("source", simulation_source(&sim)),
+        ],
+        &[
+            "t_s",
+            "left_voltage_V",
+            "right_voltage_V",
+            "x_m",
+            "y_m",
+            "heading_rad",
+            "left_motor_speed_rad_s",
+            "right_motor_speed_rad_s",
+            "left_current_A",
+            "right_current_A",
+        ],
     );
     let (mut target, mut level, mut hold) = ([0.0f64; 2], [0.0f64; 2], 0usize);
     let mut encoders = [0, 1].map(|s| EncoderSpeed::new(sim.drivetrains()[s].motor.angle_rad));
@@ -493,4 +518,13 @@ fn vehicle_truth(scene: &Scene, effect: Option<Effect>) -> Result<f64, IdentErro
         }
         _ => 0.0,
     })
+}
+
+/// A proof recording's `source`: this agvsim's simulation at the scene's level.
+fn simulation_source(sim: &Sim) -> String {
+    format!(
+        "agvsim {} simulation, fidelity {}",
+        env!("CARGO_PKG_VERSION"),
+        sim.params().sim.fidelity.name()
+    )
 }

@@ -24,6 +24,7 @@ use rand_pcg::Pcg64;
 
 use crate::model::motor::{MotorParams, MotorState, Terminal};
 use crate::model::GRAVITY_M_S2;
+use crate::record::header;
 use crate::record::Recording;
 use crate::run::{run_scene, RunError, RunOptions};
 use crate::scene::Scene;
@@ -196,7 +197,7 @@ fn write(path: &Path, text: &str) -> Result<(), ExperimentError> {
             source,
         })?;
     }
-    std::fs::write(path, text).map_err(|source| ExperimentError::Io {
+    crate::output::write_atomically(path, text).map_err(|source| ExperimentError::Io {
         path: path.to_owned(),
         source,
     })
@@ -231,17 +232,6 @@ impl EncoderSpeed {
         self.last_counts = counts;
         speed
     }
-}
-
-/// Header of a recording in the exchange format.
-fn header(rig: &str, meta: &[(&str, String)], columns: &[&str]) -> String {
-    let mut s = format!("# agvsim-recording: 1\n# rig: {rig}\n");
-    for (k, v) in meta {
-        let _ = writeln!(s, "# {k}: {v}");
-    }
-    s.push_str(&columns.join(","));
-    s.push('\n');
-    s
 }
 
 /// Runs an experiment on a scene.
@@ -297,9 +287,8 @@ pub fn run_experiment(
                 &RunOptions {
                     out_dir: opts.out_dir.clone(),
                     name: name.clone(),
-                    rerun: None,
-                    rerun_interval_s: 0.02,
                 },
+                None,
             )?;
             let (dashes, n) = pen_trace(&out.recording, interval, opts.pen_play_m, &mut rng)?;
             let dash_path = opts.out_dir.join(format!("{name}.dashes.csv"));

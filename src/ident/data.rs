@@ -182,14 +182,10 @@ pub const CONTRACT_INPUTS: [&str; 12] = [
     "demand_turn_pct",
 ];
 
-/// The recording's contract input columns the model neither takes as an input nor
-/// compares as an output: named in the report, never dropped silently.
-pub fn ignored_inputs(rec: &Recording, model: &dyn crate::ident::model::GreyBox) -> Vec<String> {
-    let used: Vec<String> = model
-        .input_names()
-        .into_iter()
-        .chain(model.output_names())
-        .collect();
+/// The recording's contract input columns a model neither takes as an input nor
+/// compares as an output (`used`: the model's inputs and outputs): named in the report,
+/// never dropped silently.
+pub fn ignored_inputs(rec: &Recording, used: &[String]) -> Vec<String> {
     rec.names
         .iter()
         .filter(|n| CONTRACT_INPUTS.contains(&n.as_str()) && !used.contains(n))

@@ -110,6 +110,79 @@ impl Effect {
     pub fn from_name(s: &str) -> Option<Effect> {
         Effect::ALL.into_iter().find(|e| e.name() == s)
     }
+
+    /// The vocabulary's names, comma-separated (for help and errors).
+    pub fn vocabulary() -> String {
+        Effect::ALL.map(|e| e.name()).join(", ")
+    }
+}
+
+/// A word that is not an effect of the vocabulary, or `all`/`none` given with names.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum EffectNameError {
+    /// Not a vocabulary name.
+    #[error("--effects {0}: not an effect of the contract's vocabulary ({voc})", voc = Effect::vocabulary())]
+    Unknown(String),
+    /// `all` or `none` beside other names.
+    #[error("--effects {0}: give `{0}` alone, or name the effects")]
+    NotAlone(String),
+}
+
+impl std::str::FromStr for Effect {
+    type Err = EffectNameError;
+
+    fn from_str(s: &str) -> Result<Effect, EffectNameError> {
+        Effect::from_name(s.trim()).ok_or_else(|| EffectNameError::Unknown(s.trim().to_string()))
+    }
+}
+
+/// Which effects a diagnosis or a calibration tries.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum Choice {
+    /// Every effect of the vocabulary the record can show (`--effects all`, the default).
+    #[default]
+    All,
+    /// None: the nominal model (or the scene's keys) only (`--effects none`).
+    None,
+    /// These, each of which the record must be able to show.
+    Named(Vec<Effect>),
+}
+
+impl Choice {
+    /// The effects named on the command line: `all`, `none`, or vocabulary names
+    /// (repeats dropped). No names at all is `all`.
+    pub fn parse(names: &[String]) -> Result<Choice, EffectNameError> {
+        for (word, choice) in [("all", Choice::All), ("none", Choice::None)] {
+            if names.iter().any(|n| n.trim() == word) {
+                return if names.len() == 1 {
+                    Ok(choice)
+                } else {
+                    Err(EffectNameError::NotAlone(word.to_string()))
+                };
+            }
+        }
+        let mut out: Vec<Effect> = vec![];
+        for n in names {
+            let e: Effect = n.parse()?;
+            if !out.contains(&e) {
+                out.push(e);
+            }
+        }
+        Ok(if out.is_empty() {
+            Choice::All
+        } else {
+            Choice::Named(out)
+        })
+    }
+
+    /// Whether the choice lets `e` be tried (when the record can show it).
+    pub fn admits(&self, e: Effect) -> bool {
+        match self {
+            Choice::All => true,
+            Choice::None => false,
+            Choice::Named(list) => list.contains(&e),
+        }
+    }
 }
 
 /// The effects switched on in a model, each with the positions of its parameters in the

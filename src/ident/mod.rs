@@ -9,9 +9,9 @@ pub mod effects;
 pub mod evaluate;
 pub mod feedforward;
 pub mod fit;
-pub mod job;
 pub mod model;
 pub mod models;
+pub mod plots;
 
 pub mod report;
 
@@ -459,7 +459,7 @@ pub fn identify(
         None => None,
     };
     let mut id = assemble(&structure, &f, estimation, validation, opts.starts);
-    id.ignored_inputs = ignored_inputs(rec, model);
+    id.ignored_inputs = ignored_inputs(rec, &model_columns(model));
     id.feedforward = feedforward::of_recording(
         rec,
         id.value("motor.torque_constant_Nm_A"),
@@ -663,4 +663,13 @@ pub fn predict(
             message: format!("the model {d}"),
         })?;
     Ok((data, y))
+}
+
+/// A model's input and output columns: what a recording's columns are checked against.
+pub fn model_columns(model: &dyn GreyBox) -> Vec<String> {
+    model
+        .input_names()
+        .into_iter()
+        .chain(model.output_names())
+        .collect()
 }

@@ -178,28 +178,31 @@ pub fn convert(
             m.offset,
         ));
     }
-    let mut out = String::new();
-    let _ = writeln!(out, "# agvsim-recording: 1");
-    let _ = writeln!(out, "# rig: {}", map.rig);
+    let mut meta = Vec::new();
     if !map.description.is_empty() {
-        let _ = writeln!(out, "# description: {}", map.description.replace('\n', " "));
+        meta.push(("description", map.description.clone()));
     }
-    let _ = writeln!(
-        out,
-        "# source: {} imported by agvsim with {}",
-        data_file.display(),
-        map_file.display()
-    );
+    meta.push((
+        "source",
+        format!(
+            "{} imported by agvsim with {}",
+            data_file.display(),
+            map_file.display()
+        ),
+    ));
     for (target, col, (_, how), offset) in &plan {
         let off = if *offset != 0.0 {
             format!(" + {offset}")
         } else {
             String::new()
         };
-        let _ = writeln!(out, "# conversion: {target} = {} {how}{off}", header[*col]);
+        meta.push((
+            "conversion",
+            format!("{target} = {} {how}{off}", header[*col]),
+        ));
     }
     let names: Vec<&str> = plan.iter().map(|p| p.0.as_str()).collect();
-    let _ = writeln!(out, "{}", names.join(","));
+    let mut out = crate::record::header(&map.rig, &meta, &names);
     let mut last_t: Option<f64> = None;
     for rec in reader.records() {
         let rec = rec.map_err(|e| ImportError::Data {

@@ -56,7 +56,7 @@ impl TyreChoice {
     /// The tyre's law for a compound (this choice's, looked up once) on a surface: the
     /// preset, then each override.
     pub fn law(&self, compound: &Compound, surface: &Surface) -> TyreParams {
-        let mut t = tyre_presets::combine(compound, surface);
+        let mut t = TyreParams::of(compound, surface);
         if let Some(mu) = self.peak_mu {
             let ratio = t.sliding_mu / t.peak_mu;
             t.peak_mu = mu;
@@ -135,6 +135,21 @@ pub struct TyreOutput {
 const SLIP_REPORT_FLOOR_M_S: f64 = 1e-3;
 
 impl TyreParams {
+    /// A compound on a surface: the compound's friction scaled by the surface's, its
+    /// stiffnesses per newton of load (the law scales them with the normal load) and
+    /// relaxation length.
+    pub fn of(c: &Compound, s: &Surface) -> TyreParams {
+        TyreParams {
+            peak_mu: c.peak_mu_on_bare_concrete * s.friction_factor,
+            sliding_mu: c.peak_mu_on_bare_concrete * s.friction_factor * c.sliding_ratio,
+            stribeck_speed_m_s: 0.05,
+            long_stiffness_per_N: c.long_stiffness_per_N,
+            lat_stiffness_per_N: c.lat_stiffness_per_N,
+            relaxation_length_m: c.relaxation_length_m,
+            damping_ratio: 0.3,
+        }
+    }
+
     /// Friction coefficient at a sliding speed.
     pub fn mu_at(&self, sliding_speed_m_s: f64) -> f64 {
         let r = sliding_speed_m_s / self.stribeck_speed_m_s;

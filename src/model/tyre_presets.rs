@@ -19,8 +19,6 @@
 //!
 //! These are defaults to reason with; a scene can override any of them in `[tyre]`.
 
-use super::tyre::TyreParams;
-
 /// A tyre compound: what the tread brings regardless of the floor.
 #[derive(Debug, Clone, Copy)]
 pub struct Compound {
@@ -118,43 +116,4 @@ pub fn surface_names() -> String {
         .map(|s| s.name)
         .collect::<Vec<_>>()
         .join(", ")
-}
-
-/// Tyre parameters of a compound on a surface. Stiffness scales with normal load in the
-/// tyre law, so these are per-newton values.
-pub fn combine(c: &Compound, s: &Surface) -> TyreParams {
-    TyreParams {
-        peak_mu: c.peak_mu_on_bare_concrete * s.friction_factor,
-        sliding_mu: c.peak_mu_on_bare_concrete * s.friction_factor * c.sliding_ratio,
-        stribeck_speed_m_s: 0.05,
-        long_stiffness_per_N: c.long_stiffness_per_N,
-        lat_stiffness_per_N: c.lat_stiffness_per_N,
-        relaxation_length_m: c.relaxation_length_m,
-        damping_ratio: 0.3,
-    }
-}
-
-/// The table `agvsim presets` prints: every compound on every surface.
-pub fn render_table() -> String {
-    use std::fmt::Write;
-    let mut out = format!(
-        "{:<20} {:>8} {:>8} {:>10} {:>10} {:>9}\n",
-        "compound / surface", "peak_mu", "slide_mu", "Cx per N", "Cy per N", "sigma_m"
-    );
-    for c in &COMPOUNDS {
-        for s in &SURFACES {
-            let t = combine(c, s);
-            let _ = writeln!(
-                out,
-                "{:<20} {:>8.3} {:>8.3} {:>10.1} {:>10.1} {:>9.3}",
-                format!("{} / {}", c.name, s.name),
-                t.peak_mu,
-                t.sliding_mu,
-                t.long_stiffness_per_N,
-                t.lat_stiffness_per_N,
-                t.relaxation_length_m
-            );
-        }
-    }
-    out
 }

@@ -9,12 +9,10 @@
 //! under the simulated one so both stay visible.
 
 pub mod bars;
-pub mod evaluation;
 
 use std::fmt::Write;
 
 pub use bars::{bar_chart, BarGroup};
-pub use evaluation::write_evaluation;
 
 /// Canvas width, px.
 pub const W: f64 = 900.0;

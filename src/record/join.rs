@@ -104,8 +104,10 @@ mod tests {
     use std::path::Path;
 
     fn rec(name: &str, header: &str, rows: &[&str]) -> Recording {
+        let columns: Vec<&str> = header.split(',').collect();
         let text = format!(
-            "# agvsim-recording: 1\n# rig: drive_axis\n{header}\n{}\n",
+            "{}{}\n",
+            crate::record::header("drive_axis", &[], &columns),
             rows.join("\n")
         );
         Recording::parse(&text, Path::new(name)).unwrap()

@@ -57,6 +57,20 @@ pub fn vehicle_columns() -> Vec<Column> {
     ]
 }
 
+/// The head of a recording in the exchange format: the format's version, the rig, one
+/// `# key: value` line per metadata entry (a value's newlines become spaces, so a
+/// description cannot break the metadata), then the column names.
+pub fn header(rig: &str, meta: &[(&str, String)], columns: &[&str]) -> String {
+    use std::fmt::Write as _;
+    let mut s = format!("# agvsim-recording: 1\n# rig: {rig}\n");
+    for (k, v) in meta {
+        let _ = writeln!(s, "# {k}: {}", v.replace('\n', " "));
+    }
+    s.push_str(&columns.join(","));
+    s.push('\n');
+    s
+}
+
 /// Streams rows to any writer.
 pub struct RecordingWriter<W: Write> {
     out: W,
@@ -72,13 +86,8 @@ impl<W: Write> RecordingWriter<W> {
         meta: &[(&str, String)],
         columns: Vec<Column>,
     ) -> std::io::Result<Self> {
-        writeln!(out, "# agvsim-recording: 1")?;
-        writeln!(out, "# rig: {rig}")?;
-        for (k, v) in meta {
-            writeln!(out, "# {k}: {}", v.replace('\n', " "))?;
-        }
-        let header: Vec<&str> = columns.iter().map(|c| c.name).collect();
-        writeln!(out, "{}", header.join(","))?;
+        let names: Vec<&str> = columns.iter().map(|c| c.name).collect();
+        out.write_all(header(rig, meta, &names).as_bytes())?;
         Ok(RecordingWriter {
             out,
             columns,
@@ -86,6 +95,7 @@ impl<W: Write> RecordingWriter<W> {
         })
     }
 
+    /// Writes one snapshot as a row.
     pub fn row(&mut self, s: &Snapshot) -> std::io::Result<()> {
         use std::fmt::Write as _;
         self.line.clear();
@@ -102,6 +112,7 @@ impl<W: Write> RecordingWriter<W> {
         self.out.write_all(self.line.as_bytes())
     }
 
+    /// Flushes the rows and hands back the writer.
     pub fn finish(mut self) -> std::io::Result<W> {
         self.out.flush()?;
         Ok(self.out)

@@ -13,24 +13,30 @@ pub use crate::output::write_atomically;
 /// The simulated recording: the measured file's time, inputs (as held) and compared
 /// outputs, with the replay named in its metadata.
 pub fn simulated_csv(r: &Replay, rec: &Recording, scene_path: &Path) -> String {
-    let mut s = String::new();
-    let _ = writeln!(s, "# agvsim-recording: 1");
-    let _ = writeln!(s, "# rig: {}", rec.rig);
-    let _ = writeln!(
-        s,
-        "# description: agvsim replay of {} on {}",
-        rec.path.display(),
-        scene_path.display()
+    let mut columns = vec!["t_s"];
+    columns.extend(r.drive.columns().iter().copied());
+    columns.extend(r.outputs.iter().map(|o| o.name.as_str()));
+    let mut s = crate::record::header(
+        &rec.rig,
+        &[
+            (
+                "description",
+                format!(
+                    "agvsim replay of {} on {}",
+                    rec.path.display(),
+                    scene_path.display()
+                ),
+            ),
+            (
+                "source",
+                format!(
+                    "agvsim {} simulation driven by the recording's inputs",
+                    env!("CARGO_PKG_VERSION")
+                ),
+            ),
+        ],
+        &columns,
     );
-    let _ = writeln!(
-        s,
-        "# source: agvsim {} simulation driven by the recording's inputs",
-        env!("CARGO_PKG_VERSION")
-    );
-    let mut header = vec!["t_s".to_string()];
-    header.extend(r.drive.columns().iter().map(|c| c.to_string()));
-    header.extend(r.outputs.iter().map(|o| o.name.clone()));
-    let _ = writeln!(s, "{}", header.join(","));
     for k in 0..r.t_s.len() {
         let mut row = vec![format!("{}", r.t_s[k])];
         row.extend(r.inputs.iter().map(|col| format!("{}", col[k])));

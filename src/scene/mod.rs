@@ -4,6 +4,7 @@
 
 mod expect;
 pub mod keys;
+pub mod presets_table;
 mod schema;
 mod validate;
 

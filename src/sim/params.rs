@@ -340,7 +340,7 @@ impl SimParams {
 
     /// Castor tyre parameters on a surface.
     pub fn castor_tyre(&self, surface: &Surface) -> TyreParams {
-        let mut t = presets::combine(self.castor_compound, surface);
+        let mut t = TyreParams::of(self.castor_compound, surface);
         t.lat_stiffness_per_N = CASTOR_LAT_STIFFNESS_PER_N;
         t.long_stiffness_per_N = CASTOR_LAT_STIFFNESS_PER_N;
         t.relaxation_length_m = CASTOR_RELAXATION_M;

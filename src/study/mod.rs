@@ -161,6 +161,6 @@ pub(crate) fn opt(v: Option<f64>, digits: usize) -> String {
 pub(crate) fn write_summary(dir: &Path, text: &str) -> Result<PathBuf, SweepError> {
     std::fs::create_dir_all(dir).map_err(crate::sweep::io_err(dir))?;
     let p = dir.join("summary.md");
-    std::fs::write(&p, text).map_err(crate::sweep::io_err(&p))?;
+    crate::output::write_atomically(&p, text).map_err(crate::sweep::io_err(&p))?;
     Ok(p)
 }

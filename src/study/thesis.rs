@@ -128,7 +128,7 @@ pub fn run(
             })
             .collect();
         let fig = opts.out_dir.join(format!("paths_{level}.svg"));
-        std::fs::write(
+        crate::output::write_atomically(
             &fig,
             svg(
                 &format!("{level} level: sensor-pair offset from the wire along the run"),

@@ -198,7 +198,7 @@ pub fn run(
         .collect();
     let plot: PathBuf = opts.out_dir.join("slip_cycle_onset.svg");
     std::fs::create_dir_all(&opts.out_dir).map_err(crate::sweep::io_err(&opts.out_dir))?;
-    std::fs::write(
+    crate::output::write_atomically(
         &plot,
         Plot {
             title: "onset of slip-driven limit cycles",

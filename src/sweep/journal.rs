@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 
 use super::grid::Grid;
 use super::results::{self, Table};
-use super::runner::RunResult;
+use super::run::RunResult;
 use super::{io_err, SweepError};
 
 /// The in-progress results of a sweep folder.

@@ -4,20 +4,24 @@
 //! Runs are numbered in grid order (the first `--vary` slowest, the repeat fastest); every
 //! run is a pure function of the scene text, its overrides and its seed, so the results do
 //! not depend on the number of jobs or the order they finish in. `--shard I/N` runs the
-//! I-th of N contiguous slices of that numbering, and [`merge`](results::merge) joins the
+//! I-th of N contiguous slices of that numbering, and [`merge`](merge::merge) joins the
 //! shards' folders back into the unsharded result, byte for byte.
 
 pub mod grid;
 pub mod journal;
+pub mod merge;
 pub mod plots;
 pub mod results;
+pub mod run;
 pub mod runner;
 
 pub use grid::{
     check_size, parse_shard, parse_vary, Grid, RunPoint, Shard, Vary, DEFAULT_MAX_RUNS,
 };
-pub use results::{merge, Manifest, MERGE_NOTE};
-pub use runner::{previous_outputs, run_sweep, RunResult, SweepOptions, SweepOutput, Trace};
+pub use merge::merge;
+pub use results::{Manifest, MERGE_NOTE};
+pub use run::{summarise, RunResult, SweepOptions, Trace};
+pub use runner::{previous_outputs, run_sweep, SweepOutput};
 
 use std::path::PathBuf;
 

@@ -159,7 +159,7 @@ pub fn write(dir: &Path, grid: &Grid, table: &Table) -> Result<Vec<PathBuf>, Swe
         }
         .render();
         let path = pdir.join(format!("{metric}.svg"));
-        std::fs::write(&path, text).map_err(io_err(&path))?;
+        crate::output::write_atomically(&path, text).map_err(io_err(&path))?;
         files.push(path);
     }
     Ok(files)

@@ -508,3 +508,13 @@ fn clip_segment(
         )
     })
 }
+
+impl crate::run::Watcher for RerunRecorder {
+    fn due(&mut self) -> bool {
+        RerunRecorder::due(self)
+    }
+
+    fn observe(&mut self, s: &Snapshot, params: &SimParams) -> Result<(), String> {
+        RerunRecorder::observe(self, s, params).map_err(|e| e.to_string())
+    }
+}

@@ -81,22 +81,19 @@ pub fn convert(log: &SysIdLog, source: &str, a: &Assumptions) -> Result<Vec<Conv
     for test in &log.tests {
         super::check_test(test)?;
         let t0 = test.samples[0].t_s;
-        let mut s = String::new();
         let drive = log.mechanism.is_drivetrain();
-        let _ = writeln!(s, "# agvsim-recording: 1");
-        let _ = writeln!(s, "# rig: {}", if drive { "vehicle" } else { "drive_axis" });
-        let _ = writeln!(
-            s,
-            "# description: WPILib SysId test {} ({})",
-            test.name,
-            log.mechanism.name()
-        );
-        let _ = writeln!(s, "# source: {source}: {}", log.source);
-        let _ = writeln!(s, "# sample_time_s: {}", median_period(test));
-        let _ = writeln!(
-            s,
-            "# time_origin_s: {t0} (the log's time of the test's first row; t_s counts from it)"
-        );
+        let mut meta = vec![
+            (
+                "description",
+                format!("WPILib SysId test {} ({})", test.name, log.mechanism.name()),
+            ),
+            ("source", format!("{source}: {}", log.source)),
+            ("sample_time_s", format!("{}", median_period(test))),
+            (
+                "time_origin_s",
+                format!("{t0} (the log's time of the test's first row; t_s counts from it)"),
+            ),
+        ];
         let current = test.samples.iter().any(|x| x.left.current_a.is_some());
         let rates: Vec<f64> = test
             .samples
@@ -108,18 +105,20 @@ pub fn convert(log: &SysIdLog, source: &str, a: &Assumptions) -> Result<Vec<Conv
         let constant = rates.windows(2).all(|w| w[0] == w[1]);
         let gyro = drive && !rates.is_empty() && !constant;
         if drive && !rates.is_empty() && constant {
-            let _ = writeln!(
-                s,
-                "# note: yaw_rate_rad_s left out: the gyro reads {} rad/s throughout this test",
-                rates[0]
-            );
+            meta.push((
+                "note",
+                format!(
+                    "yaw_rate_rad_s left out: the gyro reads {} rad/s throughout this test",
+                    rates[0]
+                ),
+            ));
         }
         let mut header = vec!["t_s"];
         if drive {
-            let _ = writeln!(
-                s,
-                "# conversion: left_wheel_speed_m_s, right_wheel_speed_m_s = velocity in {how}"
-            );
+            meta.push((
+                "conversion",
+                format!("left_wheel_speed_m_s, right_wheel_speed_m_s = velocity in {how}"),
+            ));
             header.extend([
                 "left_voltage_V",
                 "right_voltage_V",
@@ -127,17 +126,23 @@ pub fn convert(log: &SysIdLog, source: &str, a: &Assumptions) -> Result<Vec<Conv
                 "right_wheel_speed_m_s",
             ]);
             if gyro {
-                let _ = writeln!(s, "# conversion: yaw_rate_rad_s = the gyro's angular rate, rad/s as SysId's drivetrain logger sends it");
+                meta.push(("conversion", "yaw_rate_rad_s = the gyro's angular rate, rad/s as SysId's drivetrain logger sends it".into()));
                 header.push("yaw_rate_rad_s");
             }
         } else {
-            let _ = writeln!(s, "# conversion: motor_speed_rad_s = velocity in {how}; motor_angle_rad likewise from position");
+            meta.push((
+                "conversion",
+                format!(
+                    "motor_speed_rad_s = velocity in {how}; motor_angle_rad likewise from position"
+                ),
+            ));
             header.extend(["voltage_V", "motor_angle_rad", "motor_speed_rad_s"]);
             if current {
                 header.push("current_A");
             }
         }
-        let _ = writeln!(s, "{}", header.join(","));
+        let rig = if drive { "vehicle" } else { "drive_axis" };
+        let mut s = crate::record::header(rig, &meta, &header);
         for x in &test.samples {
             let mut row = vec![format!("{}", x.t_s - t0)];
             if let (true, Some(r)) = (drive, x.right) {

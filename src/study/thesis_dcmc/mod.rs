@@ -119,7 +119,7 @@ fn try_form(
     let identified = identify_lifted_mean(&machine, dir)?;
     let mut floor_scene = machine.clone();
     floor_scene.sim.fidelity = crate::scene::Fidelity::Complex;
-    let floor = crate::sweep::runner::summarise(&floor_scene).map_err(|e| e.to_string())?;
+    let floor = crate::sweep::run::summarise(&floor_scene).map_err(|e| e.to_string())?;
     let rightmost_pole_1_s = crate::sim::linearize::linearise(&machine)
         .ok()
         .and_then(|l| crate::sim::linearize::close_loop(&l))
@@ -162,7 +162,7 @@ fn probe_turn_lag(
             s.dcmc.turn_response_time_s = t;
             let identified = identify_lifted_mean(&s, dir)?;
             s.sim.fidelity = crate::scene::Fidelity::Complex;
-            let floor = crate::sweep::runner::summarise(&s).map_err(|e| e.to_string())?;
+            let floor = crate::sweep::run::summarise(&s).map_err(|e| e.to_string())?;
             Ok(TurnLagProbe {
                 turn_response_time_s: t,
                 identified,
@@ -192,7 +192,7 @@ pub fn run(
     std::fs::create_dir_all(&opts.out_dir).map_err(crate::sweep::io_err(&opts.out_dir))?;
     let ref_path = opts.out_dir.join("case1_reference.csv");
     let text = reference_recording(&ReferenceSpec::default());
-    std::fs::write(&ref_path, &text).map_err(crate::sweep::io_err(&ref_path))?;
+    crate::output::write_atomically(&ref_path, &text).map_err(crate::sweep::io_err(&ref_path))?;
     let rec = Recording::parse(&text, &ref_path).map_err(|e| err(e.to_string()))?;
     let data = Dataset::from_recording(
         &rec,

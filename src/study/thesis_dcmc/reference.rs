@@ -109,23 +109,35 @@ pub fn reference_recording(spec: &ReferenceSpec) -> String {
     let quiet = (spec.quiet_s / t).ceil() as usize;
     let noise = m.noise_rms_rad_s();
     let mut rng = Pcg64::seed_from_u64(spec.seed);
-    let mut csv = String::new();
-    csv.push_str("# agvsim-recording: 1\n# rig: drive_pair\n");
-    let _ = writeln!(
-        csv,
-        "# description: the thesis's case-1 DCMC model (section 5.2.1, PEM 2/22 1997 17:17) driven by random demand levels (peak {} pct forward, {} pct turn, held {}-{} samples), motor speeds with white noise of {noise:.2} rad/s RMS (the thesis's loss {:.3e})",
-        spec.peak_demand_pct,
-        0.5 * spec.peak_demand_pct,
-        spec.hold_samples.0,
-        spec.hold_samples.1,
-        m.loss
-    );
-    let _ = writeln!(csv, "# sample_time_s: {t}");
-    csv.push_str("# source: agvsim study thesis-dcmc (reference generator)\n");
-    csv.push_str("# experiment: lifted-random-demand\n");
-    let _ = writeln!(csv, "# seed: {}", spec.seed);
-    csv.push_str(
-        "t_s,demand_fwd_pct,demand_turn_pct,left_motor_speed_rad_s,right_motor_speed_rad_s\n",
+    let mut csv = crate::record::header(
+        "drive_pair",
+        &[
+            (
+                "description",
+                format!(
+                    "the thesis's case-1 DCMC model (section 5.2.1, PEM 2/22 1997 17:17) driven by random demand levels (peak {} pct forward, {} pct turn, held {}-{} samples), motor speeds with white noise of {noise:.2} rad/s RMS (the thesis's loss {:.3e})",
+                    spec.peak_demand_pct,
+                    0.5 * spec.peak_demand_pct,
+                    spec.hold_samples.0,
+                    spec.hold_samples.1,
+                    m.loss
+                ),
+            ),
+            ("sample_time_s", format!("{t}")),
+            (
+                "source",
+                "agvsim study thesis-dcmc (reference generator)".into(),
+            ),
+            ("experiment", "lifted-random-demand".into()),
+            ("seed", format!("{}", spec.seed)),
+        ],
+        &[
+            "t_s",
+            "demand_fwd_pct",
+            "demand_turn_pct",
+            "left_motor_speed_rad_s",
+            "right_motor_speed_rad_s",
+        ],
     );
     let phi = m.a_1_s.map(|a| (a * t).exp());
     let (mut y, mut demand, mut hold) = ([0.0f64; 2], [0.0f64; 2], 0usize);

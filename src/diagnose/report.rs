@@ -1,31 +1,9 @@
-//! `agvsim diagnose` as a library call: load, diagnose, write the contract JSON, a report
-//! folder (text and SVG plots) and a Rerun file when asked.
+//! The diagnosis in plain words: what `agvsim diagnose` prints and its report folder
+//! holds.
 
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
 
-use super::{diagnose, DiagnoseOptions, Diagnosis};
-use crate::ident::IdentError;
-use crate::plot;
-use crate::record::Recording;
-use crate::rig::Rig;
-
-#[derive(Debug, Clone, Default)]
-pub struct DiagnoseJob {
-    pub rig: PathBuf,
-    /// One recording, or several tests of one machine diagnosed together (they share its
-    /// parameters; each starts from rest).
-    pub recordings: Vec<PathBuf>,
-    pub validate: Option<PathBuf>,
-    pub json: Option<PathBuf>,
-    pub report_dir: Option<PathBuf>,
-    pub save_rrd: Option<PathBuf>,
-    pub options: DiagnoseOptions,
-}
-
-fn io(path: &Path) -> impl Fn(std::io::Error) -> IdentError + '_ {
-    move |e| IdentError::Setup(format!("{}: {e}", path.display()))
-}
+use super::Diagnosis;
 
 /// The diagnosis in plain words.
 pub fn render(d: &Diagnosis) -> String {
@@ -139,49 +117,4 @@ pub fn render(d: &Diagnosis) -> String {
         );
     }
     s
-}
-
-pub fn run(job: &DiagnoseJob) -> Result<(Diagnosis, Vec<PathBuf>), IdentError> {
-    // Output paths are checked before the diagnosis's work, not after it.
-    let targets = [
-        ("--json", &job.json, false),
-        ("--report", &job.report_dir, true),
-        ("--save", &job.save_rrd, false),
-    ];
-    for (option, path, folder) in targets {
-        if let Some(p) = path {
-            crate::output::check_target(option, p, folder).map_err(IdentError::Setup)?;
-        }
-    }
-    let rig = Rig::load(&job.rig)?;
-    let rec = Recording::load_joined(&job.recordings)?;
-    let val = job.validate.as_deref().map(Recording::load).transpose()?;
-    let d = diagnose(&rig, &job.rig, &rec, val.as_ref(), &job.options)?;
-    let mut written = Vec::new();
-    if let Some(p) = &job.json {
-        if let Some(dir) = p.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).map_err(io(dir))?;
-        }
-        std::fs::write(
-            p,
-            serde_json::to_string_pretty(&d.contract_json()).expect("json"),
-        )
-        .map_err(io(p))?;
-        written.push(p.clone());
-    }
-    if let Some(dir) = &job.report_dir {
-        std::fs::create_dir_all(dir).map_err(io(dir))?;
-        let txt = dir.join("diagnosis.txt");
-        std::fs::write(&txt, render(&d)).map_err(io(&txt))?;
-        written.push(txt);
-        written.extend(super::plots::write(dir, &d).map_err(io(dir))?);
-        written.extend(plot::write_evaluation(dir, "baseline", &d.baseline).map_err(io(dir))?);
-        written.extend(plot::write_evaluation(dir, "diagnosed", &d.diagnosed).map_err(io(dir))?);
-    }
-    if let Some(path) = &job.save_rrd {
-        crate::viz::save_diagnosis(path, &d)
-            .map_err(|e| IdentError::Setup(format!("{}: {}", path.display(), e.0)))?;
-        written.push(path.clone());
-    }
-    Ok((d, written))
 }

@@ -3,8 +3,8 @@
 
 use std::path::{Path, PathBuf};
 
-use super::{svg, Series, Style, W};
-use crate::ident::Evaluation;
+use super::Evaluation;
+use crate::plot::{measured_points, svg, Series, Style, W};
 
 /// Height of one stacked residual plot, px (as rendered by [`svg`] with a one-row legend).
 fn stacked_height(doc: &str) -> f64 {
@@ -27,7 +27,7 @@ pub fn write_evaluation(dir: &Path, prefix: &str, e: &Evaluation) -> std::io::Re
     let mut files = Vec::new();
     let breaks = data.segment_start_times();
     for (j, name) in data.output_names.iter().enumerate() {
-        let (t, y) = super::measured_points(&data.t_s, &data.outputs[j]);
+        let (t, y) = measured_points(&data.t_s, &data.outputs[j]);
         let fit = e.fit_pct[name];
         let doc = svg(
             &format!(
@@ -45,7 +45,7 @@ pub fn write_evaluation(dir: &Path, prefix: &str, e: &Evaluation) -> std::io::Re
             None,
         );
         let f = dir.join(format!("{prefix}_{name}_fit.svg"));
-        std::fs::write(&f, doc)?;
+        crate::output::write_atomically(&f, doc)?;
         files.push(f);
         let c = &e.checks[j];
         let lags: Vec<f64> = c.whiteness.lags.iter().map(|&l| l as f64).collect();
@@ -80,7 +80,7 @@ pub fn write_evaluation(dir: &Path, prefix: &str, e: &Evaluation) -> std::io::Re
             "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{W}\" height=\"{y}\">\n{stacked}</svg>\n"
         );
         let f = dir.join(format!("{prefix}_{name}_resid.svg"));
-        std::fs::write(&f, outer)?;
+        crate::output::write_atomically(&f, outer)?;
         files.push(f);
     }
     Ok(files)

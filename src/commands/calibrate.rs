@@ -1,0 +1,127 @@
+//! `agvsim calibrate`: fit the scene's keys (and the effects the recording shows) to a
+//! recording through the simulator, print each key before and after and the replay fits,
+//! and write the calibrated scene, JSON, plots and a Rerun overlay when asked.
+
+use std::path::PathBuf;
+
+use super::{check_targets, io, on_workers, write_file, CommandError, Say};
+use crate::calibrate::{self, write as cw, Request};
+use crate::ident::effects::Choice;
+use crate::record::Recording;
+use crate::scene::Scene;
+
+/// What `agvsim calibrate` was asked.
+#[derive(Debug, Clone)]
+pub struct CalibrateRequest {
+    /// The scene: its values are the beliefs.
+    pub scene: PathBuf,
+    /// The recording to fit.
+    pub recording: PathBuf,
+    /// Scene keys to fit (empty: the recording kind's set).
+    pub free: Vec<String>,
+    /// Effects to try: `all`, `none` or vocabulary names.
+    pub effects: Vec<String>,
+    /// Where to write the calibrated scene.
+    pub write: Option<PathBuf>,
+    /// A second recording to compare the scenes on.
+    pub validate: Option<PathBuf>,
+    /// Scene overrides before fitting, `KEY=VALUE`.
+    pub set: Vec<String>,
+    /// Where to write the result as JSON.
+    pub json: Option<PathBuf>,
+    /// Where to write a plot per fitted output.
+    pub report: Option<PathBuf>,
+    /// Where to write the Rerun overlay.
+    pub save: Option<PathBuf>,
+    /// Worker threads (0: one per core).
+    pub jobs: usize,
+    /// Told each stage as it starts.
+    pub progress: fn(&str),
+}
+
+/// Calibrates, prints the keys, effects and fits, and writes the outputs asked for.
+pub fn run(req: &CalibrateRequest, say: Say) -> Result<(), CommandError> {
+    let request = Request {
+        free: req.free.clone(),
+        effects: Choice::parse(&req.effects)?,
+    };
+    let text =
+        std::fs::read_to_string(&req.scene).map_err(|source| crate::scene::SceneError::Read {
+            file: req.scene.clone(),
+            source,
+        })?;
+    let scene = Scene::from_toml(&text, &req.scene, &req.set)?;
+    let rec = Recording::load(&req.recording)?;
+    let other = req.validate.as_deref().map(Recording::load).transpose()?;
+    // The output paths are checked before the fit's work.
+    check_targets(&[
+        ("--write", req.write.as_deref(), false),
+        ("--json", req.json.as_deref(), false),
+        ("--report", req.report.as_deref(), true),
+        ("--save", req.save.as_deref(), false),
+    ])?;
+    say(&format!(
+        "calibrate  {} against {} (fidelity {}), through the simulator\n",
+        req.scene.display(),
+        req.recording.display(),
+        scene.sim.fidelity.name()
+    ));
+    let c = on_workers(req.jobs, || {
+        Ok(calibrate::calibrate_telling(
+            &scene,
+            &rec,
+            &request,
+            &req.progress,
+        )?)
+    })?;
+    say(&cw::render(&c));
+    say(&format!(
+        "mean       {:.1} % -> {:.1} % over the fitted outputs ({} iterations)\n",
+        cw::mean_fit(&c.before, &c.outputs),
+        cw::mean_fit(&c.after, &c.outputs),
+        c.iterations
+    ));
+    if let Some(o) = &other {
+        let (b, a) = on_workers(req.jobs, || {
+            Ok((
+                crate::replay::replay(&scene, o)?,
+                crate::replay::replay(&c.scene, o)?,
+            ))
+        })?;
+        say(&format!(
+            "validate   {}: {:.1} % -> {:.1} %\n",
+            o.path.display(),
+            cw::mean_fit(&b, &c.outputs),
+            cw::mean_fit(&a, &c.outputs)
+        ));
+    }
+    let source_name = req.recording.file_name().map_or_else(
+        || "the recording".into(),
+        |n| n.to_string_lossy().into_owned(),
+    );
+    if let Some(p) = &req.json {
+        let v = cw::json(
+            &c,
+            &req.scene.display().to_string(),
+            &req.recording.display().to_string(),
+        );
+        write_file(p, serde_json::to_string_pretty(&v).unwrap_or_default())?;
+        say(&format!("json       {}\n", p.display()));
+    }
+    if let Some(dir) = &req.report {
+        cw::write_plots(dir, &c, &source_name).map_err(io(dir))?;
+        say(&format!("plots      {}\n", dir.display()));
+    }
+    if let Some(w) = &req.write {
+        let out = cw::calibrated_text(&text, &c, &source_name, &req.set)?;
+        // The written scene must load on its own: it carries the --set values too.
+        Scene::from_toml(&out, w, &[]).map_err(|e| CommandError::WrittenScene(e.to_string()))?;
+        write_file(w, &out)?;
+        say(&format!("scene      {}\n", w.display()));
+    }
+    if let Some(p) = &req.save {
+        crate::viz::save_calibration(p, &source_name, &c)?;
+        say(&format!("rerun      {}\n", p.display()));
+    }
+    Ok(())
+}

@@ -1,0 +1,106 @@
+//! `agvsim diagnose`: find what physics the rig's model leaves out, print the diagnosis,
+//! and write the contract JSON, a report folder (text and SVG plots) and a Rerun file when
+//! asked.
+
+use std::path::PathBuf;
+
+use super::{check_targets, on_workers, write_file, CommandError, Say};
+use crate::diagnose::{diagnose, report::render, DiagnoseOptions};
+use crate::record::Recording;
+use crate::rig::Rig;
+
+/// What `agvsim diagnose` was asked.
+#[derive(Debug, Clone, Default)]
+pub struct DiagnoseRequest {
+    /// The rig file.
+    pub rig: PathBuf,
+    /// One recording, or several tests of one machine diagnosed together (they share its
+    /// parameters; each starts from rest).
+    pub recordings: Vec<PathBuf>,
+    /// A second recording to check the diagnosed model on.
+    pub validate: Option<PathBuf>,
+    /// Where to write the contract's diagnosis JSON.
+    pub json: Option<PathBuf>,
+    /// Where to write a report folder.
+    pub report_dir: Option<PathBuf>,
+    /// Where to write a Rerun recording.
+    pub save_rrd: Option<PathBuf>,
+    /// Effects to try, progress reporting.
+    pub options: DiagnoseOptions,
+    /// Worker threads (0: one per core).
+    pub jobs: usize,
+}
+
+/// Diagnoses, prints the diagnosis, and writes the files asked for.
+pub fn run(req: &DiagnoseRequest, say: Say) -> Result<(), CommandError> {
+    // Output paths are checked before the diagnosis's work, not after it.
+    check_targets(&[
+        ("--json", req.json.as_deref(), false),
+        ("--report", req.report_dir.as_deref(), true),
+        ("--save", req.save_rrd.as_deref(), false),
+    ])?;
+    let rig = Rig::load(&req.rig)?;
+    let rec = Recording::load_joined(&req.recordings)?;
+    let val = req.validate.as_deref().map(Recording::load).transpose()?;
+    let d = on_workers(req.jobs, || {
+        Ok(diagnose(&rig, &req.rig, &rec, val.as_ref(), &req.options)?)
+    })?;
+    say(&render(&d));
+    let mut written = Vec::new();
+    if let Some(p) = &req.json {
+        write_file(
+            p,
+            serde_json::to_string_pretty(&d.contract_json()).unwrap_or_default(),
+        )?;
+        written.push(p.clone());
+    }
+    if let Some(dir) = &req.report_dir {
+        let io = super::io(dir);
+        let txt = dir.join("diagnosis.txt");
+        write_file(&txt, render(&d))?;
+        written.push(txt);
+        written.extend(crate::diagnose::plots::write(dir, &d).map_err(&io)?);
+        written.extend(
+            crate::ident::plots::write_evaluation(dir, "baseline", &d.baseline).map_err(&io)?,
+        );
+        written.extend(
+            crate::ident::plots::write_evaluation(dir, "diagnosed", &d.diagnosed).map_err(&io)?,
+        );
+    }
+    if let Some(path) = &req.save_rrd {
+        crate::viz::save_diagnosis(path, &d)?;
+        written.push(path.clone());
+    }
+    for f in &written {
+        say(&format!("wrote      {}\n", f.display()));
+    }
+    Ok(())
+}
+
+/// What `agvsim prove` was asked.
+#[derive(Debug, Clone)]
+pub struct ProveRequest {
+    /// Folder for the recordings, rigs and diagnoses.
+    pub out: PathBuf,
+    /// The small version.
+    pub quick: bool,
+    /// Seed of inputs, noise and rig errors.
+    pub seed: u64,
+    /// Only these cases (empty: all).
+    pub cases: Vec<String>,
+}
+
+/// Proves the diagnosis on agvsim's own recordings and prints the table; a case that
+/// fails makes the command fail after the table.
+pub fn prove(req: &ProveRequest, say: Say) -> Result<(), CommandError> {
+    let cases = crate::diagnose::prove::prove(&req.out, req.quick, req.seed, &req.cases)?;
+    say(&crate::diagnose::prove::render(&cases));
+    let failed = cases.iter().filter(|c| !c.passed).count();
+    if failed > 0 {
+        return Err(CommandError::ProofFailed {
+            failed,
+            total: cases.len(),
+        });
+    }
+    Ok(())
+}

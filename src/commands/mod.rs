@@ -1,0 +1,219 @@
+//! Each `agvsim` command as a library job: what the command line asks for (paths and
+//! options, as plain values), the defaults decided here (output folders, `--duration` and
+//! `--seed` as scene overrides), the work, the files written, and the lines the command
+//! prints. `main.rs` parses the arguments, calls one of these and maps its error to the
+//! exit status ([`CommandError::exit_code`]).
+//!
+//! A command prints through `say` (its report, line by line, to standard output) as it
+//! goes, so a result is printed before its files are written: a write that fails after
+//! the work does not hide the result.
+
+pub mod calibrate;
+pub mod diagnose;
+pub mod experiment;
+pub mod identify;
+pub mod import;
+pub mod linearize;
+pub mod replay;
+pub mod run;
+pub mod study;
+pub mod sweep;
+
+use std::path::{Path, PathBuf};
+
+use crate::calibrate::CalibrateError;
+use crate::experiment::ExperimentError;
+use crate::ident::effects::EffectNameError;
+use crate::ident::IdentError;
+use crate::import::wpilib::SysIdError;
+use crate::import::ImportError;
+use crate::record::RecordingError;
+use crate::replay::ReplayError;
+use crate::rig::RigError;
+use crate::run::RunError;
+use crate::scene::SceneError;
+use crate::sim::SimError;
+use crate::sweep::SweepError;
+use crate::viz::VizError;
+
+/// Where a command's report goes, one piece at a time (each ends with its own newline).
+pub type Say<'a> = &'a dyn Fn(&str);
+
+/// Why a command stopped. Input a user must mend (a scene, rig, recording, map, log or
+/// option) exits with status 2, a failed job with 1, an interrupted one with 130.
+#[derive(Debug, thiserror::Error)]
+pub enum CommandError {
+    /// A scene that does not load.
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    /// A rig that does not load.
+    #[error(transparent)]
+    Rig(#[from] RigError),
+    /// A recording that does not load.
+    #[error(transparent)]
+    Recording(#[from] RecordingError),
+    /// An `--effects` word that is not the vocabulary's.
+    #[error(transparent)]
+    Effects(#[from] EffectNameError),
+    /// A map or a file to import that cannot be converted.
+    #[error(transparent)]
+    Import(#[from] ImportError),
+    /// A SysId log that cannot be imported.
+    #[error(transparent)]
+    SysId(#[from] SysIdError),
+    /// An option's value or path that cannot be used (the message names the option).
+    #[error("{option} {value}: {message}")]
+    Option {
+        /// The option (`--json`).
+        option: String,
+        /// What was given.
+        value: String,
+        /// What is wrong and what was expected.
+        message: String,
+    },
+    /// An identification or diagnosis that could not be done.
+    #[error(transparent)]
+    Ident(#[from] IdentError),
+    /// A calibration that could not be done.
+    #[error(transparent)]
+    Calibrate(#[from] CalibrateError),
+    /// A replay that could not be done.
+    #[error(transparent)]
+    Replay(#[from] ReplayError),
+    /// A run that stopped.
+    #[error(transparent)]
+    Run(#[from] RunError),
+    /// An experiment that stopped.
+    #[error(transparent)]
+    Experiment(#[from] ExperimentError),
+    /// A simulation that cannot be set up or stopped.
+    #[error(transparent)]
+    Sim(#[from] SimError),
+    /// A plant that cannot be linearised.
+    #[error(transparent)]
+    Linearize(#[from] crate::sim::linearize::LinearizeError),
+    /// A sweep or study that stopped (or was interrupted).
+    #[error(transparent)]
+    Sweep(#[from] SweepError),
+    /// A Rerun recording that could not be written.
+    #[error(transparent)]
+    Viz(#[from] VizError),
+    /// A file that could not be read or written.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file or folder.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// A converted recording or rig that does not read back as the contract's.
+    #[error("{what} breaks the contract: {message}")]
+    Contract {
+        /// What was converted.
+        what: String,
+        /// The reader's complaint.
+        message: String,
+    },
+    /// The calibrated scene does not load (a bug: it is refused, not written).
+    #[error("the calibrated scene does not load: {0}")]
+    WrittenScene(String),
+    /// The proof's cases did not all pass (its table was printed).
+    #[error("the proof failed: {failed} of {total} cases")]
+    ProofFailed {
+        /// Cases that failed.
+        failed: usize,
+        /// Cases run.
+        total: usize,
+    },
+}
+
+impl CommandError {
+    /// The exit status: 2 for input to mend, 130 for an interrupted sweep, 1 otherwise.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            CommandError::Scene(_)
+            | CommandError::Rig(_)
+            | CommandError::Recording(_)
+            | CommandError::Effects(_)
+            | CommandError::Import(_)
+            | CommandError::SysId(_)
+            | CommandError::Contract { .. }
+            | CommandError::Option { .. } => 2,
+            CommandError::Replay(ReplayError::Recording { .. }) => 2,
+            CommandError::Ident(IdentError::Rig(_) | IdentError::Recording(_)) => 2,
+            // The shell's code for a process ended by SIGINT.
+            CommandError::Sweep(SweepError::Interrupted { .. }) => 130,
+            CommandError::Sweep(SweepError::Argument { .. } | SweepError::Scene(_)) => 2,
+            _ => 1,
+        }
+    }
+
+    /// Whether the message is a report of its own, printed without `error:` (an
+    /// interrupted sweep says what was kept and how to go on).
+    pub fn is_notice(&self) -> bool {
+        matches!(self, CommandError::Sweep(SweepError::Interrupted { .. }))
+    }
+}
+
+/// An I/O error on `path`.
+pub(crate) fn io(path: &Path) -> impl Fn(std::io::Error) -> CommandError + '_ {
+    move |source| CommandError::Io {
+        path: path.to_owned(),
+        source,
+    }
+}
+
+/// A file's name without its extension, or `fallback`.
+pub(crate) fn stem(path: &Path, fallback: &str) -> String {
+    path.file_stem()
+        .map_or_else(|| fallback.into(), |s| s.to_string_lossy().into_owned())
+}
+
+/// Checks, before any work, that each given output path can be written (`true`: a
+/// folder), naming the option at fault.
+pub(crate) fn check_targets(targets: &[(&str, Option<&Path>, bool)]) -> Result<(), CommandError> {
+    for (option, path, folder) in targets {
+        if let Some(p) = path {
+            crate::output::check_target(option, p, *folder).map_err(|message| {
+                CommandError::Option {
+                    option: option.to_string(),
+                    value: p.display().to_string(),
+                    message,
+                }
+            })?;
+        }
+    }
+    Ok(())
+}
+
+/// Writes a file whole or not at all, creating its folder.
+pub(crate) fn write_file(path: &Path, bytes: impl AsRef<[u8]>) -> Result<(), CommandError> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(io(dir))?;
+    }
+    crate::output::write_atomically(path, bytes).map_err(io(path))
+}
+
+/// Runs `work` on `jobs` worker threads (0: one per core).
+pub(crate) fn on_workers<R: Send>(
+    jobs: usize,
+    work: impl FnOnce() -> Result<R, CommandError> + Send,
+) -> Result<R, CommandError> {
+    crate::jobs::with_jobs(jobs, work).map_err(|message| CommandError::Option {
+        option: "--jobs".into(),
+        value: jobs.to_string(),
+        message,
+    })?
+}
+
+/// The scene overrides a command's `--duration` and `--seed` stand for, after its `--set`.
+pub(crate) fn overrides(set: &[String], duration_s: Option<f64>, seed: Option<u64>) -> Vec<String> {
+    let mut set = set.to_vec();
+    if let Some(d) = duration_s {
+        set.push(format!("sim.duration_s={d}"));
+    }
+    if let Some(s) = seed {
+        set.push(format!("sim.seed={s}"));
+    }
+    set
+}

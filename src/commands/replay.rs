@@ -1,0 +1,61 @@
+//! `agvsim replay`: drive the simulator with a recording's inputs, compare its outputs
+//! with the recording's, and write the simulated recording, a plot per output and
+//! optionally a Rerun overlay.
+
+use std::path::PathBuf;
+
+use super::{io, stem, CommandError, Say};
+use crate::record::Recording;
+use crate::replay::{self, report};
+use crate::scene::Scene;
+
+/// What `agvsim replay` was asked.
+#[derive(Debug, Clone)]
+pub struct ReplayRequest {
+    /// The scene: the machine to replay on.
+    pub scene: PathBuf,
+    /// The recording whose inputs drive it.
+    pub recording: PathBuf,
+    /// Output folder (default `runs/replay_RECORDING_NAME`).
+    pub out: Option<PathBuf>,
+    /// Scene overrides, `KEY=VALUE`.
+    pub set: Vec<String>,
+    /// Where to write a Rerun overlay.
+    pub save: Option<PathBuf>,
+}
+
+/// Replays, prints the fit per output, and writes the simulated recording and plots.
+pub fn run(req: &ReplayRequest, say: Say) -> Result<(), CommandError> {
+    let scene = Scene::load(&req.scene, &req.set)?;
+    let rec = Recording::load(&req.recording)?;
+    let name = stem(&req.recording, "recording");
+    let dir = req
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("runs").join(format!("replay_{name}")));
+    let r = replay::replay(&scene, &rec)?;
+    say(&format!(
+        "replay     {} on {} (fidelity {}), inputs {}, {} rows\n",
+        req.recording.display(),
+        req.scene.display(),
+        scene.sim.fidelity.name(),
+        r.drive.columns().join(", "),
+        r.t_s.len()
+    ));
+    say(&report::render(&r));
+    let csv = dir.join(format!("{name}.replay.csv"));
+    let written = (|| -> std::io::Result<()> {
+        std::fs::create_dir_all(&dir)?;
+        report::write_atomically(&csv, &report::simulated_csv(&r, &rec, &req.scene))?;
+        report::write_plots(&dir, &r, &name)?;
+        Ok(())
+    })();
+    written.map_err(io(&dir))?;
+    say(&format!("simulated  {}\n", csv.display()));
+    say(&format!("plots      {}\n", dir.join("plots").display()));
+    if let Some(p) = &req.save {
+        crate::viz::save_replay(p, &name, &r)?;
+        say(&format!("rerun      {}\n", p.display()));
+    }
+    Ok(())
+}

@@ -1,0 +1,69 @@
+//! `agvsim run`: simulate a scene, write its recording and the scene as run, print the
+//! summary and check the scene's claims; optionally watch it in Rerun.
+
+use std::path::PathBuf;
+
+use super::{overrides, stem, CommandError, Say};
+use crate::run::{render_expectations, render_summary, run_scene, RunOptions, Watcher};
+use crate::scene::Scene;
+use crate::sim::SimParams;
+use crate::viz::{RerunRecorder, RerunTarget};
+
+/// What `agvsim run` was asked.
+#[derive(Debug, Clone)]
+pub struct RunRequest {
+    /// The scene file.
+    pub scene: PathBuf,
+    /// Output folder (default `runs/SCENE_NAME`).
+    pub out: Option<PathBuf>,
+    /// Scene overrides, `KEY=VALUE`.
+    pub set: Vec<String>,
+    /// Simulated time, s (overrides `sim.duration_s`).
+    pub duration_s: Option<f64>,
+    /// Noise seed (overrides `sim.seed`).
+    pub seed: Option<u64>,
+    /// Where the run goes in Rerun, if anywhere.
+    pub rerun: Option<RerunTarget>,
+    /// Interval between Rerun frames, s.
+    pub rerun_interval_s: f64,
+}
+
+/// Runs the scene and prints its summary, its claims' check and the files written.
+pub fn run(req: &RunRequest, say: Say) -> Result<(), CommandError> {
+    let set = overrides(&req.set, req.duration_s, req.seed);
+    let scene = Scene::load(&req.scene, &set)?;
+    let name = stem(&req.scene, "run");
+    let opts = RunOptions {
+        out_dir: req
+            .out
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("runs").join(&name)),
+        name: name.clone(),
+    };
+    // The Rerun target first: a file that cannot be written (or a viewer that cannot be
+    // reached) stops the run before any output is left behind.
+    let mut recorder = match &req.rerun {
+        Some(t) => Some(RerunRecorder::new(
+            t,
+            &name,
+            &SimParams::from_scene(&scene)?,
+            req.rerun_interval_s,
+        )?),
+        None => None,
+    };
+    let out = run_scene(
+        &scene,
+        &opts,
+        recorder.as_mut().map(|r| r as &mut dyn Watcher),
+    )?;
+    if let Some(r) = recorder {
+        r.finish()?;
+    }
+    say(&render_summary(&req.scene, &scene, &out.summary));
+    say(&render_expectations(&scene, &out.summary, !set.is_empty()));
+    say(&format!("recording  {}\n", out.recording.display()));
+    if let Some(RerunTarget::Save(p)) = &req.rerun {
+        say(&format!("rerun      {}\n", p.display()));
+    }
+    Ok(())
+}

@@ -1,0 +1,140 @@
+//! `agvsim sweep` and `agvsim sweep merge`: a scene run over a grid of values, in
+//! parallel, into one results table; shard folders joined back into it.
+
+use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
+
+use super::{CommandError, Say};
+use crate::sweep::{self, Shard, SweepOptions};
+
+/// What `agvsim sweep` was asked.
+pub struct SweepRequest<'a> {
+    /// The scene file.
+    pub scene: PathBuf,
+    /// `KEY=VALUES` arguments, the first the slowest in run order.
+    pub vary: Vec<String>,
+    /// Runs per grid point (noise seeds).
+    pub repeat: usize,
+    /// Parallel runs (0: one per core).
+    pub jobs: usize,
+    /// `I/N`: run only the I-th of N slices.
+    pub shard: Option<String>,
+    /// Output folder (default `runs/sweep_SCENE_NAME`, with `_shard_I_of_N` when sharded).
+    pub out: Option<PathBuf>,
+    /// Overrides for every run, `KEY=VALUE`.
+    pub set: Vec<String>,
+    /// Simulated time of each run, s (overrides `sim.duration_s`).
+    pub duration_s: Option<f64>,
+    /// Also write every run's trace.
+    pub traces: bool,
+    /// Refuse grids of more runs than this.
+    pub max_runs: usize,
+    /// Continue an interrupted sweep in its folder.
+    pub resume: bool,
+    /// Told as runs finish (runs done, runs in all).
+    pub progress: &'a (dyn Fn(usize, usize) + Sync),
+    /// Set when the sweep should stop (a signal): the runs in progress finish and are kept.
+    pub stop: Option<&'static AtomicBool>,
+}
+
+/// The sweep's options from the request: grid, shard, overrides and output folder.
+fn options(req: &SweepRequest) -> Result<SweepOptions, CommandError> {
+    let varies = req
+        .vary
+        .iter()
+        .map(|v| sweep::parse_vary(v))
+        .collect::<Result<Vec<_>, _>>()?;
+    sweep::check_size(&varies, req.repeat, req.max_runs)?;
+    let shard = match &req.shard {
+        Some(s) => sweep::parse_shard(s)?,
+        None => Shard::WHOLE,
+    };
+    let set = super::overrides(&req.set, req.duration_s, None);
+    let out = req.out.clone().unwrap_or_else(|| {
+        let mut n = format!("sweep_{}", super::stem(&req.scene, "scene"));
+        if shard != Shard::WHOLE {
+            n.push_str(&format!("_shard_{}_of_{}", shard.index, shard.count));
+        }
+        PathBuf::from("runs").join(n)
+    });
+    let mut opts = SweepOptions::new(
+        &req.scene, set, varies, req.repeat, shard, req.jobs, req.traces, out,
+    )?;
+    opts.resume = req.resume;
+    opts.stop = req.stop;
+    Ok(opts)
+}
+
+/// Runs the sweep, telling what it replaces or resumes and what it did.
+pub fn run(req: &SweepRequest, say: Say) -> Result<(), CommandError> {
+    let opts = options(req)?;
+    let range = opts.shard.range(opts.grid.total());
+    let previous = sweep::previous_outputs(&opts.out_dir);
+    if !previous.is_empty() {
+        say(&format!(
+            "{}    {}: {}\n",
+            if opts.resume { "resume " } else { "replace" },
+            opts.out_dir.display(),
+            previous.join(", ")
+        ));
+    }
+    say(&format!(
+        "sweep      {}: {} runs{} on {} jobs\n",
+        req.scene.display(),
+        range.len(),
+        if opts.shard == Shard::WHOLE {
+            String::new()
+        } else {
+            format!(
+                " (shard {} of {} runs: {}..{})",
+                opts.shard,
+                opts.grid.total(),
+                range.start,
+                range.end
+            )
+        },
+        if opts.jobs == 0 {
+            rayon::current_num_threads()
+        } else {
+            opts.jobs
+        }
+    ));
+    let started = std::time::Instant::now();
+    let o = sweep::run_sweep(&opts, req.progress)?;
+    let failed: Vec<_> = o.results.iter().filter(|r| r.outcome.is_err()).collect();
+    say(&format!(
+        "done       {} runs in {:.1} s, {} failed{}\n",
+        o.results.len(),
+        started.elapsed().as_secs_f64(),
+        failed.len(),
+        if o.resumed > 0 {
+            format!(" (and {} kept from the interrupted sweep)", o.resumed)
+        } else {
+            String::new()
+        }
+    ));
+    for r in failed.iter().take(5) {
+        if let Err(e) = &r.outcome {
+            say(&format!("  run {}: {e}\n", r.point.index));
+        }
+    }
+    say(&format!("results    {}\n", o.results_csv.display()));
+    say(&format!(
+        "plots      {}\n",
+        opts.out_dir.join("plots").display()
+    ));
+    Ok(())
+}
+
+/// Joins shard folders into the unsharded result in `out`.
+pub fn merge(shards: &[PathBuf], out: &std::path::Path, say: Say) -> Result<(), CommandError> {
+    let (csv, _plots) = sweep::merge(shards, out)?;
+    say(&format!(
+        "merged     {} shard folders ({})\n",
+        shards.len(),
+        sweep::MERGE_NOTE
+    ));
+    say(&format!("results    {}\n", csv.display()));
+    say(&format!("plots      {}\n", out.join("plots").display()));
+    Ok(())
+}

@@ -1,0 +1,118 @@
+//! Joining shard folders back into the unsharded sweep: their manifests checked to be
+//! slices of one sweep, their rows in run order, the manifest, traces and plots.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use super::grid::Shard;
+use super::results::{csv_text, trace_name, Manifest, Table, RESULTS_FILE, TRACES_DIR};
+use super::{io_err, SweepError};
+
+/// Joins shard folders into `out`: checks they are slices of one sweep and cover every
+/// run exactly once, writes their rows in run order (as the shards wrote them), the
+/// manifest, traces and plots. Returns the merged `results.csv` path.
+pub fn merge(shards: &[PathBuf], out: &Path) -> Result<(PathBuf, Vec<PathBuf>), SweepError> {
+    if shards.is_empty() {
+        return Err(SweepError::Merge("no shard folders given".into()));
+    }
+    // Merging into a shard's own folder would replace that shard's results.
+    let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
+        (Ok(x), Ok(y)) => x == y,
+        _ => a == b,
+    };
+    if let Some(d) = shards.iter().find(|d| same(d, out)) {
+        return Err(SweepError::Merge(format!(
+            "--out {} is one of the shard folders; merging there would replace that shard: give a new folder",
+            d.display()
+        )));
+    }
+    let manifests: Vec<Manifest> = shards
+        .iter()
+        .map(|d| Manifest::read(d))
+        .collect::<Result<_, _>>()?;
+    let first = &manifests[0];
+    for (m, d) in manifests.iter().zip(shards).skip(1) {
+        if !first.same_sweep(m) {
+            return Err(SweepError::Merge(format!(
+                "{} is not a slice of the same sweep as {} (scene text, --set, --vary, --repeat or version differ)",
+                d.display(),
+                shards[0].display()
+            )));
+        }
+    }
+    let grid = first.grid();
+    let mut rows: BTreeMap<usize, Vec<String>> = BTreeMap::new();
+    let mut header: Option<Vec<String>> = None;
+    for d in shards {
+        let path = d.join(RESULTS_FILE);
+        let partial = super::journal::partial_path(d);
+        if !path.is_file() && partial.is_file() {
+            let runs = std::fs::read_to_string(&partial)
+                .map(|t| t.lines().count().saturating_sub(1))
+                .unwrap_or(0);
+            return Err(SweepError::Merge(format!(
+                "{} holds an interrupted shard ({runs} runs finished, in {}); finish it with its sweep command and --resume",
+                d.display(),
+                partial.display()
+            )));
+        }
+        let text = std::fs::read_to_string(&path).map_err(io_err(&path))?;
+        let table = Table::parse(&text, &path)?;
+        match &header {
+            None => header = Some(table.header.clone()),
+            Some(h) if *h != table.header => {
+                return Err(SweepError::Merge(format!(
+                    "{}: its columns differ from the first shard's",
+                    path.display()
+                )))
+            }
+            _ => {}
+        }
+        for (run, line, cells) in &table.rows {
+            table.check_on_grid(&grid, &path, *line, cells)?;
+            if rows.insert(*run, cells.clone()).is_some() {
+                return Err(SweepError::Merge(format!(
+                    "run {run} appears twice (in {} and an earlier shard); give each shard once",
+                    path.display()
+                )));
+            }
+        }
+    }
+    let missing: Vec<usize> = (0..first.total_runs)
+        .filter(|i| !rows.contains_key(i))
+        .collect();
+    if !missing.is_empty() || rows.len() != first.total_runs {
+        let shown: Vec<String> = missing.iter().take(10).map(|i| i.to_string()).collect();
+        return Err(SweepError::Merge(format!(
+            "{} of {} runs are missing (runs {}{}); is a shard folder left out or unfinished?",
+            missing.len(),
+            first.total_runs,
+            shown.join(", "),
+            if missing.len() > 10 { ", ..." } else { "" }
+        )));
+    }
+    std::fs::create_dir_all(out).map_err(io_err(out))?;
+    let csv = csv_text(&header.unwrap_or_default(), rows.into_values());
+    let path = out.join(RESULTS_FILE);
+    crate::output::write_atomically(&path, &csv).map_err(io_err(&path))?;
+    let merged = Manifest {
+        shard: Shard::WHOLE.to_string(),
+        runs: [0, first.total_runs],
+        ..first.clone()
+    };
+    merged.write(out)?;
+    if first.traces {
+        let tdir = out.join(TRACES_DIR);
+        std::fs::create_dir_all(&tdir).map_err(io_err(&tdir))?;
+        for (m, d) in manifests.iter().zip(shards) {
+            for i in m.runs[0]..m.runs[1] {
+                let from = d.join(TRACES_DIR).join(trace_name(i));
+                let to = tdir.join(trace_name(i));
+                std::fs::copy(&from, &to).map_err(io_err(&from))?;
+            }
+        }
+    }
+    let table = Table::parse(&csv, &path)?;
+    let plots = super::plots::write(out, &merged.grid(), &table)?;
+    Ok((path, plots))
+}
