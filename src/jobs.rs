@@ -3,7 +3,10 @@
 
 /// Runs `work` on a pool of `jobs` worker threads (0: one per core). Parallel results are
 /// collected in a fixed order, so what `work` returns does not depend on the count.
-pub fn with_jobs<R: Send>(jobs: usize, work: impl FnOnce() -> R + Send) -> Result<R, String> {
+pub(crate) fn with_jobs<R: Send>(
+    jobs: usize,
+    work: impl FnOnce() -> R + Send,
+) -> Result<R, String> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(jobs)
         .build()

@@ -1,3 +1,4 @@
+#![warn(missing_docs)]
 //! # agvsim
 //!
 //! Simulates a wire-guided differential-drive AGV (the UOC AGV Mk II of a 1996 thesis)

@@ -29,9 +29,11 @@ pub enum Data {
 /// One variable.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Variable {
+    /// The variable's name.
     pub name: String,
     /// Dimensions (rows, columns, ...).
     pub dims: Vec<usize>,
+    /// Its values.
     pub data: Data,
 }
 
@@ -39,7 +41,9 @@ pub struct Variable {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("byte {offset}: {message}")]
 pub struct MatError {
+    /// Byte offset of the fault.
     pub offset: usize,
+    /// What was wrong there.
     pub message: String,
 }
 
@@ -389,6 +393,7 @@ impl Writer {
         self
     }
 
+    /// The file's bytes.
     pub fn finish(&self) -> Vec<u8> {
         self.bytes.clone()
     }

@@ -23,7 +23,7 @@ pub fn write_atomically(path: &Path, bytes: impl AsRef<[u8]>) -> std::io::Result
 /// Checks, before any work, that `path` can be written as a file (`folder = false`) or a
 /// folder: no existing part of the way to it is a file, and a file target is not an
 /// existing folder (nor a folder target an existing file). The message names the option.
-pub fn check_target(option: &str, path: &Path, folder: bool) -> Result<(), String> {
+pub(crate) fn check_target(option: &str, path: &Path, folder: bool) -> Result<(), String> {
     let say = |why: String| Err(format!("{option} {}: {why}", path.display()));
     if path.is_dir() && !folder {
         return say("is a folder; give a file name".into());

@@ -620,7 +620,7 @@ fn diagnose_effects_option_is_checked() {
     for (list, expect) in [
         (
             "backlash,gear_wobble",
-            "`gear_wobble` is not an effect name",
+            "gear_wobble: not an effect of the contract's vocabulary",
         ),
         ("wheel_slip", "does not apply"),
     ] {
@@ -639,6 +639,31 @@ fn diagnose_effects_option_is_checked() {
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(!out.status.success() && !err.contains("panicked"), "{err}");
         assert!(err.contains(expect), "{list}: {err}");
+    }
+    // A word that is not the vocabulary's is bad input, exit status 2, for diagnose and
+    // calibrate alike (one map from error to status).
+    for args in [
+        vec![
+            "diagnose",
+            "--rig",
+            "../shared/data/dev/dev_axis_11.rig.toml",
+            "--recording",
+            "../shared/data/dev/dev_axis_11.csv",
+            "--effects",
+            "gear_wobble",
+        ],
+        vec![
+            "calibrate",
+            "--scene",
+            "scenes/lab_offset_120mm.toml",
+            "--recording",
+            "../shared/data/dev/dev_axis_11.csv",
+            "--effects",
+            "gear_wobble",
+        ],
+    ] {
+        let out = agvsim().args(&args).output().unwrap();
+        assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
     }
 }
 

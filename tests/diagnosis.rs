@@ -109,7 +109,11 @@ fn quick_proof_on_concealed_effects_from_the_simulator() {
 #[test]
 fn absent_rough_effects_stop_at_their_screen_and_any_job_count_gives_the_same_diagnosis() {
     let on = |jobs: usize, name: &str| {
-        agvsim::jobs::with_jobs(jobs, || run("../shared/data/dev", name)).unwrap()
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(jobs)
+            .build()
+            .unwrap()
+            .install(|| run("../shared/data/dev", name))
     };
     let clean = on(1, "dev_axis_11");
     let backlash = |d: &agvsim::diagnose::Diagnosis| {

@@ -13,6 +13,7 @@ use crate::sim::SimParams;
 /// An effect's home in the scene.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Home {
+    /// The effect.
     pub effect: Effect,
     /// The scene key holding the effect's strength, fitted by the calibration.
     pub key: &'static str,
@@ -33,6 +34,7 @@ fn homeless(effect: Effect, why: &str) -> CalibrateError {
 /// How a recording drives the simulator: what decides where an effect can live.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Driven {
+    /// Which inputs the recording gives.
     pub drive: Drive,
     /// The machine stands on the floor (a vehicle), not on blocks.
     pub on_floor: bool,

@@ -25,17 +25,31 @@ use search::{spread_weights, Problem, Stage};
 /// Why a calibration cannot be done.
 #[derive(Debug, thiserror::Error)]
 pub enum CalibrateError {
+    /// The recording could not be replayed.
     #[error(transparent)]
     Replay(#[from] ReplayError),
+    /// A key that cannot be read, set or fitted, or an effect without a home here (the message names it).
     #[error("{0}")]
     Key(String),
+    /// The recording lacks what calibration needs.
     #[error("{file}: {message}")]
-    Recording { file: PathBuf, message: String },
+    Recording {
+        /// The recording.
+        file: PathBuf,
+        /// What it lacks.
+        message: String,
+    },
     /// The recording cannot be fitted (the message names it).
     #[error("{0}")]
     Data(String),
+    /// The fit through the simulator failed.
     #[error("{file}: the fit failed: {message}")]
-    Fit { file: PathBuf, message: String },
+    Fit {
+        /// The recording fitted.
+        file: PathBuf,
+        /// Why the fit failed.
+        message: String,
+    },
 }
 
 /// The contract's outputs per rig: what a real rig measures, and what a calibration fits.
@@ -168,6 +182,7 @@ impl Predictor for SceneReplay<'_> {
 /// One fitted key.
 #[derive(Debug, Clone, PartialEq)]
 pub struct KeyFit {
+    /// The dotted scene key.
     pub key: String,
     /// The scene's value (for an effect's key the scene did not set, the value its physics
     /// had: a tyre compound's friction).
@@ -183,25 +198,35 @@ pub struct KeyFit {
 
 /// An effect tried: its key fitted through the simulator with the scene's keys, and the
 /// evidence the recording gives for it (the diagnosis's rule: an AIC gain above
-/// [`MIN_DELTA_AIC`] with the effective sample count, at least [`MIN_RSS_REDUCTION`] of
+/// [`crate::diagnose::MIN_DELTA_AIC`] with the effective sample count, at least
+/// [`crate::diagnose::MIN_RSS_REDUCTION`] of
 /// the residual removed, and the key not at a bound of its search).
 #[derive(Debug, Clone, PartialEq)]
 pub struct EffectTrial {
+    /// The effect.
     pub effect: Effect,
+    /// The scene key holding its strength.
     pub key: String,
+    /// Its fitted value (the key's unit).
     pub value: f64,
+    /// Its standard deviation; `None` where the record does not determine it.
     pub std: Option<f64>,
+    /// The bound its search ended on, if it did: then the value is no estimate.
     pub at_bound: Option<f64>,
+    /// Likelihood gain over its AIC penalty, with the effective sample count.
     pub delta_aic: f64,
     /// Share of the weighted residual removed, %.
     pub rss_reduction_pct: f64,
+    /// Whether the evidence rule accepted it (written into the scene).
     pub accepted: bool,
 }
 
 /// A key set (not fitted) to switch an accepted effect's physics on.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Switch {
+    /// The effect switched on.
     pub effect: Effect,
+    /// The dotted scene key set.
     pub key: String,
     /// The value as TOML text (`"pi"`, `2.4e1`).
     pub value: String,
@@ -229,9 +254,11 @@ pub struct Calibration {
     pub outputs: Vec<String>,
     /// The recording replayed on the original and on the calibrated scene.
     pub before: Replay,
+    /// The recording replayed on the calibrated scene.
     pub after: Replay,
     /// The calibrated scene (the original with the fitted keys changed).
     pub scene: Scene,
+    /// Solver iterations in all.
     pub iterations: usize,
 }
 

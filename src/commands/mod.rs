@@ -71,6 +71,9 @@ pub enum CommandError {
         /// What is wrong and what was expected.
         message: String,
     },
+    /// The proof that could not be run.
+    #[error(transparent)]
+    Prove(#[from] crate::diagnose::prove::ProveError),
     /// An identification or diagnosis that could not be done.
     #[error(transparent)]
     Ident(#[from] IdentError),

@@ -53,15 +53,21 @@ pub const MIN_SAMPLES: usize = 100;
 /// One candidate effect as fitted.
 #[derive(Debug, Clone, Serialize)]
 pub struct Candidate {
+    /// The effect's vocabulary name.
     pub name: String,
+    /// Its parameter's vocabulary name.
     pub param: String,
+    /// The parameter's fitted value (its unit is in its name).
     pub value: f64,
+    /// Its standard deviation; `None` where the record does not determine it.
     pub std: Option<f64>,
+    /// The normalised fit with the effect, %, mean over outputs.
     pub fit_pct: f64,
     /// Share of the residual sum of squares removed, %.
     pub rss_reduction_pct: f64,
     /// AIC gain with the effective number of residuals.
     pub delta_aic: f64,
+    /// Whether it passed the selection rule.
     pub significant: bool,
     /// Only the candidate's screen was fitted: it removed too little of the residual for
     /// the full search of a rough parameter to be worth its cost (its gain is a lower
@@ -75,11 +81,17 @@ pub struct Candidate {
 /// An accepted effect.
 #[derive(Debug, Clone)]
 pub struct Finding {
+    /// The effect.
     pub effect: Effect,
+    /// Its parameter's vocabulary name.
     pub param: String,
+    /// The parameter's value (its unit is in its name).
     pub value: f64,
+    /// Its standard deviation; `None` where the record does not determine it.
     pub std: Option<f64>,
+    /// The normalised fit with the effect, %, mean over outputs.
     pub fit_pct: f64,
+    /// Why: where its residual lived and what it removed.
     pub evidence: String,
     /// The physics in words.
     pub description: String,
@@ -88,9 +100,13 @@ pub struct Finding {
 /// The result of a diagnosis.
 #[derive(Debug, Clone)]
 pub struct Diagnosis {
+    /// The recording's file name.
     pub recording: String,
+    /// The model's name.
     pub model: String,
+    /// The baseline's normalised fit, %, mean over outputs.
     pub baseline_fit_pct: f64,
+    /// The baseline's fitted parameters by name.
     pub baseline_params: BTreeMap<String, f64>,
     /// Contract input columns of the recording the model has no use for.
     pub ignored_inputs: Vec<String>,
@@ -103,17 +119,24 @@ pub struct Diagnosis {
     pub where_after: Vec<RegimeShare>,
     /// Every candidate of each round.
     pub rounds: Vec<Vec<Candidate>>,
+    /// The accepted effects, in the order accepted.
     pub findings: Vec<Finding>,
+    /// The diagnosed model's normalised fit, %, mean over outputs.
     pub final_fit_pct: f64,
+    /// The diagnosed model's parameters by name.
     pub final_params: BTreeMap<String, f64>,
     /// Effective number of independent residuals used in the AIC comparison.
     pub effective_n: f64,
+    /// The baseline's evaluation (fits, loss, residual checks).
     pub baseline: Evaluation,
+    /// The diagnosed model's evaluation.
     pub diagnosed: Evaluation,
     /// Relative simulation errors `|y - yhat| / |y|`, %, per output (and the speed by
     /// differencing a position), of the baseline and the diagnosed model.
     pub relative_error_before_pct: BTreeMap<String, f64>,
+    /// The same for the diagnosed model, %.
     pub relative_error_after_pct: BTreeMap<String, f64>,
+    /// The baseline's and the diagnosed model's evaluations on the validation recording.
     pub validation: Option<(Evaluation, Evaluation)>,
     /// SysId's kS, kV, kA of the same record, beside what diagnosis finds (voltage-driven
     /// records; kS as a motor torque with the baseline's torque constant and resistance).
@@ -211,6 +234,7 @@ impl Structure {
 /// Options of a diagnosis.
 #[derive(Debug, Clone, Default)]
 pub struct DiagnoseOptions {
+    /// The identification's settings (iterations, starts, residual lags).
     pub ident: IdentifyOptions,
     /// Which candidate effects to try (by default every one that applies to the
     /// structure).
@@ -238,26 +262,24 @@ pub fn diagnose(
         structure,
         Structure::Rotary(_) | Structure::Linear(_) | Structure::Vehicle(_)
     ) {
-        return Err(IdentError::Setup(format!(
-            "{}: diagnosis works on drive-axis (rotary or linear) and vehicle recordings; this is a {} experiment",
-            rec.path.display(),
-            structure.model().name()
-        )));
+        return Err(IdentError::NotDiagnosable {
+            file: rec.path.clone(),
+            model: structure.model().name(),
+        });
     }
     let model = structure.model();
     let applicable = structure.applicable();
     if let Choice::Named(asked) = &opts.effects {
         if let Some(e) = asked.iter().find(|e| !applicable.contains(e)) {
-            return Err(IdentError::Setup(format!(
-                "effect `{}` does not apply to the {} model; these do: {}",
-                e.name(),
-                model.name(),
-                applicable
+            return Err(IdentError::EffectNotApplicable {
+                effect: e.name().into(),
+                model: model.name(),
+                applicable: applicable
                     .iter()
                     .map(|e| e.name())
                     .collect::<Vec<_>>()
-                    .join(", ")
-            )));
+                    .join(", "),
+            });
         }
     }
     let data = Dataset::from_recording(rec, &model.input_names(), &model.output_names())?;

@@ -22,10 +22,43 @@ use super::{diagnose, DiagnoseOptions};
 use crate::experiment::{EncoderSpeed, ENCODER_COUNTS};
 use crate::ident::effects::Effect;
 use crate::ident::IdentError;
-use crate::record::Recording;
+use crate::record::{Recording, RecordingError};
 use crate::rig::Rig;
 use crate::scene::Scene;
-use crate::sim::{Actuation, Sim};
+use crate::sim::{Actuation, Sim, SimError};
+
+/// Why the proof could not be run (a case that fails is a result, not an error).
+#[derive(Debug, thiserror::Error)]
+pub enum ProveError {
+    /// A `--case` name that is not a proof case.
+    #[error("--case: no proof case `{case}`; the cases are: {known}")]
+    UnknownCase {
+        /// The name given.
+        case: String,
+        /// The cases, comma-separated.
+        known: String,
+    },
+    /// A case's scene or simulation failed.
+    #[error(transparent)]
+    Sim(#[from] SimError),
+    /// A case's scene did not load.
+    #[error(transparent)]
+    Scene(#[from] crate::scene::SceneError),
+    /// A recording written did not read back.
+    #[error(transparent)]
+    Recording(#[from] RecordingError),
+    /// The diagnosis of a case could not be done.
+    #[error(transparent)]
+    Ident(#[from] IdentError),
+    /// A file could not be written.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file or folder.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+}
 
 /// Largest relative error of a found effect's parameter.
 pub const PARAM_TOLERANCE: f64 = 0.15;
@@ -33,17 +66,26 @@ pub const PARAM_TOLERANCE: f64 = 0.15;
 /// One proof case and its outcome.
 #[derive(Debug, Clone)]
 pub struct ProofCase {
+    /// The case's name.
     pub name: String,
+    /// The concealed effect (`None`: a clean case).
     pub effect: Option<Effect>,
+    /// The effect's true parameter (0 for a clean case).
     pub truth: f64,
+    /// What the diagnosis found, with each parameter.
     pub found: Vec<(Effect, f64)>,
+    /// The baseline's fit, %.
     pub baseline_fit_pct: f64,
+    /// The diagnosed model's fit, %.
     pub final_fit_pct: f64,
+    /// Whether the effect was found within 15 % (nothing, on a clean case).
     pub passed: bool,
+    /// The case's recording.
     pub recording: PathBuf,
 }
 
 impl ProofCase {
+    /// The found parameter's error relative to the truth, if the effect was found.
     pub fn relative_error(&self) -> Option<f64> {
         let (e, v) = self.found.first()?;
         (Some(*e) == self.effect).then(|| (v - self.truth) / self.truth)
@@ -152,8 +194,8 @@ fn record(
     rate_hz: f64,
     peak_v: f64,
     rng: &mut Pcg64,
-) -> Result<String, IdentError> {
-    let mut sim = Sim::new(scene).map_err(|e| IdentError::Setup(e.to_string()))?;
+) -> Result<String, ProveError> {
+    let mut sim = Sim::new(scene).map_err(|e| ProveError::from(e))?;
     let dt = sim.params().sim.dt_s;
     let per = ((1.0 / rate_hz) / dt).round().max(1.0) as usize;
     let interval = per as f64 * dt;
@@ -186,7 +228,7 @@ fn record(
         let _ = writeln!(csv, "{:.6},{v:.4},{speed:.4},{i:.2}", k as f64 * interval);
         sim.set_actuation(Actuation::Voltage([v, v]));
         for _ in 0..per {
-            sim.step().map_err(|e| IdentError::Setup(e.to_string()))?;
+            sim.step().map_err(|e| ProveError::from(e))?;
         }
     }
     Ok(csv)
@@ -229,7 +271,7 @@ pub fn prove(
     quick: bool,
     seed: u64,
     only: &[String],
-) -> Result<Vec<ProofCase>, IdentError> {
+) -> Result<Vec<ProofCase>, ProveError> {
     let wanted = |name: &str| only.is_empty() || only.iter().any(|o| o == name);
     let all: Vec<&str> = specs()
         .iter()
@@ -237,13 +279,15 @@ pub fn prove(
         .chain(vehicle_specs().iter().map(|s| s.name))
         .collect();
     if let Some(bad) = only.iter().find(|o| !all.contains(&o.as_str())) {
-        return Err(IdentError::Setup(format!(
-            "--case: no proof case `{bad}`; the cases are: {}",
-            all.join(", ")
-        )));
+        return Err(ProveError::UnknownCase {
+            case: bad.clone(),
+            known: all.join(", "),
+        });
     }
-    std::fs::create_dir_all(out_dir)
-        .map_err(|e| IdentError::Setup(format!("{}: {e}", out_dir.display())))?;
+    std::fs::create_dir_all(out_dir).map_err(|source| ProveError::Io {
+        path: out_dir.to_owned(),
+        source,
+    })?;
     let mut out = Vec::new();
     for (i, spec) in specs().into_iter().enumerate() {
         if (quick && spec.name == "backlash") || !wanted(spec.name) {
@@ -251,7 +295,7 @@ pub fn prove(
         }
         let mut rng = Pcg64::seed_from_u64(seed.wrapping_mul(31).wrapping_add(i as u64));
         let scene = Scene::from_toml("", Path::new("<proof>"), &spec.overrides)
-            .map_err(|e| IdentError::Setup(e.to_string()))?;
+            .map_err(|e| ProveError::from(e))?;
         let csv = record(
             &scene,
             if quick { 8.0 } else { 20.0 },
@@ -276,7 +320,7 @@ pub fn prove(
             }
             let mut rng = Pcg64::seed_from_u64(seed.wrapping_mul(37).wrapping_add(100 + i as u64));
             let scene = Scene::from_toml("", Path::new("<proof>"), &spec.overrides)
-                .map_err(|e| IdentError::Setup(e.to_string()))?;
+                .map_err(|e| ProveError::from(e))?;
             let csv = record_vehicle(&scene, 16.0, VEHICLE_RATE_HZ, &mut rng)?;
             let rig = nominal_vehicle_rig(&scene, &mut rng)?;
             let truth = vehicle_truth(&scene, spec.effect)?;
@@ -294,10 +338,13 @@ fn check(
     truth: f64,
     csv: &str,
     rig: &Rig,
-) -> Result<ProofCase, IdentError> {
+) -> Result<ProofCase, ProveError> {
     let rec_path = out_dir.join(format!("prove_{name}.csv"));
     let rig_path = out_dir.join(format!("prove_{name}.rig.toml"));
-    let io = |p: &Path, e: std::io::Error| IdentError::Setup(format!("{}: {e}", p.display()));
+    let io = |p: &Path, source: std::io::Error| ProveError::Io {
+        path: p.to_owned(),
+        source,
+    };
     crate::output::write_atomically(&rec_path, csv).map_err(|e| io(&rec_path, e))?;
     crate::output::write_atomically(&rig_path, rig.to_toml()).map_err(|e| io(&rig_path, e))?;
     let rec = Recording::load(&rec_path)?;
@@ -385,8 +432,8 @@ fn record_vehicle(
     duration_s: f64,
     rate_hz: f64,
     rng: &mut Pcg64,
-) -> Result<String, IdentError> {
-    let mut sim = Sim::new(scene).map_err(|e| IdentError::Setup(e.to_string()))?;
+) -> Result<String, ProveError> {
+    let mut sim = Sim::new(scene).map_err(|e| ProveError::from(e))?;
     let dt = sim.params().sim.dt_s;
     let per = ((1.0 / rate_hz) / dt).round().max(1.0) as usize;
     let interval = per as f64 * dt;
@@ -466,7 +513,7 @@ fn record_vehicle(
         );
         sim.set_actuation(Actuation::Voltage(level));
         for _ in 0..per {
-            sim.step().map_err(|e| IdentError::Setup(e.to_string()))?;
+            sim.step().map_err(|e| ProveError::from(e))?;
         }
     }
     Ok(csv)
@@ -474,9 +521,8 @@ fn record_vehicle(
 
 /// The vehicle rig an experimenter would write: the scene's values 5-25 % off (wheel radius
 /// and track 1-3 %), and no word of the effect.
-fn nominal_vehicle_rig(scene: &Scene, rng: &mut Pcg64) -> Result<Rig, IdentError> {
-    let params =
-        crate::sim::SimParams::from_scene(scene).map_err(|e| IdentError::Setup(e.to_string()))?;
+fn nominal_vehicle_rig(scene: &Scene, rng: &mut Pcg64) -> Result<Rig, ProveError> {
+    let params = crate::sim::SimParams::from_scene(scene).map_err(|e| ProveError::from(e))?;
     let mut rig = nominal_rig(scene, &mut Pcg64::seed_from_u64(rng.random()));
     let mut off = |x: f64, lo: f64, hi: f64| {
         let sign = if rng.random::<bool>() { 1.0 } else { -1.0 };
@@ -508,9 +554,8 @@ fn rate_hz_of_tracker() -> f64 {
 const VEHICLE_RATE_HZ: f64 = 200.0;
 
 /// The truth of a vehicle case's effect parameter, from the scene.
-fn vehicle_truth(scene: &Scene, effect: Option<Effect>) -> Result<f64, IdentError> {
-    let params =
-        crate::sim::SimParams::from_scene(scene).map_err(|e| IdentError::Setup(e.to_string()))?;
+fn vehicle_truth(scene: &Scene, effect: Option<Effect>) -> Result<f64, ProveError> {
+    let params = crate::sim::SimParams::from_scene(scene).map_err(|e| ProveError::from(e))?;
     Ok(match effect {
         Some(Effect::WheelSlip) => params.drive_tyre(params.floor.default).peak_mu,
         Some(Effect::CastorDrag) => {

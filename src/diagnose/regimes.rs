@@ -10,12 +10,14 @@ use crate::ident::data::Dataset;
 pub struct Regime {
     /// Plain words, e.g. "within 0.15 s after a speed reversal".
     pub label: String,
+    /// Which samples fall in it.
     pub mask: Vec<bool>,
 }
 
 /// How much of some residual energy a regime holds against how much of the record it covers.
 #[derive(Debug, Clone, Serialize)]
 pub struct RegimeShare {
+    /// The regime's name.
     pub regime: String,
     /// Share of the samples, %.
     pub samples_pct: f64,

@@ -34,13 +34,18 @@ use rigs::{axis_rig, falling_weight_rig, pair_rig, perturb, vehicle_rig};
 /// Which experiment.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ExperimentKind {
+    /// The thesis's lifted-wheel identification runs: random forward and turn demands into the DCMC.
     LiftedRandomDemand,
+    /// The motor off the vehicle, a weight falling on a pulley on its shaft, open circuit.
     FallingWeight,
+    /// A lifted wheel run up at full voltage, the power then cut.
     CoastDown,
+    /// The scene run on the floor, with the pen trace.
     FloorRun,
 }
 
 impl ExperimentKind {
+    /// Every experiment's name, as the command line takes it.
     pub const NAMES: [&'static str; 4] = [
         "lifted-random-demand",
         "falling-weight",
@@ -48,6 +53,7 @@ impl ExperimentKind {
         "floor-run",
     ];
 
+    /// The experiment's name on the command line.
     pub fn name(self) -> &'static str {
         match self {
             ExperimentKind::LiftedRandomDemand => Self::NAMES[0],
@@ -117,14 +123,17 @@ impl FromStr for DemandPattern {
 /// Settings of an experiment; `None` takes the experiment's default.
 #[derive(Debug, Clone)]
 pub struct ExperimentOptions {
+    /// Folder for the recording and rig.
     pub out_dir: PathBuf,
     /// File stem [default: the experiment's name].
     pub name: Option<String>,
+    /// Seed of noise and random demands (overrides `sim.seed`).
     pub seed: Option<u64>,
     /// Sample (or, for floor runs, dash) interval, s.
     pub interval_s: Option<f64>,
     /// Length of a lifted-wheel run, s.
     pub duration_s: f64,
+    /// Lifted-wheel demands: pulses or a random walk.
     pub pattern: DemandPattern,
     /// Peak forward demand, pct (turn demand peaks at half of it).
     pub peak_demand_pct: f64,
@@ -136,8 +145,11 @@ pub struct ExperimentOptions {
     pub voltage_noise_v: f64,
     /// Largest relative error of the rig's beliefs (0: the scene's values).
     pub rig_error: f64,
+    /// Falling weight: the mass, kg.
     pub weight_mass_kg: f64,
+    /// Falling weight: the pulley's radius on the motor shaft, m.
     pub pulley_radius_m: f64,
+    /// Falling weight: how far the mass falls before it lands, m.
     pub drop_m: f64,
     /// Peak-to-peak pen play of a floor run, m.
     pub pen_play_m: f64,
@@ -168,24 +180,34 @@ impl Default for ExperimentOptions {
 /// What an experiment wrote.
 #[derive(Debug, Clone)]
 pub struct ExperimentOutput {
+    /// The recording written.
     pub recording: PathBuf,
+    /// The rig file written.
     pub rig: PathBuf,
     /// Further files (the pen trace of a floor run).
     pub extra: Vec<PathBuf>,
+    /// Rows recorded.
     pub samples: usize,
 }
 
+/// Why an experiment could not be run.
 #[derive(Debug, thiserror::Error)]
 pub enum ExperimentError {
+    /// The simulation could not be set up, or stopped.
     #[error(transparent)]
     Sim(#[from] SimError),
+    /// A floor run stopped.
     #[error(transparent)]
     Run(#[from] RunError),
+    /// A file could not be written.
     #[error("{path}: {source}")]
     Io {
+        /// The file or folder.
         path: PathBuf,
+        /// Why.
         source: std::io::Error,
     },
+    /// An option's value that cannot be used (the message names it).
     #[error("{0}")]
     Setup(String),
 }

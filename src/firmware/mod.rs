@@ -143,6 +143,7 @@ pub enum Phase {
 }
 
 impl Phase {
+    /// The phase's name, for plots and summaries.
     pub fn name(self) -> &'static str {
         match self {
             Phase::Starting => "starting",
@@ -157,7 +158,7 @@ impl Phase {
 /// What the firmware remembers.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct FirmwareState {
-    /// X[0], X[1]: this and the previous sensor difference, counts.
+    /// `X[0]`, `X[1]`: this and the previous sensor difference, counts.
     pub x_hist: [f64; 2],
     /// Sample index of the next interrupt.
     pub next_sample: u64,
@@ -167,10 +168,13 @@ pub struct FirmwareState {
     pub duty: [i32; 2],
     /// Demands before the duty quantisation (forward, turn), counts, for plots.
     pub command_counts: [f64; 2],
+    /// The Open Day program's phase.
     pub phase: Phase,
     /// The wire was last seen on the right (S0 < S1).
     pub last_seen_right: bool,
+    /// The firmware holds the DCMC's enable line active.
     pub drive_enabled: bool,
+    /// Both readings were below the lost threshold at the last interrupt.
     pub lost_wire: bool,
     /// The larger of the two readings at the last interrupt, counts.
     pub peak_reading_adc: f64,
@@ -184,12 +188,14 @@ pub struct FirmwareState {
 /// What the firmware reads at an interrupt.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FirmwareInput {
+    /// Time, s.
     pub t_s: f64,
     /// ADC readings (S0 left, S1 right), counts.
     pub sensors_adc: [f64; 2],
     /// Sensor difference from ideal position feedback (linear level), counts; used
     /// instead of the readings when present.
     pub ideal_difference: Option<f64>,
+    /// The bumper's switch is open (contact).
     pub bumper: bool,
     /// Drive wheels' rim speeds (left, right), m/s: odometry, read only by the swing-away
     /// strategy.

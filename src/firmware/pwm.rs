@@ -15,6 +15,7 @@ pub fn duty_to_pct(duty: f64) -> f64 {
 /// First-order low-pass filter, discretised exactly for a held input.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PwmFilter {
+    /// Corner (-3 dB) frequency, Hz.
     pub corner_hz: f64,
 }
 

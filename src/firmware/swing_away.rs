@@ -46,6 +46,7 @@ impl LineEstimate {
 /// The strategy's state: no estimate until it has seen the wire and reversed straight.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SwingAwayState {
+    /// Where the strategy believes the wire is, once it has an estimate.
     pub estimate: Option<LineEstimate>,
     /// When the strategy first saw the wire and began reversing straight, s.
     pub straight_since_s: Option<f64>,

@@ -10,9 +10,11 @@ pub struct Dataset {
     pub name: String,
     /// Sample times, s (strictly increasing, possibly irregular).
     pub t_s: Vec<f64>,
+    /// Input column names, in the model's order.
     pub input_names: Vec<String>,
     /// `inputs[i][k]`: input i on row k, held from t_k to t_k+1.
     pub inputs: Vec<Vec<f64>>,
+    /// Output column names the recording has, in the model's order.
     pub output_names: Vec<String>,
     /// `outputs[j][k]`: output j on row k, `None` where not measured.
     pub outputs: Vec<Vec<Option<f64>>>,
@@ -125,10 +127,12 @@ impl Dataset {
         })
     }
 
+    /// Number of rows.
     pub fn len(&self) -> usize {
         self.t_s.len()
     }
 
+    /// Whether there are no rows.
     pub fn is_empty(&self) -> bool {
         self.t_s.is_empty()
     }

@@ -8,19 +8,30 @@ use crate::model::battery::BatteryParams;
 /// One effect of the vocabulary.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Effect {
+    /// Dead band in the gear train between motor and wheel.
     Backlash,
+    /// Constant-magnitude friction opposing motion.
     CoulombFriction,
+    /// Viscous friction that differs by direction.
     FrictionAsymmetry,
+    /// A constant bias torque or force.
     Offset,
+    /// Tyre force limited by the floor's friction.
     WheelSlip,
+    /// Drive voltage clipped by the supply.
     VoltageSaturation,
+    /// Supply voltage dropping with current.
     BatterySag,
+    /// Dead time between command and actuation.
     TransportDelay,
+    /// The motor controller's own speed loop with integral action.
     SpeedFeedback,
+    /// Drag from the idler castors.
     CastorDrag,
 }
 
 impl Effect {
+    /// The whole vocabulary.
     pub const ALL: [Effect; 10] = [
         Effect::Backlash,
         Effect::CoulombFriction,
@@ -239,5 +250,44 @@ pub fn sagging_battery(supply_v: f64, internal_resistance_ohm: f64) -> BatteryPa
         drive_limit_v: f64::INFINITY,
         low_voltage_fault_v: 0.0,
         bridge_rated_v: supply_v,
+    }
+}
+
+/// What stands between a recorded command and a motor's terminals in the fitting models:
+/// the bridges' limit (the voltage-saturation block), the sagging battery (the
+/// battery-sag block) and a dead time (the transport-delay block), each only when its
+/// effect is on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SupplyBlocks {
+    /// The bridges' voltage limit, V.
+    pub drive_limit_v: Option<f64>,
+    /// The battery the bridges draw on, with duty-setting bridges.
+    pub battery: Option<BatteryParams>,
+    /// Dead time between the command and the drive, s (0: none).
+    pub delay_s: f64,
+}
+
+impl SupplyBlocks {
+    /// The blocks of the effects switched on in `slots`, from the declared battery (its
+    /// limit and internal resistance), the DCMC (its command delay) and the rig's supply
+    /// voltage.
+    #[inline]
+    pub fn of(
+        slots: &EffectSlots,
+        battery: &BatteryParams,
+        command_delay_s: f64,
+        supply_v: f64,
+    ) -> SupplyBlocks {
+        let on = |e: Effect| slots.get(e).is_some();
+        SupplyBlocks {
+            drive_limit_v: on(Effect::VoltageSaturation).then_some(battery.drive_limit_v),
+            battery: on(Effect::BatterySag)
+                .then(|| sagging_battery(supply_v, battery.internal_resistance_ohm)),
+            delay_s: if on(Effect::TransportDelay) {
+                command_delay_s
+            } else {
+                0.0
+            },
+        }
     }
 }

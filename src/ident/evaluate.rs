@@ -12,7 +12,9 @@ use super::resid::{self, CorrelationCheck};
 /// Residual checks of one output.
 #[derive(Debug, Clone, Serialize)]
 pub struct OutputChecks {
+    /// The output's name.
     pub output: String,
+    /// Autocorrelation of its residual (whiteness).
     pub whiteness: CorrelationCheck,
     /// Cross-correlation with each input.
     pub independence: Vec<(String, CorrelationCheck)>,
@@ -21,7 +23,9 @@ pub struct OutputChecks {
 /// How a model with given parameters matches one recording.
 #[derive(Debug, Clone, Serialize)]
 pub struct Evaluation {
+    /// The recording's name.
     pub recording: String,
+    /// Rows compared.
     pub n_samples: usize,
     /// Normalised fit per output, %: 100 (1 - |y - yhat| / |y - mean y|).
     pub fit_pct: BTreeMap<String, f64>,
@@ -31,10 +35,12 @@ pub struct Evaluation {
     pub rms: BTreeMap<String, f64>,
     /// Loss V: determinant of the residual covariance (the mean square for one output).
     pub loss: f64,
+    /// Residual checks per output.
     pub checks: Vec<OutputChecks>,
     /// Simulated outputs, `[output][row]` (not serialised).
     #[serde(skip)]
     pub predicted: Vec<Vec<f64>>,
+    /// The dataset compared (for plots; not serialised).
     #[serde(skip)]
     pub data: Option<Dataset>,
 }

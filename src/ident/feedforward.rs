@@ -33,25 +33,35 @@ pub enum Gravity {
 /// an arm, the angle (rad).
 #[derive(Debug, Clone, Default)]
 pub struct Series {
+    /// Sample times, s.
     pub t_s: Vec<f64>,
+    /// Input voltage, V.
     pub voltage_v: Vec<f64>,
+    /// Speed, in the log's unit per second.
     pub speed: Vec<f64>,
+    /// An arm's angle, rad (empty otherwise).
     pub angle_rad: Vec<f64>,
 }
 
 /// A gain with its standard deviation.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Gain {
+    /// The estimate.
     pub value: f64,
+    /// Its standard deviation.
     pub std: f64,
 }
 
 /// The gains of one fit. Units: V, V per (speed unit), V per (speed unit per second).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Feedforward {
+    /// Static friction voltage kS, V.
     pub ks_v: Gain,
+    /// Velocity gain kV, V per speed unit.
     pub kv_v_s_per_unit: Gain,
+    /// Acceleration gain kA, V per speed unit per second.
     pub ka_v_s2_per_unit: Gain,
+    /// Gravity voltage kG of an elevator or arm, V.
     pub kg_v: Option<Gain>,
     /// The arm's angle offset, rad.
     pub arm_offset_rad: Option<f64>,
@@ -63,20 +73,27 @@ pub struct Feedforward {
     pub sample_time_s: f64,
     /// Speed below which a sample was left out.
     pub motion_threshold: f64,
+    /// Sample pairs regressed.
     pub pairs: usize,
 }
 
 /// Why the gains cannot be computed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum FeedforwardError {
+    /// Too few moving samples.
     #[error("too few moving samples for SysId's regression: {pairs} pairs above the motion threshold {threshold:.4} for {unknowns} unknowns (the machine hardly moved)")]
     TooFew {
+        /// Pairs above the motion threshold.
         pairs: usize,
+        /// The motion threshold.
         threshold: f64,
+        /// Unknowns of the regression.
         unknowns: usize,
     },
+    /// The regression is singular (the reason).
     #[error("the regression is singular: {0} (the tests do not separate friction, speed and acceleration; SysId asks for at least two steady speeds and one acceleration)")]
     Singular(&'static str),
+    /// The fitted pole is not that of a stable machine (its value).
     #[error("the fitted discrete pole alpha = {0:.6} is not in (0, 1): no stable first-order machine fits these samples")]
     Unstable(f64),
 }
@@ -305,6 +322,7 @@ pub struct Report {
     pub columns: Vec<String>,
     /// The speed unit the gains are per (`m/s`, `rad/s`).
     pub speed_unit: String,
+    /// The gains.
     pub gains: Feedforward,
     /// `kS K / R`: the constant motor torque whose voltage drop SysId's kS is, N m, with
     /// the fitted torque constant and resistance.

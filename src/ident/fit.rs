@@ -27,6 +27,7 @@ pub struct FitSettings {
     pub free: Vec<usize>,
     /// Per-output weights (1 / expected residual RMS), in the dataset's output order.
     pub weights: Vec<f64>,
+    /// Iteration limit of each start.
     pub max_iterations: usize,
     /// Full parameter vectors to start from; the best result wins.
     pub starts: Vec<Vec<f64>>,
@@ -37,6 +38,7 @@ pub struct FitSettings {
 pub struct Fit {
     /// All parameters, fitted where free.
     pub params: Vec<f64>,
+    /// Indices of the free parameters.
     pub free: Vec<usize>,
     /// Standard deviation of each free parameter; `None` where the data do not determine
     /// it (a direction of the Fisher information that is numerically zero).
@@ -47,22 +49,38 @@ pub struct Fit {
     pub cost: f64,
     /// Number of residuals (measured output cells).
     pub n_residuals: usize,
+    /// Solver iterations.
     pub iterations: usize,
+    /// Model simulations.
     pub evaluations: usize,
+    /// Whether the step or the gain fell below the tolerance.
     pub converged: bool,
     /// Index of the start that won.
     pub start_index: usize,
+    /// The outputs at the fitted parameters, `[output][row]`.
     pub predicted: Vec<Vec<f64>>,
+    /// The per-output weights used.
     pub weights: Vec<f64>,
 }
 
 /// Why a fit could not be done.
 #[derive(Debug, thiserror::Error)]
 pub enum FitError {
+    /// The model diverges at its starting parameters.
     #[error("the model diverges at its starting parameters (t = {t_s} s); check the rig's values")]
-    DivergesAtStart { t_s: f64 },
+    DivergesAtStart {
+        /// When, s.
+        t_s: f64,
+    },
+    /// More free parameters than the record has residuals.
     #[error("{free} free parameters but only {residuals} measured output values")]
-    TooFewData { free: usize, residuals: usize },
+    TooFewData {
+        /// Free parameters.
+        free: usize,
+        /// Residuals the record has.
+        residuals: usize,
+    },
+    /// No start was given.
     #[error("no starting point simulates over the record")]
     NoStart,
 }
@@ -220,7 +238,9 @@ pub fn fit_raced(model: &dyn GreyBox, data: &Dataset, s: &FitSettings) -> Result
 /// thrown away.
 #[derive(Debug, Clone)]
 pub struct Minimum {
+    /// All parameters at the minimum.
     pub params: Vec<f64>,
+    /// Weighted residual sum of squares there.
     pub cost: f64,
 }
 

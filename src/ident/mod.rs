@@ -45,7 +45,9 @@ pub enum ModelChoice {
     /// The rig's drive axis (rotary or linear, voltage-, demand- or current-driven, open or
     /// closed loop).
     DriveAxis,
+    /// The falling-weight test (motor off the vehicle).
     FallingWeight,
+    /// The coast-down test.
     CoastDown,
     /// Thesis case 1.
     Gain,
@@ -56,6 +58,7 @@ pub enum ModelChoice {
 }
 
 impl ModelChoice {
+    /// Every model's name, as the command line takes it.
     pub const NAMES: [&'static str; 6] = [
         "drive-axis",
         "falling-weight",
@@ -89,15 +92,22 @@ impl FromStr for ModelChoice {
 /// A concrete model structure.
 #[derive(Debug, Clone)]
 pub enum Structure {
+    /// A rotary drive axis.
     Rotary(RotaryAxis),
+    /// A linear drive axis.
     Linear(LinearAxis),
+    /// The thesis's DCMC structures on two lifted drives.
     Pair(DcmcPair),
+    /// The falling-weight test.
     Falling(FallingWeight),
+    /// The coast-down test.
     Coast(CoastDown),
+    /// The whole vehicle.
     Vehicle(Vehicle),
 }
 
 impl Structure {
+    /// The structure as a grey-box model.
     pub fn model(&self) -> &dyn GreyBox {
         match self {
             Structure::Rotary(m) => m,
@@ -113,16 +123,65 @@ impl Structure {
 /// Why an identification could not run.
 #[derive(Debug, thiserror::Error)]
 pub enum IdentError {
+    /// The rig does not load or lacks what the model needs.
     #[error(transparent)]
     Rig(#[from] RigError),
+    /// A recording does not load.
     #[error(transparent)]
     Recording(#[from] RecordingError),
+    /// The fit could not be done.
     #[error(transparent)]
     Fit(#[from] FitError),
-    #[error("{0}")]
-    Setup(String),
-    #[error("{file}: {message}")]
-    Mismatch { file: PathBuf, message: String },
+    /// The model asked for needs another kind of rig.
+    #[error("model `{model}` needs a `{want}` rig; {} is a `{have}` rig", rig.display())]
+    WrongRig {
+        /// The model asked for.
+        model: String,
+        /// The rig kind it needs.
+        want: String,
+        /// The rig file.
+        rig: PathBuf,
+        /// Its kind.
+        have: String,
+    },
+    /// A `--free` name that is not one of the model's parameters.
+    #[error(
+        "--free: `{name}` is not a parameter of the {model} model; its parameters are: {known}"
+    )]
+    UnknownParameter {
+        /// The name given.
+        name: String,
+        /// The model.
+        model: String,
+        /// Its parameters, comma-separated.
+        known: String,
+    },
+    /// Diagnosis asked of a recording of another kind of experiment.
+    #[error("{}: diagnosis works on drive-axis (rotary or linear) and vehicle recordings; this is a {model} experiment", file.display())]
+    NotDiagnosable {
+        /// The recording.
+        file: PathBuf,
+        /// Its model.
+        model: String,
+    },
+    /// An `--effects` name the model cannot show.
+    #[error("effect `{effect}` does not apply to the {model} model; these do: {applicable}")]
+    EffectNotApplicable {
+        /// The effect named.
+        effect: String,
+        /// The model.
+        model: String,
+        /// The effects that apply, comma-separated.
+        applicable: String,
+    },
+    /// The record and the model disagree (a column, a length, a divergence).
+    #[error("{}: {message}", file.display())]
+    Mismatch {
+        /// The recording.
+        file: PathBuf,
+        /// What disagrees.
+        message: String,
+    },
 }
 
 /// Choices for one identification.
@@ -133,6 +192,7 @@ pub struct IdentifyOptions {
     pub model: Option<ModelChoice>,
     /// Free parameters by name; by default the structure's identifiable set.
     pub free: Option<Vec<String>>,
+    /// Iteration limit of each start.
     pub max_iterations: usize,
     /// Number of starts (the rig's values, then seeded log-uniform perturbations within a
     /// factor of 2).
@@ -186,13 +246,11 @@ pub fn build_structure(
             ),
         });
     }
-    let wrong_rig = |want: &str| {
-        IdentError::Setup(format!(
-            "model `{}` needs a `{want}` rig; {} is a `{}` rig",
-            format!("{choice:?}").to_lowercase(),
-            rig_path.display(),
-            rig.rig
-        ))
+    let wrong_rig = |want: &str| IdentError::WrongRig {
+        model: format!("{choice:?}").to_lowercase(),
+        want: want.to_string(),
+        rig: rig_path.to_owned(),
+        have: rig.rig.clone(),
     };
     Ok(match choice {
         ModelChoice::DriveAxis => {
@@ -270,12 +328,16 @@ pub fn build_structure(
 /// One parameter as reported.
 #[derive(Debug, Clone, Serialize)]
 pub struct ParamReport {
+    /// The parameter's name.
     pub name: String,
+    /// The rig's belief.
     pub nominal: f64,
+    /// The fitted (or, if fixed, the believed) value.
     pub value: f64,
     /// Standard deviation (free parameters); `null` when the data do not determine it,
     /// and when the search ended at a bound.
     pub std: Option<f64>,
+    /// Whether it was fitted.
     pub free: bool,
     /// The bound of the search the value ended on, if it did: then the value is no
     /// estimate but a sign that the belief (the rig's nominal) or the model's structure is
@@ -286,35 +348,52 @@ pub struct ParamReport {
 /// A continuous-time state-space model with standard deviations (thesis-style tables).
 #[derive(Debug, Clone, Serialize)]
 pub struct StateSpaceReport {
+    /// A, row by row.
     pub a: Vec<Vec<f64>>,
+    /// A's standard deviations (`None`: fixed, or not determined).
     pub a_std: Vec<Vec<Option<f64>>>,
+    /// B, row by row.
     pub b: Vec<Vec<f64>>,
+    /// B's standard deviations.
     pub b_std: Vec<Vec<Option<f64>>>,
 }
 
 /// The result of `identify`.
 #[derive(Debug, Clone, Serialize)]
 pub struct Identification {
+    /// The model's name.
     pub model: String,
     /// Contract input columns of the recording the model has no use for.
     pub ignored_inputs: Vec<String>,
+    /// The rig file.
     pub rig: String,
+    /// Every parameter.
     pub params: Vec<ParamReport>,
+    /// Free parameters.
     pub n_free: usize,
+    /// Residuals (measured output cells).
     pub n_residuals: usize,
     /// Akaike's final prediction error: V (1 + d/N) / (1 - d/N).
     pub fpe: f64,
     /// N ln V + 2 d (constants of the Gaussian likelihood dropped).
     pub aic: f64,
+    /// Solver iterations.
     pub iterations: usize,
+    /// Model simulations.
     pub evaluations: usize,
+    /// Whether the solver converged.
     pub converged: bool,
+    /// Starts tried.
     pub starts: usize,
+    /// The fit on the estimation record.
     pub estimation: Evaluation,
+    /// The fit on the validation record.
     pub validation: Option<Evaluation>,
+    /// The thesis-style A and B (the DCMC structures).
     pub state_space: Option<StateSpaceReport>,
     /// SysId's kS, kV, kA of the same record, for comparison (voltage-driven records).
     pub feedforward: Option<feedforward::Report>,
+    /// All parameters' values (not serialised).
     #[serde(skip)]
     pub fitted: Vec<f64>,
 }
@@ -345,18 +424,18 @@ fn free_indices(
         Some(names) => names
             .iter()
             .map(|n| {
-                model.param_index(n).ok_or_else(|| {
-                    IdentError::Setup(format!(
-                        "--free: `{n}` is not a parameter of the {} model; its parameters are: {}",
-                        model.name(),
-                        model
+                model
+                    .param_index(n)
+                    .ok_or_else(|| IdentError::UnknownParameter {
+                        name: n.clone(),
+                        model: model.name(),
+                        known: model
                             .params()
                             .iter()
                             .map(|p| p.name.as_str())
                             .collect::<Vec<_>>()
-                            .join(", ")
-                    ))
-                })
+                            .join(", "),
+                    })
             })
             .collect(),
     }

@@ -18,6 +18,7 @@ pub struct ParamSpec {
     pub nominal: f64,
     /// Physical bounds.
     pub lo: f64,
+    /// Upper bound.
     pub hi: f64,
     /// Finite-difference step of the Jacobian in the search coordinate. Parameters whose
     /// effect switches at events (a backlash play decides when teeth meet) make the cost
@@ -26,6 +27,7 @@ pub struct ParamSpec {
 }
 
 impl ParamSpec {
+    /// A parameter `name` starting at `nominal` within `[lo, hi]`, setting the key of the same name.
     pub fn new(name: &str, nominal: f64, lo: f64, hi: f64) -> ParamSpec {
         ParamSpec {
             name: name.to_string(),
@@ -279,6 +281,7 @@ impl<T: Clone + 'static> Binding<T> {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("the model diverged at t = {t_s} s (state not finite)")]
 pub struct Diverged {
+    /// When, s.
     pub t_s: f64,
 }
 

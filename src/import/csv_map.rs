@@ -44,9 +44,12 @@ pub struct ColumnMap {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CsvMap {
+    /// The recording's rig kind.
     pub rig: String,
+    /// A description for the recording's metadata.
     #[serde(default)]
     pub description: String,
+    /// The time column.
     pub time: ColumnMap,
     /// Contract column name -> source.
     pub columns: BTreeMap<String, ColumnMap>,

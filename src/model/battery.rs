@@ -93,6 +93,7 @@ impl BatteryParams {
         }
     }
 
+    /// Whether a terminal voltage is below the DCMC's low-voltage threshold.
     pub fn below_fault(&self, terminal_v: f64) -> bool {
         terminal_v < self.low_voltage_fault_v
     }

@@ -52,16 +52,21 @@ crate::declare_params! {
 /// gravity), the track and where the castors stand.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LoadedChassis {
+    /// Mass with payload, kg.
     pub mass_kg: f64,
     /// Yaw inertia about the centre of gravity, kg m^2.
     pub yaw_inertia_kg_m2: f64,
     /// Centre of gravity in the body frame (origin at the drive-axle midpoint), m.
     pub cg_m: [f64; 2],
+    /// Distance between the drive wheels, m.
     pub track_width_m: f64,
+    /// Share of the weight on the drive wheels.
     pub drive_load_fraction: f64,
     /// Castor swivel axes: x of the front and rear pairs and their half spacing, m.
     pub castor_front_x_m: f64,
+    /// x of the rear castors' swivel axes, m (negative: behind the axle).
     pub castor_rear_x_m: f64,
+    /// Half the spacing of each castor pair, m.
     pub castor_half_spacing_m: f64,
 }
 
@@ -69,7 +74,9 @@ pub struct LoadedChassis {
 /// rear-left, rear-right).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NormalLoads {
+    /// Drive wheels (left, right), N.
     pub drive_n: [f64; 2],
+    /// Castors (front-left, front-right, rear-left, rear-right), N.
     pub castor_n: [f64; 4],
 }
 
@@ -166,9 +173,13 @@ crate::declare_params! {
 /// or directions from the body frame to the world.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PoseFrame {
+    /// Position, world x, m.
     pub x_m: f64,
+    /// Position, world y, m.
     pub y_m: f64,
+    /// Sine of the heading.
     pub sin: f64,
+    /// Cosine of the heading.
     pub cos: f64,
 }
 
@@ -221,18 +232,26 @@ impl Pose {
 /// Parameters of the no-slip chassis (thesis levels 1-3).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NoSlipParams {
+    /// The chassis with its payload.
     pub chassis: LoadedChassis,
+    /// Drive wheel radius, m.
     pub wheel_radius_m: f64,
+    /// Inertia turning with each drive wheel, kg m^2.
     pub wheel_inertia_kg_m2: f64,
+    /// Lumped castor drag on the forward speed, N s/m.
     pub linear_drag_n_s_m: f64,
+    /// Lumped castor drag on the yaw rate, N m s/rad.
     pub angular_drag_nm_s_rad: f64,
 }
 
 /// What is integrated: pose, forward speed of the axle midpoint and yaw rate.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct NoSlipState {
+    /// Pose of the drive-axle midpoint.
     pub pose: Pose,
+    /// Forward speed of the axle midpoint, m/s.
     pub speed_m_s: f64,
+    /// Yaw rate, rad/s.
     pub yaw_rate_rad_s: f64,
 }
 
@@ -292,12 +311,15 @@ impl NoSlipParams {
 /// everything that turns with each drive wheel, seen from the wheels' axles.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NoSlipBody {
+    /// Mass, kg.
     pub mass_kg: f64,
     /// Yaw inertia about the centre of gravity, kg m^2.
     pub yaw_inertia_kg_m2: f64,
     /// Centre of gravity ahead of the drive-axle midpoint, m.
     pub cg_ahead_m: f64,
+    /// Distance between the drive wheels, m.
     pub track_width_m: f64,
+    /// Drive wheel radius, m.
     pub wheel_radius_m: f64,
     /// Inertia turning with one drive wheel, referred to its axle, kg m^2 (the wheel, and
     /// through a rigid gear train the rotor times the ratio squared).

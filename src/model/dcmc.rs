@@ -174,7 +174,9 @@ pub struct Dcmc {
 /// pass almost at once, which a linear lag cannot do.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DcmcRamp {
+    /// Left side's rate, pct/s.
     pub left_pct_s: f64,
+    /// Right side's rate, pct/s.
     pub right_pct_s: f64,
 }
 
@@ -196,8 +198,11 @@ impl DcmcRamp {
 /// Time constants in seconds; 0 passes that part at once.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DcmcResponse {
+    /// Left side's forward lag, s.
     pub left_time_constant_s: f64,
+    /// Right side's forward lag, s.
     pub right_time_constant_s: f64,
+    /// The turn demand's lag, s.
     pub turn_time_constant_s: f64,
 }
 
@@ -229,6 +234,7 @@ pub enum DcmcFault {
 }
 
 impl DcmcFault {
+    /// The fault's name, for summaries.
     pub fn name(self) -> &'static str {
         match self {
             DcmcFault::EnableDelay => "enable_delay",
@@ -238,10 +244,12 @@ impl DcmcFault {
     }
 }
 
+/// What the DCMC remembers: its enable time, a latched fault, its integrators and the stages of its demand shaping.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct DcmcState {
     /// When the enable line last went active, s.
     pub enabled_since_s: Option<f64>,
+    /// The latched fault, if any.
     pub fault: Option<DcmcFault>,
     /// PI integrators (left, right), rad.
     pub integral_rad: [f64; 2],
@@ -254,11 +262,16 @@ pub struct DcmcState {
     pub shaped_request: [f64; 2],
 }
 
+/// What the DCMC reads at a step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DcmcInput {
+    /// Time, s.
     pub t_s: f64,
+    /// The enable line is active.
     pub enabled: bool,
+    /// Forward demand, pct.
     pub forward_pct: f64,
+    /// Turn demand, pct.
     pub turn_pct: f64,
     /// Motor speeds (left, right), rad/s.
     pub motor_speed_rad_s: [f64; 2],
@@ -270,6 +283,7 @@ pub struct DcmcInput {
     pub available_v: f64,
 }
 
+/// What the DCMC gives the motors.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct DcmcOutput {
     /// Motor terminal voltages (left, right), V.

@@ -8,7 +8,9 @@ use super::wheel::WheelParams;
 /// Motor, gearbox and wheel of one side.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DrivetrainParams {
+    /// The motor.
     pub motor: MotorParams,
+    /// The gear train.
     pub gearbox: GearboxParams,
     /// The wheel with its output gear and bearings (on the wheel's side of the play).
     pub wheel: WheelParams,
@@ -17,8 +19,11 @@ pub struct DrivetrainParams {
 /// What is integrated: the motor and the wheel (the gear output angle is motor angle / ratio).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct DrivetrainState {
+    /// The motor's state.
     pub motor: MotorState,
+    /// Wheel speed, rad/s.
     pub wheel_speed_rad_s: f64,
+    /// Wheel angle, rad.
     pub wheel_angle_rad: f64,
 }
 

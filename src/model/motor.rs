@@ -33,8 +33,11 @@ crate::declare_params! {
 /// What is integrated.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MotorState {
+    /// Armature current, A.
     pub current_a: f64,
+    /// Shaft speed, rad/s.
     pub speed_rad_s: f64,
+    /// Shaft angle, rad.
     pub angle_rad: f64,
 }
 

@@ -100,6 +100,7 @@ pub struct TyreParams {
 /// What is integrated: the contact-patch deflection, m (wheel frame).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct TyreState {
+    /// Deflection along the rolling direction and to the left, m.
     pub deflection_m: [f64; 2],
 }
 

@@ -22,6 +22,7 @@
 /// A tyre compound: what the tread brings regardless of the floor.
 #[derive(Debug, Clone, Copy)]
 pub struct Compound {
+    /// Its name in a scene.
     pub name: &'static str,
     /// Peak friction on bare (broom-finished, dry) concrete.
     pub peak_mu_on_bare_concrete: f64,
@@ -33,18 +34,22 @@ pub struct Compound {
     pub lat_stiffness_per_N: f64,
     /// Relaxation length, m.
     pub relaxation_length_m: f64,
+    /// What it is.
     pub note: &'static str,
 }
 
 /// A floor surface: scales the compound's friction.
 #[derive(Debug, Clone, Copy)]
 pub struct Surface {
+    /// Its name in a scene.
     pub name: &'static str,
     /// Friction relative to bare concrete.
     pub friction_factor: f64,
+    /// What it is.
     pub note: &'static str,
 }
 
+/// The tyre compounds a scene can name.
 pub const COMPOUNDS: [Compound; 3] = [
     Compound {
         name: "hard_polyurethane",
@@ -75,6 +80,7 @@ pub const COMPOUNDS: [Compound; 3] = [
     },
 ];
 
+/// The floor surfaces a scene can name.
 pub const SURFACES: [Surface; 3] = [
     Surface {
         name: "painted_concrete",
@@ -93,10 +99,12 @@ pub const SURFACES: [Surface; 3] = [
     },
 ];
 
+/// A compound by name.
 pub fn compound(name: &str) -> Option<&'static Compound> {
     COMPOUNDS.iter().find(|c| c.name == name)
 }
 
+/// A surface by name.
 pub fn surface(name: &str) -> Option<&'static Surface> {
     SURFACES.iter().find(|s| s.name == name)
 }
@@ -110,6 +118,7 @@ pub fn compound_names() -> String {
         .join(", ")
 }
 
+/// Surface names, for error messages.
 pub fn surface_names() -> String {
     SURFACES
         .iter()

@@ -7,7 +7,9 @@ use super::{escape, CHAR_W, W};
 
 /// One row of bars: its label and one value per series.
 pub struct BarGroup {
+    /// The group's label.
     pub label: String,
+    /// One value per series.
     pub values: Vec<f64>,
 }
 

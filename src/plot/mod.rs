@@ -50,10 +50,15 @@ pub enum Style {
 
 /// One series of a plot.
 pub struct Series<'a> {
+    /// Legend text.
     pub label: &'a str,
+    /// x values.
     pub x: &'a [f64],
+    /// y values.
     pub y: &'a [f64],
+    /// Colour (SVG).
     pub colour: &'a str,
+    /// How it is drawn.
     pub style: Style,
     /// Whether the series sets the axes' range. A series out of scale (a run that lost
     /// the wire) is clipped to the frame and dashed.
@@ -83,6 +88,7 @@ impl<'a> Series<'a> {
         self
     }
 
+    /// The same series drawn another way.
     pub fn with_style(mut self, style: Style) -> Self {
         self.style = style;
         self
@@ -98,19 +104,27 @@ impl<'a> Series<'a> {
 /// Points drawn as crosses along the top edge, outside the scale, with one legend entry
 /// (for example the grid points where every run lost the wire).
 pub struct Flags<'a> {
+    /// Legend text.
     pub label: &'a str,
+    /// Where the crosses are, x.
     pub x: &'a [f64],
+    /// Colour (SVG).
     pub colour: &'a str,
 }
 
 /// A line plot.
 pub struct Plot<'a> {
+    /// Title.
     pub title: &'a str,
+    /// x axis label, with its unit.
     pub x_label: &'a str,
+    /// y axis label, with its unit.
     pub y_label: &'a str,
+    /// The series.
     pub series: &'a [Series<'a>],
     /// A dashed +/-band about zero (a confidence band).
     pub band: Option<f64>,
+    /// Crosses along the top edge, if any.
     pub flags: Option<Flags<'a>>,
     /// Shown in the data area when there is nothing to draw.
     pub empty_note: &'a str,
@@ -177,6 +191,7 @@ pub fn measured_points(t_s: &[f64], column: &[Option<f64>]) -> (Vec<f64>, Vec<f6
         .unzip()
 }
 
+/// Text escaped for SVG.
 pub fn escape(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
@@ -245,6 +260,7 @@ impl Plot<'_> {
         (x, (y0 - pad, y1 + top_pad))
     }
 
+    /// The plot as an SVG document.
     pub fn render(&self) -> String {
         let ((x0, x1), (y0, y1)) = self.ranges();
         let px = |x: f64| MARGIN_L + (x - x0) / (x1 - x0) * (W - MARGIN_L - MARGIN_R);

@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 /// A recording as read.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Recording {
+    /// The file it was read from.
     pub path: PathBuf,
     /// Metadata (`key: value` lines), in file order of keys.
     pub meta: BTreeMap<String, String>,
@@ -28,17 +29,30 @@ pub struct Recording {
 /// A breach of the contract, located.
 #[derive(Debug, thiserror::Error)]
 pub enum RecordingError {
+    /// The file could not be read.
     #[error("{file}: cannot read: {source}")]
     Read {
+        /// The file.
         file: PathBuf,
+        /// Why.
         source: std::io::Error,
     },
+    /// The file breaks the format.
     #[error("{file}: {message}")]
-    File { file: PathBuf, message: String },
+    File {
+        /// The recording.
+        file: PathBuf,
+        /// What breaks the format.
+        message: String,
+    },
+    /// A line breaks the format.
     #[error("{file}:{line}: {message}")]
     Line {
+        /// The file.
         file: PathBuf,
+        /// The line.
         line: usize,
+        /// What is wrong.
         message: String,
     },
 }
@@ -49,6 +63,7 @@ pub const KNOWN_UNITS: [&str; 12] = [
 ];
 
 impl Recording {
+    /// Reads and checks a recording.
     pub fn load(path: &Path) -> Result<Recording, RecordingError> {
         let text = std::fs::read_to_string(path).map_err(|source| RecordingError::Read {
             file: path.to_owned(),

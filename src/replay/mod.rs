@@ -31,13 +31,23 @@ pub const MAX_REPLAY_STEPS: f64 = 1e8;
 pub enum ReplayError {
     /// The recording lacks what a replay needs.
     #[error("{file}: {message}")]
-    Recording { file: PathBuf, message: String },
+    Recording {
+        /// The recording.
+        file: PathBuf,
+        /// What it lacks.
+        message: String,
+    },
+    /// The scene cannot be simulated.
     #[error(transparent)]
     Sim(#[from] SimError),
+    /// The simulation diverged during the replay.
     #[error("{file}: the simulation diverged at t = {t_s} s of the recording: {source}")]
     Diverged {
+        /// The recording.
         file: PathBuf,
+        /// When, s of the recording.
         t_s: f64,
+        /// The simulator's error.
         source: SimError,
     },
 }
@@ -106,8 +116,11 @@ fn axis_channels() -> Vec<(&'static str, fn(&Snapshot) -> f64)> {
 /// One output, measured and simulated at the recording's rows.
 #[derive(Debug, Clone)]
 pub struct ReplayedOutput {
+    /// The output's column name.
     pub name: String,
+    /// The recording's values (`None` where not measured).
     pub measured: Vec<Option<f64>>,
+    /// The simulator's values at the recording's rows.
     pub simulated: Vec<f64>,
     /// Normalised fit, % (as `identify` reports it); NaN where the column has fewer than
     /// two measured cells (simulated only).
@@ -119,10 +132,13 @@ pub struct ReplayedOutput {
 /// A replay's result.
 #[derive(Debug, Clone)]
 pub struct Replay {
+    /// Which inputs drove the simulator.
     pub drive: Drive,
+    /// The recording's time base, s.
     pub t_s: Vec<f64>,
     /// The inputs as held, `[input][row]`.
     pub inputs: Vec<Vec<f64>>,
+    /// Each output compared.
     pub outputs: Vec<ReplayedOutput>,
     /// Recording columns neither used as an input nor produced by the simulator.
     pub not_compared: Vec<String>,

@@ -16,30 +16,52 @@ use std::path::{Path, PathBuf};
 /// Something wrong with a scene.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
+    /// The file could not be read.
     #[error("{file}: cannot read: {source}")]
     Read {
+        /// The scene file.
         file: PathBuf,
+        /// Why.
         source: std::io::Error,
     },
     /// Syntax, unknown key or wrong type: the TOML message carries line, column and key.
     #[error("{file}: {message}")]
-    Parse { file: PathBuf, message: String },
+    Parse {
+        /// The scene file.
+        file: PathBuf,
+        /// The TOML reader's message (line, column and key).
+        message: String,
+    },
+    /// A value outside its key's rule.
     #[error("{file}: `{key}` = {value}: expected {expected}")]
     Invalid {
+        /// The scene file.
         file: PathBuf,
+        /// The dotted key.
         key: String,
+        /// The value found.
         value: String,
+        /// What was expected.
         expected: String,
     },
+    /// A `--set` argument that cannot be applied.
     #[error("--set {arg}: {message}")]
-    Override { arg: String, message: String },
+    Override {
+        /// The `--set` argument.
+        arg: String,
+        /// What is wrong with it.
+        message: String,
+    },
 }
 
 /// A scene value that failed validation (before the file name is known).
 #[derive(Debug, Clone)]
 pub struct Invalid {
+    /// The dotted key.
     pub key: String,
+    /// The value found.
     pub value: String,
+    /// What was expected.
     pub expected: String,
 }
 

@@ -36,7 +36,7 @@ fn concave_corner(poly: &[[f64; 2]]) -> Option<usize> {
 }
 
 impl Scene {
-    /// Every key against its rule in the table ([`super::ranges`]), then the rules that
+    /// Every key against its rule in the table ([`super::keys`]), then the rules that
     /// tie keys together.
     pub fn validate(&self) -> Result<(), Invalid> {
         self.expect.validate()?;

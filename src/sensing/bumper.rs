@@ -30,12 +30,16 @@ pub fn obstacle_tables() -> String {
 /// A fixed obstacle on the floor.
 #[derive(Clone)]
 pub struct Obstacle {
+    /// The obstacle's shape.
     pub shape: SharedShape,
+    /// Its pose, world frame.
     pub pose: Pose,
+    /// As the scene gives it.
     pub params: ObstacleParams,
 }
 
 impl Obstacle {
+    /// The obstacle a scene describes.
     pub fn from_params(o: &ObstacleParams) -> Obstacle {
         let shape = match (o.half_extents_m, o.radius_m) {
             (Some(h), _) => SharedShape::new(Cuboid::new(Vector::new(h[0], h[1]))),
@@ -55,6 +59,7 @@ impl Obstacle {
 pub struct Bumper {
     /// Centre of the strip ahead of the drive axle, m.
     pub x_m: f64,
+    /// Half the strip's width, m.
     pub half_width_m: f64,
     /// Half depth of the strip, m (the switch travel).
     pub half_depth_m: f64,

@@ -91,6 +91,7 @@ pub struct CoilParams {
     pub height_m: f64,
     /// Reading over a straight wire with the axis across it, counts (physical law).
     pub full_scale_adc: f64,
+    /// How the reading follows the field.
     pub law: CoilLaw,
 }
 

@@ -74,10 +74,12 @@ impl Wire {
         }
     }
 
+    /// The wire's vertices, m.
     pub fn points(&self) -> &[[f64; 2]] {
         &self.points
     }
 
+    /// Whether the last vertex joins the first.
     pub fn is_closed(&self) -> bool {
         self.closed
     }

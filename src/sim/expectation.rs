@@ -11,6 +11,7 @@ pub struct ExpectCheck {
     pub claim: String,
     /// What the run showed, in the same terms.
     pub observed: String,
+    /// Whether the run shows it.
     pub met: bool,
 }
 

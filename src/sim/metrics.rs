@@ -31,6 +31,7 @@ pub struct LimitCycle {
 /// Where and when something happened to the vehicle during a run.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RunEvent {
+    /// When, s.
     pub t_s: f64,
     /// Distance travelled by then, m.
     pub distance_m: f64,
@@ -77,6 +78,7 @@ impl ErrorWindow {
 /// The summary of a run.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct RunSummary {
+    /// Simulated time, s.
     pub duration_s: f64,
     /// Distance travelled by the axle midpoint, m.
     pub distance_m: f64,
@@ -108,6 +110,7 @@ pub struct RunSummary {
     /// rad/s (0 on the levels that lump the castors). Castors that trail quietly behind a
     /// vehicle tracking its wire barely swivel; a shimmying castor flaps at several rad/s.
     pub castor_shimmy_rad_s: f64,
+    /// Lateral error at the end of the run, m.
     pub final_lateral_error_m: f64,
     /// The sensors lost the wire at some point.
     pub lost_wire: bool,
@@ -122,7 +125,9 @@ pub struct RunSummary {
     pub wire_end: Option<RunEvent>,
     /// The wheels were lifted: the chassis did not move, so nothing was tracked.
     pub wheels_lifted: bool,
+    /// The DCMC's faults, by name, in the order they happened.
     pub faults: Vec<String>,
+    /// The bumper stopped the vehicle.
     pub bumper_stop: bool,
     /// When the bumper first touched an obstacle.
     pub bumper_at: Option<RunEvent>,
@@ -160,6 +165,7 @@ pub struct MetricsObserver {
 }
 
 impl MetricsObserver {
+    /// Takes one snapshot into the measures.
     pub fn observe(&mut self, s: &Snapshot) {
         let xy = [s.pose.x_m, s.pose.y_m];
         if let Some(l) = self.last_xy {
@@ -225,6 +231,7 @@ impl MetricsObserver {
         self.bumper |= s.bumper;
     }
 
+    /// The measures so far.
     pub fn summary(&self) -> RunSummary {
         // Tracking is judged only while there is a wire under the sensors: after the wire
         // is lost or ends, the "lateral error" measures distance from it, not tracking.

@@ -27,10 +27,22 @@ use crate::world::engine::Engine;
 /// Errors a run can stop with.
 #[derive(Debug, thiserror::Error)]
 pub enum SimError {
+    /// The scene cannot be set up (the message names the keys).
     #[error("cannot set up the simulation: {message}")]
-    Setup { message: String },
+    Setup {
+        /// What cannot be set up and which keys to check.
+        message: String,
+    },
+    /// A state left the physical range.
     #[error("the simulation diverged at t = {t_s:.4} s: {what} is {value} (not finite or beyond any physical range); try a smaller sim.dt_s or check the scene's stiffness and gains")]
-    Diverged { t_s: f64, what: String, value: f64 },
+    Diverged {
+        /// When, s.
+        t_s: f64,
+        /// Which state.
+        what: String,
+        /// Its value.
+        value: f64,
+    },
 }
 
 /// How the motors are driven in a run.
@@ -39,7 +51,12 @@ pub enum Actuation {
     /// The firmware (P-D, Open Day or open loop) through the PWM filter and the DCMC.
     Firmware,
     /// Forward and turn demand straight into the DCMC, pct.
-    Demand { forward_pct: f64, turn_pct: f64 },
+    Demand {
+        /// Forward demand, pct.
+        forward_pct: f64,
+        /// Turn demand, pct.
+        turn_pct: f64,
+    },
     /// Motor terminal voltages (left, right), V, bypassing the DCMC (still clipped to what
     /// the battery can give).
     Voltage([f64; 2]),
@@ -99,6 +116,7 @@ impl Sim {
         Sim::from_params(SimParams::from_scene(scene)?)
     }
 
+    /// A simulation from run parameters, at rest at the start pose.
     pub fn from_params(params: SimParams) -> Result<Sim, SimError> {
         let body = if params.sim.wheels_lifted {
             Body::Lifted(params.start)
@@ -146,6 +164,7 @@ impl Sim {
         })
     }
 
+    /// The run parameters.
     pub fn params(&self) -> &SimParams {
         &self.params
     }
@@ -159,6 +178,7 @@ impl Sim {
         }
     }
 
+    /// Simulated time so far, s.
     pub fn time_s(&self) -> f64 {
         self.t_s
     }

@@ -44,6 +44,7 @@ pub struct Features {
 }
 
 impl Features {
+    /// The switches of a level.
     pub fn of(f: Fidelity) -> Features {
         match f {
             Fidelity::Linear => Features {

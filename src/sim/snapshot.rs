@@ -8,11 +8,17 @@ use crate::model::chassis::Pose;
 /// One drive side.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SideSnapshot {
+    /// Motor terminal voltage, V.
     pub voltage_v: f64,
+    /// Armature current, A.
     pub current_a: f64,
+    /// Motor speed, rad/s.
     pub motor_speed_rad_s: f64,
+    /// Motor angle, rad.
     pub motor_angle_rad: f64,
+    /// Wheel speed, rad/s.
     pub wheel_speed_rad_s: f64,
+    /// Wheel angle, rad.
     pub wheel_angle_rad: f64,
     /// Wheel rim speed, m/s.
     pub wheel_rim_m_s: f64,
@@ -22,8 +28,11 @@ pub struct SideSnapshot {
     pub tooth_torque_nm: f64,
     /// Tyre force on the wheel, wheel frame (forward, left), N.
     pub tyre_force_n: [f64; 2],
+    /// Slip ratio of the drive tyre.
     pub slip_ratio: f64,
+    /// Slip angle of the drive tyre, rad.
     pub slip_angle_rad: f64,
+    /// The tyre's force is on its friction limit.
     pub sliding: bool,
     /// Wheel contact point, world frame, m.
     pub contact_m: [f64; 2],
@@ -32,21 +41,28 @@ pub struct SideSnapshot {
 /// One castor.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CastorSnapshot {
+    /// Swivel axis, world frame, m.
     pub swivel_m: [f64; 2],
+    /// Contact patch, world frame, m.
     pub patch_m: [f64; 2],
+    /// Castor wheel heading, world frame, rad.
     pub heading_rad: f64,
     /// Swivel angle relative to the body, rad (0: trailing straight).
     pub swivel_rad: f64,
+    /// Floor force on the castor, world frame, N.
     pub force_n: [f64; 2],
 }
 
 /// The state of the whole simulation at an instant.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Snapshot {
+    /// Time, s.
     pub t_s: f64,
+    /// Pose of the drive-axle midpoint.
     pub pose: Pose,
     /// Velocity of the axle midpoint, body frame (forward, left), m/s.
     pub velocity_m_s: [f64; 2],
+    /// Yaw rate, rad/s.
     pub yaw_rate_rad_s: f64,
     /// (left, right).
     pub sides: [SideSnapshot; 2],
@@ -57,6 +73,7 @@ pub struct Snapshot {
     pub castor_drag_n: f64,
     /// Coil readings (left, right), counts.
     pub sensors_adc: [f64; 2],
+    /// Rear coil readings (left, right), counts (0 without a rear pair).
     pub rear_sensors_adc: [f64; 2],
     /// Coil positions, world frame.
     pub coils_m: [[f64; 2]; 2],
@@ -70,16 +87,23 @@ pub struct Snapshot {
     pub duty_counts: [f64; 2],
     /// Firmware demand before the duty limits (forward, turn), counts.
     pub command_counts: [f64; 2],
+    /// Battery terminal voltage, V.
     pub battery_v: f64,
+    /// Battery current, A.
     pub battery_current_a: f64,
+    /// The DCMC is braking (disabled or faulted).
     pub dcmc_braking: bool,
+    /// The DCMC's latched fault, by name.
     pub dcmc_fault: Option<&'static str>,
+    /// The firmware's phase, by name.
     pub controller_phase: &'static str,
+    /// The coils lost the wire at the last interrupt.
     pub lost_wire: bool,
     /// The axle midpoint is beyond the far end of an open wire.
     pub past_wire_end: bool,
     /// Wheels lifted off the floor (the chassis stays put; no tracking to speak of).
     pub wheels_lifted: bool,
+    /// The bumper touches an obstacle.
     pub bumper: bool,
     /// The swing-away strategy's picture of the wire, once it has one: a 6 m stretch of
     /// the straight line it assumes, centred on the axle, world frame, m.

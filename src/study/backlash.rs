@@ -5,21 +5,27 @@ use super::{md_table, opt, study_sweep, value_of, write_summary, StudyOptions, S
 use crate::sim::metrics::SETTLED_BAND_M;
 use crate::sweep::SweepError;
 
+/// The scene the study sweeps.
 pub const SCENE: &str = include_str!("../../scenes/lab_offset_120mm.toml");
+/// Its name in messages and manifests.
 pub const SCENE_LABEL: &str = "scenes/lab_offset_120mm.toml";
 
 /// One run of the study.
 #[derive(Debug, Clone, Copy)]
 pub struct BacklashRun {
+    /// Gear play, rad.
     pub play_rad: f64,
+    /// Firmware gain scale.
     pub gain: f64,
     /// Limit-cycle amplitude, m (0: none).
     pub limit_cycle_m: f64,
     /// The error came to stay within the settled band.
     pub settled: bool,
+    /// The sensors lost the wire.
     pub lost_wire: bool,
 }
 
+/// Runs the study into `opts.out_dir`; `progress` follows its sweep.
 pub fn run(
     opts: &StudyOptions,
     progress: &(dyn Fn(usize, usize) + Sync),

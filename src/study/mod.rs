@@ -25,14 +25,20 @@ use crate::sweep::{self, RunResult, SweepError, SweepOptions};
 /// The shipped studies.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum StudyKind {
+    /// Tyre compounds and floors against gain: where slip starts and cycles.
     TyreCompounds,
+    /// The thesis's simulation figures at each fidelity level.
     ThesisFigures,
+    /// Limit cycles against gear play and gain.
     BacklashTolerance,
+    /// Reversing on the front pair, swing away, or a rear pair.
     Reversing,
+    /// The thesis's DCMC as identified, and the shipped machine matched to it.
     ThesisDcmc,
 }
 
 impl StudyKind {
+    /// Every study.
     pub const ALL: [StudyKind; 5] = [
         StudyKind::TyreCompounds,
         StudyKind::ThesisFigures,
@@ -41,6 +47,7 @@ impl StudyKind {
         StudyKind::ThesisDcmc,
     ];
 
+    /// The study's name on the command line.
     pub fn name(self) -> &'static str {
         match self {
             StudyKind::TyreCompounds => "tyre-compounds",
@@ -70,6 +77,7 @@ impl std::str::FromStr for StudyKind {
 /// How to run a study.
 #[derive(Debug, Clone)]
 pub struct StudyOptions {
+    /// Folder for the summary, plots and sweeps.
     pub out_dir: PathBuf,
     /// Parallel runs; 0: one per core.
     pub jobs: usize,
@@ -80,7 +88,9 @@ pub struct StudyOptions {
 /// What a study wrote: its summary (Markdown) and files.
 #[derive(Debug, Clone)]
 pub struct StudyOutput {
+    /// The summary (Markdown).
     pub summary: String,
+    /// Every file written.
     pub files: Vec<PathBuf>,
 }
 

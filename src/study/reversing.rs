@@ -6,8 +6,11 @@
 use super::{md_table, study_sweep, value_of, write_summary, StudyOptions, StudyOutput};
 use crate::sweep::SweepError;
 
+/// The scene reversing with the P-D law on the front pair.
 pub const FRONT_ONLY: &str = include_str!("../../scenes/studies/reversing_front_only.toml");
+/// The scene reversing with the swing-away strategy.
 pub const SWING_AWAY: &str = include_str!("../../scenes/studies/reversing_swing_away.toml");
+/// The scene reversing with the P-D law on a rear pair.
 pub const REAR_PAIR: &str = include_str!("../../scenes/studies/reversing_rear_pair.toml");
 
 /// One reversing configuration.
@@ -80,14 +83,21 @@ fn bent_wire_set() -> String {
 /// lateral error over the second half m, final lateral error m.
 #[derive(Debug, Clone)]
 pub struct ReversingRun {
+    /// Front pair, swing away or rear pair.
     pub configuration: &'static str,
+    /// The wire: straight or bending.
     pub wire: &'static str,
+    /// Start offset from the wire, m.
     pub start_offset_m: f64,
+    /// The sensors lost the wire.
     pub lost_wire: bool,
+    /// RMS lateral error over the second half, m.
     pub late_rms_m: f64,
+    /// Lateral error at the end, m.
     pub final_error_m: f64,
 }
 
+/// Runs the study into `opts.out_dir`; `progress` follows its sweeps.
 pub fn run(
     opts: &StudyOptions,
     progress: &(dyn Fn(usize, usize) + Sync),

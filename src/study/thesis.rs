@@ -6,7 +6,9 @@ use super::{md_table, study_sweep, value_of, write_summary, StudyOptions, StudyO
 use crate::plot::{svg, Series, COLOURS};
 use crate::sweep::SweepError;
 
+/// The lab scene every level runs.
 pub const SCENE: &str = include_str!("../../scenes/lab_offset_120mm.toml");
+/// Its name in messages and manifests.
 pub const SCENE_LABEL: &str = "scenes/lab_offset_120mm.toml";
 
 /// Simulated time of each run, s: long enough for the 0.7-2 s limit cycles to show in the
@@ -16,19 +18,24 @@ pub const DURATION_S: f64 = 20.0;
 /// One run of the study.
 #[derive(Debug, Clone)]
 pub struct ThesisRun {
+    /// Firmware gain scale.
     pub gain: f64,
     /// RMS lateral error over the whole run (the thesis compares whole paths), m.
     pub whole_run_rms_m: f64,
     /// Limit-cycle amplitude (0: none), m.
     pub limit_cycle_m: f64,
+    /// Share of the second half with a drive tyre sliding.
     pub sliding_fraction: f64,
+    /// The sensors lost the wire.
     pub lost_wire: bool,
 }
 
 /// A fidelity level's gain sweep.
 #[derive(Debug, Clone)]
 pub struct ThesisLevel {
+    /// The fidelity level.
     pub level: String,
+    /// Its runs by gain.
     pub runs: Vec<ThesisRun>,
 }
 
@@ -47,8 +54,10 @@ fn gains(level: &str, quick: bool) -> &'static str {
     }
 }
 
+/// The fidelity levels, simplest first.
 pub const LEVELS: [&str; 4] = ["linear", "nonlinear", "complex", "full"];
 
+/// Runs the study into `opts.out_dir`; `progress` follows its sweeps.
 pub fn run(
     opts: &StudyOptions,
     progress: &(dyn Fn(usize, usize) + Sync),

@@ -10,7 +10,9 @@ use super::{md_table, opt, study_sweep, value_of, write_summary, StudyOptions, S
 use crate::plot::{Plot, Series, COLOURS};
 use crate::sweep::SweepError;
 
+/// The scene the study sweeps.
 pub const SCENE: &str = include_str!("../../scenes/studies/tyre_compounds.toml");
+/// Its name in messages and manifests.
 pub const SCENE_LABEL: &str = "scenes/studies/tyre_compounds.toml";
 
 /// A run "slips" when a drive tyre is on its friction limit for at least this share of the
@@ -22,8 +24,11 @@ pub const SLIDING_SHARE: f64 = 0.05;
 /// One compound, floor and payload over the gains.
 #[derive(Debug, Clone)]
 pub struct TyreGroup {
+    /// The compound.
     pub compound: String,
+    /// The floor.
     pub surface: String,
+    /// The payload, kg (as the sweep wrote it).
     pub payload_kg: String,
     /// (gain, sliding fraction, limit-cycle amplitude m (0: none), lost the wire).
     pub runs: Vec<(f64, f64, f64, bool)>,

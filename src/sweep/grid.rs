@@ -40,7 +40,9 @@ pub fn check_size(varies: &[Vary], repeat: usize, max_runs: usize) -> Result<(),
 /// One varied scene key and its values, as TOML value text (`hard_polyurethane`, `2.5`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Vary {
+    /// The dotted scene key.
     pub key: String,
+    /// Its values as `--set` text.
     pub values: Vec<String>,
 }
 
@@ -146,11 +148,14 @@ fn tidy_number(v: f64) -> String {
 /// `--shard I/N`: the I-th (1-based) of N contiguous slices of the runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Shard {
+    /// This slice, from 1.
     pub index: usize,
+    /// Number of slices.
     pub count: usize,
 }
 
 impl Shard {
+    /// The whole sweep as one slice.
     pub const WHOLE: Shard = Shard { index: 1, count: 1 };
 
     /// The run numbers `[start, end)` of this shard among `total`.
@@ -165,6 +170,7 @@ impl std::fmt::Display for Shard {
     }
 }
 
+/// An `I/N` argument.
 pub fn parse_shard(arg: &str) -> Result<Shard, SweepError> {
     let err = || SweepError::Argument {
         arg: format!("--shard {arg}"),
@@ -208,12 +214,16 @@ impl RunPoint {
 /// The full grid of a sweep.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Grid {
+    /// The varied keys, the first slowest in run order.
     pub varies: Vec<Vary>,
+    /// Runs per grid point.
     pub repeat: usize,
+    /// Noise seed of a point's first repeat.
     pub base_seed: u64,
 }
 
 impl Grid {
+    /// A grid, refusing an empty one or one with repeated keys.
     pub fn new(varies: Vec<Vary>, repeat: usize, base_seed: u64) -> Result<Grid, SweepError> {
         if varies.is_empty() {
             return Err(SweepError::Argument {
@@ -256,6 +266,7 @@ impl Grid {
         Ok(g)
     }
 
+    /// Runs in all.
     pub fn total(&self) -> usize {
         self.varies
             .iter()
@@ -282,6 +293,7 @@ impl Grid {
         }
     }
 
+    /// The runs of a slice, in run order.
     pub fn points(&self, shard: Shard) -> Vec<RunPoint> {
         shard.range(self.total()).map(|i| self.point(i)).collect()
     }

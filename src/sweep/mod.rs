@@ -30,32 +30,50 @@ use std::path::PathBuf;
 pub enum SweepError {
     /// A `--vary` or `--shard` argument that cannot be read.
     #[error("{arg}: {message}")]
-    Argument { arg: String, message: String },
+    Argument {
+        /// The argument.
+        arg: String,
+        /// What is wrong and what was expected.
+        message: String,
+    },
+    /// The scene, or a varied value, does not load.
     #[error(transparent)]
     Scene(#[from] crate::scene::SceneError),
     /// A scene whose parameters the simulator refuses (checked before a study's runs).
     #[error(transparent)]
     Sim(#[from] crate::sim::SimError),
+    /// A file could not be read or written.
     #[error("{path}: {source}")]
     Io {
+        /// The file or folder.
         path: PathBuf,
+        /// Why.
         source: std::io::Error,
     },
     /// A results or manifest file that is not what a sweep writes.
     #[error("{path}: {message}")]
-    Format { path: PathBuf, message: String },
+    Format {
+        /// The file.
+        path: PathBuf,
+        /// What is not as a sweep writes it.
+        message: String,
+    },
     /// Shard folders that do not belong together or do not cover the sweep.
     #[error("cannot merge: {0}")]
     Merge(String),
     /// Stopped on request (a signal): the finished runs are kept for `--resume`.
     #[error("interrupted: {done} of {total} runs finished, kept in {partial}; run the same command with --resume to continue")]
     Interrupted {
+        /// Runs finished.
         done: usize,
+        /// Runs in all.
         total: usize,
+        /// Where the finished runs are kept.
         partial: PathBuf,
     },
 }
 
+/// An I/O error on `path`.
 pub fn io_err(path: &std::path::Path) -> impl Fn(std::io::Error) -> SweepError + '_ {
     move |source| SweepError::Io {
         path: path.to_owned(),

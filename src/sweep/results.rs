@@ -11,8 +11,11 @@ use super::run::{RunResult, SweepOptions};
 use super::{io_err, SweepError};
 use crate::sim::metrics::RunSummary;
 
+/// The results table's file name.
 pub const RESULTS_FILE: &str = "results.csv";
+/// The manifest's file name.
 pub const MANIFEST_FILE: &str = "sweep.toml";
+/// The traces' folder name.
 pub const TRACES_DIR: &str = "traces";
 
 /// Printed with a merge: what was checked.
@@ -191,6 +194,7 @@ pub fn write_trace(dir: &Path, r: &RunResult) -> Result<(), SweepError> {
     crate::output::write_atomically(&path, s).map_err(io_err(&path))
 }
 
+/// A run's trace file name.
 pub fn trace_name(index: usize) -> String {
     format!("run_{index:05}.csv")
 }
@@ -199,12 +203,14 @@ pub fn trace_name(index: usize) -> String {
 /// writes back exactly what the shards wrote.
 #[derive(Debug, Clone)]
 pub struct Table {
+    /// The column names.
     pub header: Vec<String>,
     /// (run number, file line of the row, cells).
     pub rows: Vec<(usize, usize, Vec<String>)>,
 }
 
 impl Table {
+    /// Reads a results table, checking its columns and run numbers.
     pub fn parse(text: &str, path: &Path) -> Result<Table, SweepError> {
         let bad = |line: u64, message: String| SweepError::Format {
             path: path.to_owned(),
@@ -249,6 +255,7 @@ impl Table {
         Ok(Table { header, rows })
     }
 
+    /// A column's place by name.
     pub fn column(&self, name: &str) -> Option<usize> {
         self.header.iter().position(|h| h == name)
     }
@@ -296,25 +303,36 @@ impl Table {
 /// `sweep.toml`: what a sweep folder holds.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Manifest {
+    /// The agvsim version that wrote it.
     pub agvsim_version: String,
+    /// The scene file.
     pub scene: String,
     /// FNV-1a hash of the scene text (hex): shards of different scenes are not merged.
     pub scene_hash: String,
+    /// The `--set` overrides.
     pub set: Vec<String>,
+    /// Runs per grid point.
     pub repeat: usize,
+    /// Noise seed of the first repeat.
     pub base_seed: u64,
+    /// Runs of the whole sweep.
     pub total_runs: usize,
     /// `I/N`.
     pub shard: String,
     /// Run numbers `[first, end)` in this folder.
     pub runs: [usize; 2],
+    /// Whether traces were written.
     pub traces: bool,
+    /// The varied keys and values.
     pub vary: Vec<ManifestVary>,
 }
 
+/// One varied key in a manifest.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ManifestVary {
+    /// The dotted key.
     pub key: String,
+    /// Its values.
     pub values: Vec<String>,
 }
 
@@ -328,6 +346,7 @@ fn fnv1a(text: &str) -> String {
 }
 
 impl Manifest {
+    /// The manifest of a sweep's options.
     pub fn of(opts: &SweepOptions) -> Manifest {
         let total = opts.grid.total();
         let r = opts.shard.range(total);
@@ -354,6 +373,7 @@ impl Manifest {
         }
     }
 
+    /// The grid it describes.
     pub fn grid(&self) -> Grid {
         Grid {
             varies: self
@@ -369,6 +389,7 @@ impl Manifest {
         }
     }
 
+    /// Writes `sweep.toml` into `dir`.
     pub fn write(&self, dir: &Path) -> Result<(), SweepError> {
         let path = dir.join(MANIFEST_FILE);
         let text = toml::to_string(self).map_err(|e| SweepError::Format {
@@ -378,6 +399,7 @@ impl Manifest {
         crate::output::write_atomically(&path, text).map_err(io_err(&path))
     }
 
+    /// Reads `sweep.toml` from `dir`.
     pub fn read(dir: &Path) -> Result<Manifest, SweepError> {
         let path = dir.join(MANIFEST_FILE);
         let text = std::fs::read_to_string(&path).map_err(io_err(&path))?;

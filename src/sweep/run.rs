@@ -23,12 +23,15 @@ pub struct SweepOptions {
     pub scene_text: String,
     /// `--set` overrides applied to every run before the varied keys.
     pub set: Vec<String>,
+    /// The grid of varied values.
     pub grid: Grid,
+    /// The slice this call runs.
     pub shard: Shard,
     /// Worker threads; 0: one per core.
     pub jobs: usize,
     /// Also write each run's path and lateral error (`traces/run_NNNNN.csv`).
     pub traces: bool,
+    /// The output folder.
     pub out_dir: PathBuf,
     /// Continue the interrupted sweep in `out_dir` (its finished runs are kept) instead of
     /// replacing it.
@@ -155,20 +158,27 @@ fn check_repeat_has_noise(
 /// lateral error, at the scene's record interval.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Trace {
+    /// Times, s.
     pub t_s: Vec<f64>,
+    /// Distance along the path, m.
     pub distance_m: Vec<f64>,
+    /// Axle position, world x, m.
     pub x_m: Vec<f64>,
+    /// Axle position, world y, m.
     pub y_m: Vec<f64>,
+    /// The sensor pair's lateral error, m.
     pub lateral_error_m: Vec<f64>,
 }
 
 /// One run's outcome.
 #[derive(Debug, Clone)]
 pub struct RunResult {
+    /// The grid point.
     pub point: RunPoint,
     /// The metrics, or why the run stopped (a diverged simulation, a bad combination of
     /// values).
     pub outcome: Result<RunSummary, String>,
+    /// Its trace, when asked for.
     pub trace: Option<Trace>,
 }
 

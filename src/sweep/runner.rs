@@ -20,7 +20,9 @@ pub struct SweepOutput {
     pub results: Vec<RunResult>,
     /// Runs an interrupted sweep had finished, kept by `--resume`.
     pub resumed: usize,
+    /// The results table written.
     pub results_csv: PathBuf,
+    /// The plots written.
     pub plots: Vec<PathBuf>,
 }
 

@@ -29,6 +29,7 @@ pub struct CastorMotion {
 pub struct BodyVelocity {
     /// Velocity of the drive-axle midpoint in the body frame (forward, left), m/s.
     pub axle_m_s: [f64; 2],
+    /// Yaw rate, rad/s.
     pub yaw_rate_rad_s: f64,
 }
 

@@ -46,7 +46,9 @@ pub struct FloorRegion {
 /// Floor: a default surface and convex regions of other surfaces (later ones win).
 #[derive(Clone)]
 pub struct Floor {
+    /// The surface outside every region.
     pub default: &'static Surface,
+    /// Each region: its polygon, its surface and its corners, m.
     pub regions: Vec<(ConvexPolygon, &'static Surface, Vec<[f64; 2]>)>,
 }
 

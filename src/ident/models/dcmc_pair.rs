@@ -82,6 +82,7 @@ pub enum Case {
 }
 
 impl Case {
+    /// The case as the thesis numbers it.
     pub fn label(self) -> &'static str {
         match self {
             Case::Gain => "case 1 (gain)",
@@ -94,11 +95,14 @@ impl Case {
 const SIDES: [&str; 2] = ["left", "right"];
 const DEMANDS: [&str; 2] = ["fwd", "turn"];
 
+/// The thesis's DCMC structures on two lifted drives (forward and turn demand in, left and right motor speed out).
 #[derive(Debug, Clone)]
 pub struct DcmcPair {
+    /// Which structure.
     pub case: Case,
     specs: Vec<ParamSpec>,
     binding: Binding<DcmcPairParams>,
+    /// The speeds are encoders' (count differences over the sample interval).
     pub encoder: bool,
 }
 
@@ -109,6 +113,7 @@ struct MotorLag {
 }
 
 impl DcmcPair {
+    /// The structure a rig describes, starting from the motor's first-order lag.
     pub fn from_rig(rig: &Rig, path: &Path, case: Case) -> Result<DcmcPair, RigError> {
         let why = "the DCMC pair model takes its starting values from the motor";
         let need = |k: &str| rig.require(k, path, why);

@@ -60,9 +60,15 @@ pub enum Loop {
     /// `command_V` is given.
     Open,
     /// command = kv (kp (reference - position) - speed), clipped to the drive limit.
-    PositionVelocityCascade { kp_1_s: f64, kv_v_s_m: f64 },
+    PositionVelocityCascade {
+        /// Position gain, 1/s.
+        kp_1_s: f64,
+        /// Velocity gain, V per m/s.
+        kv_v_s_m: f64,
+    },
 }
 
+/// A linear axis with any effects switched on.
 #[derive(Debug, Clone)]
 pub struct LinearAxis {
     specs: Vec<ParamSpec>,
@@ -71,6 +77,7 @@ pub struct LinearAxis {
     pub force_per_volt: f64,
     /// Command limit, V (infinite when the rig gives none).
     pub limit_v: f64,
+    /// The loop that produced the command, if any.
     pub feedback: Loop,
     /// Effects switched on, with the index of each one's parameter.
     pub effects: effects::EffectSlots,

@@ -36,7 +36,9 @@ const DRIVE_ROTATING_SHARE: f64 = 0.1;
 /// One converted test: its file stem suffix and its recording's text.
 #[derive(Debug, Clone)]
 pub struct Converted {
+    /// The test's name (the recording's file-name suffix).
     pub test: String,
+    /// The recording's text.
     pub text: String,
 }
 
@@ -75,7 +77,11 @@ fn speed_factor(log: &SysIdLog, a: &Assumptions) -> Result<(f64, String), String
 }
 
 /// The tests as recordings.
-pub fn convert(log: &SysIdLog, source: &str, a: &Assumptions) -> Result<Vec<Converted>, String> {
+pub(crate) fn convert(
+    log: &SysIdLog,
+    source: &str,
+    a: &Assumptions,
+) -> Result<Vec<Converted>, String> {
     let (f, how) = speed_factor(log, a)?;
     let mut out = Vec::new();
     for test in &log.tests {
@@ -191,7 +197,7 @@ fn median_period(test: &Test) -> f64 {
 /// drivetrain, both sides together as SysId combines them; rad/s of shaft otherwise). A
 /// turning drivetrain is read as SysId reads it: the mean of the two sides' magnitudes,
 /// signed by the direction of turn.
-pub fn series(log: &SysIdLog, a: &Assumptions) -> Result<Vec<Series>, String> {
+pub(crate) fn series(log: &SysIdLog, a: &Assumptions) -> Result<Vec<Series>, String> {
     let (f, _) = speed_factor(log, a)?;
     let mut out = Vec::new();
     for test in &log.tests {
@@ -244,7 +250,7 @@ pub fn gravity(m: Mechanism) -> Gravity {
 }
 
 /// The regression on the whole log.
-pub fn feedforward(log: &SysIdLog, a: &Assumptions) -> Result<Feedforward, String> {
+pub(crate) fn feedforward(log: &SysIdLog, a: &Assumptions) -> Result<Feedforward, String> {
     let s = series(log, a)?;
     feedforward::fit(
         &s,
@@ -269,7 +275,11 @@ fn resistance_from_current(log: &SysIdLog, kv: f64, f: f64) -> Option<f64> {
 
 /// The nominal rig of the linear machine SysId's kV and kA describe, as TOML text with a
 /// header that says which values came from the log and which were assumed.
-pub fn nominal_rig(log: &SysIdLog, ff: &Feedforward, a: &Assumptions) -> Result<String, String> {
+pub(crate) fn nominal_rig(
+    log: &SysIdLog,
+    ff: &Feedforward,
+    a: &Assumptions,
+) -> Result<String, String> {
     let (f, _) = speed_factor(log, a)?;
     let kv = ff.kv_v_s_per_unit.value;
     let ka = ff.ka_v_s2_per_unit.value;

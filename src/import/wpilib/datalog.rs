@@ -14,6 +14,7 @@ use std::collections::BTreeMap;
 /// One entry (a named data channel) of the log.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Entry {
+    /// The entry's name.
     pub name: String,
     /// The entry's type string (`double`, `string`, ...).
     pub kind: String,
@@ -26,7 +27,9 @@ pub struct Entry {
 /// One decoded data value.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Value {
+    /// A number (double, float, integer, boolean as 0/1).
     Number(f64),
+    /// A string.
     Text(String),
     /// A value of a type not decoded here (arrays, raw, structs), by its payload size.
     Other(usize),
@@ -35,7 +38,9 @@ pub enum Value {
 /// A whole log: every entry ever started, by the order they were started in.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct DataLog {
+    /// The header's extra string.
     pub extra_header: String,
+    /// Every entry.
     pub entries: Vec<Entry>,
 }
 
@@ -43,7 +48,9 @@ pub struct DataLog {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("byte {offset}: {message}")]
 pub struct FormatError {
+    /// Byte offset of the fault.
     pub offset: usize,
+    /// What was wrong there.
     pub message: String,
 }
 

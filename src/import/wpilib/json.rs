@@ -19,7 +19,7 @@ pub const TESTS: [&str; 4] = [
 ];
 
 /// Parses a SysId JSON file's text. Errors name the key, test and row.
-pub fn parse(text: &str) -> Result<SysIdLog, String> {
+pub(crate) fn parse(text: &str) -> Result<SysIdLog, String> {
     let root: Value = serde_json::from_str(text.trim_start_matches('\u{feff}')).map_err(|e| {
         format!(
             "not valid JSON at line {}, column {}: {e} (NaN or Infinity are not JSON numbers)",

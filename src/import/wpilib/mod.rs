@@ -1,9 +1,9 @@
 //! WPILib SysId logs to contract recordings: the JSON data files of SysId (2022-2023) and
 //! the DataLog (`.wpilog`) files that `SysIdRoutineLog` writes (2024 on). Both become a
 //! [`SysIdLog`]: the mechanism, the position unit and the tests (quasistatic and dynamic,
-//! forward and backward), each a list of samples in the log's own units. [`convert`]
+//! forward and backward), each a list of samples in the log's own units. `convert`
 //! turns each test into a recording (rig `vehicle` for drivetrains, `drive_axis` for a
-//! single mechanism) with every unit conversion stated in its header, and [`nominal_rig`]
+//! single mechanism) with every unit conversion stated in its header, and `nominal_rig`
 //! writes the rig a linear fit (SysId's kV and kA) gives.
 
 pub mod datalog;
@@ -11,7 +11,8 @@ pub mod json;
 pub mod wpilog;
 
 mod convert;
-pub use convert::{convert, feedforward, gravity, nominal_rig, series, Assumptions, Converted};
+use convert::{convert, feedforward, nominal_rig};
+pub use convert::{gravity, Assumptions, Converted};
 
 use std::f64::consts::TAU;
 
@@ -42,6 +43,7 @@ impl Mechanism {
         }
     }
 
+    /// The mechanism by its SysId name (any case).
     pub fn from_name(s: &str) -> Option<Mechanism> {
         [
             Mechanism::Drivetrain,
@@ -54,6 +56,7 @@ impl Mechanism {
         .find(|m| m.name().eq_ignore_ascii_case(s))
     }
 
+    /// Whether it is a drivetrain (two sides).
     pub fn is_drivetrain(self) -> bool {
         matches!(self, Mechanism::Drivetrain | Mechanism::DrivetrainAngular)
     }
@@ -66,6 +69,7 @@ pub struct Unit {
     pub name: &'static str,
     /// Factor to metres (linear) or radians (angular).
     pub to_si: f64,
+    /// Whether it is a length (else an angle).
     pub linear: bool,
 }
 
@@ -118,22 +122,28 @@ pub fn unit(s: &str) -> Option<Unit> {
 /// One side's (or the one motor's) measurements at a sample, in the log's units.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Side {
+    /// Voltage, V.
     pub voltage_v: f64,
+    /// Position, in the log's unit.
     pub position: f64,
     /// Position unit per second.
     pub velocity: f64,
+    /// Current, A, when logged.
     pub current_a: Option<f64>,
 }
 
 /// One sample of a test.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sample {
+    /// Time, s.
     pub t_s: f64,
     /// The left side, or the mechanism's one motor.
     pub left: Side,
+    /// The right side of a drivetrain.
     pub right: Option<Side>,
     /// Gyro heading, rad, and its rate, rad/s (drivetrains, when logged).
     pub gyro_angle_rad: Option<f64>,
+    /// The gyro's rate, rad/s.
     pub gyro_rate_rad_s: Option<f64>,
 }
 
@@ -143,16 +153,20 @@ pub struct Test {
     /// `quasistatic-forward`, `dynamic-reverse`, ... (SysId's JSON says `slow-forward`,
     /// `fast-backward`; both are kept as the log names them).
     pub name: String,
+    /// Its samples, in time order.
     pub samples: Vec<Sample>,
 }
 
 /// A whole SysId log.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SysIdLog {
+    /// The mechanism characterised.
     pub mechanism: Mechanism,
+    /// Its position unit.
     pub unit: Unit,
     /// What each test says about where the data came from (file kind, entries).
     pub source: String,
+    /// The tests, in log order.
     pub tests: Vec<Test>,
 }
 
@@ -160,13 +174,15 @@ pub struct SysIdLog {
 #[derive(Debug, thiserror::Error)]
 #[error("{file}: {message}")]
 pub struct SysIdError {
+    /// The log.
     pub file: std::path::PathBuf,
+    /// What is wrong, with the test, row or record.
     pub message: String,
 }
 
 /// Checks a test's samples as the contract needs them: times strictly increasing, every
 /// value finite. Reported with the test and the row (from 0), never fixed.
-pub fn check_test(test: &Test) -> Result<(), String> {
+pub(crate) fn check_test(test: &Test) -> Result<(), String> {
     let mut last: Option<f64> = None;
     for (i, s) in test.samples.iter().enumerate() {
         let mut values = vec![
@@ -236,9 +252,13 @@ pub fn load(path: &std::path::Path, choice: &wpilog::Choice) -> Result<SysIdLog,
 /// An imported log: one recording per test, the nominal rig and SysId's gains.
 #[derive(Debug, Clone)]
 pub struct Imported {
+    /// The log as read.
     pub log: SysIdLog,
+    /// One recording per test.
     pub recordings: Vec<Converted>,
+    /// The nominal rig's text.
     pub rig: String,
+    /// SysId's gains from its own regression.
     pub feedforward: crate::ident::feedforward::Feedforward,
     /// The speed unit the gains are per (`m/s` or `rad/s`).
     pub speed_unit: &'static str,

@@ -221,7 +221,7 @@ fn stretches(state: &Entry) -> Result<Vec<(String, f64, f64)>, String> {
 }
 
 /// Extracts the routine's tests from a parsed log.
-pub fn extract(log: &DataLog, choice: &Choice) -> Result<SysIdLog, String> {
+pub(crate) fn extract(log: &DataLog, choice: &Choice) -> Result<SysIdLog, String> {
     let routine = routine(log, choice)?;
     let state = find(log, &format!("{STATE_PREFIX}{routine}")).expect("found by routine()");
     let motors = motors(log, &routine, choice)?;

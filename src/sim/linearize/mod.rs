@@ -54,8 +54,10 @@ const READING_SCALE_ADC: f64 = 100.0;
 /// Errors of a linearisation.
 #[derive(Debug, thiserror::Error)]
 pub enum LinearizeError {
+    /// The simulator cannot set the scene up.
     #[error(transparent)]
     Sim(#[from] SimError),
+    /// The scene's controller or level has no linearisation here (the reason).
     #[error("{0}")]
     Unsupported(String),
 }
@@ -63,6 +65,7 @@ pub enum LinearizeError {
 /// The linearised plant about its operating point.
 #[derive(Debug, Clone)]
 pub struct Linearisation {
+    /// The level linearised.
     pub level: Fidelity,
     /// Steady forward speed at the operating point, m/s (negative reversing).
     pub speed_m_s: f64,
@@ -70,11 +73,14 @@ pub struct Linearisation {
     pub voltage_v: f64,
     /// Which coil pair is the output: "front" or "rear".
     pub sensors: &'static str,
+    /// Sample interval of the discrete-time model, s.
     pub dt_s: f64,
     /// Discrete-time matrices over one step: x+ = A x + B u, y = C x (u: left and right
     /// voltage, V; y: left and right coil reading, counts).
     pub a: DMatrix<f64>,
+    /// Input matrix (motor voltages).
     pub b: DMatrix<f64>,
+    /// Output matrix (the coil pair's difference).
     pub c: DMatrix<f64>,
     /// The firmware's P-D law and the DCMC about the operating point, when the scene runs
     /// the P-D law through the gain or proportional-speed DCMC.

@@ -12,8 +12,11 @@ const RANK_TOLERANCE: f64 = 1e-7;
 /// What the linearisation shows.
 #[derive(Debug, Clone)]
 pub struct Reach {
+    /// Number of states.
     pub states: usize,
+    /// Rank of controllability from the motor voltages.
     pub controllable_rank: usize,
+    /// Rank of observability from the coil pair.
     pub observable_rank: usize,
     /// Per state: the share (0-1) of it outside the controllable subspace.
     pub uncontrollable_share: Vec<f64>,

@@ -1,6 +1,7 @@
 //! The machine's own lifted-wheel runs identified with the thesis's case-1 structure,
 //! and the indirect fit that chooses the DCMC keys so that they give the thesis's A and B.
 
+use super::ThesisDcmcError;
 use nalgebra::Matrix2;
 
 use super::reference::{column_ratios, CASE1, THESIS_LIKE_HOLD, THESIS_LIKE_PEAK_PCT};
@@ -11,15 +12,19 @@ use crate::scene::Scene;
 /// A 2x2 continuous-time state-space pair (A, B) with standard deviations.
 #[derive(Debug, Clone, Copy)]
 pub struct PairModel {
+    /// A, 1/s.
     pub a: Matrix2<f64>,
+    /// B, rad/s^2 per pct.
     pub b: Matrix2<f64>,
 }
 
 impl PairModel {
+    /// Each side's time constant, -1 / A's diagonal, s.
     pub fn time_constants_s(&self) -> [f64; 2] {
         [-1.0 / self.a[(0, 0)], -1.0 / self.a[(1, 1)]]
     }
 
+    /// Each row's turn over forward column of B.
     pub fn column_ratios(&self) -> [f64; 2] {
         column_ratios(&[
             [self.b[(0, 0)], self.b[(0, 1)]],
@@ -46,7 +51,7 @@ pub fn identify_lifted(
     dir: &std::path::Path,
     seed: u64,
     reference: Option<&std::path::Path>,
-) -> Result<(PairModel, Option<PairModel>), String> {
+) -> Result<(PairModel, Option<PairModel>), ThesisDcmcError> {
     use crate::experiment::{run_experiment, ExperimentKind, ExperimentOptions};
     use crate::ident::{identify, IdentifyOptions, ModelChoice};
     use crate::record::Recording;
@@ -61,17 +66,16 @@ pub fn identify_lifted(
             hold_samples: THESIS_LIKE_HOLD,
             ..ExperimentOptions::default()
         },
-    )
-    .map_err(|e| e.to_string())?;
-    let rig = Rig::load(&out.rig).map_err(|e| e.to_string())?;
+    )?;
+    let rig = Rig::load(&out.rig)?;
     let opts = IdentifyOptions {
         model: Some(ModelChoice::Gain),
         ..IdentifyOptions::default()
     };
-    let id_of = |path: &std::path::Path| -> Result<PairModel, String> {
-        let rec = Recording::load(path).map_err(|e| e.to_string())?;
-        let id = identify(&rig, &out.rig, &rec, None, &opts).map_err(|e| e.to_string())?;
-        pair_model(&id).ok_or_else(|| "the case-1 fit has no state-space report".to_string())
+    let id_of = |path: &std::path::Path| -> Result<PairModel, ThesisDcmcError> {
+        let rec = Recording::load(path)?;
+        let id = identify(&rig, &out.rig, &rec, None, &opts)?;
+        pair_model(&id).ok_or(ThesisDcmcError::NoStateSpace)
     };
     let machine = id_of(&out.recording)?;
     let reference = reference.map(id_of).transpose()?;
@@ -100,6 +104,7 @@ pub struct Case1Match {
     /// Each A and B entry's distance from the thesis's, in the thesis's standard
     /// deviations (A11, A22, B11, B12, B21, B22).
     pub z: [f64; 6],
+    /// Solver iterations.
     pub iterations: usize,
 }
 
@@ -110,7 +115,10 @@ pub const MATCH_SEEDS: [u64; 4] = [1, 2, 3, 4];
 
 /// The mean of the case-1 models identified from the thesis-like lifted runs with
 /// [`MATCH_SEEDS`].
-pub fn identify_lifted_mean(scene: &Scene, dir: &std::path::Path) -> Result<PairModel, String> {
+pub fn identify_lifted_mean(
+    scene: &Scene,
+    dir: &std::path::Path,
+) -> Result<PairModel, ThesisDcmcError> {
     let mut a = Matrix2::zeros();
     let mut b = Matrix2::zeros();
     for seed in MATCH_SEEDS {
@@ -137,15 +145,15 @@ fn case1_z(m: &PairModel) -> [f64; 6] {
 }
 
 /// Indirect inference: Levenberg-Marquardt on the logs of [`MATCHED_KEYS`], minimising the
-/// squared distances [`case1_z`] of the machine's identified case-1 model from the
+/// squared distances (`case1_z`) of the machine's identified case-1 model from the
 /// thesis's. The thesis's case-1 structure gives both demands one time constant per
 /// side, which the machine's turn path does not share; matching what that structure
 /// makes of the machine, rather than fitting the machine to the structure's output, is
 /// what keeps the comparison fair. Deterministic (fixed seeds).
-pub fn match_case1(scene: &Scene, dir: &std::path::Path) -> Result<Case1Match, String> {
+pub fn match_case1(scene: &Scene, dir: &std::path::Path) -> Result<Case1Match, ThesisDcmcError> {
     let mut base = scene.clone();
     ResponseForm::ForwardLag.isolate(&mut base);
-    let eval = |z: &[f64; 3]| -> Result<(PairModel, [f64; 6]), String> {
+    let eval = |z: &[f64; 3]| -> Result<(PairModel, [f64; 6]), ThesisDcmcError> {
         let mut s = base.clone();
         for (k, v) in MATCHED_KEYS.iter().zip(z) {
             set_number(&mut s, k, v.exp());

@@ -54,9 +54,35 @@ use crate::scene::keys::set_number;
 use crate::ident::data::Dataset;
 use crate::scene::Scene;
 
+/// Why the thesis-DCMC study could not be done.
+#[derive(Debug, thiserror::Error)]
+pub enum ThesisDcmcError {
+    /// A lifted-wheel experiment stopped.
+    #[error(transparent)]
+    Experiment(#[from] crate::experiment::ExperimentError),
+    /// Its rig did not load.
+    #[error(transparent)]
+    Rig(#[from] crate::rig::RigError),
+    /// A recording did not load.
+    #[error(transparent)]
+    Recording(#[from] crate::record::RecordingError),
+    /// An identification could not be done.
+    #[error(transparent)]
+    Ident(#[from] crate::ident::IdentError),
+    /// A fit through the simulator could not be done.
+    #[error(transparent)]
+    Fit(#[from] crate::ident::fit::FitError),
+    /// A floor run stopped.
+    #[error(transparent)]
+    Sim(#[from] crate::sim::SimError),
+    /// The case-1 identification gave no state-space model.
+    #[error("the case-1 fit has no state-space report")]
+    NoStateSpace,
+}
 /// One response form fitted to the reference, and what the machine then does.
 #[derive(Debug, Clone)]
 pub struct FormResult {
+    /// The form.
     pub form: ResponseForm,
     /// Fitted keys (the form's order) with standard deviations.
     pub fitted: Vec<(String, f64, Option<f64>)>,
@@ -74,6 +100,7 @@ pub struct FormResult {
 /// The matched machine with a lag on the turn demand too: what the floor allows.
 #[derive(Debug, Clone)]
 pub struct TurnLagProbe {
+    /// The turn demand's lag, s.
     pub turn_response_time_s: f64,
     /// Its thesis-like lifted runs identified with case 1 (mean over [`MATCH_SEEDS`]).
     pub identified: PairModel,
@@ -103,7 +130,7 @@ fn try_form(
     data: &Dataset,
     form: ResponseForm,
     dir: &std::path::Path,
-) -> Result<FormResult, String> {
+) -> Result<FormResult, ThesisDcmcError> {
     let (fit, model) = fit_dcmc_keys(scene, data, form)?;
     let fitted = form
         .keys()
@@ -119,7 +146,7 @@ fn try_form(
     let identified = identify_lifted_mean(&machine, dir)?;
     let mut floor_scene = machine.clone();
     floor_scene.sim.fidelity = crate::scene::Fidelity::Complex;
-    let floor = crate::sweep::run::summarise(&floor_scene).map_err(|e| e.to_string())?;
+    let floor = crate::sweep::run::summarise(&floor_scene)?;
     let rightmost_pole_1_s = crate::sim::linearize::linearise(&machine)
         .ok()
         .and_then(|l| crate::sim::linearize::close_loop(&l))
@@ -154,7 +181,7 @@ fn probe_turn_lag(
     scene: &Scene,
     m: &Case1Match,
     dir: &std::path::Path,
-) -> Result<Vec<TurnLagProbe>, String> {
+) -> Result<Vec<TurnLagProbe>, ThesisDcmcError> {
     PROBED_TURN_LAGS_S
         .iter()
         .map(|&t| {
@@ -162,7 +189,7 @@ fn probe_turn_lag(
             s.dcmc.turn_response_time_s = t;
             let identified = identify_lifted_mean(&s, dir)?;
             s.sim.fidelity = crate::scene::Fidelity::Complex;
-            let floor = crate::sweep::run::summarise(&s).map_err(|e| e.to_string())?;
+            let floor = crate::sweep::run::summarise(&s)?;
             Ok(TurnLagProbe {
                 turn_response_time_s: t,
                 identified,
@@ -180,9 +207,9 @@ pub fn run(
 ) -> Result<(ThesisDcmcResult, crate::study::StudyOutput), crate::sweep::SweepError> {
     use crate::record::Recording;
     use crate::sweep::SweepError;
-    let err = |m: String| SweepError::Format {
+    let err = |e: ThesisDcmcError| SweepError::Format {
         path: opts.out_dir.clone(),
-        message: m,
+        message: e.to_string(),
     };
     let scene = Scene::from_toml(
         crate::study::thesis::SCENE,
@@ -193,13 +220,13 @@ pub fn run(
     let ref_path = opts.out_dir.join("case1_reference.csv");
     let text = reference_recording(&ReferenceSpec::default());
     crate::output::write_atomically(&ref_path, &text).map_err(crate::sweep::io_err(&ref_path))?;
-    let rec = Recording::parse(&text, &ref_path).map_err(|e| err(e.to_string()))?;
+    let rec = Recording::parse(&text, &ref_path).map_err(|e| err(e.into()))?;
     let data = Dataset::from_recording(
         &rec,
         &LiftedDcmcReplay::INPUTS.map(String::from),
         &LiftedDcmcReplay::OUTPUTS.map(String::from),
     )
-    .map_err(|e| err(e.to_string()))?;
+    .map_err(|e| err(e.into()))?;
     let forms = ResponseForm::ALL
         .iter()
         .map(|f| try_form(&scene, &data, *f, &opts.out_dir.join("forms")))

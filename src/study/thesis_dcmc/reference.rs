@@ -12,12 +12,15 @@ use rand_pcg::Pcg64;
 pub struct ThesisCase1 {
     /// Diagonal of A, 1/s.
     pub a_1_s: [f64; 2],
+    /// Their standard deviations, 1/s.
     pub a_std_1_s: [f64; 2],
     /// B, rad/s^2 per pct, rows (left, right), columns (forward, turn).
     pub b: [[f64; 2]; 2],
+    /// Their standard deviations.
     pub b_std: [[f64; 2]; 2],
     /// Determinant of the residual covariance, (rad/s)^4.
     pub loss: f64,
+    /// Akaike's final prediction error.
     pub fpe: f64,
     /// Sample interval, s.
     pub sample_s: f64,
@@ -70,6 +73,7 @@ pub const THESIS_LIKE_HOLD: (usize, usize) = (20, 60);
 /// How the reference recording is made.
 #[derive(Debug, Clone, Copy)]
 pub struct ReferenceSpec {
+    /// Length, s.
     pub duration_s: f64,
     /// Peak forward demand, pct; turn demand peaks at half of it.
     pub peak_demand_pct: f64,
@@ -77,6 +81,7 @@ pub struct ReferenceSpec {
     pub hold_samples: (usize, usize),
     /// Zero demand at the start (the DCMC faults on a demand within 0.5 s of enabling).
     pub quiet_s: f64,
+    /// Seed of the demands and noise.
     pub seed: u64,
 }
 

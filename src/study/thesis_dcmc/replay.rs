@@ -1,6 +1,7 @@
 //! The simulator's lifted-wheel machine replaying a recording's demands, as a model the
 //! output-error fitter can fit: its parameters are scene keys of the DCMC.
 
+use super::ThesisDcmcError;
 use crate::ident::data::Dataset;
 use crate::ident::fit::{fit_predictor, Fit, FitSettings};
 use crate::ident::model::{Diverged, ParamSpec, Predictor};
@@ -22,6 +23,7 @@ pub enum ResponseForm {
 }
 
 impl ResponseForm {
+    /// Every form.
     pub const ALL: [ResponseForm; 4] = [
         ResponseForm::ForwardLag,
         ResponseForm::ForwardAndTurnLag,
@@ -61,6 +63,7 @@ impl ResponseForm {
         }
     }
 
+    /// The form in words.
     pub fn name(self) -> &'static str {
         match self {
             ResponseForm::ForwardLag => "lag on the forward demand",
@@ -118,7 +121,7 @@ pub struct LiftedDcmcReplay {
 
 impl LiftedDcmcReplay {
     /// The scene's machine with its wheels lifted and only the form's response; the
-    /// scene's values of the keys are the starting values ([`starting_value`]).
+    /// scene's values of the keys are the starting values (`starting_value`).
     pub fn new(scene: &Scene, form: ResponseForm) -> LiftedDcmcReplay {
         let mut scene = scene.clone();
         scene.sim.wheels_lifted = true;
@@ -147,7 +150,9 @@ impl LiftedDcmcReplay {
         s
     }
 
+    /// The recording's inputs.
     pub const INPUTS: [&'static str; 2] = ["demand_fwd_pct", "demand_turn_pct"];
+    /// The recording's outputs.
     pub const OUTPUTS: [&'static str; 2] = ["left_motor_speed_rad_s", "right_motor_speed_rad_s"];
 }
 
@@ -197,7 +202,7 @@ pub fn fit_dcmc_keys(
     scene: &Scene,
     data: &Dataset,
     form: ResponseForm,
-) -> Result<(Fit, LiftedDcmcReplay), String> {
+) -> Result<(Fit, LiftedDcmcReplay), ThesisDcmcError> {
     let model = LiftedDcmcReplay::new(scene, form);
     let nominal: Vec<f64> = model.specs.iter().map(|s| s.nominal).collect();
     let settings = FitSettings {
@@ -206,6 +211,6 @@ pub fn fit_dcmc_keys(
         max_iterations: 40,
         starts: vec![nominal],
     };
-    let f = fit_predictor(&model, data, &settings).map_err(|e| e.to_string())?;
+    let f = fit_predictor(&model, data, &settings)?;
     Ok((f, model))
 }

@@ -3,9 +3,8 @@
 //! parameter vector as named values, and the order one evaluation runs them in.
 
 use crate::ident::data::Dataset;
-use crate::ident::effects::{self, Effect};
+use crate::ident::effects::{Effect, SupplyBlocks};
 use crate::ident::model::{Dynamics, GreyBox, OutputKind, ParamSpec};
-use crate::model::battery::BatteryParams;
 use crate::model::drivetrain::{DrivetrainParams, DrivetrainState};
 use crate::model::gearbox::GearboxParams;
 use crate::model::motor::{MotorParams, MotorState};
@@ -29,12 +28,9 @@ pub struct AxisBlocks {
     pub demand_gain_v_pct: f64,
     /// The DCMC's own speed loop (the speed-feedback block).
     pub speed_loop: Option<SpeedLoopGains>,
-    /// The bridges' voltage limit, V (the voltage-saturation block).
-    pub drive_limit_v: Option<f64>,
-    /// The battery under the bridge (the battery-sag block).
-    pub battery: Option<BatteryParams>,
-    /// Dead time between the command and the drive, s (the transport-delay block).
-    pub delay_s: f64,
+    /// The bridges' limit, the sagging battery and the command's dead time (the
+    /// supply effects' blocks).
+    pub supply: SupplyBlocks,
     /// Mechanical time constant of the motor and wheel, s.
     pub mechanical_time_constant_s: f64,
 }
@@ -118,15 +114,12 @@ impl RotaryAxis {
             speed_loop: on(Effect::SpeedFeedback).then(|| {
                 SpeedLoopGains::calibrated_to_motor(a.motor.torque_constant_nm_a, a.dcmc.ki_v_rad)
             }),
-            drive_limit_v: on(Effect::VoltageSaturation).then_some(a.battery.drive_limit_v),
-            battery: on(Effect::BatterySag).then(|| {
-                effects::sagging_battery(self.supply_v, a.battery.internal_resistance_ohm)
-            }),
-            delay_s: if on(Effect::TransportDelay) {
-                a.dcmc.command_delay_s
-            } else {
-                0.0
-            },
+            supply: SupplyBlocks::of(
+                &self.effects,
+                &a.battery,
+                a.dcmc.command_delay_s,
+                self.supply_v,
+            ),
             mechanical_time_constant_s: self.mechanical_time_constant_s(a),
         }
     }
@@ -148,10 +141,10 @@ impl RotaryAxis {
             v = gains.voltage_v(setpoint, s.motor.speed_rad_s, integral);
             integral_rate = setpoint - s.motor.speed_rad_s;
         }
-        if let Some(limit) = b.drive_limit_v {
+        if let Some(limit) = b.supply.drive_limit_v {
             v = v.clamp(-limit, limit);
         }
-        if let Some(battery) = b.battery {
+        if let Some(battery) = b.supply.battery {
             v = battery.bridges_output_v([v], [s.motor.current_a])[0];
         }
         (v, integral_rate)
@@ -307,7 +300,7 @@ impl Dynamics for RotaryAxis {
     }
 
     fn input_delay_s(&self, b: &AxisBlocks) -> f64 {
-        b.delay_s
+        b.supply.delay_s
     }
 
     fn event_fraction(&self, b: &AxisBlocks, before: &[f64], after: &[f64], h: f64) -> Option<f64> {

@@ -3,7 +3,7 @@
 //!
 //! `L di/dt = V - R i - K w`, `(Jm + Jw/N^2) dw/dt = K i - b w`, `dtheta/dt = w`, with all
 //! viscous friction `b` referred to the motor shaft, as the rig format defines it. The laws
-//! are the simulator's blocks (`crate::model`), assembled in [`dynamics`].
+//! are the simulator's blocks (`crate::model`), assembled in `dynamics`.
 
 mod dynamics;
 
@@ -54,6 +54,7 @@ pub struct TorqueCommand {
 /// position-velocity cascade on the load side of a rotary axis.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WheelCascade {
+    /// Position gain, 1/s.
     pub kp_1_s: f64,
     /// V per rad/s of the wheel.
     pub kv_v_s_rad: f64,
@@ -200,11 +201,12 @@ fn without_effects() -> AxisParams {
 /// Tooth contact of the backlash block, referred to the wheel (not in the rig; the fit
 /// is insensitive to it once it is stiff against the sample rate).
 pub const TOOTH_STIFFNESS_NM_RAD: f64 = 5000.0;
+/// Tooth damping of the backlash block, referred to the wheel, N m s/rad.
 pub const TOOTH_DAMPING_NM_S_RAD: f64 = 3.0;
 /// Longest RK4 step against the tooth mesh's rate ([`GearboxParams::mesh_rate`]), as
 /// `h * rate`: the standard the electrical mode is held to (`h <= L / R`). What limits the
 /// accuracy through a play is the timing of the teeth meeting and parting, which the
-/// integrator places by splitting the step there ([`GreyBox::event_fraction`]). Measured
+/// integrator places by splitting the step there ([`crate::ident::model::Dynamics::event_fraction`]). Measured
 /// on the one-physics test's 0.05 rad play (8 s of multisine voltage): the outputs lie
 /// within 0.35 % of their range of a 100 times finer integration, as they did at 0.3
 /// without the split (0.38 %), at a third of the steps; the simulator's within 0.31 %.
@@ -246,6 +248,7 @@ pub struct RotaryAxis {
     specs: Vec<ParamSpec>,
     /// Each parameter's key in [`axis_keys`].
     binding: Binding<AxisParams>,
+    /// What drives the axis.
     pub input: AxisInput,
     /// Motor turns per wheel turn (known exactly from the tooth counts).
     pub ratio: f64,
@@ -260,6 +263,7 @@ pub struct RotaryAxis {
 }
 
 impl RotaryAxis {
+    /// The axis a rig describes, driven by `input`.
     pub fn from_rig(rig: &Rig, path: &Path, input: AxisInput) -> Result<RotaryAxis, RigError> {
         let torque_driven = matches!(input, AxisInput::Torque(_));
         let need = |k: &str| match (torque_driven, rig.get(k)) {

@@ -4,7 +4,7 @@
 
 use std::sync::OnceLock;
 
-use crate::ident::effects::{self, Effect};
+use crate::ident::effects::{Effect, SupplyBlocks};
 use crate::ident::models::rotary_axis::{drivetrain_blocks, PlayShare};
 use crate::model::battery::BatteryParams;
 use crate::model::chassis::{ChassisParams, NoSlipBody};
@@ -113,7 +113,7 @@ pub(super) fn without_effects() -> VehicleParams {
 #[derive(Debug, Clone, Copy)]
 pub struct VehicleBlocks {
     /// Each side's motor (with Coulomb friction when switched on), gear train and wheel
-    /// ([`drivetrain_blocks`]).
+    /// (the rotary axis's `drivetrain_blocks`).
     pub drivetrain: DrivetrainParams,
     /// Whether a play separates each motor's motion from its wheel's (the backlash block).
     pub play: bool,
@@ -127,13 +127,11 @@ pub struct VehicleBlocks {
     pub tyre_stiffness_per_n: [f64; 2],
     /// The tyres' friction limit (the wheel-slip block).
     pub peak_mu: Option<f64>,
+    /// The castors' rolling drag (the castor-drag block).
     pub castors: Option<CastorDrag>,
-    /// The bridges' voltage limit, V (the voltage-saturation block).
-    pub drive_limit_v: Option<f64>,
-    /// The battery both bridges draw on, with duty-setting bridges (the battery-sag block).
-    pub battery: Option<BatteryParams>,
-    /// Dead time between the commands and the drives, s (the transport-delay block).
-    pub delay_s: f64,
+    /// The bridges' limit, the sagging battery and the command's dead time (the
+    /// supply effects' blocks).
+    pub supply: SupplyBlocks,
 }
 
 impl Vehicle {
@@ -179,15 +177,12 @@ impl Vehicle {
             ],
             peak_mu: on(Effect::WheelSlip).then_some(a.tyre.peak_mu),
             castors: on(Effect::CastorDrag).then_some(a.castor_drag),
-            drive_limit_v: on(Effect::VoltageSaturation).then_some(a.battery.drive_limit_v),
-            battery: on(Effect::BatterySag).then(|| {
-                effects::sagging_battery(self.supply_v, a.battery.internal_resistance_ohm)
-            }),
-            delay_s: if on(Effect::TransportDelay) {
-                a.dcmc.command_delay_s
-            } else {
-                0.0
-            },
+            supply: SupplyBlocks::of(
+                &self.effects,
+                &a.battery,
+                a.dcmc.command_delay_s,
+                self.supply_v,
+            ),
         }
     }
 }

@@ -46,6 +46,7 @@ pub const LOAD_FRACTION: &str = "chassis.drive_load_fraction";
 /// simulator's hard-compound preset): they only set the small creep of a tyre below its
 /// friction limit.
 pub const DEFAULT_LONG_STIFFNESS_PER_N: f64 = 30.0;
+/// Lateral counterpart of [`DEFAULT_LONG_STIFFNESS_PER_N`], per rad.
 pub const DEFAULT_LAT_STIFFNESS_PER_N: f64 = 25.0;
 /// Share of the weight on the drive wheels when the rig does not give it.
 pub const DEFAULT_DRIVE_LOAD_FRACTION: f64 = 0.6;
@@ -74,13 +75,16 @@ pub struct Vehicle {
     pub encoder: bool,
     /// Supply voltage the rig states, V.
     pub supply_v: f64,
+    /// Effects switched on, with the places of their parameters.
     pub effects: effects::EffectSlots,
     /// Smoothing speeds of Coulomb friction (rad/s, motor) and castor drag (m/s).
     pub coulomb_eps_rad_s: f64,
+    /// Smoothing speed of castor drag, m/s.
     pub drag_eps_m_s: f64,
     /// Tracker noise (rig `[sensors]`, else 2 mm and 5 mrad): weights of the start-pose
     /// alignment.
     pub tracker_position_noise_m: f64,
+    /// Heading noise of the tracker, rad.
     pub tracker_heading_noise_rad: f64,
     /// Whether the nominal model keeps the tyres' creep between wheels and floor (a
     /// tracked pose sees it) or lets the wheels roll without slip (wheel encoders and a
@@ -90,6 +94,7 @@ pub struct Vehicle {
 }
 
 impl Vehicle {
+    /// The vehicle a rig describes.
     pub fn from_rig(rig: &Rig, path: &Path) -> Result<Vehicle, RigError> {
         let need = |k: &str| rig.require(k, path, "the whole-vehicle model needs it");
         let l = need("motor.inductance_H")?;
@@ -269,10 +274,10 @@ impl Vehicle {
     /// bridges' limit, then both bridges' duty against one sagging battery.
     fn terminal_voltages(&self, b: &VehicleBlocks, cmd: [f64; 2], current: [f64; 2]) -> [f64; 2] {
         let mut v = cmd;
-        if let Some(limit) = b.drive_limit_v {
+        if let Some(limit) = b.supply.drive_limit_v {
             v = v.map(|v| v.clamp(-limit, limit));
         }
-        if let Some(battery) = b.battery {
+        if let Some(battery) = b.supply.battery {
             // Both bridges draw on one battery.
             v = battery.bridges_output_v(v, current);
         }
@@ -422,7 +427,7 @@ impl Dynamics for Vehicle {
     }
 
     fn input_delay_s(&self, b: &VehicleBlocks) -> f64 {
-        b.delay_s
+        b.supply.delay_s
     }
 
     /// The order of one evaluation: terminal voltages (saturation, sag), each side's
