@@ -76,7 +76,7 @@ pub enum ImportFormat {
         /// Track width, m [default: from a turning test's gyro, else 0.6, said as assumed].
         #[arg(long, value_parser = positive_number)]
         track_width_m: Option<f64>,
-        /// Battery voltage, V [default 12].
+        /// Battery voltage, V [default: none stated; the logged voltages are the applied ones].
         #[arg(long, value_parser = positive_number)]
         supply_v: Option<f64>,
     },

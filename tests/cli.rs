@@ -663,7 +663,12 @@ fn diagnose_effects_option_is_checked() {
         ],
     ] {
         let out = agvsim().args(&args).output().unwrap();
-        assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
+        assert_eq!(
+            out.status.code(),
+            Some(2),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
     }
 }
 

@@ -46,7 +46,7 @@ impl Problem<'_> {
         let nominal: Vec<f64> = model.param_specs().iter().map(|s| s.nominal).collect();
         let settings = FitSettings {
             free: (0..free.len()).collect(),
-            weights: self.weights.clone(),
+            weighting: crate::ident::fit::Weighting::outputs_only(self.weights.clone()),
             max_iterations: 30,
             starts: vec![nominal.clone()],
         };

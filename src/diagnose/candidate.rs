@@ -65,7 +65,7 @@ pub(super) struct Context<'a> {
     pub explore: &'a Dataset,
     /// The stage's cost on [`Context::explore`].
     pub explore_stage_cost: f64,
-    pub weights: &'a [f64],
+    pub weights: &'a fit::Weighting,
     pub scales: &'a Scales,
     pub max_iterations: usize,
 }
@@ -120,7 +120,12 @@ impl Context<'_> {
         }
         let screen = (!screened.is_empty())
             .then(|| {
-                let from: Vec<Vec<f64>> = screened.into_iter().map(|f| f.params).collect();
+                // The scans' start from the stage's fit is raced with the screen's: a
+                // first part that cannot determine a parameter (a slow ramp, the mass)
+                // leaves it anywhere, and the whole record's fit from there can settle in
+                // a worse basin than from where the stage had it.
+                let mut from: Vec<Vec<f64>> = screened.into_iter().map(|f| f.params).collect();
+                from.extend(setup.starts.first().cloned());
                 self.fit_from(&setup, from, self.data)
             })
             .flatten();
@@ -240,7 +245,7 @@ impl Context<'_> {
     fn settings(&self, free: Vec<usize>, starts: Vec<Vec<f64>>) -> FitSettings {
         FitSettings {
             free,
-            weights: self.weights.to_vec(),
+            weighting: self.weights.clone(),
             max_iterations: self.max_iterations,
             starts,
         }

@@ -57,38 +57,35 @@ pub(crate) fn describe(e: Effect, v: f64, linear: bool) -> String {
     }
 }
 
-/// Effective number of independent residuals per output: N / (1 + 2 sum of the residual's
-/// autocorrelation over lags until it first falls below 0.05).
-pub(crate) fn effective_n(data: &Dataset, predicted: &[Vec<f64>]) -> Vec<f64> {
-    data.outputs
-        .iter()
-        .enumerate()
-        .map(|(j, col)| {
-            let e: Vec<f64> = col
-                .iter()
-                .zip(&predicted[j])
-                .filter_map(|(y, p)| y.map(|y| y - p))
-                .collect();
-            let n = e.len() as f64;
-            let m = e.iter().sum::<f64>() / n.max(1.0);
-            let var: f64 = e.iter().map(|v| (v - m).powi(2)).sum();
-            if var == 0.0 {
-                return n.max(1.0);
-            }
-            let mut sum = 0.0;
-            for lag in 1..(e.len() / 4).min(500) {
-                let r: f64 = (0..e.len() - lag)
-                    .map(|k| (e[k] - m) * (e[k + lag] - m))
-                    .sum::<f64>()
-                    / var;
-                if r < 0.05 {
-                    break;
-                }
-                sum += r;
-            }
-            (n / (1.0 + 2.0 * sum)).max(1.0)
-        })
-        .collect()
+pub(crate) use crate::ident::weighting::effective_n;
+
+/// Why a record cannot tell two effects apart that explain it equally, and what record
+/// would: the physics each adds, where it differs.
+pub(crate) fn what_separates(a: Effect, b: Effect) -> String {
+    use Effect::*;
+    let pair = |x: Effect, y: Effect| (a == x && b == y) || (a == y && b == x);
+    if pair(CoulombFriction, CastorDrag) {
+        "castor drag or Coulomb friction: the same constant force on a straight run; a turn on the spot separates them (castor drag resists turning through the castors' lever, Coulomb friction acts at each motor), as does a test with the drive wheels lifted (no castor then)".into()
+    } else if pair(CoulombFriction, Offset) {
+        "Coulomb friction or an offset: the same constant force while the motion keeps one direction; a record moving both ways separates them (friction reverses with the motion, an offset does not)".into()
+    } else if pair(VoltageSaturation, BatterySag) {
+        "a clipped drive voltage or a sagging battery: both lower the voltage at large commands; steps of several sizes separate them (a clip is the same at every current, a sag grows with it), as does a recorded current".into()
+    } else if pair(WheelSlip, VoltageSaturation) || pair(WheelSlip, BatterySag) {
+        format!(
+            "wheel slip or {}: both cap the acceleration at a hard step; a measured ground speed (a pose tracker) separates them (slip makes the wheels outrun the chassis, a weaker drive slows both), as do steps of several sizes",
+            if pair(WheelSlip, BatterySag) { "a sagging battery" } else { "a clipped drive voltage" }
+        )
+    } else if pair(TransportDelay, Backlash) {
+        "a dead time or gear play: both delay the response after a reversal; steps in one direction separate them (a delay acts at every step, a play only where the motion reverses)".into()
+    } else if pair(CoulombFriction, FrictionAsymmetry) || pair(Offset, FrictionAsymmetry) {
+        "a constant force or a direction-dependent viscous friction: both make one direction slower; runs at several speeds each way separate them (viscous friction grows with speed, a constant force does not)".into()
+    } else {
+        format!(
+            "{} or {}: they change this record's outputs alike; a record that excites them differently (other amplitudes, both directions, a turn) would separate them",
+            a.name(),
+            b.name()
+        )
+    }
 }
 
 /// Sum of squared residuals per output.
@@ -179,7 +176,10 @@ pub(crate) fn evidence(shares: &[RegimeShare], reduction_pct: f64) -> String {
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Gain {
     /// Likelihood gain with the reference's effective residual counts ([`effective_n`]),
-    /// less the AIC's two per added free parameter.
+    /// less the AIC's two per added free parameter, less what the richer fit's parameters
+    /// moved away from the rig's beliefs (the change in the priors' part of -2 ln
+    /// posterior): a gain bought by dragging the mass to ten times its belief is no
+    /// evidence for the effect.
     pub delta_aic: f64,
     /// Share of the reference's residual sum of squares removed.
     pub reduction: f64,
@@ -191,8 +191,9 @@ impl Gain {
         let added = (richer.free.len() - reference.free.len()) as f64;
         Gain {
             delta_aic: likelihood_gain(data, &reference.predicted, reference_n, &richer.predicted)
-                - 2.0 * added,
-            reduction: 1.0 - richer.cost / reference.cost,
+                - 2.0 * added
+                - (richer.prior_sq - reference.prior_sq),
+            reduction: 1.0 - richer.rss() / reference.rss(),
         }
     }
 

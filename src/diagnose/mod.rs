@@ -76,6 +76,12 @@ pub struct Candidate {
     /// Its gain passed the rule, but the stage's own structure refitted from where the
     /// candidate's fit ended reaches it too: not the effect's.
     pub reached_without_it: bool,
+    /// The bound of its search its parameter ended on, if it did: then it is no estimate,
+    /// and the effect is not found whatever its gain.
+    pub at_bound: Option<f64>,
+    /// Its parameter's standard deviation could not be had: the record does not
+    /// determine it, and the effect is not found whatever its gain.
+    pub undetermined: bool,
 }
 
 /// An accepted effect.
@@ -95,6 +101,24 @@ pub struct Finding {
     pub evidence: String,
     /// The physics in words.
     pub description: String,
+    /// Other effects this record cannot tell from it: they passed the same rule, and the
+    /// evidence for this one is not [`MIN_DELTA_AIC`] stronger.
+    pub alternatives: Vec<Alternative>,
+}
+
+/// An effect a record cannot tell from the one found.
+#[derive(Debug, Clone, Serialize)]
+pub struct Alternative {
+    /// The effect's vocabulary name.
+    pub name: String,
+    /// Its parameter's vocabulary name.
+    pub param: String,
+    /// Its fitted value.
+    pub value: f64,
+    /// How much less AIC it gains than the effect found.
+    pub delta_aic_behind: f64,
+    /// Why the record cannot tell them apart, and what record would.
+    pub separated_by: String,
 }
 
 /// The result of a diagnosis.
@@ -110,6 +134,8 @@ pub struct Diagnosis {
     pub baseline_params: BTreeMap<String, f64>,
     /// Contract input columns of the recording the model has no use for.
     pub ignored_inputs: Vec<String>,
+    /// Outputs the recording measures but does not excite, left out of the fit.
+    pub left_out: Vec<crate::ident::LeftOut>,
     /// Free baseline parameters whose search ended at a bound (name, bound): no
     /// estimates, but signs that the rig's belief or the model's structure is wrong.
     pub baseline_at_bound: BTreeMap<String, f64>,
@@ -141,6 +167,19 @@ pub struct Diagnosis {
     /// SysId's kS, kV, kA of the same record, beside what diagnosis finds (voltage-driven
     /// records; kS as a motor torque with the baseline's torque constant and resistance).
     pub feedforward: Option<crate::ident::feedforward::Report>,
+    /// SysId's terms the diagnosed model implies, with their standard deviations, in the
+    /// regression's unit of speed (voltage-driven DC drives).
+    pub sysid_terms: Option<crate::ident::sysid_terms::FittedTerms>,
+    /// The baseline's parameters as fitted: values, standard deviations, what the record
+    /// alone determines, and which its beliefs held.
+    pub baseline_estimates: Vec<crate::ident::ParamReport>,
+    /// The diagnosed model's parameters as fitted.
+    pub final_estimates: Vec<crate::ident::ParamReport>,
+    /// How long the diagnosed model's residual stays correlated, s: the blocks its
+    /// standard deviations treat as independent (one sample interval: white).
+    pub correlation_s: f64,
+    /// The same in samples (1: a white residual).
+    pub correlation_rows: usize,
 }
 
 impl Diagnosis {
@@ -170,6 +209,7 @@ impl Diagnosis {
                     "fit_pct": f.fit_pct,
                     "evidence": f.evidence,
                     "description": f.description,
+                    "cannot_be_told_from": f.alternatives,
                 })
             })
             .collect();
@@ -177,9 +217,22 @@ impl Diagnosis {
             "recording": self.recording,
             "model": self.model,
             "ignored_inputs": self.ignored_inputs,
-            "baseline": {"fit_pct": self.baseline_fit_pct, "params": self.baseline_params, "at_bound": self.baseline_at_bound},
+            "left_out": self.left_out,
+            "baseline": {
+                "fit_pct": self.baseline_fit_pct,
+                "fit_pct_per_output": self.baseline.fit_pct,
+                "params": self.baseline_params,
+                "at_bound": self.baseline_at_bound,
+                "estimates": self.baseline_estimates,
+            },
             "effects": effects,
-            "final": {"fit_pct": self.final_fit_pct, "params": self.final_params},
+            "final": {
+                "fit_pct": self.final_fit_pct,
+                "fit_pct_per_output": self.diagnosed.fit_pct,
+                "params": self.final_params,
+                "estimates": self.final_estimates,
+                "residual_correlation_s": self.correlation_s,
+            },
             "where_before": self.where_before,
             "where_after": self.where_after,
             "candidates": self.rounds,
@@ -190,6 +243,9 @@ impl Diagnosis {
             v["sysid_feedforward"] = serde_json::json!(ff);
             if let Some(ks) = self.coulomb_as_ks_v() {
                 v["sysid_feedforward"]["diagnosed_ks_v"] = ks.into();
+            }
+            if let Some(t) = &self.sysid_terms {
+                v["sysid_feedforward"]["diagnosed_terms"] = serde_json::json!(t);
             }
         }
         if let Some((b, d)) = &self.validation {
@@ -282,18 +338,18 @@ pub fn diagnose(
             });
         }
     }
-    let data = Dataset::from_recording(rec, &model.input_names(), &model.output_names())?;
+    let (data, left_out) = crate::ident::dataset_for(model, rec)?;
     check_decidable(&data, rec)?;
     let free = model.default_free_for(&data);
     crate::ident::enough_data(rec, &data, free.len())?;
     let base_fit = fit_structure(model, &data, &free, &opts.ident, &model.nominal())
         .map_err(|e| crate::ident::diverging_start(rec, &data, e))?;
-    let weights = base_fit.weights.clone();
+    let weights = base_fit.weighting.clone();
     let n_eff_outputs = effective_n(&data, &base_fit.predicted);
     let n_eff: f64 = n_eff_outputs.iter().sum();
     let speed = regimes::measured_speed(&data);
     let regs = regimes::regimes(&data, &speed);
-    let base_energy = regimes::energy_per_sample(&data, &base_fit.predicted, &weights);
+    let base_energy = regimes::energy_per_sample(&data, &base_fit.predicted, &weights.outputs);
     let scales = scales(&structure, &base_fit.params, &data, &speed);
     let baseline_eval = evaluate(&data, base_fit.predicted.clone(), opts.ident.max_lag);
     crate::ident::finite_loss(rec, &data, &baseline_eval)?;
@@ -386,9 +442,15 @@ pub fn diagnose(
                 Effect::WheelSlip => value > hi / 1.5,
                 _ => lo > 0.0 && value < 1.5 * lo,
             };
-            let significant = gain.passes() && !at_null_bound;
             let idx = f.params.len() - 1;
             let slot = f.free.len() - 1;
+            // An effect whose parameter ends on either bound of its search (a peak friction
+            // coefficient of 0.05, a 500 ms delay) or that the record does not determine
+            // is no finding, whatever its gain: the gain is the search's, not the physics'.
+            let at_bound = crate::ident::bound_reached(value, lo, hi);
+            let undetermined = f.std[slot].is_none();
+            let significant =
+                gain.passes() && !at_null_bound && at_bound.is_none() && !undetermined;
             let eval = crate::ident::fit_pct_mean(&data, &f.predicted);
             round.push(Candidate {
                 name: e.name().into(),
@@ -401,6 +463,8 @@ pub fn diagnose(
                 significant,
                 screened_only,
                 reached_without_it: false,
+                at_bound,
+                undetermined,
             });
             if significant {
                 significants.push((gain.delta_aic, e, cand, f));
@@ -410,8 +474,27 @@ pub fn diagnose(
             candidate::earned_beyond_the_stage(&context, &data, &mut significants, &mut round);
         round.sort_by(|a, b| b.delta_aic.total_cmp(&a.delta_aic));
         rounds.push(round);
-        let Some((_, e, cand, f)) = best else { break };
-        let after = regimes::energy_per_sample(&data, &f.predicted, &weights);
+        let Some((best_aic, e, cand, f)) = best else {
+            break;
+        };
+        let alternatives: Vec<Alternative> = rounds
+            .last()
+            .into_iter()
+            .flatten()
+            .filter(|c| c.name != e.name() && c.significant)
+            .filter(|c| best_aic - c.delta_aic < MIN_DELTA_AIC)
+            .filter_map(|c| {
+                let other = Effect::from_name(&c.name)?;
+                Some(Alternative {
+                    name: c.name.clone(),
+                    param: c.param.clone(),
+                    value: c.value,
+                    delta_aic_behind: best_aic - c.delta_aic,
+                    separated_by: evidence::what_separates(e, other),
+                })
+            })
+            .collect();
+        let after = regimes::energy_per_sample(&data, &f.predicted, &weights.outputs);
         let removed: Vec<f64> = base_energy
             .iter()
             .zip(&after)
@@ -419,7 +502,7 @@ pub fn diagnose(
             .collect();
         let evidence = evidence(
             &regimes::shares(&regs, &removed, removed.iter().sum()),
-            100.0 * (1.0 - f.cost / stage.fit.cost),
+            100.0 * (1.0 - f.rss() / stage.fit.rss()),
         );
         let idx = f.params.len() - 1;
         findings.push(Finding {
@@ -430,13 +513,14 @@ pub fn diagnose(
             fit_pct: crate::ident::fit_pct_mean(&data, &f.predicted),
             evidence,
             description: describe(e, f.params[idx], linear),
+            alternatives,
         });
         stage = Stage {
             structure: cand,
             fit: f,
         };
     }
-    let final_energy = regimes::energy_per_sample(&data, &stage.fit.predicted, &weights);
+    let final_energy = regimes::energy_per_sample(&data, &stage.fit.predicted, &weights.outputs);
     let base_total_energy: f64 = base_energy.iter().sum();
     let diagnosed_eval = evaluate(&data, stage.fit.predicted.clone(), opts.ident.max_lag);
     let params_of = |s: &Structure, p: &[f64]| -> BTreeMap<String, f64> {
@@ -451,7 +535,7 @@ pub fn diagnose(
     };
     let validation = match validation {
         Some(v) => {
-            let vd = Dataset::from_recording(v, &model.input_names(), &model.output_names())?;
+            let (vd, _) = crate::ident::dataset_for(model, v)?;
             let sim = |s: &Structure, p: &[f64]| {
                 s.model()
                     .simulate_record(p, &vd)
@@ -482,7 +566,25 @@ pub fn diagnose(
         final_params.get("motor.torque_constant_Nm_A").copied(),
         final_params.get("motor.resistance_ohm").copied(),
     );
+    let sysid_terms = feedforward.as_ref().and_then(|ff| {
+        let unit = match ff.speed_unit.as_str() {
+            "m/s" => "m/s",
+            "rad/s" => "rad/s",
+            _ => return None,
+        };
+        crate::ident::sysid_terms::of_fit(stage.structure.model(), &stage.fit, unit)
+    });
+    let dt = {
+        let mut dts: Vec<f64> = data.t_s.windows(2).map(|w| w[1] - w[0]).collect();
+        dts.sort_by(f64::total_cmp);
+        dts.get(dts.len() / 2).copied().unwrap_or(0.0)
+    };
     Ok(Diagnosis {
+        sysid_terms,
+        baseline_estimates: crate::ident::param_reports(structure.model(), &base_fit),
+        final_estimates: crate::ident::param_reports(stage.structure.model(), &stage.fit),
+        correlation_s: stage.fit.correlation_rows as f64 * dt,
+        correlation_rows: stage.fit.correlation_rows,
         feedforward,
         relative_error_before_pct,
         relative_error_after_pct,
@@ -491,6 +593,7 @@ pub fn diagnose(
         baseline_fit_pct: baseline_eval.fit_pct_mean,
         baseline_params,
         baseline_at_bound: at_bound_of(&structure, &base_fit),
+        left_out,
         ignored_inputs: crate::ident::ignored_inputs(
             rec,
             &crate::ident::model_columns(structure.model()),

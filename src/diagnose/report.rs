@@ -3,17 +3,13 @@
 
 use std::fmt::Write as _;
 
-use super::Diagnosis;
+use super::{Candidate, Diagnosis};
+use crate::ident::ParamReport;
 
 /// The diagnosis in plain words.
 pub fn render(d: &Diagnosis) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "Recording: {}   model: {}", d.recording, d.model);
-    let _ = writeln!(
-        s,
-        "Baseline (nominal model, parameters fitted): fit {:.2} %",
-        d.baseline_fit_pct
-    );
     if !d.ignored_inputs.is_empty() {
         let _ = writeln!(
             s,
@@ -21,6 +17,16 @@ pub fn render(d: &Diagnosis) -> String {
             d.ignored_inputs.join(", ")
         );
     }
+    for l in &d.left_out {
+        let _ = writeln!(s, "Left out of the fit: {}: {}", l.output, l.why);
+    }
+    let _ = writeln!(
+        s,
+        "Baseline (nominal model, parameters fitted): fit {:.2} %{}",
+        d.baseline_fit_pct,
+        per_output(&d.baseline.fit_pct)
+    );
+    held_lines(&mut s, &d.baseline_estimates, "the baseline");
     for (name, bound) in &d.baseline_at_bound {
         let _ = writeln!(
             s,
@@ -54,15 +60,7 @@ pub fn render(d: &Diagnosis) -> String {
                 c.value,
                 c.rss_reduction_pct,
                 c.delta_aic,
-                if c.significant {
-                    "significant"
-                } else if c.reached_without_it {
-                    "not the effect's: the stage refitted from its fit reaches it"
-                } else if c.screened_only {
-                    "screened (full search skipped)"
-                } else {
-                    ""
-                }
+                verdict(c)
             );
         }
     }
@@ -80,21 +78,40 @@ pub fn render(d: &Diagnosis) -> String {
             f.value
         );
         let _ = writeln!(s, "  evidence: {}", f.evidence);
-        let _ = writeln!(s, "  fit {:.2} % -> {:.2} %", d.baseline_fit_pct, f.fit_pct);
-    }
-    if let Some(ff) = &d.feedforward {
-        s.push_str(&crate::ident::feedforward::render_report(ff));
-        if let Some(f) = d.findings.iter().find(|f| f.param == "coulomb_torque_Nm") {
+        for a in &f.alternatives {
             let _ = writeln!(
                 s,
-                "  beside it, diagnosis's coulomb_friction: {:.4e} N m at the motor shaft",
-                f.value
+                "  the record cannot tell it from {} ({} = {:.4e}, dAIC {:.1} behind): {}",
+                a.name, a.param, a.value, a.delta_aic_behind, a.separated_by
             );
         }
-        if let Some(ks) = d.coulomb_as_ks_v() {
+        let _ = writeln!(s, "  fit {:.2} % -> {:.2} %", d.baseline_fit_pct, f.fit_pct);
+    }
+    if !d.findings.is_empty() {
+        let _ = writeln!(
+            s,
+            "Diagnosed model: fit {:.2} %{}",
+            d.final_fit_pct,
+            per_output(&d.diagnosed.fit_pct)
+        );
+        held_lines(&mut s, &d.final_estimates, "the diagnosed model");
+    }
+    uncertainty_line(&mut s, d);
+    if let Some(ff) = &d.feedforward {
+        s.push_str(&crate::ident::feedforward::render_report(ff));
+        if let Some(t) = &d.sysid_terms {
+            let sd = |v: Option<f64>| v.map(|v| format!(" ± {v:.4}")).unwrap_or_default();
             let _ = writeln!(
                 s,
-                "  diagnosis's coulomb_friction as SysId's kS (Tc R / K, diagnosed K and R): {ks:.4} V"
+                "  the diagnosed model in SysId's terms (kS = R Tc / K, kV = (K + R b / K) n, kA = R J n / K): kS = {:.4}{} V, kV = {:.5}{} V/({}), kA = {:.5}{} V/({}/s)",
+                t.value.ks_v,
+                sd(t.std.map(|t| t.ks_v)),
+                t.value.kv,
+                sd(t.std.map(|t| t.kv)),
+                t.speed_unit,
+                t.value.ka,
+                sd(t.std.map(|t| t.ka)),
+                t.speed_unit,
             );
         }
     }
@@ -112,9 +129,75 @@ pub fn render(d: &Diagnosis) -> String {
     if let Some((b, a)) = &d.validation {
         let _ = writeln!(
             s,
-            "Validation {}: fit {:.2} % (baseline) -> {:.2} % (diagnosed)",
-            b.recording, b.fit_pct_mean, a.fit_pct_mean
+            "Validation {}: fit {:.2} % (baseline) -> {:.2} % (diagnosed){}",
+            b.recording,
+            b.fit_pct_mean,
+            a.fit_pct_mean,
+            per_output(&a.fit_pct)
         );
     }
     s
+}
+
+/// Why a candidate was or was not taken, in words.
+fn verdict(c: &Candidate) -> &'static str {
+    if c.significant {
+        "significant"
+    } else if c.at_bound.is_some() {
+        "at its search bound: no estimate"
+    } else if c.undetermined {
+        "the record does not determine its parameter"
+    } else if c.reached_without_it {
+        "not the effect's: the stage refitted from its fit reaches it"
+    } else if c.screened_only {
+        "screened (full search skipped)"
+    } else {
+        ""
+    }
+}
+
+/// " (output a %, output b %)" for several outputs; nothing for one.
+fn per_output(fits: &std::collections::BTreeMap<String, f64>) -> String {
+    if fits.len() < 2 {
+        return String::new();
+    }
+    let parts: Vec<String> = fits.iter().map(|(o, f)| format!("{o} {f:.2} %")).collect();
+    format!(" ({})", parts.join(", "))
+}
+
+/// The parameters a fit's beliefs held, each with what the record alone determines.
+fn held_lines(s: &mut String, estimates: &[ParamReport], whose: &str) {
+    let held: Vec<&ParamReport> = estimates.iter().filter(|p| p.held).collect();
+    if held.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        s,
+        "Held near the rig's belief in {whose} (the record determines them less well than the belief does):"
+    );
+    for p in held {
+        let alone = match p.data_std {
+            Some(sd) => format!("± {:.0} %", 100.0 * sd / p.value.abs().max(1e-300)),
+            None => "nothing".into(),
+        };
+        let _ = writeln!(
+            s,
+            "  {} = {:.5e} (belief {:.5e} ± {:.0} %; the record alone: {alone})",
+            p.name,
+            p.value,
+            p.nominal,
+            p.belief_sd_pct.unwrap_or(f64::NAN)
+        );
+    }
+}
+
+/// How far the standard deviations can be trusted: the residual's correlation time.
+fn uncertainty_line(s: &mut String, d: &Diagnosis) {
+    if d.correlation_rows > 1 {
+        let _ = writeln!(
+            s,
+            "Standard deviations: the residual is not white (it stays correlated over {:.3} s); they come from the spread of {:.3} s blocks' scores with the rig's beliefs, not from a white-noise assumption",
+            d.correlation_s, d.correlation_s
+        );
+    }
 }

@@ -8,7 +8,11 @@ use crate::ident::Structure;
 pub(crate) struct Scales {
     /// Largest actuation voltage (or force command), V.
     pub v_max: f64,
-    /// Largest measured speed.
+    /// Largest measured speed of the drive: the motor shaft's, rad/s (a rotary axis, a
+    /// vehicle), or the load's, m/s (a linear axis). A vehicle measured by its wheels'
+    /// rim speeds or a tracker (m/s) has it through the gear ratio and the wheel radius:
+    /// the friction laws' smoothing speed is a share of it, and a rim speed taken for a
+    /// motor speed made Coulomb friction's law a hundred times too stiff to fit.
     pub speed_max: f64,
     /// Typical sample interval, s.
     pub dt: f64,
@@ -69,6 +73,13 @@ pub(crate) fn scales(structure: &Structure, p: &[f64], data: &Dataset, speed: &[
         }
         Structure::Vehicle(m) => {
             let a = m.declared(p);
+            let motor_measured = data.output_index("left_motor_speed_rad_s").is_some()
+                && data.output_index("right_motor_speed_rad_s").is_some();
+            let speed_max = if motor_measured {
+                speed_max
+            } else {
+                speed_max * m.ratio / a.wheel.radius_m
+            };
             let v_max = data
                 .inputs
                 .iter()

@@ -67,7 +67,7 @@ pub(super) fn scan(
     params: &[f64],
     grid: &[f64],
     data: &Dataset,
-    weights: &[f64],
+    weights: &fit::Weighting,
 ) -> Vec<f64> {
     let m = cand.model();
     let idx = m.params().len() - 1;
@@ -139,7 +139,7 @@ pub(super) fn profile_scan(
     others: &[usize],
     grid: &[f64],
     data: &Dataset,
-    weights: &[f64],
+    weights: &fit::Weighting,
 ) -> Vec<Vec<f64>> {
     let m = cand.model();
     let fitted: Vec<Option<(f64, Vec<f64>)>> = grid
@@ -149,7 +149,7 @@ pub(super) fn profile_scan(
             p[idx] = g;
             let settings = fit::FitSettings {
                 free: others.to_vec(),
-                weights: weights.to_vec(),
+                weighting: weights.clone(),
                 max_iterations: 8,
                 starts: vec![p],
             };

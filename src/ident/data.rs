@@ -68,6 +68,18 @@ impl Dataset {
             .collect()
     }
 
+    /// The same record without the outputs `names`.
+    pub fn without_outputs(&self, names: &[String]) -> Dataset {
+        let keep: Vec<usize> = (0..self.output_names.len())
+            .filter(|&j| !names.contains(&self.output_names[j]))
+            .collect();
+        Dataset {
+            output_names: keep.iter().map(|&j| self.output_names[j].clone()).collect(),
+            outputs: keep.iter().map(|&j| self.outputs[j].clone()).collect(),
+            ..self.clone()
+        }
+    }
+
     /// Row ranges of the independent records.
     pub fn segments(&self) -> Vec<std::ops::Range<usize>> {
         crate::record::segment_ranges(&self.segment_starts, self.len())

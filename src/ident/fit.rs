@@ -1,6 +1,8 @@
 //! Output-error fitting: Levenberg-Marquardt on the simulated outputs of a grey-box model,
-//! within physical bounds, with the parameter covariance from the Jacobian and the residual
-//! variance.
+//! within physical bounds, each believed parameter held towards the rig's belief by its
+//! prior (a maximum a posteriori fit), with a covariance that holds on real records
+//! (`covariance`: a block sandwich over the residual's correlation time, combined with
+//! the priors).
 //!
 //! Positive-bounded parameters are searched on a log scale (so a step can never make a
 //! resistance negative and relative precision is uniform); others on a linear scale
@@ -20,13 +22,82 @@ enum Coord {
     Linear { scale: f64 },
 }
 
+/// How a fit weighs what it minimises: each output's residuals by its weight, and each
+/// believed parameter's squared standardised distance from its belief by `prior`.
+///
+/// With the output weights at 1 / (each output's residual RMS) the weighted residuals have
+/// unit variance, and `prior` = N / N_eff, the measured cells over the residual's
+/// effective number of independent samples: a coloured residual (model mismatch, slow
+/// disturbances) is worth far fewer samples than it has, and the beliefs must weigh
+/// against what the record is worth, not against its row count ([`Weighting::prior_for`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Weighting {
+    /// Per-output weights (1 / expected residual RMS, the output's unit), in the dataset's
+    /// output order.
+    pub outputs: Vec<f64>,
+    /// Weight of the beliefs' squared standardised deviations; 0: no priors.
+    pub prior: f64,
+    /// Which parameters' beliefs count (indices into the model's parameters); `None`:
+    /// every believed one. A fit holds only what the record cannot determine better than
+    /// the belief ([`Fit::held_by_belief`]): a determined parameter's estimate is then the
+    /// record's alone, whatever the belief.
+    pub holding: Option<Vec<usize>>,
+}
+
+impl Weighting {
+    /// Output weights alone, no priors.
+    pub fn outputs_only(outputs: Vec<f64>) -> Weighting {
+        Weighting {
+            outputs,
+            prior: 0.0,
+            holding: None,
+        }
+    }
+
+    /// Whether the belief of parameter `i` counts.
+    pub fn holds(&self, i: usize) -> bool {
+        self.holding.as_ref().is_none_or(|h| h.contains(&i))
+    }
+
+    /// The beliefs' part of the cost at `p` (unweighted): [`belief_sq`] over the
+    /// parameters this weighting holds.
+    pub fn belief_sq(&self, specs: &[ParamSpec], p: &[f64]) -> f64 {
+        self.belief_deviations(specs, p).map(|d| d * d).sum()
+    }
+
+    /// [`belief_deviations`] over the parameters this weighting holds.
+    pub fn belief_deviations<'a>(
+        &'a self,
+        specs: &'a [ParamSpec],
+        p: &'a [f64],
+    ) -> impl Iterator<Item = f64> + 'a {
+        belief_deviations(specs, p)
+            .filter(|(i, _)| self.holds(*i))
+            .map(|(_, d)| d)
+    }
+
+    /// The prior weight that puts the beliefs on the scale of what the record is worth at
+    /// `predicted`: the weighted residual sum of squares there over the residual's
+    /// effective number of independent samples (each output's residual decorrelation,
+    /// [`super::weighting::effective_n`]).
+    pub fn prior_for(data: &Dataset, predicted: &[Vec<f64>], outputs: &[f64]) -> f64 {
+        let rss = sum_sq(&residuals(data, predicted, outputs));
+        let n_eff: f64 = super::weighting::effective_n(data, predicted).iter().sum();
+        if rss > 0.0 && n_eff > 0.0 {
+            rss / n_eff
+        } else {
+            0.0
+        }
+    }
+}
+
 /// Settings of one fit.
 #[derive(Debug, Clone)]
 pub struct FitSettings {
     /// Indices of the free parameters.
     pub free: Vec<usize>,
-    /// Per-output weights (1 / expected residual RMS), in the dataset's output order.
-    pub weights: Vec<f64>,
+    /// How outputs and beliefs are weighed.
+    pub weighting: Weighting,
     /// Iteration limit of each start.
     pub max_iterations: usize,
     /// Full parameter vectors to start from; the best result wins.
@@ -40,15 +111,29 @@ pub struct Fit {
     pub params: Vec<f64>,
     /// Indices of the free parameters.
     pub free: Vec<usize>,
-    /// Standard deviation of each free parameter; `None` where the data do not determine
-    /// it (a direction of the Fisher information that is numerically zero).
+    /// Standard deviation of each free parameter, the record and the belief together;
+    /// `None` where neither determines it (no prior, and a direction of the data's
+    /// information that is numerically zero).
     pub std: Vec<Option<f64>>,
+    /// What the record alone determines of each free parameter (its standard deviation
+    /// without the prior); `None` where it does not determine it at all.
+    pub data_std: Vec<Option<f64>>,
+    /// The prior's standard deviation of each free parameter (physical units, at the
+    /// fitted value); `None`: no belief holds it.
+    pub prior_std: Vec<Option<f64>>,
     /// Covariance of the free parameters (physical units).
     pub covariance: DMatrix<f64>,
-    /// Weighted residual sum of squares.
+    /// What the fit minimised: the weighted residual sum of squares plus the weighted
+    /// beliefs' deviations (`weighting.prior x prior_sq`).
     pub cost: f64,
+    /// Sum of the believed parameters' squared standardised deviations from their beliefs
+    /// (the priors' part of -2 ln posterior).
+    pub prior_sq: f64,
     /// Number of residuals (measured output cells).
     pub n_residuals: usize,
+    /// Rows of the blocks the covariance treats as independent (the residual's
+    /// correlation time, in samples; 1 for a white residual).
+    pub correlation_rows: usize,
     /// Solver iterations.
     pub iterations: usize,
     /// Model simulations.
@@ -59,8 +144,26 @@ pub struct Fit {
     pub start_index: usize,
     /// The outputs at the fitted parameters, `[output][row]`.
     pub predicted: Vec<Vec<f64>>,
-    /// The per-output weights used.
-    pub weights: Vec<f64>,
+    /// The weighting used.
+    pub weighting: Weighting,
+}
+
+impl Fit {
+    /// The weighted residual sum of squares alone (the cost less the beliefs' part).
+    pub fn rss(&self) -> f64 {
+        self.cost - self.weighting.prior * self.prior_sq
+    }
+
+    /// Whether free parameter `slot` is held by its belief rather than determined by the
+    /// record: its prior is tighter than what the record alone determines (the estimate is
+    /// more belief than data), or the record does not determine it at all.
+    pub fn held_by_belief(&self, slot: usize) -> bool {
+        match (self.prior_std[slot], self.data_std[slot]) {
+            (Some(prior), Some(data)) => data > prior,
+            (Some(_), None) => true,
+            (None, _) => false,
+        }
+    }
 }
 
 /// Why a fit could not be done.
@@ -98,14 +201,60 @@ pub fn residuals(data: &Dataset, predicted: &[Vec<f64>], weights: &[f64]) -> Vec
     r
 }
 
-/// Weighted residual sum of squares of `model` at `p` on `data` (infinite where the model
-/// diverges): the cost the fits minimise, for searches that place one parameter.
-pub fn cost_at(model: &dyn GreyBox, p: &[f64], data: &Dataset, weights: &[f64]) -> f64 {
+/// What a fit minimises, for `model` at `p` on `data` (infinite where the model diverges):
+/// the weighted residual sum of squares plus the weighted beliefs, for searches that place
+/// one parameter.
+pub fn cost_at(model: &dyn GreyBox, p: &[f64], data: &Dataset, w: &Weighting) -> f64 {
     super::activity::count_evaluation();
     model
         .predict(p, data)
-        .map(|y| sum_sq(&residuals(data, &y, weights)))
+        .map(|y| {
+            sum_sq(&residuals(data, &y, &w.outputs)) + w.prior * w.belief_sq(model.params(), p)
+        })
         .unwrap_or(f64::INFINITY)
+}
+
+/// Each believed parameter's index and distance from its belief in standard deviations:
+/// on the log scale for a positive-bounded parameter (a log-normal belief), linearly
+/// otherwise.
+pub fn belief_deviations<'a>(
+    specs: &'a [ParamSpec],
+    p: &'a [f64],
+) -> impl Iterator<Item = (usize, f64)> + 'a {
+    specs.iter().zip(p).enumerate().filter_map(|(i, (s, &v))| {
+        let rel = s.belief_sd_rel?;
+        Some((
+            i,
+            match coord_of(s) {
+                Coord::Log => (v / s.nominal).ln() / rel.ln_1p(),
+                Coord::Linear { .. } => (v - s.nominal) / (rel * s.nominal.abs()),
+            },
+        ))
+    })
+}
+
+/// Sum of the believed parameters' squared deviations ([`belief_deviations`]).
+pub fn belief_sq(specs: &[ParamSpec], p: &[f64]) -> f64 {
+    belief_deviations(specs, p).map(|(_, d)| d * d).sum()
+}
+
+/// Each free parameter's prior standard deviation in the search coordinate.
+fn prior_sd_z(
+    specs: &[ParamSpec],
+    free: &[usize],
+    coords: &[Coord],
+    w: &Weighting,
+) -> Vec<Option<f64>> {
+    free.iter()
+        .zip(coords)
+        .map(|(&i, c)| {
+            let rel = specs[i].belief_sd_rel.filter(|_| w.holds(i))?;
+            Some(match c {
+                Coord::Log => rel.ln_1p(),
+                Coord::Linear { scale } => rel * specs[i].nominal.abs() / scale,
+            })
+        })
+        .collect()
 }
 
 struct Problem<'a> {
@@ -114,7 +263,7 @@ struct Problem<'a> {
     base: Vec<f64>,
     free: Vec<usize>,
     coords: Vec<Coord>,
-    weights: &'a [f64],
+    weighting: &'a Weighting,
 }
 
 impl Problem<'_> {
@@ -180,12 +329,21 @@ impl Problem<'_> {
         self.simulated(z).map(|(r, _)| r)
     }
 
-    /// The weighted residuals at `z` and the outputs they come from.
+    /// The weighted residuals at `z` (the record's, then the beliefs' when they are
+    /// weighed) and the outputs they come from.
     fn simulated(&self, z: &[f64]) -> Option<(Vec<f64>, Vec<Vec<f64>>)> {
         let p = self.to_p(z);
         super::activity::count_evaluation();
         let y = self.model.predict(&p, self.data).ok()?;
-        let r = residuals(self.data, &y, self.weights);
+        let mut r = residuals(self.data, &y, &self.weighting.outputs);
+        if self.weighting.prior > 0.0 {
+            let w = self.weighting.prior.sqrt();
+            r.extend(
+                self.weighting
+                    .belief_deviations(self.model.param_specs(), &p)
+                    .map(|d| w * d),
+            );
+        }
         r.iter().all(|v| v.is_finite()).then_some((r, y))
     }
 
@@ -213,7 +371,44 @@ impl Problem<'_> {
             .collect();
         DMatrix::from_fn(r0.len(), z.len(), |i, j| cols[j][i])
     }
+
+    /// The Jacobian by central differences of at least [`COVARIANCE_FD_STEP`] in the search
+    /// coordinate (one-sided where a side does not simulate): for the covariance, which
+    /// needs the outputs' sensitivity on the scale of the parameters' uncertainty. A law
+    /// switched at events or smoothed over a small speed (friction's breakaway, a play)
+    /// moves the outputs in steps far below that scale, and a forward difference of 1e-6
+    /// measures the steps: on a real record it made the Coulomb friction's standard
+    /// deviation a millionth of its value.
+    fn jacobian_central(&self, z: &[f64], r0: &[f64]) -> DMatrix<f64> {
+        let cols: Vec<Vec<f64>> = (0..z.len())
+            .into_par_iter()
+            .map(|c| {
+                let step = self.model.param_specs()[self.free[c]]
+                    .fd_step
+                    .max(COVARIANCE_FD_STEP);
+                let h = step * z[c].abs().max(1.0);
+                let at = |dz: f64| {
+                    let mut zc = z.to_vec();
+                    zc[c] += dz;
+                    self.residuals(&zc)
+                };
+                match (at(h), at(-h)) {
+                    (Some(a), Some(b)) => {
+                        a.iter().zip(&b).map(|(a, b)| (a - b) / (2.0 * h)).collect()
+                    }
+                    (Some(a), None) => a.iter().zip(r0).map(|(a, b)| (a - b) / h).collect(),
+                    (None, Some(b)) => r0.iter().zip(&b).map(|(a, b)| (a - b) / h).collect(),
+                    (None, None) => vec![0.0; r0.len()],
+                }
+            })
+            .collect();
+        DMatrix::from_fn(r0.len(), z.len(), |i, j| cols[j][i])
+    }
 }
+
+/// Smallest finite-difference step of the covariance's Jacobian in the search coordinate
+/// (0.1 % of a log-scaled parameter).
+pub const COVARIANCE_FD_STEP: f64 = 1e-3;
 
 fn sum_sq(r: &[f64]) -> f64 {
     r.iter().map(|v| v * v).sum()
@@ -283,7 +478,7 @@ fn best_of_starts(
         base: start.to_vec(),
         free: s.free.clone(),
         coords: coords(model.param_specs(), &s.free),
-        weights: &s.weights,
+        weighting: &s.weighting,
     };
     if !race || s.starts.len() == 1 {
         let fits = each_start(&s.starts, &problem, s.max_iterations, uncertainty)?;
@@ -350,26 +545,27 @@ pub const SMALL_GAIN: f64 = 1e-4;
 /// Iterations every start of a multi-start fit is given before only the leader goes on.
 pub const RACE_ITERATIONS: usize = 3;
 
-/// How each free parameter is searched: positive-bounded ones on a log scale, others
-/// linearly, scaled by their belief (or by their range when the belief is zero).
+/// How each free parameter is searched ([`coord_of`]).
 fn coords(specs: &[ParamSpec], free: &[usize]) -> Vec<Coord> {
-    free.iter()
-        .map(|&i| {
-            if specs[i].lo > 0.0 {
-                Coord::Log
+    free.iter().map(|&i| coord_of(&specs[i])).collect()
+}
+
+/// How a parameter is searched: a positive-bounded one on a log scale, others linearly,
+/// scaled by their belief (or by their range when the belief is zero).
+fn coord_of(spec: &ParamSpec) -> Coord {
+    if spec.lo > 0.0 {
+        Coord::Log
+    } else {
+        Coord::Linear {
+            scale: if spec.nominal != 0.0 {
+                spec.nominal.abs()
+            } else if spec.hi.is_finite() && spec.hi > 0.0 {
+                0.1 * spec.hi
             } else {
-                Coord::Linear {
-                    scale: if specs[i].nominal != 0.0 {
-                        specs[i].nominal.abs()
-                    } else if specs[i].hi.is_finite() && specs[i].hi > 0.0 {
-                        0.1 * specs[i].hi
-                    } else {
-                        1e-9
-                    },
-                }
-            }
-        })
-        .collect()
+                1e-9
+            },
+        }
+    }
 }
 
 fn run_lm(pb: &Problem, max_iterations: usize, uncertainty: bool) -> Result<Fit, FitError> {
@@ -492,67 +688,225 @@ fn run_lm(pb: &Problem, max_iterations: usize, uncertainty: bool) -> Result<Fit,
         }
     }
     let p = pb.to_p(&z);
-    let (std, covariance) = if uncertainty {
-        let jac = pb.jacobian(&z, &r);
-        evaluations += n;
-        covariance(pb, &p, &jac, cost, r.len())
+    let n_data = pb.data.measured_cells();
+    let prior_sq = pb.weighting.belief_sq(pb.model.param_specs(), &p);
+    let uncertainty = if uncertainty {
+        let jac = pb.jacobian_central(&z, &r);
+        evaluations += 2 * n;
+        covariance(pb, &p, &jac, &r[..n_data])
     } else {
-        (vec![None; n], DMatrix::zeros(n, n))
+        Uncertainty::unknown(n)
     };
     Ok(Fit {
         params: p,
         free: pb.free.clone(),
-        std,
-        covariance,
+        std: uncertainty.std,
+        data_std: uncertainty.data_std,
+        prior_std: uncertainty.prior_std,
+        covariance: uncertainty.covariance,
         cost,
-        n_residuals: r.len(),
+        prior_sq,
+        n_residuals: n_data,
+        correlation_rows: uncertainty.correlation_rows,
         iterations,
         evaluations,
         converged,
         start_index: 0,
         predicted,
-        weights: pb.weights.to_vec(),
+        weighting: pb.weighting.clone(),
     })
 }
 
-/// Covariance of the free parameters: sigma^2 (J'J)^-1 with sigma^2 = RSS / (N - d),
-/// through the SVD so that directions the data do not determine are reported, not inverted.
-fn covariance(
-    pb: &Problem,
-    p: &[f64],
-    jac: &DMatrix<f64>,
-    cost: f64,
-    n_res: usize,
-) -> (Vec<Option<f64>>, DMatrix<f64>) {
+/// What a fit knows of its free parameters' uncertainty.
+struct Uncertainty {
+    std: Vec<Option<f64>>,
+    data_std: Vec<Option<f64>>,
+    prior_std: Vec<Option<f64>>,
+    covariance: DMatrix<f64>,
+    correlation_rows: usize,
+}
+
+impl Uncertainty {
+    /// Not computed (an intermediate fit).
+    fn unknown(d: usize) -> Uncertainty {
+        Uncertainty {
+            std: vec![None; d],
+            data_std: vec![None; d],
+            prior_std: vec![None; d],
+            covariance: DMatrix::zeros(d, d),
+            correlation_rows: 1,
+        }
+    }
+}
+
+/// Fewest blocks the covariance's sandwich is estimated from: the residual's correlation
+/// time sets a block's length, but never so long that fewer blocks than this remain (a
+/// score variance from a handful of blocks is itself too uncertain to use).
+pub const MIN_COVARIANCE_BLOCKS: usize = 20;
+
+/// Singular values below this share of the largest are directions the data do not
+/// determine.
+const UNDETERMINED_SHARE: f64 = 1e-9;
+
+/// Covariance of the free parameters, for records whose residuals are neither white nor
+/// from the true model:
+///
+/// - **the record's part** is a block sandwich, `A+ B A+`, with `A = J'J` the weighted
+///   Gauss-Newton information and `B = G/(G-1) sum_b s_b s_b'` the spread of the scores
+///   `s_b = J_b' r_b` of `G` blocks of consecutive samples (within each test), each block
+///   as long as the residual stays correlated ([`correlation_rows`]). A correlated residual
+///   is worth fewer samples than it has, and a mismatched model's residual is not its
+///   noise: the blocks' scores see both, where `sigma^2 (J'J)^-1` assumes white noise from
+///   the true model and on real records came out thousands of times too small;
+/// - **the beliefs' part** is each believed parameter's prior information `1/sd^2` in the
+///   search coordinate, added to the inverse of the record's part: a direction the record
+///   does not determine keeps its prior's width instead of an infinite or invented one.
+///
+/// Returns the combined standard deviations, the record's alone and the priors', in
+/// physical units. Directions that neither determines are reported as such.
+fn covariance(pb: &Problem, p: &[f64], jac: &DMatrix<f64>, r: &[f64]) -> Uncertainty {
     let d = jac.ncols();
     if d == 0 {
-        return (vec![], DMatrix::zeros(0, 0));
+        return Uncertainty::unknown(0);
     }
-    let sigma2 = cost / (n_res - d).max(1) as f64;
-    let svd = jac.clone().svd(false, true);
-    let v_t = svd.v_t.expect("asked for V");
-    let s_max = svd.singular_values.max();
-    let mut cov_z = DMatrix::zeros(d, d);
+    let n_data = r.len();
+    let jd = jac.rows(0, n_data).into_owned();
+    let a = jd.transpose() * &jd;
+    let a_pinv = symmetric_pinv(&a);
+    let (rows, v_data) = widest_sandwich(pb.data, &jd, r, &a_pinv.0);
+    let prior_sd = prior_sd_z(pb.model.param_specs(), &pb.free, &pb.coords, pb.weighting);
+    let mut info = symmetric_pinv(&v_data).0;
+    for (i, sd) in prior_sd.iter().enumerate() {
+        if let Some(sd) = sd {
+            info[(i, i)] += 1.0 / (sd * sd);
+        }
+    }
+    let (cov_z, undetermined) = symmetric_pinv(&info);
+    let scale = pb.dp_dz(p);
+    let physical =
+        |m: &DMatrix<f64>| DMatrix::from_fn(d, d, |i, j| scale[i] * scale[j] * m[(i, j)]);
+    let covariance = physical(&cov_z);
+    let v_data_p = physical(&v_data);
+    Uncertainty {
+        std: (0..d)
+            .map(|i| (!undetermined[i]).then(|| covariance[(i, i)].max(0.0).sqrt()))
+            .collect(),
+        data_std: (0..d)
+            .map(|i| (!a_pinv.1[i] && v_data_p[(i, i)] > 0.0).then(|| v_data_p[(i, i)].sqrt()))
+            .collect(),
+        prior_std: prior_sd
+            .iter()
+            .enumerate()
+            .map(|(i, sd)| sd.map(|sd| sd * scale[i].abs()))
+            .collect(),
+        covariance,
+        correlation_rows: rows,
+    }
+}
+
+/// The pseudo-inverse of a symmetric positive semi-definite matrix through its
+/// eigen-decomposition, and which coordinates lie in a direction it does not determine
+/// (an eigenvalue below [`UNDETERMINED_SHARE`] of the largest).
+fn symmetric_pinv(m: &DMatrix<f64>) -> (DMatrix<f64>, Vec<bool>) {
+    let d = m.nrows();
+    let sym = (m + m.transpose()) * 0.5;
+    let eig = sym.symmetric_eigen();
+    let largest = eig.eigenvalues.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    let mut inv = DMatrix::zeros(d, d);
     let mut undetermined = vec![false; d];
-    for (k, &s) in svd.singular_values.iter().enumerate() {
-        let row = v_t.row(k);
-        if s > 1e-9 * s_max && s > 0.0 {
-            cov_z += row.transpose() * row / (s * s);
+    for (k, &lambda) in eig.eigenvalues.iter().enumerate() {
+        let v = eig.eigenvectors.column(k);
+        if lambda > UNDETERMINED_SHARE * largest && lambda > 0.0 {
+            inv += v * v.transpose() / lambda;
         } else {
             for i in 0..d {
-                if row[i].abs() > 1e-3 {
+                if v[i].abs() > 1e-3 {
                     undetermined[i] = true;
                 }
             }
         }
     }
-    cov_z *= sigma2;
-    let scale = pb.dp_dz(p);
-    let cov = DMatrix::from_fn(d, d, |i, j| scale[i] * scale[j] * cov_z[(i, j)]);
-    let std = (0..d)
-        .map(|i| (!undetermined[i]).then(|| cov[(i, i)].max(0.0).sqrt()))
-        .collect();
-    (std, cov)
+    (inv, undetermined)
+}
+
+/// The record's part of the covariance, `A+ B_L A+`, at the block length `L` (samples)
+/// that makes it widest: `L` doubles from 1 (a white residual) to a twentieth of the record
+/// ([`MIN_COVARIANCE_BLOCKS`]), ranked by their inflation over the white residual's,
+/// `trace(V_white+ V_L)` (the sum of the variance ratios along the white covariance's
+/// principal directions: the same whatever the parameterisation, so two parameterisations
+/// of one model get one block length). A real residual mixes white sensor noise with slow
+/// mismatch, whose autocorrelation is hidden under the noise's and still moves the
+/// parameters; the spread of longer blocks' scores sees it, and where the residual is
+/// white, longer blocks only estimate the same spread less precisely.
+fn widest_sandwich(
+    data: &Dataset,
+    jac: &DMatrix<f64>,
+    r: &[f64],
+    a_pinv: &DMatrix<f64>,
+) -> (usize, DMatrix<f64>) {
+    let longest = (data.len() / MIN_COVARIANCE_BLOCKS).max(1);
+    let sandwich = |rows: usize| {
+        let b = block_score_spread(data, jac, r, rows);
+        a_pinv * b * a_pinv
+    };
+    let white = sandwich(1);
+    let white_inv = symmetric_pinv(&white).0;
+    let inflation = |v: &DMatrix<f64>| (&white_inv * v).trace();
+    let mut best = (1, inflation(&white), white.clone());
+    let mut rows = 2;
+    while rows <= longest {
+        let v = sandwich(rows);
+        let score = inflation(&v);
+        if score > best.1 {
+            best = (rows, score, v);
+        }
+        rows *= 2;
+    }
+    (best.0, best.2)
+}
+
+/// `G/(G-1) sum_b s_b s_b'`: the spread of the scores `s_b = J_b' r_b` of blocks of `rows`
+/// consecutive samples, each within one test (a test's last block may be shorter), every
+/// output's residuals at those samples in the block.
+fn block_score_spread(data: &Dataset, jac: &DMatrix<f64>, r: &[f64], rows: usize) -> DMatrix<f64> {
+    let d = jac.ncols();
+    // The block of each sample: blocks restart at each test.
+    let mut block_of = vec![0usize; data.len()];
+    let mut next = 0;
+    for seg in data.segments() {
+        for (i, k) in seg.clone().enumerate() {
+            block_of[k] = next + i / rows;
+        }
+        next += seg.len().div_ceil(rows);
+    }
+    let mut scores = DMatrix::<f64>::zeros(next.max(1), d);
+    let mut at = 0;
+    for col in &data.outputs {
+        for (k, y) in col.iter().enumerate() {
+            if y.is_some() {
+                let b = block_of[k];
+                for c in 0..d {
+                    scores[(b, c)] += jac[(at, c)] * r[at];
+                }
+                at += 1;
+            }
+        }
+    }
+    // Centred: at a fit held by its priors (or on a bound) the record's scores do not sum
+    // to zero, and their mean is no spread.
+    let g = scores.nrows();
+    let mean = scores.row_mean();
+    for b in 0..g {
+        for c in 0..d {
+            scores[(b, c)] -= mean[c];
+        }
+    }
+    let correction = if g > 1 {
+        g as f64 / (g - 1) as f64
+    } else {
+        1.0
+    };
+    scores.transpose() * &scores * correction
 }
 
 /// Relative distance from a search bound within which a fitted value counts as on it.

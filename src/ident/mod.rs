@@ -12,6 +12,8 @@ pub mod fit;
 pub mod model;
 pub mod models;
 pub mod plots;
+pub mod sysid_terms;
+pub mod weighting;
 
 pub mod report;
 
@@ -107,6 +109,18 @@ pub enum Structure {
 }
 
 impl Structure {
+    /// The structure as a grey-box model, mutably.
+    pub fn model_mut(&mut self) -> &mut dyn GreyBox {
+        match self {
+            Structure::Rotary(m) => m,
+            Structure::Linear(m) => m,
+            Structure::Pair(m) => m,
+            Structure::Falling(m) => m,
+            Structure::Coast(m) => m,
+            Structure::Vehicle(m) => m,
+        }
+    }
+
     /// The structure as a grey-box model.
     pub fn model(&self) -> &dyn GreyBox {
         match self {
@@ -213,8 +227,44 @@ impl Default for IdentifyOptions {
     }
 }
 
-/// Chooses and builds the model structure for a rig and a recording.
+/// Each parameter's belief as uncertain as the rig states (`[uncertainty_pct]`): a
+/// parameter named by a rig key the rig gives a percentage for is held by that much
+/// instead of the default ([`model::DEFAULT_BELIEF_SD_REL`]), and a positive one's search
+/// reaches at least [`BELIEF_SPAN_SD`] standard deviations of that belief either side (a
+/// guessed inductance, 100 %, may be several times off, beyond the factor of 3 a
+/// tens-of-percent belief is searched in).
+pub fn state_beliefs(model: &mut dyn GreyBox, rig: &Rig) {
+    for spec in model.params_mut() {
+        if let Some(pct) = rig.uncertainty_pct(&spec.name) {
+            *spec = spec.clone().believed(pct / 100.0);
+            if spec.lo > 0.0 && spec.nominal > 0.0 {
+                let span = (BELIEF_SPAN_SD * (pct / 100.0).ln_1p()).exp();
+                spec.lo = spec.lo.min(spec.nominal / span);
+                spec.hi = spec.hi.max(spec.nominal * span);
+            }
+        }
+    }
+}
+
+/// How many of a stated belief's standard deviations (log scale) a positive parameter's
+/// search spans either side of it, at least.
+pub const BELIEF_SPAN_SD: f64 = 3.0;
+
+/// Chooses and builds the model structure for a rig and a recording, each belief as
+/// uncertain as the rig states ([`state_beliefs`]).
 pub fn build_structure(
+    rig: &Rig,
+    rig_path: &Path,
+    rec: &Recording,
+    choice: Option<ModelChoice>,
+) -> Result<Structure, IdentError> {
+    let mut s = structure_of(rig, rig_path, rec, choice)?;
+    state_beliefs(s.model_mut(), rig);
+    Ok(s)
+}
+
+/// The model structure for a rig and a recording.
+fn structure_of(
     rig: &Rig,
     rig_path: &Path,
     rec: &Recording,
@@ -343,6 +393,43 @@ pub struct ParamReport {
     /// estimate but a sign that the belief (the rig's nominal) or the model's structure is
     /// wrong.
     pub at_bound: Option<f64>,
+    /// What the record alone determines of it (its standard deviation without the
+    /// belief); `null` where it does not determine it at all, or it was not fitted.
+    pub data_std: Option<f64>,
+    /// One standard deviation of the rig's belief, % of it; `null`: no belief holds it.
+    pub belief_sd_pct: Option<f64>,
+    /// Held by its belief: fitted, but the record determines it less well than the rig's
+    /// belief does ([`fit::Fit::held_by_belief`]), so its value is more belief than data.
+    pub held: bool,
+}
+
+/// Each reported parameter of `model` as `f` fitted it.
+pub fn param_reports(model: &dyn GreyBox, f: &Fit) -> Vec<ParamReport> {
+    model
+        .params()
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| model.reports(*i))
+        .map(|(i, s)| {
+            let slot = f.free.iter().position(|&j| j == i);
+            let at_bound = slot.and_then(|_| bound_reached(f.params[i], s.lo, s.hi));
+            ParamReport {
+                name: s.name.clone(),
+                nominal: s.nominal,
+                value: f.params[i],
+                std: if at_bound.is_some() {
+                    None
+                } else {
+                    slot.and_then(|k| f.std[k])
+                },
+                free: slot.is_some(),
+                at_bound,
+                data_std: slot.and_then(|k| f.data_std[k]),
+                belief_sd_pct: s.belief_sd_rel.map(|r| 100.0 * r),
+                held: slot.is_some_and(|k| f.held_by_belief(k)),
+            }
+        })
+        .collect()
 }
 
 /// A continuous-time state-space model with standard deviations (thesis-style tables).
@@ -365,6 +452,8 @@ pub struct Identification {
     pub model: String,
     /// Contract input columns of the recording the model has no use for.
     pub ignored_inputs: Vec<String>,
+    /// Outputs the recording measures but does not excite, left out of the fit.
+    pub left_out: Vec<LeftOut>,
     /// The rig file.
     pub rig: String,
     /// Every parameter.
@@ -457,9 +546,18 @@ pub fn starts(nominal: &[f64], free: &[usize], count: usize) -> Vec<Vec<f64>> {
     out
 }
 
-/// Fits a structure's parameters to a dataset: per-output weights from the data's spread,
-/// then (several outputs) re-weighted by each output's residual RMS and refitted, which
-/// approximates the maximum-likelihood fit with unknown noise levels.
+/// Fits a structure's parameters to a dataset, in two passes:
+///
+/// 1. each output weighted by its spread (outputs in different units count alike), every
+///    believed free parameter's belief weighed against what the residual at the start is
+///    worth ([`fit::Weighting::prior_for`]);
+/// 2. (several outputs, or believed free parameters) each output re-weighted by its
+///    residual RMS, floored at its noise level ([`weighting::output_weights`]), and the
+///    beliefs kept only for the parameters the first pass found the record determines
+///    less well than the belief ([`Fit::held_by_belief`]), weighed against what the first
+///    pass's residual is worth; refitted from there. A parameter the record determines is
+///    then the record's estimate alone; one it cannot (a mass on a quasi-static ramp) is
+///    held near its belief instead of wandering to a bound.
 pub fn fit_structure(
     model: &dyn GreyBox,
     data: &Dataset,
@@ -475,26 +573,51 @@ pub fn fit_structure(
             .max(1e-12)
     };
     let weights: Vec<f64> = (0..data.outputs.len()).map(|j| 1.0 / spread(j)).collect();
+    let believed = free
+        .iter()
+        .any(|&i| model.params()[i].belief_sd_rel.is_some());
+    let prior = |predicted: &[Vec<f64>], outputs: &[f64]| {
+        if believed {
+            fit::Weighting::prior_for(data, predicted, outputs)
+        } else {
+            0.0
+        }
+    };
+    let prior0 = model
+        .simulate_record(start_from, data)
+        .map_or(0.0, |y| prior(&y, &weights));
     let settings = FitSettings {
         free: free.to_vec(),
-        weights,
+        weighting: fit::Weighting {
+            outputs: weights,
+            prior: prior0,
+            holding: None,
+        },
         max_iterations: opts.max_iterations,
         starts: starts(start_from, free, opts.starts),
     };
     let mut f = fit::fit(model, data, &settings)?;
-    if data.outputs.len() > 1 {
-        let e = evaluate(data, f.predicted.clone(), 1);
-        let weights = data
-            .output_names
-            .iter()
-            .map(|n| 1.0 / e.rms[n].max(1e-12))
+    if data.outputs.len() > 1 || believed {
+        let holding: Vec<usize> = (0..f.free.len())
+            .filter(|&slot| f.held_by_belief(slot))
+            .map(|slot| f.free[slot])
             .collect();
+        let outputs = weighting::output_weights(data, &f.predicted);
+        let weighting = fit::Weighting {
+            prior: if holding.is_empty() {
+                0.0
+            } else {
+                prior(&f.predicted, &outputs)
+            },
+            outputs,
+            holding: Some(holding),
+        };
         let second = fit::fit(
             model,
             data,
             &FitSettings {
                 free: free.to_vec(),
-                weights,
+                weighting,
                 max_iterations: opts.max_iterations,
                 starts: vec![f.params.clone()],
             },
@@ -517,7 +640,7 @@ pub fn identify(
 ) -> Result<Identification, IdentError> {
     let structure = build_structure(rig, rig_path, rec, opts.model)?;
     let model = structure.model();
-    let data = Dataset::from_recording(rec, &model.input_names(), &model.output_names())?;
+    let (data, left_out) = dataset_for(model, rec)?;
     let free = free_indices(model, &opts.free, &data)?;
     enough_data(rec, &data, free.len())?;
     let f = fit_structure(model, &data, &free, opts, &model.nominal())
@@ -526,7 +649,7 @@ pub fn identify(
     finite_loss(rec, &data, &estimation)?;
     let validation = match validation {
         Some(v) => {
-            let vdata = Dataset::from_recording(v, &model.input_names(), &model.output_names())?;
+            let (vdata, _) = dataset_for(model, v)?;
             let y = model
                 .simulate_record(&f.params, &vdata)
                 .map_err(|d| IdentError::Mismatch {
@@ -539,12 +662,52 @@ pub fn identify(
     };
     let mut id = assemble(&structure, &f, estimation, validation, opts.starts);
     id.ignored_inputs = ignored_inputs(rec, &model_columns(model));
+    id.left_out = left_out;
     id.feedforward = feedforward::of_recording(
         rec,
         id.value("motor.torque_constant_Nm_A"),
         id.value("motor.resistance_ohm"),
     );
     Ok(id)
+}
+
+/// An output of a record left out of the fit, and why.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LeftOut {
+    /// The output column.
+    pub output: String,
+    /// Why the record cannot show it ([`GreyBox::unexcited_outputs`]).
+    pub why: String,
+}
+
+/// The dataset a model is fitted on: its inputs and the outputs the recording measures,
+/// less those the recording does not excite ([`GreyBox::unexcited_outputs`]), which are
+/// returned with why.
+pub fn dataset_for(
+    model: &dyn GreyBox,
+    rec: &Recording,
+) -> Result<(Dataset, Vec<LeftOut>), IdentError> {
+    let data = Dataset::from_recording(rec, &model.input_names(), &model.output_names())?;
+    let left: Vec<LeftOut> = model
+        .unexcited_outputs(&data)
+        .into_iter()
+        .filter(|(o, _)| data.output_index(o).is_some())
+        .map(|(output, why)| LeftOut { output, why })
+        .collect();
+    if left.len() == data.output_names.len() {
+        return Err(IdentError::Mismatch {
+            file: rec.path.clone(),
+            message: format!(
+                "no output the record excites: {}",
+                left.iter()
+                    .map(|l| format!("{} ({})", l.output, l.why))
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            ),
+        });
+    }
+    let names: Vec<String> = left.iter().map(|l| l.output.clone()).collect();
+    Ok((data.without_outputs(&names), left))
 }
 
 /// Measured output values needed per free parameter: below this the loss, FPE and the
@@ -629,28 +792,7 @@ fn assemble(
     starts: usize,
 ) -> Identification {
     let model = structure.model();
-    let params = model
-        .params()
-        .iter()
-        .enumerate()
-        .filter(|(i, _)| model.reports(*i))
-        .map(|(i, s)| {
-            let slot = f.free.iter().position(|&j| j == i);
-            let at_bound = slot.and_then(|_| bound_reached(f.params[i], s.lo, s.hi));
-            ParamReport {
-                name: s.name.clone(),
-                nominal: s.nominal,
-                value: f.params[i],
-                std: if at_bound.is_some() {
-                    None
-                } else {
-                    slot.and_then(|k| f.std[k])
-                },
-                free: slot.is_some(),
-                at_bound,
-            }
-        })
-        .collect();
+    let params = param_reports(model, f);
     let d = f.free.len() as f64;
     let n = estimation.n_samples as f64;
     let v = estimation.loss;
@@ -661,6 +803,7 @@ fn assemble(
     Identification {
         model: model.name(),
         ignored_inputs: Vec::new(),
+        left_out: Vec::new(),
         rig: String::new(),
         params,
         n_free: f.free.len(),

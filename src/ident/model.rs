@@ -24,7 +24,18 @@ pub struct ParamSpec {
     /// effect switches at events (a backlash play decides when teeth meet) make the cost
     /// rough on the scale of an integration step; a wider difference sees the trend.
     pub fd_step: f64,
+    /// How far the belief (`nominal`) may be off, one standard deviation as a fraction of
+    /// it: the prior that holds the parameter near its belief where a record cannot
+    /// determine it (log-normal for a positive quantity, normal otherwise). `None`: no
+    /// belief worth holding to (an effect's strength, a block's nuisance parameter), the
+    /// record alone decides.
+    pub belief_sd_rel: Option<f64>,
 }
+
+/// One standard deviation of a rig's belief, as a fraction of it, where the rig does not
+/// state its own (`[uncertainty_pct]`): the contract's beliefs are "typically within some
+/// tens of percent of the truth".
+pub const DEFAULT_BELIEF_SD_REL: f64 = 0.3;
 
 impl ParamSpec {
     /// A parameter `name` starting at `nominal` within `[lo, hi]`, setting the key of the same name.
@@ -36,7 +47,16 @@ impl ParamSpec {
             lo,
             hi,
             fd_step: 1e-6,
+            belief_sd_rel: None,
         }
+    }
+
+    /// The same parameter with a belief `sd_rel` (one standard deviation, a fraction of the
+    /// nominal value) holding it: see [`ParamSpec::belief_sd_rel`]. A belief of zero is no
+    /// belief to hold to (a friction thought absent): it stays without a prior.
+    pub fn believed(mut self, sd_rel: f64) -> ParamSpec {
+        self.belief_sd_rel = (self.nominal != 0.0 && sd_rel > 0.0).then_some(sd_rel);
+        self
     }
 
     /// The same parameter, setting the model's key `key` (a name that is not a key of the
@@ -55,8 +75,10 @@ impl ParamSpec {
     /// A strictly positive physical quantity, searched on a log scale within a factor of 10
     /// of the rig's belief (beliefs are tens of percent off, not orders of magnitude; the
     /// bound also keeps the search out of absurdly stiff corners).
+    /// It carries the default belief ([`DEFAULT_BELIEF_SD_REL`]).
     pub fn positive(name: &str, nominal: f64) -> ParamSpec {
         ParamSpec::new(name, nominal, nominal.abs() * 0.1, nominal.abs() * 10.0)
+            .believed(DEFAULT_BELIEF_SD_REL)
     }
 
     /// A friction coefficient: as [`ParamSpec::positive`] around a positive belief; a
@@ -181,12 +203,31 @@ pub trait GreyBox: Predictor + SimulateRecord {
     fn name(&self) -> String;
     /// All parameters, free or fixed.
     fn params(&self) -> &[ParamSpec];
+    /// The parameters, to state beliefs' uncertainty ([`crate::ident::state_beliefs`]).
+    fn params_mut(&mut self) -> &mut [ParamSpec];
     /// Parameters freed by default (indices into `params`), given the outputs measured.
     fn default_free(&self, outputs: &[String]) -> Vec<usize>;
     /// Parameters a record cannot move, however its outputs are measured (no turn was
     /// commanded, so the track and yaw inertia act on nothing): left out of the default
     /// free set, where the search would only drift them.
     fn unexcited(&self, _data: &Dataset) -> Vec<usize> {
+        Vec::new()
+    }
+    /// SysId's terms (kS, kV, kA) the parameters `p` imply, per `speed_unit` (`m/s`: a
+    /// wheel's rim speed, `rad/s`: the motor's), where the model is a voltage-driven DC
+    /// drive ([`crate::ident::sysid_terms`]); `None` by default.
+    fn sysid_terms(
+        &self,
+        _p: &[f64],
+        _speed_unit: &str,
+    ) -> Option<crate::ident::sysid_terms::Terms> {
+        None
+    }
+    /// Outputs of a record that its inputs do not excite, each with why (a gyro on a
+    /// straight run: the record's yaw is its sensor's noise, and the model's a response to
+    /// the noise in the commands): left out of the fit, where a model mismatch on nothing
+    /// would steer the parameters, and reported. None by default.
+    fn unexcited_outputs(&self, _data: &Dataset) -> Vec<(String, String)> {
         Vec::new()
     }
     /// The default free set for a record: [`GreyBox::default_free`] without what it
@@ -548,6 +589,10 @@ mod tests {
         }
         fn params(&self) -> &[ParamSpec] {
             &self.specs
+        }
+
+        fn params_mut(&mut self) -> &mut [ParamSpec] {
+            &mut self.specs
         }
         fn default_free(&self, _outputs: &[String]) -> Vec<usize> {
             (0..self.specs.len()).collect()

@@ -14,7 +14,10 @@
 //! lifted drive axes behind the DCMC, the thesis's random-demand runs), `motor.coulomb_Nm`,
 //! `controller.turn_gain_V_pct`, `controller.speed_per_pct_rad_s`,
 //! `controller.kp_V_s_rad`, `controller.ki_V_rad`, `feedback.kv_V_s_rad` and the
-//! `[falling_weight]` section.
+//! `[falling_weight]` section, and `[uncertainty_pct]`: how far each stated belief may be
+//! off, one standard deviation in percent of it, by key (`"chassis.mass_kg" = 50`); a fit
+//! holds a parameter its record cannot determine near its belief by that much
+//! ([`crate::ident::model::ParamSpec::belief_sd_rel`]; unstated: 30 %).
 
 pub mod blocks;
 pub mod keys;
@@ -40,7 +43,13 @@ pub struct Rig {
     pub motion: Option<String>,
     /// Stated values by their key's place in the table ([`keys::table`]), in that order.
     values: Vec<(usize, Stated)>,
+    /// `[uncertainty_pct]`: one standard deviation of a stated belief, percent of it, by
+    /// the key's place in the table, in that order.
+    uncertainty_pct: Vec<(usize, f64)>,
 }
+
+/// The rig section that states how far beliefs may be off.
+pub const UNCERTAINTY_SECTION: &str = "uncertainty_pct";
 
 /// A rig file that cannot be used.
 #[derive(Debug, thiserror::Error)]
@@ -111,6 +120,9 @@ impl Rig {
                         at_line(text, None, name)
                     )))
                 }
+                (UNCERTAINTY_SECTION, toml::Value::Table(entries)) => {
+                    rig.read_uncertainties(text, "", entries).map_err(invalid)?;
+                }
                 (section, toml::Value::Table(entries)) => {
                     for (key, v) in entries {
                         rig.read_value(text, section, key, v).map_err(invalid)?;
@@ -179,6 +191,82 @@ impl Rig {
         };
         self.state(k, stated);
         Ok(())
+    }
+
+    /// Takes `[uncertainty_pct]`'s entries: each a numeric rig key (written quoted,
+    /// `"chassis.mass_kg" = 50`, or as dotted keys, which TOML nests under `prefix`) with
+    /// a percentage greater than zero.
+    fn read_uncertainties(
+        &mut self,
+        text: &str,
+        prefix: &str,
+        entries: &toml::Table,
+    ) -> Result<(), String> {
+        for (name, v) in entries {
+            let dotted = if prefix.is_empty() {
+                name.clone()
+            } else {
+                format!("{prefix}.{name}")
+            };
+            let line = at_line(text, Some(UNCERTAINTY_SECTION), name);
+            let pct = match v {
+                toml::Value::Table(inner) => {
+                    self.read_uncertainties(text, &dotted, inner)?;
+                    continue;
+                }
+                toml::Value::Float(x) => *x,
+                toml::Value::Integer(i) => *i as f64,
+                other => {
+                    return Err(format!(
+                        "{line}`{UNCERTAINTY_SECTION}.\"{dotted}\"` = {other}: expected a number, one standard deviation in percent of the belief"
+                    ))
+                }
+            };
+            let k = keys::find(&dotted)
+                .filter(|k| k.takes.allowed().is_some())
+                .ok_or_else(|| {
+                    format!(
+                        "{line}[{UNCERTAINTY_SECTION}] `{dotted}`: not a numeric rig key; it takes the keys of the rig's values, e.g. \"chassis.mass_kg\" = 50"
+                    )
+                })?;
+            if !(pct.is_finite() && pct > 0.0) {
+                return Err(format!(
+                    "{line}[{UNCERTAINTY_SECTION}] `{dotted}` = {pct}: expected a percentage greater than zero"
+                ));
+            }
+            match self.uncertainty_pct.iter_mut().find(|(o, _)| *o == k.order) {
+                Some(slot) => slot.1 = pct,
+                None => {
+                    self.uncertainty_pct.push((k.order, pct));
+                    self.uncertainty_pct.sort_by_key(|(o, _)| *o);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// How far the belief `key` may be off, one standard deviation in percent of it, if
+    /// the rig states it.
+    pub fn uncertainty_pct(&self, key: &str) -> Option<f64> {
+        let table = keys::table();
+        self.uncertainty_pct
+            .iter()
+            .find(|(o, _)| table[*o].key == key)
+            .map(|(_, p)| *p)
+    }
+
+    /// States how far the belief `key` may be off (percent, one standard deviation);
+    /// `None` for a key the rig format does not have.
+    pub fn set_uncertainty_pct(&mut self, key: &str, pct: f64) -> Option<()> {
+        let k = keys::find(key)?;
+        match self.uncertainty_pct.iter_mut().find(|(o, _)| *o == k.order) {
+            Some(slot) => slot.1 = pct,
+            None => {
+                self.uncertainty_pct.push((k.order, pct));
+                self.uncertainty_pct.sort_by_key(|(o, _)| *o);
+            }
+        }
+        Some(())
     }
 
     /// Checks the kind, the motion and every stated number against its key's rule.
@@ -314,6 +402,14 @@ impl Rig {
                 Stated::Number(x) => toml_edit::value(*x),
                 Stated::Text(t) => toml_edit::value(t.as_str()),
             };
+        }
+        if !self.uncertainty_pct.is_empty() {
+            let table = keys::table();
+            let mut t = toml_edit::Table::new();
+            for (o, pct) in &self.uncertainty_pct {
+                t.insert(&table[*o].key, toml_edit::value(*pct));
+            }
+            doc[UNCERTAINTY_SECTION] = toml_edit::Item::Table(t);
         }
         doc.to_string()
     }

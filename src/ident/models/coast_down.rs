@@ -112,6 +112,10 @@ impl GreyBox for CoastDown {
         &self.specs
     }
 
+    fn params_mut(&mut self) -> &mut [ParamSpec] {
+        &mut self.specs
+    }
+
     fn default_free(&self, _outputs: &[String]) -> Vec<usize> {
         self.indices_of(&[VISCOUS, COULOMB, INITIAL_SPEED])
     }

@@ -289,6 +289,10 @@ impl GreyBox for DcmcPair {
         &self.specs
     }
 
+    fn params_mut(&mut self) -> &mut [ParamSpec] {
+        &mut self.specs
+    }
+
     fn default_free(&self, _outputs: &[String]) -> Vec<usize> {
         (0..self.specs.len()).collect()
     }

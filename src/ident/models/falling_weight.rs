@@ -100,6 +100,10 @@ impl GreyBox for FallingWeight {
         &self.specs
     }
 
+    fn params_mut(&mut self) -> &mut [ParamSpec] {
+        &mut self.specs
+    }
+
     /// Inertia, Coulomb and viscous friction, and Kv when the back-EMF is recorded. The
     /// viscous term must be free: over the speeds of a fall it is comparable with the
     /// Coulomb level, and a wrong fixed value biases the Coulomb estimate.

@@ -217,6 +217,10 @@ impl GreyBox for LinearAxis {
         &self.specs
     }
 
+    fn params_mut(&mut self) -> &mut [ParamSpec] {
+        &mut self.specs
+    }
+
     fn default_free(&self, _outputs: &[String]) -> Vec<usize> {
         self.indices_of(&[MASS, VISCOUS])
     }

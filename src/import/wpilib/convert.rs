@@ -297,13 +297,20 @@ pub(crate) fn nominal_rig(
         ),
     };
     notes.push(format!("resistance {r_ohm:.5} ohm {r_note}; inductance = resistance x {ELECTRICAL_TIME_S} s (assumed)"));
-    let supply = a.supply_v.unwrap_or(12.0);
     let mut rig = Rig::default();
     rig.set("motor.resistance_ohm", r_ohm);
     rig.set("motor.inductance_H", r_ohm * ELECTRICAL_TIME_S);
     rig.set("motor.viscous_Nm_s_rad", 0.0);
     rig.set("gearbox.ratio", 1.0);
-    rig.set("supply.voltage_V", supply);
+    // SysId logs the voltage each controller applied (its output times the bus voltage it
+    // measured): the battery's sag and limit are already in it. A supply is stated only
+    // when given, for a simulation that needs one.
+    match a.supply_v {
+        Some(v) => {
+            rig.set("supply.voltage_V", v);
+        }
+        None => notes.push("no [supply]: the logged voltages are what the controllers applied, the battery's sag and limit already in them (give --supply-v to state one)".into()),
+    }
     if log.mechanism.is_drivetrain() {
         let r = a.wheel_radius_m.unwrap_or(DEFAULT_WHEEL_RADIUS_M);
         let k = kv * r;
@@ -347,6 +354,17 @@ pub(crate) fn nominal_rig(
         rig.set("wheel.inertia_kg_m2", 0.0);
         notes.push("gearbox ratio 1: the measured shaft is the motor shaft; its whole inertia is the rotor's (kA x kV / resistance)".into());
     }
+    let inertia_key = state_uncertainties(
+        &mut rig,
+        ff,
+        a.resistance_ohm.is_none() && r_note.starts_with("ASSUMED"),
+        log.mechanism,
+    );
+    notes.push(format!(
+        "[uncertainty_pct]: motor.torque_constant_Nm_A and {inertia_key} as uncertain as SysId's kV and kA ({:.2} % and {:.2} %); what was assumed {ASSUMED_UNCERTAINTY_PCT} %",
+        relative_pct(ff.kv_v_s_per_unit),
+        relative_pct(ff.ka_v_s2_per_unit),
+    ));
     let body = rig.to_toml();
     let mut s = format!(
         "# Nominal rig of {} from a linear fit (agvsim import wpilib)\n",
@@ -356,6 +374,50 @@ pub(crate) fn nominal_rig(
         let _ = writeln!(s, "# {n}");
     }
     Ok(s + &body)
+}
+
+/// One standard deviation of an assumed value, % of it: "within a factor of about two".
+const ASSUMED_UNCERTAINTY_PCT: f64 = 100.0;
+
+/// A gain's standard deviation, % of its value.
+fn relative_pct(g: crate::ident::feedforward::Gain) -> f64 {
+    100.0 * g.std / g.value.abs().max(1e-300)
+}
+
+/// The rig's `[uncertainty_pct]`: the values SysId's regression measured (the torque
+/// constant from kV, the inertia kA accelerates) as uncertain as its standard deviations
+/// say; the assumed ones (a resistance without a logged current, the inductance, the share
+/// of kA's inertia that turns with the wheels) [`ASSUMED_UNCERTAINTY_PCT`]. A fit then holds
+/// a value the record cannot determine at what SysId measured, by as much as SysId measured
+/// it. (Those deviations assume a white residual and come from the log a fit of it reads;
+/// beliefs at 30 % instead made the real drivetrain log's kS 6 % off, see issue 29.)
+fn state_uncertainties(
+    rig: &mut Rig,
+    ff: &Feedforward,
+    resistance_assumed: bool,
+    m: Mechanism,
+) -> &'static str {
+    rig.set_uncertainty_pct(
+        "motor.torque_constant_Nm_A",
+        relative_pct(ff.kv_v_s_per_unit),
+    );
+    let inertia_key = match m {
+        Mechanism::DrivetrainAngular => "chassis.yaw_inertia_kg_m2",
+        m if m.is_drivetrain() => "chassis.mass_kg",
+        _ => "motor.rotor_inertia_kg_m2",
+    };
+    rig.set_uncertainty_pct(inertia_key, relative_pct(ff.ka_v_s2_per_unit));
+    let mut assumed = vec!["motor.inductance_H"];
+    if resistance_assumed {
+        assumed.push("motor.resistance_ohm");
+    }
+    if m.is_drivetrain() {
+        assumed.extend(["motor.rotor_inertia_kg_m2", "wheel.inertia_kg_m2"]);
+    }
+    for key in assumed {
+        rig.set_uncertainty_pct(key, ASSUMED_UNCERTAINTY_PCT);
+    }
+    inertia_key
 }
 
 /// Track width from the gyro, as SysId computes it: wheel travel over turned angle.

@@ -207,7 +207,7 @@ pub fn fit_dcmc_keys(
     let nominal: Vec<f64> = model.specs.iter().map(|s| s.nominal).collect();
     let settings = FitSettings {
         free: (0..form.keys().len()).collect(),
-        weights: vec![1.0; data.output_names.len()],
+        weighting: crate::ident::fit::Weighting::outputs_only(vec![1.0; data.output_names.len()]),
         max_iterations: 40,
         starts: vec![nominal],
     };

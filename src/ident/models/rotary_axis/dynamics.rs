@@ -177,6 +177,29 @@ impl GreyBox for RotaryAxis {
         &self.specs
     }
 
+    fn params_mut(&mut self) -> &mut [ParamSpec] {
+        &mut self.specs
+    }
+
+    fn sysid_terms(&self, p: &[f64], speed_unit: &str) -> Option<crate::ident::sysid_terms::Terms> {
+        // SysId regresses the motor's speed on its terminal voltage.
+        if self.input != AxisInput::Voltage || speed_unit != "rad/s" {
+            return None;
+        }
+        let a = self.declared(p);
+        Some(
+            crate::ident::sysid_terms::DcDrive {
+                resistance_ohm: a.motor.resistance_ohm,
+                torque_constant_nm_a: a.motor.torque_constant_nm_a,
+                coulomb_nm: a.motor.coulomb_nm,
+                viscous_nm_s_rad: a.motor.viscous_nm_s_rad,
+                inertia_kg_m2: self.inertia_at_motor(&a),
+                motor_rad_per_unit: 1.0,
+            }
+            .terms(),
+        )
+    }
+
     fn default_free(&self, outputs: &[String]) -> Vec<usize> {
         // Only the sum of the inertias is seen through a rigid gear train: the wheel's stays
         // at the rig value and the rotor's absorbs the difference. Without a current

@@ -293,6 +293,7 @@ impl RotaryAxis {
                     l
                 };
                 ParamSpec::new("motor.inductance_H", l, l / 3.0, 3.0 * l)
+                    .believed(crate::ident::model::DEFAULT_BELIEF_SD_REL)
             },
             ParamSpec::positive(
                 "motor.torque_constant_Nm_A",

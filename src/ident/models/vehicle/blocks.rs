@@ -181,7 +181,8 @@ impl Vehicle {
                 &self.effects,
                 &a.battery,
                 a.dcmc.command_delay_s,
-                self.supply_v,
+                // Supply effects are applicable only with a stated supply.
+                self.supply_v.unwrap_or(f64::INFINITY),
             ),
         }
     }

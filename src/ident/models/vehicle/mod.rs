@@ -19,11 +19,14 @@ use std::path::Path;
 
 use crate::ident::data::Dataset;
 use crate::ident::effects::{self, Effect};
-use crate::ident::model::{Binding, Dynamics, GreyBox, OutputKind, ParamSpec};
+use crate::ident::model::{
+    Binding, Dynamics, GreyBox, OutputKind, ParamSpec, DEFAULT_BELIEF_SD_REL,
+};
 use crate::rig::{Rig, RigError};
 
 use crate::ident::models::rotary_axis::{
-    BACKLASH_FD_STEP, RESISTANCE, ROTOR_INERTIA, TORQUE_CONSTANT, VISCOUS, WHEEL_SHARE_PARAM,
+    BACKLASH_FD_STEP, INDUCTANCE, RESISTANCE, ROTOR_INERTIA, TORQUE_CONSTANT, VISCOUS,
+    WHEEL_SHARE_PARAM,
 };
 
 mod blocks;
@@ -54,6 +57,122 @@ pub const DEFAULT_DRIVE_LOAD_FRACTION: f64 = 0.6;
 /// slip finite at standstill and the tyre's stiffness bounded for explicit integration.
 pub const SLIP_SPEED_FLOOR_M_S: f64 = 0.2;
 
+/// Largest RMS of the left and right commands' difference, as a share of the RMS of their
+/// mean, at which a record commands no turn. Two sides' drivers never deliver exactly the
+/// same voltage (a competition robot's straight SysId tests differ by 0.3 % to 2 %, a
+/// single sample of 3.5 V at a step among them); a record that means to turn commands
+/// several percent or more.
+pub const NO_TURN_COMMAND_SHARE: f64 = 0.05;
+
+/// Largest heading excursion within a test, rad, at which a record shows no turn (about
+/// one degree: a gyro's drift and noise over a straight test of tens of seconds).
+pub const NO_TURN_HEADING_RAD: f64 = 0.02;
+
+/// What a record shows of turning: how much turn it commands, and how far the heading
+/// moved where a gyro or a tracker measures it.
+#[derive(Debug, Clone, Copy)]
+pub struct Turning {
+    /// RMS of the commands' difference over the RMS of their mean.
+    pub command_share: f64,
+    /// Largest heading excursion within a test (measured, or the gyro's rate integrated),
+    /// rad; `None` where neither is measured.
+    pub heading_excursion_rad: Option<f64>,
+}
+
+impl Turning {
+    /// What `data` (inputs: left and right voltage) shows.
+    pub fn of(data: &Dataset) -> Turning {
+        let (l, r) = (&data.inputs[0], &data.inputs[1]);
+        let n = l.len().max(1) as f64;
+        let diff = (l.iter().zip(r).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / n).sqrt();
+        let mean = (l
+            .iter()
+            .zip(r)
+            .map(|(a, b)| (0.5 * (a + b)).powi(2))
+            .sum::<f64>()
+            / n)
+            .sqrt();
+        let command_share = if mean > 0.0 {
+            diff / mean
+        } else if diff > 0.0 {
+            f64::INFINITY
+        } else {
+            0.0
+        };
+        Turning {
+            command_share,
+            heading_excursion_rad: heading_excursion(data),
+        }
+    }
+
+    /// Whether the record shows a turn: a commanded one, or a heading that moved.
+    pub fn shown(&self) -> bool {
+        self.command_share > NO_TURN_COMMAND_SHARE
+            || self
+                .heading_excursion_rad
+                .is_some_and(|h| h > NO_TURN_HEADING_RAD)
+    }
+
+    /// Why a record without a turn leaves the yaw outputs out, in words.
+    fn why_none(&self) -> String {
+        let heading = match self.heading_excursion_rad {
+            Some(h) => format!(", and the heading moves {h:.4} rad at most within a test"),
+            None => String::new(),
+        };
+        format!(
+            "no turn: the left and right voltages differ by {:.1} % (RMS, of their mean){heading}; the yaw measured is the sensor's noise and the model's a response to the commands' imbalance, so it would steer the fit without showing anything",
+            100.0 * self.command_share
+        )
+    }
+}
+
+/// Largest heading excursion within a test, rad: from `heading_rad` where measured, else
+/// the integral of `yaw_rate_rad_s`; `None` with neither.
+fn heading_excursion(data: &Dataset) -> Option<f64> {
+    let excursion = |values: &mut dyn Iterator<Item = f64>| {
+        let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v), b.max(v))
+        });
+        if hi >= lo {
+            hi - lo
+        } else {
+            0.0
+        }
+    };
+    let segments = data.segments();
+    if let Some(j) = data.output_index("heading_rad") {
+        let col = &data.outputs[j];
+        return Some(
+            segments
+                .iter()
+                .map(|s| excursion(&mut col[s.clone()].iter().flatten().copied()))
+                .fold(0.0, f64::max),
+        );
+    }
+    let j = data.output_index("yaw_rate_rad_s")?;
+    let col = &data.outputs[j];
+    Some(
+        segments
+            .iter()
+            .map(|s| {
+                let mut heading = 0.0;
+                let mut last: Option<(f64, f64)> = None;
+                let mut values = Vec::new();
+                for k in s.clone() {
+                    if let Some(w) = col[k] {
+                        if let Some((t0, w0)) = last {
+                            heading += 0.5 * (w + w0) * (data.t_s[k] - t0);
+                        }
+                        last = Some((data.t_s[k], w));
+                        values.push(heading);
+                    }
+                }
+                excursion(&mut values.into_iter())
+            })
+            .fold(0.0, f64::max),
+    )
+}
+
 /// Name of the castor-drag block's nuisance parameter: the castors' distance from the
 /// drive-axle midpoint, m.
 pub const CASTOR_LEVER_PARAM: &str = "castor_drag.lever_m";
@@ -73,8 +192,10 @@ pub struct Vehicle {
     pub ratio: f64,
     /// Motor speeds come from encoders (count differences over the sample interval).
     pub encoder: bool,
-    /// Supply voltage the rig states, V.
-    pub supply_v: f64,
+    /// Supply voltage the rig states, V; `None`: the rig states no supply, its voltages
+    /// are what the motors get (a log of the controllers' applied voltages), and the
+    /// supply's effects (a clip, a sag) have nothing to act on.
+    pub supply_v: Option<f64>,
     /// Effects switched on, with the places of their parameters.
     pub effects: effects::EffectSlots,
     /// Smoothing speeds of Coulomb friction (rad/s, motor) and castor drag (m/s).
@@ -107,7 +228,8 @@ impl Vehicle {
         }
         let specs = vec![
             ParamSpec::positive("motor.resistance_ohm", need("motor.resistance_ohm")?),
-            ParamSpec::new("motor.inductance_H", l, l / 3.0, 3.0 * l),
+            ParamSpec::new("motor.inductance_H", l, l / 3.0, 3.0 * l)
+                .believed(DEFAULT_BELIEF_SD_REL),
             ParamSpec::positive(
                 "motor.torque_constant_Nm_A",
                 need("motor.torque_constant_Nm_A")?,
@@ -136,10 +258,12 @@ impl Vehicle {
                 // Measured with a ruler: a few percent is a generous bound.
                 let r = need("wheel.radius_m")?;
                 ParamSpec::new("wheel.radius_m", r, 0.8 * r, 1.25 * r)
+                    .believed(DEFAULT_BELIEF_SD_REL)
             },
             {
                 let t = need("chassis.track_width_m")?;
                 ParamSpec::new("chassis.track_width_m", t, 0.8 * t, 1.25 * t)
+                    .believed(DEFAULT_BELIEF_SD_REL)
             },
             ParamSpec::new(
                 "chassis.drive_load_fraction",
@@ -159,7 +283,7 @@ impl Vehicle {
             specs,
             ratio: rig.require("gearbox.ratio", path, "the whole-vehicle model needs it")?,
             encoder: rig.get("sensors.motor_encoder_counts_per_rev").is_some(),
-            supply_v: rig.get("supply.voltage_V").unwrap_or(24.0),
+            supply_v: rig.get("supply.voltage_V"),
             effects: effects::EffectSlots::default(),
             coulomb_eps_rad_s: 1.0,
             drag_eps_m_s: 0.01,
@@ -176,8 +300,11 @@ impl Vehicle {
     /// a rig whose drive wheels carry all of it (`drive_load_fraction = 1`, a tank or a
     /// competition drivetrain) has no castor to drag, and on a straight run castor drag is
     /// the same constant force as Coulomb friction, which it would otherwise stand in for.
+    /// The supply's effects only where the rig states a supply: voltages logged as the
+    /// controllers applied them already carry its sag and its limit.
     pub fn applicable(&self) -> Vec<Effect> {
         let castors_carry_load = self.nominal_of(LOAD_FRACTION) < 1.0;
+        let supplied = self.supply_v.is_some();
         [
             Effect::WheelSlip,
             Effect::Backlash,
@@ -189,6 +316,7 @@ impl Vehicle {
         ]
         .into_iter()
         .filter(|e| *e != Effect::CastorDrag || castors_carry_load)
+        .filter(|e| supplied || !matches!(e, Effect::VoltageSaturation | Effect::BatterySag))
         .collect()
     }
 
@@ -285,6 +413,21 @@ impl Vehicle {
     }
 }
 
+impl Vehicle {
+    /// Whether the rig states parameter `name`'s belief as a guess (one standard deviation
+    /// of at least [`GUESS_SD_REL`] of it).
+    fn belief_is_a_guess(&self, name: &str) -> bool {
+        self.indices_of(&[name])
+            .first()
+            .and_then(|&i| self.specs[i].belief_sd_rel)
+            .is_some_and(|r| r >= GUESS_SD_REL)
+    }
+}
+
+/// A belief's relative standard deviation from which it is a guess, not a measurement
+/// (`import wpilib` states its assumed values at 100 %).
+const GUESS_SD_REL: f64 = 0.5;
+
 impl GreyBox for Vehicle {
     fn name(&self) -> String {
         "whole vehicle (two motors, gears, tyres, chassis), voltage-driven".into()
@@ -292,6 +435,10 @@ impl GreyBox for Vehicle {
 
     fn params(&self) -> &[ParamSpec] {
         &self.specs
+    }
+
+    fn params_mut(&mut self) -> &mut [ParamSpec] {
+        &mut self.specs
     }
 
     fn default_free(&self, outputs: &[String]) -> Vec<usize> {
@@ -313,6 +460,14 @@ impl GreyBox for Vehicle {
             // only lets the search drift to its bounds. Turning shows the track and the
             // yaw inertia.
             let mut free = vec![TORQUE_CONSTANT, MASS];
+            // An inductance the rig only assumed (a belief as loose as a guess) is freed,
+            // held by that belief: the current's rise after a voltage step lags the
+            // launch by L/R, a few milliseconds a 200 Hz log sees, and a wrong guess there
+            // otherwise hands the lag to whichever effect shapes the launch (a play, a
+            // sagging battery).
+            if self.belief_is_a_guess(INDUCTANCE) {
+                free.push(INDUCTANCE);
+            }
             if has("yaw_rate_rad_s") || has("heading_rad") {
                 free.extend([YAW_INERTIA, TRACK]);
             }
@@ -335,12 +490,47 @@ impl GreyBox for Vehicle {
     }
 
     fn unexcited(&self, data: &Dataset) -> Vec<usize> {
-        // The same voltage on both sides throughout: the model never turns.
-        if data.inputs[0] == data.inputs[1] {
-            self.indices_of(&[YAW_INERTIA, TRACK])
-        } else {
+        if Turning::of(data).shown() {
             Vec::new()
+        } else {
+            self.indices_of(&[YAW_INERTIA, TRACK])
         }
+    }
+
+    fn sysid_terms(&self, p: &[f64], speed_unit: &str) -> Option<crate::ident::sysid_terms::Terms> {
+        let a = self.declared(p);
+        let (r, n) = (a.wheel.radius_m, self.ratio);
+        let motor_rad_per_unit = match speed_unit {
+            "m/s" => n / r,
+            "rad/s" => 1.0,
+            _ => return None,
+        };
+        // Each side drives half the chassis.
+        let inertia =
+            self.drivetrain_inertia_at_motor(&a) + 0.5 * a.chassis.mass_kg * r * r / (n * n);
+        Some(
+            crate::ident::sysid_terms::DcDrive {
+                resistance_ohm: a.motor.resistance_ohm,
+                torque_constant_nm_a: a.motor.torque_constant_nm_a,
+                coulomb_nm: a.motor.coulomb_nm,
+                viscous_nm_s_rad: a.motor.viscous_nm_s_rad,
+                inertia_kg_m2: inertia,
+                motor_rad_per_unit,
+            }
+            .terms(),
+        )
+    }
+
+    fn unexcited_outputs(&self, data: &Dataset) -> Vec<(String, String)> {
+        let turning = Turning::of(data);
+        if turning.shown() {
+            return Vec::new();
+        }
+        let why = turning.why_none();
+        ["yaw_rate_rad_s", "heading_rad"]
+            .into_iter()
+            .map(|o| (o.to_string(), why.clone()))
+            .collect()
     }
 
     fn input_names(&self) -> Vec<String> {
