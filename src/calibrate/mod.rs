@@ -17,10 +17,11 @@ use rayon::prelude::*;
 
 use crate::ident::effects::Effect;
 use crate::ident::model::{Diverged, ParamSpec, Predictor};
+use crate::ident::weighting::spread_weights;
 use crate::record::Recording;
 use crate::replay::{replay, Drive, Replay, ReplayError};
 use crate::scene::Scene;
-use search::{spread_weights, Problem, Stage};
+use search::{Problem, Stage};
 
 /// Why a calibration cannot be done.
 #[derive(Debug, thiserror::Error)]

@@ -213,16 +213,3 @@ impl Problem<'_> {
         Ok((trial, next))
     }
 }
-
-/// Each output weighted by its spread, so outputs in different units count alike.
-pub(super) fn spread_weights(data: &Dataset) -> Vec<f64> {
-    data.outputs
-        .iter()
-        .map(|col| {
-            let v: Vec<f64> = col.iter().flatten().copied().collect();
-            let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
-            let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len().max(1) as f64;
-            1.0 / var.sqrt().max(1e-12)
-        })
-        .collect()
-}

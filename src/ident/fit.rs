@@ -59,8 +59,8 @@ impl Weighting {
         self.holding.as_ref().is_none_or(|h| h.contains(&i))
     }
 
-    /// The beliefs' part of the cost at `p` (unweighted): [`belief_sq`] over the
-    /// parameters this weighting holds.
+    /// The beliefs' part of the cost at `p` (unweighted): squared [`belief_deviations`]
+    /// over the parameters this weighting holds.
     pub fn belief_sq(&self, specs: &[ParamSpec], p: &[f64]) -> f64 {
         self.belief_deviations(specs, p).map(|d| d * d).sum()
     }
@@ -231,11 +231,6 @@ pub fn belief_deviations<'a>(
             },
         ))
     })
-}
-
-/// Sum of the believed parameters' squared deviations ([`belief_deviations`]).
-pub fn belief_sq(specs: &[ParamSpec], p: &[f64]) -> f64 {
-    belief_deviations(specs, p).map(|(_, d)| d * d).sum()
 }
 
 /// Each free parameter's prior standard deviation in the search coordinate.

@@ -565,14 +565,7 @@ pub fn fit_structure(
     opts: &IdentifyOptions,
     start_from: &[f64],
 ) -> Result<Fit, IdentError> {
-    let spread = |j: usize| {
-        let v: Vec<f64> = data.outputs[j].iter().flatten().copied().collect();
-        let m = v.iter().sum::<f64>() / v.len() as f64;
-        (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / v.len() as f64)
-            .sqrt()
-            .max(1e-12)
-    };
-    let weights: Vec<f64> = (0..data.outputs.len()).map(|j| 1.0 / spread(j)).collect();
+    let weights = weighting::spread_weights(data);
     let believed = free
         .iter()
         .any(|&i| model.params()[i].belief_sd_rel.is_some());

@@ -112,6 +112,21 @@ pub fn output_weights(data: &Dataset, predicted: &[Vec<f64>]) -> Vec<f64> {
         .collect()
 }
 
+/// Each output weighted by its spread (1 / its standard deviation about its mean), so
+/// outputs in different units count alike: the weights of a fit's first pass, before any
+/// residual is known.
+pub fn spread_weights(data: &Dataset) -> Vec<f64> {
+    data.outputs
+        .iter()
+        .map(|col| {
+            let v: Vec<f64> = col.iter().flatten().copied().collect();
+            let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
+            let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len().max(1) as f64;
+            1.0 / var.sqrt().max(1e-12)
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
