@@ -161,9 +161,10 @@ pub enum Command {
         /// Scene file (TOML): its values are the beliefs.
         #[arg(long)]
         scene: PathBuf,
-        /// Recording (exchange format) to fit.
-        #[arg(long)]
-        recording: PathBuf,
+        /// Recording (exchange format) to fit. Repeat it to fit several tests of one
+        /// machine together: each is replayed from rest, and all share the scene's keys.
+        #[arg(long, required = true, value_name = "NAME.csv")]
+        recording: Vec<PathBuf>,
         /// Comma-separated scene keys to fit [default: the recording kind's set: motor
         /// resistance, torque constant, rotor inertia, viscous friction for a lifted drive;
         /// torque constant, resistance, chassis mass and yaw inertia for a vehicle].
@@ -186,9 +187,10 @@ pub enum Command {
         /// replaced and commented).
         #[arg(long, value_name = "CALIBRATED.toml")]
         write: Option<PathBuf>,
-        /// A second recording to compare the original and calibrated scenes on.
+        /// Another recording to compare the original and calibrated scenes on (repeat it
+        /// for several tests: compared together, each from rest).
         #[arg(long, value_name = "OTHER.csv")]
-        validate: Option<PathBuf>,
+        validate: Vec<PathBuf>,
         /// Override a scene value before fitting (repeatable).
         #[arg(long = "set", value_name = "KEY=VALUE")]
         set: Vec<String>,

@@ -527,8 +527,14 @@ fn the_readme_worn_machine_comes_back_with_its_friction_and_its_clipping() {
         accepted,
         [Effect::CoulombFriction, Effect::VoltageSaturation]
     );
+    // Each effect left out either ended at a bound of its search or removed less of the
+    // residual than acceptance asks.
     for t in c.effects.iter().filter(|t| !t.accepted) {
-        assert!(t.at_bound.is_some(), "{t:?}");
+        assert!(
+            t.at_bound.is_some()
+                || t.rss_reduction_pct < 100.0 * agvsim::diagnose::MIN_RSS_REDUCTION,
+            "{t:?}"
+        );
     }
     let value = |key: &str| c.keys.iter().find(|k| k.key == key).unwrap().after;
     assert!((value("motor.coulomb_Nm") - 0.05).abs() < 5e-4);

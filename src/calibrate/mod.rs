@@ -16,6 +16,7 @@ use crate::ident::data::Dataset;
 use rayon::prelude::*;
 
 use crate::ident::effects::Effect;
+use crate::ident::fit::Weighting;
 use crate::ident::model::{Diverged, ParamSpec, Predictor};
 use crate::ident::weighting::spread_weights;
 use crate::record::Recording;
@@ -149,6 +150,40 @@ impl<'a> SceneReplay<'a> {
         })
     }
 
+    /// The same model with the beliefs of `belief` (the user's scene) on the keys in
+    /// `believed` (the user's free keys) that it states an uncertainty for
+    /// (`[uncertainty_pct]`): each is believed at that scene's value, as uncertain as
+    /// stated, its search range widened to hold [`crate::ident::BELIEF_SPAN_SD`] standard
+    /// deviations of it (as [`crate::ident::state_beliefs`] does for a rig). Any other key
+    /// (an effect's strength, a key whose uncertainty the scene does not state) has no
+    /// belief: the recording alone decides it.
+    pub fn believing(
+        mut self,
+        belief: &Scene,
+        believed: &[String],
+    ) -> Result<Self, CalibrateError> {
+        for spec in &mut self.specs {
+            spec.belief_sd_rel = None;
+            let Some(pct) = belief.uncertainty_pct.get(&spec.name) else {
+                continue;
+            };
+            if !believed.contains(&spec.name) {
+                continue;
+            }
+            let b = keys::get(belief, &spec.name)?;
+            if !(b.is_finite() && b > 0.0) {
+                continue;
+            }
+            let sd = pct / 100.0;
+            let span = (crate::ident::BELIEF_SPAN_SD * sd.ln_1p()).exp();
+            spec.nominal = b;
+            spec.lo = spec.lo.min(b / span);
+            spec.hi = spec.hi.max(b * span);
+            spec.belief_sd_rel = Some(sd);
+        }
+        Ok(self)
+    }
+
     /// The scene with parameters `p` in its free keys.
     pub fn scene_with(&self, p: &[f64]) -> Result<Scene, CalibrateError> {
         let pairs: Vec<(String, f64)> = self
@@ -195,6 +230,9 @@ pub struct KeyFit {
     /// The bound the search ended on, if it did: then `after` is no estimate, and the
     /// scene keeps its value (the belief or the model's structure is wrong).
     pub at_bound: Option<f64>,
+    /// Held by its stated belief (`[uncertainty_pct]`): the recording determines it less
+    /// well than the belief does, so `after` is more belief than data.
+    pub held: bool,
 }
 
 /// An effect tried: its key fitted through the simulator with the scene's keys, and the
@@ -251,8 +289,10 @@ pub struct Calibration {
     pub effects: Vec<EffectTrial>,
     /// Keys set to switch the accepted effects on.
     pub switches: Vec<Switch>,
-    /// The outputs fitted (the contract's outputs the recording has).
+    /// The outputs fitted (the contract's outputs the recording has and excites).
     pub outputs: Vec<String>,
+    /// Outputs the recording has but does not excite, left out of the fit, with why.
+    pub left_out: Vec<crate::ident::LeftOut>,
     /// The recording replayed on the original and on the calibrated scene.
     pub before: Replay,
     /// The recording replayed on the calibrated scene.
@@ -341,6 +381,20 @@ pub fn calibrate_telling(
     // The dataset's error names the recording already.
     let data = Dataset::from_recording(rec, &inputs, &outputs)
         .map_err(|e| CalibrateError::Data(e.to_string()))?;
+    let left_out = unexcited_outputs(&data, before.drive);
+    let (data, outputs) = if left_out.is_empty() {
+        (data, outputs)
+    } else {
+        let names: Vec<String> = left_out.iter().map(|l| l.output.clone()).collect();
+        let kept: Vec<String> = outputs.into_iter().filter(|o| !names.contains(o)).collect();
+        (data.without_outputs(&names), kept)
+    };
+    if outputs.is_empty() {
+        return Err(CalibrateError::Recording {
+            file: rec.path.clone(),
+            message: "no output the recording excites: nothing to fit".into(),
+        });
+    }
     if data.len() < crate::diagnose::MIN_SAMPLES {
         return Err(CalibrateError::Recording {
             file: rec.path.clone(),
@@ -358,12 +412,12 @@ pub fn calibrate_telling(
             Some((h.key.to_string(), h.signed_range?))
         })
         .collect();
-    let problem = Problem {
+    let mut problem = Problem {
         rec,
         belief: scene,
         free: free.clone(),
         signed,
-        weights: spread_weights(&data),
+        weighting: Weighting::outputs_only(spread_weights(&data)),
         data,
     };
     progress(&format!(
@@ -371,7 +425,7 @@ pub fn calibrate_telling(
         free.len(),
         free.len() + 1,
     ));
-    let stage = problem.fit(scene, &free)?;
+    let stage = problem.first_stage(scene, &free)?;
     let rounds = effect_rounds(&problem, stage, &tried, driven, progress)?;
     let iterations = rounds.iterations;
     let keys = key_fits(scene, &rounds.stage, &rounds.starts);
@@ -384,11 +438,28 @@ pub fn calibrate_telling(
         effects: rounds.trials,
         switches: rounds.switches,
         outputs,
+        left_out,
         before,
         after,
         scene: rounds.stage.scene,
         iterations,
     })
+}
+
+/// The outputs a recording does not excite, each with why: a vehicle driven on its two
+/// voltages without a turn leaves its yaw outputs out (the gyro's noise, and the model's
+/// answer to the drivers' imbalance, would steer the fit without showing anything;
+/// [`crate::ident::models::vehicle::Turning`]).
+fn unexcited_outputs(data: &Dataset, drive: Drive) -> Vec<crate::ident::LeftOut> {
+    if drive != Drive::Voltages {
+        return Vec::new();
+    }
+    crate::ident::models::vehicle::Turning::of(data)
+        .yaw_left_out()
+        .into_iter()
+        .filter(|(o, _)| data.output_index(o).is_some())
+        .map(|(output, why)| crate::ident::LeftOut { output, why })
+        .collect()
 }
 
 /// What the effect rounds leave: the last stage, each effect as last tried, the switch
@@ -457,6 +528,15 @@ fn effect_rounds(
         }));
         starts.push((home.key.to_string(), home.start));
         remaining.retain(|&e| e != t.effect);
+        // An effect that removed next to nothing of the residual (a tenth of what
+        // acceptance asks) shows no sign in this recording: it is not tried again, as the
+        // rounds that follow start from a stage that fits better still.
+        remaining.retain(|&e| {
+            trials
+                .iter()
+                .find(|t| t.effect == e)
+                .is_none_or(|t| t.rss_reduction_pct >= 10.0 * crate::diagnose::MIN_RSS_REDUCTION)
+        });
         stage = problem.polished(next)?;
         iterations += stage.fit.iterations;
     }
@@ -494,6 +574,7 @@ fn key_fits(scene: &Scene, stage: &Stage, starts: &[(String, f64)]) -> Vec<KeyFi
                     stage.fit.std[i]
                 },
                 at_bound,
+                held: stage.fit.weighting.holds(i) && stage.fit.held_by_belief(i),
             }
         })
         .collect()

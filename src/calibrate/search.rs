@@ -7,7 +7,7 @@ use rayon::prelude::*;
 use super::{effects, keys, CalibrateError, EffectTrial, SceneReplay};
 use crate::diagnose::evidence::{effective_n, Gain};
 use crate::ident::data::Dataset;
-use crate::ident::fit::{fit_predictor, residuals, Fit, FitSettings};
+use crate::ident::fit::{fit_predictor, residuals, Fit, FitError, FitSettings, Weighting};
 use crate::ident::model::{ParamSpec, Predictor};
 use crate::record::Recording;
 use crate::scene::Scene;
@@ -36,31 +36,87 @@ pub(super) struct Problem<'a> {
     /// Effect keys of either sign, with their search half-widths.
     pub signed: Vec<(String, f64)>,
     pub data: Dataset,
-    pub weights: Vec<f64>,
+    /// How every fit after the first stage weighs outputs and beliefs (the first stage's).
+    pub weighting: Weighting,
 }
 
+/// Restarts of the first stage's fit at most ([`Problem::first_stage`]).
+const MAX_RESTARTS: usize = 3;
+
+/// Share of its cost a restart must remove for another to follow.
+const RESTART_GAIN: f64 = 0.01;
+
+/// Iteration limit of each fit through the simulator.
+const MAX_ITERATIONS: usize = 30;
+
 impl Problem<'_> {
-    /// Fits the `free` keys of `scene` from its values.
+    /// The first stage: the `free` keys of `scene` fitted from its values in the two
+    /// passes of [`crate::ident::fit_weighted`] (outputs weighted by their residual
+    /// floored at their noise; a key whose belief the user's scene states,
+    /// `[uncertainty_pct]`, held near it where the recording cannot determine it). Its
+    /// weighting is the one every later fit of the calibration uses, as a diagnosis's
+    /// candidates use its baseline's: evidence compares fits weighed alike.
+    pub fn first_stage(&mut self, scene: &Scene, free: &[String]) -> Result<Stage, CalibrateError> {
+        let stage = self.stage(scene, free, |model, slots, start| {
+            crate::ident::fit_weighted(model, &self.data, slots, MAX_ITERATIONS, vec![start])
+        })?;
+        self.weighting = stage.fit.weighting.clone();
+        // The simulator's play and friction make the cost rough: a fit stops in a dent
+        // that a restart (its damping reset) leaves. Restarted while that gains.
+        let mut stage = stage;
+        for _ in 0..MAX_RESTARTS {
+            let again = self.fit(&stage.scene, free)?;
+            let gained = 1.0 - again.fit.cost / stage.fit.cost;
+            if gained > 0.0 {
+                stage = again;
+            }
+            if gained < RESTART_GAIN {
+                break;
+            }
+        }
+        Ok(stage)
+    }
+
+    /// Fits the `free` keys of `scene` from its values with the calibration's weighting.
     pub fn fit(&self, scene: &Scene, free: &[String]) -> Result<Stage, CalibrateError> {
-        let model = SceneReplay::with_signed(scene, self.rec, free, &self.signed)?;
-        let nominal: Vec<f64> = model.param_specs().iter().map(|s| s.nominal).collect();
-        let settings = FitSettings {
-            free: (0..free.len()).collect(),
-            weighting: crate::ident::fit::Weighting::outputs_only(self.weights.clone()),
-            max_iterations: 30,
-            starts: vec![nominal.clone()],
-        };
+        self.stage(scene, free, |model, slots, start| {
+            let settings = FitSettings {
+                free: slots.to_vec(),
+                weighting: self.weighting.clone(),
+                max_iterations: MAX_ITERATIONS,
+                starts: vec![start],
+            };
+            fit_predictor(model, &self.data, &settings)
+        })
+    }
+
+    /// The stage `fit` reaches from `scene`'s values of the `free` keys. A key that ends at
+    /// a bound, or that neither the recording nor a belief determines, keeps its start.
+    fn stage(
+        &self,
+        scene: &Scene,
+        free: &[String],
+        fit: impl Fn(&SceneReplay, &[usize], Vec<f64>) -> Result<Fit, FitError>,
+    ) -> Result<Stage, CalibrateError> {
+        let model = SceneReplay::with_signed(scene, self.rec, free, &self.signed)?
+            .believing(self.belief, &self.free)?;
+        let start: Vec<f64> = free
+            .iter()
+            .map(|k| keys::get(scene, k))
+            .collect::<Result<_, _>>()?;
         let fit =
-            fit_predictor(&model, &self.data, &settings).map_err(|e| CalibrateError::Fit {
-                file: self.rec.path.clone(),
-                message: e.to_string(),
+            fit(&model, &(0..free.len()).collect::<Vec<_>>(), start.clone()).map_err(|e| {
+                CalibrateError::Fit {
+                    file: self.rec.path.clone(),
+                    message: e.to_string(),
+                }
             })?;
         let specs = model.param_specs().to_vec();
         let kept: Vec<f64> = (0..free.len())
             .map(|i| {
                 let b = crate::ident::bound_reached(fit.params[i], specs[i].lo, specs[i].hi);
-                if b.is_some() {
-                    nominal[i]
+                if b.is_some() || fit.std[i].is_none() {
+                    start[i]
                 } else {
                     fit.params[i]
                 }
@@ -115,7 +171,7 @@ impl Problem<'_> {
             .par_iter()
             .map(|&v| {
                 model.predict(&[v], &self.data).map_or(f64::INFINITY, |y| {
-                    residuals(&self.data, &y, &self.weights)
+                    residuals(&self.data, &y, &self.weighting.outputs)
                         .iter()
                         .map(|r| r * r)
                         .sum()
@@ -166,10 +222,10 @@ impl Problem<'_> {
         let mut free = stage.free.clone();
         free.push(home.key.to_string());
         // From the stage's values, and from the beliefs: a missing effect can drag the
-        // free keys far from the machine (to a bound), into a basin the effect's fit does
-        // not leave.
+        // free keys far from the machine, into a basin the effect's fit does not leave.
+        let bases = [stage.scene.clone(), self.with_beliefs(&stage.scene)?];
         let mut best: Option<Stage> = None;
-        for base in [stage.scene.clone(), self.with_beliefs(&stage.scene)?] {
+        for base in bases {
             let scan = effects::Home {
                 start: self.scan_start(&effects::switched_on(&base, home)?, home)?,
                 ..home.clone()
@@ -179,7 +235,9 @@ impl Problem<'_> {
                 best = Some(next);
             }
         }
-        let next = self.beyond_the_window(best.expect("two starts were fitted"), home, &free)?;
+        let next = best.expect("a start was fitted");
+        let n_stage = effective_n(&self.data, &stage.fit.predicted);
+        let next = self.beyond_the_window(next, home, &free)?;
         // The gain is the effect's only if the stage's own physics, refitted from where the
         // effect's fit ended, does not reach it: the rough play or limit may have led the
         // free keys out of a poor minimum, which is no evidence for the effect.
@@ -188,17 +246,35 @@ impl Problem<'_> {
             .iter()
             .map(|k| Ok((k.clone(), keys::get(&next.scene, k)?)))
             .collect::<Result<_, CalibrateError>>()?;
-        let null = self.fit(&keys::set(&stage.scene, &fitted)?, &stage.free)?;
-        let reference = if null.fit.cost < stage.fit.cost {
-            &null
+        // The null fit can only lower the reference's cost: an effect that fails against
+        // the stage fails against it too, and needs no null fit.
+        let null = if Gain::of(&self.data, &stage.fit, &n_stage, &next.fit).passes() {
+            Some(self.fit(&keys::set(&stage.scene, &fitted)?, &stage.free)?)
         } else {
-            stage
+            None
+        };
+        let reference = match &null {
+            Some(null) if null.fit.cost < stage.fit.cost => null,
+            _ => stage,
         };
         let n_ref = effective_n(&self.data, &reference.fit.predicted);
-        let gain = Gain::of(&self.data, &reference.fit, &n_ref, &next.fit);
+        Ok((self.trial(home, reference, &n_ref, &next, &free), next))
+    }
+
+    /// The evidence for the effect fitted in `next` against `reference`, whose effective
+    /// residual counts are `n_ref`.
+    fn trial(
+        &self,
+        home: &effects::Home,
+        reference: &Stage,
+        n_ref: &[f64],
+        next: &Stage,
+        free: &[String],
+    ) -> EffectTrial {
+        let gain = Gain::of(&self.data, &reference.fit, n_ref, &next.fit);
         let i = free.len() - 1;
         let at_bound = next.at_bound(i);
-        let trial = EffectTrial {
+        EffectTrial {
             effect: home.effect,
             key: home.key.to_string(),
             value: next.fit.params[i],
@@ -209,7 +285,6 @@ impl Problem<'_> {
             // A key the recording does not determine (a limit above every command) is
             // not what earned a gain.
             accepted: gain.passes() && at_bound.is_none() && next.fit.std[i].is_some(),
-        };
-        Ok((trial, next))
+        }
     }
 }

@@ -81,13 +81,17 @@ pub fn calibrated_text(
             format!("set by --set for the calibration against {source} (was {was})")
         })?;
     }
+    // A key at a bound or undetermined is no estimate: the scene keeps its value.
     for k in c.keys.iter().filter(|k| k.at_bound.is_none()) {
-        let std = k
-            .std
-            .map_or("undetermined".to_string(), |s| format!("{:.2e}", s));
+        let Some(std) = k.std else { continue };
+        let held = if k.held {
+            " (held by its stated belief: the recording determines it less well)"
+        } else {
+            ""
+        };
         set_text(&mut doc, &k.key, &format!("{:e}", k.after), |_| {
             format!(
-                "calibrated against {source}: was {}, fitted {} +/- {std}",
+                "calibrated against {source}: was {}, fitted {} +/- {std:.2e}{held}",
                 k.before,
                 rounded(k.after)
             )
@@ -128,10 +132,20 @@ pub fn render(c: &Calibration) -> String {
                 );
             }
             None => {
-                let std = k.std.map_or("-".to_string(), |v| format!("{v:.2e}"));
+                let (std, note) = match (k.std, k.held) {
+                    (None, _) => (
+                        "-".to_string(),
+                        "  undetermined by the recording: the scene keeps its value",
+                    ),
+                    (Some(v), true) => (
+                        format!("{v:.2e}"),
+                        "  held by its stated belief: the recording determines it less well",
+                    ),
+                    (Some(v), false) => (format!("{v:.2e}"), ""),
+                };
                 let _ = writeln!(
                     s,
-                    "{:<30} {:>12.5e} {:>12.5e} {:>10}",
+                    "{:<30} {:>12.5e} {:>12.5e} {:>10}{note}",
                     k.key, k.before, k.after, std
                 );
             }
@@ -188,6 +202,9 @@ pub fn render(c: &Calibration) -> String {
         };
         let _ = writeln!(s, "  {:<28} {:>8.1} {:>12.1}", name, b.fit_pct, a.fit_pct);
     }
+    for l in &c.left_out {
+        let _ = writeln!(s, "  {:<28} left out: {}", l.output, l.why);
+    }
     s
 }
 
@@ -215,6 +232,7 @@ pub fn json(c: &Calibration, scene: &str, recording: &str) -> serde_json::Value 
                 "calibrated": k.after,
                 "std": k.std,
                 "at_bound": k.at_bound,
+                "held_by_belief": k.held,
             })
         })
         .collect();
@@ -257,6 +275,7 @@ pub fn json(c: &Calibration, scene: &str, recording: &str) -> serde_json::Value 
         "effects": effects,
         "switches": switches,
         "replay_fit": fits,
+        "left_out": c.left_out,
         "mean_fit_pct": {"original": mean_fit(&c.before, &c.outputs), "calibrated": mean_fit(&c.after, &c.outputs)},
         "iterations": c.iterations,
     })

@@ -15,16 +15,16 @@ use crate::scene::Scene;
 pub struct CalibrateRequest {
     /// The scene: its values are the beliefs.
     pub scene: PathBuf,
-    /// The recording to fit.
-    pub recording: PathBuf,
+    /// The recordings to fit (several: tests of one machine, each replayed from rest).
+    pub recording: Vec<PathBuf>,
     /// Scene keys to fit (empty: the recording kind's set).
     pub free: Vec<String>,
     /// Effects to try: `all`, `none` or vocabulary names.
     pub effects: Vec<String>,
     /// Where to write the calibrated scene.
     pub write: Option<PathBuf>,
-    /// A second recording to compare the scenes on.
-    pub validate: Option<PathBuf>,
+    /// Recordings to compare the scenes on (none: no validation).
+    pub validate: Vec<PathBuf>,
     /// Scene overrides before fitting, `KEY=VALUE`.
     pub set: Vec<String>,
     /// Where to write the result as JSON.
@@ -51,8 +51,11 @@ pub fn run(req: &CalibrateRequest, say: Say) -> Result<(), CommandError> {
             source,
         })?;
     let scene = Scene::from_toml(&text, &req.scene, &req.set)?;
-    let rec = Recording::load(&req.recording)?;
-    let other = req.validate.as_deref().map(Recording::load).transpose()?;
+    let rec = Recording::load_joined(&req.recording)?;
+    let other = (!req.validate.is_empty())
+        .then(|| Recording::load_joined(&req.validate))
+        .transpose()?;
+    let recordings = names(&req.recording);
     // The output paths are checked before the fit's work.
     check_targets(&[
         ("--write", req.write.as_deref(), false),
@@ -63,7 +66,7 @@ pub fn run(req: &CalibrateRequest, say: Say) -> Result<(), CommandError> {
     say(&format!(
         "calibrate  {} against {} (fidelity {}), through the simulator\n",
         req.scene.display(),
-        req.recording.display(),
+        recordings,
         scene.sim.fidelity.name()
     ));
     let c = on_workers(req.jobs, || {
@@ -90,21 +93,24 @@ pub fn run(req: &CalibrateRequest, say: Say) -> Result<(), CommandError> {
         })?;
         say(&format!(
             "validate   {}: {:.1} % -> {:.1} %\n",
-            o.path.display(),
+            names(&req.validate),
             cw::mean_fit(&b, &c.outputs),
             cw::mean_fit(&a, &c.outputs)
         ));
     }
-    let source_name = req.recording.file_name().map_or_else(
-        || "the recording".into(),
-        |n| n.to_string_lossy().into_owned(),
-    );
+    let source_name = req
+        .recording
+        .iter()
+        .map(|p| {
+            p.file_name().map_or_else(
+                || "the recording".into(),
+                |n| n.to_string_lossy().into_owned(),
+            )
+        })
+        .collect::<Vec<String>>()
+        .join(" + ");
     if let Some(p) = &req.json {
-        let v = cw::json(
-            &c,
-            &req.scene.display().to_string(),
-            &req.recording.display().to_string(),
-        );
+        let v = cw::json(&c, &req.scene.display().to_string(), &recordings);
         write_file(p, serde_json::to_string_pretty(&v).unwrap_or_default())?;
         say(&format!("json       {}\n", p.display()));
     }
@@ -124,4 +130,13 @@ pub fn run(req: &CalibrateRequest, say: Say) -> Result<(), CommandError> {
         say(&format!("rerun      {}\n", p.display()));
     }
     Ok(())
+}
+
+/// The paths as the user gave them, joined by ` + `.
+fn names(paths: &[PathBuf]) -> String {
+    paths
+        .iter()
+        .map(|p| p.display().to_string())
+        .collect::<Vec<_>>()
+        .join(" + ")
 }

@@ -87,11 +87,22 @@ pub fn wpilib(req: &WpilibImport, say: Say) -> Result<(), CommandError> {
         files.push((path, r.text.clone()));
     }
     let rig_path = dir.join(format!("{stem}.rig.toml"));
-    Rig::parse(&imported.rig, &rig_path).map_err(|e| CommandError::Contract {
+    let rig = Rig::parse(&imported.rig, &rig_path).map_err(|e| CommandError::Contract {
         what: "the nominal rig".into(),
         message: e.to_string(),
     })?;
     files.push((rig_path.clone(), imported.rig.clone()));
+    let scene_path = dir.join(format!("{stem}.scene.toml"));
+    let scene = scene_of(&rig, &imported.rig, &rig_path);
+    if let Some(text) = &scene {
+        crate::scene::Scene::from_toml(text, &scene_path, &[]).map_err(|e| {
+            CommandError::Contract {
+                what: "the machine's scene".into(),
+                message: e.to_string(),
+            }
+        })?;
+        files.push((scene_path.clone(), text.clone()));
+    }
     std::fs::create_dir_all(&dir).map_err(io(&dir))?;
     for (path, text) in &files {
         write_file(path, text)?;
@@ -101,10 +112,13 @@ pub fn wpilib(req: &WpilibImport, say: Say) -> Result<(), CommandError> {
         req.file.display(),
         imported.log.source
     ));
-    for (path, _) in &files[..files.len() - 1] {
+    for (path, _) in &files[..imported.recordings.len()] {
         say(&format!("recording  {}\n", path.display()));
     }
     say(&format!("rig        {}\n", rig_path.display()));
+    if scene.is_some() {
+        say(&format!("scene      {}\n", scene_path.display()));
+    }
     say(&format!(
         "SysId feedforward ({}, per {} of {}):\n",
         imported.log.mechanism.name(),
@@ -120,4 +134,25 @@ pub fn wpilib(req: &WpilibImport, say: Say) -> Result<(), CommandError> {
         imported.speed_unit,
     ));
     Ok(())
+}
+
+/// The imported vehicle as a scene for the simulator ([`Rig::scene_toml`]), headed by the
+/// rig's own notes on what was measured and what assumed; `None` for a lifted axis.
+fn scene_of(rig: &Rig, rig_text: &str, rig_path: &std::path::Path) -> Option<String> {
+    let rig_name = rig_path
+        .file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    let body = rig.scene_toml(&format!("The machine of {rig_name}, for the simulator"))?;
+    let mut text = format!(
+        "# The machine of {rig_name} as a scene (agvsim import): its values, and how far each is believed ([uncertainty_pct]), are the rig's:\n"
+    );
+    for line in rig_text.lines().filter(|l| l.starts_with('#')) {
+        text.push_str(line);
+        text.push('\n');
+    }
+    text.push_str(
+        "# Not in the rig, so the scene's defaults (the thesis's vehicle): castors, tyres (hard polyurethane), battery (24 V: above every logged voltage, which is what the controllers applied), guide wire, sensors and firmware. `calibrate --recording` replays the logged voltages; `run` would follow the thesis's wire.\n",
+    );
+    text.push_str(&body);
+    Some(text)
 }

@@ -33,7 +33,7 @@ use crate::rig::{Rig, RigError};
 use data::Dataset;
 pub use evaluate::{evaluate, fit_pct, fit_pct_mean, Evaluation, OutputChecks};
 use fit::{Fit, FitError, FitSettings};
-use model::GreyBox;
+use model::{GreyBox, Predictor};
 use models::coast_down::CoastDown;
 use models::dcmc_pair::{Case, DcmcPair};
 use models::falling_weight::FallingWeight;
@@ -565,10 +565,29 @@ pub fn fit_structure(
     opts: &IdentifyOptions,
     start_from: &[f64],
 ) -> Result<Fit, IdentError> {
+    let starts = starts(start_from, free, opts.starts);
+    Ok(fit_weighted(
+        model,
+        data,
+        free,
+        opts.max_iterations,
+        starts,
+    )?)
+}
+
+/// The two passes of [`fit_structure`] for any [`Predictor`] (a grey box, or the simulator
+/// replaying a record), from `starts` (the first one sets the first pass's prior weight).
+pub fn fit_weighted(
+    model: &dyn Predictor,
+    data: &Dataset,
+    free: &[usize],
+    max_iterations: usize,
+    starts: Vec<Vec<f64>>,
+) -> Result<Fit, fit::FitError> {
     let weights = weighting::spread_weights(data);
     let believed = free
         .iter()
-        .any(|&i| model.params()[i].belief_sd_rel.is_some());
+        .any(|&i| model.param_specs()[i].belief_sd_rel.is_some());
     let prior = |predicted: &[Vec<f64>], outputs: &[f64]| {
         if believed {
             fit::Weighting::prior_for(data, predicted, outputs)
@@ -576,8 +595,9 @@ pub fn fit_structure(
             0.0
         }
     };
-    let prior0 = model
-        .simulate_record(start_from, data)
+    let prior0 = starts
+        .first()
+        .and_then(|p| model.predict(p, data).ok())
         .map_or(0.0, |y| prior(&y, &weights));
     let settings = FitSettings {
         free: free.to_vec(),
@@ -586,10 +606,10 @@ pub fn fit_structure(
             prior: prior0,
             holding: None,
         },
-        max_iterations: opts.max_iterations,
-        starts: starts(start_from, free, opts.starts),
+        max_iterations,
+        starts,
     };
-    let mut f = fit::fit(model, data, &settings)?;
+    let mut f = fit::fit_predictor(model, data, &settings)?;
     if data.outputs.len() > 1 || believed {
         let holding: Vec<usize> = (0..f.free.len())
             .filter(|&slot| f.held_by_belief(slot))
@@ -605,13 +625,13 @@ pub fn fit_structure(
             outputs,
             holding: Some(holding),
         };
-        let second = fit::fit(
+        let second = fit::fit_predictor(
             model,
             data,
             &FitSettings {
                 free: free.to_vec(),
                 weighting,
-                max_iterations: opts.max_iterations,
+                max_iterations,
                 starts: vec![f.params.clone()],
             },
         )?;

@@ -21,8 +21,9 @@ crate::declare_params! {
         /// Centre of gravity left of the centre line.
         cg_y_m: f64 = 0.0, "m", Finite;
         /// Share of the weight on the two drive wheels (the hinged chassis keeps them
-        /// loaded).
-        drive_load_fraction: f64 = 0.6, "", OpenFraction;
+        /// loaded); 1: every load on them (a tank or a drop-centre six-wheel drive, the
+        /// castors idle), the centre of gravity over the drive axle.
+        drive_load_fraction: f64 = 0.6, "", open_closed(0.0, 1.0);
         /// Front edge of the body ahead of the drive axle: outline and bumper (*assumed*).
         front_m: f64 = 0.55, "m", Positive;
         /// Rear edge of the body behind the drive axle (*assumed*).
@@ -115,7 +116,13 @@ impl LoadedChassis {
         let drive = [f * w * left_share, f * w * (1.0 - left_share)];
         // Where the castors' share must act for the moments to balance.
         let rest = (1.0 - f) * w;
-        let cx = self.cg_m[0] / (1.0 - f);
+        // With every load on the drive wheels the castors carry none (and the CG is over
+        // the axle, which the scene checks).
+        let cx = if rest > 0.0 {
+            self.cg_m[0] / (1.0 - f)
+        } else {
+            0.0
+        };
         // The drive pair already splits its share about the CG's y, so the castors'
         // share must be centred on it too; along x the drive axle sits at x = 0.
         let cy = self.cg_m[1];

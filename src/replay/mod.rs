@@ -329,52 +329,13 @@ pub fn replay(scene: &Scene, rec: &Recording) -> Result<Replay, ReplayError> {
     // A drive axis, and this project's lifted pair, are recorded with the wheels off
     // the floor.
     scene.sim.wheels_lifted = drive.lifted() || rec.rig == "drive_pair";
-    let still = rows_before_first_command_change(&inputs);
-    let start = |name: &str| rec.column(name).and_then(|c| mean_of(&c[..still]));
-    if let (Some(x), Some(y)) = (start("x_m"), start("y_m")) {
-        scene.start.x_m = x;
-        scene.start.y_m = y;
-    }
-    if let Some(c) = rec.column("heading_rad") {
-        if let Some(h) = mean_heading(&c[..still]) {
-            scene.start.heading_rad = h;
+    let mut simulated = vec![Vec::with_capacity(rec.t_s.len()); chans.len()];
+    // Joined tests each start from their own state of rest.
+    for rows in rec.segments() {
+        let part = simulate_rows(&scene, rec, rows, drive, &inputs, &chans)?;
+        for (all, seg) in simulated.iter_mut().zip(part) {
+            all.extend(seg);
         }
-    }
-    let mut sim = Sim::new(&scene)?;
-    let dt = sim.params().sim.dt_s;
-    let t0 = rec.t_s[0];
-    let span_s = rec.t_s[rec.t_s.len() - 1] - t0;
-    if !(span_s / dt <= MAX_REPLAY_STEPS) {
-        return Err(recording_err(
-            rec,
-            format!(
-                "the recording spans {span_s:e} s, {:e} simulator steps of {dt} s (at most {MAX_REPLAY_STEPS:e} are run); check its time column",
-                span_s / dt
-            ),
-        ));
-    }
-    let n = rec.t_s.len();
-    let mut simulated = vec![Vec::with_capacity(n); chans.len()];
-    let mut t_sim = 0.0;
-    for k in 0..n {
-        if k > 0 {
-            // Step until the simulator reaches this row's time, holding the last input.
-            let target = rec.t_s[k] - t0;
-            while t_sim + 0.5 * dt < target {
-                sim.step().map_err(|source| ReplayError::Diverged {
-                    file: rec.path.clone(),
-                    t_s: rec.t_s[k],
-                    source,
-                })?;
-                t_sim += dt;
-            }
-        }
-        let s = sim.snapshot();
-        for (c, out) in chans.iter().zip(simulated.iter_mut()) {
-            out.push((c.read)(&s));
-        }
-        let u: Vec<f64> = inputs.iter().map(|col| col[k]).collect();
-        sim.set_actuation(drive.actuation(&u));
     }
     let outputs = chans
         .iter()
@@ -413,4 +374,69 @@ pub fn replay(scene: &Scene, rec: &Recording) -> Result<Replay, ReplayError> {
         outputs,
         not_compared,
     })
+}
+
+/// The simulator's outputs at rows `rows` of the recording, from rest at the pose the
+/// recording measures while the segment's first command holds (the scene's start where it
+/// measures none), driven by the held inputs.
+fn simulate_rows(
+    scene: &Scene,
+    rec: &Recording,
+    rows: std::ops::Range<usize>,
+    drive: Drive,
+    inputs: &[Vec<f64>],
+    chans: &[Channel],
+) -> Result<Vec<Vec<f64>>, ReplayError> {
+    let mut scene = scene.clone();
+    let seg_inputs: Vec<Vec<f64>> = inputs.iter().map(|c| c[rows.clone()].to_vec()).collect();
+    let still = rows.start + rows_before_first_command_change(&seg_inputs);
+    let start = |name: &str| {
+        rec.column(name)
+            .and_then(|c| mean_of(&c[rows.start..still]))
+    };
+    if let (Some(x), Some(y)) = (start("x_m"), start("y_m")) {
+        scene.start.x_m = x;
+        scene.start.y_m = y;
+    }
+    if let Some(c) = rec.column("heading_rad") {
+        if let Some(h) = mean_heading(&c[rows.start..still]) {
+            scene.start.heading_rad = h;
+        }
+    }
+    let mut sim = Sim::new(&scene)?;
+    let dt = sim.params().sim.dt_s;
+    let t0 = rec.t_s[rows.start];
+    let span_s = rec.t_s[rows.end - 1] - t0;
+    if !(span_s / dt <= MAX_REPLAY_STEPS) {
+        return Err(recording_err(
+            rec,
+            format!(
+                "the recording spans {span_s:e} s, {:e} simulator steps of {dt} s (at most {MAX_REPLAY_STEPS:e} are run); check its time column",
+                span_s / dt
+            ),
+        ));
+    }
+    let mut simulated = vec![Vec::with_capacity(rows.len()); chans.len()];
+    let mut t_sim = 0.0;
+    for k in rows.clone() {
+        if k > rows.start {
+            // Step until the simulator reaches this row's time, holding the last input.
+            let target = rec.t_s[k] - t0;
+            while t_sim + 0.5 * dt < target {
+                sim.step().map_err(|source| ReplayError::Diverged {
+                    file: rec.path.clone(),
+                    t_s: rec.t_s[k],
+                    source,
+                })?;
+                t_sim += dt;
+            }
+        }
+        let s = sim.snapshot();
+        for (c, out) in chans.iter().zip(simulated.iter_mut()) {
+            out.push((c.read)(&s));
+        }
+        let u: Vec<f64> = inputs.iter().map(|col| col[k]).collect();
+        sim.set_actuation(drive.actuation(&u));
+    }
+    Ok(simulated)
 }

@@ -415,6 +415,53 @@ impl Rig {
     }
 }
 
+impl Rig {
+    /// A scene of this machine for the simulator (`calibrate`, `replay`, `run`), when it is
+    /// a vehicle: every numeric value the scene has a key for, under that key, with the
+    /// rig's `[uncertainty_pct]`, at full fidelity; no gear play and no Coulomb friction
+    /// (a rig is the machine as believed, its effects for calibrate to find). A rig whose
+    /// drive wheels carry every load puts the centre of gravity over their axle. What a
+    /// rig does not state is the scene's default (the thesis's vehicle): the comments say
+    /// so.
+    pub fn scene_toml(&self, description: &str) -> Option<String> {
+        if self.rig != "vehicle" {
+            return None;
+        }
+        let mut doc = toml_edit::DocumentMut::new();
+        doc["description"] = toml_edit::value(description);
+        doc["sim"] = toml_edit::table();
+        doc["sim"]["fidelity"] = toml_edit::value("full");
+        let mut put = |key: &str, v: toml_edit::Item| {
+            let (section, name) = key.split_once('.').unwrap_or(("", key));
+            if doc.get(section).is_none() {
+                doc[section] = toml_edit::table();
+            }
+            doc[section][name] = v;
+        };
+        put("motor.coulomb_Nm", toml_edit::value(0.0));
+        put("gearbox.backlash_rad", toml_edit::value(0.0));
+        for (k, v) in self.stated() {
+            if let (Some(scene_key), Stated::Number(x)) = (k.scene_key, v) {
+                put(scene_key, toml_edit::value(*x));
+            }
+        }
+        if self.get("chassis.drive_load_fraction") == Some(1.0) {
+            put("chassis.cg_x_m", toml_edit::value(0.0));
+        }
+        if !self.uncertainty_pct.is_empty() {
+            let table = keys::table();
+            let mut t = toml_edit::Table::new();
+            for (o, pct) in &self.uncertainty_pct {
+                if let Some(scene_key) = table[*o].scene_key {
+                    t.insert(scene_key, toml_edit::value(*pct));
+                }
+            }
+            doc["uncertainty_pct"] = toml_edit::Item::Table(t);
+        }
+        Some(doc.to_string())
+    }
+}
+
 /// "line N: " for a key of a rig's text (in `section`, or at the top), if it is found.
 fn at_line(text: &str, section: Option<&str>, key: &str) -> String {
     let mut current: Option<String> = None;

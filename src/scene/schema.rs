@@ -64,6 +64,11 @@ pub struct Scene {
     /// What a run of the scene as written shows (checked by `agvsim run` and the tests).
     #[serde(skip_serializing_if = "ExpectSpec::is_empty")]
     pub expect: ExpectSpec,
+    /// `[uncertainty_pct]`: how far a value is believed, one standard deviation in percent
+    /// of it, by quoted scene key (`"chassis.mass_kg" = 10`). A calibration holds a key the
+    /// recording cannot determine near its value by this belief; an unstated key is free.
+    #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub uncertainty_pct: std::collections::BTreeMap<String, f64>,
 }
 
 /// Which parts of the model are switched on (the thesis's three levels plus ours).

@@ -47,7 +47,31 @@ impl Scene {
         self.check_floor()?;
         self.check_controller()?;
         self.check_wire()?;
-        self.check_obstacles()
+        self.check_obstacles()?;
+        self.check_uncertainties()
+    }
+
+    /// Each `[uncertainty_pct]` entry names a numeric scene key and a percentage above zero.
+    fn check_uncertainties(&self) -> Result<(), Invalid> {
+        let table = super::keys::table();
+        for (key, &pct) in &self.uncertainty_pct {
+            let name = format!("uncertainty_pct.\"{key}\"");
+            if table.find(key).and_then(|k| k.allowed()).is_none() {
+                return Err(Invalid {
+                    key: name,
+                    value: format!("{pct}"),
+                    expected: "a numeric scene key (quoted, e.g. \"chassis.mass_kg\" = 10; `agvsim keys` lists them)".into(),
+                });
+            }
+            if !(pct.is_finite() && pct > 0.0) {
+                return Err(bad(
+                    &name,
+                    pct,
+                    "a percentage greater than zero: one standard deviation of the belief",
+                ));
+            }
+        }
+        Ok(())
     }
 
     fn check_timing(&self) -> Result<(), Invalid> {
@@ -88,13 +112,24 @@ impl Scene {
     fn check_loads(&self) -> Result<(), Invalid> {
         let (c, k) = (&self.chassis, &self.castors);
         let (_, cgx, cgy) = self.total_mass_and_cg();
-        let cx = cgx / (1.0 - c.drive_load_fraction);
-        if !(cx > k.rear_x_m && cx < k.front_x_m) || cgy.abs() >= k.half_spacing_m {
-            return Err(bad(
-                "chassis.cg_x_m / payload.cg_x_m",
-                format!("{cgx:.3} m (combined CG)"),
-                "a centre of gravity that the drive wheels and castors can carry with positive loads",
-            ));
+        if c.drive_load_fraction == 1.0 {
+            // Every load on the drive axle: the CG must be over it for the loads to balance.
+            if cgx.abs() > 1e-9 {
+                return Err(bad(
+                    "chassis.cg_x_m / payload.cg_x_m",
+                    format!("{cgx:.3} m (combined CG)"),
+                    "a centre of gravity over the drive axle (0 m) when chassis.drive_load_fraction = 1 puts every load on the drive wheels",
+                ));
+            }
+        } else {
+            let cx = cgx / (1.0 - c.drive_load_fraction);
+            if !(cx > k.rear_x_m && cx < k.front_x_m) || cgy.abs() >= k.half_spacing_m {
+                return Err(bad(
+                    "chassis.cg_x_m / payload.cg_x_m",
+                    format!("{cgx:.3} m (combined CG)"),
+                    "a centre of gravity that the drive wheels and castors can carry with positive loads",
+                ));
+            }
         }
         if cgy.abs() >= c.track_width_m / 2.0 {
             return Err(bad(

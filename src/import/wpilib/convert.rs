@@ -413,6 +413,10 @@ fn state_uncertainties(
     }
     if m.is_drivetrain() {
         assumed.extend(["motor.rotor_inertia_kg_m2", "wheel.inertia_kg_m2"]);
+        // A straight run's kA is the mass's: the yaw inertia is the assumed square's.
+        if inertia_key != "chassis.yaw_inertia_kg_m2" {
+            assumed.push("chassis.yaw_inertia_kg_m2");
+        }
     }
     for key in assumed {
         rig.set_uncertainty_pct(key, ASSUMED_UNCERTAINTY_PCT);

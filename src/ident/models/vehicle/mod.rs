@@ -113,6 +113,18 @@ impl Turning {
                 .is_some_and(|h| h > NO_TURN_HEADING_RAD)
     }
 
+    /// The yaw outputs a record without a turn leaves out, each with why; none when it turns.
+    pub fn yaw_left_out(&self) -> Vec<(String, String)> {
+        if self.shown() {
+            return Vec::new();
+        }
+        let why = self.why_none();
+        ["yaw_rate_rad_s", "heading_rad"]
+            .into_iter()
+            .map(|o| (o.to_string(), why.clone()))
+            .collect()
+    }
+
     /// Why a record without a turn leaves the yaw outputs out, in words.
     fn why_none(&self) -> String {
         let heading = match self.heading_excursion_rad {
@@ -522,15 +534,7 @@ impl GreyBox for Vehicle {
     }
 
     fn unexcited_outputs(&self, data: &Dataset) -> Vec<(String, String)> {
-        let turning = Turning::of(data);
-        if turning.shown() {
-            return Vec::new();
-        }
-        let why = turning.why_none();
-        ["yaw_rate_rad_s", "heading_rad"]
-            .into_iter()
-            .map(|o| (o.to_string(), why.clone()))
-            .collect()
+        Turning::of(data).yaw_left_out()
     }
 
     fn input_names(&self) -> Vec<String> {
