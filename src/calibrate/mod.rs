@@ -174,12 +174,8 @@ impl<'a> SceneReplay<'a> {
             if !(b.is_finite() && b > 0.0) {
                 continue;
             }
-            let sd = pct / 100.0;
-            let span = (crate::ident::BELIEF_SPAN_SD * sd.ln_1p()).exp();
             spec.nominal = b;
-            spec.lo = spec.lo.min(b / span);
-            spec.hi = spec.hi.max(b * span);
-            spec.belief_sd_rel = Some(sd);
+            *spec = spec.clone().stated_belief(pct / 100.0);
         }
         Ok(self)
     }
@@ -454,12 +450,10 @@ fn unexcited_outputs(data: &Dataset, drive: Drive) -> Vec<crate::ident::LeftOut>
     if drive != Drive::Voltages {
         return Vec::new();
     }
-    crate::ident::models::vehicle::Turning::of(data)
-        .yaw_left_out()
-        .into_iter()
-        .filter(|(o, _)| data.output_index(o).is_some())
-        .map(|(output, why)| crate::ident::LeftOut { output, why })
-        .collect()
+    crate::ident::LeftOut::of(
+        data,
+        crate::ident::models::vehicle::Turning::of(data).yaw_left_out(),
+    )
 }
 
 /// What the effect rounds leave: the last stage, each effect as last tried, the switch

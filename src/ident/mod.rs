@@ -236,12 +236,7 @@ impl Default for IdentifyOptions {
 pub fn state_beliefs(model: &mut dyn GreyBox, rig: &Rig) {
     for spec in model.params_mut() {
         if let Some(pct) = rig.uncertainty_pct(&spec.name) {
-            *spec = spec.clone().believed(pct / 100.0);
-            if spec.lo > 0.0 && spec.nominal > 0.0 {
-                let span = (BELIEF_SPAN_SD * (pct / 100.0).ln_1p()).exp();
-                spec.lo = spec.lo.min(spec.nominal / span);
-                spec.hi = spec.hi.max(spec.nominal * span);
-            }
+            *spec = spec.clone().stated_belief(pct / 100.0);
         }
     }
 }
@@ -693,6 +688,17 @@ pub struct LeftOut {
     pub why: String,
 }
 
+impl LeftOut {
+    /// The outputs of `unexcited` (output, why) that `data` measures.
+    pub fn of(data: &Dataset, unexcited: Vec<(String, String)>) -> Vec<LeftOut> {
+        unexcited
+            .into_iter()
+            .filter(|(o, _)| data.output_index(o).is_some())
+            .map(|(output, why)| LeftOut { output, why })
+            .collect()
+    }
+}
+
 /// The dataset a model is fitted on: its inputs and the outputs the recording measures,
 /// less those the recording does not excite ([`GreyBox::unexcited_outputs`]), which are
 /// returned with why.
@@ -701,12 +707,7 @@ pub fn dataset_for(
     rec: &Recording,
 ) -> Result<(Dataset, Vec<LeftOut>), IdentError> {
     let data = Dataset::from_recording(rec, &model.input_names(), &model.output_names())?;
-    let left: Vec<LeftOut> = model
-        .unexcited_outputs(&data)
-        .into_iter()
-        .filter(|(o, _)| data.output_index(o).is_some())
-        .map(|(output, why)| LeftOut { output, why })
-        .collect();
+    let left = LeftOut::of(&data, model.unexcited_outputs(&data));
     if left.len() == data.output_names.len() {
         return Err(IdentError::Mismatch {
             file: rec.path.clone(),

@@ -59,6 +59,21 @@ impl ParamSpec {
         self
     }
 
+    /// The same parameter believed at its nominal value within `sd_rel` (one standard
+    /// deviation, a fraction of it: a belief someone stated), a positive one's search
+    /// widened to reach [`crate::ident::BELIEF_SPAN_SD`] of those deviations either side
+    /// (log scale): a guess stated at 100 % may be several times off, beyond the factor a
+    /// tens-of-percent belief is searched in.
+    pub fn stated_belief(self, sd_rel: f64) -> ParamSpec {
+        let mut spec = self.believed(sd_rel);
+        if spec.lo > 0.0 && spec.nominal > 0.0 {
+            let span = (crate::ident::BELIEF_SPAN_SD * sd_rel.ln_1p()).exp();
+            spec.lo = spec.lo.min(spec.nominal / span);
+            spec.hi = spec.hi.max(spec.nominal * span);
+        }
+        spec
+    }
+
     /// The same parameter, setting the model's key `key` (a name that is not a key of the
     /// model's blocks: an effect's strength under its vocabulary name).
     pub fn setting(mut self, key: &str) -> ParamSpec {

@@ -234,15 +234,20 @@ impl Rig {
                     "{line}[{UNCERTAINTY_SECTION}] `{dotted}` = {pct}: expected a percentage greater than zero"
                 ));
             }
-            match self.uncertainty_pct.iter_mut().find(|(o, _)| *o == k.order) {
-                Some(slot) => slot.1 = pct,
-                None => {
-                    self.uncertainty_pct.push((k.order, pct));
-                    self.uncertainty_pct.sort_by_key(|(o, _)| *o);
-                }
-            }
+            self.state_uncertainty(k.order, pct);
         }
         Ok(())
+    }
+
+    /// States the uncertainty of the key at `order` in the key table, kept in its order.
+    fn state_uncertainty(&mut self, order: usize, pct: f64) {
+        match self.uncertainty_pct.iter_mut().find(|(o, _)| *o == order) {
+            Some(slot) => slot.1 = pct,
+            None => {
+                self.uncertainty_pct.push((order, pct));
+                self.uncertainty_pct.sort_by_key(|(o, _)| *o);
+            }
+        }
     }
 
     /// How far the belief `key` may be off, one standard deviation in percent of it, if
@@ -259,13 +264,7 @@ impl Rig {
     /// `None` for a key the rig format does not have.
     pub fn set_uncertainty_pct(&mut self, key: &str, pct: f64) -> Option<()> {
         let k = keys::find(key)?;
-        match self.uncertainty_pct.iter_mut().find(|(o, _)| *o == k.order) {
-            Some(slot) => slot.1 = pct,
-            None => {
-                self.uncertainty_pct.push((k.order, pct));
-                self.uncertainty_pct.sort_by_key(|(o, _)| *o);
-            }
-        }
+        self.state_uncertainty(k.order, pct);
         Some(())
     }
 
