@@ -253,6 +253,35 @@ pub enum Command {
     /// Print the scene reference: every key, the values it allows and its default (the
     /// table the scene is validated against, in Markdown).
     Keys,
+    /// Write a new robot's scene from the numbers its builder knows: mass, track, wheel
+    /// radius, battery, the motor's datasheet point and gear ratio. Every other value is
+    /// derived (yaw inertia from mass and footprint, motor resistance and torque constant
+    /// from the datasheet, DCMC gains from the motor and battery, limits from the battery)
+    /// and commented with how. Example: agvsim new my_robot.toml --mass-kg 60 --track-m 0.4
+    /// --wheel-radius-m 0.05 --battery-V 12 --motor-rated-V 12 --motor-no-load-rpm 3000
+    /// --motor-stall-current-A 20 --gear-ratio 20 --tyre soft_rubber
+    New(NewArgs),
+    /// Diagnose or calibrate every recording of a fleet (a folder of NAME.csv, each with
+    /// NAME.rig.toml beside it, or a list file), in parallel and shardable across a
+    /// cluster's array tasks (--shard I/N or auto); each result is written whole as it
+    /// finishes, a rerun keeps finished ones, and `batch merge` joins shards into one
+    /// summary.csv and fleet.md.
+    Batch {
+        #[command(subcommand)]
+        action: BatchAction,
+    },
+    /// Load a scene and report values that do not fit the machine's own size and supply
+    /// (yaw inertia against mass and footprint, drive limit against the battery, fault
+    /// threshold against the sag, DCMC gains against the motor, tyre friction), each with
+    /// the key, its value, what was expected and why. `run`, `replay` and `calibrate` print
+    /// the same warnings.
+    Check {
+        /// Scene file (TOML).
+        scene: PathBuf,
+        /// Override a scene value, e.g. --set chassis.mass_kg=60 (repeatable).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
+    },
     /// Run one of the thesis's lab experiments on a simulated AGV; write the recording and
     /// its rig file (exchange format).
     Experiment {
@@ -448,7 +477,8 @@ pub struct SweepArgs {
     pub jobs: Option<u32>,
     /// Run only the I-th of N contiguous slices of the runs (e.g. a cluster job array);
     /// join the slices' folders with `agvsim sweep merge`.
-    #[arg(long, value_name = "I/N")]
+    /// `auto`: from the scheduler's array variables (see `agvsim batch diagnose --help`).
+    #[arg(long, value_name = "I/N|auto")]
     pub shard: Option<String>,
     /// Output folder [default: runs/sweep_SCENE_NAME, with _shard_I_of_N when sharded].
     #[arg(long)]
@@ -483,4 +513,139 @@ pub enum SweepAction {
         #[arg(long)]
         out: PathBuf,
     },
+}
+
+/// `agvsim new`'s numbers: each in its unit; without --from the first eight are needed.
+#[derive(clap::Args)]
+pub struct NewArgs {
+    /// The scene file to write (refused if it exists, unless --force).
+    #[arg(value_name = "NAME.toml")]
+    pub out: PathBuf,
+    /// Start from this scene: its values stand where no number is given, and only values
+    /// derived from the numbers given are derived again.
+    #[arg(long, value_name = "SCENE.toml")]
+    pub from: Option<PathBuf>,
+    /// Mass with batteries, kg.
+    #[arg(long, value_parser = positive_number)]
+    pub mass_kg: Option<f64>,
+    /// Distance between the drive wheels' contact patches, m.
+    #[arg(long, value_parser = positive_number)]
+    pub track_m: Option<f64>,
+    /// Drive wheel radius, m.
+    #[arg(long, value_parser = positive_number)]
+    pub wheel_radius_m: Option<f64>,
+    /// Battery (open-circuit) voltage, V.
+    #[arg(long = "battery-V", value_parser = positive_number)]
+    pub battery_v: Option<f64>,
+    /// The motor datasheet's rated voltage, V [default: --battery-V].
+    #[arg(long = "motor-rated-V", value_parser = positive_number)]
+    pub motor_rated_v: Option<f64>,
+    /// The motor's no-load speed at its rated voltage, rpm (at the motor shaft, before the
+    /// gear).
+    #[arg(long, value_parser = positive_number)]
+    pub motor_no_load_rpm: Option<f64>,
+    /// The motor's stall current at its rated voltage, A.
+    #[arg(long = "motor-stall-current-A", value_parser = positive_number)]
+    pub motor_stall_current_a: Option<f64>,
+    /// The motor's stall torque at its rated voltage, N m (at the motor shaft); used for
+    /// the resistance when the stall current is not given.
+    #[arg(long = "motor-stall-torque-Nm", value_parser = positive_number)]
+    pub motor_stall_torque_nm: Option<f64>,
+    /// Motor turns per wheel turn.
+    #[arg(long, value_parser = positive_number)]
+    pub gear_ratio: Option<f64>,
+    /// Gear play at the wheel, rad [default: 0, none].
+    #[arg(long)]
+    pub backlash_rad: Option<f64>,
+    /// Tyre compound: hard_polyurethane, soft_rubber or high_grip (`agvsim presets`)
+    /// [default: hard_polyurethane].
+    #[arg(long)]
+    pub tyre: Option<String>,
+    /// Castors: yes (four, carrying 40 % of the load) or no (every load on the drive
+    /// wheels) [default: yes].
+    #[arg(long, value_parser = yes_no)]
+    pub castors: Option<bool>,
+    /// Guidance: `wire` (the thesis's guide wire and P-D firmware) or `none` (constant
+    /// demands; `replay` drives it with a recording's commands) [default: none].
+    #[arg(long, value_parser = ["wire", "none"])]
+    pub guidance: Option<String>,
+    /// Body length, m [default: twice the track].
+    #[arg(long, value_parser = positive_number)]
+    pub length_m: Option<f64>,
+    /// Body width, m [default: the track plus 0.12 m].
+    #[arg(long, value_parser = positive_number)]
+    pub width_m: Option<f64>,
+    /// The scene's description.
+    #[arg(long)]
+    pub description: Option<String>,
+    /// Replace NAME.toml if it exists.
+    #[arg(long)]
+    pub force: bool,
+}
+
+fn yes_no(s: &str) -> Result<bool, String> {
+    match s {
+        "yes" | "true" => Ok(true),
+        "no" | "false" => Ok(false),
+        _ => Err(format!("`{s}`: expected yes or no")),
+    }
+}
+
+#[derive(Subcommand)]
+pub enum BatchAction {
+    /// Diagnose each recording against its rig.
+    Diagnose {
+        #[command(flatten)]
+        common: BatchCommon,
+        /// One rig for every recording [default: each recording's NAME.rig.toml, or the
+        /// list's second column].
+        #[arg(long, value_name = "NAME.rig.toml")]
+        rig: Option<PathBuf>,
+    },
+    /// Calibrate one scene to each recording (each robot's own calibrated keys).
+    Calibrate {
+        #[command(flatten)]
+        common: BatchCommon,
+        /// The scene fitted to each recording.
+        #[arg(long, value_name = "SCENE.toml")]
+        scene: PathBuf,
+    },
+    /// Join the folders of `--shard` runs of one batch: their results and one summary.
+    Merge {
+        /// The shard folders, in any order.
+        #[arg(required = true)]
+        shards: Vec<PathBuf>,
+        /// Output folder.
+        #[arg(long)]
+        out: PathBuf,
+    },
+}
+
+#[derive(clap::Args)]
+pub struct BatchCommon {
+    /// A folder of recordings (every *.csv), or a list file (one `recording.csv
+    /// [rig.toml]` per line, relative to the list; # comments).
+    #[arg(value_name = "FOLDER|LIST")]
+    pub recordings: PathBuf,
+    /// Comma-separated effects to try, `all` or `none` (as diagnose and calibrate take).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_name = "NAME,...",
+        default_value = "all"
+    )]
+    pub effects: Vec<String>,
+    /// Only the I-th of N contiguous slices of the recordings (1-based), or `auto`: from
+    /// the scheduler's array variables (Slurm SLURM_ARRAY_TASK_ID/_MIN/_MAX/_COUNT,
+    /// Kubernetes JOB_COMPLETION_INDEX, AWS Batch AWS_BATCH_JOB_ARRAY_INDEX/_SIZE, or
+    /// AGVSIM_SHARD_INDEX from 0; the count from AGVSIM_SHARD_COUNT where the scheduler
+    /// does not give it).
+    #[arg(long, value_name = "I/N|auto")]
+    pub shard: Option<String>,
+    /// Output folder [default: runs/batch_NAME, with _shard_I_of_N when sharded].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Worker threads [default: one per core]; the results do not depend on it.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub jobs: Option<u32>,
 }

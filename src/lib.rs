@@ -22,6 +22,7 @@
 //! - [`sweep`], [`study`]: parallel parameter sweeps (shards, merge) and the shipped
 //!   studies built on them.
 
+pub mod batch;
 pub mod calibrate;
 pub mod commands;
 pub mod diagnose;
@@ -41,6 +42,7 @@ pub mod rig;
 pub mod run;
 pub mod scene;
 pub mod sensing;
+pub mod shard;
 pub mod sim;
 pub mod study;
 pub mod sweep;

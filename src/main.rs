@@ -4,7 +4,7 @@ use std::process::ExitCode;
 
 use clap::Parser;
 
-use cli_args::{Cli, Command, ImportFormat, SweepAction, SweepArgs};
+use cli_args::{BatchAction, Cli, Command, ImportFormat, NewArgs, SweepAction, SweepArgs};
 
 mod cli_args;
 mod cli_progress;
@@ -264,6 +264,11 @@ fn dispatch(command: Command) -> Result<(), CommandError> {
             say(&agvsim::scene::keys::markdown());
             Ok(())
         }
+        Command::New(args) => new(args),
+        Command::Batch { action } => batch(action),
+        Command::Check { scene, set } => {
+            commands::new::check(&commands::new::CheckRequest { scene, set }, &say)
+        }
     }
 }
 
@@ -342,6 +347,88 @@ fn sweep(args: SweepArgs) -> Result<(), CommandError> {
             resume: args.resume,
             progress: &progress,
             stop: cli_sweep::stop_on_signals(),
+        },
+        &say,
+    )
+}
+
+/// `agvsim new`: the flags as the robot's numbers.
+fn new(a: NewArgs) -> Result<(), CommandError> {
+    use agvsim::scene::robot::{Guidance, MotorDatasheet, RobotSpec};
+    let motor_given = a.motor_no_load_rpm.is_some()
+        || a.motor_stall_current_a.is_some()
+        || a.motor_stall_torque_nm.is_some()
+        || a.motor_rated_v.is_some();
+    let motor = match (motor_given, a.motor_no_load_rpm, a.motor_rated_v.or(a.battery_v)) {
+        (false, _, _) => None,
+        (true, Some(rpm), Some(v)) => Some(MotorDatasheet {
+            rated_v: v,
+            no_load_rpm: rpm,
+            stall_current_a: a.motor_stall_current_a,
+            stall_torque_nm: a.motor_stall_torque_nm,
+        }),
+        (true, _, _) => {
+            return Err(CommandError::Option {
+                option: "--motor-*".into(),
+                value: String::new(),
+                message: "a motor needs --motor-no-load-rpm and --motor-rated-V (or --battery-V), with --motor-stall-current-A or --motor-stall-torque-Nm".into(),
+            })
+        }
+    };
+    let command = std::iter::once("agvsim".to_string())
+        .chain(std::env::args().skip(1))
+        .map(|w| if w.contains(' ') { format!("{w:?}") } else { w })
+        .collect::<Vec<_>>()
+        .join(" ");
+    commands::new::run(
+        &commands::new::NewRequest {
+            out: a.out,
+            from: a.from,
+            force: a.force,
+            command,
+            spec: RobotSpec {
+                mass_kg: a.mass_kg,
+                track_m: a.track_m,
+                wheel_radius_m: a.wheel_radius_m,
+                battery_v: a.battery_v,
+                motor,
+                gear_ratio: a.gear_ratio,
+                backlash_rad: a.backlash_rad,
+                tyre: a.tyre,
+                castors: a.castors,
+                guidance: a.guidance.map(|g| {
+                    if g == "wire" {
+                        Guidance::Wire
+                    } else {
+                        Guidance::None
+                    }
+                }),
+                length_m: a.length_m,
+                width_m: a.width_m,
+                description: a.description,
+            },
+        },
+        &say,
+    )
+}
+
+/// `agvsim batch diagnose|calibrate|merge`.
+fn batch(action: BatchAction) -> Result<(), CommandError> {
+    let (common, rig, scene) = match action {
+        BatchAction::Merge { shards, out } => return commands::batch::merge(&shards, &out, &say),
+        BatchAction::Diagnose { common, rig } => (common, rig, None),
+        BatchAction::Calibrate { common, scene } => (common, None, Some(scene)),
+    };
+    commands::batch::run(
+        &commands::batch::BatchRequest {
+            recordings: common.recordings,
+            rig,
+            scene,
+            effects: common.effects,
+            shard: common.shard,
+            out: common.out,
+            jobs: common.jobs.unwrap_or(0) as usize,
+            progress: |line| eprintln!("{line}"),
         },
         &say,
     )

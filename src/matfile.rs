@@ -184,7 +184,26 @@ fn class_name(c: u8) -> &'static str {
 }
 
 /// Decodes an `miMATRIX` element's contents.
+/// Deepest nesting of cells read: a recording's variables are vectors and cell arrays of
+/// text, never cells of cells of cells; a file nested deeper is refused before it can
+/// exhaust the stack.
+pub const MAX_NESTING: usize = 16;
+
+/// Most bytes one compressed element may inflate to (256 MB, far beyond a recording's
+/// variables): a compression bomb is refused before it fills memory.
+pub const MAX_INFLATED_BYTES: u64 = 256 << 20;
+
 fn matrix(e: &Element) -> Result<Variable, MatError> {
+    matrix_at(e, 0)
+}
+
+fn matrix_at(e: &Element, depth: usize) -> Result<Variable, MatError> {
+    if depth > MAX_NESTING {
+        return err(
+            e.offset,
+            format!("cells nested more than {MAX_NESTING} deep: not a recording's variable"),
+        );
+    }
     let d = e.data;
     let mut at = 0;
     let base = e.offset + 8;
@@ -222,7 +241,7 @@ fn matrix(e: &Element) -> Result<Variable, MatError> {
             let mut all_text = true;
             for _ in 0..count {
                 let inner = element(d, &mut at, base)?;
-                match matrix(&inner)?.data {
+                match matrix_at(&inner, depth + 1)?.data {
                     Data::Text(t) => texts.push(t),
                     _ => all_text = false,
                 }
@@ -294,6 +313,7 @@ pub fn read(bytes: &[u8]) -> Result<Vec<Variable>, MatError> {
             MI_COMPRESSED => {
                 let mut inflated = Vec::new();
                 flate2::read::ZlibDecoder::new(e.data)
+                    .take(MAX_INFLATED_BYTES + 1)
                     .read_to_end(&mut inflated)
                     .or_else(|x| {
                         err(
@@ -301,6 +321,15 @@ pub fn read(bytes: &[u8]) -> Result<Vec<Variable>, MatError> {
                             format!("compressed element does not inflate: {x}"),
                         )
                     })?;
+                if inflated.len() as u64 > MAX_INFLATED_BYTES {
+                    return err(
+                        e.offset,
+                        format!(
+                            "a compressed element inflates beyond {} MB: refused (a recording is far smaller)",
+                            MAX_INFLATED_BYTES >> 20
+                        ),
+                    );
+                }
                 let mut inner_at = 0;
                 let inner = element(&inflated, &mut inner_at, 0)?;
                 if inner.kind == MI_MATRIX {
@@ -422,6 +451,24 @@ pub fn compress(file: &[u8]) -> Vec<u8> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn cells_nested_deeper_than_a_recording_are_refused_before_the_stack_runs_out() {
+        let mut inner = char_row("x", "a");
+        for _ in 0..200 {
+            let mut wrapped = Vec::new();
+            put_element(&mut wrapped, MI_MATRIX, &inner);
+            inner = matrix_body(MX_CELL, &[1, 1], "c", &wrapped);
+        }
+        let mut w = Writer::new("nested");
+        put_element(&mut w.bytes, MI_MATRIX, &inner);
+        let e = read(&w.finish()).unwrap_err();
+        assert!(
+            e.message.contains("nested more than 16 deep"),
+            "{}",
+            e.message
+        );
+    }
 
     #[test]
     fn written_variables_read_back_plain_and_compressed() {

@@ -147,6 +147,16 @@ impl Allowed {
     }
 }
 
+/// A number as messages print it: plain for everyday magnitudes, in e-notation for the
+/// very large and very small (so that 1e308 does not print 309 digits).
+pub fn plain_number(v: f64) -> String {
+    if v.is_finite() && v != 0.0 && (v.abs() >= 1e7 || v.abs() < 1e-5) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
 /// An interval's end as the reference prints it.
 fn bound(v: f64) -> String {
     if v == std::f64::consts::FRAC_PI_2 {

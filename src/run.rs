@@ -122,7 +122,7 @@ pub fn run_scene(
         if let Err(e) = sim.step() {
             // A diverged run leaves no recording behind, not even the partial one.
             let _ = std::fs::remove_file(&partial);
-            return Err(e.into());
+            return Err(e.naming_suspects(scene).into());
         }
         let want_row = k % record_every == 0;
         let want_viz = watcher.as_mut().is_some_and(|v| v.due());

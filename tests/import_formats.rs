@@ -272,6 +272,14 @@ fn malformed_sysid_json_is_refused_naming_the_field_test_and_row() {
         "test `fast-forward`, row 10: timestamp",
     );
     check_json_refused(|v| v["fast-forward"][10][0] = 0.0.into(), "goes back from");
+    // One time stamp mistyped as 1e12 s at the end of a test: no kA of 6e9 from it.
+    check_json_refused(
+        |v| {
+            let n = v["slow-forward"].as_array().unwrap().len();
+            v["slow-forward"][n - 1][0] = 1e12.into();
+        },
+        "a corrupt time stamp?",
+    );
     check_json_refused(
         |v| {
             v.as_object_mut().unwrap().remove("sysid");

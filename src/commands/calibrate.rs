@@ -50,7 +50,9 @@ pub fn run(req: &CalibrateRequest, say: Say) -> Result<(), CommandError> {
             file: req.scene.clone(),
             source,
         })?;
-    let scene = Scene::from_toml(&text, &req.scene, &req.set)?;
+    let checked = Scene::checked_from_toml(&text, &req.scene, &req.set)?;
+    say(&checked.render_warnings());
+    let scene = checked.scene;
     let rec = Recording::load_joined(&req.recording)?;
     let other = (!req.validate.is_empty())
         .then(|| Recording::load_joined(&req.validate))

@@ -21,6 +21,7 @@ pub struct ExperimentRequest {
 /// Runs the experiment and prints what it wrote.
 pub fn run(req: &ExperimentRequest, say: Say) -> Result<(), CommandError> {
     let scene = Scene::load(&req.scene, &[])?;
+    let _lock = super::lock_out("--out", &req.options.out_dir)?;
     let o = run_experiment(req.kind, &scene, &req.options)?;
     say(&format!(
         "experiment {} on {}: {} samples\n",

@@ -46,6 +46,7 @@ pub fn mapped(req: &MappedImport, say: Say) -> Result<(), CommandError> {
         })?;
         csv_map::convert(&text, &req.file, &map, &req.map)?
     };
+    let _lock = super::lock_out("--out", &out_dir(&req.out))?;
     let path = out_dir(&req.out).join(format!("{}.csv", stem(&req.file, "imported")));
     check_recording(&text, &path)?;
     write_file(&path, &text)?;
@@ -79,10 +80,15 @@ pub struct WpilibImport {
 pub fn wpilib(req: &WpilibImport, say: Say) -> Result<(), CommandError> {
     let imported = wpilib::import(&req.file, &req.choice, &req.assumed)?;
     let dir = out_dir(&req.out);
+    let _lock = super::lock_out("--out", &dir)?;
     let stem = stem(&req.file, "sysid");
     let mut files = Vec::new();
     for r in &imported.recordings {
-        let path = dir.join(format!("{stem}_{}.csv", r.test));
+        // A test's name comes from inside the log: made safe, it names a file in `dir`.
+        let path = dir.join(format!(
+            "{stem}_{}.csv",
+            crate::output::safe_file_stem(&r.test)
+        ));
         check_recording(&r.text, &path)?;
         files.push((path, r.text.clone()));
     }

@@ -8,12 +8,14 @@
 //! goes, so a result is printed before its files are written: a write that fails after
 //! the work does not hide the result.
 
+pub mod batch;
 pub mod calibrate;
 pub mod diagnose;
 pub mod experiment;
 pub mod identify;
 pub mod import;
 pub mod linearize;
+pub mod new;
 pub mod replay;
 pub mod run;
 pub mod study;
@@ -46,6 +48,12 @@ pub enum CommandError {
     /// A scene that does not load.
     #[error(transparent)]
     Scene(#[from] SceneError),
+    /// Numbers for `agvsim new` that cannot make a scene.
+    #[error(transparent)]
+    Robot(#[from] crate::scene::robot::RobotError),
+    /// A batch that could not run.
+    #[error(transparent)]
+    Batch(#[from] crate::batch::BatchError),
     /// A rig that does not load.
     #[error(transparent)]
     Rig(#[from] RigError),
@@ -135,6 +143,8 @@ impl CommandError {
     pub fn exit_code(&self) -> u8 {
         match self {
             CommandError::Scene(_)
+            | CommandError::Robot(_)
+            | CommandError::Batch(crate::batch::BatchError::Items { .. })
             | CommandError::Rig(_)
             | CommandError::Recording(_)
             | CommandError::Effects(_)
@@ -195,6 +205,20 @@ pub(crate) fn write_file(path: &Path, bytes: impl AsRef<[u8]>) -> Result<(), Com
         std::fs::create_dir_all(dir).map_err(io(dir))?;
     }
     crate::output::write_atomically(path, bytes).map_err(io(path))
+}
+
+/// Takes the output folder's lock (see [`crate::output::FolderLock`]) for the command's
+/// writes, after checking the folder can be written; the lock goes when it is dropped.
+pub(crate) fn lock_out(
+    option: &str,
+    dir: &Path,
+) -> Result<crate::output::FolderLock, CommandError> {
+    check_targets(&[(option, Some(dir), true)])?;
+    crate::output::FolderLock::acquire(option, dir).map_err(|message| CommandError::Option {
+        option: option.to_string(),
+        value: dir.display().to_string(),
+        message,
+    })
 }
 
 /// Runs `work` on `jobs` worker threads (0: one per core).

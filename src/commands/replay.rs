@@ -26,13 +26,17 @@ pub struct ReplayRequest {
 
 /// Replays, prints the fit per output, and writes the simulated recording and plots.
 pub fn run(req: &ReplayRequest, say: Say) -> Result<(), CommandError> {
-    let scene = Scene::load(&req.scene, &req.set)?;
+    let checked = Scene::load_checked(&req.scene, &req.set)?;
+    say(&checked.render_warnings());
+    let scene = checked.scene;
     let rec = Recording::load(&req.recording)?;
     let name = stem(&req.recording, "recording");
     let dir = req
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("runs").join(format!("replay_{name}")));
+    let _lock = super::lock_out("--out", &dir)?;
+    super::check_targets(&[("--save", req.save.as_deref(), false)])?;
     let r = replay::replay(&scene, &rec)?;
     say(&format!(
         "replay     {} on {} (fidelity {}), inputs {}, {} rows\n",

@@ -31,7 +31,9 @@ pub struct RunRequest {
 /// Runs the scene and prints its summary, its claims' check and the files written.
 pub fn run(req: &RunRequest, say: Say) -> Result<(), CommandError> {
     let set = overrides(&req.set, req.duration_s, req.seed);
-    let scene = Scene::load(&req.scene, &set)?;
+    let checked = Scene::load_checked(&req.scene, &set)?;
+    say(&checked.render_warnings());
+    let scene = checked.scene;
     let name = stem(&req.scene, "run");
     let opts = RunOptions {
         out_dir: req
@@ -40,6 +42,7 @@ pub fn run(req: &RunRequest, say: Say) -> Result<(), CommandError> {
             .unwrap_or_else(|| PathBuf::from("runs").join(&name)),
         name: name.clone(),
     };
+    let _lock = super::lock_out("--out", &opts.out_dir)?;
     // The Rerun target first: a file that cannot be written (or a viewer that cannot be
     // reached) stops the run before any output is left behind.
     let mut recorder = match &req.rerun {

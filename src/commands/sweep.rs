@@ -45,9 +45,12 @@ fn options(req: &SweepRequest) -> Result<SweepOptions, CommandError> {
         .map(|v| sweep::parse_vary(v))
         .collect::<Result<Vec<_>, _>>()?;
     sweep::check_size(&varies, req.repeat, req.max_runs)?;
-    let shard = match &req.shard {
-        Some(s) => sweep::parse_shard(s)?,
-        None => Shard::WHOLE,
+    let (shard, shard_source) = match &req.shard {
+        Some(s) => {
+            let r = sweep::parse_shard(s)?;
+            (r.shard, Some(r.source))
+        }
+        None => (Shard::WHOLE, None),
     };
     let set = super::overrides(&req.set, req.duration_s, None);
     let out = req.out.clone().unwrap_or_else(|| {
@@ -62,12 +65,14 @@ fn options(req: &SweepRequest) -> Result<SweepOptions, CommandError> {
     )?;
     opts.resume = req.resume;
     opts.stop = req.stop;
+    opts.shard_source = shard_source;
     Ok(opts)
 }
 
 /// Runs the sweep, telling what it replaces or resumes and what it did.
 pub fn run(req: &SweepRequest, say: Say) -> Result<(), CommandError> {
     let opts = options(req)?;
+    let _lock = super::lock_out("--out", &opts.out_dir)?;
     let range = opts.shard.range(opts.grid.total());
     let previous = sweep::previous_outputs(&opts.out_dir);
     if !previous.is_empty() {
@@ -86,11 +91,12 @@ pub fn run(req: &SweepRequest, say: Say) -> Result<(), CommandError> {
             String::new()
         } else {
             format!(
-                " (shard {} of {} runs: {}..{})",
+                " (shard {} of {} runs: {}..{}; {})",
                 opts.shard,
                 opts.grid.total(),
                 range.start,
-                range.end
+                range.end,
+                opts.shard_source.as_deref().unwrap_or("--shard")
             )
         },
         if opts.jobs == 0 {

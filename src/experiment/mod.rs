@@ -13,6 +13,7 @@
 
 mod rigs;
 
+use crate::model::Bounded;
 use std::f64::consts::TAU;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -274,6 +275,19 @@ pub fn run_experiment(
             opts.rig_error
         )));
     }
+    {
+        let d = opts.duration_s;
+        // The budget up front, as `run` checks it: a typo of days never starts.
+        let steps = d / scene.sim.dt_s;
+        if !(d.is_finite() && d > 0.0 && steps <= scene.sim.max_steps as f64) {
+            return Err(ExperimentError::Setup(format!(
+                "--duration {d}: expected a positive length of at most sim.max_steps = {} physics steps of sim.dt_s = {} s ({} s); raise sim.max_steps in the scene if it is meant",
+                scene.sim.max_steps,
+                scene.sim.dt_s,
+                crate::param::plain_number(scene.sim.max_steps as f64 * scene.sim.dt_s)
+            )));
+        }
+    }
     let mut scene = scene.clone();
     if let Some(seed) = opts.seed {
         scene.sim.seed = seed;
@@ -409,7 +423,7 @@ fn lifted_random_demand(
                     for (i, d) in demand.iter_mut().enumerate() {
                         let lim = peak * [1.0, 0.5][i];
                         let step: f64 = StandardNormal.sample(rng);
-                        *d = (*d + 0.1 * lim * step).clamp(-lim, lim);
+                        *d = (*d + 0.1 * lim * step).bounded(-lim, lim);
                     }
                 }
             }

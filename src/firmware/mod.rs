@@ -8,6 +8,7 @@
 pub mod pwm;
 pub mod swing_away;
 
+use crate::model::Bounded;
 use swing_away::{SwingAwayDesign, SwingAwayInput, SwingAwayParams, SwingAwayState};
 
 /// What the firmware does.
@@ -261,7 +262,7 @@ impl Firmware {
                 } else {
                     0.0
                 };
-            let written = wanted.round().clamp(
+            let written = wanted.round().bounded(
                 self.controller.duty_min as f64,
                 self.controller.duty_max as f64,
             );

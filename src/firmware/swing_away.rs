@@ -14,6 +14,7 @@
 //! drift's. Tyre slip still misleads it, as it would the real retrofit.
 
 use crate::model::chassis::{wrap_angle, Pose};
+use crate::model::Bounded;
 use crate::sensing::coil::CoilParams;
 
 /// Where the strategy believes it is, relative to the straight line it assumes the wire is.
@@ -199,7 +200,7 @@ impl SwingAwayParams {
     pub fn heading_to_close(&self, axle_offset_m: f64, reversing_m_s: f64) -> f64 {
         let limit = self.design.max_heading_rad.sin();
         (self.design.axle_gain_per_s * axle_offset_m / reversing_m_s)
-            .clamp(-limit, limit)
+            .bounded(-limit, limit)
             .asin()
     }
 }

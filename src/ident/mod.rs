@@ -158,6 +158,12 @@ pub enum IdentError {
         /// Its kind.
         have: String,
     },
+    /// A `--free` name given twice.
+    #[error("--free: `{name}` is given twice; name each parameter once")]
+    DuplicateParameter {
+        /// The parameter.
+        name: String,
+    },
     /// A `--free` name that is not one of the model's parameters.
     #[error(
         "--free: `{name}` is not a parameter of the {model} model; its parameters are: {known}"
@@ -505,23 +511,32 @@ fn free_indices(
 ) -> Result<Vec<usize>, IdentError> {
     match names {
         None => Ok(model.default_free_for(data)),
-        Some(names) => names
-            .iter()
-            .map(|n| {
-                model
-                    .param_index(n)
-                    .ok_or_else(|| IdentError::UnknownParameter {
-                        name: n.clone(),
-                        model: model.name(),
-                        known: model
-                            .params()
-                            .iter()
-                            .map(|p| p.name.as_str())
-                            .collect::<Vec<_>>()
-                            .join(", "),
-                    })
-            })
-            .collect(),
+        Some(names) => {
+            if let Some((_, n)) = names
+                .iter()
+                .enumerate()
+                .find(|(i, n)| names[..*i].contains(n))
+            {
+                return Err(IdentError::DuplicateParameter { name: n.clone() });
+            }
+            names
+                .iter()
+                .map(|n| {
+                    model
+                        .param_index(n)
+                        .ok_or_else(|| IdentError::UnknownParameter {
+                            name: n.clone(),
+                            model: model.name(),
+                            known: model
+                                .params()
+                                .iter()
+                                .map(|p| p.name.as_str())
+                                .collect::<Vec<_>>()
+                                .join(", "),
+                        })
+                })
+                .collect()
+        }
     }
 }
 

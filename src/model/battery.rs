@@ -1,6 +1,8 @@
 //! Battery: two 12 V lead-acid cells in series with internal resistance, the H-bridge's
 //! voltage ceiling under load, and the DCMC's low-voltage threshold.
 
+use super::Bounded;
+
 crate::declare_params! {
     /// The battery and the H-bridges' limits (scene section `[battery]`): two 12 V
     /// lead-acid batteries in series on the thesis machine.
@@ -40,7 +42,7 @@ impl BatteryParams {
     /// its rated supply. `None` for a compensated bridge (`bridge_rated_v` 0).
     #[inline]
     pub fn duty_for_command(&self, command_v: f64) -> Option<f64> {
-        (self.bridge_rated_v > 0.0).then(|| (command_v / self.bridge_rated_v).clamp(-1.0, 1.0))
+        (self.bridge_rated_v > 0.0).then(|| (command_v / self.bridge_rated_v).bounded(-1.0, 1.0))
     }
 
     /// Voltage a bridge applies to a motor for a voltage command at a battery terminal
@@ -55,7 +57,7 @@ impl BatteryParams {
             Some(duty) => duty * terminal_v,
             None => command_v,
         };
-        applied.clamp(-available, available)
+        applied.bounded(-available, available)
     }
 
     /// Voltages that bridges sharing this battery apply for their commands (V), feeding

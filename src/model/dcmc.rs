@@ -16,6 +16,7 @@
 //! limits.
 
 use super::speed_loop::SpeedLoopGains;
+use crate::model::Bounded;
 
 /// How the DCMC turns demand into motor voltage (the thesis's identification cases).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize, serde::Serialize, Default)]
@@ -189,7 +190,7 @@ impl DcmcRamp {
     /// A side's ramped value after `dt`: moves towards `raw` by at most `max_rate dt`.
     pub fn ramped(ramped: f64, raw: f64, max_rate: f64, dt: f64) -> f64 {
         let step = max_rate * dt;
-        ramped + (raw - ramped).clamp(-step, step)
+        ramped + (raw - ramped).bounded(-step, step)
     }
 }
 
@@ -352,12 +353,12 @@ impl DcmcParams {
         }
         if self.turn_priority {
             let common = 0.5 * (v[0] + v[1]);
-            let half_diff = (0.5 * (v[1] - v[0])).clamp(-a, a);
+            let half_diff = (0.5 * (v[1] - v[0])).bounded(-a, a);
             let room = a - half_diff.abs();
-            let common = common.clamp(-room, room);
+            let common = common.bounded(-room, room);
             [common - half_diff, common + half_diff]
         } else {
-            [v[0].clamp(-a, a), v[1].clamp(-a, a)]
+            [v[0].bounded(-a, a), v[1].bounded(-a, a)]
         }
     }
 }
@@ -500,8 +501,8 @@ impl Dcmc {
     pub fn limit_current(&self, v: [f64; 2], back_emf_v: [f64; 2]) -> [f64; 2] {
         let band = self.armature_resistance_ohm * self.params.current_limit_a;
         [
-            v[0].clamp(back_emf_v[0] - band, back_emf_v[0] + band),
-            v[1].clamp(back_emf_v[1] - band, back_emf_v[1] + band),
+            v[0].bounded(back_emf_v[0] - band, back_emf_v[0] + band),
+            v[1].bounded(back_emf_v[1] - band, back_emf_v[1] + band),
         ]
     }
 
@@ -509,8 +510,8 @@ impl Dcmc {
     fn brake(&self, u: &DcmcInput) -> DcmcOutput {
         let a = u.available_v.max(0.0);
         let v = [
-            (-self.params.brake_gain_v_s_rad * u.motor_speed_rad_s[0]).clamp(-a, a),
-            (-self.params.brake_gain_v_s_rad * u.motor_speed_rad_s[1]).clamp(-a, a),
+            (-self.params.brake_gain_v_s_rad * u.motor_speed_rad_s[0]).bounded(-a, a),
+            (-self.params.brake_gain_v_s_rad * u.motor_speed_rad_s[1]).bounded(-a, a),
         ];
         DcmcOutput {
             voltage_v: self.limit_current(v, u.back_emf_v),

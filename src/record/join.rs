@@ -84,6 +84,21 @@ impl Recording {
 
     /// Loads one recording, or several tests of one machine joined ([`Recording::join`]).
     pub fn load_joined(paths: &[std::path::PathBuf]) -> Result<Recording, RecordingError> {
+        // The same test twice would count its evidence twice: deviations shrink by
+        // sqrt 2 for nothing.
+        let same =
+            |a: &std::path::Path, b: &std::path::Path| match (a.canonicalize(), b.canonicalize()) {
+                (Ok(x), Ok(y)) => x == y,
+                _ => a == b,
+            };
+        for (i, p) in paths.iter().enumerate() {
+            if paths[..i].iter().any(|q| same(p, q)) {
+                return Err(RecordingError::File {
+                    file: p.clone(),
+                    message: "given twice: each test of a machine may be joined once (the same rows twice would halve the variance for nothing)".into(),
+                });
+            }
+        }
         Recording::join(
             paths
                 .iter()

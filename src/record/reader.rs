@@ -26,6 +26,10 @@ pub struct Recording {
     pub segment_starts: Vec<usize>,
 }
 
+/// Largest recording file read, bytes (100 MB: some hours of a vehicle's 27 columns at
+/// 100 Hz; the thesis's and SysId's tests are a few MB).
+pub const MAX_RECORDING_BYTES: u64 = 100 << 20;
+
 /// A breach of the contract, located.
 #[derive(Debug, thiserror::Error)]
 pub enum RecordingError {
@@ -65,6 +69,20 @@ pub const KNOWN_UNITS: [&str; 12] = [
 impl Recording {
     /// Reads and checks a recording.
     pub fn load(path: &Path) -> Result<Recording, RecordingError> {
+        // The size first: a fit of a recording this large would take hours and gigabytes
+        // before it said anything.
+        if let Ok(m) = std::fs::metadata(path) {
+            if m.len() > MAX_RECORDING_BYTES {
+                return Err(RecordingError::File {
+                    file: path.to_owned(),
+                    message: format!(
+                        "{} MB: recordings of at most {} MB are read (an hour of 20 columns at 1 kHz is about 1 GB; cut the test out, or resample it)",
+                        m.len() >> 20,
+                        MAX_RECORDING_BYTES >> 20
+                    ),
+                });
+            }
+        }
         let text = std::fs::read_to_string(path).map_err(|source| RecordingError::Read {
             file: path.to_owned(),
             source,

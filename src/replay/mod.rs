@@ -142,6 +142,9 @@ pub struct Replay {
     pub outputs: Vec<ReplayedOutput>,
     /// Recording columns neither used as an input nor produced by the simulator.
     pub not_compared: Vec<String>,
+    /// What the replay did to the recording's inputs that a reader must know: inputs
+    /// beyond the scene's drive clipped, a DCMC fault that braked the drive.
+    pub notes: Vec<String>,
 }
 
 impl Replay {
@@ -330,11 +333,15 @@ pub fn replay(scene: &Scene, rec: &Recording) -> Result<Replay, ReplayError> {
     // the floor.
     scene.sim.wheels_lifted = drive.lifted() || rec.rig == "drive_pair";
     let mut simulated = vec![Vec::with_capacity(rec.t_s.len()); chans.len()];
+    let mut notes = clipped_inputs(&scene, drive, &inputs);
     // Joined tests each start from their own state of rest.
     for rows in rec.segments() {
-        let part = simulate_rows(&scene, rec, rows, drive, &inputs, &chans)?;
+        let (part, fault) = simulate_rows(&scene, rec, rows, drive, &inputs, &chans)?;
         for (all, seg) in simulated.iter_mut().zip(part) {
             all.extend(seg);
+        }
+        if let Some((t, name)) = fault {
+            notes.push(fault_note(&scene, rec, t, name));
         }
     }
     let outputs = chans
@@ -373,7 +380,54 @@ pub fn replay(scene: &Scene, rec: &Recording) -> Result<Replay, ReplayError> {
         inputs,
         outputs,
         not_compared,
+        notes,
     })
+}
+
+/// Voltage inputs beyond what the scene's drive delivers, which the bridges clip.
+fn clipped_inputs(scene: &Scene, drive: Drive, inputs: &[Vec<f64>]) -> Vec<String> {
+    if !matches!(drive, Drive::Voltages | Drive::AxisVoltage) {
+        return vec![];
+    }
+    let limit = scene
+        .battery
+        .drive_limit_v
+        .min(scene.battery.open_circuit_v);
+    let over = inputs
+        .iter()
+        .flatten()
+        .filter(|v| v.abs() > limit * (1.0 + 1e-9))
+        .count();
+    let peak = inputs.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+    if over == 0 {
+        return vec![];
+    }
+    vec![format!(
+        "{over} input value(s) up to {} V exceed the scene's drive (battery.drive_limit_V = {} V on a {} V battery) and were clipped to it: is the scene's battery the recording's?",
+        crate::param::plain_number(peak),
+        scene.battery.drive_limit_v,
+        scene.battery.open_circuit_v
+    )]
+}
+
+/// A DCMC fault during a replay, said with what the recording did to cause it.
+fn fault_note(scene: &Scene, rec: &Recording, t_s: f64, name: &str) -> String {
+    let why = match name {
+        "enable_delay" => format!(
+            ": the recording's demand is non-zero within dcmc.enable_delay_s = {} s of its start, which the unit takes for a stuck stick; set dcmc.enable_delay_s=0 if the unit was enabled before the recording began",
+            scene.dcmc.enable_delay_s
+        ),
+        "low_voltage" => format!(
+            ": the battery fell below battery.low_voltage_fault_V = {} V",
+            scene.battery.low_voltage_fault_v
+        ),
+        _ => String::new(),
+    };
+    format!(
+        "the DCMC faulted ({name}) at t = {:.3} s of {} and braked the drive from then on{why}",
+        t_s,
+        rec.path.display()
+    )
 }
 
 /// The simulator's outputs at rows `rows` of the recording, from rest at the pose the
@@ -386,7 +440,7 @@ fn simulate_rows(
     drive: Drive,
     inputs: &[Vec<f64>],
     chans: &[Channel],
-) -> Result<Vec<Vec<f64>>, ReplayError> {
+) -> Result<(Vec<Vec<f64>>, Option<(f64, &'static str)>), ReplayError> {
     let mut scene = scene.clone();
     let seg_inputs: Vec<Vec<f64>> = inputs.iter().map(|c| c[rows.clone()].to_vec()).collect();
     let still = rows.start + rows_before_first_command_change(&seg_inputs);
@@ -417,6 +471,7 @@ fn simulate_rows(
         ));
     }
     let mut simulated = vec![Vec::with_capacity(rows.len()); chans.len()];
+    let mut fault = None;
     let mut t_sim = 0.0;
     for k in rows.clone() {
         if k > rows.start {
@@ -426,7 +481,7 @@ fn simulate_rows(
                 sim.step().map_err(|source| ReplayError::Diverged {
                     file: rec.path.clone(),
                     t_s: rec.t_s[k],
-                    source,
+                    source: source.naming_suspects(&scene),
                 })?;
                 t_sim += dt;
             }
@@ -435,8 +490,11 @@ fn simulate_rows(
         for (c, out) in chans.iter().zip(simulated.iter_mut()) {
             out.push((c.read)(&s));
         }
+        if fault.is_none() {
+            fault = s.dcmc_fault.map(|f| (rec.t_s[k], f));
+        }
         let u: Vec<f64> = inputs.iter().map(|col| col[k]).collect();
         sim.set_actuation(drive.actuation(&u));
     }
-    Ok(simulated)
+    Ok((simulated, fault))
 }

@@ -68,6 +68,9 @@ pub fn render(r: &Replay) -> String {
     if r.mean_fit_pct().is_finite() {
         let _ = writeln!(s, "{:<28} {:>8.1}", "mean", r.mean_fit_pct());
     }
+    for n in &r.notes {
+        let _ = writeln!(s, "note: {n}");
+    }
     if !r.not_compared.is_empty() {
         let _ = writeln!(
             s,

@@ -73,10 +73,24 @@ pub fn number(scene: &Scene, key: &str) -> Option<f64> {
 pub fn check(scene: &Scene) -> Result<(), Invalid> {
     for (k, allowed) in table().numbers() {
         if let Some(v) = k.get(scene) {
+            // Every length lies on the floor the wire may span: beyond it, positions
+            // computed from it overflow.
+            let floor = crate::sensing::wire::MAX_FLOOR_M;
+            if k.unit == "m" && allowed.admits(v) && v.abs() > floor {
+                return Err(Invalid {
+                    key: k.key.clone(),
+                    value: with_unit(&crate::param::plain_number(v), k.unit),
+                    expected: format!(
+                        "{}, within {} m (the floor's extent)",
+                        expected_with_unit(allowed.expected(), k.unit),
+                        crate::param::plain_number(floor)
+                    ),
+                });
+            }
             if !allowed.admits(v) {
                 return Err(Invalid {
                     key: k.key.clone(),
-                    value: v.to_string(),
+                    value: with_unit(&crate::param::plain_number(v), k.unit),
                     expected: expected_with_unit(allowed.expected(), k.unit),
                 });
             }
@@ -85,8 +99,52 @@ pub fn check(scene: &Scene) -> Result<(), Invalid> {
     Ok(())
 }
 
+/// The numeric keys whose values are furthest from the thesis machine's, by orders of
+/// magnitude (at least two), as `key = value (thesis default)`, at most `n`.
+pub fn furthest_from_default(scene: &Scene, n: usize) -> Vec<String> {
+    use crate::param::plain_number;
+    let defaults = Scene::default();
+    let mut far: Vec<(f64, String)> = table()
+        .numbers()
+        .filter_map(|(k, _)| {
+            let (v, d) = (k.get(scene)?, k.get(&defaults)?);
+            let orders = if !v.is_finite() {
+                f64::INFINITY
+            } else if v == d {
+                0.0
+            } else if d == 0.0 || v == 0.0 {
+                (v - d).abs().log10().max(0.0)
+            } else {
+                (v.abs() / d.abs()).log10().abs()
+            };
+            (orders >= 2.0).then(|| {
+                (
+                    orders,
+                    format!(
+                        "{} = {} (thesis {})",
+                        k.key,
+                        plain_number(v),
+                        plain_number(d)
+                    ),
+                )
+            })
+        })
+        .collect();
+    far.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    far.into_iter().take(n).map(|(_, s)| s).collect()
+}
+
+/// A value as typed, with its key's unit when it has one (`-5 kg`).
+pub(crate) fn with_unit(value: &str, unit: &str) -> String {
+    if unit.is_empty() {
+        value.to_string()
+    } else {
+        format!("{value} {unit}")
+    }
+}
+
 /// What an error says was expected, in the key's unit when it has one.
-fn expected_with_unit(expected: String, unit: &str) -> String {
+pub(crate) fn expected_with_unit(expected: String, unit: &str) -> String {
     if unit.is_empty() {
         expected
     } else {

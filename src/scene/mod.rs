@@ -4,11 +4,15 @@
 
 mod expect;
 pub mod keys;
+pub mod origin;
+pub mod plausibility;
 pub mod presets_table;
+pub mod robot;
 mod schema;
 mod validate;
 
 pub use expect::ExpectSpec;
+pub use origin::Origin;
 pub use schema::*;
 
 use std::path::{Path, PathBuf};
@@ -32,11 +36,11 @@ pub enum SceneError {
         /// The TOML reader's message (line, column and key).
         message: String,
     },
-    /// A value outside its key's rule.
-    #[error("{file}: `{key}` = {value}: expected {expected}")]
+    /// A value outside its key's rule, or at odds with another key.
+    #[error("{origin}: `{key}` = {value}: expected {expected}")]
     Invalid {
-        /// The scene file.
-        file: PathBuf,
+        /// Where the value came from: `--set`, the file's line, or the default.
+        origin: Origin,
         /// The dotted key.
         key: String,
         /// The value found.
@@ -52,6 +56,25 @@ pub enum SceneError {
         /// What is wrong with it.
         message: String,
     },
+}
+
+/// A scene that loaded, with its plausibility warnings.
+#[derive(Debug)]
+pub struct Checked {
+    /// The scene.
+    pub scene: Scene,
+    /// Values that do not fit the rest of the scene, with where each came from.
+    pub warnings: Vec<(Origin, plausibility::Warning)>,
+}
+
+impl Checked {
+    /// The warnings, one `warning: ORIGIN: ...` line each.
+    pub fn render_warnings(&self) -> String {
+        self.warnings
+            .iter()
+            .map(|(o, w)| format!("warning: {o}: {w}\n"))
+            .collect()
+    }
 }
 
 /// A scene value that failed validation (before the file name is known).
@@ -76,6 +99,30 @@ impl Scene {
         Scene::from_toml(&text, path, overrides)
     }
 
+    /// As [`Scene::load`], with the plausibility warnings of the result, each with where
+    /// its value came from.
+    pub fn load_checked(path: &Path, overrides: &[String]) -> Result<Checked, SceneError> {
+        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
+            file: path.to_owned(),
+            source,
+        })?;
+        Scene::checked_from_toml(&text, path, overrides)
+    }
+
+    /// As [`Scene::load_checked`], from text; `path` is used in messages only.
+    pub fn checked_from_toml(
+        text: &str,
+        path: &Path,
+        overrides: &[String],
+    ) -> Result<Checked, SceneError> {
+        let scene = Scene::from_toml(text, path, overrides)?;
+        let warnings = plausibility::warnings(&scene)
+            .into_iter()
+            .map(|w| (origin::origin_of(w.key, text, path, overrides), w))
+            .collect();
+        Ok(Checked { scene, warnings })
+    }
+
     /// As [`Scene::load`], from text; `path` is used in messages only.
     pub fn from_toml(text: &str, path: &Path, overrides: &[String]) -> Result<Scene, SceneError> {
         // Parse the file on its own first so that its errors carry its own line numbers.
@@ -83,6 +130,9 @@ impl Scene {
             file: path.to_owned(),
             message: e.to_string().trim_end().to_string(),
         })?;
+        for arg in overrides {
+            check_override(arg)?;
+        }
         if !overrides.is_empty() {
             let mut table: toml::Table = toml::from_str(text).map_err(|e| SceneError::Parse {
                 file: path.to_owned(),
@@ -105,7 +155,7 @@ impl Scene {
             })?;
         }
         scene.validate().map_err(|bad| SceneError::Invalid {
-            file: path.to_owned(),
+            origin: origin::origin_of(&bad.key, text, path, overrides),
             key: bad.key,
             value: bad.value,
             expected: bad.expected,
@@ -156,12 +206,52 @@ fn apply_override(table: &mut toml::Table, arg: &str) -> Result<(), SceneError> 
     Ok(())
 }
 
-/// A TOML value from a command-line string: numbers, booleans, arrays as TOML; anything
-/// else is a plain string.
+/// A TOML value from a command-line string: numbers, booleans, arrays as TOML; a number
+/// TOML cannot hold as an integer (`10000000000000000000`) as a float; anything else is a
+/// plain string.
 pub fn parse_value(raw: &str) -> toml::Value {
     let wrapped = format!("v = {raw}");
     match toml::from_str::<toml::Table>(&wrapped) {
         Ok(mut t) => t.remove("v").unwrap_or(toml::Value::String(raw.into())),
-        Err(_) => toml::Value::String(raw.to_string()),
+        Err(_) => match raw.trim().parse::<f64>() {
+            Ok(v) => toml::Value::Float(v),
+            Err(_) => toml::Value::String(raw.to_string()),
+        },
     }
+}
+
+/// A `--set` of a numeric key checked on its own, before the scene is assembled: a
+/// number (in the key's unit) within the key's rule, so that its error names the `--set`,
+/// the value typed and the range, before any check that ties keys together.
+fn check_override(arg: &str) -> Result<(), SceneError> {
+    let Some((key, raw)) = arg.split_once('=') else {
+        return Ok(()); // apply_override explains the form
+    };
+    let (key, raw) = (key.trim(), raw.trim());
+    let Some(k) = keys::table().find(key) else {
+        return Ok(()); // an unknown key is named when the table is read
+    };
+    let Some(allowed) = k.allowed() else {
+        return Ok(());
+    };
+    let expected = keys::expected_with_unit(allowed.expected(), k.unit);
+    let invalid = |value: String| SceneError::Invalid {
+        origin: Origin::Set(arg.to_string()),
+        key: key.to_string(),
+        value,
+        expected: expected.clone(),
+    };
+    let number = match parse_value(raw) {
+        toml::Value::Integer(i) => i as f64,
+        toml::Value::Float(v) => v,
+        toml::Value::String(s) => return Err(invalid(format!("the text {s:?}"))),
+        other => return Err(invalid(format!("{} `{raw}`", other.type_str()))),
+    };
+    if allowed.is_integer() && number.fract() != 0.0 {
+        return Err(invalid(raw.to_string()));
+    }
+    if !allowed.admits(number) {
+        return Err(invalid(keys::with_unit(raw, k.unit)));
+    }
+    Ok(())
 }

@@ -80,7 +80,7 @@ impl Scene {
         if steps > s.max_steps as f64 {
             return Err(bad(
                 "sim.duration_s",
-                s.duration_s,
+                format!("{} s", s.duration_s),
                 &format!(
                     "a run of at most sim.max_steps = {} physics steps; at sim.dt_s = {} s this one would take {steps:.3e}: shorten it, or raise sim.max_steps (e.g. --set sim.max_steps={:.0}) if it is meant",
                     s.max_steps,
@@ -100,8 +100,15 @@ impl Scene {
         if b.low_voltage_fault_v >= b.open_circuit_v {
             return Err(bad(
                 "battery.low_voltage_fault_V",
-                b.low_voltage_fault_v,
-                "a fault threshold below battery.open_circuit_V",
+                format!("{} V", b.low_voltage_fault_v),
+                &format!(
+                    "a fault threshold below battery.open_circuit_V = {} V, or the unit faults \
+                     before it drives; the thesis machine faults at 22 of 24 V (92 %), here about \
+                     {:.1} V (--set battery.low_voltage_fault_V={:.1})",
+                    b.open_circuit_v,
+                    0.92 * b.open_circuit_v,
+                    0.92 * b.open_circuit_v
+                ),
             ));
         }
         Ok(())
@@ -123,7 +130,17 @@ impl Scene {
             }
         } else {
             let cx = cgx / (1.0 - c.drive_load_fraction);
-            if !(cx > k.rear_x_m && cx < k.front_x_m) || cgy.abs() >= k.half_spacing_m {
+            if cgy.abs() >= k.half_spacing_m {
+                return Err(bad(
+                    "chassis.cg_y_m / payload.cg_y_m",
+                    format!("{cgy:.3} m (combined CG)"),
+                    &format!(
+                        "a centre of gravity within the castors' spacing (|y| < castors.half_spacing_m = {} m)",
+                        k.half_spacing_m
+                    ),
+                ));
+            }
+            if !(cx > k.rear_x_m && cx < k.front_x_m) {
                 return Err(bad(
                     "chassis.cg_x_m / payload.cg_x_m",
                     format!("{cgx:.3} m (combined CG)"),

@@ -34,7 +34,7 @@ pub enum SimError {
         message: String,
     },
     /// A state left the physical range.
-    #[error("the simulation diverged at t = {t_s:.4} s: {what} is {value} (not finite or beyond any physical range); try a smaller sim.dt_s or check the scene's stiffness and gains")]
+    #[error("the simulation diverged at t = {t_s:.4} s: {what} is {} (not finite or beyond any physical range); {suspects}", crate::param::plain_number(*.value))]
     Diverged {
         /// When, s.
         t_s: f64,
@@ -42,7 +42,39 @@ pub enum SimError {
         what: String,
         /// Its value.
         value: f64,
+        /// What to check: the scene's values furthest from the thesis machine's, when the
+        /// run knows its scene.
+        suspects: String,
     },
+}
+
+impl SimError {
+    /// The error with the scene's likeliest culprits named (the numeric keys furthest,
+    /// in orders of magnitude, from the thesis machine's values).
+    pub fn naming_suspects(self, scene: &Scene) -> SimError {
+        match self {
+            SimError::Diverged {
+                t_s, what, value, ..
+            } => {
+                let far = crate::scene::keys::furthest_from_default(scene, 3);
+                let suspects = if far.is_empty() {
+                    "try a smaller sim.dt_s or check the scene's stiffness and gains".to_string()
+                } else {
+                    format!(
+                        "the values furthest from the thesis machine's are the likely cause: {}",
+                        far.join(", ")
+                    )
+                };
+                SimError::Diverged {
+                    t_s,
+                    what,
+                    value,
+                    suspects,
+                }
+            }
+            other => other,
+        }
+    }
 }
 
 /// How the motors are driven in a run.

@@ -309,6 +309,7 @@ impl Sim {
             t_s: self.t_s,
             what: what.to_string(),
             value,
+            suspects: "try a smaller sim.dt_s or check the scene's stiffness and gains".into(),
         };
         for (i, d) in self.drive.iter().enumerate() {
             let side = if i == 0 { "left" } else { "right" };

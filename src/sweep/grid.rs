@@ -145,44 +145,15 @@ fn tidy_number(v: f64) -> String {
     format!("{rounded}")
 }
 
-/// `--shard I/N`: the I-th (1-based) of N contiguous slices of the runs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Shard {
-    /// This slice, from 1.
-    pub index: usize,
-    /// Number of slices.
-    pub count: usize,
-}
+pub use crate::shard::Shard;
 
-impl Shard {
-    /// The whole sweep as one slice.
-    pub const WHOLE: Shard = Shard { index: 1, count: 1 };
-
-    /// The run numbers `[start, end)` of this shard among `total`.
-    pub fn range(self, total: usize) -> std::ops::Range<usize> {
-        (total * (self.index - 1) / self.count)..(total * self.index / self.count)
-    }
-}
-
-impl std::fmt::Display for Shard {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{}/{}", self.index, self.count)
-    }
-}
-
-/// An `I/N` argument.
-pub fn parse_shard(arg: &str) -> Result<Shard, SweepError> {
-    let err = || SweepError::Argument {
-        arg: format!("--shard {arg}"),
-        message: "expected I/N with 1 <= I <= N, e.g. 3/8 (the third of eight slices)".into(),
-    };
-    let (i, n) = arg.split_once('/').ok_or_else(err)?;
-    let index: usize = i.trim().parse().map_err(|_| err())?;
-    let count: usize = n.trim().parse().map_err(|_| err())?;
-    if index < 1 || index > count {
-        return Err(err());
-    }
-    Ok(Shard { index, count })
+/// An `I/N` argument, or `auto` from the scheduler's array variables (see
+/// [`crate::shard`]), with where it came from.
+pub fn parse_shard(arg: &str) -> Result<crate::shard::Resolved, SweepError> {
+    crate::shard::parse_env(arg).map_err(|e| SweepError::Argument {
+        arg: format!("--shard {}", e.arg),
+        message: e.message,
+    })
 }
 
 /// One run of the grid.
@@ -354,6 +325,9 @@ mod tests {
             assert_eq!(seen, (0..12).collect::<Vec<_>>(), "{n} shards");
         }
         assert!(parse_shard("0/3").is_err() && parse_shard("4/3").is_err());
-        assert_eq!(parse_shard("2/3").unwrap(), Shard { index: 2, count: 3 });
+        assert_eq!(
+            parse_shard("2/3").unwrap().shard,
+            Shard { index: 2, count: 3 }
+        );
     }
 }

@@ -39,6 +39,9 @@ pub struct SweepOptions {
     /// Set (for example by a signal handler) to stop: runs in progress finish, their rows
     /// are written, and the sweep returns [`SweepError::Interrupted`].
     pub stop: Option<&'static AtomicBool>,
+    /// Where the shard came from (`--shard 2/4`, or the scheduler's variables), for the
+    /// report.
+    pub shard_source: Option<String>,
 }
 
 impl SweepOptions {
@@ -107,6 +110,14 @@ impl SweepOptions {
                             message: format!("value `{x}`: {message}"),
                         }
                     }
+                    crate::scene::SceneError::Invalid {
+                        origin: crate::scene::Origin::Set(a),
+                        expected,
+                        ..
+                    } if a == arg => SweepError::Argument {
+                        arg: format!("--vary {}", v.key),
+                        message: format!("value `{x}`: expected {expected}"),
+                    },
                     other => other.into(),
                 })?;
             }
@@ -123,6 +134,7 @@ impl SweepOptions {
             traces: false,
             out_dir: PathBuf::from("runs/sweep"),
             resume: false,
+            shard_source: None,
             stop: None,
         })
     }

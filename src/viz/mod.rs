@@ -66,6 +66,9 @@ fn w(p: [f64; 2]) -> [f32; 3] {
 /// Logs snapshots to Rerun every `every` physics steps.
 pub struct RerunRecorder {
     rec: RecordingStream,
+    /// A saved file is written under a temporary name and takes its own when the run
+    /// ends: a run stopped half-way leaves no truncated `.rrd` that looks finished.
+    save_as: Option<(std::path::PathBuf, std::path::PathBuf)>,
     every: u64,
     count: u64,
     path: Vec<[f32; 3]>,
@@ -130,8 +133,13 @@ impl RerunRecorder {
         let builder = RecordingStreamBuilder::new("agvsim")
             .recording_id(format!("agvsim-{name}-seed{}", params.sim.seed))
             .batcher_config(batcher_config());
+        let mut save_as = None;
         let rec = match target {
-            RerunTarget::Save(p) => builder.save(p).map_err(err)?,
+            RerunTarget::Save(p) => {
+                let tmp = crate::output::partial_name(p);
+                save_as = Some((tmp.clone(), p.clone()));
+                builder.save(&tmp).map_err(err)?
+            }
             RerunTarget::Spawn => builder.spawn().map_err(err)?,
             RerunTarget::Connect => builder.connect_grpc().map_err(err)?,
         };
@@ -145,6 +153,7 @@ impl RerunRecorder {
         let every = ((log_interval_s / params.sim.dt_s).round() as u64).max(1);
         let mut r = RerunRecorder {
             rec,
+            save_as,
             every,
             count: 0,
             path: Vec::new(),
@@ -472,7 +481,13 @@ impl RerunRecorder {
                     .with_radii([0.006f32]),
             )
             .map_err(err)?;
-        self.rec.flush_blocking().map_err(err)
+        let RerunRecorder { rec, save_as, .. } = self;
+        rec.flush_blocking().map_err(err)?;
+        drop(rec);
+        if let Some((tmp, path)) = save_as {
+            std::fs::rename(&tmp, &path).map_err(|e| err(format!("{}: {e}", path.display())))?;
+        }
+        Ok(())
     }
 }
 

@@ -4,6 +4,7 @@
 //! and held, as the real digital controller does, and the recorded command becomes an
 //! output to compare with.
 
+use crate::model::Bounded;
 use std::path::Path;
 
 use std::sync::OnceLock;
@@ -198,7 +199,7 @@ impl LinearAxis {
             Loop::Open => f64::NAN,
             Loop::PositionVelocityCascade { kp_1_s, kv_v_s_m } => (kv_v_s_m
                 * (kp_1_s * (reference_m - x[0]) - x[1]))
-                .clamp(-self.limit_v, self.limit_v),
+                .bounded(-self.limit_v, self.limit_v),
         }
     }
 }
@@ -271,7 +272,7 @@ impl Dynamics for LinearAxis {
 
     fn hold(&self, _a: &LinearParams, _t_s: f64, x: &[f64], u: &[f64], held: &mut [f64]) {
         held[0] = match self.feedback {
-            Loop::Open => u[0].clamp(-self.limit_v, self.limit_v),
+            Loop::Open => u[0].bounded(-self.limit_v, self.limit_v),
             Loop::PositionVelocityCascade { .. } => self.command_v(x, u[0]),
         };
     }

@@ -226,6 +226,34 @@ pub(crate) fn check_test(test: &Test) -> Result<(), String> {
             test.samples.len()
         ));
     }
+    check_gaps(test)
+}
+
+/// A gap in a test's time stamps far beyond its sampling (a corrupt or mistyped stamp):
+/// fitted as it stands it makes the fits' time constants absurd, so it is reported.
+fn check_gaps(test: &Test) -> Result<(), String> {
+    let dts: Vec<f64> = test
+        .samples
+        .windows(2)
+        .map(|w| w[1].t_s - w[0].t_s)
+        .collect();
+    let mut sorted = dts.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted[sorted.len() / 2];
+    // A logger may pause between bursts; a jump of a thousand intervals and a second
+    // or more is no pause of a SysId test.
+    let limit = (1000.0 * median).max(1.0);
+    if let Some((i, dt)) = dts.iter().enumerate().find(|(_, dt)| **dt > limit) {
+        return Err(format!(
+            "test `{}`, row {}: timestamp {} s is {} s after the previous row's, {:.0} times the test's median interval of {} s: a corrupt time stamp? (reported, not fixed)",
+            test.name,
+            i + 1,
+            crate::param::plain_number(test.samples[i + 1].t_s),
+            crate::param::plain_number(*dt),
+            dt / median,
+            crate::param::plain_number(median)
+        ));
+    }
     Ok(())
 }
 

@@ -173,6 +173,10 @@ pub fn close_loop(l: &Linearisation) -> Option<ClosedLoop> {
     let n = closed.nrows();
     // Without x (the first state): nothing depends on it, so its mode is a bare integrator.
     let reduced = closed.view((1, 1), (n - 1, n - 1)).into_owned();
+    if !reduced.iter().all(|v| v.is_finite()) {
+        // An overflowed gain: no poles to find (and the eigenvalue search would not end).
+        return None;
+    }
     let poles: Vec<(f64, f64)> = reduced
         .complex_eigenvalues()
         .iter()

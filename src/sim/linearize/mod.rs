@@ -197,7 +197,7 @@ pub fn linearise(scene: &Scene) -> Result<Linearisation, LinearizeError> {
     let mut v_sum = 0.0;
     let mut v_n = 0usize;
     for k in 0..steps {
-        sim.step()?;
+        sim.step().map_err(|e| e.naming_suspects(scene))?;
         if k >= steps - (1.0 / dt).round() as usize {
             v_sum += 0.5 * (sim.last.motor_v[0] + sim.last.motor_v[1]);
             v_n += 1;
@@ -214,7 +214,7 @@ pub fn linearise(scene: &Scene) -> Result<Linearisation, LinearizeError> {
     let mut sim = Sim::from_params(params.clone())?;
     sim.set_actuation(Actuation::Voltage([v0, v0]));
     for _ in 0..(4.0 / dt).round() as usize {
-        sim.step()?;
+        sim.step().map_err(|e| e.naming_suspects(scene))?;
     }
     let x0 = sim.plant_vector();
     let coils = match (reverse, params.rear_coils_m()) {
@@ -259,7 +259,46 @@ pub fn linearise(scene: &Scene) -> Result<Linearisation, LinearizeError> {
         let fm = step_from(&mut sim, &x0, um);
         b.set_column(k, &((fp - fm) / (2.0 * d)));
     }
+    if !(a
+        .iter()
+        .chain(b.iter())
+        .chain(c.iter())
+        .all(|v| v.is_finite())
+        && v0.is_finite())
+    {
+        // A runaway operating point or a derivative that overflowed: the eigenvalue
+        // analysis of a non-finite matrix would never end.
+        let far = crate::scene::keys::furthest_from_default(scene, 3);
+        return Err(LinearizeError::Unsupported(format!(
+            "the linearisation is not finite (the operating point or a derivative overflowed){}",
+            if far.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    "; the values furthest from the thesis machine's are the likely cause: {}",
+                    far.join(", ")
+                )
+            }
+        )));
+    }
     let controller = closed_loop::loop_gains(&params, &sim);
+    if let Some(g) = &controller {
+        let gains = [
+            g.kp,
+            g.kd,
+            g.volts_per_turn_count[0],
+            g.volts_per_turn_count[1],
+            g.volts_per_motor_speed[0],
+            g.volts_per_motor_speed[1],
+        ];
+        if !gains.iter().all(|v| v.is_finite()) {
+            return Err(LinearizeError::Unsupported(format!(
+                "the loop's gains are not finite (Kp {}, Kd {}): check controller.gain_scale and the kp/kd keys",
+                crate::param::plain_number(g.kp),
+                crate::param::plain_number(g.kd)
+            )));
+        }
+    }
     Ok(Linearisation {
         level,
         speed_m_s: x0[3],

@@ -10,6 +10,7 @@ use crate::model::gearbox::GearboxParams;
 use crate::model::motor::{MotorParams, MotorState};
 use crate::model::speed_loop::SpeedLoopGains;
 use crate::model::wheel::WheelParams;
+use crate::model::Bounded;
 
 use super::{
     play_gearbox, AxisInput, AxisParams, PlayShare, RotaryAxis, TorqueCommand, DEMAND_GAIN,
@@ -142,7 +143,7 @@ impl RotaryAxis {
             integral_rate = setpoint - s.motor.speed_rad_s;
         }
         if let Some(limit) = b.supply.drive_limit_v {
-            v = v.clamp(-limit, limit);
+            v = v.bounded(-limit, limit);
         }
         if let Some(battery) = b.supply.battery {
             v = battery.bridges_output_v([v], [s.motor.current_a])[0];
@@ -283,7 +284,7 @@ impl Dynamics for RotaryAxis {
             }) => {
                 // The digital loop samples the wheel and holds its command.
                 (c.kv_v_s_rad * (c.kp_1_s * (u[0] - x[4]) - self.wheel_speed(x)))
-                    .clamp(-limit, limit)
+                    .bounded(-limit, limit)
             }
             _ => u[0],
         };

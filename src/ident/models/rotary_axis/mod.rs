@@ -10,6 +10,7 @@ mod dynamics;
 pub use dynamics::AxisBlocks;
 pub(crate) use dynamics::{drivetrain_blocks, drivetrain_state};
 
+use crate::model::Bounded;
 use std::path::Path;
 use std::sync::OnceLock;
 
@@ -288,7 +289,7 @@ impl RotaryAxis {
                     ));
                 }
                 let l = if torque_driven {
-                    l.clamp(1e-6, 1e-3)
+                    l.bounded(1e-6, 1e-3)
                 } else {
                     l
                 };
@@ -374,7 +375,7 @@ impl RotaryAxis {
 
     /// The motor torque a torque amplifier gives for a held command, N m.
     fn commanded_torque(c: &TorqueCommand, command: f64) -> f64 {
-        c.per_volt_nm_v * command.clamp(-c.limit, c.limit)
+        c.per_volt_nm_v * command.bounded(-c.limit, c.limit)
     }
 
     /// This model with one more effect, its parameter starting at `start` within

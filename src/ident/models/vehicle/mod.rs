@@ -15,6 +15,7 @@
 //! The physical laws are the simulator's own (`crate::model`: armature law, gear tooth
 //! contact, no-slip body, tyre slip force).
 
+use crate::model::Bounded;
 use std::path::Path;
 
 use crate::ident::data::Dataset;
@@ -415,7 +416,7 @@ impl Vehicle {
     fn terminal_voltages(&self, b: &VehicleBlocks, cmd: [f64; 2], current: [f64; 2]) -> [f64; 2] {
         let mut v = cmd;
         if let Some(limit) = b.supply.drive_limit_v {
-            v = v.map(|v| v.clamp(-limit, limit));
+            v = v.map(|v| v.bounded(-limit, limit));
         }
         if let Some(battery) = b.supply.battery {
             // Both bridges draw on one battery.

@@ -1,0 +1,109 @@
+//! A batch's recordings: every `*.csv` of a folder (each with `NAME.rig.toml` beside it
+//! when there is one), or the lines of a list file (`recording.csv [rig.toml]`, paths
+//! relative to the list; `#` starts a comment), in name order.
+
+use std::path::{Path, PathBuf};
+
+use super::BatchError;
+
+/// One recording of a batch.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Item {
+    /// Its name: the recording's file stem with anything but letters, digits, `.`, `-`
+    /// and `_` replaced, so that its result files stay inside the output folder.
+    pub name: String,
+    /// The recording.
+    pub recording: PathBuf,
+    /// Its rig (diagnose), if it has one.
+    pub rig: Option<PathBuf>,
+    /// The recording as the folder or list names it.
+    pub shown: String,
+}
+
+fn item(recording: PathBuf, rig: Option<PathBuf>, shown: String) -> Item {
+    let stem = recording
+        .file_stem()
+        .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
+    Item {
+        name: crate::output::safe_file_stem(&stem),
+        recording,
+        rig,
+        shown,
+    }
+}
+
+/// The rig beside a recording (`NAME.rig.toml`), if there is one.
+fn rig_beside(recording: &Path) -> Option<PathBuf> {
+    let stem = recording.file_stem()?.to_string_lossy().into_owned();
+    let rig = recording.with_file_name(format!("{stem}.rig.toml"));
+    rig.is_file().then_some(rig)
+}
+
+/// The recordings of a folder or list file, each with its rig (`rig`, when given, for
+/// all), sorted by name; two recordings of one name are refused.
+pub fn find_items(source: &Path, rig: Option<&Path>) -> Result<Vec<Item>, BatchError> {
+    let err = |message: String| BatchError::Items {
+        path: source.to_owned(),
+        message,
+    };
+    let mut items = if source.is_dir() {
+        let mut found = Vec::new();
+        let entries = std::fs::read_dir(source).map_err(|e| err(e.to_string()))?;
+        for e in entries {
+            let p = e.map_err(|e| err(e.to_string()))?.path();
+            if p.extension().is_some_and(|x| x == "csv") && p.is_file() {
+                let shown = p
+                    .file_name()
+                    .unwrap_or_default()
+                    .to_string_lossy()
+                    .into_owned();
+                let r = rig.map(Path::to_path_buf).or_else(|| rig_beside(&p));
+                found.push(item(p, r, shown));
+            }
+        }
+        found
+    } else {
+        let text = std::fs::read_to_string(source).map_err(|e| err(format!("cannot read: {e}")))?;
+        let base = source.parent().unwrap_or(Path::new(""));
+        let mut found = Vec::new();
+        for (i, line) in text.lines().enumerate() {
+            let line = line.split('#').next().unwrap_or("").trim();
+            if line.is_empty() {
+                continue;
+            }
+            let words: Vec<&str> = line.split_whitespace().collect();
+            if words.len() > 2 {
+                return Err(err(format!(
+                    "line {}: expected `recording.csv [rig.toml]`, found {} words",
+                    i + 1,
+                    words.len()
+                )));
+            }
+            let p = base.join(words[0]);
+            if !p.is_file() {
+                return Err(err(format!(
+                    "line {}: {} is not a file",
+                    i + 1,
+                    p.display()
+                )));
+            }
+            let r = match words.get(1) {
+                Some(w) => Some(base.join(w)),
+                None => rig.map(Path::to_path_buf).or_else(|| rig_beside(&p)),
+            };
+            found.push(item(p, r, words[0].to_string()));
+        }
+        found
+    };
+    if items.is_empty() {
+        return Err(err("no recordings (*.csv) found".into()));
+    }
+    items.sort_by(|a, b| a.name.cmp(&b.name));
+    if let Some(w) = items.windows(2).find(|w| w[0].name == w[1].name) {
+        return Err(err(format!(
+            "two recordings named {} ({} and {}); results are kept by name",
+            w[0].name, w[0].shown, w[1].shown
+        )));
+    }
+    Ok(items)
+}

@@ -1,0 +1,363 @@
+//! Batches: one diagnosis or calibration per recording of a fleet (a folder, or a list
+//! file), in parallel, shardable like sweeps, each result written whole as it finishes
+//! (`results/NAME.json`, with the full report beside it), so that an interrupted batch
+//! goes on where it stopped, and a merge of the results into one summary table and a
+//! short report of what the fleet shares ([`summary`]).
+//!
+//! A result is kept on a rerun only if its fingerprint (the recording's and the rig's or
+//! scene's bytes, the job's options and agvsim's version) is the same.
+
+pub mod items;
+pub mod summary;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+pub use items::{find_items, Item};
+
+use crate::shard::Shard;
+
+/// What each recording gets.
+#[derive(Debug, Clone)]
+pub enum Job {
+    /// `diagnose` against the item's rig.
+    Diagnose {
+        /// Effects to try.
+        effects: crate::ident::effects::Choice,
+        /// The effect words as given (for the fingerprint).
+        effect_words: Vec<String>,
+    },
+    /// `calibrate` of one scene to each recording.
+    Calibrate {
+        /// The scene file.
+        scene: PathBuf,
+        /// Effects to try.
+        effects: crate::ident::effects::Choice,
+        /// The effect words as given (for the fingerprint).
+        effect_words: Vec<String>,
+    },
+}
+
+/// One effect a result found (diagnose) or accepted (calibrate).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FoundEffect {
+    /// The contract's effect name.
+    pub name: String,
+    /// Its parameter or scene key.
+    pub key: String,
+    /// Its value.
+    pub value: f64,
+    /// One standard deviation (`None`: not determined).
+    pub std: Option<f64>,
+}
+
+/// One recording's result, as `results/NAME.json` holds it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Entry {
+    /// The item's name (the recording's file stem).
+    pub name: String,
+    /// The recording as the batch found it.
+    pub recording: String,
+    /// What the result was computed from (see the module's doc).
+    pub fingerprint: String,
+    /// `ok`, or `error` with its message.
+    pub status: String,
+    /// The error, if any.
+    pub error: Option<String>,
+    /// Mean fit before (the rig's nominal model, or the scene as written), %.
+    pub fit_before_pct: Option<f64>,
+    /// Mean fit after (the diagnosed model, or the calibrated scene), %.
+    pub fit_after_pct: Option<f64>,
+    /// Effects found or accepted, in order.
+    pub effects: Vec<FoundEffect>,
+    /// The fitted parameters or calibrated keys, by name.
+    pub params: BTreeMap<String, f64>,
+    /// Things to know (a parameter at a bound, outputs left out).
+    pub warnings: Vec<String>,
+}
+
+/// Why a batch could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum BatchError {
+    /// The recordings could not be found or listed.
+    #[error("{path}: {message}")]
+    Items {
+        /// The folder or list file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// A file that could not be read or written.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// A result file that is not a batch result.
+    #[error("{}: not a batch result: {message}", path.display())]
+    Result {
+        /// The file.
+        path: PathBuf,
+        /// The reader's complaint.
+        message: String,
+    },
+    /// Two shards hold different results for one recording.
+    #[error("{name}: the shards {a} and {b} hold different results; merge shards of one batch")]
+    Conflict {
+        /// The recording.
+        name: String,
+        /// One folder.
+        a: String,
+        /// The other.
+        b: String,
+    },
+}
+
+fn io(path: &Path) -> impl Fn(std::io::Error) -> BatchError + '_ {
+    move |source| BatchError::Io {
+        path: path.to_owned(),
+        source,
+    }
+}
+
+/// FNV-1a, 64 bits: a fingerprint stable across runs, builds and platforms.
+fn fnv1a(parts: &[&[u8]]) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for part in parts {
+        for b in part.iter().chain(&[0xff]) {
+            h ^= u64::from(*b);
+            h = h.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+    format!("{h:016x}")
+}
+
+impl Job {
+    /// The fingerprint of this job on `item`.
+    pub fn fingerprint(&self, item: &Item) -> Result<String, BatchError> {
+        let read = |p: &Path| std::fs::read(p).map_err(io(p));
+        let recording = read(&item.recording)?;
+        let (kind, model, words) = match self {
+            Job::Diagnose { effect_words, .. } => (
+                "diagnose",
+                item.rig
+                    .as_deref()
+                    .map(read)
+                    .transpose()?
+                    .unwrap_or_default(),
+                effect_words,
+            ),
+            Job::Calibrate {
+                scene,
+                effect_words,
+                ..
+            } => ("calibrate", read(scene)?, effect_words),
+        };
+        let words = words.join(",");
+        Ok(fnv1a(&[
+            kind.as_bytes(),
+            env!("CARGO_PKG_VERSION").as_bytes(),
+            &recording,
+            &model,
+            words.as_bytes(),
+        ]))
+    }
+
+    /// Runs the job on one item: its entry and its full report (text).
+    pub fn run(&self, item: &Item, fingerprint: String) -> (Entry, String) {
+        let mut entry = Entry {
+            name: item.name.clone(),
+            recording: item.shown.clone(),
+            fingerprint,
+            status: "ok".into(),
+            error: None,
+            fit_before_pct: None,
+            fit_after_pct: None,
+            effects: vec![],
+            params: BTreeMap::new(),
+            warnings: vec![],
+        };
+        let report = match self {
+            Job::Diagnose { effects, .. } => diagnose_one(item, effects, &mut entry),
+            Job::Calibrate { scene, effects, .. } => {
+                calibrate_one(item, scene, effects, &mut entry)
+            }
+        };
+        match report {
+            Ok(text) => (entry, text),
+            Err(message) => {
+                entry.status = "error".into();
+                entry.error = Some(message.clone());
+                (entry, format!("error: {message}\n"))
+            }
+        }
+    }
+}
+
+fn diagnose_one(
+    item: &Item,
+    effects: &crate::ident::effects::Choice,
+    e: &mut Entry,
+) -> Result<String, String> {
+    let rig_path = item.rig.as_deref().ok_or_else(|| {
+        format!(
+            "no rig for {}: put NAME.rig.toml beside it, name it in the list, or give --rig",
+            item.shown
+        )
+    })?;
+    let rig = crate::rig::Rig::load(rig_path).map_err(|x| x.to_string())?;
+    let rec = crate::record::Recording::load(&item.recording).map_err(|x| x.to_string())?;
+    let opts = crate::diagnose::DiagnoseOptions {
+        effects: effects.clone(),
+        ..Default::default()
+    };
+    let d =
+        crate::diagnose::diagnose(&rig, rig_path, &rec, None, &opts).map_err(|x| x.to_string())?;
+    e.fit_before_pct = Some(d.baseline_fit_pct);
+    e.fit_after_pct = Some(d.final_fit_pct);
+    e.effects = d
+        .findings
+        .iter()
+        .map(|f| FoundEffect {
+            name: f.effect.name().into(),
+            key: f.param.clone(),
+            value: f.value,
+            std: f.std,
+        })
+        .collect();
+    e.params = d.final_params.clone();
+    for (k, b) in &d.baseline_at_bound {
+        e.warnings
+            .push(format!("baseline {k} at its bound {}", summary::num(*b)));
+    }
+    for l in &d.left_out {
+        e.warnings.push(format!("{} left out", l.output));
+    }
+    Ok(crate::diagnose::report::render(&d))
+}
+
+fn calibrate_one(
+    item: &Item,
+    scene_path: &Path,
+    effects: &crate::ident::effects::Choice,
+    e: &mut Entry,
+) -> Result<String, String> {
+    let scene = crate::scene::Scene::load(scene_path, &[]).map_err(|x| x.to_string())?;
+    let rec = crate::record::Recording::load(&item.recording).map_err(|x| x.to_string())?;
+    let request = crate::calibrate::Request {
+        free: vec![],
+        effects: effects.clone(),
+    };
+    let c = crate::calibrate::calibrate_telling(&scene, &rec, &request, &|_| {})
+        .map_err(|x| x.to_string())?;
+    use crate::calibrate::write as cw;
+    e.fit_before_pct = Some(cw::mean_fit(&c.before, &c.outputs));
+    e.fit_after_pct = Some(cw::mean_fit(&c.after, &c.outputs));
+    e.effects = c
+        .effects
+        .iter()
+        .filter(|t| t.accepted)
+        .map(|t| FoundEffect {
+            name: t.effect.name().into(),
+            key: t.key.clone(),
+            value: t.value,
+            std: t.std,
+        })
+        .collect();
+    for k in &c.keys {
+        e.params.insert(k.key.clone(), k.after);
+        if let Some(b) = k.at_bound {
+            e.warnings
+                .push(format!("{} at its bound {}", k.key, summary::num(b)));
+        }
+        if k.held {
+            e.warnings
+                .push(format!("{} held by its stated belief", k.key));
+        }
+    }
+    for l in &c.left_out {
+        e.warnings.push(format!("{} left out", l.output));
+    }
+    Ok(cw::render(&c))
+}
+
+/// What a batch did.
+#[derive(Debug, Clone)]
+pub struct Outcome {
+    /// Recordings in this shard.
+    pub in_shard: usize,
+    /// Results kept from an earlier, interrupted run.
+    pub kept: usize,
+    /// Results computed now.
+    pub computed: usize,
+    /// Of all this shard's results, those that failed.
+    pub failed: usize,
+}
+
+/// Where an item's result goes.
+pub fn result_path(out: &Path, name: &str) -> PathBuf {
+    out.join("results").join(format!("{name}.json"))
+}
+
+/// Reads a result file, `None` if it is missing or not a result (it is then redone).
+fn read_entry(path: &Path) -> Option<Entry> {
+    serde_json::from_slice(&std::fs::read(path).ok()?).ok()
+}
+
+/// Runs `job` on this shard's items in parallel (on the current rayon pool), writing each
+/// result as it finishes and keeping those an earlier run finished; `told` hears each
+/// entry as it is written. Writes the shard's summary at the end.
+pub fn run(
+    job: &Job,
+    items: &[Item],
+    shard: Shard,
+    out: &Path,
+    told: &(dyn Fn(&Entry, bool) + Sync),
+) -> Result<Outcome, BatchError> {
+    use rayon::prelude::*;
+    let mine = &items[shard.range(items.len())];
+    let results = out.join("results");
+    std::fs::create_dir_all(&results).map_err(io(&results))?;
+    let prints: Vec<String> = mine
+        .iter()
+        .map(|i| job.fingerprint(i))
+        .collect::<Result<_, _>>()?;
+    let outcomes: Vec<Result<(Entry, bool), BatchError>> = mine
+        .par_iter()
+        .zip(prints.par_iter())
+        .map(|(item, print)| {
+            let path = result_path(out, &item.name);
+            if let Some(e) = read_entry(&path).filter(|e| &e.fingerprint == print) {
+                told(&e, true);
+                return Ok((e, true));
+            }
+            let (entry, report) = job.run(item, print.clone());
+            let text = results.join(format!("{}.txt", item.name));
+            crate::output::write_atomically(&text, report).map_err(io(&text))?;
+            let json = serde_json::to_string_pretty(&entry).unwrap_or_default();
+            // The entry last: its presence marks the result finished.
+            crate::output::write_atomically(&path, json + "\n").map_err(io(&path))?;
+            told(&entry, false);
+            Ok((entry, false))
+        })
+        .collect();
+    let mut entries = Vec::new();
+    let mut kept = 0;
+    for o in outcomes {
+        let (e, was_kept) = o?;
+        kept += usize::from(was_kept);
+        entries.push(e);
+    }
+    let failed = entries.iter().filter(|e| e.status != "ok").count();
+    summary::write(out, &entries)?;
+    Ok(Outcome {
+        in_shard: mine.len(),
+        kept,
+        computed: mine.len() - kept,
+        failed,
+    })
+}

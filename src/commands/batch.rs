@@ -1,0 +1,123 @@
+//! `agvsim batch diagnose|calibrate|merge`: one diagnosis or calibration per recording of
+//! a fleet, sharded across a cluster's array tasks if asked, and the merge of the shards'
+//! results into one summary.
+
+use std::path::PathBuf;
+
+use super::{on_workers, stem, CommandError, Say};
+use crate::batch::{self, find_items, Job};
+use crate::ident::effects::Choice;
+use crate::shard::Shard;
+
+/// What `agvsim batch diagnose` or `calibrate` was asked.
+#[derive(Debug, Clone)]
+pub struct BatchRequest {
+    /// A folder of recordings or a list file.
+    pub recordings: PathBuf,
+    /// Diagnose: one rig for every recording (else each one's `NAME.rig.toml`).
+    pub rig: Option<PathBuf>,
+    /// Calibrate: the scene fitted to each recording (`None`: diagnose).
+    pub scene: Option<PathBuf>,
+    /// Effect words (`all`, `none`, or names).
+    pub effects: Vec<String>,
+    /// `I/N` or `auto`.
+    pub shard: Option<String>,
+    /// Output folder (default `runs/batch_NAME`, with `_shard_I_of_N` when sharded).
+    pub out: Option<PathBuf>,
+    /// Worker threads (0: one per core).
+    pub jobs: usize,
+    /// Told as each recording's result is written (or kept from an earlier run).
+    pub progress: fn(&str),
+}
+
+/// Runs the batch's shard and prints what it did and where the summary is.
+pub fn run(req: &BatchRequest, say: Say) -> Result<(), CommandError> {
+    let effects = Choice::parse(&req.effects)?;
+    let job = match &req.scene {
+        Some(scene) => {
+            // The scene once, up front: an error in it is one error, not one per recording.
+            crate::scene::Scene::load(scene, &[])?;
+            Job::Calibrate {
+                scene: scene.clone(),
+                effects,
+                effect_words: req.effects.clone(),
+            }
+        }
+        None => Job::Diagnose {
+            effects,
+            effect_words: req.effects.clone(),
+        },
+    };
+    let (shard, source) = match &req.shard {
+        Some(s) => {
+            let r = crate::shard::parse_env(s).map_err(|e| CommandError::Option {
+                option: "--shard".into(),
+                value: e.arg,
+                message: e.message,
+            })?;
+            (r.shard, Some(r.source))
+        }
+        None => (Shard::WHOLE, None),
+    };
+    let items = find_items(&req.recordings, req.rig.as_deref())?;
+    let out = req.out.clone().unwrap_or_else(|| {
+        let mut n = format!("batch_{}", stem(&req.recordings, "recordings"));
+        if shard != Shard::WHOLE {
+            n.push_str(&format!("_shard_{}_of_{}", shard.index, shard.count));
+        }
+        PathBuf::from("runs").join(n)
+    });
+    let _lock = super::lock_out("--out", &out)?;
+    let range = shard.range(items.len());
+    say(&format!(
+        "batch      {} {} of {} recordings{} into {}\n",
+        if req.scene.is_some() {
+            "calibrate"
+        } else {
+            "diagnose"
+        },
+        range.len(),
+        items.len(),
+        source.map_or(String::new(), |s| format!(" (shard {shard}: {s})")),
+        out.display()
+    ));
+    let progress = req.progress;
+    let told = move |e: &batch::Entry, kept: bool| {
+        progress(&format!(
+            "{:<10} {}: {}",
+            if kept { "kept" } else { "done" },
+            e.name,
+            if e.status == "ok" {
+                format!("{} effect(s)", e.effects.len())
+            } else {
+                e.error.clone().unwrap_or_default()
+            }
+        ))
+    };
+    let outcome = on_workers(req.jobs, || {
+        Ok(batch::run(&job, &items, shard, &out, &told)?)
+    })?;
+    say(&format!(
+        "results    {} computed, {} kept from an earlier run, {} failed\n",
+        outcome.computed, outcome.kept, outcome.failed
+    ));
+    say(&format!(
+        "summary    {}\nfleet      {}\n",
+        out.join("summary.csv").display(),
+        out.join("fleet.md").display()
+    ));
+    Ok(())
+}
+
+/// Merges shard folders into `out` and prints where the summary is.
+pub fn merge(shards: &[PathBuf], out: &std::path::Path, say: Say) -> Result<(), CommandError> {
+    let _lock = super::lock_out("--out", out)?;
+    let n = batch::summary::merge(shards, out)?;
+    say(&format!(
+        "merged     {n} results from {} shard folders\nsummary    {}\nfleet      {}\n",
+        shards.len(),
+        out.join("summary.csv").display(),
+        out.join("fleet.md").display()
+    ));
+    Ok(())
+}

@@ -1,0 +1,269 @@
+//! Plausibility: values each inside its key's rule that do not fit the machine's own
+//! size and supply (a thesis value left in a scene for another robot, a typo of a
+//! factor of ten). They are warnings, not errors: a scene may mean them. Each names the
+//! key, its value, what the rest of the scene would lead one to expect, and why.
+
+use super::Scene;
+use crate::model::dcmc::DcmcKind;
+use crate::param::plain_number as num;
+
+/// One value that does not fit the rest of the scene.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Warning {
+    /// The dotted key.
+    pub key: &'static str,
+    /// Its value, with its unit.
+    pub value: String,
+    /// What the rest of the scene leads one to expect.
+    pub expected: String,
+    /// Why.
+    pub why: String,
+}
+
+impl std::fmt::Display for Warning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "`{}` = {}: expected {}: {}",
+            self.key, self.value, self.expected, self.why
+        )
+    }
+}
+
+/// A uniform slab's yaw inertia about its centre, kg m^2: `m (L^2 + W^2) / 12`.
+pub fn slab_yaw_inertia_kg_m2(mass_kg: f64, length_m: f64, width_m: f64) -> f64 {
+    mass_kg * (length_m * length_m + width_m * width_m) / 12.0
+}
+
+/// The yaw inertia a body may have against the uniform slab of its footprint: from mass
+/// gathered near the centre (a third) to mass near the corners (point masses at the
+/// corners give three times the slab; two is the plausible end for a real chassis).
+const YAW_INERTIA_SPAN: (f64, f64) = (1.0 / 3.0, 2.0);
+
+/// Friction coefficients drive tyres of rubber or polyurethane reach on floors (wet epoxy
+/// to dry rough concrete); above is racing rubber or a no-slip idealisation.
+const TYRE_MU_SPAN: (f64, f64) = (0.1, 1.3);
+
+/// Every plausibility warning of a scene, in key order.
+pub fn warnings(scene: &Scene) -> Vec<Warning> {
+    let mut w = Vec::new();
+    yaw_inertia(scene, &mut w);
+    geometry(scene, &mut w);
+    supply(scene, &mut w);
+    dcmc_gains(scene, &mut w);
+    tyre_friction(scene, &mut w);
+    w
+}
+
+fn yaw_inertia(scene: &Scene, w: &mut Vec<Warning>) {
+    let c = &scene.chassis;
+    let length_m = c.front_m + c.rear_m;
+    let slab = slab_yaw_inertia_kg_m2(c.mass_kg, length_m, c.width_m);
+    let (lo, hi) = (YAW_INERTIA_SPAN.0 * slab, YAW_INERTIA_SPAN.1 * slab);
+    if !(lo..=hi).contains(&c.yaw_inertia_kg_m2) {
+        w.push(Warning {
+            key: "chassis.yaw_inertia_kg_m2",
+            value: format!("{} kg m^2", num(c.yaw_inertia_kg_m2)),
+            expected: format!("about {} kg m^2 ({} to {})", sig(slab), sig(lo), sig(hi)),
+            why: format!(
+                "a uniform {} kg body of {} x {} m (chassis.front_m + rear_m, width_m) has {}; \
+                 mass gathered at the centre or the corners moves it by a factor of 3 or 2",
+                sig(c.mass_kg),
+                sig(length_m),
+                sig(c.width_m),
+                sig(slab)
+            ),
+        });
+    }
+}
+
+fn geometry(scene: &Scene, w: &mut Vec<Warning>) {
+    let c = &scene.chassis;
+    if c.track_width_m > c.width_m {
+        w.push(Warning {
+            key: "chassis.track_width_m",
+            value: format!("{} m", num(c.track_width_m)),
+            expected: format!(
+                "at most the body's width, chassis.width_m = {} m",
+                c.width_m
+            ),
+            why: "the drive wheels' centres would stand outside the body's outline".into(),
+        });
+    }
+    let length_m = c.front_m + c.rear_m;
+    let r = scene.wheel.radius_m;
+    if 2.0 * r > length_m.min(c.width_m) {
+        w.push(Warning {
+            key: "wheel.radius_m",
+            value: format!("{} m", num(r)),
+            expected: format!(
+                "a wheel smaller than the body (diameter below {} m)",
+                sig(length_m.min(c.width_m))
+            ),
+            why: format!(
+                "a {} m wheel on a {} x {} m body",
+                sig(2.0 * r),
+                sig(length_m),
+                sig(c.width_m)
+            ),
+        });
+    }
+}
+
+fn supply(scene: &Scene, w: &mut Vec<Warning>) {
+    let b = &scene.battery;
+    if b.drive_limit_v > b.open_circuit_v {
+        w.push(Warning {
+            key: "battery.drive_limit_V",
+            value: format!("{} V", num(b.drive_limit_v)),
+            expected: format!(
+                "at most battery.open_circuit_V = {} V (the thesis's bridges deliver 23.5 of 24 V: here about {} V)",
+                b.open_circuit_v,
+                sig(b.open_circuit_v * 23.5 / 24.0)
+            ),
+            why: "H-bridges cannot deliver more than the battery's voltage".into(),
+        });
+    }
+    // Both motors at the most current they draw (the limit, or stall at the drive
+    // voltage) pull the battery down by this; only the full level models the fault.
+    let stall_a = b.drive_limit_v.min(b.open_circuit_v) / scene.motor.resistance_ohm;
+    let most_a = scene.dcmc.current_limit_a.min(stall_a);
+    let sag_v = 2.0 * most_a * b.internal_resistance_ohm;
+    let lowest_v = b.open_circuit_v - sag_v;
+    let faults = crate::sim::Features::of(scene.sim.fidelity).dcmc_faults;
+    if faults && b.low_voltage_fault_v > lowest_v && b.low_voltage_fault_v < b.open_circuit_v {
+        w.push(Warning {
+            key: "battery.low_voltage_fault_V",
+            value: format!("{} V", num(b.low_voltage_fault_v)),
+            expected: format!("below {} V", sig(lowest_v)),
+            why: format!(
+                "both motors at {} A (dcmc.current_limit_A, or stall) sag the {} V battery (internal resistance {} ohm) by {} V, so the unit would fault at full current",
+                sig(most_a),
+                b.open_circuit_v,
+                b.internal_resistance_ohm,
+                sig(sag_v)
+            ),
+        });
+    }
+}
+
+fn dcmc_gains(scene: &Scene, w: &mut Vec<Warning>) {
+    let d = &scene.dcmc;
+    let drive_v = scene
+        .battery
+        .drive_limit_v
+        .min(scene.battery.open_circuit_v);
+    match d.kind {
+        DcmcKind::Gain | DcmcKind::GainPi => {
+            let full_v = d.forward_gain_v_pct.abs() * 100.0;
+            if full_v > 1.05 * drive_v {
+                w.push(Warning {
+                    key: "dcmc.forward_gain_V_pct",
+                    value: format!("{} V/pct", num(d.forward_gain_v_pct)),
+                    expected: format!("at most {} V/pct", sig(drive_v / 100.0)),
+                    why: format!(
+                        "full demand (100 %) asks {} V of a drive that delivers {} V: every demand above {:.0} % gives the same speed",
+                        sig(full_v),
+                        sig(drive_v),
+                        100.0 * drive_v / full_v
+                    ),
+                });
+            }
+        }
+        DcmcKind::P | DcmcKind::Pi => {
+            let no_load_rad_s = drive_v / scene.motor.torque_constant_nm_a;
+            let full_rad_s = d.speed_per_pct_rad_s * 100.0;
+            if full_rad_s > 1.05 * no_load_rad_s {
+                w.push(Warning {
+                    key: "dcmc.speed_per_pct_rad_s",
+                    value: format!("{} rad/s per pct", num(d.speed_per_pct_rad_s)),
+                    expected: format!("at most {} rad/s per pct", sig(no_load_rad_s / 100.0)),
+                    why: format!(
+                        "full demand asks {} rad/s of a motor whose no-load speed at {} V is {} rad/s (drive limit over motor.torque_constant_Nm_A)",
+                        sig(full_rad_s),
+                        sig(drive_v),
+                        sig(no_load_rad_s)
+                    ),
+                });
+            }
+        }
+    }
+}
+
+fn tyre_friction(scene: &Scene, w: &mut Vec<Warning>) {
+    if let Some(mu) = scene.tyre.peak_mu {
+        if !(TYRE_MU_SPAN.0..=TYRE_MU_SPAN.1).contains(&mu) {
+            w.push(Warning {
+                key: "tyre.peak_mu",
+                value: num(mu),
+                expected: format!("{} to {}", TYRE_MU_SPAN.0, TYRE_MU_SPAN.1),
+                why: "rubber and polyurethane drive tyres reach about that from wet epoxy to dry concrete; for a tyre that never slips use tyre.compound = \"high_grip\" (an idealised no-slip tyre)".into(),
+            });
+        }
+    }
+}
+
+/// A number to 3 significant figures, without exponent for everyday magnitudes.
+pub fn sig(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    if v.abs() >= 1e7 || v.abs() < 1e-5 {
+        return format!("{v:.3e}");
+    }
+    let digits = (2 - v.abs().log10().floor() as i32).max(0) as usize;
+    let s = format!("{v:.digits$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_thesis_machine_is_plausible() {
+        assert_eq!(warnings(&Scene::default()), vec![]);
+    }
+
+    #[test]
+    fn the_thesis_inertia_on_a_small_light_body_is_caught() {
+        let mut s = Scene::default();
+        s.chassis.mass_kg = 60.0;
+        (s.chassis.front_m, s.chassis.rear_m, s.chassis.width_m) = (0.3, 0.3, 0.5);
+        let w = warnings(&s);
+        // 60 kg over 0.6 x 0.5 m: 60 (0.36 + 0.25) / 12 = 3.05 kg m^2.
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert_eq!(w[0].key, "chassis.yaw_inertia_kg_m2");
+        assert!(w[0].expected.starts_with("about 3.05 kg m^2"), "{}", w[0]);
+    }
+
+    #[test]
+    fn a_12_v_battery_under_the_thesis_drive_is_caught_key_by_key() {
+        let mut s = Scene::default();
+        s.battery.open_circuit_v = 12.0;
+        s.battery.low_voltage_fault_v = 11.0;
+        let keys: Vec<&str> = warnings(&s).iter().map(|w| w.key).collect();
+        // 23.5 V drive on 12 V; 16.2 V at full demand; 2 x 40 A x 0.02 ohm = 1.6 V sag
+        // brings 12 V below the 11 V threshold.
+        assert_eq!(
+            keys,
+            [
+                "battery.drive_limit_V",
+                "battery.low_voltage_fault_V",
+                "dcmc.forward_gain_V_pct"
+            ]
+        );
+    }
+
+    #[test]
+    fn numbers_print_to_three_figures() {
+        assert_eq!(sig(13.8441), "13.8");
+        assert_eq!(sig(0.0630001), "0.063");
+        assert_eq!(sig(1234.6), "1235");
+        assert_eq!(sig(-2.5), "-2.5");
+    }
+}
