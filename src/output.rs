@@ -44,9 +44,10 @@ pub fn safe_file_stem(name: &str) -> String {
 
 /// Checks, before any work, that `path` can be written as a file (`folder = false`) or a
 /// folder: no existing part of the way to it is a file, and a file target is not an
-/// existing folder (nor a folder target an existing file). The message names the option.
-pub(crate) fn check_target(option: &str, path: &Path, folder: bool) -> Result<(), String> {
-    let say = |why: String| Err(format!("{option} {}: {why}", path.display()));
+/// existing folder (nor a folder target an existing file). The message says what is
+/// wrong; the caller's error names the option and the path.
+pub(crate) fn check_target(path: &Path, folder: bool) -> Result<(), String> {
+    let say = |why: String| Err(why);
     if path.is_dir() && !folder {
         return say("is a folder; give a file name".into());
     }
@@ -112,11 +113,11 @@ fn process_runs(pid: u32) -> bool {
 }
 
 impl FolderLock {
-    /// Creates `dir` if needed and takes its lock; `option` names the folder in messages.
-    pub fn acquire(option: &str, dir: &Path) -> Result<FolderLock, String> {
+    /// Creates `dir` if needed and takes its lock; the message says what is wrong (the
+    /// caller names the option and the folder).
+    pub fn acquire(dir: &Path) -> Result<FolderLock, String> {
         let created = (!dir.exists()).then(|| dir.to_path_buf());
-        std::fs::create_dir_all(dir)
-            .map_err(|e| format!("{option} {}: cannot create: {e}", dir.display()))?;
+        std::fs::create_dir_all(dir).map_err(|e| format!("cannot create the folder: {e}"))?;
         let path = dir.join(LOCK_FILE);
         let me = std::process::id();
         for _ in 0..2 {
@@ -137,8 +138,7 @@ impl FolderLock {
                     match owner {
                         Some(pid) if pid != me && process_runs(pid) => {
                             return Err(format!(
-                                "{option} {}: another agvsim (process {pid}) is writing there; wait for it to finish or choose another folder",
-                                dir.display()
+                                "another agvsim (process {pid}) is writing there; wait for it to finish or choose another folder"
                             ))
                         }
                         // A lock of a process that ended without removing it.
@@ -147,18 +147,10 @@ impl FolderLock {
                         }
                     }
                 }
-                Err(e) => {
-                    return Err(format!(
-                        "{option} {}: cannot take the folder's lock: {e}",
-                        dir.display()
-                    ))
-                }
+                Err(e) => return Err(format!("cannot take the folder's lock: {e}")),
             }
         }
-        Err(format!(
-            "{option} {}: the folder's lock changed hands while it was taken; try again",
-            dir.display()
-        ))
+        Err("the folder's lock changed hands while it was taken; try again".into())
     }
 }
 
@@ -189,14 +181,14 @@ mod tests {
     fn a_second_writer_is_refused_and_a_dead_ones_lock_taken_over() {
         let dir = std::env::temp_dir().join(format!("agvsim_lock_{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
-        let held = FolderLock::acquire("--out", &dir).unwrap();
+        let held = FolderLock::acquire(&dir).unwrap();
         // Another live process's lock: pid 1 always runs.
         std::fs::write(dir.join(LOCK_FILE), "1\n").unwrap();
-        let err = FolderLock::acquire("--out", &dir).unwrap_err();
+        let err = FolderLock::acquire(&dir).unwrap_err();
         assert!(err.contains("process 1"), "{err}");
         // A process id that cannot run: the lock is stale and taken over.
         std::fs::write(dir.join(LOCK_FILE), format!("{}\n", i32::MAX)).unwrap();
-        let again = FolderLock::acquire("--out", &dir).unwrap();
+        let again = FolderLock::acquire(&dir).unwrap();
         drop(held);
         drop(again);
         assert!(!dir.join(LOCK_FILE).exists());

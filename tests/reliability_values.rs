@@ -264,11 +264,38 @@ fn a_recording_beyond_the_size_cap_is_refused_before_it_is_read() {
     // Sparse: 101 MB of nothing on disk.
     f.set_len(101 << 20).unwrap();
     let o = agvsim()
-        .args(["diagnose", "--rig", "../shared/data/dev/dev_axis_11.rig.toml", "--recording"])
+        .args([
+            "diagnose",
+            "--rig",
+            "../shared/data/dev/dev_axis_11.rig.toml",
+            "--recording",
+        ])
         .arg(&big)
         .output()
         .unwrap();
     let t = text(&o);
     assert_eq!(o.status.code(), Some(2), "{t}");
-    assert!(t.contains("101 MB: recordings of at most 100 MB are read"), "{t}");
+    assert!(
+        t.contains("101 MB: recordings of at most 100 MB are read"),
+        "{t}"
+    );
+}
+
+/// Silent class: a header's sample time that the time column contradicts is refused.
+#[test]
+fn a_sample_time_the_time_column_contradicts_is_refused() {
+    let dir = tmp("dt");
+    let rec = dir.join("ms.csv");
+    let mut csv = String::from("# agvsim-recording: 1\n# rig: drive_axis\n# sample_time_s: 0.001\nt_s,voltage_V,motor_speed_rad_s\n");
+    for k in 0..50 {
+        csv.push_str(&format!("{},{},\n", k as f64 * 0.01, 1.0));
+    }
+    std::fs::write(&rec, csv).unwrap();
+    let e = agvsim::record::Recording::load(&rec)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("`sample_time_s: 0.001` but the time column's median interval is 0.01 s"),
+        "{e}"
+    );
 }

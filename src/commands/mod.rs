@@ -187,12 +187,10 @@ pub(crate) fn stem(path: &Path, fallback: &str) -> String {
 pub(crate) fn check_targets(targets: &[(&str, Option<&Path>, bool)]) -> Result<(), CommandError> {
     for (option, path, folder) in targets {
         if let Some(p) = path {
-            crate::output::check_target(option, p, *folder).map_err(|message| {
-                CommandError::Option {
-                    option: option.to_string(),
-                    value: p.display().to_string(),
-                    message,
-                }
+            crate::output::check_target(p, *folder).map_err(|message| CommandError::Option {
+                option: option.to_string(),
+                value: p.display().to_string(),
+                message,
             })?;
         }
     }
@@ -214,7 +212,7 @@ pub(crate) fn lock_out(
     dir: &Path,
 ) -> Result<crate::output::FolderLock, CommandError> {
     check_targets(&[(option, Some(dir), true)])?;
-    crate::output::FolderLock::acquire(option, dir).map_err(|message| CommandError::Option {
+    crate::output::FolderLock::acquire(dir).map_err(|message| CommandError::Option {
         option: option.to_string(),
         value: dir.display().to_string(),
         message,

@@ -231,6 +231,10 @@ impl Recording {
                 message: "no samples after the header".into(),
             });
         }
+        check_sample_time(&meta, &t_s).map_err(|message| RecordingError::File {
+            file: file(),
+            message,
+        })?;
         Ok(Recording {
             path: path.to_owned(),
             meta,
@@ -328,4 +332,35 @@ mod tests {
         let e = parse("# rig: vehicle\nt_s\n0\n").unwrap_err().to_string();
         assert!(e.contains("agvsim-recording"), "{e}");
     }
+}
+
+/// A stated `sample_time_s` must be the time column's: a header that says 1 ms over a
+/// column stamped in seconds where milliseconds were meant (or the reverse) is a recording
+/// whose every time constant would come out a thousand times off.
+fn check_sample_time(meta: &BTreeMap<String, String>, t_s: &[f64]) -> Result<(), String> {
+    let Some(raw) = meta.get("sample_time_s") else {
+        return Ok(());
+    };
+    let stated: f64 = raw
+        .parse()
+        .ok()
+        .filter(|v: &f64| v.is_finite() && *v > 0.0)
+        .ok_or_else(|| {
+            format!("metadata `sample_time_s: {raw}`: expected a positive number of seconds")
+        })?;
+    if t_s.len() < 2 {
+        return Ok(());
+    }
+    let mut dts: Vec<f64> = t_s.windows(2).map(|w| w[1] - w[0]).collect();
+    dts.sort_by(f64::total_cmp);
+    let median = dts[dts.len() / 2];
+    // Loggers jitter and their clocks drift by a few percent; a unit slip is a factor of
+    // ten or more and a decimated log a factor of two, so a quarter separates them.
+    if (median / stated - 1.0).abs() > 0.25 {
+        return Err(format!(
+            "metadata `sample_time_s: {raw}` but the time column's median interval is {} s: which is right? (a time column in ms, or a header copied from another recording?)",
+            crate::scene::plausibility::sig(median)
+        ));
+    }
+    Ok(())
 }
