@@ -21,6 +21,34 @@ pub struct Cli {
 
 #[derive(Subcommand)]
 pub enum ImportFormat {
+    /// A ROS 2 bag (an .mcap file, a .db3 file, or a rosbag2 folder with metadata.yaml) of
+    /// a robot driven by velocity commands: BAG.csv, a `vehicle` recording with
+    /// cmd_linear_m_s, cmd_angular_rad_s from the Twist topic, wheel speeds from
+    /// JointState, yaw rate from Imu, odom_* from Odometry (the robot's own odometry, not
+    /// ground truth), x_m/y_m/heading_rad from an independent /tf pose, and how each was
+    /// made in its header; and BAG.scene.toml when the track and wheel radius are known
+    /// (from /robot_description or the flags).
+    Ros2 {
+        /// The bag.
+        bag: PathBuf,
+        /// A topic map (TOML) choosing among several topics of a type: keys cmd_vel,
+        /// joint_states, imu, odom, battery, pose = "PARENT:CHILD", left_wheel_joint,
+        /// right_wheel_joint, time = "header" or "log".
+        #[arg(long, value_name = "MAP.toml")]
+        map: Option<PathBuf>,
+        /// Output folder [default: runs/import].
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Drive wheel radius, m [default: from /robot_description].
+        #[arg(long, value_parser = positive_number)]
+        wheel_radius_m: Option<f64>,
+        /// Track width, m [default: from /robot_description].
+        #[arg(long, value_parser = positive_number)]
+        track_m: Option<f64>,
+        /// Robot mass for the scene, kg [default: the thesis machine's 120, said as such].
+        #[arg(long, value_parser = positive_number)]
+        mass_kg: Option<f64>,
+    },
     /// A MATLAB file (MAT level 5, as `save` writes by default) by a map file like the
     /// CSV's, each `column` naming a variable (a vector); see the README.
     Mat {

@@ -274,8 +274,29 @@ fn dispatch(command: Command) -> Result<(), CommandError> {
 
 /// `agvsim import csv|mat|wpilib`.
 fn import(format: ImportFormat) -> Result<(), CommandError> {
-    use commands::import::{mapped, wpilib, MappedImport, WpilibImport};
+    use commands::import::{mapped, ros2, wpilib, MappedImport, Ros2Import, WpilibImport};
     match format {
+        ImportFormat::Ros2 {
+            bag,
+            map,
+            out,
+            wheel_radius_m,
+            track_m,
+            mass_kg,
+        } => ros2(
+            &Ros2Import {
+                bag,
+                map,
+                geometry: agvsim::import::ros2::Geometry {
+                    wheel_radius_m,
+                    track_m,
+                },
+                mass_kg,
+                out,
+                command: std::env::args().collect::<Vec<_>>().join(" "),
+            },
+            &say,
+        ),
         ImportFormat::Csv { file, map, out } => mapped(
             &MappedImport {
                 file,

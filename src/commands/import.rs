@@ -1,4 +1,4 @@
-//! `agvsim import csv|mat|wpilib`: a recording kept in another format converted into the
+//! `agvsim import csv|mat|wpilib|ros2`: a recording kept in another format converted into the
 //! exchange format, checked to read back as the contract's, and written whole.
 
 use std::path::{Path, PathBuf};
@@ -161,4 +161,94 @@ fn scene_of(rig: &Rig, rig_text: &str, rig_path: &std::path::Path) -> Option<Str
     );
     text.push_str(&body);
     Some(text)
+}
+
+/// What `agvsim import ros2` was asked.
+#[derive(Debug, Clone)]
+pub struct Ros2Import {
+    /// The bag: an .mcap or .db3 file, or a rosbag2 folder.
+    pub bag: PathBuf,
+    /// The topic map, if given.
+    pub map: Option<PathBuf>,
+    /// Track and wheel radius beside the bag's description.
+    pub geometry: crate::import::ros2::Geometry,
+    /// Robot mass for the scene, kg.
+    pub mass_kg: Option<f64>,
+    /// Output folder (default `runs/import`).
+    pub out: Option<PathBuf>,
+    /// The command line, for the scene's header.
+    pub command: String,
+}
+
+/// Reads the bag, writes `DIR/BAG.csv` and, where the track and wheel radius are known,
+/// `DIR/BAG.scene.toml` (every file or none), and says how each column was made.
+pub fn ros2(req: &Ros2Import, say: Say) -> Result<(), CommandError> {
+    use crate::import::ros2;
+    let map = match &req.map {
+        Some(p) => ros2::TopicMap::load(p)?,
+        None => ros2::TopicMap::default(),
+    };
+    let rec = ros2::import(&req.bag, &map, &req.geometry)?;
+    let dir = out_dir(&req.out);
+    let _lock = super::lock_out("--out", &dir)?;
+    let stem = crate::output::safe_file_stem(&stem(&req.bag, "bag"));
+    let csv_path = dir.join(format!("{stem}.csv"));
+    let text = rec.to_csv();
+    check_recording(&text, &csv_path)?;
+    let mut files = vec![(csv_path.clone(), text)];
+    let scene_path = dir.join(format!("{stem}.scene.toml"));
+    if let Some((track_m, radius_m, from)) = &rec.geometry {
+        let spec = crate::scene::robot::RobotSpec {
+            mass_kg: req.mass_kg,
+            track_m: Some(*track_m),
+            wheel_radius_m: Some(*radius_m),
+            battery_v: rec.battery_v,
+            description: Some(format!(
+                "The robot of ROS 2 bag {stem}: {from}{}; the rest the thesis machine's until calibrated",
+                rec.battery_v.map_or(String::new(), |v| format!("; battery {} V, the median of its battery topic", crate::scene::plausibility::sig(v)))
+            )),
+            ..Default::default()
+        };
+        let base = crate::scene::Scene::default();
+        let new = crate::scene::robot::new_scene(
+            &spec,
+            Some((Path::new("the thesis machine (agvsim's defaults)"), &base)),
+            &req.command,
+        )?;
+        crate::scene::Scene::from_toml(&new.text, &scene_path, &[]).map_err(|e| {
+            CommandError::Contract {
+                what: "the robot's scene".into(),
+                message: e.to_string(),
+            }
+        })?;
+        files.push((scene_path.clone(), new.text));
+    }
+    std::fs::create_dir_all(&dir).map_err(io(&dir))?;
+    for (path, text) in &files {
+        write_file(path, text)?;
+    }
+    let mut report = format!(
+        "bag        {} ({} storage), {} rows over {} s\n",
+        req.bag.display(),
+        rec.storage.name(),
+        rec.t_s.len(),
+        crate::scene::plausibility::sig(*rec.t_s.last().unwrap_or(&0.0))
+    );
+    for (k, v) in &rec.timing {
+        report.push_str(&format!("{k:<10} {v}\n"));
+    }
+    for c in &rec.conversions {
+        report.push_str(&format!("  {:<22} {}\n", c.column, c.how));
+    }
+    for n in &rec.notes {
+        report.push_str(&format!("note: {n}\n"));
+    }
+    report.push_str(&format!("recording  {}\n", csv_path.display()));
+    if files.len() > 1 {
+        report.push_str(&format!("scene      {}\n", scene_path.display()));
+    } else {
+        report.push_str("scene      not written: the bag has no /robot_description with the drive wheels; give --track-m and --wheel-radius-m\n");
+    }
+    say(&report);
+    Ok(())
 }

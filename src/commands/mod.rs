@@ -69,6 +69,9 @@ pub enum CommandError {
     /// A SysId log that cannot be imported.
     #[error(transparent)]
     SysId(#[from] SysIdError),
+    #[error(transparent)]
+    /// A ROS 2 bag cannot be imported.
+    Ros2(#[from] crate::import::ros2::Ros2Error),
     /// An option's value or path that cannot be used (the message names the option).
     #[error("{option} {value}: {message}")]
     Option {

@@ -310,7 +310,7 @@ fn structure_of(
                 {
                     return Err(IdentError::Mismatch {
                         file: rec.path.clone(),
-                        message: "the whole-vehicle model is driven by `left_voltage_V` and `right_voltage_V`; recordings driven through the motor controller (`demand_fwd_pct`, `demand_turn_pct`) are not supported yet".into(),
+                        message: "the whole-vehicle model is driven by `left_voltage_V` and `right_voltage_V`; recordings driven through the motor controller (`demand_fwd_pct`, `demand_turn_pct`) or by velocity commands (`cmd_linear_m_s`, `cmd_angular_rad_s`) are not supported yet; `agvsim calibrate --scene SCENE --recording REC --effects all` fits them through the simulator and finds missing physics there".into(),
                     });
                 }
                 let mut m = Vehicle::from_rig(rig, rig_path)?;

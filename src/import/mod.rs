@@ -3,6 +3,7 @@
 
 pub mod csv_map;
 pub mod mat;
+pub mod ros2;
 pub mod wpilib;
 
 use std::path::PathBuf;

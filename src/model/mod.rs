@@ -1,8 +1,9 @@
 //! The physical blocks of the AGV, free of rapier, files and the CLI. Each has its
 //! parameters (immutable during a run), its state (what is integrated) and a step or a
 //! force law that can be tested alone. Block diagram order:
-//! battery -> DCMC -> motor -> gearbox (backlash) -> wheel/tyre -> chassis.
+//! battery -> DCMC (or a velocity-commanded base controller) -> motor -> gearbox (backlash) -> wheel/tyre -> chassis.
 
+pub mod base_controller;
 pub mod battery;
 pub mod castor;
 pub mod chassis;

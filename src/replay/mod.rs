@@ -5,7 +5,9 @@
 //!
 //! Inputs, by the contract's columns: motor voltages (`left_/right_voltage_V`; a drive
 //! axis's `voltage_V`) bypass the DCMC; demands (`demand_fwd_pct`, `demand_turn_pct`; a
-//! drive axis's `demand_pct`) go through it. Each input is held from its row to the next
+//! drive axis's `demand_pct`) go through it; velocity commands (`cmd_linear_m_s`,
+//! `cmd_angular_rad_s`, a ROS robot's `/cmd_vel`) go through the scene's `[base]`
+//! controller and its drivers' speed loops. Each input is held from its row to the next
 //! (zero-order hold, as a controller's output is). A drive axis is the scene's left drive
 //! with the wheels lifted; a `drive_pair` recording, both drives lifted. The simulator starts from rest, at the recording's start
 //! pose when it has one: the mean of the pose samples taken before the command first
@@ -64,6 +66,9 @@ pub enum Drive {
     /// A drive axis on its demand into the motor controller, pct (as a forward demand,
     /// so both sides run alike and the left one is compared).
     AxisDemand,
+    /// A velocity command into the base controller (a ROS robot's `/cmd_vel`): forward
+    /// speed, m/s, and yaw rate, rad/s.
+    Velocity,
 }
 
 impl Drive {
@@ -74,6 +79,7 @@ impl Drive {
             Drive::Demands => &["demand_fwd_pct", "demand_turn_pct"],
             Drive::AxisVoltage => &["voltage_V"],
             Drive::AxisDemand => &["demand_pct"],
+            Drive::Velocity => &["cmd_linear_m_s", "cmd_angular_rad_s"],
         }
     }
 
@@ -88,6 +94,10 @@ impl Drive {
             Drive::AxisDemand => Actuation::Demand {
                 forward_pct: u[0],
                 turn_pct: 0.0,
+            },
+            Drive::Velocity => Actuation::Velocity {
+                linear_m_s: u[0],
+                angular_rad_s: u[1],
             },
         }
     }
@@ -179,7 +189,8 @@ fn recording_err(rec: &Recording, message: String) -> ReplayError {
 fn choose_drive(rec: &Recording) -> Result<Drive, ReplayError> {
     let candidates: &[Drive] = match rec.rig.as_str() {
         "drive_axis" => &[Drive::AxisVoltage, Drive::AxisDemand],
-        "vehicle" | "drive_pair" => &[Drive::Voltages, Drive::Demands],
+        "vehicle" => &[Drive::Voltages, Drive::Demands, Drive::Velocity],
+        "drive_pair" => &[Drive::Voltages, Drive::Demands],
         other => {
             return Err(recording_err(
                 rec,
@@ -267,7 +278,10 @@ fn channels(rec: &Recording, drive: Drive) -> (Vec<Channel>, Vec<String>) {
             continue;
         }
         match table.iter().find(|(n, _)| n == name) {
-            Some((_, read)) if !Drive::Demands.columns().contains(&name.as_str()) => {
+            Some((_, read))
+                if !Drive::Demands.columns().contains(&name.as_str())
+                    && !Drive::Velocity.columns().contains(&name.as_str()) =>
+            {
                 found.push(Channel {
                     name: name.clone(),
                     read: *read,

@@ -28,6 +28,7 @@ pub fn table() -> &'static KeyTable<Scene> {
             .section("floor", |s| &s.floor, |s| &mut s.floor)
             .section("battery", |s| &s.battery, |s| &mut s.battery)
             .section("dcmc", |s| &s.dcmc, |s| &mut s.dcmc)
+            .section("base", |s| &s.base, |s| &mut s.base)
             .section("sensors", |s| &s.sensors, |s| &mut s.sensors)
             .section("controller", |s| &s.controller, |s| &mut s.controller)
             .section(

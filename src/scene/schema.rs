@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use super::ExpectSpec;
 use crate::firmware::ControllerParams;
+use crate::model::base_controller::BaseParams;
 use crate::model::battery::BatteryParams;
 use crate::model::castor::CastorParams;
 use crate::model::chassis::{ChassisParams, PayloadParams, Pose};
@@ -51,6 +52,9 @@ pub struct Scene {
     pub battery: BatteryParams,
     /// The wheelchair motor controller.
     pub dcmc: DcmcParams,
+    /// A velocity-commanded base: base controller limits and the motor drivers' speed
+    /// loops (driven by `cmd_linear_m_s`, `cmd_angular_rad_s`).
+    pub base: BaseParams,
     /// The guide-wire pick-up coils.
     pub sensors: SensorParams,
     /// The firmware.

@@ -24,6 +24,10 @@ fn zero_of(a: Actuation) -> Actuation {
             forward_pct: 0.0,
             turn_pct: 0.0,
         },
+        Actuation::Velocity { .. } => Actuation::Velocity {
+            linear_m_s: 0.0,
+            angular_rad_s: 0.0,
+        },
         other => other,
     }
 }
@@ -48,6 +52,19 @@ fn blend(a: Actuation, b: Actuation, f: f64) -> Actuation {
         ) => Actuation::Demand {
             forward_pct: mix(f0, f1),
             turn_pct: mix(t0, t1),
+        },
+        (
+            Actuation::Velocity {
+                linear_m_s: v0,
+                angular_rad_s: w0,
+            },
+            Actuation::Velocity {
+                linear_m_s: v1,
+                angular_rad_s: w1,
+            },
+        ) => Actuation::Velocity {
+            linear_m_s: mix(v0, v1),
+            angular_rad_s: mix(w0, w1),
         },
         _ if f >= 0.5 => a,
         _ => b,

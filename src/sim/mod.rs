@@ -17,6 +17,7 @@ use rand::SeedableRng;
 use rand_pcg::Pcg64;
 
 use crate::firmware::FirmwareState;
+use crate::model::base_controller::BaseState;
 use crate::model::chassis::{NoSlipState, Pose};
 use crate::model::dcmc::{DcmcOutput, DcmcState};
 use crate::model::drivetrain::DrivetrainState;
@@ -92,6 +93,14 @@ pub enum Actuation {
     /// Motor terminal voltages (left, right), V, bypassing the DCMC (still clipped to what
     /// the battery can give).
     Voltage([f64; 2]),
+    /// A velocity command into the base controller (a ROS robot's `/cmd_vel`), whose
+    /// drivers' speed loops set the motor voltages (bypassing the DCMC).
+    Velocity {
+        /// Forward speed, m/s.
+        linear_m_s: f64,
+        /// Yaw rate, rad/s (positive: turning left).
+        angular_rad_s: f64,
+    },
     /// Both motors open-circuited (power cut).
     Open,
 }
@@ -133,6 +142,7 @@ pub struct Sim {
     castor_tyres: [TyreState; 4],
     body: Body,
     dcmc: DcmcState,
+    base: BaseState,
     firmware: FirmwareState,
     /// PWM filter outputs (forward, turn), duty counts.
     pwm_filtered: [f64; 2],
@@ -180,6 +190,7 @@ impl Sim {
             castor_tyres: [TyreState::default(); 4],
             body,
             dcmc: DcmcState::default(),
+            base: BaseState::default(),
             firmware,
             pwm_filtered: [half, half],
             command_delay: (params.dcmc.params.command_delay_s > 0.0).then(|| {

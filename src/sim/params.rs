@@ -5,6 +5,7 @@ use crate::firmware::pwm::PwmFilter;
 use crate::firmware::pwm::COUNTS_PER_PCT;
 use crate::firmware::swing_away::SwingAwayParams;
 use crate::firmware::{ControllerKind, Firmware};
+use crate::model::base_controller::{BaseGeometry, BaseParams};
 use crate::model::battery::BatteryParams;
 use crate::model::castor::CastorParams;
 use crate::model::chassis::{ChassisParams, LoadedChassis, NoSlipParams, NormalLoads, Pose};
@@ -125,6 +126,11 @@ pub struct SimParams {
     pub battery: BatteryParams,
     /// The DCMC wired to the motors.
     pub dcmc: Dcmc,
+    /// A velocity-commanded base's controller and drivers (used by
+    /// [`super::Actuation::Velocity`]).
+    pub base: BaseParams,
+    /// The geometry its kinematics use.
+    pub base_geometry: BaseGeometry,
     /// The firmware as the level runs it.
     pub firmware: Firmware,
     /// The PWM filter between firmware and DCMC.
@@ -235,6 +241,12 @@ impl SimParams {
             floor: Floor::from_params(&scene.floor),
             battery: scene.battery,
             dcmc,
+            base: scene.base,
+            base_geometry: BaseGeometry {
+                track_width_m: scene.chassis.track_width_m,
+                wheel_radius_m: scene.wheel.radius_m,
+                gear_ratio: scene.gearbox.ratio,
+            },
             firmware,
             pwm: PwmFilter {
                 corner_hz: scene.controller.pwm_filter_hz,

@@ -5,6 +5,7 @@ use rand_distr::{Distribution, StandardNormal};
 use super::{Actuation, Body, Sim, SimError};
 use crate::firmware::pwm::duty_to_pct;
 use crate::firmware::FirmwareInput;
+use crate::model::base_controller::BaseInput;
 use crate::model::castor::rolling_drag_n;
 use crate::model::chassis::PoseFrame;
 use crate::model::dcmc::DcmcInput;
@@ -24,7 +25,8 @@ impl Sim {
     /// 2. **Controller**: the firmware runs its interrupt if one is due (sample and hold),
     ///    and writes PWM values whose computation delay has elapsed.
     /// 3. **PWM filter and DCMC**: duty to demand, demand to motor voltage, with the
-    ///    battery's available voltage from the last step's current draw.
+    ///    battery's available voltage from the last step's current draw; or, driven by a
+    ///    velocity command, the base controller and its drivers' speed loops.
     /// 4. **Drivetrain and tyres**: `substeps` sub-steps of motor, gear mesh and wheel;
     ///    on the floor each wheel's tyre sub-steps with it against the chassis velocity of
     ///    the step's start; on the no-slip levels the chassis sub-steps with the wheels.
@@ -108,6 +110,8 @@ impl Sim {
                 forward_pct,
                 turn_pct,
             } => ([forward_pct, turn_pct], true),
+            // The base's own drivers act; the DCMC stands by.
+            Actuation::Velocity { .. } => ([0.0; 2], false),
             _ => (firmware_demand, self.firmware.drive_enabled),
         };
         let dcmc = self.params.dcmc.step(
@@ -126,6 +130,23 @@ impl Sim {
         );
         let terminals = match self.actuation {
             Actuation::Firmware | Actuation::Demand { .. } => dcmc.voltage_v.map(Terminal::Voltage),
+            Actuation::Velocity {
+                linear_m_s,
+                angular_rad_s,
+            } => {
+                let out = self.params.base.step(
+                    &self.params.base_geometry,
+                    &mut self.base,
+                    &BaseInput {
+                        linear_m_s,
+                        angular_rad_s,
+                        motor_speed_rad_s: speeds,
+                        available_v,
+                    },
+                    dt,
+                );
+                out.voltage_v.map(Terminal::Voltage)
+            }
             Actuation::Voltage(v) => {
                 v.map(|x| Terminal::Voltage(battery.bridge_output_v(x, battery_v)))
             }

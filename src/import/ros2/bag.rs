@@ -1,0 +1,379 @@
+//! A ROS 2 bag's messages, raw: an MCAP file, or a rosbag2 folder (`metadata.yaml` with
+//! its `.mcap` or `.db3` files), or a lone `.db3` file. Each topic with its message type
+//! (`geometry_msgs/msg/Twist`) and its messages' log times and CDR bytes, in log-time
+//! order.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Largest bag file read, bytes: the file is read whole; a longer log is better cut to
+/// the test of interest first (`ros2 bag convert` or `mcap filter`).
+pub const MAX_BAG_BYTES: u64 = 2 << 30;
+
+/// Why a bag cannot be read.
+#[derive(Debug, thiserror::Error)]
+pub enum BagError {
+    /// A file cannot be read.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// What is wrong, in the file or folder named.
+    #[error("{}: {message}", path.display())]
+    Bad {
+        /// The bag, or the file in it.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+fn bad(path: &Path, message: impl Into<String>) -> BagError {
+    BagError::Bad {
+        path: path.to_owned(),
+        message: message.into(),
+    }
+}
+
+/// Which rosbag2 storage the messages came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Storage {
+    /// MCAP (the default since ROS 2 Iron).
+    Mcap,
+    /// SQLite3 (`.db3`, Humble and older).
+    Sqlite3,
+}
+
+impl Storage {
+    /// rosbag2's name of the storage.
+    pub fn name(self) -> &'static str {
+        match self {
+            Storage::Mcap => "mcap",
+            Storage::Sqlite3 => "sqlite3",
+        }
+    }
+}
+
+/// One message as stored.
+#[derive(Debug, Clone)]
+pub struct RawMessage {
+    /// When the recorder received it, ns since the epoch.
+    pub log_time_ns: i64,
+    /// Its CDR bytes.
+    pub data: Vec<u8>,
+}
+
+/// One topic and its messages.
+#[derive(Debug, Clone)]
+pub struct Topic {
+    /// The topic's name (`/cmd_vel`).
+    pub name: String,
+    /// Its message type (`geometry_msgs/msg/Twist`).
+    pub msg_type: String,
+    /// Its messages in log-time order.
+    pub messages: Vec<RawMessage>,
+}
+
+/// A bag's topics.
+#[derive(Debug, Clone)]
+pub struct Bag {
+    /// The bag as given.
+    pub path: PathBuf,
+    /// Its storage.
+    pub storage: Storage,
+    /// Its topics, by name.
+    pub topics: Vec<Topic>,
+}
+
+/// Reads a bag: an `.mcap` or `.db3` file, or a rosbag2 folder.
+pub fn open(path: &Path) -> Result<Bag, BagError> {
+    let io = |p: &Path| {
+        let p = p.to_owned();
+        move |source| BagError::Io { path: p, source }
+    };
+    let meta = std::fs::metadata(path).map_err(io(path))?;
+    let mut topics: BTreeMap<String, Topic> = BTreeMap::new();
+    let storage = if meta.is_dir() {
+        let info = folder_info(path)?;
+        for f in &info.files {
+            read_file(&path.join(f), info.storage, &mut topics)?;
+        }
+        for (name, ty, count) in &info.topics {
+            let t = topics.entry(name.clone()).or_insert_with(|| Topic {
+                name: name.clone(),
+                msg_type: ty.clone(),
+                messages: vec![],
+            });
+            if t.messages.len() < *count {
+                return Err(bad(
+                    path,
+                    format!(
+                        "topic `{name}`: metadata.yaml counts {count} messages, the storage holds {} (a recording cut short?)",
+                        t.messages.len()
+                    ),
+                ));
+            }
+        }
+        info.storage
+    } else {
+        let storage = storage_of_file(path)?;
+        read_file(path, storage, &mut topics)?;
+        storage
+    };
+    let mut topics: Vec<Topic> = topics.into_values().collect();
+    for t in &mut topics {
+        t.messages.sort_by_key(|m| m.log_time_ns);
+    }
+    Ok(Bag {
+        path: path.to_owned(),
+        storage,
+        topics,
+    })
+}
+
+fn storage_of_file(path: &Path) -> Result<Storage, BagError> {
+    match path.extension().and_then(|e| e.to_str()) {
+        Some("mcap") => Ok(Storage::Mcap),
+        Some("db3") => Ok(Storage::Sqlite3),
+        _ => Err(bad(
+            path,
+            "expected an .mcap or .db3 file, or a rosbag2 folder holding metadata.yaml",
+        )),
+    }
+}
+
+/// What a rosbag2 folder's `metadata.yaml` says.
+struct FolderInfo {
+    storage: Storage,
+    files: Vec<String>,
+    /// (topic, type, message count).
+    topics: Vec<(String, String, usize)>,
+}
+
+fn folder_info(dir: &Path) -> Result<FolderInfo, BagError> {
+    let file = dir.join("metadata.yaml");
+    if !file.exists() {
+        return Err(bad(
+            dir,
+            "no metadata.yaml: a rosbag2 folder holds one beside its .mcap or .db3 files (give the .mcap or .db3 file itself to read it alone)",
+        ));
+    }
+    let text = std::fs::read_to_string(&file).map_err(|source| BagError::Io {
+        path: file.clone(),
+        source,
+    })?;
+    let doc: serde_yaml::Value =
+        serde_yaml::from_str(&text).map_err(|e| bad(&file, format!("not YAML: {e}")))?;
+    let info = &doc["rosbag2_bagfile_information"];
+    if info.is_null() {
+        return Err(bad(&file, "no `rosbag2_bagfile_information` section"));
+    }
+    let storage = match info["storage_identifier"].as_str() {
+        Some("mcap") => Storage::Mcap,
+        Some("sqlite3") => Storage::Sqlite3,
+        other => {
+            return Err(bad(
+                &file,
+                format!("storage_identifier {other:?}: expected `mcap` or `sqlite3`"),
+            ))
+        }
+    };
+    let files: Vec<String> = info["relative_file_paths"]
+        .as_sequence()
+        .map(|s| {
+            s.iter()
+                .filter_map(|v| v.as_str().map(String::from))
+                .collect()
+        })
+        .unwrap_or_default();
+    if files.is_empty() {
+        return Err(bad(&file, "`relative_file_paths` lists no storage file"));
+    }
+    if !info["compression_mode"].as_str().unwrap_or("").is_empty() {
+        return Err(bad(
+            &file,
+            format!(
+                "compression_mode `{}`: a bag compressed by rosbag2 as a whole is not read; decompress it with `ros2 bag convert` (MCAP's own chunk compression is read)",
+                info["compression_mode"].as_str().unwrap_or("")
+            ),
+        ));
+    }
+    let topics = info["topics_with_message_count"]
+        .as_sequence()
+        .map(|s| {
+            s.iter()
+                .filter_map(|t| {
+                    let m = &t["topic_metadata"];
+                    Some((
+                        m["name"].as_str()?.to_string(),
+                        m["type"].as_str()?.to_string(),
+                        t["message_count"].as_u64().unwrap_or(0) as usize,
+                    ))
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    Ok(FolderInfo {
+        storage,
+        files,
+        topics,
+    })
+}
+
+fn read_file(
+    path: &Path,
+    storage: Storage,
+    topics: &mut BTreeMap<String, Topic>,
+) -> Result<(), BagError> {
+    let len = std::fs::metadata(path)
+        .map_err(|source| BagError::Io {
+            path: path.to_owned(),
+            source,
+        })?
+        .len();
+    if len > MAX_BAG_BYTES {
+        return Err(bad(
+            path,
+            format!(
+                "{len} bytes, more than the {MAX_BAG_BYTES} read whole; cut the log to the test first (`ros2 bag convert` with a time window)"
+            ),
+        ));
+    }
+    match storage {
+        Storage::Mcap => read_mcap(path, topics),
+        Storage::Sqlite3 => read_sqlite(path, topics),
+    }
+}
+
+fn read_mcap(path: &Path, topics: &mut BTreeMap<String, Topic>) -> Result<(), BagError> {
+    let buf = std::fs::read(path).map_err(|source| BagError::Io {
+        path: path.to_owned(),
+        source,
+    })?;
+    let mcap_err = |what: &str, e: mcap::McapError| {
+        bad(
+            path,
+            format!("{what}: {e} (a truncated or damaged MCAP file? `mcap doctor` says more)"),
+        )
+    };
+    // Channels without messages are listed in the summary, when the file has one.
+    if let Ok(Some(summary)) = mcap::Summary::read(&buf) {
+        let mut channels: Vec<_> = summary.channels.values().collect();
+        channels.sort_by_key(|c| c.id);
+        for c in channels {
+            let ty = c.schema.as_ref().map_or(String::new(), |s| s.name.clone());
+            topics.entry(c.topic.clone()).or_insert_with(|| Topic {
+                name: c.topic.clone(),
+                msg_type: ty,
+                messages: vec![],
+            });
+        }
+    }
+    let stream = mcap::MessageStream::new(&buf).map_err(|e| mcap_err("cannot start reading", e))?;
+    for (k, m) in stream.enumerate() {
+        let m = m.map_err(|e| mcap_err(&format!("message record {}", k + 1), e))?;
+        let ty = m
+            .channel
+            .schema
+            .as_ref()
+            .map_or(String::new(), |s| s.name.clone());
+        if m.channel.message_encoding != "cdr" {
+            return Err(bad(
+                path,
+                format!(
+                    "topic `{}`: message encoding `{}`, expected `cdr` (ROS 2)",
+                    m.channel.topic, m.channel.message_encoding
+                ),
+            ));
+        }
+        topics
+            .entry(m.channel.topic.clone())
+            .or_insert_with(|| Topic {
+                name: m.channel.topic.clone(),
+                msg_type: ty,
+                messages: vec![],
+            })
+            .messages
+            .push(RawMessage {
+                log_time_ns: m.log_time as i64,
+                data: m.data.into_owned(),
+            });
+    }
+    Ok(())
+}
+
+fn read_sqlite(path: &Path, topics: &mut BTreeMap<String, Topic>) -> Result<(), BagError> {
+    let sql_err = |e: rusqlite::Error| {
+        bad(
+            path,
+            format!("{e} (not a rosbag2 SQLite3 file, or a damaged one)"),
+        )
+    };
+    let db = rusqlite::Connection::open_with_flags(
+        path,
+        rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY | rusqlite::OpenFlags::SQLITE_OPEN_NO_MUTEX,
+    )
+    .map_err(sql_err)?;
+    let mut by_id: BTreeMap<i64, String> = BTreeMap::new();
+    {
+        let mut q = db
+            .prepare("SELECT id, name, type, serialization_format FROM topics")
+            .map_err(sql_err)?;
+        let rows = q
+            .query_map([], |r| {
+                Ok((
+                    r.get::<_, i64>(0)?,
+                    r.get::<_, String>(1)?,
+                    r.get::<_, String>(2)?,
+                    r.get::<_, String>(3)?,
+                ))
+            })
+            .map_err(sql_err)?;
+        for row in rows {
+            let (id, name, ty, format) = row.map_err(sql_err)?;
+            if format != "cdr" {
+                return Err(bad(
+                    path,
+                    format!("topic `{name}`: serialization format `{format}`, expected `cdr`"),
+                ));
+            }
+            topics.entry(name.clone()).or_insert_with(|| Topic {
+                name: name.clone(),
+                msg_type: ty,
+                messages: vec![],
+            });
+            by_id.insert(id, name);
+        }
+    }
+    let mut q = db
+        .prepare("SELECT topic_id, timestamp, data FROM messages ORDER BY timestamp")
+        .map_err(sql_err)?;
+    let rows = q
+        .query_map([], |r| {
+            Ok((
+                r.get::<_, i64>(0)?,
+                r.get::<_, i64>(1)?,
+                r.get::<_, Vec<u8>>(2)?,
+            ))
+        })
+        .map_err(sql_err)?;
+    for row in rows {
+        let (id, t, data) = row.map_err(sql_err)?;
+        let name = by_id.get(&id).ok_or_else(|| {
+            bad(
+                path,
+                format!("a message of topic id {id}, which the topics table does not list"),
+            )
+        })?;
+        if let Some(topic) = topics.get_mut(name) {
+            topic.messages.push(RawMessage {
+                log_time_ns: t,
+                data,
+            });
+        }
+    }
+    Ok(())
+}

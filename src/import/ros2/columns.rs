@@ -1,0 +1,808 @@
+//! From a bag's topics to the recording's columns: which topic plays which part, each
+//! message decoded and placed in time, the streams met on one time base.
+
+use std::path::PathBuf;
+
+use super::bag::{Bag, Storage, Topic};
+use super::cdr::{self, CdrError, Header};
+use super::urdf;
+use super::{Geometry, Ros2Error, TimeSource, TopicMap};
+
+/// How one column was made, for the recording's header.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Conversion {
+    /// The column.
+    pub column: String,
+    /// Topic, type, field, frame and alignment, in words.
+    pub how: String,
+}
+
+/// A bag converted: the recording's columns and how each was made.
+#[derive(Debug, Clone)]
+pub struct Ros2Recording {
+    /// The bag.
+    pub bag: PathBuf,
+    /// Its storage.
+    pub storage: Storage,
+    /// Time of the first row, ns since the epoch.
+    pub time_zero_ns: i64,
+    /// Row times, s from the first.
+    pub t_s: Vec<f64>,
+    /// Row times, ns from the first (written exactly).
+    pub t_ns: Vec<i64>,
+    /// Column names, `t_s` excluded.
+    pub names: Vec<String>,
+    /// Columns (`None`: not measured at that row), in `names`' order.
+    pub columns: Vec<Vec<Option<f64>>>,
+    /// How each column was made.
+    pub conversions: Vec<Conversion>,
+    /// How times and rows were chosen.
+    pub timing: Vec<(String, String)>,
+    /// Track and wheel radius, m, with where they came from.
+    pub geometry: Option<(f64, f64, String)>,
+    /// Median battery voltage, V, where the bag has a battery topic.
+    pub battery_v: Option<f64>,
+    /// What a reader should know (topics left unused, rows dropped).
+    pub notes: Vec<String>,
+}
+
+const COMMAND_TYPES: &[&str] = &["geometry_msgs/msg/Twist", "geometry_msgs/msg/TwistStamped"];
+const JOINT_STATE: &str = "sensor_msgs/msg/JointState";
+const IMU: &str = "sensor_msgs/msg/Imu";
+const ODOMETRY: &str = "nav_msgs/msg/Odometry";
+const BATTERY: &str = "sensor_msgs/msg/BatteryState";
+const TF: &str = "tf2_msgs/msg/TFMessage";
+const STRING: &str = "std_msgs/msg/String";
+
+/// A decoded stream: times (ns since the epoch) and values.
+#[derive(Debug, Clone, Default)]
+struct Series {
+    t_ns: Vec<i64>,
+    values: Vec<Vec<f64>>,
+}
+
+impl Series {
+    fn push(&mut self, t: i64, v: Vec<f64>) {
+        self.t_ns.push(t);
+        self.values.push(v);
+    }
+
+    /// Sorted by time (header stamps need not arrive in order).
+    fn sorted(mut self) -> Series {
+        let mut idx: Vec<usize> = (0..self.t_ns.len()).collect();
+        idx.sort_by_key(|&i| self.t_ns[i]);
+        self.t_ns = idx.iter().map(|&i| self.t_ns[i]).collect();
+        self.values = idx
+            .iter()
+            .map(|&i| std::mem::take(&mut self.values[i]))
+            .collect();
+        self
+    }
+}
+
+struct Converter<'a> {
+    bag: &'a Bag,
+    map: &'a TopicMap,
+    time: TimeSource,
+}
+
+fn s_of(ns: i64) -> f64 {
+    ns as f64 * 1e-9
+}
+
+impl<'a> Converter<'a> {
+    fn err(&self, message: String) -> Ros2Error {
+        Ros2Error::Content {
+            bag: self.bag.path.clone(),
+            message,
+        }
+    }
+
+    fn listing(&self) -> String {
+        self.bag
+            .topics
+            .iter()
+            .map(|t| format!("{} ({}, {} messages)", t.name, t.msg_type, t.messages.len()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
+    /// The topic playing `role`: the map's choice, else the one topic of its types.
+    fn pick(
+        &self,
+        role: &str,
+        key: &str,
+        types: &[&str],
+        chosen: Option<&String>,
+        required: bool,
+    ) -> Result<Option<&'a Topic>, Ros2Error> {
+        let bag: &'a Bag = self.bag;
+        let topic = match chosen {
+            Some(name) => {
+                let t = bag.topics.iter().find(|t| &t.name == name).ok_or_else(|| {
+                    self.err(format!(
+                        "--map {key} = \"{name}\": no such topic; the bag has {}",
+                        self.listing()
+                    ))
+                })?;
+                if !types.contains(&t.msg_type.as_str()) {
+                    return Err(self.err(format!(
+                        "topic `{name}` is `{}`, not a {role} type agvsim decodes ({})",
+                        t.msg_type,
+                        types.join(", ")
+                    )));
+                }
+                t
+            }
+            None => {
+                let found: Vec<&'a Topic> = bag
+                    .topics
+                    .iter()
+                    .filter(|t| types.contains(&t.msg_type.as_str()))
+                    .collect();
+                match found.as_slice() {
+                    [] if required => {
+                        return Err(self.err(format!(
+                            "no {role} topic: expected one of type {}; the bag has {}",
+                            types.join(" or "),
+                            self.listing()
+                        )))
+                    }
+                    [] => return Ok(None),
+                    [one] => *one,
+                    several => {
+                        let names: Vec<&str> = several.iter().map(|t| t.name.as_str()).collect();
+                        return Err(self.err(format!(
+                            "several {role} topics ({}): choose one with --map (key `{key}`)",
+                            names.join(", ")
+                        )));
+                    }
+                }
+            }
+        };
+        if topic.messages.is_empty() {
+            return Err(self.err(format!(
+                "topic `{}` ({}) has no messages",
+                topic.name, topic.msg_type
+            )));
+        }
+        Ok(Some(topic))
+    }
+
+    /// Decodes every message of a topic, naming the message that fails.
+    fn decode<T>(
+        &self,
+        topic: &Topic,
+        f: impl Fn(&[u8]) -> Result<T, CdrError>,
+    ) -> Result<Vec<(i64, T)>, Ros2Error> {
+        topic
+            .messages
+            .iter()
+            .enumerate()
+            .map(|(k, m)| {
+                f(&m.data).map(|v| (m.log_time_ns, v)).map_err(|e| {
+                    self.err(format!(
+                        "topic `{}` ({}), message {} (log time {:.6} s): {e}",
+                        topic.name,
+                        topic.msg_type,
+                        k + 1,
+                        s_of(m.log_time_ns)
+                    ))
+                })
+            })
+            .collect()
+    }
+
+    fn at(&self, h: &Header, log_ns: i64) -> i64 {
+        if self.time == TimeSource::Header && h.stamp_ns > 0 {
+            h.stamp_ns
+        } else {
+            log_ns
+        }
+    }
+
+    fn time_words(&self) -> &'static str {
+        match self.time {
+            TimeSource::Header => "header stamp (log time where unstamped)",
+            TimeSource::Log => "log time",
+        }
+    }
+}
+
+/// Heading samples made continuous (no jump of 2 pi between neighbours).
+fn unwrapped(h: &mut [f64]) {
+    for k in 1..h.len() {
+        let d = h[k] - h[k - 1];
+        let turns = (d / std::f64::consts::TAU).round();
+        h[k] -= turns * std::f64::consts::TAU;
+    }
+}
+
+fn median_interval_ns(t: &[i64]) -> Option<i64> {
+    let mut d: Vec<i64> = t
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .filter(|d| *d > 0)
+        .collect();
+    d.sort_unstable();
+    d.get(d.len() / 2).copied()
+}
+
+/// Each row's nearest sample of `s` (component `j`) within `half` ns, else empty.
+fn nearest(rows: &[i64], s: &Series, j: usize, half: i64) -> Vec<Option<f64>> {
+    let mut out = vec![None; rows.len()];
+    let mut k = 0;
+    for (r, t) in rows.iter().enumerate() {
+        while k + 1 < s.t_ns.len() && (s.t_ns[k + 1] - t).abs() <= (s.t_ns[k] - t).abs() {
+            k += 1;
+        }
+        if let Some(&ts) = s.t_ns.get(k) {
+            if (ts - t).abs() <= half {
+                out[r] = s.values[k].get(j).copied().filter(|v| v.is_finite());
+            }
+        }
+    }
+    out
+}
+
+/// Each row's latest sample of `s` at or before it (component `j`), else empty.
+fn held(rows: &[i64], s: &Series, j: usize) -> Vec<Option<f64>> {
+    let mut out = vec![None; rows.len()];
+    let mut k: Option<usize> = None;
+    for (r, t) in rows.iter().enumerate() {
+        while s.t_ns.get(k.map_or(0, |k| k + 1)).is_some_and(|ts| ts <= t) {
+            k = Some(k.map_or(0, |k| k + 1));
+        }
+        out[r] = k.and_then(|k| s.values[k].get(j).copied());
+    }
+    out
+}
+
+/// Converts a bag's topics to a velocity-commanded vehicle recording.
+pub fn convert(bag: &Bag, map: &TopicMap, geometry: &Geometry) -> Result<Ros2Recording, Ros2Error> {
+    let c = Converter {
+        bag,
+        map,
+        time: map.time.unwrap_or_default(),
+    };
+    let mut conversions = vec![];
+    let mut notes = vec![];
+
+    // Geometry: flags first, then the robot description.
+    let description = bag
+        .topics
+        .iter()
+        .find(|t| t.msg_type == STRING && t.name.ends_with("robot_description"));
+    let described = match description.and_then(|t| t.messages.last()) {
+        Some(m) => {
+            let xml = cdr::decode_string(&m.data).map_err(|e| {
+                c.err(format!(
+                    "topic `{}`: {e}",
+                    description.map_or("", |t| &t.name)
+                ))
+            })?;
+            urdf::drive_geometry(
+                &xml,
+                map.left_wheel_joint.as_deref(),
+                map.right_wheel_joint.as_deref(),
+            )
+        }
+        None => None,
+    };
+    let radius = geometry
+        .wheel_radius_m
+        .map(|r| (r, "--wheel-radius-m".to_string()))
+        .or_else(|| {
+            described.as_ref().map(|d| {
+                (
+                    d.wheel_radius_m,
+                    format!(
+                        "/robot_description: joint `{}`'s wheel cylinder",
+                        d.joints[0]
+                    ),
+                )
+            })
+        });
+    let track = geometry
+        .track_m
+        .map(|t| (t, "--track-m".to_string()))
+        .or_else(|| {
+            described.as_ref().map(|d| {
+                (
+                    d.track_m,
+                    format!(
+                        "/robot_description: lateral distance of joints `{}` and `{}`",
+                        d.joints[0], d.joints[1]
+                    ),
+                )
+            })
+        });
+
+    // Commands.
+    let cmd_topic = c
+        .pick(
+            "velocity command",
+            "cmd_vel",
+            COMMAND_TYPES,
+            map.cmd_vel.as_ref(),
+            true,
+        )?
+        .expect("required");
+    let mut commands = Series::default();
+    if cmd_topic.msg_type.ends_with("TwistStamped") {
+        for (log, (h, tw)) in c.decode(cmd_topic, cdr::decode_twist_stamped)? {
+            commands.push(c.at(&h, log), vec![tw.linear_x_m_s, tw.angular_z_rad_s]);
+        }
+    } else {
+        for (log, tw) in c.decode(cmd_topic, cdr::decode_twist)? {
+            commands.push(log, vec![tw.linear_x_m_s, tw.angular_z_rad_s]);
+        }
+    }
+    let commands = commands.sorted();
+    let cmd_time = if cmd_topic.msg_type.ends_with("TwistStamped") {
+        c.time_words()
+    } else {
+        "log time (a Twist has no stamp)"
+    };
+    for (col, field) in [
+        ("cmd_linear_m_s", "linear.x"),
+        ("cmd_angular_rad_s", "angular.z"),
+    ] {
+        conversions.push(Conversion {
+            column: col.into(),
+            how: format!(
+                "{} ({}) {field}, base frame, at its {cmd_time}, held until the next (zero-order hold, as a base controller acts on it)",
+                cmd_topic.name, cmd_topic.msg_type
+            ),
+        });
+    }
+
+    // Outputs, each stream decoded.
+    let joints = c.pick(
+        "wheel joint state",
+        "joint_states",
+        &[JOINT_STATE],
+        map.joint_states.as_ref(),
+        false,
+    )?;
+    let imu = c.pick("IMU", "imu", &[IMU], map.imu.as_ref(), false)?;
+    let odom = c.pick("odometry", "odom", &[ODOMETRY], map.odom.as_ref(), false)?;
+    let battery = c.pick(
+        "battery",
+        "battery",
+        &[BATTERY],
+        map.battery.as_ref(),
+        false,
+    )?;
+
+    let mut wheel = Series::default();
+    let mut wheel_names: Option<[String; 2]> = None;
+    if let Some(t) = joints {
+        let msgs = c.decode(t, cdr::decode_joint_state)?;
+        let chosen = |side: &str, explicit: &Option<String>| -> Option<String> {
+            explicit
+                .clone()
+                .or_else(|| {
+                    described
+                        .as_ref()
+                        .map(|d| d.joints[usize::from(side == "right")].clone())
+                })
+                .or_else(|| {
+                    msgs.iter()
+                        .flat_map(|(_, m)| m.name.iter())
+                        .find(|n| n.contains(side) && n.contains("wheel"))
+                        .cloned()
+                })
+        };
+        let (Some(l), Some(r)) = (
+            chosen("left", &map.left_wheel_joint),
+            chosen("right", &map.right_wheel_joint),
+        ) else {
+            return Err(c.err(format!(
+                "topic `{}`: no joints named as the left and right wheels (names with `left`/`right` and `wheel`); name them with --map left_wheel_joint, right_wheel_joint",
+                t.name
+            )));
+        };
+        for (log, m) in &msgs {
+            let pick = |v: &[f64], name: &str| {
+                m.name
+                    .iter()
+                    .position(|n| n == name)
+                    .and_then(|i| v.get(i).copied())
+                    .unwrap_or(f64::NAN)
+            };
+            wheel.push(
+                c.at(&m.header, *log),
+                vec![
+                    pick(&m.velocity, &l),
+                    pick(&m.velocity, &r),
+                    pick(&m.position, &l),
+                    pick(&m.position, &r),
+                    pick(&m.effort, &l),
+                    pick(&m.effort, &r),
+                ],
+            );
+        }
+        wheel_names = Some([l, r]);
+    }
+    let wheel = wheel.sorted();
+
+    let mut gyro = Series::default();
+    if let Some(t) = imu {
+        for (log, m) in c.decode(t, cdr::decode_imu)? {
+            gyro.push(c.at(&m.header, log), vec![m.yaw_rate_rad_s]);
+        }
+    }
+    let gyro = gyro.sorted();
+    let mut odometry = Series::default();
+    let mut odom_frames = None;
+    if let Some(t) = odom {
+        for (log, m) in c.decode(t, cdr::decode_odometry)? {
+            odom_frames.get_or_insert((m.header.frame_id.clone(), m.child_frame_id.clone()));
+            odometry.push(
+                c.at(&m.header, log),
+                vec![
+                    m.pose[0],
+                    m.pose[1],
+                    m.pose[2],
+                    m.twist.linear_x_m_s,
+                    m.twist.angular_z_rad_s,
+                ],
+            );
+        }
+    }
+    let mut odometry = odometry.sorted();
+    let mut heading: Vec<f64> = odometry.values.iter().map(|v| v[2]).collect();
+    unwrapped(&mut heading);
+    for (v, h) in odometry.values.iter_mut().zip(heading) {
+        v[2] = h;
+    }
+    let mut volts = Series::default();
+    if let Some(t) = battery {
+        for (log, m) in c.decode(t, cdr::decode_battery_state)? {
+            volts.push(c.at(&m.header, log), vec![m.voltage_v]);
+        }
+    }
+    let volts = volts.sorted();
+    let (pose, pose_frames) = tracked_pose(&c, &mut notes)?;
+
+    // The time base: the wheels' stamps, else the gyro's, else the odometry's.
+    let (base, base_name) = [(&wheel, joints), (&gyro, imu), (&odometry, odom)]
+        .into_iter()
+        .find_map(|(s, t)| t.map(|t| (s, t.name.clone())))
+        .ok_or_else(|| {
+            c.err(format!(
+                "no output to compare: expected a {JOINT_STATE}, {IMU} or {ODOMETRY} topic; the bag has {}",
+                c.listing()
+            ))
+        })?;
+    let first_cmd = commands.t_ns[0];
+    let mut rows: Vec<i64> = Vec::with_capacity(base.t_ns.len());
+    for &t in &base.t_ns {
+        if t >= first_cmd && rows.last().is_none_or(|&p| t > p) {
+            rows.push(t);
+        }
+    }
+    let dropped = base.t_ns.iter().filter(|&&t| t >= first_cmd).count() - rows.len();
+    if dropped > 0 {
+        notes.push(format!("{dropped} message(s) of {base_name} repeat an earlier stamp and were dropped (rows must be strictly increasing)"));
+    }
+    if rows.len() < 2 {
+        return Err(c.err(format!(
+            "fewer than two {base_name} messages after the first command on {} (at {:.6} s): nothing to compare",
+            cmd_topic.name,
+            s_of(first_cmd)
+        )));
+    }
+    let half = median_interval_ns(&rows).unwrap_or(1) / 2;
+    let mut names = vec![];
+    let mut columns = vec![];
+    let mut add =
+        |name: &str, col: Vec<Option<f64>>, how: String, conversions: &mut Vec<Conversion>| {
+            if col.iter().any(Option::is_some) {
+                names.push(name.to_string());
+                columns.push(col);
+                conversions.push(Conversion {
+                    column: name.into(),
+                    how,
+                });
+            }
+        };
+    let align = |s: &Series, j: usize, is_base: bool| {
+        if is_base {
+            nearest(&rows, s, j, 0)
+        } else {
+            nearest(&rows, s, j, half)
+        }
+    };
+    let placing = |is_base: bool| {
+        if is_base {
+            "one row per message (the time base)".to_string()
+        } else {
+            "each row takes the nearest message within half a row interval, else the cell is empty"
+                .to_string()
+        }
+    };
+    add(
+        "cmd_linear_m_s",
+        held(&rows, &commands, 0),
+        conversions[0].how.clone(),
+        &mut vec![],
+    );
+    add(
+        "cmd_angular_rad_s",
+        held(&rows, &commands, 1),
+        conversions[1].how.clone(),
+        &mut vec![],
+    );
+    if let (Some(t), Some([l, r])) = (joints, &wheel_names) {
+        let is_base = base_name == t.name;
+        let Some((radius_m, radius_from)) = &radius else {
+            return Err(c.err(format!(
+                "topic `{}` gives wheel speeds in rad/s and the contract's are rim speeds in m/s: give --wheel-radius-m (the bag has no /robot_description with the wheels)",
+                t.name
+            )));
+        };
+        for (j, side, joint) in [(0, "left", l), (1, "right", r)] {
+            let rad_s = align(&wheel, j, is_base);
+            add(
+                &format!("{side}_wheel_speed_m_s"),
+                rad_s.iter().map(|v| v.map(|w| w * radius_m)).collect(),
+                format!("{} ({JOINT_STATE}) velocity of joint `{joint}`, rad/s, times the wheel radius {radius_m} m ({radius_from}); {}", t.name, placing(is_base)),
+                &mut conversions,
+            );
+            add(
+                &format!("{side}_wheel_angle_rad"),
+                align(&wheel, j + 2, is_base),
+                format!(
+                    "{} position of joint `{joint}`, rad; {}",
+                    t.name,
+                    placing(is_base)
+                ),
+                &mut conversions,
+            );
+            add(
+                &format!("{side}_wheel_effort_Nm"),
+                align(&wheel, j + 4, is_base),
+                format!("{} effort of joint `{joint}`, as the driver reports it (N m for a revolute joint, by the message's convention); {}", t.name, placing(is_base)),
+                &mut conversions,
+            );
+        }
+    }
+    if let Some(t) = imu {
+        let is_base = base_name == t.name;
+        add(
+            "yaw_rate_rad_s",
+            align(&gyro, 0, is_base),
+            format!("{} ({IMU}) angular_velocity.z, in the IMU's frame taken as level and aligned with the base; {}", t.name, placing(is_base)),
+            &mut conversions,
+        );
+    }
+    if let Some(t) = odom {
+        let is_base = base_name == t.name;
+        let (frame, child) = odom_frames.clone().unwrap_or_default();
+        for (j, col, field) in [
+            (0, "odom_x_m", "pose.position.x"),
+            (1, "odom_y_m", "pose.position.y"),
+            (2, "odom_heading_rad", "yaw of pose.orientation, unwrapped"),
+            (3, "odom_linear_m_s", "twist.linear.x"),
+            (4, "odom_angular_rad_s", "twist.angular.z"),
+        ] {
+            add(
+                col,
+                align(&odometry, j, is_base),
+                format!("{} ({ODOMETRY}) {field}, frame `{frame}` (twist in `{child}`): the robot's own odometry, not ground truth, so not the contract's pose; {}", t.name, placing(is_base)),
+                &mut conversions,
+            );
+        }
+    }
+    if let Some((frames, topic)) = &pose_frames {
+        for (j, col, field) in [
+            (0, "x_m", "translation.x"),
+            (1, "y_m", "translation.y"),
+            (2, "heading_rad", "yaw of rotation, unwrapped"),
+        ] {
+            add(
+                col,
+                nearest(&rows, &pose, j, half),
+                format!("{topic} transform {frames}, {field}: an independent pose (the child frame taken at the drive-axle midpoint); each row takes the nearest transform within half a row interval, else the cell is empty"),
+                &mut conversions,
+            );
+        }
+    }
+    if let Some(t) = battery {
+        add(
+            "battery_voltage_V",
+            held(&rows, &volts, 0),
+            format!(
+                "{} ({BATTERY}) voltage, held from each message to the next",
+                t.name
+            ),
+            &mut conversions,
+        );
+    }
+    let battery_v = {
+        let mut v: Vec<f64> = volts
+            .values
+            .iter()
+            .map(|v| v[0])
+            .filter(|v| v.is_finite() && *v > 0.0)
+            .collect();
+        v.sort_by(f64::total_cmp);
+        v.get(v.len() / 2).copied()
+    };
+    for t in &bag.topics {
+        let used = [Some(cmd_topic), joints, imu, odom, battery]
+            .iter()
+            .flatten()
+            .any(|u| u.name == t.name)
+            || t.msg_type == TF
+            || (t.msg_type == STRING && t.name.ends_with("robot_description"));
+        if !used {
+            notes.push(format!("topic `{}` ({}) not used", t.name, t.msg_type));
+        }
+    }
+    let t0 = rows[0];
+    let timing = vec![
+        (
+            "time".to_string(),
+            format!("each message at its {}", c.time_words()),
+        ),
+        (
+            "rows".to_string(),
+            format!(
+                "one per {base_name} message from the first command on ({} at {:.6} s)",
+                cmd_topic.name,
+                s_of(first_cmd)
+            ),
+        ),
+        ("time_zero_ns".to_string(), t0.to_string()),
+    ];
+    Ok(Ros2Recording {
+        bag: bag.path.clone(),
+        storage: bag.storage,
+        time_zero_ns: t0,
+        t_s: rows.iter().map(|t| s_of(t - t0)).collect(),
+        t_ns: rows.iter().map(|t| t - t0).collect(),
+        names,
+        columns,
+        conversions,
+        timing,
+        geometry: match (track, radius) {
+            (Some((t, tf)), Some((r, rf))) => {
+                Some((t, r, format!("track from {tf}; wheel radius from {rf}")))
+            }
+            _ => None,
+        },
+        battery_v,
+        notes,
+    })
+}
+
+/// The independent pose from `/tf`: the map's `PARENT:CHILD`, else the one transform to
+/// the base (`base_link`, `base_footprint`) whose parent is not the odometry frame.
+fn tracked_pose(
+    c: &Converter,
+    notes: &mut Vec<String>,
+) -> Result<(Series, Option<(String, String)>), Ros2Error> {
+    let mut all: Vec<(String, String, String, i64, [f64; 3])> = vec![];
+    for t in c.bag.topics.iter().filter(|t| t.msg_type == TF) {
+        for (log, tfs) in c.decode(t, cdr::decode_tf)? {
+            for tr in tfs {
+                all.push((
+                    t.name.clone(),
+                    tr.header.frame_id.clone(),
+                    tr.child_frame_id.clone(),
+                    c.at(&tr.header, log),
+                    tr.pose,
+                ));
+            }
+        }
+    }
+    let pair = match &c.map.pose {
+        Some(p) => {
+            let (parent, child) = p.split_once(':').ok_or_else(|| Ros2Error::Content {
+                bag: c.bag.path.clone(),
+                message: format!("--map pose = \"{p}\": expected \"PARENT:CHILD\" frames"),
+            })?;
+            if !all.iter().any(|a| a.1 == parent && a.2 == child) {
+                return Err(c.err(format!(
+                    "--map pose = \"{p}\": no /tf transform from `{parent}` to `{child}` in the bag"
+                )));
+            }
+            Some((parent.to_string(), child.to_string()))
+        }
+        None => {
+            let mut pairs: Vec<(String, String)> = all
+                .iter()
+                .filter(|a| matches!(a.2.as_str(), "base_link" | "base_footprint"))
+                .map(|a| (a.1.clone(), a.2.clone()))
+                .collect();
+            pairs.sort();
+            pairs.dedup();
+            let (odometric, independent): (Vec<_>, Vec<_>) =
+                pairs.into_iter().partition(|(p, _)| p == "odom");
+            for (p, ch) in &odometric {
+                notes.push(format!("the /tf transform {p} -> {ch} is the wheel odometry, not an independent pose: not written as x_m, y_m, heading_rad"));
+            }
+            match independent.as_slice() {
+                [] => None,
+                [one] => Some(one.clone()),
+                several => {
+                    let list: Vec<String> =
+                        several.iter().map(|(p, ch)| format!("{p}:{ch}")).collect();
+                    return Err(c.err(format!(
+                        "several /tf transforms to the base ({}): choose the independent pose with --map (key `pose`)",
+                        list.join(", ")
+                    )));
+                }
+            }
+        }
+    };
+    let Some((parent, child)) = pair else {
+        return Ok((Series::default(), None));
+    };
+    let topic = all
+        .iter()
+        .find(|a| a.1 == parent && a.2 == child)
+        .map_or(String::new(), |a| a.0.clone());
+    let mut s = Series::default();
+    for a in all.iter().filter(|a| a.1 == parent && a.2 == child) {
+        s.push(a.3, a.4.to_vec());
+    }
+    let mut s = s.sorted();
+    let mut h: Vec<f64> = s.values.iter().map(|v| v[2]).collect();
+    unwrapped(&mut h);
+    for (v, h) in s.values.iter_mut().zip(h) {
+        v[2] = h;
+    }
+    Ok((s, Some((format!("{parent} -> {child}"), topic))))
+}
+
+/// Nanoseconds as seconds in decimal, exactly (`20000000` -> `0.02`).
+fn seconds_of_ns(ns: i64) -> String {
+    let sign = if ns < 0 { "-" } else { "" };
+    let (s, frac) = (ns.abs() / 1_000_000_000, ns.abs() % 1_000_000_000);
+    if frac == 0 {
+        return format!("{sign}{s}");
+    }
+    let f = format!("{frac:09}");
+    format!("{sign}{s}.{}", f.trim_end_matches('0'))
+}
+
+impl Ros2Recording {
+    /// The recording in the exchange format.
+    pub fn to_csv(&self) -> String {
+        let stem = self
+            .bag
+            .file_name()
+            .map_or("bag".into(), |n| n.to_string_lossy().into_owned());
+        let mut s = format!(
+            "# agvsim-recording: 1\n# rig: vehicle\n# description: ROS 2 bag {stem} ({} storage), driven by velocity commands, imported by agvsim import ros2\n# source: ROS 2 bag {stem}\n",
+            self.storage.name()
+        );
+        for (k, v) in &self.timing {
+            s.push_str(&format!("# ros2.{k}: {v}\n"));
+        }
+        for c in &self.conversions {
+            s.push_str(&format!("# ros2.{}: {}\n", c.column, c.how));
+        }
+        s.push_str("t_s");
+        for n in &self.names {
+            s.push(',');
+            s.push_str(n);
+        }
+        s.push('\n');
+        for (k, t) in self.t_ns.iter().enumerate() {
+            s.push_str(&seconds_of_ns(*t));
+            for col in &self.columns {
+                s.push(',');
+                if let Some(v) = col[k] {
+                    s.push_str(&format!("{v}"));
+                }
+            }
+            s.push('\n');
+        }
+        s
+    }
+}

@@ -1,0 +1,273 @@
+#!/usr/bin/env python3
+"""Writes ROS 2 bags with the `rosbags` package (an independent writer of both rosbag2
+storages), for agvsim's import tests.
+
+  ros2_bags.py fixtures OUT_DIR
+      every message type agvsim decodes, at known values, as MCAP and as SQLite3 bags,
+      and the malformed cases (an unknown message type, a topic with no messages)
+
+  ros2_bags.py from-recording RECORDING.csv OUT_BAG --wheel-radius-m R --track-m B
+                [--storage mcap|sqlite3]
+      a bag of a robot as ROS logs it, from an agvsim recording's columns: /cmd_vel
+      (Twist) from cmd_linear_m_s and cmd_angular_rad_s, /joint_states (wheel angles and
+      speeds), /imu (yaw rate), /odom (odometry integrated from the wheels), /tf (the
+      tracked pose, mocap -> base_link), /battery and /robot_description (a URDF)
+
+Install: python3 -m pip install rosbags
+"""
+
+import argparse
+import csv
+import math
+import sys
+from pathlib import Path
+
+from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.typesys import Stores, get_typestore
+
+TS = get_typestore(Stores.ROS2_HUMBLE)
+T = TS.types
+T0_NS = 1_700_000_000 * 10**9  # an epoch time, as a real log has
+
+
+def stamp(t_ns):
+    return T['builtin_interfaces/msg/Time'](sec=t_ns // 10**9, nanosec=t_ns % 10**9)
+
+
+def header(t_ns, frame):
+    return T['std_msgs/msg/Header'](stamp=stamp(t_ns), frame_id=frame)
+
+
+def vec3(x, y, z):
+    return T['geometry_msgs/msg/Vector3'](x=x, y=y, z=z)
+
+
+def quat_yaw(yaw):
+    return T['geometry_msgs/msg/Quaternion'](x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2))
+
+
+def twist(v, w):
+    return T['geometry_msgs/msg/Twist'](linear=vec3(v, 0.0, 0.0), angular=vec3(0.0, 0.0, w))
+
+
+def odometry(t_ns, x, y, yaw, v, w):
+    import numpy as np
+    pose = T['geometry_msgs/msg/PoseWithCovariance'](
+        pose=T['geometry_msgs/msg/Pose'](position=T['geometry_msgs/msg/Point'](x=x, y=y, z=0.0),
+                                         orientation=quat_yaw(yaw)),
+        covariance=np.zeros(36))
+    tw = T['geometry_msgs/msg/TwistWithCovariance'](twist=twist(v, w), covariance=np.zeros(36))
+    return T['nav_msgs/msg/Odometry'](header=header(t_ns, 'odom'), child_frame_id='base_link',
+                                      pose=pose, twist=tw)
+
+
+def joint_state(t_ns, names, pos, vel, eff):
+    import numpy as np
+    return T['sensor_msgs/msg/JointState'](header=header(t_ns, ''), name=names,
+                                           position=np.array(pos, dtype=np.float64),
+                                           velocity=np.array(vel, dtype=np.float64),
+                                           effort=np.array(eff, dtype=np.float64))
+
+
+def imu(t_ns, yaw_rate):
+    import numpy as np
+    return T['sensor_msgs/msg/Imu'](header=header(t_ns, 'imu_link'), orientation=quat_yaw(0.0),
+                                    orientation_covariance=np.zeros(9),
+                                    angular_velocity=vec3(0.0, 0.0, yaw_rate),
+                                    angular_velocity_covariance=np.zeros(9),
+                                    linear_acceleration=vec3(0.0, 0.0, 9.81),
+                                    linear_acceleration_covariance=np.zeros(9))
+
+
+def battery(t_ns, volts):
+    import numpy as np
+    B = T['sensor_msgs/msg/BatteryState']
+    return B(header=header(t_ns, ''), voltage=volts, temperature=25.0, current=-1.5, charge=10.0,
+             capacity=20.0, design_capacity=20.0, percentage=0.5, power_supply_status=2,
+             power_supply_health=1, power_supply_technology=3, present=True,
+             cell_voltage=np.array([volts / 2, volts / 2], dtype=np.float32),
+             cell_temperature=np.array([25.0, 25.0], dtype=np.float32),
+             location='base', serial_number='SN1')
+
+
+def tf(t_ns, parent, child, x, y, yaw):
+    tr = T['geometry_msgs/msg/Transform'](translation=vec3(x, y, 0.0), rotation=quat_yaw(yaw))
+    ts = T['geometry_msgs/msg/TransformStamped'](header=header(t_ns, parent), child_frame_id=child,
+                                                 transform=tr)
+    return T['tf2_msgs/msg/TFMessage'](transforms=[ts])
+
+
+def urdf(track_m, radius_m):
+    half = track_m / 2
+    wheel = lambda side, y: f'''
+  <link name="{side}_wheel_link">
+    <collision><geometry><cylinder radius="{radius_m}" length="0.04"/></geometry></collision>
+  </link>
+  <joint name="{side}_wheel_joint" type="continuous">
+    <parent link="base_link"/><child link="{side}_wheel_link"/>
+    <origin xyz="0 {y} {radius_m}" rpy="-1.5708 0 0"/><axis xyz="0 0 1"/>
+  </joint>'''
+    return f'''<?xml version="1.0"?>
+<robot name="fixture_bot">
+  <link name="base_link"/>{wheel("left", half)}{wheel("right", -half)}
+</robot>
+'''
+
+
+def string_msg(text):
+    return T['std_msgs/msg/String'](data=text)
+
+
+class Bag:
+    def __init__(self, path, storage):
+        plugin = StoragePlugin.MCAP if storage == 'mcap' else StoragePlugin.SQLITE3
+        self.w = Writer(path, version=8, storage_plugin=plugin)
+        self.w.open()
+        self.conns = {}
+
+    def topic(self, name, msgtype):
+        self.conns[name] = (self.w.add_connection(name, msgtype, typestore=TS), msgtype)
+
+    def write(self, name, t_ns, msg):
+        conn, msgtype = self.conns[name]
+        self.w.write(conn, t_ns, bytes(TS.serialize_cdr(msg, msgtype)))
+
+    def close(self):
+        self.w.close()
+
+
+def fixtures(out):
+    out.mkdir(parents=True, exist_ok=True)
+    for storage in ('mcap', 'sqlite3'):
+        b = Bag(out / f'types_{storage}', storage)
+        for name, ty in [('/cmd_vel', 'geometry_msgs/msg/Twist'),
+                         ('/cmd_vel_stamped', 'geometry_msgs/msg/TwistStamped'),
+                         ('/odom', 'nav_msgs/msg/Odometry'),
+                         ('/joint_states', 'sensor_msgs/msg/JointState'),
+                         ('/imu', 'sensor_msgs/msg/Imu'),
+                         ('/battery', 'sensor_msgs/msg/BatteryState'),
+                         ('/tf', 'tf2_msgs/msg/TFMessage'),
+                         ('/tf_static', 'tf2_msgs/msg/TFMessage'),
+                         ('/robot_description', 'std_msgs/msg/String')]:
+            b.topic(name, ty)
+        b.write('/robot_description', T0_NS, string_msg(urdf(0.42, 0.1)))
+        b.write('/tf_static', T0_NS, tf(T0_NS, 'base_link', 'imu_link', 0.1, 0.0, 0.0))
+        for k in range(5):
+            t = T0_NS + k * 20_000_000  # 50 Hz
+            # Values that tell every field apart: k/10 plus a field's own offset.
+            b.write('/cmd_vel', t, twist(0.1 * k + 0.01, -0.2 * k - 0.02))
+            b.write('/cmd_vel_stamped', t,
+                    T['geometry_msgs/msg/TwistStamped'](header=header(t + 1_000_000, 'base_link'),
+                                                        twist=twist(0.3 * k, 0.05 * k)))
+            b.write('/odom', t, odometry(t, 1.0 + k, 2.0 - k, 0.25 * k, 0.5 + k, -0.1 * k))
+            b.write('/joint_states', t, joint_state(t, ['left_wheel_joint', 'right_wheel_joint'],
+                                                    [0.1 * k, -0.1 * k], [1.5 + k, 2.5 + k], [0.3, -0.3]))
+            b.write('/imu', t, imu(t, 0.07 * k - 0.1))
+            b.write('/battery', t, battery(t, 24.5 - 0.1 * k))
+            b.write('/tf', t, tf(t, 'mocap', 'base_link', 3.0 + 0.2 * k, -1.0 + 0.1 * k, 0.3 - 0.05 * k))
+        b.close()
+        # A topic of a type agvsim does not decode, on the commands' topic name.
+        b = Bag(out / f'unknown_type_{storage}', storage)
+        b.topic('/cmd_vel', 'std_msgs/msg/String')
+        b.topic('/joint_states', 'sensor_msgs/msg/JointState')
+        for k in range(3):
+            t = T0_NS + k * 20_000_000
+            b.write('/cmd_vel', t, string_msg('forward'))
+            b.write('/joint_states', t, joint_state(t, ['left_wheel_joint', 'right_wheel_joint'],
+                                                    [0.0, 0.0], [1.0, 1.0], [0.0, 0.0]))
+        b.close()
+        # A command topic with no messages.
+        b = Bag(out / f'empty_topic_{storage}', storage)
+        b.topic('/cmd_vel', 'geometry_msgs/msg/Twist')
+        b.topic('/joint_states', 'sensor_msgs/msg/JointState')
+        for k in range(3):
+            t = T0_NS + k * 20_000_000
+            b.write('/joint_states', t, joint_state(t, ['left_wheel_joint', 'right_wheel_joint'],
+                                                    [0.0, 0.0], [1.0, 1.0], [0.0, 0.0]))
+        b.close()
+
+
+def read_recording(path):
+    with open(path, newline='') as f:
+        lines = [l for l in f if not l.startswith('#')]
+    rows = list(csv.reader(lines))
+    names = rows[0]
+    cols = {n: [] for n in names}
+    for r in rows[1:]:
+        for n, v in zip(names, r):
+            cols[n].append(float(v) if v != '' else None)
+    return cols
+
+
+def from_recording(rec, out, radius, track, storage, battery_v, noise):
+    import random
+    rng = random.Random(1)
+    n = lambda sd: rng.gauss(0.0, sd) if noise else 0.0
+    c = read_recording(rec)
+    b = Bag(out, storage)
+    for name, ty in [('/cmd_vel', 'geometry_msgs/msg/Twist'),
+                     ('/joint_states', 'sensor_msgs/msg/JointState'),
+                     ('/imu', 'sensor_msgs/msg/Imu'),
+                     ('/odom', 'nav_msgs/msg/Odometry'),
+                     ('/tf', 'tf2_msgs/msg/TFMessage'),
+                     ('/battery', 'sensor_msgs/msg/BatteryState'),
+                     ('/robot_description', 'std_msgs/msg/String')]:
+        b.topic(name, ty)
+    b.write('/robot_description', T0_NS, string_msg(urdf(track, radius)))
+    t_s = c['t_s']
+    pos = [0.0, 0.0]
+    ox = oy = oyaw = 0.0
+    last_cmd = None
+    for k, t in enumerate(t_s):
+        t_ns = T0_NS + round(t * 1e9)
+        cmd = (c['cmd_linear_m_s'][k], c['cmd_angular_rad_s'][k])
+        # A teleop node publishes on change and at its own rate; here every change and
+        # every tenth row.
+        if cmd != last_cmd or k % 10 == 0:
+            b.write('/cmd_vel', t_ns, twist(*cmd))
+            last_cmd = cmd
+        vl, vr = c['left_wheel_speed_m_s'][k], c['right_wheel_speed_m_s'][k]
+        if k > 0:
+            h = t - t_s[k - 1]
+            pl, pr = c['left_wheel_speed_m_s'][k - 1], c['right_wheel_speed_m_s'][k - 1]
+            pos[0] += 0.5 * (vl + pl) / radius * h
+            pos[1] += 0.5 * (vr + pr) / radius * h
+            v, w = 0.5 * (vl + vr), (vr - vl) / track
+            ox += v * math.cos(oyaw) * h
+            oy += v * math.sin(oyaw) * h
+            oyaw += w * h
+        # Encoder speeds and a gyro with their noise (0.05 rad/s at the wheel, 0.01 rad/s).
+        b.write('/joint_states', t_ns, joint_state(t_ns, ['left_wheel_joint', 'right_wheel_joint'],
+                                                   list(pos), [vl / radius + n(0.05), vr / radius + n(0.05)],
+                                                   [0.0, 0.0]))
+        b.write('/imu', t_ns, imu(t_ns, c['yaw_rate_rad_s'][k] + n(0.01)))
+        b.write('/odom', t_ns, odometry(t_ns, ox, oy, oyaw, 0.5 * (vl + vr), (vr - vl) / track))
+        if k % 2 == 0 and c.get('x_m') and c['x_m'][k] is not None:  # a slower tracker
+            b.write('/tf', t_ns, tf(t_ns, 'mocap', 'base_link', c['x_m'][k], c['y_m'][k], c['heading_rad'][k]))
+        if k % 20 == 0:
+            b.write('/battery', t_ns, battery(t_ns, battery_v))
+    b.close()
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = ap.add_subparsers(dest='cmd', required=True)
+    f = sub.add_parser('fixtures')
+    f.add_argument('out', type=Path)
+    r = sub.add_parser('from-recording')
+    r.add_argument('recording', type=Path)
+    r.add_argument('out', type=Path)
+    r.add_argument('--wheel-radius-m', type=float, required=True)
+    r.add_argument('--track-m', type=float, required=True)
+    r.add_argument('--battery-v', type=float, default=24.0)
+    r.add_argument('--storage', choices=['mcap', 'sqlite3'], default='mcap')
+    r.add_argument('--noise', action='store_true', help='add encoder and gyro noise (seeded)')
+    a = ap.parse_args()
+    if a.cmd == 'fixtures':
+        fixtures(a.out)
+    else:
+        from_recording(a.recording, a.out, a.wheel_radius_m, a.track_m, a.storage, a.battery_v, a.noise)
+
+
+if __name__ == '__main__':
+    sys.exit(main())
