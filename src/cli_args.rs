@@ -195,7 +195,7 @@ pub enum Command {
         recording: Vec<PathBuf>,
         /// Comma-separated scene keys to fit [default: the recording kind's set: motor
         /// resistance, torque constant, rotor inertia, viscous friction for a lifted drive;
-        /// torque constant, resistance, chassis mass and yaw inertia for a vehicle].
+        /// torque constant, resistance, chassis mass and yaw inertia for a vehicle; chassis mass, yaw inertia and the base's speed-loop gains for a vehicle driven by velocity commands].
         #[arg(long, value_delimiter = ',')]
         free: Vec<String>,
         /// Comma-separated effects of the contract's vocabulary to try (backlash,
@@ -352,11 +352,19 @@ pub enum Command {
         rig_error: f64,
     },
     /// Find what physics the rig's model leaves out: fit the nominal model, locate the
-    /// residual by regime, fit each candidate effect, keep what is significant.
+    /// residual by regime, fit each candidate effect, keep what is significant (with
+    /// --scene: through the simulator).
+    #[command(group(clap::ArgGroup::new("machine").required(true).multiple(false)))]
     Diagnose {
-        /// Rig file (NAME.rig.toml).
-        #[arg(long)]
-        rig: PathBuf,
+        /// Rig file (NAME.rig.toml): the fitting models' nominal machine.
+        #[arg(long, group = "machine")]
+        rig: Option<PathBuf>,
+        /// Scene file instead of a rig: diagnose through the simulator itself (the scene's
+        /// free keys fitted, then each effect switched on through its scene key, as
+        /// calibrate does), for recordings the fitting models cannot take, such as a robot
+        /// driven by velocity commands (cmd_linear_m_s, cmd_angular_rad_s).
+        #[arg(long, group = "machine")]
+        scene: Option<PathBuf>,
         /// Recording (NAME.csv, exchange format). Repeat it to diagnose several tests of
         /// one machine together (SysId's quasistatic and dynamic tests, forward and
         /// backward): they share the machine's parameters and each starts from rest.

@@ -117,6 +117,7 @@ fn dispatch(command: Command) -> Result<(), CommandError> {
         ),
         Command::Diagnose {
             rig,
+            scene,
             recording,
             validate,
             json,
@@ -127,6 +128,7 @@ fn dispatch(command: Command) -> Result<(), CommandError> {
         } => {
             let request = commands::diagnose::DiagnoseRequest {
                 rig,
+                scene,
                 recordings: recording,
                 validate,
                 json,

@@ -103,6 +103,26 @@ pub fn default_free(rig: &str) -> &'static [&'static str] {
     }
 }
 
+/// The keys a recording fits by default: [`default_free`], but for a vehicle driven by
+/// velocity commands the chassis mass and yaw inertia and its drivers' speed-loop gains
+/// (the loops hide the motor's torque constant and resistance behind their set-points).
+pub fn default_free_of(rec: &Recording) -> &'static [&'static str] {
+    let velocity = crate::replay::Drive::Velocity
+        .columns()
+        .iter()
+        .all(|c| rec.column(c).is_some());
+    if rec.rig == "vehicle" && velocity {
+        &[
+            "chassis.mass_kg",
+            "chassis.yaw_inertia_kg_m2",
+            "base.speed_kp_V_s_rad",
+            "base.speed_ki_V_rad",
+        ]
+    } else {
+        default_free(&rec.rig)
+    }
+}
+
 /// The simulator replaying a recording, as a model the fitter can fit: its parameters are
 /// scene keys.
 pub struct SceneReplay<'a> {
@@ -338,10 +358,7 @@ pub fn calibrate_telling(
     progress: &dyn Fn(&str),
 ) -> Result<Calibration, CalibrateError> {
     let free: Vec<String> = if request.free.is_empty() {
-        default_free(&rec.rig)
-            .iter()
-            .map(|s| s.to_string())
-            .collect()
+        default_free_of(rec).iter().map(|s| s.to_string()).collect()
     } else {
         request.free.clone()
     };

@@ -2,7 +2,7 @@
 //! and write the contract JSON, a report folder (text and SVG plots) and a Rerun file when
 //! asked.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use super::{check_targets, on_workers, write_file, CommandError, Say};
 use crate::diagnose::{diagnose, report::render, DiagnoseOptions};
@@ -12,8 +12,10 @@ use crate::rig::Rig;
 /// What `agvsim diagnose` was asked.
 #[derive(Debug, Clone, Default)]
 pub struct DiagnoseRequest {
-    /// The rig file.
-    pub rig: PathBuf,
+    /// The rig file (one of this and `scene`).
+    pub rig: Option<PathBuf>,
+    /// A scene file: diagnose through the simulator.
+    pub scene: Option<PathBuf>,
     /// One recording, or several tests of one machine diagnosed together (they share its
     /// parameters; each starts from rest).
     pub recordings: Vec<PathBuf>,
@@ -39,11 +41,22 @@ pub fn run(req: &DiagnoseRequest, say: Say) -> Result<(), CommandError> {
         ("--report", req.report_dir.as_deref(), true),
         ("--save", req.save_rrd.as_deref(), false),
     ])?;
-    let rig = Rig::load(&req.rig)?;
+    let rig_path = match (&req.rig, &req.scene) {
+        (_, Some(scene)) => return through_simulator(req, scene, say),
+        (Some(r), None) => r,
+        (None, None) => {
+            return Err(CommandError::Option {
+                option: "--rig".into(),
+                value: String::new(),
+                message: "diagnose needs a rig (--rig) or a scene (--scene)".into(),
+            })
+        }
+    };
+    let rig = Rig::load(rig_path)?;
     let rec = Recording::load_joined(&req.recordings)?;
     let val = req.validate.as_deref().map(Recording::load).transpose()?;
     let d = on_workers(req.jobs, || {
-        Ok(diagnose(&rig, &req.rig, &rec, val.as_ref(), &req.options)?)
+        Ok(diagnose(&rig, rig_path, &rec, val.as_ref(), &req.options)?)
     })?;
     say(&render(&d));
     let mut written = Vec::new();
@@ -101,6 +114,55 @@ pub fn prove(req: &ProveRequest, say: Say) -> Result<(), CommandError> {
             failed,
             total: cases.len(),
         });
+    }
+    Ok(())
+}
+
+/// `diagnose --scene`: the calibration's effect rounds through the simulator, printed as
+/// calibrate prints them, the contract's JSON on request.
+fn through_simulator(
+    req: &DiagnoseRequest,
+    scene_path: &Path,
+    say: Say,
+) -> Result<(), CommandError> {
+    for (option, given) in [
+        ("--validate", req.validate.is_some()),
+        ("--report", req.report_dir.is_some()),
+        ("--save", req.save_rrd.is_some()),
+    ] {
+        if given {
+            return Err(CommandError::Option {
+                option: option.into(),
+                value: String::new(),
+                message: "is not available with --scene yet; `agvsim calibrate --validate/--report/--save` gives them through the simulator".into(),
+            });
+        }
+    }
+    let scene = crate::scene::Scene::load(scene_path, &[])?;
+    let rec = Recording::load_joined(&req.recordings)?;
+    let request = crate::calibrate::Request {
+        free: vec![],
+        effects: req.options.effects.clone(),
+    };
+    let progress = req.options.progress.unwrap_or(|_| {});
+    let c = on_workers(req.jobs, || {
+        Ok(crate::calibrate::calibrate_telling(
+            &scene, &rec, &request, &progress,
+        )?)
+    })?;
+    say(&crate::calibrate::write::render(&c));
+    if let Some(p) = &req.json {
+        let name = rec
+            .path
+            .file_name()
+            .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+        let v = crate::diagnose::through_simulator::contract_json(
+            &name,
+            &scene_path.display().to_string(),
+            &c,
+        );
+        write_file(p, serde_json::to_string_pretty(&v).unwrap_or_default())?;
+        say(&format!("wrote      {}\n", p.display()));
     }
     Ok(())
 }

@@ -22,6 +22,7 @@ pub mod regimes;
 pub mod report;
 mod scales;
 mod search;
+pub mod through_simulator;
 
 pub use evidence::relative_errors;
 

@@ -557,6 +557,8 @@ fn supply_and_drive(n: &Numbers) -> Vec<Derived> {
         d("dcmc.kp_V_s_rad", thesis::KP_PER_K * k, &[Motor], "speed loops: the thesis machine's gain in proportion to the torque constant"),
         d("dcmc.ki_V_rad", thesis::KI_PER_K * k, &[Motor], "speed loops: the thesis machine's gain in proportion to the torque constant"),
         d("dcmc.brake_gain_V_s_rad", thesis::BRAKE_PER_K * k, &[Motor], "the thesis machine's braking gain in proportion to the torque constant"),
+        d("base.speed_kp_V_s_rad", thesis::KP_PER_K * k, &[Motor], "velocity-commanded drivers' speed loops: the thesis unit's gain in proportion to the torque constant"),
+        d("base.speed_ki_V_rad", thesis::KI_PER_K * k, &[Motor], "velocity-commanded drivers' speed loops: the thesis unit's gain in proportion to the torque constant"),
     ]
 }
 

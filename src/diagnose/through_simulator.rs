@@ -1,0 +1,69 @@
+//! A diagnosis through the simulator, for recordings the fitting models cannot take (a
+//! robot driven by velocity commands through its base controller): the scene's free keys
+//! fitted first (the baseline), then calibrate's effect rounds, each effect switched on
+//! through its scene key and kept where the recording gives evidence for it. The result
+//! in the contract's diagnosis JSON.
+
+use crate::calibrate::{Calibration, EffectTrial};
+use crate::ident::effects::Effect;
+use crate::model::GRAVITY_M_S2;
+use crate::scene::Scene;
+
+/// An accepted effect's parameter in the contract's terms: its name and value. The scene
+/// keys hold the contract's parameters, in its units, but for castor drag, whose scene
+/// key is the castors' rolling-resistance coefficient: the contract's `drag_N` is that
+/// coefficient times the weight the castors carry.
+pub fn contract_param(scene: &Scene, t: &EffectTrial) -> (&'static str, f64) {
+    let name = t.effect.param_name(false);
+    let value = match t.effect {
+        Effect::CastorDrag => {
+            let mass = scene.chassis.mass_kg + scene.payload.mass_kg;
+            t.value * mass * GRAVITY_M_S2 * (1.0 - scene.chassis.drive_load_fraction)
+        }
+        _ => t.value,
+    };
+    (name, value)
+}
+
+/// The contract's diagnosis object for a calibration with effects.
+pub fn contract_json(recording: &str, scene_path: &str, c: &Calibration) -> serde_json::Value {
+    let baseline_params: serde_json::Map<String, serde_json::Value> = c
+        .keys
+        .iter()
+        .filter(|k| !c.effects.iter().any(|e| e.key == k.key))
+        .map(|k| (k.key.clone(), serde_json::json!(k.before)))
+        .collect();
+    let effects: Vec<serde_json::Value> = c
+        .effects
+        .iter()
+        .filter(|t| t.accepted)
+        .map(|t| {
+            let (name, value) = contract_param(&c.scene, t);
+            serde_json::json!({
+                "name": t.effect.name(),
+                "params": { name: value },
+                "std": { name: t.std },
+                "scene_key": t.key,
+                "fit_pct": c.after.mean_fit_pct(),
+                "evidence": format!(
+                    "through the simulator: switched on, it removes {:.1} % of the weighted residual (AIC gain {:.1})",
+                    t.rss_reduction_pct, t.delta_aic
+                ),
+            })
+        })
+        .collect();
+    serde_json::json!({
+        "recording": recording,
+        "model": format!("the simulator on {scene_path}"),
+        "baseline": {
+            "fit_pct": c.before.mean_fit_pct(),
+            "params": baseline_params,
+        },
+        "effects": effects,
+        "final": {
+            "fit_pct": c.after.mean_fit_pct(),
+            "params": c.keys.iter().map(|k| (k.key.clone(), serde_json::json!(k.after))).collect::<serde_json::Map<_, _>>(),
+        },
+        "left_out": c.left_out.iter().map(|l| serde_json::json!({"output": l.output, "why": l.why})).collect::<Vec<_>>(),
+    })
+}
