@@ -590,7 +590,8 @@ fn output_paths_are_checked_before_the_work() {
     assert!(err.contains("--json") && err.contains("is a file"), "{err}");
     let err = diagnose_job(
         &DiagnoseJob {
-            rig,
+            rig: Some(rig),
+            scene: None,
             recordings: vec![rec],
             validate: None,
             json: None,
