@@ -24,7 +24,8 @@ const TRACKING_METRICS: [&str; 6] = [
     "final_lateral_error_m",
 ];
 
-/// Most lines on one plot; more would be unreadable (the CSV has them all).
+/// Most lines on one plot; more are split over several files (`METRIC.svg`,
+/// `METRIC_part2.svg`, ...), each saying which lines it holds.
 const MAX_SERIES: usize = 10;
 
 /// The varied key plotted along x: the first with two or more numeric values, else the
@@ -115,7 +116,6 @@ pub fn write(dir: &Path, grid: &Grid, table: &Table) -> Result<Vec<PathBuf>, Swe
         }
         let data: Vec<(String, Vec<f64>, Vec<f64>)> = lines
             .into_values()
-            .take(MAX_SERIES)
             .map(|(label, pts)| {
                 let (xs, ys) = pts.values().map(|(x, s, n)| (*x, s / *n as f64)).unzip();
                 (
@@ -129,11 +129,6 @@ pub fn write(dir: &Path, grid: &Grid, table: &Table) -> Result<Vec<PathBuf>, Swe
                 )
             })
             .collect();
-        let series: Vec<Series> = data
-            .iter()
-            .enumerate()
-            .map(|(i, (label, xs, ys))| Series::line(label, xs, ys, COLOURS[i % COLOURS.len()]))
-            .collect();
         let x_label = if numeric_x {
             xv.key.clone()
         } else {
@@ -144,25 +139,58 @@ pub fn write(dir: &Path, grid: &Grid, table: &Table) -> Result<Vec<PathBuf>, Swe
         } else {
             "a run here failed (left out)"
         };
-        let text = Plot {
-            title: meaning,
-            x_label: &x_label,
-            y_label: metric,
-            series: &series,
-            band: None,
-            flags: (!flagged.is_empty()).then_some(Flags {
-                label: flag_label,
-                x: &flagged,
-                colour: "#c00000",
-            }),
-            empty_note: "no run gave a value",
+        // More lines than one plot can show are split over several files, each saying
+        // which lines it holds: no combination is left out.
+        let parts = data.len().div_ceil(MAX_SERIES).max(1);
+        for part in 0..parts {
+            let lo = part * MAX_SERIES;
+            let chunk = &data[lo.min(data.len())..(lo + MAX_SERIES).min(data.len())];
+            let series: Vec<Series> = chunk
+                .iter()
+                .enumerate()
+                .map(|(i, (label, xs, ys))| Series::line(label, xs, ys, COLOURS[i % COLOURS.len()]))
+                .collect();
+            // The parts are files side by side (METRIC.svg, METRIC_part2.svg, ...).
+            let title = if parts > 1 {
+                format!(
+                    "{meaning}: part {}/{parts}, lines {}-{} of {}",
+                    part + 1,
+                    lo + 1,
+                    lo + chunk.len(),
+                    data.len()
+                )
+            } else {
+                meaning.to_string()
+            };
+            let text = Plot {
+                title: &title,
+                x_label: &x_label,
+                y_label: metric,
+                series: &series,
+                band: None,
+                flags: (!flagged.is_empty()).then_some(Flags {
+                    label: flag_label,
+                    x: &flagged,
+                    colour: "#c00000",
+                }),
+                empty_note: "no run gave a value",
+            }
+            .render();
+            let path = pdir.join(part_file(metric, part));
+            crate::output::write_atomically(&path, text).map_err(io_err(&path))?;
+            files.push(path);
         }
-        .render();
-        let path = pdir.join(format!("{metric}.svg"));
-        crate::output::write_atomically(&path, text).map_err(io_err(&path))?;
-        files.push(path);
     }
     Ok(files)
+}
+
+/// The file of part `part` (from 0) of a metric's plot.
+fn part_file(metric: &str, part: usize) -> String {
+    if part == 0 {
+        format!("{metric}.svg")
+    } else {
+        format!("{metric}_part{}.svg", part + 1)
+    }
 }
 
 /// `tyre.compound` -> `compound`: legends stay short.
