@@ -3,6 +3,7 @@
 
 use std::path::PathBuf;
 
+use super::align::{held, median_interval_ns, nearest, seconds_of_ns, Series};
 use super::bag::{Bag, Storage, Topic};
 use super::cdr::{self, CdrError, Header};
 use super::urdf;
@@ -53,32 +54,6 @@ const ODOMETRY: &str = "nav_msgs/msg/Odometry";
 const BATTERY: &str = "sensor_msgs/msg/BatteryState";
 const TF: &str = "tf2_msgs/msg/TFMessage";
 const STRING: &str = "std_msgs/msg/String";
-
-/// A decoded stream: times (ns since the epoch) and values.
-#[derive(Debug, Clone, Default)]
-struct Series {
-    t_ns: Vec<i64>,
-    values: Vec<Vec<f64>>,
-}
-
-impl Series {
-    fn push(&mut self, t: i64, v: Vec<f64>) {
-        self.t_ns.push(t);
-        self.values.push(v);
-    }
-
-    /// Sorted by time (header stamps need not arrive in order).
-    fn sorted(mut self) -> Series {
-        let mut idx: Vec<usize> = (0..self.t_ns.len()).collect();
-        idx.sort_by_key(|&i| self.t_ns[i]);
-        self.t_ns = idx.iter().map(|&i| self.t_ns[i]).collect();
-        self.values = idx
-            .iter()
-            .map(|&i| std::mem::take(&mut self.values[i]))
-            .collect();
-        self
-    }
-}
 
 struct Converter<'a> {
     bag: &'a Bag,
@@ -209,55 +184,6 @@ impl<'a> Converter<'a> {
     }
 }
 
-/// Heading samples made continuous (no jump of 2 pi between neighbours).
-fn unwrapped(h: &mut [f64]) {
-    for k in 1..h.len() {
-        let d = h[k] - h[k - 1];
-        let turns = (d / std::f64::consts::TAU).round();
-        h[k] -= turns * std::f64::consts::TAU;
-    }
-}
-
-fn median_interval_ns(t: &[i64]) -> Option<i64> {
-    let mut d: Vec<i64> = t
-        .windows(2)
-        .map(|w| w[1] - w[0])
-        .filter(|d| *d > 0)
-        .collect();
-    d.sort_unstable();
-    d.get(d.len() / 2).copied()
-}
-
-/// Each row's nearest sample of `s` (component `j`) within `half` ns, else empty.
-fn nearest(rows: &[i64], s: &Series, j: usize, half: i64) -> Vec<Option<f64>> {
-    let mut out = vec![None; rows.len()];
-    let mut k = 0;
-    for (r, t) in rows.iter().enumerate() {
-        while k + 1 < s.t_ns.len() && (s.t_ns[k + 1] - t).abs() <= (s.t_ns[k] - t).abs() {
-            k += 1;
-        }
-        if let Some(&ts) = s.t_ns.get(k) {
-            if (ts - t).abs() <= half {
-                out[r] = s.values[k].get(j).copied().filter(|v| v.is_finite());
-            }
-        }
-    }
-    out
-}
-
-/// Each row's latest sample of `s` at or before it (component `j`), else empty.
-fn held(rows: &[i64], s: &Series, j: usize) -> Vec<Option<f64>> {
-    let mut out = vec![None; rows.len()];
-    let mut k: Option<usize> = None;
-    for (r, t) in rows.iter().enumerate() {
-        while s.t_ns.get(k.map_or(0, |k| k + 1)).is_some_and(|ts| ts <= t) {
-            k = Some(k.map_or(0, |k| k + 1));
-        }
-        out[r] = k.and_then(|k| s.values[k].get(j).copied());
-    }
-    out
-}
-
 /// Converts a bag's topics to a velocity-commanded vehicle recording.
 pub fn convert(bag: &Bag, map: &TopicMap, geometry: &Geometry) -> Result<Ros2Recording, Ros2Error> {
     let c = Converter {
@@ -327,7 +253,7 @@ pub fn convert(bag: &Bag, map: &TopicMap, geometry: &Geometry) -> Result<Ros2Rec
             map.cmd_vel.as_ref(),
             true,
         )?
-        .expect("required");
+        .ok_or_else(|| c.err("no velocity command topic".into()))?;
     let mut commands = Series::default();
     if cmd_topic.msg_type.ends_with("TwistStamped") {
         for (log, (h, tw)) in c.decode(cmd_topic, cdr::decode_twist_stamped)? {
@@ -344,18 +270,12 @@ pub fn convert(bag: &Bag, map: &TopicMap, geometry: &Geometry) -> Result<Ros2Rec
     } else {
         "log time (a Twist has no stamp)"
     };
-    for (col, field) in [
-        ("cmd_linear_m_s", "linear.x"),
-        ("cmd_angular_rad_s", "angular.z"),
-    ] {
-        conversions.push(Conversion {
-            column: col.into(),
-            how: format!(
-                "{} ({}) {field}, base frame, at its {cmd_time}, held until the next (zero-order hold, as a base controller acts on it)",
-                cmd_topic.name, cmd_topic.msg_type
-            ),
-        });
-    }
+    let cmd_how = |field: &str| {
+        format!(
+            "{} ({}) {field}, base frame, at its {cmd_time}, held until the next (zero-order hold, as a base controller acts on it)",
+            cmd_topic.name, cmd_topic.msg_type
+        )
+    };
 
     // Outputs, each stream decoded.
     let joints = c.pick(
@@ -451,12 +371,7 @@ pub fn convert(bag: &Bag, map: &TopicMap, geometry: &Geometry) -> Result<Ros2Rec
             );
         }
     }
-    let mut odometry = odometry.sorted();
-    let mut heading: Vec<f64> = odometry.values.iter().map(|v| v[2]).collect();
-    unwrapped(&mut heading);
-    for (v, h) in odometry.values.iter_mut().zip(heading) {
-        v[2] = h;
-    }
+    let odometry = odometry.sorted().with_continuous(2);
     let mut volts = Series::default();
     if let Some(t) = battery {
         for (log, m) in c.decode(t, cdr::decode_battery_state)? {
@@ -526,14 +441,14 @@ pub fn convert(bag: &Bag, map: &TopicMap, geometry: &Geometry) -> Result<Ros2Rec
     add(
         "cmd_linear_m_s",
         held(&rows, &commands, 0),
-        conversions[0].how.clone(),
-        &mut vec![],
+        cmd_how("linear.x"),
+        &mut conversions,
     );
     add(
         "cmd_angular_rad_s",
         held(&rows, &commands, 1),
-        conversions[1].how.clone(),
-        &mut vec![],
+        cmd_how("angular.z"),
+        &mut conversions,
     );
     if let (Some(t), Some([l, r])) = (joints, &wheel_names) {
         let is_base = base_name == t.name;
@@ -750,24 +665,8 @@ fn tracked_pose(
     for a in all.iter().filter(|a| a.1 == parent && a.2 == child) {
         s.push(a.3, a.4.to_vec());
     }
-    let mut s = s.sorted();
-    let mut h: Vec<f64> = s.values.iter().map(|v| v[2]).collect();
-    unwrapped(&mut h);
-    for (v, h) in s.values.iter_mut().zip(h) {
-        v[2] = h;
-    }
+    let s = s.sorted().with_continuous(2);
     Ok((s, Some((format!("{parent} -> {child}"), topic))))
-}
-
-/// Nanoseconds as seconds in decimal, exactly (`20000000` -> `0.02`).
-fn seconds_of_ns(ns: i64) -> String {
-    let sign = if ns < 0 { "-" } else { "" };
-    let (s, frac) = (ns.abs() / 1_000_000_000, ns.abs() % 1_000_000_000);
-    if frac == 0 {
-        return format!("{sign}{s}");
-    }
-    let f = format!("{frac:09}");
-    format!("{sign}{s}.{}", f.trim_end_matches('0'))
 }
 
 impl Ros2Recording {

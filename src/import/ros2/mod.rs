@@ -10,6 +10,7 @@
 //! and only a pose from another source (a motion-capture or localisation transform on
 //! `/tf`) becomes the contract's `x_m`, `y_m`, `heading_rad`.
 
+mod align;
 pub mod bag;
 pub mod cdr;
 mod columns;
