@@ -170,7 +170,7 @@ pub enum Command {
         #[arg(long)]
         scene: PathBuf,
         /// Recording (exchange format) whose inputs drive the simulator.
-        #[arg(long)]
+        #[arg(long, value_name = "NAME.csv")]
         recording: PathBuf,
         /// Output folder [default: runs/replay_RECORDING_NAME].
         #[arg(long)]
@@ -244,10 +244,11 @@ pub enum Command {
     /// Run a scene over a grid of values in parallel and tabulate the metrics of every run
     /// (results.csv, plots); `sweep merge` joins shard folders.
     Sweep(SweepArgs),
-    /// Run a shipped study (sweeps plus an analysis): tyre-compounds, thesis-figures,
-    /// backlash-tolerance or reversing. Writes summary.md, plots and the sweeps' results.
+    /// Run a shipped study (sweeps plus an analysis). Writes summary.md, plots and the
+    /// sweeps' results.
+    #[command(after_help = agvsim::study::StudyKind::listing())]
     Study {
-        /// tyre-compounds, thesis-figures, backlash-tolerance or reversing.
+        /// The study: one of the names listed below.
         #[arg(value_parser = |s: &str| s.parse::<agvsim::study::StudyKind>())]
         name: agvsim::study::StudyKind,
         /// Output folder [default: runs/study_NAME].
@@ -371,13 +372,13 @@ pub enum Command {
         #[arg(long, required = true, value_name = "NAME.csv")]
         recording: Vec<PathBuf>,
         /// A second recording to check the diagnosed model on.
-        #[arg(long)]
+        #[arg(long, value_name = "OTHER.csv")]
         validate: Option<PathBuf>,
         /// Write the diagnosis JSON (contract format) here.
-        #[arg(long)]
+        #[arg(long, value_name = "OUT.json")]
         json: Option<PathBuf>,
         /// Write a report folder (text, SVG plots of baseline and diagnosed fits).
-        #[arg(long)]
+        #[arg(long, value_name = "DIR")]
         report: Option<PathBuf>,
         /// Save measured, baseline and diagnosed outputs to a Rerun .rrd file.
         #[arg(long, value_name = "FILE.rrd")]
@@ -431,14 +432,15 @@ pub enum Command {
         #[arg(long, value_delimiter = ',')]
         free: Option<Vec<String>>,
         /// A second recording to check the identified model on.
-        #[arg(long)]
+        #[arg(long, value_name = "OTHER.csv")]
         validate: Option<PathBuf>,
         /// Write the report as JSON here.
-        #[arg(long)]
+        #[arg(long, value_name = "OUT.json")]
         json: Option<PathBuf>,
-        /// Write SVG plots (fit, residual checks) into this folder.
-        #[arg(long)]
-        plot: Option<PathBuf>,
+        /// Write a report folder (SVG plots of the fit and the residual checks) here
+        /// (`--plot` is an older name for it).
+        #[arg(long, value_name = "DIR", alias = "plot")]
+        report: Option<PathBuf>,
         /// Save measured and simulated outputs to a Rerun .rrd file.
         #[arg(long, value_name = "FILE.rrd")]
         save: Option<PathBuf>,

@@ -33,6 +33,7 @@ pub mod import;
 pub mod jobs;
 pub mod matfile;
 pub mod model;
+pub mod numtext;
 pub mod output;
 pub mod param;
 pub mod plot;

@@ -165,7 +165,7 @@ fn dispatch(command: Command) -> Result<(), CommandError> {
             free,
             validate,
             json,
-            plot,
+            report,
             save,
             starts,
             max_iterations,
@@ -182,7 +182,7 @@ fn dispatch(command: Command) -> Result<(), CommandError> {
                     ..Default::default()
                 },
                 json,
-                plot_dir: plot,
+                plot_dir: report,
                 save_rrd: save,
             },
             &say,

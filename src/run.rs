@@ -182,9 +182,11 @@ pub fn render_summary(scene_path: &Path, scene: &Scene, s: &RunSummary) -> Strin
     }
     let _ = writeln!(
         out,
-        "peak slip  {:.3} (slip ratio, second half of the run), sliding {:.1} % of that time",
+        "slip       peak {:.3}, mean {:.3} (slip ratio), sliding {:.1} % of the time ({})",
         s.peak_abs_slip_ratio,
-        100.0 * s.sliding_fraction
+        s.mean_abs_slip_ratio,
+        100.0 * s.sliding_fraction,
+        s.slip_window.describe()
     );
     let _ = writeln!(
         out,

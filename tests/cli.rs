@@ -35,7 +35,7 @@ fn run_writes_a_recording_in_the_exchange_format() {
     );
     let stdout = String::from_utf8_lossy(&st.stdout);
     assert!(
-        stdout.contains("error      RMS") && stdout.contains("peak slip"),
+        stdout.contains("error      RMS") && stdout.contains("slip       peak"),
         "{stdout}"
     );
     let csv = std::fs::read_to_string(out.join("lab_offset_120mm.csv")).unwrap();
@@ -439,7 +439,7 @@ fn experiment_then_identify_writes_report_json_and_plots() {
         .arg(dir.join("lifted_random_demand.csv"))
         .arg("--json")
         .arg(&json)
-        .arg("--plot")
+        .arg("--report")
         .arg(&plots)
         .output()
         .unwrap();
@@ -931,4 +931,132 @@ fn calibrate_refuses_a_recording_too_short_to_fit() {
         "{err}"
     );
     assert!(!err.contains("panicked"), "{err}");
+}
+
+/// Issue 32 item 2: a run that loses the wire has its slip figures taken over the second
+/// half of its time on the wire, like its error figures, not over the time it then spends
+/// driving off with gripping tyres. Checked against the recording's own slip columns.
+#[test]
+fn slip_figures_of_a_run_that_loses_the_wire_cover_its_time_on_the_wire() {
+    let out = tmp("slip-window");
+    let st = agvsim()
+        .args([
+            "run",
+            "scenes/high_gain_slip.toml",
+            "--set",
+            "controller.gain_scale=4.5",
+        ])
+        .args(["--duration", "10", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&st.stdout);
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
+    let line = |prefix: &str| {
+        stdout
+            .lines()
+            .find(|l| l.starts_with(prefix))
+            .unwrap_or_else(|| panic!("no '{prefix}' line in\n{stdout}"))
+            .to_string()
+    };
+    let wire = line("wire       lost at ");
+    let lost_s: f64 = wire["wire       lost at ".len()..]
+        .split(' ')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    let slip = line("slip       ");
+    assert!(
+        slip.ends_with("(second half of the time until the wire was lost)"),
+        "{slip}"
+    );
+    let number_after = |word: &str| -> f64 {
+        let rest = &slip[slip.find(word).unwrap() + word.len()..];
+        rest.split([' ', ',']).next().unwrap().parse().unwrap()
+    };
+    let peak = number_after("peak ");
+    let sliding_pct = number_after("sliding ");
+
+    // The recording's slip ratios, in the window and after the loss.
+    let csv = std::fs::read_to_string(out.join("high_gain_slip.csv")).unwrap();
+    let mut rows = csv.lines().filter(|l| !l.starts_with('#'));
+    let header: Vec<&str> = rows.next().unwrap().split(',').collect();
+    let col = |n: &str| header.iter().position(|h| *h == n).unwrap();
+    let (t, l, r) = (col("t_s"), col("left_slip_ratio"), col("right_slip_ratio"));
+    let (mut in_window, mut after) = (0.0f64, 0.0f64);
+    for row in rows {
+        let c: Vec<f64> = row
+            .split(',')
+            .map(|x| x.parse().unwrap_or(f64::NAN))
+            .collect();
+        let s = c[l].abs().max(c[r].abs());
+        if c[t] >= 0.5 * lost_s && c[t] < lost_s {
+            in_window = in_window.max(s);
+        } else if c[t] > lost_s + 0.5 {
+            after = after.max(s);
+        }
+    }
+    // The printed peak is the recording's peak in the window (3 decimals printed, 5 in
+    // the recording).
+    assert!(
+        (peak - in_window).abs() < 1.5e-3,
+        "printed {peak}, recording {in_window}"
+    );
+    // The window holds the slip-driven cycles that lose the wire: the tyres slide for more
+    // than the tyre study's 5 % threshold there, and grip once the vehicle drives off.
+    assert!(sliding_pct > 5.0, "{slip}");
+    assert!(
+        after < 0.5 * in_window,
+        "after the loss {after}, on the wire {in_window}"
+    );
+}
+
+fn help_of(args: &[&str]) -> String {
+    let out = agvsim().args(args).arg("--help").output().unwrap();
+    assert!(out.status.success());
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// Every study the command takes is listed by its help, and every effect the search takes
+/// by the help of both commands that take `--effects`.
+#[test]
+fn help_lists_every_study_and_every_effect() {
+    let study = help_of(&["study"]);
+    for k in agvsim::study::StudyKind::ALL {
+        assert!(
+            study.contains(k.name()),
+            "{} missing from:\n{study}",
+            k.name()
+        );
+    }
+    for cmd in ["diagnose", "calibrate"] {
+        let help = help_of(&[cmd]);
+        for e in agvsim::ident::effects::Effect::ALL {
+            assert!(
+                help.contains(e.name()),
+                "{cmd} --help lacks {}:\n{help}",
+                e.name()
+            );
+        }
+    }
+}
+
+/// The same option is called the same, with the same placeholder, in every command.
+#[test]
+fn options_are_named_alike_in_every_command() {
+    for cmd in ["replay", "calibrate", "diagnose", "identify"] {
+        let help = help_of(&[cmd]);
+        assert!(help.contains("--recording <NAME.csv>"), "{cmd}:\n{help}");
+    }
+    for cmd in ["calibrate", "diagnose", "identify"] {
+        let help = help_of(&[cmd]);
+        assert!(help.contains("--json <OUT.json>"), "{cmd}:\n{help}");
+        assert!(help.contains("--report <DIR>"), "{cmd}:\n{help}");
+        assert!(help.contains("--validate <OTHER.csv>"), "{cmd}:\n{help}");
+    }
 }

@@ -469,7 +469,7 @@ fn a_parameter_at_its_search_bound_is_not_reported_as_an_estimate() {
     assert!(r.std.is_none());
     let text = agvsim::ident::report::render(&id);
     assert!(
-        text.contains("AT BOUND 9.0000e-2: not an estimate"),
+        text.contains("AT BOUND 0.09 ohm: not an estimate"),
         "{text}"
     );
     let json = serde_json::to_value(&id).unwrap();

@@ -349,7 +349,15 @@ fn calibrated(o: &Output, key: &str) -> f64 {
         .lines()
         .find(|l| l.starts_with(key))
         .unwrap_or_else(|| panic!("no {key} in {t}"));
-    line.split_whitespace().nth(2).unwrap().parse().unwrap()
+    // `KEY  UNIT  SCENE  CALIBRATED ± STD`: the calibrated value stands before the `±`
+    // (a unit may be several words).
+    let before_pm = line.split(" ± ").next().unwrap();
+    before_pm
+        .split_whitespace()
+        .last()
+        .unwrap()
+        .parse()
+        .unwrap()
 }
 
 #[test]

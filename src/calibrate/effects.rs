@@ -21,6 +21,9 @@ pub struct Home {
     pub switches: Vec<(&'static str, String)>,
     /// Where the fit starts the key.
     pub start: f64,
+    /// Whether the scene already had the effect's physics on (the start is the scene's
+    /// own value): accepted, it is refined, not added.
+    pub in_scene: bool,
     /// For a key of either sign (a bias torque), the half-width of its linear search
     /// around zero; `None` for a strictly positive key, searched on a log scale.
     pub signed_range: Option<f64>,
@@ -66,13 +69,16 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
     } = driven;
     let current = |key: &str| keys::get(scene, key).unwrap_or(0.0);
     let key = effect.scene_key();
-    let home = |start: f64| Home {
+    // The scene's value where it switches the effect on, else a start of `off`.
+    let home_or = |on: bool, scene_value: f64, off: f64| Home {
         effect,
         key,
         switches: vec![],
-        start,
+        start: if on { scene_value } else { off },
+        in_scene: on,
         signed_range: None,
     };
+    let home = |start: f64| home_or(false, start, start);
     let stall_nm = {
         let m = &scene.motor;
         m.torque_constant_nm_a * scene.battery.drive_limit_v / m.resistance_ohm
@@ -80,31 +86,27 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
     Ok(match effect {
         Effect::Backlash => {
             let b = current(key);
-            home(if b >= 1e-3 { b } else { 0.03 })
+            home_or(b >= 1e-3, b, 0.03)
         }
         Effect::CoulombFriction => {
             let tc = scene.motor.coulomb_nm;
-            home(if tc > 1e-4 * stall_nm {
-                tc
-            } else {
-                0.01 * stall_nm
-            })
+            home_or(tc > 1e-4 * stall_nm, tc, 0.01 * stall_nm)
         }
         Effect::VoltageSaturation => {
             let limit = scene.battery.drive_limit_v;
-            let start = match max_command_v {
-                Some(v) if v > 0.0 => limit.min(0.9 * v),
-                _ => 0.9 * limit,
-            };
-            home(start)
+            // The scene's limit is this recording's saturation where it clips its
+            // commands; one above them all is not.
+            match max_command_v {
+                Some(v) if v > 0.0 => home_or(limit < v, limit, 0.9 * v),
+                _ => home(0.9 * limit),
+            }
         }
         Effect::BatterySag => {
             let b = &scene.battery;
-            let mut h = home(if b.internal_resistance_ohm >= 0.01 {
-                b.internal_resistance_ohm
-            } else {
-                0.05
-            });
+            let r = b.internal_resistance_ohm;
+            let mut h = home_or(r >= 0.01, r, 0.05);
+            // Without a bridge rating the scene's sag never reached the drive.
+            h.in_scene &= b.bridge_rated_v > 0.0;
             if !matches!(drive, Drive::Voltages | Drive::AxisVoltage) {
                 return Err(homeless(
                     effect,
@@ -135,21 +137,27 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
         Effect::WheelSlip => {
             let params = SimParams::from_scene(scene)
                 .map_err(|e| CalibrateError::Key(format!("the scene does not set up: {e}")))?;
+            // A scene's tyre slips at its grip limit unless it is the idealised no-slip
+            // one (`high_grip`, its grip left as the preset's).
+            let no_slip = scene.tyre.compound == "high_grip" && scene.tyre.peak_mu.is_none();
             let mu = params.drive_tyre(params.floor.default).peak_mu;
-            home(mu)
+            home_or(!no_slip, mu, mu)
         }
         Effect::CastorDrag => {
             let rr = scene.castors.rolling_resistance;
-            home(if rr > 1e-4 { rr } else { 0.02 })
+            home_or(rr > 1e-4, rr, 0.02)
         }
         Effect::TransportDelay => {
             let d = scene.dcmc.command_delay_s;
-            home(if d >= 1e-4 { d } else { 0.01 })
+            home_or(d >= 1e-4, d, 0.01)
         }
-        Effect::FrictionAsymmetry => home(scene.motor.viscous_ratio),
+        Effect::FrictionAsymmetry => {
+            let r = scene.motor.viscous_ratio;
+            home_or(r != 1.0, r, r)
+        }
         Effect::Offset => Home {
             signed_range: Some(0.05 * stall_nm),
-            ..home(scene.motor.offset_nm)
+            ..home_or(scene.motor.offset_nm != 0.0, scene.motor.offset_nm, 0.0)
         },
     })
 }
@@ -167,6 +175,7 @@ const SPEED_LOOP_START_CORRECTION_S: f64 = 1.0;
 fn speed_loop_home(scene: &Scene, mut h: Home) -> Home {
     use crate::model::dcmc::DcmcKind;
     let d = &scene.dcmc;
+    h.in_scene = d.ki_v_rad > 0.0 && matches!(d.kind, DcmcKind::GainPi | DcmcKind::Pi);
     h.start = if d.ki_v_rad > 0.0 && d.kind != DcmcKind::Gain {
         d.ki_v_rad
     } else {

@@ -274,6 +274,9 @@ pub struct EffectTrial {
     pub rss_reduction_pct: f64,
     /// Whether the evidence rule accepted it (written into the scene).
     pub accepted: bool,
+    /// The key's value in the scene where the scene already had the effect on (then an
+    /// accepted trial refines it); `None` where the effect is new to the scene.
+    pub scene_value: Option<f64>,
 }
 
 /// A key set (not fitted) to switch an accepted effect's physics on.
@@ -526,10 +529,10 @@ fn effect_rounds(
             .max_by(|((a, _), _), ((b, _), _)| a.delta_aic.total_cmp(&b.delta_aic));
         let Some(((t, next), home)) = best else { break };
         progress(&format!(
-            "effects, round {round}: {} accepted ({} = {:.4e}, AIC gain {:.0})",
+            "effects, round {round}: {} accepted ({} = {}, AIC gain {:.0})",
             t.effect.name(),
             t.key,
-            t.value,
+            crate::numtext::quantity(t.value, 4, crate::numtext::unit_key_or_name(&t.key)),
             t.delta_aic
         ));
         switches.extend(home.switches.iter().map(|(k, v)| Switch {

@@ -285,6 +285,7 @@ impl Problem<'_> {
             // A key the recording does not determine (a limit above every command) is
             // not what earned a gain.
             accepted: gain.passes() && at_bound.is_none() && next.fit.std[i].is_some(),
+            scene_value: home.in_scene.then_some(home.start),
         }
     }
 }

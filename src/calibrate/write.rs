@@ -3,6 +3,7 @@
 //! standard deviation. Everything else (comments, order, other keys) is left as written.
 
 use super::{CalibrateError, Calibration};
+use crate::numtext::{estimate, quantity, sig, unit_of_key};
 
 /// Six significant digits, for the comments: more than any fit determines. The keys
 /// themselves are written in full, so that the written scene replays exactly as the
@@ -89,11 +90,12 @@ pub fn calibrated_text(
         } else {
             ""
         };
+        let unit = crate::numtext::unit_of_key(&k.key);
         set_text(&mut doc, &k.key, &format!("{:e}", k.after), |_| {
             format!(
-                "calibrated against {source}: was {}, fitted {} +/- {std:.2e}{held}",
-                k.before,
-                rounded(k.after)
+                "calibrated against {source}: was {}, fitted {}{held}",
+                crate::numtext::quantity(k.before, 6, unit),
+                crate::numtext::estimate(rounded(k.after), Some(std), unit)
             )
         })?;
     }
@@ -108,8 +110,82 @@ pub fn calibrated_text(
     let mut text = format!(
         "# Calibrated by `agvsim calibrate` against {source}; the fitted keys carry a `# calibrated` comment.\n"
     );
+    describe_as_calibrated(&mut doc, source);
+    if let Some(claims) = drop_claims(&mut doc) {
+        text.push_str(&claims);
+    }
     text.push_str(&doc.to_string());
     Ok(text)
+}
+
+/// The scene's description, said to be the original's: it described runs of the scene
+/// before its keys changed.
+fn describe_as_calibrated(doc: &mut toml_edit::DocumentMut, source: &str) {
+    let old = doc
+        .get("description")
+        .and_then(|d| d.as_str())
+        .map(str::to_string);
+    let new = match old {
+        Some(old) => format!(
+            "Calibrated against {source}. Before calibration this scene was described as: {old}"
+        ),
+        None => format!("Calibrated against {source}."),
+    };
+    doc["description"] = toml_edit::value(new);
+}
+
+/// Takes the `[expect]` table out of the scene and returns it as comment lines saying why:
+/// its claims described runs of the scene before calibration, and the calibrated keys
+/// change those runs, so `agvsim run` must not check them as the new scene's. `None`
+/// when the scene made no claims.
+fn drop_claims(doc: &mut toml_edit::DocumentMut) -> Option<String> {
+    let table = doc.remove("expect")?;
+    let mut claims = toml_edit::DocumentMut::new();
+    claims.insert("expect", table);
+    let mut text = String::from(
+        "# The original scene's [expect] claims are left out: they described its runs before\n\
+         # calibration, and the calibrated keys change those runs. Run this scene and state\n\
+         # what its runs show. They were:\n",
+    );
+    for line in claims.to_string().lines().filter(|l| !l.trim().is_empty()) {
+        text.push_str("#   ");
+        text.push_str(line.trim_start_matches('#').trim_start());
+        text.push('\n');
+    }
+    text.push('\n');
+    Some(text)
+}
+
+/// Each fitted key before and after, with its unit and standard deviation.
+fn key_table(s: &mut String, c: &Calibration) {
+    use std::fmt::Write as _;
+    let _ = writeln!(
+        s,
+        "{:<30} {:<10} {:>12}   {:<30}",
+        "key", "unit", "scene", "calibrated ± 1 std"
+    );
+    for k in &c.keys {
+        let unit = unit_of_key(&k.key);
+        let head = format!("{:<30} {:<10} {:>12}", k.key, unit, sig(k.before, 6));
+        let _ = match (k.at_bound, k.std) {
+            (Some(b), _) => writeln!(
+                s,
+                "{head}   at bound {}: not an estimate; the scene keeps its value (check the belief or the model)",
+                quantity(b, 4, unit)
+            ),
+            (None, None) => writeln!(
+                s,
+                "{head}   {:<30} undetermined by the recording: the scene keeps its value",
+                sig(k.after, 6)
+            ),
+            (None, Some(std)) if k.held => writeln!(
+                s,
+                "{head}   {:<30} held by its stated belief: the recording determines it less well",
+                estimate(k.after, Some(std), "")
+            ),
+            (None, Some(std)) => writeln!(s, "{head}   {}", estimate(k.after, Some(std), "")),
+        };
+    }
 }
 
 /// The text `agvsim calibrate` prints: each key before and after, then each fitted output's
@@ -117,66 +193,43 @@ pub fn calibrated_text(
 pub fn render(c: &Calibration) -> String {
     use std::fmt::Write as _;
     let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "{:<30} {:>12} {:>12} {:>10}",
-        "key", "scene", "calibrated", "std"
-    );
-    for k in &c.keys {
-        match k.at_bound {
-            Some(b) => {
-                let _ = writeln!(
-                    s,
-                    "{:<30} {:>12.5e} {:>12} at bound {b:.4e}: not an estimate; the scene keeps its value (check the belief or the model)",
-                    k.key, k.before, "-"
-                );
-            }
-            None => {
-                let (std, note) = match (k.std, k.held) {
-                    (None, _) => (
-                        "-".to_string(),
-                        "  undetermined by the recording: the scene keeps its value",
-                    ),
-                    (Some(v), true) => (
-                        format!("{v:.2e}"),
-                        "  held by its stated belief: the recording determines it less well",
-                    ),
-                    (Some(v), false) => (format!("{v:.2e}"), ""),
-                };
-                let _ = writeln!(
-                    s,
-                    "{:<30} {:>12.5e} {:>12.5e} {:>10}{note}",
-                    k.key, k.before, k.after, std
-                );
-            }
-        }
-    }
+    key_table(&mut s, c);
     if !c.effects.is_empty() {
         let _ = writeln!(
             s,
-            "{:<20} {:<32} {:>11} {:>9} {:>10}  verdict",
+            "{:<20} {:<32} {:>14} {:>9} {:>10}  verdict",
             "effect", "key", "value", "AIC gain", "residual"
         );
         for t in &c.effects {
-            let verdict = match (t.accepted, t.at_bound) {
-                (true, _) => "accepted: written into the scene".to_string(),
-                (false, Some(b)) => format!("not supported: the key ended at its bound {b:.3e}"),
-                (false, None) => "not supported by the recording: the scene keeps its value".into(),
+            let unit = unit_of_key(&t.key);
+            let verdict = match (t.accepted, t.scene_value, t.at_bound) {
+                (true, Some(was), _) => format!(
+                    "accepted: refined in the scene (the scene had it at {})",
+                    quantity(was, 4, unit)
+                ),
+                (true, None, _) => "accepted: added to the scene".to_string(),
+                (false, _, Some(b)) => format!(
+                    "not supported: the key ended at its bound {}",
+                    quantity(b, 4, unit)
+                ),
+                (false, _, None) => {
+                    "not supported by the recording: the scene keeps its value".into()
+                }
             };
             // The residual's change; a fit that ended far off (at a bound) on a clean
             // record can multiply it by millions, which says no more than "worse".
             let change = -t.rss_reduction_pct;
             let residual = if change > 999.0 {
-                ">+999%".to_string()
+                ">+999 %".to_string()
             } else {
-                format!("{change:+.1}%")
+                crate::numtext::change_pct(change)
             };
             let _ = writeln!(
                 s,
-                "{:<20} {:<32} {:>11.4e} {:>9.1} {:>10}  {verdict}",
+                "{:<20} {:<32} {:>14} {:>9.1} {:>10}  {verdict}",
                 t.effect.name(),
                 t.key,
-                t.value,
+                quantity(t.value, 4, unit),
                 t.delta_aic,
                 residual
             );
@@ -260,6 +313,7 @@ pub fn json(c: &Calibration, scene: &str, recording: &str) -> serde_json::Value 
                 "delta_aic": t.delta_aic,
                 "rss_reduction_pct": t.rss_reduction_pct,
                 "accepted": t.accepted,
+                "scene_value": t.scene_value,
             })
         })
         .collect();

@@ -34,7 +34,7 @@ pub fn run(req: &IdentifyRequest, say: Say) -> Result<(), CommandError> {
     // Output paths are checked before the fit's work, not after it.
     check_targets(&[
         ("--json", req.json.as_deref(), false),
-        ("--plot", req.plot_dir.as_deref(), true),
+        ("--report", req.plot_dir.as_deref(), true),
         ("--save", req.save_rrd.as_deref(), false),
     ])?;
     let rig = Rig::load(&req.rig)?;

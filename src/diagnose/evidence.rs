@@ -21,18 +21,16 @@ pub(crate) fn describe(e: Effect, v: f64, linear: bool) -> String {
             format!("Coulomb friction of about {v:.2} N opposing the motion")
         }
         Effect::CoulombFriction => format!(
-            "Coulomb friction of about {:.1} mN m at the motor shaft (brushes, bearings)",
-            1000.0 * v
+            "Coulomb friction of about {} at the motor shaft (brushes, bearings)",
+            crate::numtext::quantity(v, 3, "N m")
         ),
-        Effect::FrictionAsymmetry => {
-            format!("viscous friction {v:.2} times stronger forwards than backwards")
-        }
+        Effect::FrictionAsymmetry => direction_of_viscous_friction(v),
         Effect::Offset if linear => {
             format!("a constant bias force of {v:.2} N (gravity component, cable, sensor bias)")
         }
         Effect::Offset => format!(
-            "a constant bias torque of {:.1} mN m at the motor shaft",
-            1000.0 * v
+            "a constant bias torque of {} at the motor shaft",
+            crate::numtext::quantity(v, 3, "N m")
         ),
         Effect::VoltageSaturation => {
             format!("the drive voltage clipped at about {v:.2} V by the supply")
@@ -54,6 +52,21 @@ pub(crate) fn describe(e: Effect, v: f64, linear: bool) -> String {
         Effect::CastorDrag => format!(
             "drag of about {v:.1} N from the idler castors opposing the chassis's motion"
         ),
+    }
+}
+
+/// A ratio of forward to backward viscous friction in words, naming the stronger
+/// direction (a ratio of 0.68 is friction 1.47 times as strong backwards).
+fn direction_of_viscous_friction(ratio: f64) -> String {
+    if (ratio - 1.0).abs() < 0.005 {
+        format!("viscous friction the same both ways (forward/backward ratio {ratio:.2})")
+    } else if ratio > 1.0 {
+        format!("viscous friction {ratio:.2} times as strong forwards as backwards")
+    } else {
+        format!(
+            "viscous friction {:.2} times as strong backwards as forwards (forward/backward ratio {ratio:.2})",
+            1.0 / ratio
+        )
     }
 }
 
@@ -161,14 +174,43 @@ pub fn relative_errors(data: &Dataset, predicted: &[Vec<f64>]) -> BTreeMap<Strin
     out
 }
 
-/// Where the removed residual lies, as a sentence.
-pub(crate) fn evidence(shares: &[RegimeShare], reduction_pct: f64) -> String {
-    match shares.first() {
-        Some(s) if s.concentration() > 1.5 => format!(
+/// Where the removed residual lies, as a sentence: the regime where the effect's removal
+/// is most concentrated, passing over regimes an earlier finding already named (`named`:
+/// regime and effect), so that two findings do not print the same evidence.
+pub(crate) fn evidence(
+    shares: &[RegimeShare],
+    reduction_pct: f64,
+    named: &[(String, &str)],
+) -> (String, Option<String>) {
+    let concentrated = |s: &&RegimeShare| s.concentration() > 1.5;
+    let fresh = shares
+        .iter()
+        .filter(concentrated)
+        .find(|s| !named.iter().any(|(r, _)| *r == s.regime));
+    let sentence = |s: &RegimeShare| {
+        format!(
             "{:.0}% of the residual energy the effect removes lies in the {:.0}% of samples {} (RSS down {reduction_pct:.0}%)",
             s.energy_pct, s.samples_pct, s.regime
+        )
+    };
+    if let Some(s) = fresh {
+        return (sentence(s), Some(s.regime.clone()));
+    }
+    match shares.iter().find(concentrated) {
+        Some(s) => {
+            let by = named
+                .iter()
+                .find(|(r, _)| *r == s.regime)
+                .map_or("", |(_, e)| e);
+            (
+                format!("as for {by}: {}", sentence(s)),
+                None,
+            )
+        }
+        None => (
+            format!("the fit improves throughout the record, in no regime more than elsewhere (RSS down {reduction_pct:.0}%)"),
+            None,
         ),
-        _ => format!("the fit improves throughout the record, in no regime more than elsewhere (RSS down {reduction_pct:.0}%)"),
     }
 }
 
@@ -201,5 +243,54 @@ impl Gain {
     /// at least [`MIN_RSS_REDUCTION`] of the residual removed.
     pub fn passes(&self) -> bool {
         self.delta_aic > MIN_DELTA_AIC && self.reduction >= MIN_RSS_REDUCTION
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn share(regime: &str, energy_pct: f64, samples_pct: f64) -> RegimeShare {
+        RegimeShare {
+            regime: regime.into(),
+            samples_pct,
+            energy_pct,
+            energy_of_baseline_pct: energy_pct,
+        }
+    }
+
+    #[test]
+    fn a_ratio_below_one_is_friction_stronger_backwards() {
+        let d = describe(Effect::FrictionAsymmetry, 0.68, false);
+        assert!(d.contains("1.47 times as strong backwards"), "{d}");
+        assert!(!d.contains("stronger forwards"), "{d}");
+        let d = describe(Effect::FrictionAsymmetry, 1.3, false);
+        assert!(d.contains("1.30 times as strong forwards"), "{d}");
+    }
+
+    #[test]
+    fn a_torque_is_printed_in_newton_metres_at_any_size() {
+        let d = describe(Effect::CoulombFriction, 2.73243, false);
+        assert!(d.contains("2.73 N m"), "{d}");
+        let d = describe(Effect::CoulombFriction, 0.0489, false);
+        assert!(d.contains("0.0489 N m"), "{d}");
+    }
+
+    #[test]
+    fn a_second_finding_names_another_regime_than_the_first() {
+        let shares = [
+            share("after a reversal", 30.0, 2.0),
+            share("at the hardest accelerations", 25.0, 10.0),
+        ];
+        let (first, regime) = evidence(&shares, 80.0, &[]);
+        assert!(first.contains("after a reversal"), "{first}");
+        let named = [(regime.unwrap(), "coulomb_friction")];
+        let (second, regime) = evidence(&shares, 8.0, &named);
+        assert!(second.contains("hardest accelerations"), "{second}");
+        assert_eq!(regime.as_deref(), Some("at the hardest accelerations"));
+        // Where only the named regime concentrates it, the sentence says whose it was.
+        let (third, regime) = evidence(&shares[..1], 5.0, &named);
+        assert!(third.starts_with("as for coulomb_friction:"), "{third}");
+        assert_eq!(regime, None);
     }
 }

@@ -50,6 +50,9 @@ pub const MIN_DELTA_AIC: f64 = 10.0;
 pub const MIN_RSS_REDUCTION: f64 = 0.03;
 /// Fewest samples a diagnosis will decide on.
 pub const MIN_SAMPLES: usize = 100;
+/// Rounds of the search: each adds at most one effect, so a diagnosis names at most
+/// this many. Two keep a diagnosis of many records affordable; `calibrate` goes on.
+pub const ROUNDS: usize = 2;
 
 /// One candidate effect as fitted.
 #[derive(Debug, Clone, Serialize)]
@@ -368,12 +371,14 @@ pub fn diagnose(
         base_fit.iterations
     ));
     let mut findings = Vec::new();
+    // The regime each finding's evidence named, so the next names another.
+    let mut named_regimes: Vec<Option<String>> = Vec::new();
     let mut rounds = Vec::new();
     let linear = matches!(structure, Structure::Linear(_));
     let free_nominal = free.clone();
     let explore = data.prefix(candidate::exploration_rows(data.len()));
     let beliefs = model.nominal();
-    for round_no in 1..=2 {
+    for round_no in 1..=ROUNDS {
         let stage_n = effective_n(&data, &stage.fit.predicted);
         let tried: Vec<Effect> = findings.iter().map(|f: &Finding| f.effect).collect();
         let candidates: Vec<Effect> = applicable
@@ -501,10 +506,19 @@ pub fn diagnose(
             .zip(&after)
             .map(|(a, b)| (a - b).max(0.0))
             .collect();
-        let evidence = evidence(
+        let named: Vec<(String, &str)> = findings
+            .iter()
+            .zip(&named_regimes)
+            .filter_map(|(f, r): (&Finding, &Option<String>)| {
+                r.clone().map(|r| (r, f.effect.name()))
+            })
+            .collect();
+        let (evidence, regime) = evidence(
             &regimes::shares(&regs, &removed, removed.iter().sum()),
             100.0 * (1.0 - f.rss() / stage.fit.rss()),
+            &named,
         );
+        named_regimes.push(regime);
         let idx = f.params.len() - 1;
         findings.push(Finding {
             effect: e,

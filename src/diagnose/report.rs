@@ -3,8 +3,19 @@
 
 use std::fmt::Write as _;
 
-use super::{Candidate, Diagnosis};
+use super::{Candidate, Diagnosis, ROUNDS};
+use crate::ident::effects::Effect;
 use crate::ident::ParamReport;
+use crate::numtext::{change_pct, estimate, quantity, sig, unit_key_or_name};
+
+/// The unit of a candidate's parameter, from its effect (rotary or linear by the
+/// parameter's name).
+fn unit_of(effect: &str, param: &str) -> &'static str {
+    match Effect::from_name(effect) {
+        Some(e) => e.unit(e.param_name(false) != param),
+        None => crate::numtext::unit_of_name(param),
+    }
+}
 
 /// The diagnosis in plain words.
 pub fn render(d: &Diagnosis) -> String {
@@ -30,7 +41,8 @@ pub fn render(d: &Diagnosis) -> String {
     for (name, bound) in &d.baseline_at_bound {
         let _ = writeln!(
             s,
-            "WARNING: {name} ended at its search bound {bound:.4e}: not an estimate; the rig's belief or the model's structure is wrong, and effects found below may be standing in for that"
+            "WARNING: {name} ended at its search bound {}: not an estimate; the rig's belief or the model's structure is wrong, and effects found below may be standing in for that",
+            quantity(*bound, 4, unit_key_or_name(name))
         );
     }
     let _ = writeln!(
@@ -51,38 +63,46 @@ pub fn render(d: &Diagnosis) -> String {
             i + 1,
             d.effective_n
         );
+        let taken = d.findings.get(i).map(|f| f.effect.name());
         for c in round {
+            let value = format!(
+                "{} = {}",
+                c.param,
+                quantity(c.value, 4, unit_of(&c.name, &c.param))
+            );
             let _ = writeln!(
                 s,
-                "  {:<20} {} = {:<12.5e} RSS -{:5.1} %  dAIC {:9.1}  {}",
+                "  {:<20} {value:<34} RSS {:>8}  dAIC {:9.1}  {}",
                 c.name,
-                c.param,
-                c.value,
-                c.rss_reduction_pct,
+                change_pct(-c.rss_reduction_pct),
                 c.delta_aic,
-                verdict(c)
+                verdict(c, taken)
             );
         }
     }
+    stop_line(&mut s, d);
     if d.findings.is_empty() {
         let _ = writeln!(s, "Verdict: nothing is missing; no effect explains enough of the residual to be told from noise.");
     }
     for f in &d.findings {
-        let std = f.std.map(|v| format!(" ± {v:.3e}")).unwrap_or_default();
         let _ = writeln!(
             s,
-            "Found: {} — {} ({} = {:.5e}{std})",
+            "Found: {} — {} ({} = {})",
             f.effect.name(),
             f.description,
             f.param,
-            f.value
+            estimate(f.value, f.std, unit_of(f.effect.name(), &f.param))
         );
         let _ = writeln!(s, "  evidence: {}", f.evidence);
         for a in &f.alternatives {
             let _ = writeln!(
                 s,
-                "  the record cannot tell it from {} ({} = {:.4e}, dAIC {:.1} behind): {}",
-                a.name, a.param, a.value, a.delta_aic_behind, a.separated_by
+                "  the record cannot tell it from {} ({} = {}, dAIC {:.1} behind): {}",
+                a.name,
+                a.param,
+                quantity(a.value, 4, unit_of(&a.name, &a.param)),
+                a.delta_aic_behind,
+                a.separated_by
             );
         }
         let _ = writeln!(s, "  fit {:.2} % -> {:.2} %", d.baseline_fit_pct, f.fit_pct);
@@ -139,10 +159,12 @@ pub fn render(d: &Diagnosis) -> String {
     s
 }
 
-/// Why a candidate was or was not taken, in words.
-fn verdict(c: &Candidate) -> &'static str {
-    if c.significant {
-        "significant"
+/// Why a candidate was or was not taken, in words; `taken` is the effect its round found.
+fn verdict(c: &Candidate, taken: Option<&str>) -> &'static str {
+    if c.significant && taken == Some(c.name.as_str()) {
+        "significant: found"
+    } else if c.significant {
+        "significant, but another explains more"
     } else if c.at_bound.is_some() {
         "at its search bound: no estimate"
     } else if c.undetermined {
@@ -153,6 +175,27 @@ fn verdict(c: &Candidate) -> &'static str {
         "screened (full search skipped)"
     } else {
         ""
+    }
+}
+
+/// Says that the search ended at its last round, when a candidate there passed the rule
+/// but was not taken: the search finds at most [`ROUNDS`] effects.
+fn stop_line(s: &mut String, d: &Diagnosis) {
+    if d.rounds.len() < ROUNDS {
+        return;
+    }
+    let taken = d.findings.get(ROUNDS - 1).map(|f| f.effect.name());
+    let left: Vec<&str> = d.rounds[ROUNDS - 1]
+        .iter()
+        .filter(|c| c.significant && Some(c.name.as_str()) != taken)
+        .map(|c| c.name.as_str())
+        .collect();
+    if !left.is_empty() {
+        let _ = writeln!(
+            s,
+            "The search stops after {ROUNDS} rounds (at most {ROUNDS} effects): {} passed the rule in round {ROUNDS} behind the effect found there and is not tested further; `agvsim calibrate`, whose rounds go on until no effect passes, tests it on a scene",
+            left.join(", ")
+        );
     }
 }
 
@@ -182,10 +225,10 @@ fn held_lines(s: &mut String, estimates: &[ParamReport], whose: &str) {
         };
         let _ = writeln!(
             s,
-            "  {} = {:.5e} (belief {:.5e} ± {:.0} %; the record alone: {alone})",
+            "  {} = {} (belief {} ± {:.0} %; the record alone: {alone})",
             p.name,
-            p.value,
-            p.nominal,
+            quantity(p.value, 6, unit_key_or_name(&p.name)),
+            sig(p.nominal, 6),
             p.belief_sd_pct.unwrap_or(f64::NAN)
         );
     }

@@ -79,6 +79,22 @@ impl Effect {
         }
     }
 
+    /// The unit of the contract's parameter ([`Effect::param_name`]); `""` for a ratio
+    /// or a friction coefficient.
+    pub fn unit(self, linear: bool) -> &'static str {
+        match self {
+            Effect::Backlash => "rad",
+            Effect::CoulombFriction | Effect::Offset if linear => "N",
+            Effect::CoulombFriction | Effect::Offset => "N m",
+            Effect::FrictionAsymmetry | Effect::WheelSlip => "",
+            Effect::VoltageSaturation => "V",
+            Effect::BatterySag => "ohm",
+            Effect::TransportDelay => "s",
+            Effect::SpeedFeedback => "V/rad",
+            Effect::CastorDrag => "N",
+        }
+    }
+
     /// The key of a fitting model's blocks that the effect's strength sets: the
     /// simulator's own key where the scene has the physics (a rotary axis, the vehicle),
     /// the linear axis's effect block otherwise.

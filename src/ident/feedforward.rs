@@ -250,8 +250,12 @@ pub fn render(ff: &Feedforward, unit: &str) -> String {
         s += &format!("  arm offset = {o:.4} rad\n");
     }
     s += &format!(
-        "  r^2 = {:.4}, RMSE = {:.3e} {dist}/s, {} samples above {:.3e} {dist}/s, T = {:.4} s\n",
-        ff.r_squared, ff.rmse, ff.pairs, ff.motion_threshold, ff.sample_time_s
+        "  r^2 = {:.4}, RMSE = {}, {} samples above {}, T = {:.4} s\n",
+        ff.r_squared,
+        crate::numtext::quantity(ff.rmse, 3, &format!("{dist}/s")),
+        ff.pairs,
+        crate::numtext::quantity(ff.motion_threshold, 3, &format!("{dist}/s")),
+        ff.sample_time_s
     );
     s
 }
@@ -412,7 +416,8 @@ pub fn render_report(r: &Report) -> String {
     s += &render(&r.gains, &r.speed_unit);
     if let Some(c) = r.coulomb_equivalent_nm {
         s += &format!(
-            "  kS as a Coulomb torque at the motor shaft (kS K / R, fitted K and R): {c:.4e} N m\n"
+            "  kS as a Coulomb torque at the motor shaft (kS K / R, fitted K and R): {}\n",
+            crate::numtext::quantity(c, 4, "N m")
         );
     }
     s

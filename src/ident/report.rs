@@ -3,6 +3,7 @@
 use std::fmt::Write;
 
 use super::{Evaluation, Identification, StateSpaceReport};
+use crate::numtext::{estimate, quantity, sig, unit_key_or_name, unit_of_name};
 
 fn pm(v: f64, s: Option<f64>) -> String {
     match s {
@@ -58,11 +59,11 @@ fn evaluation(out: &mut String, title: &str, e: &Evaluation) {
     for (name, fit) in &e.fit_pct {
         let _ = writeln!(
             out,
-            "  fit {name:<26} {fit:8.2} %   residual RMS {:.4e}",
-            e.rms[name]
+            "  fit {name:<26} {fit:8.2} %   residual RMS {}",
+            quantity(e.rms[name], 4, unit_of_name(name))
         );
     }
-    let _ = writeln!(out, "  loss V = {:.5e}", e.loss);
+    let _ = writeln!(out, "  loss V = {}", sig(e.loss, 6));
     for c in &e.checks {
         let w = &c.whiteness;
         let _ = writeln!(
@@ -112,32 +113,28 @@ pub fn render(id: &Identification) -> String {
     );
     let _ = writeln!(
         out,
-        "\n{:<34} {:>12} {:>24} {:>10}",
-        "parameter", "nominal", "estimate ± 1 std", "rel. std"
+        "\n{:<34} {:<10} {:>12}   {:<28} {:>10}",
+        "parameter", "unit", "nominal", "estimate ± 1 std", "rel. std"
     );
     for p in &id.params {
+        let unit = unit_key_or_name(&p.name);
+        let head = format!("{:<34} {:<10} {:>12}", p.name, unit, sig(p.nominal, 6));
         if let Some(b) = p.at_bound {
             let _ = writeln!(
                 out,
-                "{:<34} {:>12.5e} {:>13.6e}   AT BOUND {b:.4e}: not an estimate; the rig's belief or the model is wrong",
-                p.name, p.nominal, p.value
+                "{head}   {:<28} AT BOUND {}: not an estimate; the rig's belief or the model is wrong",
+                sig(p.value, 6),
+                quantity(b, 4, unit)
             );
         } else if p.free {
             let _ = writeln!(
                 out,
-                "{:<34} {:>12.5e} {:>13.6e} ± {:<9.3e} {:>10}",
-                p.name,
-                p.nominal,
-                p.value,
-                p.std.unwrap_or(f64::NAN),
+                "{head}   {:<28} {:>10}",
+                estimate(p.value, p.std, ""),
                 rel(p.value, p.std)
             );
         } else {
-            let _ = writeln!(
-                out,
-                "{:<34} {:>12.5e} {:>13.6e}   (fixed)",
-                p.name, p.nominal, p.value
-            );
+            let _ = writeln!(out, "{head}   {:<28} (fixed)", sig(p.value, 6));
         }
     }
     if let Some(ss) = &id.state_space {
@@ -150,8 +147,12 @@ pub fn render(id: &Identification) -> String {
     }
     let _ = writeln!(
         out,
-        "\nLoss function V = {:.5e}   Akaike FPE = {:.5e}   AIC = {:.2}   ({} free parameters, {} residuals)",
-        id.estimation.loss, id.fpe, id.aic, id.n_free, id.n_residuals
+        "\nLoss function V = {}   Akaike FPE = {}   AIC = {:.2}   ({} free parameters, {} residuals)",
+        sig(id.estimation.loss, 6),
+        sig(id.fpe, 6),
+        id.aic,
+        id.n_free,
+        id.n_residuals
     );
     evaluation(&mut out, "\nEstimation", &id.estimation);
     if let Some(v) = &id.validation {

@@ -30,7 +30,8 @@ pub struct ExpectSpec {
     pub reaches_wire_end: Option<bool>,
     /// The bumper stops the vehicle on an obstacle, or never.
     pub bumper_stop: Option<bool>,
-    /// Band for the share of the run's second half in which a drive tyre slides, %.
+    /// Band for the share of the slip window (second half of the time on the wire,
+    /// see [`crate::sim::metrics::SlipWindow`]) in which a drive tyre slides, %.
     pub sliding_pct: Option<[f64; 2]>,
     /// Band for the distance the axle midpoint travels, m.
     pub distance_m: Option<[f64; 2]>,

@@ -203,21 +203,9 @@ fn tyre_friction(scene: &Scene, w: &mut Vec<Warning>) {
     }
 }
 
-/// A number to 3 significant figures, without exponent for everyday magnitudes.
+/// A number to 3 significant figures, in plain decimals for everyday magnitudes.
 pub fn sig(v: f64) -> String {
-    if v == 0.0 || !v.is_finite() {
-        return format!("{v}");
-    }
-    if v.abs() >= 1e7 || v.abs() < 1e-5 {
-        return format!("{v:.3e}");
-    }
-    let digits = (2 - v.abs().log10().floor() as i32).max(0) as usize;
-    let s = format!("{v:.digits$}");
-    if s.contains('.') {
-        s.trim_end_matches('0').trim_end_matches('.').to_string()
-    } else {
-        s
-    }
+    crate::numtext::sig(v, 3)
 }
 
 #[cfg(test)]

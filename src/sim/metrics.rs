@@ -75,6 +75,45 @@ impl ErrorWindow {
     }
 }
 
+/// The stretch of the run the slip figures are taken over: the second half of the time
+/// the sensors were on the wire. The first half holds the start from rest, where any wheel
+/// spin-up reads as a slip ratio near 1 while the vehicle barely moves; after the wire is
+/// lost or ends, the vehicle is no longer tracking, and its slip says nothing of the
+/// tracking the figures are about (a run that runs off the wire early would otherwise
+/// seem to slip less the harder it was driven).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SlipWindow {
+    /// The second half of the run (it stayed on the wire, or had none).
+    #[default]
+    SecondHalf,
+    /// The second half of the time until the sensors first lost the wire.
+    SecondHalfUntilWireLost,
+    /// The second half of the time until the axle passed the far end of the wire.
+    SecondHalfUntilWireEnd,
+}
+
+impl SlipWindow {
+    /// Words for summaries and tables.
+    pub fn describe(self) -> &'static str {
+        match self {
+            SlipWindow::SecondHalf => "second half of the run",
+            SlipWindow::SecondHalfUntilWireLost => {
+                "second half of the time until the wire was lost"
+            }
+            SlipWindow::SecondHalfUntilWireEnd => "second half of the time until the wire's end",
+        }
+    }
+
+    /// Name in results tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            SlipWindow::SecondHalf => "second_half",
+            SlipWindow::SecondHalfUntilWireLost => "second_half_until_wire_lost",
+            SlipWindow::SecondHalfUntilWireEnd => "second_half_until_wire_end",
+        }
+    }
+}
+
 /// The summary of a run.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct RunSummary {
@@ -94,16 +133,15 @@ pub struct RunSummary {
     /// A sustained oscillation over the last [`LIMIT_CYCLE_TAIL_FRACTION`] of the run, or
     /// of the part of it before the wire was lost or ended.
     pub limit_cycle: Option<LimitCycle>,
-    /// Peak |slip ratio| of the drive tyres over the second half of the run. (The first
-    /// half holds the start from rest, where any wheel spin-up reads as a slip ratio near
-    /// 1 while the vehicle barely moves; the second half is the tracking the studies are
-    /// about.)
+    /// Peak |slip ratio| of the drive tyres over [`RunSummary::slip_window`].
     pub peak_abs_slip_ratio: f64,
-    /// Time mean of |slip ratio| over both drive tyres, second half of the run.
+    /// Time mean of |slip ratio| over both drive tyres, over [`RunSummary::slip_window`].
     pub mean_abs_slip_ratio: f64,
-    /// Share of the second half of the run in which either drive tyre slid (its force on
+    /// Share of [`RunSummary::slip_window`] in which either drive tyre slid (its force on
     /// the friction limit).
     pub sliding_fraction: f64,
+    /// What the slip figures cover.
+    pub slip_window: SlipWindow,
     /// Energy drawn from the battery, J.
     pub battery_energy_j: f64,
     /// Castor shimmy: RMS swivel rate of the castors over the second half of the run,
@@ -285,8 +323,21 @@ impl MetricsObserver {
             .filter(|(t, _)| *t >= half)
             .map(|(_, v)| *v)
             .collect();
-        let late_slip: Vec<&(f64, f64, f64, bool)> =
-            self.slip.iter().filter(|x| x.0 >= half).collect();
+        let (slip_window, slip_end_t) = match (self.wire_lost, self.wire_end) {
+            _ if event_t.is_infinite() => (SlipWindow::SecondHalf, f64::INFINITY),
+            (Some(l), _) if l.t_s <= event_t => (SlipWindow::SecondHalfUntilWireLost, event_t),
+            _ => (SlipWindow::SecondHalfUntilWireEnd, event_t),
+        };
+        let slip_half = if slip_end_t.is_finite() {
+            0.5 * slip_end_t
+        } else {
+            half
+        };
+        let late_slip: Vec<&(f64, f64, f64, bool)> = self
+            .slip
+            .iter()
+            .filter(|x| x.0 >= slip_half && x.0 < slip_end_t)
+            .collect();
         let late_n = late_slip.len().max(1) as f64;
         let cycle_end_t = on_wire.last().map_or(0.0, |s| s.t_s);
         let tail_start = (1.0 - LIMIT_CYCLE_TAIL_FRACTION) * cycle_end_t;
@@ -315,6 +366,7 @@ impl MetricsObserver {
             peak_abs_slip_ratio: late_slip.iter().map(|x| x.1).fold(0.0, f64::max),
             mean_abs_slip_ratio: late_slip.iter().map(|x| x.2).sum::<f64>() / late_n,
             sliding_fraction: late_slip.iter().filter(|x| x.3).count() as f64 / late_n,
+            slip_window,
             battery_energy_j: self.energy_j,
             castor_shimmy_rad_s: if shimmy.is_empty() {
                 0.0
@@ -391,6 +443,40 @@ pub fn limit_cycle(samples: &[(f64, f64)]) -> Option<LimitCycle> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A run of 10 s whose tyres grip (slip 0.02) while on the wire, then spin freely
+    /// (slip 0.9, sliding) once the wire is lost at `lost_at_s`.
+    fn run_losing_wire_at(lost_at_s: f64) -> RunSummary {
+        let mut m = MetricsObserver::default();
+        for k in 0..=1000 {
+            let t_s = k as f64 * 0.01;
+            let lost = t_s >= lost_at_s;
+            let mut s = Snapshot {
+                t_s,
+                lost_wire: lost,
+                ..Snapshot::default()
+            };
+            for side in &mut s.sides {
+                side.slip_ratio = if lost { 0.9 } else { 0.02 };
+                side.sliding = lost;
+            }
+            m.observe(&s);
+        }
+        m.summary()
+    }
+
+    #[test]
+    fn slip_figures_cover_the_second_half_of_the_time_on_the_wire() {
+        // Lost at 6 s: the window is 3 s to 6 s, where the tyres gripped.
+        let s = run_losing_wire_at(6.0);
+        assert_eq!(s.slip_window, SlipWindow::SecondHalfUntilWireLost);
+        assert!((s.peak_abs_slip_ratio - 0.02).abs() < 1e-12, "{s:?}");
+        assert_eq!(s.sliding_fraction, 0.0);
+        // Never lost: the second half of the run, gripping throughout.
+        let s = run_losing_wire_at(f64::INFINITY);
+        assert_eq!(s.slip_window, SlipWindow::SecondHalf);
+        assert!((s.mean_abs_slip_ratio - 0.02).abs() < 1e-12);
+    }
 
     fn sine(amp: f64, period: f64, decay_per_s: f64) -> Vec<(f64, f64)> {
         (0..800)

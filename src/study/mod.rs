@@ -25,15 +25,15 @@ use crate::sweep::{self, RunResult, SweepError, SweepOptions};
 /// The shipped studies.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum StudyKind {
-    /// Tyre compounds and floors against gain: where slip starts and cycles.
+    /// See [`StudyKind::describe`].
     TyreCompounds,
-    /// The thesis's simulation figures at each fidelity level.
+    /// See [`StudyKind::describe`].
     ThesisFigures,
-    /// Limit cycles against gear play and gain.
+    /// See [`StudyKind::describe`].
     BacklashTolerance,
-    /// Reversing on the front pair, swing away, or a rear pair.
+    /// See [`StudyKind::describe`].
     Reversing,
-    /// The thesis's DCMC as identified, and the shipped machine matched to it.
+    /// See [`StudyKind::describe`].
     ThesisDcmc,
 }
 
@@ -46,6 +46,30 @@ impl StudyKind {
         StudyKind::Reversing,
         StudyKind::ThesisDcmc,
     ];
+
+    /// What the study does, in a line (its variant's doc).
+    pub fn describe(self) -> &'static str {
+        match self {
+            StudyKind::TyreCompounds => {
+                "tyre compounds and floors against gain: where slip starts and cycles"
+            }
+            StudyKind::ThesisFigures => "the thesis's simulation figures at each fidelity level",
+            StudyKind::BacklashTolerance => "limit cycles against gear play and gain",
+            StudyKind::Reversing => "reversing on the front pair, swing away, or a rear pair",
+            StudyKind::ThesisDcmc => {
+                "the thesis's DCMC as identified, and the shipped machine matched to it"
+            }
+        }
+    }
+
+    /// Every study with its line, as `study --help` lists them.
+    pub fn listing() -> String {
+        let mut s = String::from("Studies:\n");
+        for k in StudyKind::ALL {
+            s += &format!("  {:<20} {}\n", k.name(), k.describe());
+        }
+        s
+    }
 
     /// The study's name on the command line.
     pub fn name(self) -> &'static str {

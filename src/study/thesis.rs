@@ -24,7 +24,7 @@ pub struct ThesisRun {
     pub whole_run_rms_m: f64,
     /// Limit-cycle amplitude (0: none), m.
     pub limit_cycle_m: f64,
-    /// Share of the second half with a drive tyre sliding.
+    /// Share of the slip window (second half of the time on the wire) with a drive tyre sliding.
     pub sliding_fraction: f64,
     /// The sensors lost the wire.
     pub lost_wire: bool,

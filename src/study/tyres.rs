@@ -15,8 +15,8 @@ pub const SCENE: &str = include_str!("../../scenes/studies/tyre_compounds.toml")
 /// Its name in messages and manifests.
 pub const SCENE_LABEL: &str = "scenes/studies/tyre_compounds.toml";
 
-/// A run "slips" when a drive tyre is on its friction limit for at least this share of the
-/// second half of the run. Backlash-only limit cycles on good grip slide for 0-4 % of the
+/// A run "slips" when a drive tyre is on its friction limit for at least this share of its
+/// slip window (the second half of its time on the wire). Backlash-only limit cycles on good grip slide for 0-4 % of the
 /// time (tooth knocks at each engagement); cycles that the tyres cannot follow slide for a
 /// fifth of it and more.
 pub const SLIDING_SHARE: f64 = 0.05;
@@ -60,18 +60,19 @@ pub fn run(
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<(Vec<TyreGroup>, StudyOutput), SweepError> {
     let varies: Vec<String> = if opts.quick {
+        // The gain first: the sweep's plots put the first numeric key along x.
         vec![
+            "controller.gain_scale=1..3:9".into(),
             "tyre.compound=hard_polyurethane,soft_rubber".into(),
             "floor.surface=painted_concrete".into(),
             "payload.mass_kg=0".into(),
-            "controller.gain_scale=1..3:9".into(),
         ]
     } else {
         vec![
+            "controller.gain_scale=0.5..4:15".into(),
             "tyre.compound=hard_polyurethane,soft_rubber".into(),
             "floor.surface=painted_concrete,bare_concrete".into(),
             "payload.mass_kg=0,100,200".into(),
-            "controller.gain_scale=0.5..4:15".into(),
         ]
     };
     let (o, results) = study_sweep(
@@ -159,7 +160,7 @@ pub fn run(
     let mut summary = format!(
         "# Tyre-compound study\n\nScene `{SCENE_LABEL}` (full level: rapier chassis, tyres, castors), \
          {} runs of {} s. A run slips when a drive tyre is on its friction limit for at least \
-         {:.0} % of the second half; a slip-driven limit cycle is a sustained oscillation of \
+         {:.0} % of the second half of its time on the wire; a slip-driven limit cycle is a sustained oscillation of \
          at least {:.0} mm during which it slips. Gains are `controller.gain_scale` (1 = the \
          firmware's Kp = -1/20).\n\nSliding is the mean share of the time over the gains at \
          which every combination kept the wire ({}).\n\n",
@@ -218,7 +219,7 @@ pub fn run(
     )
     .map_err(crate::sweep::io_err(&plot))?;
     files.push(plot);
-    summary.push_str("\nPlots: `slip_cycle_onset.svg` (onset gain against payload); `sweep/plots/` (every metric against gain).\n");
+    summary.push_str("\nPlots: `slip_cycle_onset.svg` (onset gain against payload); `sweep/plots/` (every metric against gain, one line per compound, floor and payload; a cross marks a gain where a run lost the wire).\n");
     files.push(write_summary(&opts.out_dir, &summary)?);
     Ok((groups, StudyOutput { summary, files }))
 }

@@ -10,7 +10,7 @@ use super::{io_err, SweepError};
 use crate::plot::{Flags, Plot, Series, COLOURS};
 
 /// Result columns that hold words, not numbers: not plotted.
-const TEXT_METRICS: [&str; 2] = ["faults", "error_window"];
+const TEXT_METRICS: [&str; 3] = ["faults", "error_window", "slip_window"];
 
 /// Metrics of how the wire was followed: meaningless for a run that lost the wire (its
 /// "error" then measures distance from the wire), so such runs are left out of these
@@ -67,18 +67,23 @@ pub fn write(dir: &Path, grid: &Grid, table: &Table) -> Result<Vec<PathBuf>, Swe
         let mut lines: BTreeMap<Vec<usize>, (String, BTreeMap<i64, (f64, f64, usize)>)> =
             BTreeMap::new();
         let tracking = TRACKING_METRICS.contains(metric);
-        // Grid x of runs that failed, or lost the wire on a tracking metric.
+        // Grid x of runs that failed or lost the wire: marked on every metric. A failed
+        // run has no value; a lost run's tracking figures measure distance from the wire,
+        // so both are left out of the lines; its other figures (slip until the wire was
+        // lost, energy, distance) stay in.
         let mut flagged: Vec<f64> = vec![];
         for (_, _, cells) in &table.rows {
             let failed = outcome.map(|c| cells[c] != "ok").unwrap_or(false);
             let was_lost = lost.is_some_and(|c| cells[c] == "1");
-            if failed || (tracking && was_lost) {
+            if failed || was_lost {
                 if let Some(Some(col)) = key_cols.get(xi) {
                     let x = x_of(&cells[*col]);
                     if x.is_finite() && !flagged.contains(&x) {
                         flagged.push(x);
                     }
                 }
+            }
+            if failed || (tracking && was_lost) {
                 continue;
             }
             let Ok(y) = cells[mc].parse::<f64>() else {
@@ -137,7 +142,7 @@ pub fn write(dir: &Path, grid: &Grid, table: &Table) -> Result<Vec<PathBuf>, Swe
         let flag_label = if tracking {
             "a run here lost the wire or failed (left out)"
         } else {
-            "a run here failed (left out)"
+            "a run here lost the wire (kept) or failed (left out)"
         };
         // More lines than one plot can show are split over several files, each saying
         // which lines it holds: no combination is left out.

@@ -24,7 +24,7 @@ pub const MERGE_NOTE: &str =
 
 /// The metric columns of `results.csv`, after the run's identity columns, with what each
 /// means (also the plot titles).
-pub const METRICS: [(&str, &str); 17] = [
+pub const METRICS: [(&str, &str); 18] = [
     (
         "rms_lateral_error_m",
         "RMS lateral error over error_window, m",
@@ -48,15 +48,19 @@ pub const METRICS: [(&str, &str); 17] = [
     ("limit_cycle_period_s", "limit-cycle period, s"),
     (
         "peak_slip_ratio",
-        "peak |slip ratio| of the drive tyres, second half",
+        "peak |slip ratio| of the drive tyres over slip_window",
     ),
     (
         "mean_slip_ratio",
-        "time-mean |slip ratio| of the drive tyres, second half",
+        "time-mean |slip ratio| of the drive tyres over slip_window",
     ),
     (
         "sliding_fraction",
-        "share of the second half a drive tyre slides beyond its peak",
+        "share of slip_window in which a drive tyre slides beyond its peak",
+    ),
+    (
+        "slip_window",
+        "what the slip figures cover: second_half, second_half_until_wire_lost or second_half_until_wire_end",
     ),
     ("battery_energy_J", "energy drawn from the battery, J"),
     (
@@ -101,6 +105,7 @@ fn metric_cells(s: &RunSummary) -> Vec<String> {
         num(s.peak_abs_slip_ratio),
         num(s.mean_abs_slip_ratio),
         num(s.sliding_fraction),
+        s.slip_window.name().to_string(),
         num(s.battery_energy_j),
         num(s.castor_shimmy_rad_s),
         num(s.distance_m),

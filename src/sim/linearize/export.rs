@@ -13,24 +13,6 @@ pub const INPUT_NAMES: [&str; 2] = ["left_voltage_V", "right_voltage_V"];
 /// Output names: the steering coil pair's readings.
 pub const OUTPUT_NAMES: [&str; 2] = ["sensor_left_adc", "sensor_right_adc"];
 
-/// The unit of a name: its suffix after the quantity (`speed_m_s` -> `m/s`).
-pub fn unit_of(name: &str) -> &'static str {
-    const UNITS: [(&str, &str); 8] = [
-        ("_rad_s", "rad/s"),
-        ("_m_s", "m/s"),
-        ("_rad", "rad"),
-        ("_m", "m"),
-        ("_A", "A"),
-        ("_V", "V"),
-        ("_adc", "counts"),
-        ("_s", "s"),
-    ];
-    UNITS
-        .iter()
-        .find(|(s, _)| name.ends_with(s))
-        .map_or("", |u| u.1)
-}
-
 fn rows(m: &nalgebra::DMatrix<f64>) -> Vec<Vec<f64>> {
     (0..m.nrows())
         .map(|i| (0..m.ncols()).map(|j| m[(i, j)]).collect())
@@ -57,7 +39,7 @@ pub fn to_json(l: &Linearisation) -> serde_json::Value {
     let named = |names: &[&str]| -> Vec<serde_json::Value> {
         names
             .iter()
-            .map(|n| json!({"name": n, "unit": unit_of(n)}))
+            .map(|n| json!({"name": n, "unit": crate::numtext::unit_of_name(n)}))
             .collect()
     };
     let d = nalgebra::DMatrix::<f64>::zeros(l.c.nrows(), l.b.ncols());
@@ -77,7 +59,12 @@ pub fn to_json(l: &Linearisation) -> serde_json::Value {
 
 /// The MAT-file form: A, B, C, D, Ts, the names and units as cell rows, and a note.
 pub fn to_mat(l: &Linearisation) -> Vec<u8> {
-    let units = |names: &[&str]| names.iter().map(|n| unit_of(n)).collect::<Vec<_>>();
+    let units = |names: &[&str]| {
+        names
+            .iter()
+            .map(|n| crate::numtext::unit_of_name(n))
+            .collect::<Vec<_>>()
+    };
     let (nx, nu, ny) = (l.a.nrows(), l.b.ncols(), l.c.nrows());
     let mut w = Writer::new("written by agvsim linearize");
     w.matrix("A", nx, nx, &row_major(&l.a))

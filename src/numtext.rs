@@ -1,0 +1,180 @@
+//! Numbers as the text reports print them: significant figures in plain decimals, with
+//! their unit, and an estimate with its standard deviation to the digits that deviation
+//! supports. JSON and written scenes keep full precision; this is for people reading.
+
+/// Magnitudes printed in plain decimals; beyond them (a 1e-9 H inductance, a 1e12 count)
+/// plain decimals would be a row of zeros, and e-notation is the readable form.
+const PLAIN: (f64, f64) = (1e-6, 1e9);
+
+/// `v` to `digits` significant figures, trailing zeros after the point dropped: `0.35`,
+/// `23.5`, `0.000249`; a whole part longer than `digits` is kept whole (`2732`, not
+/// `2730`: zeros that look measured).
+pub fn sig(v: f64, digits: usize) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let digits = digits.max(1);
+    if v.abs() < PLAIN.0 || v.abs() >= PLAIN.1 {
+        return format!("{v:.*e}", digits - 1);
+    }
+    // Round first: 9.996 to 3 figures is 10.0, whose exponent is one more.
+    let rounded: f64 = format!("{v:.*e}", digits - 1).parse().unwrap_or(v);
+    let exponent = rounded.abs().log10().floor() as i32;
+    let decimals = (digits as i32 - 1 - exponent).max(0) as usize;
+    trim(format!("{v:.decimals$}"))
+}
+
+/// Drops trailing zeros after a decimal point, and the point if nothing follows it.
+fn trim(s: String) -> String {
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
+/// `v` to `digits` significant figures followed by its unit (`0.35 ohm`); a quantity
+/// without a unit (a ratio, a count) prints the number alone.
+pub fn quantity(v: f64, digits: usize, unit: &str) -> String {
+    with_unit(sig(v, digits), unit)
+}
+
+fn with_unit(number: String, unit: &str) -> String {
+    if unit.is_empty() {
+        number
+    } else {
+        format!("{number} {unit}")
+    }
+}
+
+/// An estimate and one standard deviation, `2.732 ± 0.040 N m`: the deviation to two
+/// significant figures and the value to the same decimal place, since digits below the
+/// deviation's carry no information. A deviation under a millionth of the value (a fit of
+/// noise-free data) prints as such rather than as a row of zeros; `None` says the record
+/// does not determine it.
+pub fn estimate(v: f64, std: Option<f64>, unit: &str) -> String {
+    let Some(s) = std.filter(|s| s.is_finite() && *s > 0.0) else {
+        let why = match std {
+            Some(s) if s == 0.0 => "(std 0)",
+            Some(_) => "(std not finite)",
+            None => "(std not determined)",
+        };
+        return format!("{} {why}", quantity(v, 6, unit));
+    };
+    if v != 0.0 && s < 1e-6 * v.abs() {
+        return format!("{} (± < 0.0001 %)", quantity(v, 6, unit));
+    }
+    let exponent = s.log10().floor() as i32;
+    let decimals = 1 - exponent;
+    if !(0..=9).contains(&decimals) || !(PLAIN.0..PLAIN.1).contains(&v.abs().max(s)) {
+        return format!("{} ± {}", sig(v, 6), quantity(s, 2, unit));
+    }
+    let decimals = decimals as usize;
+    with_unit(format!("{v:.decimals$} ± {s:.decimals$}"), unit)
+}
+
+/// A share in percent to one decimal, with its sign when it is a change (`-81.2 %`).
+pub fn change_pct(v: f64) -> String {
+    format!("{v:+.1} %")
+}
+
+/// The unit of a parameter: its declaration's if a rig or scene declares the key, else
+/// the one its name ends in.
+pub fn unit_key_or_name(key: &str) -> &'static str {
+    match unit_of_key(key) {
+        "" => unit_of_name(key),
+        u => u,
+    }
+}
+
+/// The unit of a dotted key as its declaration states it: a rig's key, else a scene's;
+/// `""` for a key neither declares (a model's own parameter) or one without a unit.
+pub fn unit_of_key(key: &str) -> &'static str {
+    if let Some(k) = crate::rig::keys::find(key) {
+        return k.unit;
+    }
+    crate::scene::keys::table()
+        .find(key)
+        .map(|k| k.unit)
+        .unwrap_or("")
+}
+
+/// The unit a column's or parameter's name ends in (`speed_m_s` -> `m/s`,
+/// `coulomb_torque_Nm` -> `N m`); `""` when its suffix names none.
+pub fn unit_of_name(name: &str) -> &'static str {
+    // Longest suffixes first: `_rad_s` before `_s`, `_m_s` before `_s`.
+    const UNITS: [(&str, &str); 13] = [
+        ("_rad_s", "rad/s"),
+        ("_m_s", "m/s"),
+        ("_V_pct", "V/pct"),
+        ("_rad", "rad"),
+        ("_Nm", "N m"),
+        ("_pct", "pct"),
+        ("_ohm", "ohm"),
+        ("_m", "m"),
+        ("_N", "N"),
+        ("_A", "A"),
+        ("_V", "V"),
+        ("_adc", "counts"),
+        ("_s", "s"),
+    ];
+    UNITS
+        .iter()
+        .find(|(s, _)| name.ends_with(s))
+        .map_or("", |u| u.1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn significant_figures_print_in_plain_decimals() {
+        assert_eq!(sig(23.5, 4), "23.5");
+        assert_eq!(sig(0.35, 6), "0.35");
+        assert_eq!(sig(0.000249, 3), "0.000249");
+        assert_eq!(sig(2732.43, 4), "2732");
+        assert_eq!(sig(9.996, 3), "10");
+        assert_eq!(sig(-0.04897, 3), "-0.049");
+        assert_eq!(sig(138.0, 6), "138");
+        assert_eq!(sig(4.94266e-5, 4), "0.00004943");
+        assert_eq!(sig(3.0e-9, 2), "3.0e-9");
+        assert_eq!(sig(0.0, 3), "0");
+    }
+
+    #[test]
+    fn quantities_carry_their_unit() {
+        assert_eq!(quantity(11.0, 4, "V"), "11 V");
+        assert_eq!(quantity(1.817, 3, ""), "1.82");
+    }
+
+    #[test]
+    fn an_estimate_keeps_the_digits_its_deviation_supports() {
+        assert_eq!(estimate(2.73243, Some(0.03968), "N m"), "2.732 ± 0.040 N m");
+        assert_eq!(estimate(0.70264, Some(0.0126), "V"), "0.703 ± 0.013 V");
+        assert_eq!(estimate(138.2, Some(4.1), "kg"), "138.2 ± 4.1 kg");
+        assert_eq!(estimate(1520.0, Some(37.0), "N"), "1520 ± 37 N");
+        assert_eq!(
+            estimate(0.35, Some(1.3e-9), "ohm"),
+            "0.35 ohm (± < 0.0001 %)"
+        );
+        assert_eq!(estimate(0.05, None, "N m"), "0.05 N m (std not determined)");
+        assert!(!estimate(2.5e-4, Some(3e-6), "kg m^2").contains('e'));
+    }
+
+    #[test]
+    fn names_end_in_their_unit() {
+        assert_eq!(unit_of_name("left_wheel_speed_m_s"), "m/s");
+        assert_eq!(unit_of_name("motor_speed_rad_s"), "rad/s");
+        assert_eq!(unit_of_name("coulomb_torque_Nm"), "N m");
+        assert_eq!(unit_of_name("delay_s"), "s");
+        assert_eq!(unit_of_name("peak_mu"), "");
+        assert_eq!(unit_key_or_name("motor.rotor_inertia_kg_m2"), "kg m^2");
+    }
+
+    #[test]
+    fn changes_carry_their_sign() {
+        assert_eq!(change_pct(-81.24), "-81.2 %");
+        assert_eq!(change_pct(2.1), "+2.1 %");
+    }
+}
