@@ -102,8 +102,15 @@ pub fn unit_of_key(key: &str) -> &'static str {
 /// The unit a column's or parameter's name ends in (`speed_m_s` -> `m/s`,
 /// `coulomb_torque_Nm` -> `N m`); `""` when its suffix names none.
 pub fn unit_of_name(name: &str) -> &'static str {
-    // Longest suffixes first: `_rad_s` before `_s`, `_m_s` before `_s`.
-    const UNITS: [(&str, &str); 13] = [
+    // Longest suffixes first: `_rad_s` before `_s`, `_m_s` before `_s`; the thesis's
+    // state-space names (`a_left_1_s`, `b_left_fwd_rad_s2_pct`) before their tails.
+    const UNITS: [(&str, &str); 19] = [
+        ("_rad_s2_pct", "rad/s^2 per pct"),
+        ("_rad_s_pct", "rad/s per pct"),
+        ("_1_s2", "1/s^2"),
+        ("_1_s", "1/s"),
+        ("_per_N", "1/N"),
+        ("_kg_m2", "kg m^2"),
         ("_rad_s", "rad/s"),
         ("_m_s", "m/s"),
         ("_V_pct", "V/pct"),
@@ -169,6 +176,8 @@ mod tests {
         assert_eq!(unit_of_name("coulomb_torque_Nm"), "N m");
         assert_eq!(unit_of_name("delay_s"), "s");
         assert_eq!(unit_of_name("peak_mu"), "");
+        assert_eq!(unit_of_name("a_left_1_s"), "1/s");
+        assert_eq!(unit_of_name("b_left_fwd_rad_s2_pct"), "rad/s^2 per pct");
         assert_eq!(unit_key_or_name("motor.rotor_inertia_kg_m2"), "kg m^2");
     }
 

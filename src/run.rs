@@ -124,8 +124,11 @@ pub fn run_scene(
             let _ = std::fs::remove_file(&partial);
             return Err(e.naming_suspects(scene).into());
         }
-        let want_row = k % record_every == 0;
-        let want_viz = watcher.as_mut().is_some_and(|v| v.due());
+        // The run's last step is always recorded and shown: the recording's last row and
+        // the viewer's last frame are the run's end, whatever the intervals.
+        let last = k == steps;
+        let want_row = k % record_every == 0 || last;
+        let want_viz = watcher.as_mut().is_some_and(|v| v.due() || last);
         if want_row || want_viz || k % 10 == 0 {
             let s = sim.snapshot();
             if want_row {

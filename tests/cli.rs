@@ -1060,3 +1060,60 @@ fn options_are_named_alike_in_every_command() {
         assert!(help.contains("--validate <OTHER.csv>"), "{cmd}:\n{help}");
     }
 }
+
+/// A watcher that wants every 20th step, as the Rerun recorder does at its frame interval.
+struct EveryTwentieth {
+    step: u64,
+    seen_t_s: Vec<f64>,
+}
+
+impl agvsim::run::Watcher for EveryTwentieth {
+    fn due(&mut self) -> bool {
+        self.step += 1;
+        self.step % 20 == 1
+    }
+    fn observe(
+        &mut self,
+        s: &agvsim::sim::Snapshot,
+        _p: &agvsim::sim::SimParams,
+    ) -> Result<(), String> {
+        self.seen_t_s.push(s.t_s);
+        Ok(())
+    }
+}
+
+/// The viewer's last frame and the recording's last row are the run's end, whatever the
+/// frame and record intervals: a 0.373 s run is shown and recorded at 0.373 s, though
+/// neither interval divides it.
+#[test]
+fn the_last_frame_and_row_are_the_end_of_the_run() {
+    use agvsim::record::Recording;
+    let out = tmp("last_frame");
+    let scene = agvsim::scene::Scene::load(
+        Path::new("scenes/lab_offset_120mm.toml"),
+        &["sim.duration_s=0.373".to_string()],
+    )
+    .unwrap();
+    let mut w = EveryTwentieth {
+        step: 0,
+        seen_t_s: vec![],
+    };
+    let run = agvsim::run::run_scene(
+        &scene,
+        &agvsim::run::RunOptions {
+            out_dir: out.clone(),
+            name: "end".into(),
+        },
+        Some(&mut w),
+    )
+    .unwrap();
+    let dt = scene.sim.dt_s;
+    let last = *w.seen_t_s.last().unwrap();
+    assert!((last - 0.373).abs() < 0.5 * dt, "last frame at {last} s");
+    // Frames otherwise keep their interval (20 steps).
+    let gap = w.seen_t_s[1] - w.seen_t_s[0];
+    assert!((gap - 20.0 * dt).abs() < 1e-9, "{gap}");
+    let rec = Recording::load(&run.recording).unwrap();
+    let end = *rec.t_s.last().unwrap();
+    assert!((end - 0.373).abs() < 0.5 * dt, "last row at {end} s");
+}

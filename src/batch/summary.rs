@@ -11,20 +11,7 @@ use super::{io, read_entry, BatchError, Entry};
 
 /// A number as the summary prints it: 6 significant figures, plain.
 pub(crate) fn num(v: f64) -> String {
-    if v == 0.0 || !v.is_finite() {
-        return format!("{v}");
-    }
-    let digits = (5 - v.abs().log10().floor() as i32).max(0) as usize;
-    if v.abs() >= 1e-4 && v.abs() < 1e9 {
-        let s = format!("{v:.digits$}");
-        if s.contains('.') {
-            s.trim_end_matches('0').trim_end_matches('.').to_string()
-        } else {
-            s
-        }
-    } else {
-        format!("{v:.5e}")
-    }
+    crate::numtext::sig(v, 6)
 }
 
 fn effect_cell(e: &Entry) -> String {

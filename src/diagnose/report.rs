@@ -72,7 +72,7 @@ pub fn render(d: &Diagnosis) -> String {
             );
             let _ = writeln!(
                 s,
-                "  {:<20} {value:<34} RSS {:>8}  dAIC {:9.1}  {}",
+                "  {:<20} {value:<42} RSS {:>8}  dAIC {:9.1}  {}",
                 c.name,
                 change_pct(-c.rss_reduction_pct),
                 c.delta_aic,

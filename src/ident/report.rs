@@ -113,12 +113,12 @@ pub fn render(id: &Identification) -> String {
     );
     let _ = writeln!(
         out,
-        "\n{:<34} {:<10} {:>12}   {:<28} {:>10}",
+        "\n{:<34} {:<16} {:>12}   {:<28} {:>10}",
         "parameter", "unit", "nominal", "estimate ± 1 std", "rel. std"
     );
     for p in &id.params {
         let unit = unit_key_or_name(&p.name);
-        let head = format!("{:<34} {:<10} {:>12}", p.name, unit, sig(p.nominal, 6));
+        let head = format!("{:<34} {:<16} {:>12}", p.name, unit, sig(p.nominal, 6));
         if let Some(b) = p.at_bound {
             let _ = writeln!(
                 out,

@@ -49,13 +49,15 @@ pub fn simulated_csv(r: &Replay, rec: &Recording, scene_path: &Path) -> String {
 /// The fit table `agvsim replay` prints.
 pub fn render(r: &Replay) -> String {
     let mut s = String::new();
-    let _ = writeln!(s, "{:<28} {:>8} {:>14}", "output", "fit %", "RMS error");
+    let _ = writeln!(s, "{:<28} {:>8} {:>16}", "output", "fit %", "RMS error");
     for o in &r.outputs {
         if o.fit_pct.is_finite() {
             let _ = writeln!(
                 s,
-                "{:<28} {:>8.1} {:>14.4e}",
-                o.name, o.fit_pct, o.rms_error
+                "{:<28} {:>8.1} {:>16}",
+                o.name,
+                o.fit_pct,
+                crate::numtext::quantity(o.rms_error, 4, crate::numtext::unit_of_name(&o.name))
             );
         } else {
             let _ = writeln!(

@@ -83,7 +83,7 @@ pub fn check(e: &ExpectSpec, s: &RunSummary) -> Vec<ExpectCheck> {
     );
     band(
         "sliding",
-        "% of the slip window (second half of the time on the wire)",
+        "% of the slip window",
         e.sliding_pct,
         Some(100.0 * s.sliding_fraction),
     );

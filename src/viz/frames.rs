@@ -28,6 +28,8 @@ pub(super) struct FrameBuffer {
     pub(super) contacts: Vec<[f32; 3]>,
     pub(super) force: Vec<[f32; 3]>,
     pub(super) slip: Vec<[f32; 3]>,
+    /// Slip arrow colours, 2 per frame: sliding beyond the friction peak or not.
+    pub(super) slip_colors: Vec<[u8; 4]>,
     /// Castor forks, vehicle frame, `castors_per_frame` strips per frame.
     pub(super) castors: Vec<Vec<[f32; 3]>>,
     pub(super) castors_per_frame: usize,
@@ -92,6 +94,7 @@ impl FrameBuffer {
             .map_err(err)?;
         let slip = rerun::Arrows3D::from_vectors(std::mem::take(&mut self.slip))
             .with_origins(contacts)
+            .with_colors(std::mem::take(&mut self.slip_colors))
             .columns(per(2))
             .map_err(err)?;
         rec.send_columns("world/agv/slip", times(), slip)

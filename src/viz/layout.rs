@@ -9,12 +9,13 @@
 //! so the same run writes the same layout.
 
 use rerun::blueprint::components::{
-    ColumnShare, ContainerKind, IncludedContent, QueryExpression, RootContainer, RowShare,
-    ViewClass,
+    ColumnShare, ContainerKind, IncludedContent, PlayState, QueryExpression, RootContainer,
+    RowShare, ViewClass,
 };
 use rerun::external::re_log_types::BlueprintActivationCommand;
 use rerun::external::re_sdk_types::blueprint::archetypes::{
-    ContainerBlueprint, EyeControls3D, ViewBlueprint, ViewContents, ViewportBlueprint,
+    ContainerBlueprint, EyeControls3D, TimePanelBlueprint, ViewBlueprint, ViewContents,
+    ViewportBlueprint,
 };
 use rerun::{RecordingStream, RecordingStreamBuilder};
 
@@ -24,7 +25,7 @@ use super::{err, VizError};
 pub const PLOTS: [(&str, &str); 7] = [
     (
         "plots/lateral_error_m",
-        "Lateral error of the sensor pair, m (left of the wire +)",
+        "Lateral error, m (sensor pair; left of the wire +)",
     ),
     ("plots/coils_adc", "Coil readings, ADC counts"),
     ("plots/demand_pct", "DCMC demand, pct"),
@@ -162,7 +163,7 @@ pub fn send_blueprint(rec: &RecordingStream, region: Region) -> Result<(), VizEr
         &bp,
         1,
         "3D",
-        "Vehicle (follows the AGV; its frame: forward up the screen, left to the left)",
+        "Vehicle, followed (its frame: forward up, left to the left)",
         "/world/agv",
         &["$origin/**"],
     )?;
@@ -177,9 +178,15 @@ pub fn send_blueprint(rec: &RecordingStream, region: Region) -> Result<(), VizEr
         &bp,
         2,
         "3D",
-        "Floor (world frame: x to the right, y up the screen, metres)",
+        "Floor (world frame, m: x to the right, y up)",
         "/world",
-        &["/world/**", "- /world/agv/nearby_wire"],
+        // The coil readings are the follow view's: on the floor their label would print
+        // over the path wherever the vehicle is, cut off at the view's edge.
+        &[
+            "/world/**",
+            "- /world/agv/nearby_wire",
+            "- /world/agv/coils",
+        ],
     )?;
     let (lo, hi) = region;
     let centre = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
@@ -223,13 +230,21 @@ pub fn send_blueprint(rec: &RecordingStream, region: Region) -> Result<(), VizEr
             None,
         )?);
     }
+    let legend = view(
+        &bp,
+        3,
+        "TextDocument",
+        "What the vehicle view draws",
+        "/legend",
+        &["$origin"],
+    )?;
     let left = container(
         &bp,
         40,
         ContainerKind::Vertical,
         None,
-        &[follow, overview],
-        Some(&[0.6, 0.4]),
+        &[follow, legend, overview],
+        Some(&[0.55, 0.11, 0.34]),
     )?;
     let right = container(&bp, 41, ContainerKind::Tabs, None, &tabs, None)?;
     container(
@@ -240,6 +255,15 @@ pub fn send_blueprint(rec: &RecordingStream, region: Region) -> Result<(), VizEr
         &[left, right],
         Some(&[0.55, 0.45]),
     )?;
+    // The viewer opens at the latest moment logged: a saved run at its end, a live one
+    // following the simulation; the time panel scrubs back.
+    bp.log(
+        "time_panel",
+        &TimePanelBlueprint::new()
+            .with_timeline("sim_time")
+            .with_play_state(PlayState::Following),
+    )
+    .map_err(err)?;
     bp.log(
         "viewport",
         &ViewportBlueprint::new()

@@ -14,6 +14,7 @@ use crate::sim::{SimParams, Snapshot};
 
 mod frames;
 mod layout;
+mod overlay;
 mod reports;
 
 use frames::{FrameBuffer, PLOT_BATCH_FRAMES};
@@ -52,9 +53,12 @@ const RIGHT: [u8; 4] = [90, 140, 230, 255];
 /// Tyre-force arrows: metres of arrow per newton (1 m per 400 N: a drive tyre at its grip
 /// limit on painted concrete, about 400 N, draws as long as the vehicle).
 pub const FORCE_ARROW_M_PER_N: f64 = 0.0025;
-/// Slip arrows: metres of arrow per unit of slip (ratio forward, angle in rad sideways):
-/// a 10 % slip draws 0.2 m.
-pub const SLIP_ARROW_M: f64 = 2.0;
+/// Slip arrows: the slip vector (ratio forward, angle in rad sideways) drawn along itself
+/// with a length of this many metres times the square root of its size: a rolling tyre's
+/// 1 % draws 0.1 m and is seen, a spinning wheel's 100 % draws 1 m and stays on screen.
+pub const SLIP_ARROW_M: f64 = 1.0;
+/// Slip arrow colour when the tyre slides beyond its friction peak.
+const SLIDING: [u8; 4] = [255, 60, 40, 255];
 /// Half the side of the square around the axle in which the follow view shows the wire, m.
 const NEARBY_WIRE_HALF_M: f64 = 2.5;
 
@@ -254,23 +258,15 @@ impl RerunRecorder {
             "world/agv/tyre_force",
             &rerun::Arrows3D::update_fields()
                 .with_colors([FORCE])
-                // One label (on the left wheel's arrow) says what the arrows are and their scale.
-                .with_labels([
-                    format!("tyre force, 1 m per {:.0} N", 1.0 / FORCE_ARROW_M_PER_N),
-                    String::new(),
-                ]),
+                .with_radii([0.008f32]),
         )
         .map_err(err)?;
         rec.log_static(
             "world/agv/slip",
-            &rerun::Arrows3D::update_fields()
-                .with_colors([SLIP])
-                .with_labels([
-                    String::new(),
-                    format!("slip, {SLIP_ARROW_M} m per unit of slip"),
-                ]),
+            &rerun::Arrows3D::update_fields().with_radii([0.012f32]),
         )
         .map_err(err)?;
+        self.log_legend(p)?;
         rec.log_static(
             "world/agv/castors",
             &rerun::LineStrips3D::update_fields()
@@ -296,6 +292,23 @@ impl RerunRecorder {
             .map_err(err)?;
         }
         Ok(())
+    }
+
+    /// What the vehicle view draws and at what scale, as a text the layout shows under it:
+    /// labels on the arrows themselves would print over each other whenever the arrows
+    /// are short, and at the view's edge be cut off.
+    fn log_legend(&self, _p: &SimParams) -> Result<(), VizError> {
+        let text = format!(
+            "**Magenta**: tyre force, 1 m per {:.0} N. **Yellow**: slip, {SLIP_ARROW_M} m x \
+             sqrt(slip), **red** while sliding. **Orange**: the wire. Coil label: ADC counts.",
+            1.0 / FORCE_ARROW_M_PER_N
+        );
+        self.rec
+            .log_static(
+                "legend",
+                &rerun::TextDocument::new(text).with_media_type(rerun::MediaType::markdown()),
+            )
+            .map_err(err)
     }
 
     /// Series names and colours: one quantity per plot, named by side.
@@ -402,11 +415,8 @@ impl RerunRecorder {
                 (FORCE_ARROW_M_PER_N * f[1]) as f32,
                 0.0,
             ]);
-            b.slip.push([
-                (SLIP_ARROW_M * x.slip_ratio) as f32,
-                (SLIP_ARROW_M * x.slip_angle_rad) as f32,
-                0.0,
-            ]);
+            b.slip.push(slip_arrow(x.slip_ratio, x.slip_angle_rad));
+            b.slip_colors.push(if x.sliding { SLIDING } else { SLIP });
         }
         b.castors_per_frame = s.castors.len();
         for c in &s.castors {
@@ -489,6 +499,17 @@ impl RerunRecorder {
         }
         Ok(())
     }
+}
+
+/// The slip arrow of a tyre, vehicle frame, m: along the slip vector (ratio forward,
+/// angle sideways), [`SLIP_ARROW_M`] times the square root of its size long.
+fn slip_arrow(ratio: f64, angle_rad: f64) -> [f32; 3] {
+    let size = ratio.hypot(angle_rad);
+    if size == 0.0 || !size.is_finite() {
+        return [0.0; 3];
+    }
+    let scale = SLIP_ARROW_M * size.sqrt() / size;
+    [(scale * ratio) as f32, (scale * angle_rad) as f32, 0.0]
 }
 
 /// The part of a segment inside an axis-aligned box (Liang-Barsky), if any.
