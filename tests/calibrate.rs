@@ -70,7 +70,7 @@ fn a_calibrated_scene_recovers_the_machine_and_replays_it_better() {
         "motor.resistance_ohm=0.42",
         "motor.rotor_inertia_kg_m2=0.00025",
     ]);
-    // The README's example: the shipped multisine inputs replayed on the machine.
+    // docs/commands.md's example: the shipped multisine inputs replayed on the machine.
     let inputs = Recording::load(Path::new("data/calibrate_example/multisine_inputs.csv")).unwrap();
     let path = dir.join("multisine_inputs.replay.csv");
     let made = replay(&truth, &inputs).unwrap();
@@ -89,7 +89,7 @@ fn a_calibrated_scene_recovers_the_machine_and_replays_it_better() {
     let value = |key: &str| c.keys.iter().find(|k| k.key == key).unwrap().after;
     assert!((value("motor.resistance_ohm") / 0.42 - 1.0).abs() < 0.01);
     assert!((value("motor.rotor_inertia_kg_m2") / 0.00025 - 1.0).abs() < 0.01);
-    // The README's numbers.
+    // docs/commands.md's numbers.
     let fit = |r: &agvsim::replay::Replay, n: &str| r.output(n).unwrap().fit_pct;
     assert!((fit(&c.before, "motor_speed_rad_s") - 92.8).abs() < 0.1);
     assert!((fit(&c.before, "current_A") - 82.6).abs() < 0.1);

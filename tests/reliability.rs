@@ -231,7 +231,7 @@ fn a_too_fast_castor_mode_names_its_keys() {
 
 /// Scene geometry that used to be accepted silently: a wire point with a third
 /// coordinate (dropped), wire points at 1e300 m (the coils read 0 and the run reported
-/// "settled, RMS 0.0 mm"), and a concave floor region (the README promises convex).
+/// "settled, RMS 0.0 mm"), and a concave floor region (docs/scene-reference.md promises convex).
 #[test]
 fn scene_geometry_that_cannot_be_meant_is_refused() {
     let load = |toml: &str| {

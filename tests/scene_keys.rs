@@ -1,7 +1,7 @@
 //! The scene reference is one table (`src/scene/keys.rs`, the blocks' declarations under
-//! their sections): validation reads it, the README prints it. These tests keep the three in step: every key of the schema has a
+//! their sections): validation reads it, docs/scene-reference.md prints it. These tests keep the three in step: every key of the schema has a
 //! row, every row is a key the schema takes, every rule refuses what it says it refuses
-//! (naming the key), and the README holds the table's text.
+//! (naming the key), and docs/scene-reference.md holds the table's text.
 
 use std::path::Path;
 
@@ -100,11 +100,11 @@ fn every_rule_refuses_a_value_outside_it_naming_the_key() {
 }
 
 #[test]
-fn the_readme_scene_reference_is_the_table() {
-    let readme = std::fs::read_to_string("README.md").unwrap();
+fn the_documented_scene_reference_is_the_table() {
+    let reference = std::fs::read_to_string("docs/scene-reference.md").unwrap();
     let table = agvsim::scene::keys::markdown();
     assert!(
-        readme.contains(&table),
-        "README.md's scene reference differs from `agvsim keys`; paste its output between the markers"
+        reference.contains(&table),
+        "docs/scene-reference.md differs from `agvsim keys`; paste its output between the markers"
     );
 }

@@ -92,7 +92,7 @@ fn an_unsettled_run_does_not_claim_an_error_after_settling() {
     let settled = summary_of("scenes/lab_offset_120mm.toml", &["gearbox.backlash_rad=0"]);
     println!("{settled}");
     assert!(settled.contains("settled    after") && settled.contains("(after settling)"));
-    // The README's claim: without the play it settles within 5 m.
+    // docs/scenes.md's claim: without the play it settles within 5 m.
     let no_play = Scene::load(
         Path::new("scenes/lab_offset_120mm.toml"),
         &["gearbox.backlash_rad=0".to_string()],

@@ -161,8 +161,8 @@ fn key_table(s: &mut String, c: &Calibration) {
     use std::fmt::Write as _;
     let _ = writeln!(
         s,
-        "{:<30} {:<10} {:>12}   {:<30}",
-        "key", "unit", "scene", "calibrated ± 1 std"
+        "{:<30} {:<10} {:>12}   calibrated ± 1 std",
+        "key", "unit", "scene"
     );
     for k in &c.keys {
         let unit = unit_of_key(&k.key);

@@ -47,7 +47,8 @@ pub fn run(req: &NewRequest, say: Say) -> Result<(), CommandError> {
         report.push_str(&format!(
             "  {:<40} {:>10} {:<10} {}\n",
             d.key,
-            sig_exact(d.value),
+            // Derived to 4 significant figures; 6 shows them whatever the size.
+            crate::numtext::sig(d.value, 6),
             unit,
             d.how
         ));
@@ -68,15 +69,6 @@ pub fn run(req: &NewRequest, say: Say) -> Result<(), CommandError> {
     crate::output::write_atomically(&req.out, &new.text).map_err(super::io(&req.out))?;
     say(&format!("scene      {}\n", req.out.display()));
     Ok(())
-}
-
-/// A derived value as written (4 significant figures, no exponent for everyday sizes).
-fn sig_exact(v: f64) -> String {
-    if v != 0.0 && (v.abs() < 1e-3 || v.abs() >= 1e6) {
-        format!("{v:e}")
-    } else {
-        format!("{v}")
-    }
 }
 
 /// What `agvsim check` was asked.

@@ -120,18 +120,13 @@ pub fn render(d: &Diagnosis) -> String {
     if let Some(ff) = &d.feedforward {
         s.push_str(&crate::ident::feedforward::render_report(ff));
         if let Some(t) = &d.sysid_terms {
-            let sd = |v: Option<f64>| v.map(|v| format!(" ± {v:.4}")).unwrap_or_default();
+            let speed = &t.speed_unit;
             let _ = writeln!(
                 s,
-                "  the diagnosed model in SysId's terms (kS = R Tc / K, kV = (K + R b / K) n, kA = R J n / K): kS = {:.4}{} V, kV = {:.5}{} V/({}), kA = {:.5}{} V/({}/s)",
-                t.value.ks_v,
-                sd(t.std.map(|t| t.ks_v)),
-                t.value.kv,
-                sd(t.std.map(|t| t.kv)),
-                t.speed_unit,
-                t.value.ka,
-                sd(t.std.map(|t| t.ka)),
-                t.speed_unit,
+                "  the diagnosed model in SysId's terms (kS = R Tc / K, kV = (K + R b / K) n, kA = R J n / K): kS = {}, kV = {}, kA = {}",
+                estimate(t.value.ks_v, t.std.map(|t| t.ks_v), "V"),
+                estimate(t.value.kv, t.std.map(|t| t.kv), &format!("V/({speed})")),
+                estimate(t.value.ka, t.std.map(|t| t.ka), &format!("V/({speed}/s)")),
             );
         }
     }
