@@ -3,7 +3,7 @@
 //! standard deviation. Everything else (comments, order, other keys) is left as written.
 
 use super::{CalibrateError, Calibration};
-use crate::numtext::{estimate, quantity, sig, unit_of_key};
+use crate::numtext::{change_pct, estimate, quantity, sig, unit_of_key};
 
 /// Six significant digits, for the comments: more than any fit determines. The keys
 /// themselves are written in full, so that the written scene replays exactly as the
@@ -90,12 +90,12 @@ pub fn calibrated_text(
         } else {
             ""
         };
-        let unit = crate::numtext::unit_of_key(&k.key);
+        let unit = unit_of_key(&k.key);
         set_text(&mut doc, &k.key, &format!("{:e}", k.after), |_| {
             format!(
                 "calibrated against {source}: was {}, fitted {}{held}",
-                crate::numtext::quantity(k.before, 6, unit),
-                crate::numtext::estimate(rounded(k.after), Some(std), unit)
+                quantity(k.before, 6, unit),
+                estimate(rounded(k.after), Some(std), unit)
             )
         })?;
     }
@@ -222,7 +222,7 @@ pub fn render(c: &Calibration) -> String {
             let residual = if change > 999.0 {
                 ">+999 %".to_string()
             } else {
-                crate::numtext::change_pct(change)
+                change_pct(change)
             };
             let _ = writeln!(
                 s,

@@ -371,8 +371,8 @@ pub fn diagnose(
         base_fit.iterations
     ));
     let mut findings = Vec::new();
-    // The regime each finding's evidence named, so the next names another.
-    let mut named_regimes: Vec<Option<String>> = Vec::new();
+    // The regimes the findings' evidence named, with their effects: the next names another.
+    let mut named: Vec<(String, &str)> = Vec::new();
     let mut rounds = Vec::new();
     let linear = matches!(structure, Structure::Linear(_));
     let free_nominal = free.clone();
@@ -506,19 +506,12 @@ pub fn diagnose(
             .zip(&after)
             .map(|(a, b)| (a - b).max(0.0))
             .collect();
-        let named: Vec<(String, &str)> = findings
-            .iter()
-            .zip(&named_regimes)
-            .filter_map(|(f, r): (&Finding, &Option<String>)| {
-                r.clone().map(|r| (r, f.effect.name()))
-            })
-            .collect();
         let (evidence, regime) = evidence(
             &regimes::shares(&regs, &removed, removed.iter().sum()),
             100.0 * (1.0 - f.rss() / stage.fit.rss()),
             &named,
         );
-        named_regimes.push(regime);
+        named.extend(regime.map(|r| (r, e.name())));
         let idx = f.params.len() - 1;
         findings.push(Finding {
             effect: e,

@@ -278,6 +278,10 @@ impl MetricsObserver {
             .flatten()
             .map(|e| e.t_s)
             .fold(f64::INFINITY, f64::min);
+        // What ended the time on the wire, if anything: the wire lost (first) or its end.
+        let lost_first = event_t
+            .is_finite()
+            .then(|| self.wire_lost.is_some_and(|e| e.t_s <= event_t));
         let on_wire_n = self.samples.partition_point(|s| s.t_s < event_t);
         let on_wire = &self.samples[..on_wire_n];
         let settle_idx = self
@@ -294,8 +298,7 @@ impl MetricsObserver {
             && self.last_t - self.samples[settle_idx].t_s >= SETTLED_MIN_SHARE * self.last_t;
         let (window, error_window) = if settled {
             (&self.samples[settle_idx..], ErrorWindow::AfterSettling)
-        } else if event_t.is_finite() {
-            let lost_first = self.wire_lost.is_some_and(|e| e.t_s <= event_t);
+        } else if let Some(lost_first) = lost_first {
             let w = if lost_first {
                 ErrorWindow::UntilWireLost
             } else {
@@ -323,20 +326,17 @@ impl MetricsObserver {
             .filter(|(t, _)| *t >= half)
             .map(|(_, v)| *v)
             .collect();
-        let (slip_window, slip_end_t) = match (self.wire_lost, self.wire_end) {
-            _ if event_t.is_infinite() => (SlipWindow::SecondHalf, f64::INFINITY),
-            (Some(l), _) if l.t_s <= event_t => (SlipWindow::SecondHalfUntilWireLost, event_t),
-            _ => (SlipWindow::SecondHalfUntilWireEnd, event_t),
+        let slip_window = match lost_first {
+            None => SlipWindow::SecondHalf,
+            Some(true) => SlipWindow::SecondHalfUntilWireLost,
+            Some(false) => SlipWindow::SecondHalfUntilWireEnd,
         };
-        let slip_half = if slip_end_t.is_finite() {
-            0.5 * slip_end_t
-        } else {
-            half
-        };
+        // The second half of the time on the wire (of the whole run when it stayed on).
+        let slip_from_t = 0.5 * event_t.min(self.last_t);
         let late_slip: Vec<&(f64, f64, f64, bool)> = self
             .slip
             .iter()
-            .filter(|x| x.0 >= slip_half && x.0 < slip_end_t)
+            .filter(|x| x.0 >= slip_from_t && x.0 < event_t)
             .collect();
         let late_n = late_slip.len().max(1) as f64;
         let cycle_end_t = on_wire.last().map_or(0.0, |s| s.t_s);

@@ -266,7 +266,7 @@ impl RerunRecorder {
             &rerun::Arrows3D::update_fields().with_radii([0.012f32]),
         )
         .map_err(err)?;
-        self.log_legend(p)?;
+        self.log_legend()?;
         rec.log_static(
             "world/agv/castors",
             &rerun::LineStrips3D::update_fields()
@@ -297,7 +297,7 @@ impl RerunRecorder {
     /// What the vehicle view draws and at what scale, as a text the layout shows under it:
     /// labels on the arrows themselves would print over each other whenever the arrows
     /// are short, and at the view's edge be cut off.
-    fn log_legend(&self, _p: &SimParams) -> Result<(), VizError> {
+    fn log_legend(&self) -> Result<(), VizError> {
         let text = format!(
             "**Magenta**: tyre force, 1 m per {:.0} N. **Yellow**: slip, {SLIP_ARROW_M} m x \
              sqrt(slip), **red** while sliding. **Orange**: the wire. Coil label: ADC counts.",

@@ -6,17 +6,26 @@ use super::overlay::{save, Input, Output, Overlay, Simulation};
 use super::VizError;
 use crate::ident::data::Dataset;
 
-/// The inputs of a dataset, as the overlay shows them.
-fn dataset_inputs(data: &Dataset) -> Vec<Input<'_>> {
-    data.input_names
-        .iter()
-        .zip(&data.inputs)
-        .map(|(name, values)| Input {
-            name,
-            t_s: &data.t_s,
-            values,
-        })
+/// Input columns as the overlay shows them: names with their values on one time base.
+fn inputs<'a>(
+    names: impl IntoIterator<Item = &'a str>,
+    t_s: &'a [f64],
+    columns: &'a [Vec<f64>],
+) -> Vec<Input<'a>> {
+    names
+        .into_iter()
+        .zip(columns)
+        .map(|(name, values)| Input { name, t_s, values })
         .collect()
+}
+
+/// The inputs of a dataset.
+fn dataset_inputs(data: &Dataset) -> Vec<Input<'_>> {
+    inputs(
+        data.input_names.iter().map(String::as_str),
+        &data.t_s,
+        &data.inputs,
+    )
 }
 
 /// Saves a diagnosis: per output, the measurement under the baseline's and the diagnosed
@@ -108,16 +117,7 @@ pub fn save_identification(
 
 /// The inputs a replay drove the simulator with.
 fn replay_inputs(r: &crate::replay::Replay) -> Vec<Input<'_>> {
-    r.drive
-        .columns()
-        .iter()
-        .zip(&r.inputs)
-        .map(|(name, values)| Input {
-            name,
-            t_s: &r.t_s,
-            values,
-        })
-        .collect()
+    inputs(r.drive.columns().iter().copied(), &r.t_s, &r.inputs)
 }
 
 /// Saves a replay: per output, the measurement under the simulation.
