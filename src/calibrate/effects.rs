@@ -27,6 +27,11 @@ pub struct Home {
     /// For a key of either sign (a bias torque), the half-width of its linear search
     /// around zero; `None` for a strictly positive key, searched on a log scale.
     pub signed_range: Option<f64>,
+    /// The key's value at which the effect's physics is absent (no play, no delay, no
+    /// clipping, no sag): where a calibration sets it to remove an effect the scene has
+    /// and the recording does not support. `None` where the physics cannot be taken out
+    /// (a tyre always has a friction limit).
+    pub off: Option<f64>,
 }
 
 /// Why an effect has no home for this recording, or none yet.
@@ -41,7 +46,9 @@ pub struct Driven {
     pub drive: Drive,
     /// The machine stands on the floor (a vehicle), not on blocks.
     pub on_floor: bool,
-    /// The largest voltage command, V, when the recording commands voltages.
+    /// The largest voltage the recording asks of the motors, V: its voltage commands, or
+    /// what a DCMC or a base's loops applied in the scene's replay (never above the
+    /// scene's drive limit: at it, the scene clips them).
     pub max_command_v: Option<f64>,
 }
 
@@ -70,13 +77,14 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
     let current = |key: &str| keys::get(scene, key).unwrap_or(0.0);
     let key = effect.scene_key();
     // The scene's value where it switches the effect on, else a start of `off`.
-    let home_or = |on: bool, scene_value: f64, off: f64| Home {
+    let home_or = |on: bool, scene_value: f64, start_off: f64| Home {
         effect,
         key,
         switches: vec![],
-        start: if on { scene_value } else { off },
+        start: if on { scene_value } else { start_off },
         in_scene: on,
         signed_range: None,
+        off: off_value(effect, driven),
     };
     let home = |start: f64| home_or(false, start, start);
     let stall_nm = {
@@ -95,9 +103,9 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
         Effect::VoltageSaturation => {
             let limit = scene.battery.drive_limit_v;
             // The scene's limit is this recording's saturation where it clips its
-            // commands; one above them all is not.
+            // commands (a loop's reach the limit); one above them all is not.
             match max_command_v {
-                Some(v) if v > 0.0 => home_or(limit < v, limit, 0.9 * v),
+                Some(v) if v > 0.0 => home_or(limit <= v * (1.0 + 1e-9), limit, 0.9 * v),
                 _ => home(0.9 * limit),
             }
         }
@@ -160,6 +168,23 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
             ..home_or(scene.motor.offset_nm != 0.0, scene.motor.offset_nm, 0.0)
         },
     })
+}
+
+/// The value of `effect`'s key at which its physics is absent (see [`Home::off`]) for a
+/// recording driven as `driven` says: no play, no friction, no bias, no dead time, no
+/// castor drag, no sag, no integral action, the same viscous friction both ways, and a
+/// drive limit at the largest voltage command (it clips none of them). A drive limit
+/// under a DCMC's or a base's loops is the hardware's: nothing to take out.
+pub fn off_value(effect: Effect, driven: Driven) -> Option<f64> {
+    match effect {
+        Effect::WheelSlip => None,
+        Effect::FrictionAsymmetry => Some(1.0),
+        Effect::VoltageSaturation => match driven.drive {
+            Drive::Voltages | Drive::AxisVoltage => driven.max_command_v,
+            _ => None,
+        },
+        _ => Some(0.0),
+    }
 }
 
 /// Time in which a speed loop switched on by a calibration starts out correcting a speed

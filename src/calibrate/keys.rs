@@ -24,10 +24,25 @@ pub fn get(scene: &Scene, key: &str) -> Result<f64, CalibrateError> {
     }
 }
 
-/// The scene with each `(key, value)` set, validated as a `--set` would be.
+/// The scene with each `(key, value)` set on the typed scene and validated as a `--set`
+/// would be (every key against its rule, then the rules that tie keys together). No text
+/// round trip: a fit sets keys on every evaluation.
 pub fn set(scene: &Scene, pairs: &[(String, f64)]) -> Result<Scene, CalibrateError> {
-    let overrides: Vec<String> = pairs.iter().map(|(k, v)| format!("{k}={v:e}")).collect();
-    set_texts(scene, &overrides)
+    let mut out = scene.clone();
+    for (k, v) in pairs {
+        if !crate::scene::keys::set_number(&mut out, k, *v) {
+            // Not a numeric key: `get` names why.
+            get(scene, k)?;
+            return Err(CalibrateError::Key(format!("`{k}`: not a numeric scene key")));
+        }
+    }
+    out.validate().map_err(|bad| {
+        CalibrateError::Key(format!(
+            "{} = {}: expected {}",
+            bad.key, bad.value, bad.expected
+        ))
+    })?;
+    Ok(out)
 }
 
 /// The scene with each `KEY=VALUE` text applied, as `--set` applies it.

@@ -7,13 +7,15 @@
 
 pub mod effects;
 pub mod keys;
+pub mod pose_windows;
+pub mod prove;
+mod rounds;
 mod search;
 pub mod write;
 
 use std::path::PathBuf;
 
 use crate::ident::data::Dataset;
-use rayon::prelude::*;
 
 use crate::ident::effects::Effect;
 use crate::ident::fit::Weighting;
@@ -129,6 +131,8 @@ pub struct SceneReplay<'a> {
     scene: Scene,
     rec: &'a Recording,
     specs: Vec<ParamSpec>,
+    /// The pose compared over windows ([`pose_windows`]), where the data's pose is.
+    windows: Option<pose_windows::PoseWindows>,
 }
 
 impl<'a> SceneReplay<'a> {
@@ -153,21 +157,35 @@ impl<'a> SceneReplay<'a> {
             .map(|k| {
                 let v = keys::get(scene, k)?;
                 if let Some((_, range)) = signed.iter().find(|(s, _)| s == k) {
-                    return Ok(ParamSpec::new(k, v, -range, *range).with_fd_step(1e-2));
+                    return Ok(ParamSpec {
+                        rough: true,
+                        ..ParamSpec::new(k, v, -range, *range).with_fd_step(1e-2)
+                    });
                 }
                 if !(v.is_finite() && v > 0.0) {
                     return Err(CalibrateError::Key(format!(
                         "--free {k}: the scene's value is {v}; a fitted key needs a positive starting value (set one with --set {k}=...)"
                     )));
                 }
-                Ok(ParamSpec::positive(k, v).with_fd_step(1e-2))
+                Ok(ParamSpec {
+                    rough: true,
+                    ..ParamSpec::positive(k, v).with_fd_step(1e-2)
+                })
             })
             .collect::<Result<Vec<_>, _>>()?;
         Ok(SceneReplay {
             scene: scene.clone(),
             rec,
             specs,
+            windows: None,
         })
+    }
+
+    /// The same model with its pose outputs as motions over `windows` (the dataset it is
+    /// fitted to has its measured pose so: [`pose_windows::PoseWindows::measured`]).
+    pub fn windowed(mut self, windows: Option<pose_windows::PoseWindows>) -> Self {
+        self.windows = windows;
+        self
     }
 
     /// The same model with the beliefs of `belief` (the user's scene) on the keys in
@@ -224,10 +242,15 @@ impl Predictor for SceneReplay<'_> {
             ReplayError::Diverged { t_s, .. } => Diverged { t_s },
             _ => fail(),
         })?;
-        data.output_names
+        let mut y = data
+            .output_names
             .iter()
             .map(|n| r.output(n).map(|o| o.simulated.clone()).ok_or_else(fail))
-            .collect()
+            .collect::<Result<Vec<_>, _>>()?;
+        if let Some(w) = &self.windows {
+            w.simulated(&mut y);
+        }
+        Ok(y)
     }
 }
 
@@ -239,8 +262,11 @@ pub struct KeyFit {
     /// The scene's value (for an effect's key the scene did not set, the value its physics
     /// had: a tyre compound's friction).
     pub before: f64,
-    /// The fitted value (the scene's when the fit ended at a bound).
+    /// The value the calibrated scene holds: the fitted one where it is an estimate
+    /// ([`KeyFit::calibrated`]), else the scene's.
     pub after: f64,
+    /// Where the fit ended, estimate or not.
+    pub fitted: f64,
     /// Standard deviation of the fitted value; `None` where the record does not determine it.
     pub std: Option<f64>,
     /// The bound the search ended on, if it did: then `after` is no estimate, and the
@@ -249,6 +275,31 @@ pub struct KeyFit {
     /// Held by its stated belief (`[uncertainty_pct]`): the recording determines it less
     /// well than the belief does, so `after` is more belief than data.
     pub held: bool,
+    /// The recording cannot tell it apart from the other keys (a combination of them is
+    /// all it shows): held at the scene's value while the others were fitted.
+    pub confounded: bool,
+}
+
+impl KeyFit {
+    /// Whether the fit is an estimate the calibrated scene takes: not at a bound of its
+    /// search, determined by the recording, and its standard deviation smaller than its
+    /// value (a mass of 235 +- 294 kg says the recording cannot tell it from nothing).
+    pub fn calibrated(&self) -> bool {
+        self.at_bound.is_none() && self.std.is_some_and(|s| s < self.fitted.abs())
+    }
+}
+
+/// An effect the scene had and the recording does not support, taken out.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Removal {
+    /// The effect.
+    pub effect: Effect,
+    /// The key that held its strength.
+    pub key: String,
+    /// The scene's value before.
+    pub was: f64,
+    /// The value that takes the physics out (written into the scene).
+    pub off: f64,
 }
 
 /// An effect tried: its key fitted through the simulator with the scene's keys, and the
@@ -274,6 +325,19 @@ pub struct EffectTrial {
     pub rss_reduction_pct: f64,
     /// Whether the evidence rule accepted it (written into the scene).
     pub accepted: bool,
+    /// An effect the scene had that the recording does not support: taken out (its key
+    /// at its off value).
+    pub removed: bool,
+    /// Only raced (its key scanned, then fitted with the others for a few iterations), not
+    /// fitted to convergence: the round's full trials went to effects whose races gained
+    /// more.
+    pub raced_only: bool,
+    /// An effect the scene has, supported by the recording at the scene's strength (weighed
+    /// against its absence) without being refined.
+    pub kept: bool,
+    /// The AIC gain of the model with the effect over the model without it, where the
+    /// backward pass weighed its absence.
+    pub against_absence: Option<f64>,
     /// The key's value in the scene where the scene already had the effect on (then an
     /// accepted trial refines it); `None` where the effect is new to the scene.
     pub scene_value: Option<f64>,
@@ -308,6 +372,8 @@ pub struct Calibration {
     pub effects: Vec<EffectTrial>,
     /// Keys set to switch the accepted effects on.
     pub switches: Vec<Switch>,
+    /// Effects the scene had that the recording does not support, taken out.
+    pub removed: Vec<Removal>,
     /// The outputs fitted (the contract's outputs the recording has and excites).
     pub outputs: Vec<String>,
     /// Outputs the recording has but does not excite, left out of the fit, with why.
@@ -335,15 +401,18 @@ pub fn calibrate(
     calibrate_telling(scene, rec, &request, &|_| {})
 }
 
-/// Largest voltage command in the recording's inputs, V, when it commands voltages.
-fn max_command_v(replayed: &Replay) -> Option<f64> {
-    matches!(replayed.drive, Drive::Voltages | Drive::AxisVoltage).then(|| {
-        replayed
+/// The largest voltage the recording asks of the motors, V: its largest voltage command,
+/// or, driven through a DCMC or a base's speed loops, the largest terminal voltage they
+/// applied in the scene's replay.
+fn max_command_v(replayed: &Replay) -> f64 {
+    match replayed.drive {
+        Drive::Voltages | Drive::AxisVoltage => replayed
             .inputs
             .iter()
             .flatten()
-            .fold(0.0_f64, |m, v| m.max(v.abs()))
-    })
+            .fold(0.0_f64, |m, v| m.max(v.abs())),
+        _ => replayed.peak_terminal_v,
+    }
 }
 
 /// [`calibrate`] with effects, telling `progress` each stage as it starts (the command
@@ -390,7 +459,7 @@ pub fn calibrate_telling(
     let driven = effects::Driven {
         drive: before.drive,
         on_floor: rec.rig == "vehicle",
-        max_command_v: max_command_v(&before),
+        max_command_v: Some(max_command_v(&before)),
     };
     // Every effect's home is checked before any fit's work.
     let tried = effects::chosen(&request.effects, scene, driven)?;
@@ -428,6 +497,13 @@ pub fn calibrate_telling(
             Some((h.key.to_string(), h.signed_range?))
         })
         .collect();
+    // A tracked pose is compared over windows: a drifting simulation must not swamp the fit.
+    let windows = pose_windows::PoseWindows::of(&data);
+    let data = match &windows {
+        Some(w) => w.measured(&data),
+        None => data,
+    };
+    let explore = search::exploration_rows(rec).map(|rows| (rec.prefix(rows), data.prefix(rows)));
     let mut problem = Problem {
         rec,
         belief: scene,
@@ -435,6 +511,9 @@ pub fn calibrate_telling(
         signed,
         weighting: Weighting::outputs_only(spread_weights(&data)),
         data,
+        explore,
+        held: Default::default(),
+        windows,
     };
     progress(&format!(
         "fitting {} keys through the simulator ({} or more replays an iteration, at most 30 iterations)",
@@ -442,17 +521,42 @@ pub fn calibrate_telling(
         free.len() + 1,
     ));
     let stage = problem.first_stage(scene, &free)?;
-    let rounds = effect_rounds(&problem, stage, &tried, driven, progress)?;
+    let rounds = rounds::effect_rounds(&problem, stage, &tried, driven, progress)?;
     let iterations = rounds.iterations;
-    let keys = key_fits(scene, &rounds.stage, &rounds.starts);
+    let mut keys = key_fits(scene, &rounds.stage, &rounds.starts);
+    // The keys the recording could not tell apart, held at the scene's values.
+    for key in problem.held.lock().expect("no fit panics holding it").iter() {
+        let value = keys::get(scene, key)?;
+        keys.push(KeyFit {
+            key: key.clone(),
+            before: value,
+            after: value,
+            fitted: value,
+            std: None,
+            at_bound: None,
+            held: false,
+            confounded: true,
+        });
+    }
+    // In the order the keys were asked for, the effects' after them.
+    keys.sort_by_key(|k| free.iter().position(|f| *f == k.key).unwrap_or(free.len()));
+    // An accepted effect is reported at its final value (the rounds after it refit it).
+    let mut trials = rounds.trials;
+    for t in trials.iter_mut().filter(|t| t.accepted) {
+        if let Some(k) = keys.iter().find(|k| k.key == t.key) {
+            t.value = k.after;
+            t.std = k.std;
+        }
+    }
     progress(&format!(
         "fitted in {iterations} iterations; replaying the recording on the calibrated scene"
     ));
     let after = replay(&rounds.stage.scene, rec)?;
     Ok(Calibration {
         keys,
-        effects: rounds.trials,
+        effects: trials,
         switches: rounds.switches,
+        removed: rounds.removed,
         outputs,
         left_out,
         before,
@@ -476,93 +580,6 @@ fn unexcited_outputs(data: &Dataset, drive: Drive) -> Vec<crate::ident::LeftOut>
     )
 }
 
-/// What the effect rounds leave: the last stage, each effect as last tried, the switch
-/// keys and starts of the accepted ones, and the fit iterations spent in all.
-struct Rounds {
-    stage: Stage,
-    trials: Vec<EffectTrial>,
-    switches: Vec<Switch>,
-    starts: Vec<(String, f64)>,
-    iterations: usize,
-}
-
-/// The effect rounds on the free keys' stage: each round tries every effect not yet
-/// accepted on the current stage (in parallel), accepts the one with the most evidence
-/// and polishes the stage from it; they end when no effect is supported.
-fn effect_rounds(
-    problem: &Problem,
-    mut stage: Stage,
-    effects: &[Effect],
-    driven: effects::Driven,
-    progress: &dyn Fn(&str),
-) -> Result<Rounds, CalibrateError> {
-    let mut iterations = stage.fit.iterations;
-    let mut trials: Vec<EffectTrial> = vec![];
-    let mut switches: Vec<Switch> = vec![];
-    let mut starts: Vec<(String, f64)> = vec![];
-    let mut remaining = effects.to_vec();
-    let mut round = 0;
-    while !remaining.is_empty() {
-        round += 1;
-        let names: Vec<&str> = remaining.iter().map(|e| e.name()).collect();
-        progress(&format!(
-            "effects, round {round}: fitting {} with the keys",
-            names.join(", ")
-        ));
-        let homes = remaining
-            .iter()
-            .map(|&e| effects::home(e, &stage.scene, driven))
-            .collect::<Result<Vec<_>, _>>()?;
-        let tried = homes
-            .par_iter()
-            .map(|h| problem.try_effect(&stage, h))
-            .collect::<Result<Vec<_>, _>>()?;
-        for (t, next) in &tried {
-            iterations += next.fit.iterations;
-            trials.retain(|old| old.effect != t.effect);
-            trials.push(t.clone());
-        }
-        let best = tried
-            .into_iter()
-            .zip(&homes)
-            .filter(|((t, _), _)| t.accepted)
-            .max_by(|((a, _), _), ((b, _), _)| a.delta_aic.total_cmp(&b.delta_aic));
-        let Some(((t, next), home)) = best else { break };
-        progress(&format!(
-            "effects, round {round}: {} accepted ({} = {}, AIC gain {:.0})",
-            t.effect.name(),
-            t.key,
-            crate::numtext::quantity(t.value, 4, crate::numtext::unit_key_or_name(&t.key)),
-            t.delta_aic
-        ));
-        switches.extend(home.switches.iter().map(|(k, v)| Switch {
-            effect: home.effect,
-            key: k.to_string(),
-            value: v.clone(),
-        }));
-        starts.push((home.key.to_string(), home.start));
-        remaining.retain(|&e| e != t.effect);
-        // An effect that removed next to nothing of the residual (a tenth of what
-        // acceptance asks) shows no sign in this recording: it is not tried again, as the
-        // rounds that follow start from a stage that fits better still.
-        remaining.retain(|&e| {
-            trials
-                .iter()
-                .find(|t| t.effect == e)
-                .is_none_or(|t| t.rss_reduction_pct >= 10.0 * crate::diagnose::MIN_RSS_REDUCTION)
-        });
-        stage = problem.polished(next)?;
-        iterations += stage.fit.iterations;
-    }
-    Ok(Rounds {
-        stage,
-        trials,
-        switches,
-        starts,
-        iterations,
-    })
-}
-
 /// Each fitted key of the final stage against the user's scene (for an effect's key the
 /// scene did not set, against where its fit started: the value its physics had).
 fn key_fits(scene: &Scene, stage: &Stage, starts: &[(String, f64)]) -> Vec<KeyFit> {
@@ -582,6 +599,7 @@ fn key_fits(scene: &Scene, stage: &Stage, starts: &[(String, f64)]) -> Vec<KeyFi
                 key: key.clone(),
                 before,
                 after: keys::get(&stage.scene, key).unwrap_or(before),
+                fitted: stage.fit.params[i],
                 std: if at_bound.is_some() {
                     None
                 } else {
@@ -589,6 +607,7 @@ fn key_fits(scene: &Scene, stage: &Stage, starts: &[(String, f64)]) -> Vec<KeyFi
                 },
                 at_bound,
                 held: stage.fit.weighting.holds(i) && stage.fit.held_by_belief(i),
+                confounded: false,
             }
         })
         .collect()

@@ -1,21 +1,27 @@
 //! The staged search of a calibration: the free keys fitted through the simulator (a
-//! stage), each effect tried on a stage from a scan over its key's range, and the evidence
-//! that decides whether the recording supports it.
+//! stage), an effect's key screened on a stage (scanned with the stage's keys held), an
+//! effect tried on a stage (its key fitted with the stage's), an effect the scene has
+//! weighed against its absence, and the evidence that decides each.
 
 use rayon::prelude::*;
 
 use super::{effects, keys, CalibrateError, EffectTrial, SceneReplay};
 use crate::diagnose::evidence::{effective_n, Gain};
 use crate::ident::data::Dataset;
-use crate::ident::fit::{fit_predictor, residuals, Fit, FitError, FitSettings, Weighting};
+use crate::ident::fit::{
+    fit_predictor, fit_predictor_quick, residuals, Fit, FitError, FitSettings, Weighting,
+};
 use crate::ident::model::{ParamSpec, Predictor};
 use crate::record::Recording;
 use crate::scene::Scene;
 
-/// One fit of the scene's keys: the scene as fitted (a key at a bound keeps its start).
+/// One fit of the scene's keys: the scene as fitted (a key that is no estimate keeps its
+/// start), and as the fit reached it.
 #[derive(Clone)]
 pub(super) struct Stage {
     pub scene: Scene,
+    /// The scene at every fitted value, estimate or not: where a fit cut short goes on.
+    pub reached: Scene,
     pub free: Vec<String>,
     pub fit: Fit,
     pub specs: Vec<ParamSpec>,
@@ -24,6 +30,11 @@ pub(super) struct Stage {
 impl Stage {
     pub fn at_bound(&self, i: usize) -> Option<f64> {
         crate::ident::bound_reached(self.fit.params[i], self.specs[i].lo, self.specs[i].hi)
+    }
+
+    /// The fit's effective residual counts ([`effective_n`]).
+    pub fn effective_n(&self, data: &Dataset) -> Vec<f64> {
+        effective_n(data, &self.fit.predicted)
     }
 }
 
@@ -38,6 +49,37 @@ pub(super) struct Problem<'a> {
     pub data: Dataset,
     /// How every fit after the first stage weighs outputs and beliefs (the first stage's).
     pub weighting: Weighting,
+    /// The recording's first part, where effects are raced ([`Problem::explore`]); `None`
+    /// where the recording is short enough to race on whole.
+    pub explore: Option<(Recording, Dataset)>,
+    /// The free keys the recording cannot tell apart from the others, held at the scene's
+    /// values ([`Problem::determined`]), in the order they were held.
+    pub held: std::sync::Mutex<Vec<String>>,
+    /// The windows a tracked pose is compared over (`data`'s pose is already so).
+    pub windows: Option<super::pose_windows::PoseWindows>,
+}
+
+/// The span from which a recording's effects are raced on its first part only, s, and
+/// the least span that part covers: a race only ranks effects for their full trials on the
+/// whole recording, and on a long recording of a repeated pattern (a robot's laps, a
+/// joystick's random demands) its first part ranks them as well at a fraction of the
+/// work. A shorter recording is raced whole: its parts differ (SysId's quasistatic ramps
+/// come before the steps that clip).
+pub(super) const EXPLORE_FROM_S: f64 = 60.0;
+/// The least span an exploration covers, s (and [`EXPLORE_SHARE`] of the recording).
+pub(super) const EXPLORE_MIN_S: f64 = 20.0;
+/// Share of a long recording's span its effects are raced on.
+pub(super) const EXPLORE_SHARE: f64 = 1.0 / 3.0;
+
+/// Rows of `rec`'s first part to race effects on; `None` where it is raced whole.
+pub(super) fn exploration_rows(rec: &Recording) -> Option<usize> {
+    let (t0, t1) = (*rec.t_s.first()?, *rec.t_s.last()?);
+    if t1 - t0 < EXPLORE_FROM_S {
+        return None;
+    }
+    let span = (EXPLORE_SHARE * (t1 - t0)).max(EXPLORE_MIN_S);
+    let rows = rec.t_s.iter().take_while(|&&t| t - t0 <= span).count();
+    (rows >= crate::diagnose::MIN_SAMPLES).then_some(rows)
 }
 
 /// Restarts of the first stage's fit at most ([`Problem::first_stage`]).
@@ -47,9 +89,61 @@ const MAX_RESTARTS: usize = 3;
 const RESTART_GAIN: f64 = 0.01;
 
 /// Iteration limit of each fit through the simulator.
-const MAX_ITERATIONS: usize = 30;
+pub(super) const MAX_ITERATIONS: usize = 30;
+
+/// Iterations of an effect's race ([`Problem::race`]): enough to leave the scan's grid
+/// and settle the other keys' first response to the effect.
+const RACE_ITERATIONS: usize = 3;
+
+/// An effect the model has, weighed against its absence ([`Problem::weigh_present`]).
+pub(super) struct Presence {
+    /// What the stage, with the effect, gains over the fit without it.
+    pub gain: Gain,
+    /// The stage with the effect taken out (its key at its off value), the other keys
+    /// refitted.
+    pub off: Stage,
+}
 
 impl Problem<'_> {
+    /// The problem on the recording's first part ([`exploration_rows`]), weighed alike;
+    /// the problem itself where there is none.
+    pub fn explore(&self) -> Problem<'_> {
+        match &self.explore {
+            Some((rec, data)) => Problem {
+                rec,
+                belief: self.belief,
+                free: self.free.clone(),
+                signed: self.signed.clone(),
+                data: data.clone(),
+                weighting: self.weighting.clone(),
+                explore: None,
+                held: Default::default(),
+                windows: self.windows.clone(),
+            },
+            None => Problem {
+                rec: self.rec,
+                belief: self.belief,
+                free: self.free.clone(),
+                signed: self.signed.clone(),
+                data: self.data.clone(),
+                weighting: self.weighting.clone(),
+                explore: None,
+                held: Default::default(),
+                windows: self.windows.clone(),
+            },
+        }
+    }
+
+    /// The weighted residual sum of squares of `scene` replayed on the problem's recording.
+    pub fn rss_of(&self, scene: &Scene, free: &[String]) -> Result<f64, CalibrateError> {
+        let model = SceneReplay::with_signed(scene, self.rec, free, &self.signed)?
+            .windowed(self.windows.clone());
+        let p = values(scene, free)?;
+        Ok(model
+            .predict(&p, &self.data)
+            .map_or(f64::INFINITY, |y| self.cost_of(&y)))
+    }
+
     /// The first stage: the `free` keys of `scene` fitted from its values in the two
     /// passes of [`crate::ident::fit_weighted`] (outputs weighted by their residual
     /// floored at their noise; a key whose belief the user's scene states,
@@ -61,11 +155,12 @@ impl Problem<'_> {
             crate::ident::fit_weighted(model, &self.data, slots, MAX_ITERATIONS, vec![start])
         })?;
         self.weighting = stage.fit.weighting.clone();
+        let stage = self.determined(stage)?;
         // The simulator's play and friction make the cost rough: a fit stops in a dent
         // that a restart (its damping reset) leaves. Restarted while that gains.
         let mut stage = stage;
         for _ in 0..MAX_RESTARTS {
-            let again = self.fit(&stage.scene, free)?;
+            let again = self.fit(&stage.scene, &stage.free)?;
             let gained = 1.0 - again.fit.cost / stage.fit.cost;
             if gained > 0.0 {
                 stage = again;
@@ -80,30 +175,77 @@ impl Problem<'_> {
     /// Fits the `free` keys of `scene` from its values with the calibration's weighting.
     pub fn fit(&self, scene: &Scene, free: &[String]) -> Result<Stage, CalibrateError> {
         self.stage(scene, free, |model, slots, start| {
+            fit_predictor(model, &self.data, &self.settings(slots, vec![start]))
+        })
+    }
+
+    fn settings(&self, slots: &[usize], starts: Vec<Vec<f64>>) -> FitSettings {
+        FitSettings {
+            free: slots.to_vec(),
+            weighting: self.weighting.clone(),
+            max_iterations: MAX_ITERATIONS,
+            starts,
+        }
+    }
+
+    /// [`Problem::fit`] cut short after `iterations`, without the covariance: a race's
+    /// fit, whose standard deviations nobody reads (its scene is where it ended).
+    fn fit_for(
+        &self,
+        scene: &Scene,
+        free: &[String],
+        iterations: usize,
+    ) -> Result<Stage, CalibrateError> {
+        self.stage_of(scene, free, true, |model, slots, start| {
             let settings = FitSettings {
-                free: slots.to_vec(),
-                weighting: self.weighting.clone(),
-                max_iterations: MAX_ITERATIONS,
-                starts: vec![start],
+                max_iterations: iterations,
+                ..self.settings(slots, vec![start])
             };
-            fit_predictor(model, &self.data, &settings)
+            fit_predictor_quick(model, &self.data, &settings, false)
+        })
+    }
+
+    /// [`Problem::fit_raced`] without the covariance: for a fit whose cost alone is read
+    /// (an effect's absence, a null fit), its scene where it ended.
+    fn fit_quick(
+        &self,
+        scene: &Scene,
+        free: &[String],
+        others: Vec<Vec<f64>>,
+    ) -> Result<Stage, CalibrateError> {
+        self.stage_of(scene, free, true, |model, slots, start| {
+            let mut starts = vec![start];
+            starts.extend(others.iter().cloned());
+            let race = starts.len() > 1;
+            fit_predictor_quick(model, &self.data, &self.settings(slots, starts), race)
         })
     }
 
     /// The stage `fit` reaches from `scene`'s values of the `free` keys. A key that ends at
-    /// a bound, or that neither the recording nor a belief determines, keeps its start.
+    /// a bound, that neither the recording nor a belief determines, or whose standard
+    /// deviation exceeds its value, keeps its start: none of those is an estimate.
     fn stage(
         &self,
         scene: &Scene,
         free: &[String],
         fit: impl Fn(&SceneReplay, &[usize], Vec<f64>) -> Result<Fit, FitError>,
     ) -> Result<Stage, CalibrateError> {
+        self.stage_of(scene, free, false, fit)
+    }
+
+    /// [`Problem::stage`]; `quick`: the fit has no covariance, and its scene is where it
+    /// ended.
+    fn stage_of(
+        &self,
+        scene: &Scene,
+        free: &[String],
+        quick: bool,
+        fit: impl Fn(&SceneReplay, &[usize], Vec<f64>) -> Result<Fit, FitError>,
+    ) -> Result<Stage, CalibrateError> {
         let model = SceneReplay::with_signed(scene, self.rec, free, &self.signed)?
-            .believing(self.belief, &self.free)?;
-        let start: Vec<f64> = free
-            .iter()
-            .map(|k| keys::get(scene, k))
-            .collect::<Result<_, _>>()?;
+            .believing(self.belief, &self.free)?
+            .windowed(self.windows.clone());
+        let start = values(scene, free)?;
         let fit =
             fit(&model, &(0..free.len()).collect::<Vec<_>>(), start.clone()).map_err(|e| {
                 CalibrateError::Fit {
@@ -115,7 +257,9 @@ impl Problem<'_> {
         let kept: Vec<f64> = (0..free.len())
             .map(|i| {
                 let b = crate::ident::bound_reached(fit.params[i], specs[i].lo, specs[i].hi);
-                if b.is_some() || fit.std[i].is_none() {
+                // A fit without its covariance (a quick one) keeps where it ended.
+                let estimate = fit.std[i].is_some_and(|s| s < fit.params[i].abs());
+                if !quick && (b.is_some() || !estimate) {
                     start[i]
                 } else {
                     fit.params[i]
@@ -124,6 +268,7 @@ impl Problem<'_> {
             .collect();
         Ok(Stage {
             scene: model.scene_with(&kept)?,
+            reached: model.scene_with(&fit.params)?,
             free: free.to_vec(),
             fit,
             specs,
@@ -131,7 +276,7 @@ impl Problem<'_> {
     }
 
     /// The scene with the free keys back at the user's values (accepted effects' keys kept).
-    fn with_beliefs(&self, scene: &Scene) -> Result<Scene, CalibrateError> {
+    pub fn with_beliefs(&self, scene: &Scene) -> Result<Scene, CalibrateError> {
         let beliefs: Vec<(String, f64)> = self
             .free
             .iter()
@@ -146,40 +291,123 @@ impl Problem<'_> {
     /// the gain of leaving it.
     pub fn polished(&self, stage: Stage) -> Result<Stage, CalibrateError> {
         let again = self.fit(&self.with_beliefs(&stage.scene)?, &stage.free)?;
-        Ok(if again.fit.cost < stage.fit.cost {
+        self.determined(if again.fit.cost < stage.fit.cost {
             again
         } else {
             stage
         })
     }
 
-    /// Where the effect's key starts its fit: the lowest cost of a scan over its search
-    /// range (a tenth to ten times its start, nine values a factor 1.78 apart; for a key of
-    /// either sign, nine values evenly across its range), the other
-    /// keys held. A play or a clipping limit moves the outputs in steps the gradient
-    /// cannot see across, so the fit must start in the right basin.
-    fn scan_start(&self, scene: &Scene, home: &effects::Home) -> Result<f64, CalibrateError> {
-        let model =
-            SceneReplay::with_signed(scene, self.rec, &[home.key.to_string()], &self.signed)?;
-        let values: Vec<f64> = (-4..=4)
+    /// The stage with the free keys the recording cannot tell apart held: while a
+    /// direction of the keys is determined by neither the recording nor a belief (a lifted
+    /// motor's speed alone shows two combinations of its resistance, torque constant,
+    /// inertia and friction), the user's free key with the largest share of it is held at
+    /// the scene's value ([`Problem::held`]) and the others refitted. Each held key is
+    /// reported as undetermined; what the recording does determine is fitted.
+    pub fn determined(&self, mut stage: Stage) -> Result<Stage, CalibrateError> {
+        while let Some(direction) = stage.fit.undetermined_direction.clone() {
+            let weakest = stage
+                .free
+                .iter()
+                .enumerate()
+                .filter(|(_, k)| self.free.contains(k))
+                .max_by(|a, b| direction[a.0].abs().total_cmp(&direction[b.0].abs()))
+                .map(|(i, k)| (i, k.clone()));
+            let Some((i, key)) = weakest else { break };
+            if stage.free.len() < 2 {
+                break;
+            }
+            let start = keys::get(self.belief, &key)?;
+            let scene = keys::set(&stage.reached, &[(key.clone(), start)])?;
+            let mut free = stage.free.clone();
+            free.remove(i);
+            self.held
+                .lock()
+                .expect("no fit panics holding it")
+                .push(key);
+            stage = self.fit(&scene, &free)?;
+        }
+        Ok(stage)
+    }
+
+    /// The values of the effect's key a scan tries: a tenth to ten times its start, nine
+    /// values a factor 1.78 apart; for a key of either sign, nine values evenly across its
+    /// range.
+    fn scan_values(home: &effects::Home) -> Vec<f64> {
+        (-4..=4)
             .map(|i| match home.signed_range {
                 Some(range) => range * i as f64 / 4.0,
                 None => home.start * 10f64.powf(i as f64 / 4.0),
             })
-            .collect();
-        let costs: Vec<f64> = values
+            .collect()
+    }
+
+    /// Each value of the scan on `scene` (the effect switched on), the other keys held:
+    /// the value and the outputs, `None` where the simulation diverged.
+    fn scan(
+        &self,
+        scene: &Scene,
+        home: &effects::Home,
+    ) -> Result<Vec<(f64, Option<Vec<Vec<f64>>>)>, CalibrateError> {
+        let model =
+            SceneReplay::with_signed(scene, self.rec, &[home.key.to_string()], &self.signed)?
+                .windowed(self.windows.clone());
+        Ok(Self::scan_values(home)
             .par_iter()
-            .map(|&v| {
-                model.predict(&[v], &self.data).map_or(f64::INFINITY, |y| {
-                    residuals(&self.data, &y, &self.weighting.outputs)
-                        .iter()
-                        .map(|r| r * r)
-                        .sum()
-                })
+            .map(|&v| (v, model.predict(&[v], &self.data).ok()))
+            .collect())
+    }
+
+    /// The weighted residual sum of squares of `predicted`.
+    fn cost_of(&self, predicted: &[Vec<f64>]) -> f64 {
+        residuals(&self.data, predicted, &self.weighting.outputs)
+            .iter()
+            .map(|r| r * r)
+            .sum()
+    }
+
+    /// The lowest-cost value of a scan on `scene` (its start where nothing simulated), and
+    /// its outputs. A play or a clipping limit moves the outputs in steps the gradient
+    /// cannot see across, so a fit must start in the right basin.
+    fn scan_start(
+        &self,
+        scene: &Scene,
+        home: &effects::Home,
+    ) -> Result<(f64, Option<Vec<Vec<f64>>>, f64), CalibrateError> {
+        let scanned = self.scan(scene, home)?;
+        let best = scanned
+            .into_iter()
+            .filter(|(_, y)| y.is_some())
+            .map(|(v, y)| {
+                let cost = self.cost_of(y.as_ref().expect("filtered"));
+                (v, y, cost)
             })
-            .collect();
-        let best = (0..values.len()).fold(0, |b, i| if costs[i] < costs[b] { i } else { b });
-        Ok(values[best])
+            .reduce(|a, b| if b.2 < a.2 { b } else { a });
+        Ok(best.unwrap_or((home.start, None, f64::INFINITY)))
+    }
+
+    /// An effect's key raced on a stage: scanned (the other keys held) from the stage's
+    /// values and from the beliefs (a missing effect can drag the free keys far from the
+    /// machine, into a basin where the effect looks like no help), then fitted with the
+    /// stage's keys for [`RACE_ITERATIONS`] from each scan's best; the better fit is
+    /// the race's. What it gains over the
+    /// stage after those few iterations ranks the effects for their full trials.
+    pub fn race(&self, stage: &Stage, home: &effects::Home) -> Result<Stage, CalibrateError> {
+        let mut free = stage.free.clone();
+        free.push(home.key.to_string());
+        let on_stage = effects::switched_on(&stage.scene, home)?;
+        let believed = effects::switched_on(&self.with_beliefs(&stage.scene)?, home)?;
+        // From each base's best scan: the effect's key and the others interact (a speed
+        // loop's set-point is the torque constant's), and the lower scan can be the wrong
+        // basin.
+        let from = |base: Scene| -> Result<Stage, CalibrateError> {
+            let (value, _, _) = self.scan_start(&base, home)?;
+            let start = keys::set(&base, &[(home.key.to_string(), value)])?;
+            self.fit_for(&start, &free, RACE_ITERATIONS)
+        };
+        let (a, b) = rayon::join(|| from(on_stage), || from(believed));
+        let (a, b) = (a?, b?);
+        Ok(if b.fit.cost < a.fit.cost { b } else { a })
     }
 
     /// The fit moved on while the effect's key ends at the edge of its search window where
@@ -213,43 +441,26 @@ impl Problem<'_> {
         Ok(stage)
     }
 
-    /// The effect's key fitted with the stage's, and the evidence for it.
+    /// The effect's key fitted with the stage's, going on from its race ([`Problem::race`]),
+    /// and the evidence for it against the stage.
     pub fn try_effect(
         &self,
         stage: &Stage,
         home: &effects::Home,
+        raced: &Stage,
     ) -> Result<(EffectTrial, Stage), CalibrateError> {
-        let mut free = stage.free.clone();
-        free.push(home.key.to_string());
-        // From the stage's values, and from the beliefs: a missing effect can drag the
-        // free keys far from the machine, into a basin the effect's fit does not leave.
-        let bases = [stage.scene.clone(), self.with_beliefs(&stage.scene)?];
-        let mut best: Option<Stage> = None;
-        for base in bases {
-            let scan = effects::Home {
-                start: self.scan_start(&effects::switched_on(&base, home)?, home)?,
-                ..home.clone()
-            };
-            let next = self.fit(&effects::switched_on(&base, &scan)?, &free)?;
-            if best.as_ref().is_none_or(|b| next.fit.cost < b.fit.cost) {
-                best = Some(next);
-            }
-        }
-        let next = best.expect("a start was fitted");
-        let n_stage = effective_n(&self.data, &stage.fit.predicted);
-        let next = self.beyond_the_window(next, home, &free)?;
+        let next = self.fit(&raced.reached, &raced.free)?;
+        let next = self.beyond_the_window(next, home, &raced.free)?;
+        let n_stage = stage.effective_n(&self.data);
         // The gain is the effect's only if the stage's own physics, refitted from where the
         // effect's fit ended, does not reach it: the rough play or limit may have led the
         // free keys out of a poor minimum, which is no evidence for the effect.
-        let fitted: Vec<(String, f64)> = stage
-            .free
-            .iter()
-            .map(|k| Ok((k.clone(), keys::get(&next.scene, k)?)))
-            .collect::<Result<_, CalibrateError>>()?;
         // The null fit can only lower the reference's cost: an effect that fails against
         // the stage fails against it too, and needs no null fit.
         let null = if Gain::of(&self.data, &stage.fit, &n_stage, &next.fit).passes() {
-            Some(self.fit(&keys::set(&stage.scene, &fitted)?, &stage.free)?)
+            let fitted = values(&next.scene, &stage.free)?;
+            let pairs: Vec<(String, f64)> = stage.free.iter().cloned().zip(fitted).collect();
+            Some(self.fit_quick(&keys::set(&stage.scene, &pairs)?, &stage.free, vec![])?)
         } else {
             None
         };
@@ -257,35 +468,78 @@ impl Problem<'_> {
             Some(null) if null.fit.cost < stage.fit.cost => null,
             _ => stage,
         };
-        let n_ref = effective_n(&self.data, &reference.fit.predicted);
-        Ok((self.trial(home, reference, &n_ref, &next, &free), next))
+        let n_ref = reference.effective_n(&self.data);
+        Ok((self.trial(home, reference, &n_ref, &next), next))
+    }
+
+    /// An effect the model has, weighed against its absence: the stage's other keys fitted
+    /// with the effect's key at its off value (from the stage and from the beliefs,
+    /// raced), and the stage's gain over that (its key counted as fitted).
+    pub fn weigh_present(
+        &self,
+        stage: &Stage,
+        home: &effects::Home,
+    ) -> Result<Presence, CalibrateError> {
+        let off_value = home
+            .off
+            .expect("only effects that can be taken out are weighed");
+        let without = [(home.key.to_string(), off_value)];
+        let free: Vec<String> = stage
+            .free
+            .iter()
+            .filter(|k| *k != home.key)
+            .cloned()
+            .collect();
+        let off_scene = keys::set(&stage.scene, &without)?;
+        let believed = keys::set(&self.with_beliefs(&stage.scene)?, &without)?;
+        let off = self.fit_quick(&off_scene, &free, vec![values(&believed, &free)?])?;
+        let n_off = off.effective_n(&self.data);
+        let gain = if free.len() < stage.free.len() {
+            Gain::of(&self.data, &off.fit, &n_off, &stage.fit)
+        } else {
+            Gain::of_prediction(&self.data, &off.fit, &n_off, &stage.fit.predicted)
+        };
+        Ok(Presence { gain, off })
     }
 
     /// The evidence for the effect fitted in `next` against `reference`, whose effective
-    /// residual counts are `n_ref`.
+    /// residual counts are `n_ref`. Accepted only where the gain passes the rule and the
+    /// key is an estimate: not at a bound, determined by the recording, and further from
+    /// its off value than its standard deviation (a strength the recording cannot tell
+    /// from none is no finding).
     fn trial(
         &self,
         home: &effects::Home,
         reference: &Stage,
         n_ref: &[f64],
         next: &Stage,
-        free: &[String],
     ) -> EffectTrial {
         let gain = Gain::of(&self.data, &reference.fit, n_ref, &next.fit);
-        let i = free.len() - 1;
+        let i = next.free.len() - 1;
         let at_bound = next.at_bound(i);
+        let value = next.fit.params[i];
+        let std = next.fit.std[i];
+        let off = home.off.unwrap_or(0.0);
+        let distinct = std.is_some_and(|s| (value - off).abs() > s);
         EffectTrial {
             effect: home.effect,
             key: home.key.to_string(),
-            value: next.fit.params[i],
-            std: next.fit.std[i],
+            value,
+            std,
             at_bound,
             delta_aic: gain.delta_aic,
             rss_reduction_pct: 100.0 * gain.reduction,
-            // A key the recording does not determine (a limit above every command) is
-            // not what earned a gain.
-            accepted: gain.passes() && at_bound.is_none() && next.fit.std[i].is_some(),
+            accepted: gain.passes() && at_bound.is_none() && distinct,
+            removed: false,
+            raced_only: false,
+            kept: false,
+            against_absence: None,
             scene_value: home.in_scene.then_some(home.start),
         }
     }
+}
+
+/// The values of `free` keys in `scene`.
+fn values(scene: &Scene, free: &[String]) -> Result<Vec<f64>, CalibrateError> {
+    free.iter().map(|k| keys::get(scene, k)).collect()
 }

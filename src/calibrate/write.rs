@@ -82,8 +82,31 @@ pub fn calibrated_text(
             format!("set by --set for the calibration against {source} (was {was})")
         })?;
     }
-    // A key at a bound or undetermined is no estimate: the scene keeps its value.
-    for k in c.keys.iter().filter(|k| k.at_bound.is_none()) {
+    // A key at a bound, undetermined, or less certain than its value is no estimate: the
+    // scene keeps its value, and says why where the fit had one.
+    for k in c.keys.iter().filter(|k| !k.calibrated()) {
+        let (Some(std), None) = (k.std, k.at_bound) else {
+            continue;
+        };
+        let unit = unit_of_key(&k.key);
+        set_text(&mut doc, &k.key, &format!("{:e}", k.before), |_| {
+            format!(
+                "not calibrated against {source}: fitted {}, its standard deviation exceeds its value, so the recording cannot tell it from zero; kept",
+                estimate(k.fitted, Some(std), unit)
+            )
+        })?;
+    }
+    for r in &c.removed {
+        let unit = unit_of_key(&r.key);
+        set_text(&mut doc, &r.key, &format!("{:e}", r.off), |_| {
+            format!(
+                "calibrated against {source}: {} removed, the recording does not support it (was {})",
+                r.effect.name(),
+                quantity(r.was, 6, unit)
+            )
+        })?;
+    }
+    for k in c.keys.iter().filter(|k| k.calibrated()) {
         let Some(std) = k.std else { continue };
         let held = if k.held {
             " (held by its stated belief: the recording determines it less well)"
@@ -168,6 +191,16 @@ fn key_table(s: &mut String, c: &Calibration) {
         let unit = unit_of_key(&k.key);
         let head = format!("{:<30} {:<10} {:>12}", k.key, unit, sig(k.before, 6));
         let _ = match (k.at_bound, k.std) {
+            (None, None) if k.confounded => writeln!(
+                s,
+                "{head}   {:<30} not told apart from the other keys by the recording: held at the scene's value",
+                sig(k.after, 6)
+            ),
+            (None, Some(std)) if !k.calibrated() => writeln!(
+                s,
+                "{head}   {:<30} its standard deviation exceeds its value: the scene keeps its value",
+                estimate(k.fitted, Some(std), "")
+            ),
             (Some(b), _) => writeln!(
                 s,
                 "{head}   at bound {}: not an estimate; the scene keeps its value (check the belief or the model)",
@@ -186,6 +219,54 @@ fn key_table(s: &mut String, c: &Calibration) {
             (None, Some(std)) => writeln!(s, "{head}   {}", estimate(k.after, Some(std), "")),
         };
     }
+    for r in &c.removed {
+        let unit = unit_of_key(&r.key);
+        let _ = writeln!(
+            s,
+            "{:<30} {:<10} {:>12}   {:<30} removed: the recording does not support {}",
+            r.key,
+            unit,
+            sig(r.was, 6),
+            sig(r.off, 6),
+            r.effect.name()
+        );
+    }
+}
+
+/// What became of an effect tried, in words.
+fn verdict(t: &super::EffectTrial, unit: &str) -> String {
+    let kept = |was: Option<f64>| match was {
+        Some(was) => format!("the scene keeps its {}", quantity(was, 4, unit)),
+        None => "not added".to_string(),
+    };
+    match (t.accepted, t.scene_value, t.at_bound) {
+        _ if t.removed => match t.scene_value {
+            Some(was) => format!(
+                "removed: the scene had it at {}; without it the model fits as well (AIC gain and residual: the effect against none)",
+                quantity(was, 4, unit)
+            ),
+            None => "not supported: accepted in a round, but without it the model fits as well (AIC gain and residual: the effect against none)".to_string(),
+        },
+        (false, Some(was), _) if t.kept => format!(
+            "kept: the recording supports the scene's {} (AIC gain and residual: the effect against none)",
+            quantity(was, 4, unit)
+        ),
+        (true, Some(was), _) => format!(
+            "accepted: refined in the scene (the scene had it at {})",
+            quantity(was, 4, unit)
+        ),
+        (true, None, _) => "accepted: added to the scene".to_string(),
+        _ if t.raced_only => format!(
+            "not tried in full: its race on the recording's first part gained less than others'; {}",
+            kept(t.scene_value)
+        ),
+        (false, was, Some(b)) => format!(
+            "not supported: the key ended at its bound {}; {}",
+            quantity(b, 4, unit),
+            kept(was)
+        ),
+        (false, was, None) => format!("not supported by the recording: {}", kept(was)),
+    }
 }
 
 /// The text `agvsim calibrate` prints: each key before and after, then each fitted output's
@@ -202,20 +283,7 @@ pub fn render(c: &Calibration) -> String {
         );
         for t in &c.effects {
             let unit = unit_of_key(&t.key);
-            let verdict = match (t.accepted, t.scene_value, t.at_bound) {
-                (true, Some(was), _) => format!(
-                    "accepted: refined in the scene (the scene had it at {})",
-                    quantity(was, 4, unit)
-                ),
-                (true, None, _) => "accepted: added to the scene".to_string(),
-                (false, _, Some(b)) => format!(
-                    "not supported: the key ended at its bound {}",
-                    quantity(b, 4, unit)
-                ),
-                (false, _, None) => {
-                    "not supported by the recording: the scene keeps its value".into()
-                }
-            };
+            let verdict = verdict(t, unit);
             // The residual's change; a fit that ended far off (at a bound) on a clean
             // record can multiply it by millions, which says no more than "worse".
             let change = -t.rss_reduction_pct;
@@ -224,13 +292,18 @@ pub fn render(c: &Calibration) -> String {
             } else {
                 change_pct(change)
             };
+            let aic = if t.delta_aic.is_finite() {
+                format!("{:.1}", t.delta_aic)
+            } else {
+                "-".to_string()
+            };
             let _ = writeln!(
                 s,
-                "{:<20} {:<32} {:>14} {:>9.1} {:>10}  {verdict}",
+                "{:<20} {:<32} {:>14} {:>9} {:>10}  {verdict}",
                 t.effect.name(),
                 t.key,
                 quantity(t.value, 4, unit),
-                t.delta_aic,
+                aic,
                 residual
             );
         }
@@ -283,9 +356,12 @@ pub fn json(c: &Calibration, scene: &str, recording: &str) -> serde_json::Value 
                 "key": k.key,
                 "scene": k.before,
                 "calibrated": k.after,
+                "fitted": k.fitted,
                 "std": k.std,
                 "at_bound": k.at_bound,
                 "held_by_belief": k.held,
+                "confounded": k.confounded,
+                "estimate": k.calibrated(),
             })
         })
         .collect();
@@ -313,6 +389,8 @@ pub fn json(c: &Calibration, scene: &str, recording: &str) -> serde_json::Value 
                 "delta_aic": t.delta_aic,
                 "rss_reduction_pct": t.rss_reduction_pct,
                 "accepted": t.accepted,
+                "removed": t.removed,
+                "raced_only": t.raced_only,
                 "scene_value": t.scene_value,
             })
         })
@@ -328,6 +406,7 @@ pub fn json(c: &Calibration, scene: &str, recording: &str) -> serde_json::Value 
         "keys": keys,
         "effects": effects,
         "switches": switches,
+        "removed": c.removed.iter().map(|r| serde_json::json!({"effect": r.effect.name(), "key": r.key, "was": r.was, "now": r.off})).collect::<Vec<_>>(),
         "replay_fit": fits,
         "left_out": c.left_out,
         "mean_fit_pct": {"original": mean_fit(&c.before, &c.outputs), "calibrated": mean_fit(&c.after, &c.outputs)},

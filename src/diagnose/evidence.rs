@@ -239,6 +239,25 @@ impl Gain {
         }
     }
 
+    /// `predicted` (one more parameter than `reference`, the others as the reference
+    /// fitted them: a screen of an effect's key) against `reference`; residuals weighted by
+    /// the reference's output weights.
+    pub fn of_prediction(
+        data: &Dataset,
+        reference: &Fit,
+        reference_n: &[f64],
+        predicted: &[Vec<f64>],
+    ) -> Gain {
+        let rss: f64 = crate::ident::fit::residuals(data, predicted, &reference.weighting.outputs)
+            .iter()
+            .map(|r| r * r)
+            .sum();
+        Gain {
+            delta_aic: likelihood_gain(data, &reference.predicted, reference_n, predicted) - 2.0,
+            reduction: 1.0 - rss / reference.rss(),
+        }
+    }
+
     /// Whether the gain passes the selection rule: an AIC gain above [`MIN_DELTA_AIC`] and
     /// at least [`MIN_RSS_REDUCTION`] of the residual removed.
     pub fn passes(&self) -> bool {

@@ -146,6 +146,10 @@ pub struct Fit {
     pub predicted: Vec<Vec<f64>>,
     /// The weighting used.
     pub weighting: Weighting,
+    /// A direction of the free parameters (search coordinates, unit length, in the order
+    /// of `free`) that neither the record nor a belief determines, where there is one: the
+    /// parameters with a large share of it can only be told apart by holding one.
+    pub undetermined_direction: Option<Vec<f64>>,
 }
 
 impl Fit {
@@ -378,28 +382,60 @@ impl Problem<'_> {
         let cols: Vec<Vec<f64>> = (0..z.len())
             .into_par_iter()
             .map(|c| {
-                let step = self.model.param_specs()[self.free[c]]
-                    .fd_step
-                    .max(COVARIANCE_FD_STEP);
+                let spec = &self.model.param_specs()[self.free[c]];
+                let step = spec.fd_step.max(COVARIANCE_FD_STEP);
                 let h = step * z[c].abs().max(1.0);
-                let at = |dz: f64| {
-                    let mut zc = z.to_vec();
-                    zc[c] += dz;
-                    self.residuals(&zc)
-                };
-                match (at(h), at(-h)) {
-                    (Some(a), Some(b)) => {
-                        a.iter().zip(&b).map(|(a, b)| (a - b) / (2.0 * h)).collect()
-                    }
-                    (Some(a), None) => a.iter().zip(r0).map(|(a, b)| (a - b) / h).collect(),
-                    (None, Some(b)) => r0.iter().zip(&b).map(|(a, b)| (a - b) / h).collect(),
-                    (None, None) => vec![0.0; r0.len()],
+                let column = |h: f64| self.central_column(z, r0, c, h);
+                if !spec.rough {
+                    return column(h);
                 }
+                // The smallest step whose derivative the next, four times wider, confirms
+                // within [`ROUGH_AGREEMENT`]; the widest tried where none does.
+                let mut here = column(h);
+                let mut h = h;
+                for _ in 0..ROUGH_WIDENINGS {
+                    let wider = column(4.0 * h);
+                    let diff: f64 = here
+                        .iter()
+                        .zip(&wider)
+                        .map(|(a, b)| (a - b) * (a - b))
+                        .sum::<f64>()
+                        .sqrt();
+                    let size: f64 = wider.iter().map(|b| b * b).sum::<f64>().sqrt();
+                    if diff <= ROUGH_AGREEMENT * size {
+                        break;
+                    }
+                    here = wider;
+                    h *= 4.0;
+                }
+                here
             })
             .collect();
         DMatrix::from_fn(r0.len(), z.len(), |i, j| cols[j][i])
     }
+
+    /// Column `c` of the Jacobian by a central difference of `h` (one-sided where a side
+    /// does not simulate; zero where neither does).
+    fn central_column(&self, z: &[f64], r0: &[f64], c: usize, h: f64) -> Vec<f64> {
+        let at = |dz: f64| {
+            let mut zc = z.to_vec();
+            zc[c] += dz;
+            self.residuals(&zc)
+        };
+        match (at(h), at(-h)) {
+            (Some(a), Some(b)) => a.iter().zip(&b).map(|(a, b)| (a - b) / (2.0 * h)).collect(),
+            (Some(a), None) => a.iter().zip(r0).map(|(a, b)| (a - b) / h).collect(),
+            (None, Some(b)) => r0.iter().zip(&b).map(|(a, b)| (a - b) / h).collect(),
+            (None, None) => vec![0.0; r0.len()],
+        }
+    }
 }
+
+/// How closely two derivatives of a rough cost over steps four times apart must agree
+/// (norm of their difference over the wider one's) for the narrower to be taken.
+const ROUGH_AGREEMENT: f64 = 0.3;
+/// Widenings of a rough parameter's covariance step at most (to 64 times the first).
+const ROUGH_WIDENINGS: usize = 3;
 
 /// Smallest finite-difference step of the covariance's Jacobian in the search coordinate
 /// (0.1 % of a log-scaled parameter).
@@ -449,6 +485,27 @@ pub fn fit_predictor(
     s: &FitSettings,
 ) -> Result<Fit, FitError> {
     best_of_starts(model, data, s, true, false)
+}
+
+/// [`fit_predictor`] without the covariance (its standard deviations `None`): for the
+/// intermediate fits of a search, whose uncertainty would be thrown away (`race`: the
+/// starts raced, as [`fit_raced`] races them).
+pub fn fit_predictor_quick(
+    model: &dyn Predictor,
+    data: &Dataset,
+    s: &FitSettings,
+    race: bool,
+) -> Result<Fit, FitError> {
+    best_of_starts(model, data, s, false, race)
+}
+
+/// [`fit_predictor`] with the starts raced, as [`fit_raced`] races them.
+pub fn fit_predictor_raced(
+    model: &dyn Predictor,
+    data: &Dataset,
+    s: &FitSettings,
+) -> Result<Fit, FitError> {
+    best_of_starts(model, data, s, true, true)
 }
 
 /// Runs the solver from each start and keeps the lowest cost; the covariance (one more
@@ -703,6 +760,7 @@ fn run_lm(pb: &Problem, max_iterations: usize, uncertainty: bool) -> Result<Fit,
         prior_sq,
         n_residuals: n_data,
         correlation_rows: uncertainty.correlation_rows,
+        undetermined_direction: uncertainty.weakest,
         iterations,
         evaluations,
         converged,
@@ -719,6 +777,7 @@ struct Uncertainty {
     prior_std: Vec<Option<f64>>,
     covariance: DMatrix<f64>,
     correlation_rows: usize,
+    weakest: Option<Vec<f64>>,
 }
 
 impl Uncertainty {
@@ -730,8 +789,25 @@ impl Uncertainty {
             prior_std: vec![None; d],
             covariance: DMatrix::zeros(d, d),
             correlation_rows: 1,
+            weakest: None,
         }
     }
+}
+
+/// The unit eigenvector of a symmetric information matrix with the smallest eigenvalue,
+/// where that eigenvalue lies below [`UNDETERMINED_SHARE`] of the largest (a direction
+/// nothing determines); `None` where every direction is determined.
+fn weakest_direction(m: &DMatrix<f64>) -> Option<Vec<f64>> {
+    let sym = (m + m.transpose()) * 0.5;
+    let eig = sym.symmetric_eigen();
+    let largest = eig.eigenvalues.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    let (k, &lambda) = eig
+        .eigenvalues
+        .iter()
+        .enumerate()
+        .min_by(|a, b| a.1.total_cmp(b.1))?;
+    (lambda <= UNDETERMINED_SHARE * largest || lambda <= 0.0)
+        .then(|| eig.eigenvectors.column(k).iter().copied().collect())
 }
 
 /// Fewest blocks the covariance's sandwich is estimated from: the residual's correlation
@@ -777,6 +853,7 @@ fn covariance(pb: &Problem, p: &[f64], jac: &DMatrix<f64>, r: &[f64]) -> Uncerta
         }
     }
     let (cov_z, undetermined) = symmetric_pinv(&info);
+    let weakest = weakest_direction(&info);
     let scale = pb.dp_dz(p);
     let physical =
         |m: &DMatrix<f64>| DMatrix::from_fn(d, d, |i, j| scale[i] * scale[j] * m[(i, j)]);
@@ -796,6 +873,7 @@ fn covariance(pb: &Problem, p: &[f64], jac: &DMatrix<f64>, r: &[f64]) -> Uncerta
             .collect(),
         covariance,
         correlation_rows: rows,
+        weakest,
     }
 }
 

@@ -30,6 +30,12 @@ pub struct ParamSpec {
     /// belief worth holding to (an effect's strength, a block's nuisance parameter), the
     /// record alone decides.
     pub belief_sd_rel: Option<f64>,
+    /// The cost is rough on the scale of the Jacobian's step in this parameter (a
+    /// simulator stepping gear play and friction as events on its time grid): the
+    /// covariance's derivative is taken over the smallest step at which it no longer
+    /// changes with the step ([`crate::ident::fit`]), so that it measures the trend, not
+    /// the roughness.
+    pub rough: bool,
 }
 
 /// One standard deviation of a rig's belief, as a fraction of it, where the rig does not
@@ -48,6 +54,7 @@ impl ParamSpec {
             hi,
             fd_step: 1e-6,
             belief_sd_rel: None,
+            rough: false,
         }
     }
 

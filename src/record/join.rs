@@ -107,6 +107,26 @@ impl Recording {
         )
     }
 
+    /// The first `rows` rows (all of them if there are fewer), with the metadata and the
+    /// segments that start within them: a recording that starts as this one does.
+    pub fn prefix(&self, rows: usize) -> Recording {
+        let n = rows.min(self.t_s.len());
+        Recording {
+            path: self.path.clone(),
+            meta: self.meta.clone(),
+            rig: self.rig.clone(),
+            t_s: self.t_s[..n].to_vec(),
+            names: self.names.clone(),
+            columns: self.columns.iter().map(|c| c[..n].to_vec()).collect(),
+            segment_starts: self
+                .segment_starts
+                .iter()
+                .copied()
+                .filter(|&s| s < n)
+                .collect(),
+        }
+    }
+
     /// Row ranges of the independent records.
     pub fn segments(&self) -> Vec<std::ops::Range<usize>> {
         super::segment_ranges(&self.segment_starts, self.t_s.len())

@@ -111,6 +111,26 @@ impl Drive {
 struct Channel {
     name: String,
     read: fn(&Snapshot) -> f64,
+    /// For an encoder-derived speed, the angle (or rim distance) whose mean rate over
+    /// the sample interval ending at the row is the output ([`encoder_source`]).
+    rate_of: Option<fn(&Snapshot) -> f64>,
+}
+
+/// The quantity an encoder counts, for the outputs the contract derives from encoders:
+/// `motor_speed_rad_s` (and each side's) and the wheel rim speeds are count differences
+/// over the sample interval, so a row holds the *mean* speed over the interval ending at
+/// it (the development set's convention, and what a rig's `sensors.motor_encoder_counts_per_rev`
+/// states), not the speed at the instant: at a 25 ms interval the two differ by half an
+/// interval's lag, which a fit would otherwise explain with a dead time. A gyro's yaw
+/// rate and a current are read at the instant.
+fn encoder_source(name: &str) -> Option<fn(&Snapshot) -> f64> {
+    match name {
+        "motor_speed_rad_s" | "left_motor_speed_rad_s" => Some(|s| s.sides[0].motor_angle_rad),
+        "right_motor_speed_rad_s" => Some(|s| s.sides[1].motor_angle_rad),
+        "left_wheel_speed_m_s" => Some(|s| s.sides[0].wheel_rim_distance_m),
+        "right_wheel_speed_m_s" => Some(|s| s.sides[1].wheel_rim_distance_m),
+        _ => None,
+    }
 }
 
 /// The drive-axis outputs (the left drive of the lifted simulator).
@@ -155,6 +175,9 @@ pub struct Replay {
     /// What the replay did to the recording's inputs that a reader must know: inputs
     /// beyond the scene's drive clipped, a DCMC fault that braked the drive.
     pub notes: Vec<String>,
+    /// The largest terminal voltage the simulator applied to a motor at the recording's
+    /// rows, V: what a DCMC or a base's speed loops asked of the bridges.
+    pub peak_terminal_v: f64,
 }
 
 impl Replay {
@@ -285,6 +308,7 @@ fn channels(rec: &Recording, drive: Drive) -> (Vec<Channel>, Vec<String>) {
                 found.push(Channel {
                     name: name.clone(),
                     read: *read,
+                    rate_of: encoder_source(name),
                 })
             }
             _ => missing.push(name.clone()),
@@ -348,9 +372,11 @@ pub fn replay(scene: &Scene, rec: &Recording) -> Result<Replay, ReplayError> {
     scene.sim.wheels_lifted = drive.lifted() || rec.rig == "drive_pair";
     let mut simulated = vec![Vec::with_capacity(rec.t_s.len()); chans.len()];
     let mut notes = clipped_inputs(&scene, drive, &inputs);
+    let mut peak_terminal_v = 0.0_f64;
     // Joined tests each start from their own state of rest.
     for rows in rec.segments() {
-        let (part, fault) = simulate_rows(&scene, rec, rows, drive, &inputs, &chans)?;
+        let (part, fault, peak) = simulate_rows(&scene, rec, rows, drive, &inputs, &chans)?;
+        peak_terminal_v = peak_terminal_v.max(peak);
         for (all, seg) in simulated.iter_mut().zip(part) {
             all.extend(seg);
         }
@@ -395,6 +421,7 @@ pub fn replay(scene: &Scene, rec: &Recording) -> Result<Replay, ReplayError> {
         outputs,
         not_compared,
         notes,
+        peak_terminal_v,
     })
 }
 
@@ -444,6 +471,10 @@ fn fault_note(scene: &Scene, rec: &Recording, t_s: f64, name: &str) -> String {
     )
 }
 
+/// What a segment's replay gives: each output at its rows, the first DCMC fault (when
+/// and which), and the largest terminal voltage at its rows, V.
+type Segment = (Vec<Vec<f64>>, Option<(f64, &'static str)>, f64);
+
 /// The simulator's outputs at rows `rows` of the recording, from rest at the pose the
 /// recording measures while the segment's first command holds (the scene's start where it
 /// measures none), driven by the held inputs.
@@ -454,7 +485,7 @@ fn simulate_rows(
     drive: Drive,
     inputs: &[Vec<f64>],
     chans: &[Channel],
-) -> Result<(Vec<Vec<f64>>, Option<(f64, &'static str)>), ReplayError> {
+) -> Result<Segment, ReplayError> {
     let mut scene = scene.clone();
     let seg_inputs: Vec<Vec<f64>> = inputs.iter().map(|c| c[rows.clone()].to_vec()).collect();
     let still = rows.start + rows_before_first_command_change(&seg_inputs);
@@ -472,6 +503,11 @@ fn simulate_rows(
         }
     }
     let mut sim = Sim::new(&scene)?;
+    // A replay's recorded inputs drive the motors: the wire matters only to coil
+    // readings compared with the recording's.
+    if !chans.iter().any(|c| c.name.starts_with("sensor_")) {
+        sim = sim.without_coils();
+    }
     let dt = sim.params().sim.dt_s;
     let t0 = rec.t_s[rows.start];
     let span_s = rec.t_s[rows.end - 1] - t0;
@@ -487,6 +523,10 @@ fn simulate_rows(
     let mut simulated = vec![Vec::with_capacity(rows.len()); chans.len()];
     let mut fault = None;
     let mut t_sim = 0.0;
+    // The encoders' counts at the last row, for the mean rates over each interval.
+    let mut counted: Vec<Option<f64>> = vec![None; chans.len()];
+    let mut peak_v = 0.0_f64;
+    let mut t_last = 0.0;
     for k in rows.clone() {
         if k > rows.start {
             // Step until the simulator reaches this row's time, holding the last input.
@@ -501,14 +541,25 @@ fn simulate_rows(
             }
         }
         let s = sim.snapshot();
-        for (c, out) in chans.iter().zip(simulated.iter_mut()) {
-            out.push((c.read)(&s));
+        for ((c, out), last) in chans.iter().zip(simulated.iter_mut()).zip(&mut counted) {
+            let value = match (c.rate_of, *last) {
+                (Some(count), Some(before)) if t_sim > t_last => {
+                    (count(&s) - before) / (t_sim - t_last)
+                }
+                _ => (c.read)(&s),
+            };
+            if let Some(count) = c.rate_of {
+                *last = Some(count(&s));
+            }
+            out.push(value);
         }
+        t_last = t_sim;
         if fault.is_none() {
             fault = s.dcmc_fault.map(|f| (rec.t_s[k], f));
         }
+        peak_v = peak_v.max(s.sides[0].voltage_v.abs().max(s.sides[1].voltage_v.abs()));
         let u: Vec<f64> = inputs.iter().map(|col| col[k]).collect();
         sim.set_actuation(drive.actuation(&u));
     }
-    Ok((simulated, fault))
+    Ok((simulated, fault, peak_v))
 }

@@ -150,6 +150,8 @@ pub struct Sim {
     last: LastStep,
     /// External commands in their dead time (`dcmc.command_delay_s` > 0).
     command_delay: Option<command_delay::CommandDelay>,
+    /// Whether the guide-wire coils are read each step (see [`Sim::without_coils`]).
+    coils_read: bool,
 }
 
 impl Sim {
@@ -204,7 +206,18 @@ impl Sim {
                 ..LastStep::default()
             },
             params,
+            coils_read: true,
         })
+    }
+
+    /// The same simulation with its guide-wire coils unread: their readings stay 0 and the
+    /// firmware sees no wire. For a run that nothing steers by the wire and whose coil
+    /// readings nobody looks at (a replay driven by a recording's voltages, demands or
+    /// velocity commands, comparing other outputs): the field of every wire segment at
+    /// both coils is a tenth of a step's work, and changes nothing else.
+    pub fn without_coils(mut self) -> Sim {
+        self.coils_read = false;
+        self
     }
 
     /// The run parameters.

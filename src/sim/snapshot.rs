@@ -22,6 +22,9 @@ pub struct SideSnapshot {
     pub wheel_angle_rad: f64,
     /// Wheel rim speed, m/s.
     pub wheel_rim_m_s: f64,
+    /// Distance the wheel's rim has turned through since the start, m: what a wheel
+    /// encoder counts, times the wheel's radius.
+    pub wheel_rim_distance_m: f64,
     /// Gear output angle minus wheel angle, rad (inside +/- half the play: teeth apart).
     pub backlash_gap_rad: f64,
     /// Torque through the gear teeth, N m at the wheel.
@@ -141,6 +144,7 @@ impl Sim {
                 wheel_speed_rad_s: d.wheel_speed_rad_s,
                 wheel_angle_rad: d.wheel_angle_rad,
                 wheel_rim_m_s: rims[i],
+                wheel_rim_distance_m: d.wheel_angle_rad * p.drivetrain.wheel.radius_m,
                 backlash_gap_rad: gap,
                 tooth_torque_nm: p.drivetrain.tooth_torque_nm(d),
                 tyre_force_n: t.force_n,

@@ -44,11 +44,16 @@ impl Sim {
         let pose = body_pose.frame();
 
         // 1. Sensors.
-        let sensors = self.read_coils(&pose, self.params.coils_m());
-        let rear = self
-            .params
-            .rear_coils_m()
-            .map(|c| self.read_coils(&pose, c));
+        let (sensors, rear) = if self.coils_read {
+            (
+                self.read_coils(&pose, self.params.coils_m()),
+                self.params
+                    .rear_coils_m()
+                    .map(|c| self.read_coils(&pose, c)),
+            )
+        } else {
+            ([0.0; 2], None)
+        };
         let bumper = self
             .params
             .bumper
@@ -319,7 +324,7 @@ impl Sim {
                     castor_forces[k] = [c * local[0] - s * local[1], s * local[0] + c * local[1]];
                 }
                 self.last.castor_force_n = castor_forces;
-                engine.step(&wheel_forces, &castor_forces);
+                engine.step(&wheel_forces, &castor_forces, &motion);
             }
         }
         mean

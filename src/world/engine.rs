@@ -183,8 +183,14 @@ impl Engine {
 
     /// Applies this step's forces (world frame, N) and advances the world by one step.
     /// `wheel_forces`: (body-frame contact point, world force) on the chassis;
-    /// `castor_forces`: world force at each castor's contact patch.
-    pub fn step(&mut self, wheel_forces: &[([f64; 2], [f64; 2])], castor_forces: &[[f64; 2]; 4]) {
+    /// `castor_forces`: world force at each castor's contact patch, `motion` the castors'
+    /// motion this step began with ([`Engine::castor_motion`]).
+    pub fn step(
+        &mut self,
+        wheel_forces: &[([f64; 2], [f64; 2])],
+        castor_forces: &[[f64; 2]; 4],
+        motion: &[CastorMotion; 4],
+    ) {
         let pose = self.pose();
         let before = self.world.bodies[self.chassis].rotation().angle();
         {
@@ -196,7 +202,6 @@ impl Engine {
                 b.add_force_at_point(v(*f), v(pose.to_world(*p)), false);
             }
         }
-        let motion = self.castor_motion();
         for (i, h) in self.castors.iter().enumerate() {
             let b = &mut self.world.bodies[*h];
             b.reset_forces(false);

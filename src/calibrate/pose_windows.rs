@@ -1,0 +1,178 @@
+//! A tracked pose compared over windows: each pose sample as the motion since the sample a
+//! window earlier, in the frame the vehicle had then (forward, left, turned), instead of
+//! where the vehicle is on the floor. A simulation whose dynamics are a little off drifts
+//! from a tracked path without bound, and the fit is then led by where the drift happens
+//! to put the vehicle; the motion over a window (the "relative pose error" odometry is
+//! judged by) carries the same physics, and a drift stays as short as the window. It is a
+//! multiple shooting of the pose: the recording is cut into windows, each restarted from
+//! the pose measured at its start, while the speeds, which the dynamics do not let drift,
+//! run on.
+
+use crate::ident::data::Dataset;
+
+/// Outputs of a tracked pose, in the order the windows transform them.
+const POSE: [&str; 3] = ["x_m", "y_m", "heading_rad"];
+
+/// The shortest window, s, and the share of the recording a window spans where that is
+/// longer: a window must hold enough motion to show the vehicle's geometry and dynamics
+/// above the tracker's noise, and short enough for the drift of a slightly wrong model
+/// to stay small.
+pub const MIN_WINDOW_S: f64 = 2.0;
+/// Share of a recording's span one window covers, where that is more than [`MIN_WINDOW_S`].
+pub const WINDOW_SHARE: f64 = 1.0 / 20.0;
+
+/// Where each row's window starts, for a dataset with a tracked pose.
+#[derive(Debug, Clone)]
+pub struct PoseWindows {
+    /// Output indices of `x_m`, `y_m`, `heading_rad` in the dataset.
+    columns: [usize; 3],
+    /// For each row, the row its window starts at: the first row of the window (the test
+    /// cut into windows from its start) with the whole pose measured; `None` for that row
+    /// itself and the rows before it.
+    anchors: Vec<Option<usize>>,
+    /// The window, s.
+    pub window_s: f64,
+}
+
+impl PoseWindows {
+    /// The windows of `data`, where it has all three pose outputs.
+    pub fn of(data: &Dataset) -> Option<PoseWindows> {
+        let columns = [
+            data.output_index(POSE[0])?,
+            data.output_index(POSE[1])?,
+            data.output_index(POSE[2])?,
+        ];
+        let span = data.t_s.last()? - data.t_s.first()?;
+        let window_s = (WINDOW_SHARE * span).max(MIN_WINDOW_S);
+        let measured = |k: usize| columns.iter().all(|&j| data.outputs[j][k].is_some());
+        let mut anchors = vec![None; data.len()];
+        for seg in data.segments() {
+            let t0 = data.t_s[seg.start];
+            let mut block = usize::MAX;
+            let mut anchor = None;
+            for k in seg.clone() {
+                let b = ((data.t_s[k] - t0) / window_s).floor() as usize;
+                if b != block {
+                    block = b;
+                    anchor = None;
+                }
+                if anchor.is_none() && measured(k) {
+                    anchor = Some(k);
+                }
+                anchors[k] = anchor.filter(|&a| a < k);
+            }
+        }
+        Some(PoseWindows {
+            columns,
+            anchors,
+            window_s,
+        })
+    }
+
+    /// The motion over each row's window, from a pose at every row: forward and left of
+    /// the window's start in its frame, m, and the turn since, rad.
+    fn relative(&self, pose: [&[f64]; 3], k: usize) -> Option<[f64; 3]> {
+        let j = self.anchors[k]?;
+        let (dx, dy) = (pose[0][k] - pose[0][j], pose[1][k] - pose[1][j]);
+        let (s, c) = pose[2][j].sin_cos();
+        Some([c * dx + s * dy, -s * dx + c * dy, pose[2][k] - pose[2][j]])
+    }
+
+    /// `data` with its pose outputs as motions over their windows (empty where the row or
+    /// its window's start is not measured, or the row has no window).
+    pub fn measured(&self, data: &Dataset) -> Dataset {
+        let mut out = data.clone();
+        let cells: Vec<Vec<f64>> = self
+            .columns
+            .iter()
+            .map(|&j| data.outputs[j].iter().map(|c| c.unwrap_or(f64::NAN)).collect())
+            .collect();
+        for k in 0..data.len() {
+            let moved = self
+                .relative([&cells[0], &cells[1], &cells[2]], k)
+                .filter(|m| m.iter().all(|v| v.is_finite()));
+            for (i, &j) in self.columns.iter().enumerate() {
+                out.outputs[j][k] = moved.map(|m| m[i]);
+            }
+        }
+        out
+    }
+
+    /// Simulated outputs `y` (`[output][row]`, the dataset's order) with the pose as
+    /// motions over the windows (0 where a row has none: its measured cell is empty).
+    pub fn simulated(&self, y: &mut [Vec<f64>]) {
+        let pose: Vec<Vec<f64>> = self.columns.iter().map(|&j| y[j].clone()).collect();
+        for k in 0..pose[0].len() {
+            let moved = self
+                .relative([&pose[0], &pose[1], &pose[2]], k)
+                .unwrap_or([0.0; 3]);
+            for (i, &j) in self.columns.iter().enumerate() {
+                y[j][k] = moved[i];
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn dataset(t: &[f64], pose: &[[f64; 3]]) -> Dataset {
+        Dataset {
+            name: "d".into(),
+            t_s: t.to_vec(),
+            input_names: vec![],
+            inputs: vec![],
+            output_names: POSE.iter().map(|s| s.to_string()).collect(),
+            outputs: (0..3)
+                .map(|i| pose.iter().map(|p| Some(p[i])).collect())
+                .collect(),
+            segment_starts: vec![0],
+        }
+    }
+
+    /// A vehicle driving a circle of radius 1 m at 1 rad/s, its tracked pose offset and
+    /// rotated (a tracker's frame): within every window the motion is the circle's chord
+    /// from the window's start in the vehicle's own frame, whatever the frame and wherever
+    /// on the circle.
+    #[test]
+    fn a_window_sees_the_motion_in_the_vehicles_own_frame() {
+        let t: Vec<f64> = (0..=100).map(|k| k as f64 * 0.1).collect();
+        let (x0, y0, a): (f64, f64, f64) = (5.0, -3.0, 0.7);
+        let pose: Vec<[f64; 3]> = t
+            .iter()
+            .map(|&t| {
+                let (x, y) = (t.sin(), 1.0 - t.cos());
+                let (s, c) = a.sin_cos();
+                [x0 + c * x - s * y, y0 + s * x + c * y, a + t]
+            })
+            .collect();
+        let d = dataset(&t, &pose);
+        let w = PoseWindows::of(&d).unwrap();
+        assert_eq!(w.window_s, MIN_WINDOW_S);
+        let m = w.measured(&d);
+        for k in 0..t.len() {
+            // Windows of 2 s: rows 0-19, 20-39, ...; each window's first row has none.
+            if k % 20 == 0 {
+                assert_eq!(m.outputs[0][k], None, "{k}");
+                continue;
+            }
+            let dt = t[k] - t[k - k % 20];
+            // The chord of an arc of dt rad on a unit circle, in the frame at its start.
+            let (fwd, left) = (dt.sin(), 1.0 - dt.cos());
+            assert!((m.outputs[0][k].unwrap() - fwd).abs() < 1e-9, "{k}");
+            assert!((m.outputs[1][k].unwrap() - left).abs() < 1e-9, "{k}");
+            assert!((m.outputs[2][k].unwrap() - dt).abs() < 1e-9, "{k}");
+        }
+        // A simulation of the same motion from another start compares as equal.
+        let mut y: Vec<Vec<f64>> = (0..3)
+            .map(|i| pose.iter().map(|p| p[i] + [1.0, 2.0, 0.0][i]).collect())
+            .collect();
+        w.simulated(&mut y);
+        for k in (0..t.len()).filter(|k| k % 20 != 0) {
+            for i in 0..3 {
+                assert!((y[i][k] - m.outputs[i][k].unwrap()).abs() < 1e-9);
+            }
+        }
+    }
+}

@@ -1,0 +1,385 @@
+//! The effect rounds of a calibration, on the stage of its free keys, as stepwise
+//! selection goes:
+//!
+//! 1. **Forward**, in rounds as the diagnosis adds effects: each effect tried is raced
+//!    (its key scanned from the stage and from the beliefs, then fitted with the stage's
+//!    keys for a few iterations; an effect the scene already has starts at the scene's
+//!    strength), the most promising are tried in full (the fit carried to convergence),
+//!    the one with the most evidence is accepted (added, or refined where the scene had
+//!    it), and the next round starts from that stage. They end when no effect is
+//!    supported.
+//! 2. **Backward**: every effect the model then has (the scene's own and those accepted)
+//!    is weighed against its absence on the final stage. A key fitted many standard
+//!    deviations from its off value is supported without more work; any other effect's
+//!    absence is fitted (the other keys refitted with it taken out), and the least
+//!    supported is removed, its key set to its off value (no play, no delay...), until
+//!    every one left is supported.
+//! 3. Where something was removed, the forward rounds run once more on what is left: an
+//!    effect the removed one had masked may now show.
+
+use rayon::prelude::*;
+
+use super::search::{Problem, Stage};
+use crate::diagnose::evidence::Gain;
+use super::{effects, CalibrateError, EffectTrial, Removal, Switch};
+use crate::diagnose::{MIN_DELTA_AIC, MIN_RSS_REDUCTION};
+use crate::ident::effects::Effect;
+
+/// Effects tried in full in a round at least: those whose race removed the most of the
+/// residual. A race is a few iterations from a start that a missing effect distorted, so
+/// it can rank the right effect below one that mimics it; the full trials decide.
+const FULL_TRIALS: usize = 3;
+
+/// Standard deviations between a fitted key and its off value beyond which its effect is
+/// supported without fitting its absence: the likelihood-ratio gain of a key `z` standard
+/// deviations from a value is about `z^2`, and the rule asks [`MIN_DELTA_AIC`] plus the
+/// key's own 2; twice that is kept as a margin for the rough costs of plays and limits.
+fn wald_margin() -> f64 {
+    2.0 * (MIN_DELTA_AIC + 2.0).sqrt()
+}
+
+/// What the effect rounds leave: the last stage, each effect as last tried, the switch
+/// keys and starts of the accepted ones, the effects removed, and the fit iterations spent.
+pub(super) struct Rounds {
+    pub stage: Stage,
+    pub trials: Vec<EffectTrial>,
+    pub switches: Vec<Switch>,
+    pub starts: Vec<(String, f64)>,
+    pub removed: Vec<Removal>,
+    pub iterations: usize,
+}
+
+impl Rounds {
+    /// Records a trial, replacing the effect's earlier one.
+    fn record(&mut self, t: EffectTrial) {
+        self.trials.retain(|old| old.effect != t.effect);
+        self.trials.push(t);
+    }
+
+    fn trial(&self, e: Effect) -> Option<&EffectTrial> {
+        self.trials.iter().find(|t| t.effect == e)
+    }
+}
+
+/// The effect rounds on the free keys' stage ([`self`]).
+pub(super) fn effect_rounds(
+    problem: &Problem,
+    stage: Stage,
+    effects: &[Effect],
+    driven: effects::Driven,
+    progress: &dyn Fn(&str),
+) -> Result<Rounds, CalibrateError> {
+    let mut r = Rounds {
+        iterations: stage.fit.iterations,
+        stage,
+        trials: vec![],
+        switches: vec![],
+        starts: vec![],
+        removed: vec![],
+    };
+    // The scene's own effects that can be taken out, as the user wrote them.
+    let scenes_own: Vec<Effect> = effects
+        .iter()
+        .copied()
+        .filter(|&e| {
+            effects::home(e, &r.stage.scene, driven)
+                .is_ok_and(|h| h.in_scene && h.off.is_some())
+        })
+        .collect();
+    forward(problem, &mut r, effects.to_vec(), driven, progress)?;
+    let present: Vec<Effect> = effects
+        .iter()
+        .copied()
+        .filter(|e| scenes_own.contains(e) || r.trial(*e).is_some_and(|t| t.accepted))
+        .filter(|&e| effects::off_value(e, driven).is_some())
+        .collect();
+    let removed = backward(problem, &mut r, present, &scenes_own, driven, progress)?;
+    if !removed.is_empty() {
+        let again: Vec<Effect> = effects
+            .iter()
+            .copied()
+            .filter(|e| !removed.contains(e))
+            .filter(|&e| {
+                effects::home(e, &r.stage.scene, driven).is_ok_and(|h| !h.in_scene)
+                    && !r.trial(e).is_some_and(|t| t.accepted)
+            })
+            .collect();
+        forward(problem, &mut r, again, driven, progress)?;
+    }
+    Ok(r)
+}
+
+/// The forward rounds: effects raced, the most promising tried in full, the best
+/// supported accepted, round after round.
+fn forward(
+    problem: &Problem,
+    r: &mut Rounds,
+    mut remaining: Vec<Effect>,
+    driven: effects::Driven,
+    progress: &dyn Fn(&str),
+) -> Result<(), CalibrateError> {
+    let mut round = 0;
+    while !remaining.is_empty() {
+        round += 1;
+        let names: Vec<&str> = remaining.iter().map(|e| e.name()).collect();
+        progress(&format!(
+            "effects, round {round}: racing {} (each key scanned, then fitted with the others for a few iterations)",
+            names.join(", ")
+        ));
+        let homes = remaining
+            .iter()
+            .map(|&e| effects::home(e, &r.stage.scene, driven))
+            .collect::<Result<Vec<_>, _>>()?;
+        // Raced on the recording's first part, against the stage there.
+        let explore = problem.explore();
+        let stage_rss = explore.rss_of(&r.stage.scene, &r.stage.free)?;
+        let raced = homes
+            .par_iter()
+            .map(|h| explore.race(&r.stage, h))
+            .collect::<Result<Vec<_>, _>>()?;
+        let gains: Vec<f64> = raced
+            .iter()
+            .map(|s| 1.0 - s.fit.rss() / stage_rss)
+            .collect();
+        for s in &raced {
+            r.iterations += s.fit.iterations;
+        }
+        let full = most_promising(&gains);
+        let tried_names: Vec<&str> = full.iter().map(|&i| homes[i].effect.name()).collect();
+        progress(&format!(
+            "effects, round {round}: fitting {} with the keys",
+            tried_names.join(", ")
+        ));
+        let tried = full
+            .par_iter()
+            .map(|&i| problem.try_effect(&r.stage, &homes[i], &raced[i]))
+            .collect::<Result<Vec<_>, _>>()?;
+        for (i, ((h, s), g)) in homes.iter().zip(&raced).zip(&gains).enumerate() {
+            if !full.contains(&i) {
+                r.record(raced_trial(h, s, *g));
+            }
+        }
+        for (t, next) in &tried {
+            r.iterations += next.fit.iterations;
+            r.record(t.clone());
+        }
+        let best = tried
+            .into_iter()
+            .zip(full.iter().map(|&i| &homes[i]))
+            .filter(|((t, _), _)| t.accepted)
+            .max_by(|((a, _), _), ((b, _), _)| a.delta_aic.total_cmp(&b.delta_aic));
+        let Some(((t, next), home)) = best else { break };
+        progress(&format!(
+            "effects, round {round}: {} accepted ({} = {}, AIC gain {:.0})",
+            t.effect.name(),
+            t.key,
+            crate::numtext::quantity(t.value, 4, crate::numtext::unit_key_or_name(&t.key)),
+            t.delta_aic
+        ));
+        r.switches.extend(home.switches.iter().map(|(k, v)| Switch {
+            effect: home.effect,
+            key: k.to_string(),
+            value: v.clone(),
+        }));
+        r.starts.push((home.key.to_string(), home.start));
+        remaining.retain(|&e| e != t.effect);
+        // An effect that removed next to nothing of the residual (a tenth of what
+        // acceptance asks) shows no sign in this recording: it is not tried again, as the
+        // rounds that follow start from a stage that fits better still.
+        let trials = &r.trials;
+        remaining.retain(|&e| {
+            trials
+                .iter()
+                .find(|t| t.effect == e)
+                .is_none_or(|t| t.rss_reduction_pct >= 10.0 * MIN_RSS_REDUCTION)
+        });
+        r.stage = problem.polished(next)?;
+        r.iterations += r.stage.fit.iterations;
+    }
+    Ok(())
+}
+
+/// The backward pass: each effect the model has weighed against its absence, the least
+/// supported removed, until every one left is supported. Returns the effects removed.
+fn backward(
+    problem: &Problem,
+    r: &mut Rounds,
+    mut undecided: Vec<Effect>,
+    scenes_own: &[Effect],
+    driven: effects::Driven,
+    progress: &dyn Fn(&str),
+) -> Result<Vec<Effect>, CalibrateError> {
+    let mut removed = vec![];
+    // Supported outright: fitted far from their off value.
+    undecided.retain(|&e| !clearly_supported(r, e, driven));
+    while !undecided.is_empty() {
+        let names: Vec<&str> = undecided.iter().map(|e| e.name()).collect();
+        progress(&format!(
+            "the model's effects: weighing {} against their absence",
+            names.join(", ")
+        ));
+        let homes = undecided
+            .iter()
+            .map(|&e| effects::home(e, &r.stage.scene, driven))
+            .collect::<Result<Vec<_>, _>>()?;
+        let weighed = homes
+            .par_iter()
+            .map(|h| problem.weigh_present(&r.stage, h))
+            .collect::<Result<Vec<_>, _>>()?;
+        for w in &weighed {
+            r.iterations += w.off.fit.iterations;
+        }
+        let weakest = (0..weighed.len())
+            .filter(|&i| !supports(&weighed[i].gain))
+            .min_by(|&a, &b| {
+                weighed[a]
+                    .gain
+                    .delta_aic
+                    .total_cmp(&weighed[b].gain.delta_aic)
+            });
+        let Some(weakest) = weakest else {
+            // Every one left is supported.
+            for (w, h) in weighed.iter().zip(&homes) {
+                let scene_value = (h.in_scene && scenes_own.contains(&h.effect)).then_some(h.start);
+                if let Some(t) = r.trials.iter_mut().find(|t| t.effect == h.effect) {
+                    t.kept = !t.accepted;
+                    t.against_absence = Some(w.gain.delta_aic);
+                    t.scene_value = t.scene_value.or(scene_value);
+                    if t.kept {
+                        // Reported as weighed: the scene's strength against none.
+                        t.value = h.start;
+                        t.std = None;
+                        t.at_bound = None;
+                        t.delta_aic = w.gain.delta_aic;
+                        t.rss_reduction_pct = 100.0 * w.gain.reduction;
+                    }
+                }
+            }
+            break;
+        };
+        let home = &homes[weakest];
+        let w = weighed.into_iter().nth(weakest).expect("an index of the list");
+        let was = crate::calibrate::keys::get(&r.stage.scene, home.key)?;
+        progress(&format!(
+            "the model's effects: {} removed ({} = {} is not supported by the recording; AIC gain {:.0} against its absence)",
+            home.effect.name(),
+            home.key,
+            crate::numtext::quantity(was, 4, crate::numtext::unit_key_or_name(home.key)),
+            w.gain.delta_aic
+        ));
+        let off = home.off.expect("weighed effects can be taken out");
+        // Taken out of the user's scene where it had the effect; an effect only this
+        // calibration added is simply not added.
+        if scenes_own.contains(&home.effect) {
+            r.removed.push(Removal {
+                effect: home.effect,
+                key: home.key.to_string(),
+                was: problem_scene_value(problem, home.key).unwrap_or(was),
+                off,
+            });
+        }
+        // An effect accepted earlier and now taken out leaves its switches and start.
+        r.switches.retain(|s| s.effect != home.effect);
+        r.starts.retain(|(k, _)| k != home.key);
+        let mut trial = r.trial(home.effect).cloned().unwrap_or(EffectTrial {
+            effect: home.effect,
+            key: home.key.to_string(),
+            value: was,
+            std: None,
+            at_bound: None,
+            delta_aic: w.gain.delta_aic,
+            rss_reduction_pct: 100.0 * w.gain.reduction,
+            accepted: false,
+            removed: false,
+            raced_only: false,
+            kept: false,
+            against_absence: None,
+            scene_value: home.in_scene.then_some(home.start),
+        });
+        trial.accepted = false;
+        trial.removed = true;
+        trial.kept = false;
+        trial.against_absence = Some(w.gain.delta_aic);
+        // Reported as weighed: the model's strength against none.
+        trial.value = was;
+        trial.std = None;
+        trial.at_bound = None;
+        trial.delta_aic = w.gain.delta_aic;
+        trial.rss_reduction_pct = 100.0 * w.gain.reduction;
+        r.record(trial);
+        removed.push(home.effect);
+        undecided.retain(|&e| e != home.effect);
+        r.stage = problem.polished(w.off)?;
+        r.iterations += r.stage.fit.iterations;
+        undecided.retain(|&e| !clearly_supported(r, e, driven));
+    }
+    Ok(removed)
+}
+
+/// Whether the recording supports an effect the model has, by its gain over the model
+/// without it: the burden is the other way round from adding one (where the rule asks
+/// [`MIN_DELTA_AIC`] and [`MIN_RSS_REDUCTION`]). The scene states the physics; it stays
+/// unless the model without it is as likely, its key's penalty counted (an AIC gain of
+/// zero or less).
+fn supports(gain: &Gain) -> bool {
+    gain.delta_aic > 0.0
+}
+
+/// The user's scene's value of `key`.
+fn problem_scene_value(problem: &Problem, key: &str) -> Option<f64> {
+    crate::calibrate::keys::get(problem.belief, key).ok()
+}
+
+/// Whether effect `e`'s key is fitted in the stage further than [`wald_margin`] standard
+/// deviations from its off value: supported without fitting its absence. Recorded as such.
+fn clearly_supported(r: &mut Rounds, e: Effect, driven: effects::Driven) -> bool {
+    let Ok(h) = effects::home(e, &r.stage.scene, driven) else {
+        return false;
+    };
+    let (Some(off), Some(i)) = (h.off, r.stage.free.iter().position(|k| k == h.key)) else {
+        return false;
+    };
+    let (value, std) = (r.stage.fit.params[i], r.stage.fit.std[i]);
+    let clear = r.stage.at_bound(i).is_none()
+        && std.is_some_and(|s| (value - off).abs() > wald_margin() * s);
+    if clear {
+        if let Some(t) = r.trials.iter_mut().find(|t| t.effect == e) {
+            t.kept = !t.accepted;
+        }
+    }
+    clear
+}
+
+/// The races to try in full: the [`FULL_TRIALS`] whose races removed the most of the
+/// residual (a share of it, `reductions`; in the races' order). Only the ranking counts:
+/// every race refits the other keys on the first part alone, which gains there whatever
+/// the effect.
+fn most_promising(reductions: &[f64]) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..reductions.len()).collect();
+    order.sort_by(|&a, &b| reductions[b].total_cmp(&reductions[a]));
+    let mut chosen: Vec<usize> = order.into_iter().take(FULL_TRIALS).collect();
+    chosen.sort_unstable();
+    chosen
+}
+
+/// The trial of an effect only raced: its key as the race left it, not supported (the
+/// round's full trials went to effects whose races gained more); `reduction` the share of
+/// the residual its race removed on the recording's first part.
+fn raced_trial(home: &effects::Home, s: &Stage, reduction: f64) -> EffectTrial {
+    let i = s.free.len() - 1;
+    EffectTrial {
+        effect: home.effect,
+        key: home.key.to_string(),
+        value: s.fit.params[i],
+        std: None,
+        at_bound: s.at_bound(i),
+        delta_aic: f64::NAN,
+        rss_reduction_pct: 100.0 * reduction,
+        accepted: false,
+        removed: false,
+        raced_only: true,
+        kept: false,
+        against_absence: None,
+        scene_value: home.in_scene.then_some(home.start),
+    }
+}
