@@ -149,12 +149,14 @@ fn dispatch(command: Command) -> Result<(), CommandError> {
             quick,
             seed,
             cases,
+            calibrate,
         } => commands::diagnose::prove(
             &commands::diagnose::ProveRequest {
                 out,
                 quick,
                 seed,
                 cases,
+                calibrate,
             },
             &say,
         ),

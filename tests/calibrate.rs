@@ -302,17 +302,12 @@ fn round_trip_on(
     };
     let c = calibrate_telling(&belief, &rec, &request, &|_| {}).unwrap();
     print!("{name}:\n{}", agvsim::calibrate::write::render(&c));
-    let accepted: Vec<Effect> = c
-        .effects
-        .iter()
-        .filter(|t| t.accepted)
-        .map(|t| t.effect)
-        .collect();
-    assert_eq!(
-        accepted,
-        expected.iter().map(|e| e.0).collect::<Vec<_>>(),
-        "{name}"
-    );
+    // The concealed effect accepted first; on a clean machine, nothing.
+    let accepted: Vec<Effect> = c.accepted_in_order().iter().map(|a| a.0).collect();
+    match expected {
+        Some((e, _, _)) => assert_eq!(accepted.first(), Some(&e), "{name}"),
+        None => assert!(accepted.is_empty(), "{name}: {accepted:?}"),
+    }
     if let Some((_, key, value)) = expected {
         let k = c.keys.iter().find(|k| k.key == key).unwrap();
         assert!((k.after / value - 1.0).abs() < 0.15, "{name}: {k:?}");
@@ -609,4 +604,130 @@ fn gear_play_on_the_floor_comes_back_into_the_gearbox() {
         &offered,
         e,
     );
+}
+
+/// The thesis's lifted-wheel random-demand experiment (`agvsim experiment`: 20 s of the
+/// microcontroller's pulses, both drives lifted, motor encoders) on the thesis machine
+/// with its 10 degrees of gear play, written as a recording; a scene without play and
+/// with the resistance 15 % off is calibrated against it with every effect the recording
+/// can show. The play is accepted first, within 15 % of 0.1745 rad. (Before the encoders'
+/// speeds were compared as the means over each interval they are, a 12 ms dead time took
+/// the play's place.)
+#[test]
+fn the_thesis_random_demand_run_names_its_gear_play() {
+    use agvsim::experiment::{run_experiment, ExperimentKind, ExperimentOptions};
+    let dir = tmp("thesis-random-demand");
+    let machine = Scene::load(Path::new(SCENE), &[]).unwrap();
+    let opts = ExperimentOptions {
+        out_dir: dir.clone(),
+        seed: Some(3),
+        duration_s: 20.0,
+        ..ExperimentOptions::default()
+    };
+    let out = run_experiment(ExperimentKind::LiftedRandomDemand, &machine, &opts).unwrap();
+    let rec = Recording::load(&out.recording).unwrap();
+    let belief = scene(&["gearbox.backlash_rad=0", "motor.resistance_ohm=0.4025"]);
+    let request = Request {
+        free: vec![],
+        effects: Choice::All,
+    };
+    let c = calibrate_telling(&belief, &rec, &request, &|_| {}).unwrap();
+    print!("{}", agvsim::calibrate::write::render(&c));
+    let accepted = c.accepted_in_order();
+    assert_eq!(accepted.first().map(|a| a.0), Some(Effect::Backlash), "{accepted:?}");
+    let play = accepted[0].1;
+    assert!((play / 0.1745 - 1.0).abs() < 0.15, "{play}");
+}
+
+/// A scene with the thesis's 10 degrees of play calibrated on a recording of a machine
+/// without any (the same experiment on the machine with the play set to 0): the play is
+/// removed, reported as such, and the written scene carries 0 with the old value in its
+/// comment.
+#[test]
+fn play_the_machine_lacks_is_removed_from_the_scene() {
+    use agvsim::experiment::{run_experiment, ExperimentKind, ExperimentOptions};
+    let dir = tmp("play-removed");
+    let machine = scene(&["gearbox.backlash_rad=0"]);
+    let opts = ExperimentOptions {
+        out_dir: dir.clone(),
+        seed: Some(4),
+        duration_s: 20.0,
+        ..ExperimentOptions::default()
+    };
+    let out = run_experiment(ExperimentKind::LiftedRandomDemand, &machine, &opts).unwrap();
+    let rec = Recording::load(&out.recording).unwrap();
+    // The scene as shipped: 10 degrees of play; its resistance 15 % off.
+    let belief = scene(&["motor.resistance_ohm=0.4025"]);
+    assert!((belief.gearbox.backlash_rad - 0.1745).abs() < 1e-3);
+    let request = Request {
+        free: vec![],
+        effects: Choice::All,
+    };
+    let c = calibrate_telling(&belief, &rec, &request, &|_| {}).unwrap();
+    let text = agvsim::calibrate::write::render(&c);
+    print!("{text}");
+    let removed: Vec<Effect> = c.removed.iter().map(|r| r.effect).collect();
+    assert_eq!(removed, [Effect::Backlash], "{text}");
+    assert_eq!(c.scene.gearbox.backlash_rad, 0.0);
+    assert!(
+        text.lines()
+            .any(|l| l.starts_with("backlash") && l.contains("removed")),
+        "{text}"
+    );
+    let original = std::fs::read_to_string(SCENE).unwrap();
+    let written = calibrated_text(&original, &c, "lifted.csv", &[]).unwrap();
+    let line = written
+        .lines()
+        .find(|l| l.starts_with("backlash_rad"))
+        .unwrap();
+    assert!(
+        line.starts_with("backlash_rad = 0.0") && line.contains("backlash removed") && line.contains("0.174533 rad"),
+        "{line}"
+    );
+    let reloaded = Scene::from_toml(&written, Path::new("calibrated.toml"), &[]).unwrap();
+    assert_eq!(reloaded.gearbox.backlash_rad, 0.0);
+}
+
+/// The thesis's lifted pair on random demands with a viscous loss a fifth of the back-EMF
+/// damping, its motor speeds recorded: a speed answering its demand through the DCMC
+/// shows two combinations of the motor's resistance, torque constant, inertia and
+/// friction, not all four. What the recording cannot tell apart is not written as
+/// calibrated: the written scene keeps its value and says why.
+#[test]
+fn a_key_the_recording_cannot_determine_is_not_written() {
+    use agvsim::calibrate::prove::{cases, setup, Kind};
+    let mut case = cases(&[Kind::PairDemand])
+        .unwrap()
+        .into_iter()
+        .find(|c| c.name.ends_with("clean"))
+        .unwrap();
+    let clean = agvsim::calibrate::prove::clean_machine(Kind::PairDemand).unwrap();
+    let k = clean.motor.torque_constant_nm_a;
+    case.common = vec![format!(
+        "motor.viscous_Nm_s_rad={}",
+        0.2 * k * k / clean.motor.resistance_ohm
+    )];
+    let (_, rec, belief) = setup(&case, 1).unwrap();
+    let request = Request {
+        free: vec![],
+        effects: Choice::None,
+    };
+    let c = calibrate_telling(&belief, &rec, &request, &|_| {}).unwrap();
+    let shown = agvsim::calibrate::write::render(&c);
+    print!("{shown}");
+    let kept: Vec<_> = c.keys.iter().filter(|k| !k.calibrated()).collect();
+    assert!(!kept.is_empty(), "{shown}");
+    let written = calibrated_text(&belief.to_toml(), &c, "pair.csv", &[]).unwrap();
+    for k in kept {
+        assert_eq!(k.after, k.before, "{k:?}");
+        assert_eq!(agvsim::calibrate::keys::get(&c.scene, &k.key).unwrap(), k.before);
+        let leaf = k.key.rsplit('.').next().unwrap();
+        let line = written
+            .lines()
+            .find(|l| l.starts_with(&format!("{leaf} =")))
+            .unwrap();
+        assert!(line.contains("not calibrated against pair.csv"), "{line}");
+        let reloaded = Scene::from_toml(&written, Path::new("c.toml"), &[]).unwrap();
+        assert_eq!(agvsim::calibrate::keys::get(&reloaded, &k.key).unwrap(), k.before);
+    }
 }

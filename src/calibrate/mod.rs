@@ -338,6 +338,8 @@ pub struct EffectTrial {
     /// The AIC gain of the model with the effect over the model without it, where the
     /// backward pass weighed its absence.
     pub against_absence: Option<f64>,
+    /// Its place among the accepted effects (1: the first accepted), where it was.
+    pub accepted_as: Option<usize>,
     /// The key's value in the scene where the scene already had the effect on (then an
     /// accepted trial refines it); `None` where the effect is new to the scene.
     pub scene_value: Option<f64>,
@@ -386,6 +388,15 @@ pub struct Calibration {
     pub scene: Scene,
     /// Solver iterations in all.
     pub iterations: usize,
+}
+
+impl Calibration {
+    /// The effects accepted, in the order they were, each with its key's final value.
+    pub fn accepted_in_order(&self) -> Vec<(Effect, f64)> {
+        let mut accepted: Vec<&EffectTrial> = self.effects.iter().filter(|t| t.accepted).collect();
+        accepted.sort_by_key(|t| t.accepted_as.unwrap_or(usize::MAX));
+        accepted.iter().map(|t| (t.effect, t.value)).collect()
+    }
 }
 
 /// Fits `free` scene keys (the recording kind's default set when empty) to the recording.
@@ -521,8 +532,10 @@ pub fn calibrate_telling(
         free.len() + 1,
     ));
     let stage = problem.first_stage(scene, &free)?;
-    let rounds = rounds::effect_rounds(&problem, stage, &tried, driven, progress)?;
-    let iterations = rounds.iterations;
+    let mut rounds = rounds::effect_rounds(&problem, stage, &tried, driven, progress)?;
+    progress("settling the keys and their uncertainty");
+    rounds.stage = problem.settled(&rounds.stage)?;
+    let iterations = rounds.iterations + rounds.stage.fit.iterations;
     let mut keys = key_fits(scene, &rounds.stage, &rounds.starts);
     // The keys the recording could not tell apart, held at the scene's values.
     for key in problem.held.lock().expect("no fit panics holding it").iter() {

@@ -168,7 +168,9 @@ fn forward(
             .zip(full.iter().map(|&i| &homes[i]))
             .filter(|((t, _), _)| t.accepted)
             .max_by(|((a, _), _), ((b, _), _)| a.delta_aic.total_cmp(&b.delta_aic));
-        let Some(((t, next), home)) = best else { break };
+        let Some(((mut t, next), home)) = best else { break };
+        t.accepted_as = Some(r.trials.iter().filter(|t| t.accepted_as.is_some()).count() + 1);
+        r.record(t.clone());
         progress(&format!(
             "effects, round {round}: {} accepted ({} = {}, AIC gain {:.0})",
             t.effect.name(),
@@ -294,6 +296,7 @@ fn backward(
             raced_only: false,
             kept: false,
             against_absence: None,
+            accepted_as: None,
             scene_value: home.in_scene.then_some(home.start),
         });
         trial.accepted = false;
@@ -380,6 +383,7 @@ fn raced_trial(home: &effects::Home, s: &Stage, reduction: f64) -> EffectTrial {
         raced_only: true,
         kept: false,
         against_absence: None,
+            accepted_as: None,
         scene_value: home.in_scene.then_some(home.start),
     }
 }

@@ -160,7 +160,7 @@ impl Problem<'_> {
         // that a restart (its damping reset) leaves. Restarted while that gains.
         let mut stage = stage;
         for _ in 0..MAX_RESTARTS {
-            let again = self.fit(&stage.scene, &stage.free)?;
+            let again = self.fit_quick(&stage.scene, &stage.free, vec![])?;
             let gained = 1.0 - again.fit.cost / stage.fit.cost;
             if gained > 0.0 {
                 stage = again;
@@ -290,11 +290,23 @@ impl Problem<'_> {
     /// keys in a poorer minimum, and the next round's effects must not be credited with
     /// the gain of leaving it.
     pub fn polished(&self, stage: Stage) -> Result<Stage, CalibrateError> {
-        let again = self.fit(&self.with_beliefs(&stage.scene)?, &stage.free)?;
-        self.determined(if again.fit.cost < stage.fit.cost {
+        let again = self.fit_quick(&self.with_beliefs(&stage.scene)?, &stage.free, vec![])?;
+        Ok(if again.fit.cost < stage.fit.cost {
             again
         } else {
             stage
+        })
+    }
+
+    /// The final stage: its keys refitted from where the rounds left them, with their
+    /// covariance (the rounds' own stages go without: nobody reads it), and those the
+    /// recording cannot tell apart held ([`Problem::determined`]).
+    pub fn settled(&self, stage: &Stage) -> Result<Stage, CalibrateError> {
+        let full = self.fit(&stage.reached, &stage.free)?;
+        self.determined(if full.fit.cost <= stage.fit.cost * (1.0 + 1e-9) {
+            full
+        } else {
+            stage.clone()
         })
     }
 
@@ -332,7 +344,8 @@ impl Problem<'_> {
 
     /// The values of the effect's key a scan tries: a tenth to ten times its start, nine
     /// values a factor 1.78 apart; for a key of either sign, nine values evenly across its
-    /// range.
+    /// range. The fit that follows finds the value within the basin the scan points to (a
+    /// lifted wheel rattling in its play has basins narrower than a factor of 2).
     fn scan_values(home: &effects::Home) -> Vec<f64> {
         (-4..=4)
             .map(|i| match home.signed_range {
@@ -534,6 +547,7 @@ impl Problem<'_> {
             raced_only: false,
             kept: false,
             against_absence: None,
+            accepted_as: None,
             scene_value: home.in_scene.then_some(home.start),
         }
     }

@@ -85,15 +85,23 @@ pub fn calibrated_text(
     // A key at a bound, undetermined, or less certain than its value is no estimate: the
     // scene keeps its value, and says why where the fit had one.
     for k in c.keys.iter().filter(|k| !k.calibrated()) {
-        let (Some(std), None) = (k.std, k.at_bound) else {
-            continue;
-        };
         let unit = unit_of_key(&k.key);
-        set_text(&mut doc, &k.key, &format!("{:e}", k.before), |_| {
-            format!(
-                "not calibrated against {source}: fitted {}, its standard deviation exceeds its value, so the recording cannot tell it from zero; kept",
+        let why = match (k.std, k.at_bound) {
+            (_, Some(b)) => format!(
+                "the fit ended at the bound {} of its search, which is no estimate",
+                quantity(b, 4, unit)
+            ),
+            (Some(std), None) => format!(
+                "fitted {}, its standard deviation exceeds its value, so the recording cannot tell it from zero",
                 estimate(k.fitted, Some(std), unit)
-            )
+            ),
+            (None, None) if k.confounded => {
+                "the recording cannot tell it apart from the other keys (it shows a combination of them)".to_string()
+            }
+            (None, None) => "the recording does not determine it".to_string(),
+        };
+        set_text(&mut doc, &k.key, &format!("{:e}", k.before), |_| {
+            format!("not calibrated against {source}: {why}; kept")
         })?;
     }
     for r in &c.removed {

@@ -101,11 +101,16 @@ pub struct ProveRequest {
     pub seed: u64,
     /// Only these cases (empty: all).
     pub cases: Vec<String>,
+    /// Prove the calibration instead ([`crate::calibrate::prove`]).
+    pub calibrate: bool,
 }
 
-/// Proves the diagnosis on agvsim's own recordings and prints the table; a case that
-/// fails makes the command fail after the table.
+/// Proves the diagnosis (or with `calibrate`, the calibration) on agvsim's own recordings
+/// and prints the table; a case that fails makes the command fail after the table.
 pub fn prove(req: &ProveRequest, say: Say) -> Result<(), CommandError> {
+    if req.calibrate {
+        return prove_calibration(req, say);
+    }
     let cases = crate::diagnose::prove::prove(&req.out, req.quick, req.seed, &req.cases)?;
     say(&crate::diagnose::prove::render(&cases));
     let failed = cases.iter().filter(|c| !c.passed).count();
@@ -113,6 +118,43 @@ pub fn prove(req: &ProveRequest, say: Say) -> Result<(), CommandError> {
         return Err(CommandError::ProofFailed {
             failed,
             total: cases.len(),
+        });
+    }
+    Ok(())
+}
+
+/// The calibration's round trips ([`crate::calibrate::prove`]), each printed as it ends,
+/// then the table with the coverage.
+fn prove_calibration(req: &ProveRequest, say: Say) -> Result<(), CommandError> {
+    use crate::calibrate::prove::{cases, render, run, Kind};
+    let all = cases(&Kind::ALL)?;
+    let chosen: Vec<_> = all
+        .into_iter()
+        .filter(|c| req.cases.is_empty() || req.cases.iter().any(|n| c.name.contains(n.as_str())))
+        .collect();
+    if chosen.is_empty() {
+        return Err(CommandError::Option {
+            option: "--case".into(),
+            value: req.cases.join(","),
+            message: "names no calibration proof case (they are KIND/EXCITATION/EFFECT, e.g. axis_voltage/sysid/backlash)".into(),
+        });
+    }
+    let mut outcomes = vec![];
+    for case in &chosen {
+        let (o, _) = run(case, req.seed)?;
+        say(&format!(
+            "{:<44} {}\n",
+            case.name,
+            if o.passed { "pass" } else { "FAIL" }
+        ));
+        outcomes.push(o);
+    }
+    say(&render(&outcomes));
+    let failed = outcomes.iter().filter(|o| !o.passed).count();
+    if failed > 0 {
+        return Err(CommandError::ProofFailed {
+            failed,
+            total: outcomes.len(),
         });
     }
     Ok(())
