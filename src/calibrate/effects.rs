@@ -32,6 +32,47 @@ pub struct Home {
     /// and the recording does not support. `None` where the physics cannot be taken out
     /// (a tyre always has a friction limit).
     pub off: Option<f64>,
+    /// Keys fitted with the strength key, each with its start and off value (the wheel
+    /// geometry's two rolling radii beside its track).
+    pub also: Vec<Companion>,
+    /// Whether a race scans the key over its range before fitting (a play or a limit
+    /// moves the outputs in steps the gradient cannot see across); `false` where the
+    /// outputs follow the key smoothly from its start (the wheel geometry, a few
+    /// percent from the configured).
+    pub scanned: bool,
+}
+
+/// A key fitted with an effect's strength key.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Companion {
+    /// The scene key.
+    pub key: &'static str,
+    /// Where the fit starts it.
+    pub start: f64,
+    /// Its value where the effect's physics is absent.
+    pub off: f64,
+}
+
+impl Home {
+    /// Every key the effect's fit adds to the free ones, in the order they are added (the
+    /// strength key last).
+    pub fn keys(&self) -> Vec<&'static str> {
+        let mut k: Vec<&'static str> = self.also.iter().map(|c| c.key).collect();
+        k.push(self.key);
+        k
+    }
+
+    /// Each key at its off value, where the physics can be taken out.
+    pub fn off_values(&self) -> Option<Vec<(String, f64)>> {
+        let off = self.off?;
+        let mut pairs: Vec<(String, f64)> = self
+            .also
+            .iter()
+            .map(|c| (c.key.to_string(), c.off))
+            .collect();
+        pairs.push((self.key.to_string(), off));
+        Some(pairs)
+    }
 }
 
 /// Why an effect has no home for this recording, or none yet.
@@ -50,6 +91,8 @@ pub struct Driven {
     /// what a DCMC or a base's loops applied in the scene's replay (never above the
     /// scene's drive limit: at it, the scene clips them).
     pub max_command_v: Option<f64>,
+    /// The recording has a pose from a tracker or a map (independent of the wheels).
+    pub tracked_pose: bool,
 }
 
 /// The effect's home in `scene` for a recording driven as `driven` says. The key starts at the scene's
@@ -68,11 +111,13 @@ pub struct Driven {
 /// | `transport_delay` | `dcmc.command_delay_s` | 10 ms |
 /// | `friction_asymmetry` | `motor.viscous_ratio` | the scene's ratio (1: symmetric) |
 /// | `offset` | `motor.offset_Nm`, either sign within 5 % of the stall torque | the scene's bias |
+/// | `wheel_geometry` | `chassis.track_width_m`, with `wheel.left_rolling_radius_m` and `wheel.right_rolling_radius_m` | the scene's (off: the configured `base.wheel_separation_m` and `base.wheel_radius_m`) |
 pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, CalibrateError> {
     let Driven {
         drive,
         on_floor,
         max_command_v,
+        ..
     } = driven;
     let current = |key: &str| keys::get(scene, key).unwrap_or(0.0);
     let key = effect.scene_key();
@@ -85,6 +130,8 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
         in_scene: on,
         signed_range: None,
         off: off_value(effect, driven),
+        also: vec![],
+        scanned: true,
     };
     let home = |start: f64| home_or(false, start, start);
     let stall_nm = {
@@ -167,6 +214,61 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
             signed_range: Some(0.05 * stall_nm),
             ..home_or(scene.motor.offset_nm != 0.0, scene.motor.offset_nm, 0.0)
         },
+        Effect::WheelGeometry => geometry_home(scene, driven)?,
+    })
+}
+
+/// The wheel geometry's home: the track (the strength key) and the two wheels' rolling
+/// radii, fitted together from the scene's, each off where it equals what the odometry
+/// and the base controller are configured with. Only a pose measured apart from the
+/// wheels (a tracker's, a map's) shows it: the wheels' own odometry is read with the
+/// configured geometry whatever the floor's.
+fn geometry_home(scene: &Scene, driven: Driven) -> Result<Home, CalibrateError> {
+    let effect = Effect::WheelGeometry;
+    if !driven.on_floor {
+        return Err(homeless(
+            effect,
+            "a lifted drive does not roll: fit it to a vehicle recording",
+        ));
+    }
+    if !driven.tracked_pose {
+        return Err(homeless(
+            effect,
+            "the recording has no pose measured apart from the wheels (x_m, y_m, heading_rad from a tracker or a map): the wheels' odometry alone cannot show their own geometry",
+        ));
+    }
+    let configured_radius = scene.base.wheel_radius_m.unwrap_or(scene.wheel.radius_m);
+    let configured_track = scene
+        .base
+        .wheel_separation_m
+        .unwrap_or(scene.chassis.track_width_m);
+    let [left, right] = scene.wheel.rolling_radii_m();
+    let track = scene.chassis.track_width_m;
+    let differs = |a: f64, b: f64| (a / b - 1.0).abs() > 1e-9;
+    let in_scene = differs(left, configured_radius)
+        || differs(right, configured_radius)
+        || differs(track, configured_track);
+    Ok(Home {
+        effect,
+        key: effect.scene_key(),
+        switches: vec![],
+        start: track,
+        in_scene,
+        signed_range: None,
+        off: Some(configured_track),
+        also: vec![
+            Companion {
+                key: "wheel.left_rolling_radius_m",
+                start: left,
+                off: configured_radius,
+            },
+            Companion {
+                key: "wheel.right_rolling_radius_m",
+                start: right,
+                off: configured_radius,
+            },
+        ],
+        scanned: false,
     })
 }
 
@@ -223,6 +325,9 @@ pub fn switched_on(scene: &Scene, home: &Home) -> Result<Scene, CalibrateError> 
         .iter()
         .map(|(k, v)| format!("{k}={v}"))
         .collect();
+    for c in &home.also {
+        sets.push(format!("{}={:e}", c.key, c.start));
+    }
     sets.push(format!("{}={:e}", home.key, home.start));
     keys::set_texts(scene, &sets)
 }
@@ -260,6 +365,7 @@ mod tests {
             drive: Drive::AxisVoltage,
             on_floor: false,
             max_command_v: Some(14.0),
+            tracked_pose: false,
         };
         let volts = |e| home(e, &scene, axis);
         let h = volts(Effect::VoltageSaturation).unwrap();

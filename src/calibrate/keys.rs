@@ -15,7 +15,12 @@ pub fn get(scene: &Scene, key: &str) -> Result<f64, CalibrateError> {
             "`{key}`: not a number ({}), so it cannot be fitted",
             k.takes.text()
         ))),
-        Some(k) => k.get(scene).ok_or_else(|| {
+        Some(k) => k.get(scene).or_else(|| {
+            // An optional key that stands for another while unset (a wheel's rolling
+            // radius is the wheel's radius) starts from that one's value.
+            table.find(k.unset).and_then(|other| other.get(scene))
+        })
+        .ok_or_else(|| {
             CalibrateError::Key(format!(
                 "`{key}` is not set in the scene ({}): give it a value to fit",
                 k.unset

@@ -218,6 +218,28 @@ impl<'a> SceneReplay<'a> {
         Ok(self)
     }
 
+    /// The same model with the search window of each of `free` (the user's free keys)
+    /// anchored at `belief`'s value, a factor of 10 either way, wherever the fit starts:
+    /// a key a fit left at the edge stays at the edge of the same window, so that a bound
+    /// reached is reported as one, not walked past by the next fit.
+    pub fn anchored(mut self, belief: &Scene, free: &[String]) -> Result<Self, CalibrateError> {
+        for spec in &mut self.specs {
+            // A stated belief's window is its own ([`SceneReplay::believing`]).
+            if !free.contains(&spec.name)
+                || spec.lo <= 0.0
+                || belief.uncertainty_pct.contains_key(&spec.name)
+            {
+                continue;
+            }
+            let b = keys::get(belief, &spec.name)?;
+            if b.is_finite() && b > 0.0 {
+                spec.lo = spec.lo.max(0.1 * b).min(spec.nominal);
+                spec.hi = spec.hi.min(10.0 * b).max(spec.nominal);
+            }
+        }
+        Ok(self)
+    }
+
     /// The scene with parameters `p` in its free keys.
     pub fn scene_with(&self, p: &[f64]) -> Result<Scene, CalibrateError> {
         let pairs: Vec<(String, f64)> = self
@@ -390,7 +412,50 @@ pub struct Calibration {
     pub iterations: usize,
 }
 
+/// The drive wheels' geometry as calibrated, beside what the odometry is configured with.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WheelGeometry {
+    /// Effective rolling radii (left, right), m, each with its standard deviation.
+    pub radii_m: [(f64, Option<f64>); 2],
+    /// Effective track, m, with its standard deviation.
+    pub track_m: (f64, Option<f64>),
+    /// The radius and the wheel separation the odometry and the base controller use, m.
+    pub configured_m: (f64, f64),
+}
+
+impl WheelGeometry {
+    /// UMBmark's `Ed`: the right wheel's effective diameter over the left's.
+    pub fn ed(&self) -> f64 {
+        self.radii_m[1].0 / self.radii_m[0].0
+    }
+
+    /// UMBmark's `Eb`: the effective track over the configured wheel separation.
+    pub fn eb(&self) -> f64 {
+        self.track_m.0 / self.configured_m.1
+    }
+}
+
 impl Calibration {
+    /// The wheel geometry, where the calibration fitted it (the `wheel_geometry` effect,
+    /// or its keys freed).
+    pub fn wheel_geometry(&self) -> Option<WheelGeometry> {
+        let fit = |key: &str| self.keys.iter().find(|k| k.key == key && k.calibrated());
+        let (l, r, t) = (
+            fit("wheel.left_rolling_radius_m")?,
+            fit("wheel.right_rolling_radius_m")?,
+            fit("chassis.track_width_m")?,
+        );
+        let s = &self.scene;
+        Some(WheelGeometry {
+            radii_m: [(l.after, l.std), (r.after, r.std)],
+            track_m: (t.after, t.std),
+            configured_m: (
+                s.base.wheel_radius_m.unwrap_or(s.wheel.radius_m),
+                s.base.wheel_separation_m.unwrap_or(t.before),
+            ),
+        })
+    }
+
     /// The effects accepted, in the order they were, each with its key's final value.
     pub fn accepted_in_order(&self) -> Vec<(Effect, f64)> {
         let mut accepted: Vec<&EffectTrial> = self.effects.iter().filter(|t| t.accepted).collect();
@@ -471,6 +536,9 @@ pub fn calibrate_telling(
         drive: before.drive,
         on_floor: rec.rig == "vehicle",
         max_command_v: Some(max_command_v(&before)),
+        tracked_pose: ["x_m", "y_m", "heading_rad"]
+            .iter()
+            .all(|c| before.output(c).is_some_and(|o| o.measured.iter().flatten().count() >= 2)),
     };
     // Every effect's home is checked before any fit's work.
     let tried = effects::chosen(&request.effects, scene, driven)?;
@@ -532,10 +600,8 @@ pub fn calibrate_telling(
         free.len() + 1,
     ));
     let stage = problem.first_stage(scene, &free)?;
-    let mut rounds = rounds::effect_rounds(&problem, stage, &tried, driven, progress)?;
-    progress("settling the keys and their uncertainty");
-    rounds.stage = problem.settled(&rounds.stage)?;
-    let iterations = rounds.iterations + rounds.stage.fit.iterations;
+    let rounds = rounds::effect_rounds(&problem, stage, &tried, driven, progress)?;
+    let iterations = rounds.iterations;
     let mut keys = key_fits(scene, &rounds.stage, &rounds.starts);
     // The keys the recording could not tell apart, held at the scene's values.
     for key in problem.held.lock().expect("no fit panics holding it").iter() {
@@ -553,6 +619,14 @@ pub fn calibrate_telling(
     }
     // In the order the keys were asked for, the effects' after them.
     keys.sort_by_key(|k| free.iter().position(|f| *f == k.key).unwrap_or(free.len()));
+    // What is no estimate, the calibrated scene keeps as the user's scene had it.
+    let mut final_scene = rounds.stage.scene.clone();
+    for k in keys.iter_mut().filter(|k| !k.calibrated()) {
+        if let Ok(was) = keys::get(scene, &k.key) {
+            k.after = was;
+            final_scene = keys::set(&final_scene, &[(k.key.clone(), was)])?;
+        }
+    }
     // An accepted effect is reported at its final value (the rounds after it refit it).
     let mut trials = rounds.trials;
     for t in trials.iter_mut().filter(|t| t.accepted) {
@@ -564,7 +638,7 @@ pub fn calibrate_telling(
     progress(&format!(
         "fitted in {iterations} iterations; replaying the recording on the calibrated scene"
     ));
-    let after = replay(&rounds.stage.scene, rec)?;
+    let after = replay(&final_scene, rec)?;
     Ok(Calibration {
         keys,
         effects: trials,
@@ -574,7 +648,7 @@ pub fn calibrate_telling(
         left_out,
         before,
         after,
-        scene: rounds.stage.scene,
+        scene: final_scene,
         iterations,
     })
 }

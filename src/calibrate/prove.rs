@@ -274,7 +274,7 @@ fn effects_of(kind: Kind) -> Vec<Effect> {
         ],
         // Not Coulomb friction: the drivers' speed loops integrate a constant friction
         // away, and what a transient shows of it their gains absorb.
-        Kind::BaseVelocity => vec![WheelSlip, CastorDrag, Backlash, TransportDelay],
+        Kind::BaseVelocity => vec![WheelSlip, CastorDrag, Backlash, TransportDelay, WheelGeometry],
     }
 }
 
@@ -330,6 +330,18 @@ fn concealed(
         }
         // Castors rolling with 8 % of their load.
         Effect::CastorDrag => (0.08, vec![]),
+        // The right wheel rolling on 1 % less than its radius, the wheels 2 % further
+        // apart than drawn; the odometry and the base controller configured with the
+        // drawing's (UMBmark's two systematic errors, at the sizes it finds).
+        Effect::WheelGeometry => {
+            let (r, b) = (clean.wheel.radius_m, clean.chassis.track_width_m);
+            common.push(format!("base.wheel_radius_m={r}"));
+            common.push(format!("base.wheel_separation_m={b}"));
+            (
+                1.02 * b,
+                vec![format!("wheel.right_rolling_radius_m={}", 0.99 * r)],
+            )
+        }
     };
     let _ = kind;
     extra.push(format!("{key}={value}"));

@@ -87,11 +87,15 @@ pub(super) fn effect_rounds(
         })
         .collect();
     forward(problem, &mut r, effects.to_vec(), driven, progress)?;
+    // The backward pass reads the keys' standard deviations.
+    progress("settling the keys and their uncertainty");
+    r.stage = problem.settled(&r.stage)?;
+    r.iterations += r.stage.fit.iterations;
     let present: Vec<Effect> = effects
         .iter()
         .copied()
         .filter(|e| scenes_own.contains(e) || r.trial(*e).is_some_and(|t| t.accepted))
-        .filter(|&e| effects::off_value(e, driven).is_some())
+        .filter(|&e| effects::home(e, &r.stage.scene, driven).is_ok_and(|h| h.off.is_some()))
         .collect();
     let removed = backward(problem, &mut r, present, &scenes_own, driven, progress)?;
     if !removed.is_empty() {
@@ -105,6 +109,9 @@ pub(super) fn effect_rounds(
             })
             .collect();
         forward(problem, &mut r, again, driven, progress)?;
+        progress("settling the keys and their uncertainty");
+        r.stage = problem.settled(&r.stage)?;
+        r.iterations += r.stage.fit.iterations;
     }
     Ok(r)
 }
@@ -184,6 +191,8 @@ fn forward(
             value: v.clone(),
         }));
         r.starts.push((home.key.to_string(), home.start));
+        r.starts
+            .extend(home.also.iter().map(|c| (c.key.to_string(), c.start)));
         remaining.retain(|&e| e != t.effect);
         // An effect that removed next to nothing of the residual (a tenth of what
         // acceptance asks) shows no sign in this recording: it is not tried again, as the
@@ -273,16 +282,21 @@ fn backward(
         // Taken out of the user's scene where it had the effect; an effect only this
         // calibration added is simply not added.
         if scenes_own.contains(&home.effect) {
-            r.removed.push(Removal {
-                effect: home.effect,
-                key: home.key.to_string(),
-                was: problem_scene_value(problem, home.key).unwrap_or(was),
-                off,
-            });
+            for (key, off) in home.off_values().expect("weighed effects can be taken out") {
+                let was = crate::calibrate::keys::get(&r.stage.scene, &key)?;
+                r.removed.push(Removal {
+                    effect: home.effect,
+                    was: problem_scene_value(problem, &key).unwrap_or(was),
+                    key,
+                    off,
+                });
+            }
         }
+        let _ = off;
         // An effect accepted earlier and now taken out leaves its switches and start.
         r.switches.retain(|s| s.effect != home.effect);
-        r.starts.retain(|(k, _)| k != home.key);
+        let keys = home.keys();
+        r.starts.retain(|(k, _)| !keys.contains(&k.as_str()));
         let mut trial = r.trial(home.effect).cloned().unwrap_or(EffectTrial {
             effect: home.effect,
             key: home.key.to_string(),
@@ -339,12 +353,21 @@ fn clearly_supported(r: &mut Rounds, e: Effect, driven: effects::Driven) -> bool
     let Ok(h) = effects::home(e, &r.stage.scene, driven) else {
         return false;
     };
-    let (Some(off), Some(i)) = (h.off, r.stage.free.iter().position(|k| k == h.key)) else {
+    let Some(offs) = h.off_values() else {
         return false;
     };
-    let (value, std) = (r.stage.fit.params[i], r.stage.fit.std[i]);
-    let clear = r.stage.at_bound(i).is_none()
-        && std.is_some_and(|s| (value - off).abs() > wald_margin() * s);
+    // Any of its keys fitted far from its off value, none at a bound.
+    let mut clear = false;
+    for (key, off) in offs {
+        let Some(i) = r.stage.free.iter().position(|k| *k == key) else {
+            return false;
+        };
+        if r.stage.at_bound(i).is_some() {
+            return false;
+        }
+        let (value, std) = (r.stage.fit.params[i], r.stage.fit.std[i]);
+        clear |= std.is_some_and(|s| (value - off).abs() > wald_margin() * s);
+    }
     if clear {
         if let Some(t) = r.trials.iter_mut().find(|t| t.effect == e) {
             t.kept = !t.accepted;

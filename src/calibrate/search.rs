@@ -244,6 +244,7 @@ impl Problem<'_> {
     ) -> Result<Stage, CalibrateError> {
         let model = SceneReplay::with_signed(scene, self.rec, free, &self.signed)?
             .believing(self.belief, &self.free)?
+            .anchored(self.belief, &self.free)?
             .windowed(self.windows.clone());
         let start = values(scene, free)?;
         let fit =
@@ -407,15 +408,19 @@ impl Problem<'_> {
     /// stage after those few iterations ranks the effects for their full trials.
     pub fn race(&self, stage: &Stage, home: &effects::Home) -> Result<Stage, CalibrateError> {
         let mut free = stage.free.clone();
-        free.push(home.key.to_string());
+        free.extend(home.keys().iter().map(|k| k.to_string()));
         let on_stage = effects::switched_on(&stage.scene, home)?;
         let believed = effects::switched_on(&self.with_beliefs(&stage.scene)?, home)?;
         // From each base's best scan: the effect's key and the others interact (a speed
         // loop's set-point is the torque constant's), and the lower scan can be the wrong
         // basin.
         let from = |base: Scene| -> Result<Stage, CalibrateError> {
-            let (value, _, _) = self.scan_start(&base, home)?;
-            let start = keys::set(&base, &[(home.key.to_string(), value)])?;
+            let start = if home.scanned {
+                let (value, _, _) = self.scan_start(&base, home)?;
+                keys::set(&base, &[(home.key.to_string(), value)])?
+            } else {
+                base
+            };
             self.fit_for(&start, &free, RACE_ITERATIONS)
         };
         let (a, b) = rayon::join(|| from(on_stage), || from(believed));
@@ -493,14 +498,14 @@ impl Problem<'_> {
         stage: &Stage,
         home: &effects::Home,
     ) -> Result<Presence, CalibrateError> {
-        let off_value = home
-            .off
+        let without = home
+            .off_values()
             .expect("only effects that can be taken out are weighed");
-        let without = [(home.key.to_string(), off_value)];
+        let keys = home.keys();
         let free: Vec<String> = stage
             .free
             .iter()
-            .filter(|k| *k != home.key)
+            .filter(|k| !keys.contains(&k.as_str()))
             .cloned()
             .collect();
         let off_scene = keys::set(&stage.scene, &without)?;
@@ -529,11 +534,23 @@ impl Problem<'_> {
     ) -> EffectTrial {
         let gain = Gain::of(&self.data, &reference.fit, n_ref, &next.fit);
         let i = next.free.len() - 1;
-        let at_bound = next.at_bound(i);
         let value = next.fit.params[i];
         let std = next.fit.std[i];
-        let off = home.off.unwrap_or(0.0);
-        let distinct = std.is_some_and(|s| (value - off).abs() > s);
+        // Each of the effect's keys (the strength key last): an estimate where none is at
+        // a bound, and the effect told from none where one of them lies further from its
+        // off value than its standard deviation.
+        let n = home.also.len() + 1;
+        let offs: Vec<f64> = home
+            .also
+            .iter()
+            .map(|c| c.off)
+            .chain([home.off.unwrap_or(0.0)])
+            .collect();
+        let slots = next.free.len() - n..next.free.len();
+        let at_bound = next.at_bound(i).or_else(|| slots.clone().find_map(|j| next.at_bound(j)));
+        let distinct = slots.zip(&offs).any(|(j, off)| {
+            next.fit.std[j].is_some_and(|s| (next.fit.params[j] - off).abs() > s)
+        }) && std.is_some();
         EffectTrial {
             effect: home.effect,
             key: home.key.to_string(),

@@ -325,6 +325,19 @@ pub fn render(c: &Calibration) -> String {
             );
         }
     }
+    if let Some(g) = c.wheel_geometry() {
+        let _ = writeln!(
+            s,
+            "wheel geometry: effective radius left {}, right {}, track {} (configured: radius {}, separation {}); UMBmark Ed = {} (right/left diameter), Eb = {} (track/configured)",
+            estimate(g.radii_m[0].0, g.radii_m[0].1, "m"),
+            estimate(g.radii_m[1].0, g.radii_m[1].1, "m"),
+            estimate(g.track_m.0, g.track_m.1, "m"),
+            quantity(g.configured_m.0, 6, "m"),
+            quantity(g.configured_m.1, 6, "m"),
+            sig(g.ed(), 6),
+            sig(g.eb(), 6)
+        );
+    }
     let _ = writeln!(
         s,
         "replay fit, %        {:>10} {:>12}",
@@ -418,6 +431,13 @@ pub fn json(c: &Calibration, scene: &str, recording: &str) -> serde_json::Value 
         "replay_fit": fits,
         "left_out": c.left_out,
         "mean_fit_pct": {"original": mean_fit(&c.before, &c.outputs), "calibrated": mean_fit(&c.after, &c.outputs)},
+        "wheel_geometry": c.wheel_geometry().map(|g| serde_json::json!({
+            "left_radius_m": g.radii_m[0].0, "left_radius_std_m": g.radii_m[0].1,
+            "right_radius_m": g.radii_m[1].0, "right_radius_std_m": g.radii_m[1].1,
+            "track_m": g.track_m.0, "track_std_m": g.track_m.1,
+            "configured_radius_m": g.configured_m.0, "configured_separation_m": g.configured_m.1,
+            "umbmark_ed": g.ed(), "umbmark_eb": g.eb(),
+        })),
         "iterations": c.iterations,
     })
 }

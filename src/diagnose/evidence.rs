@@ -52,6 +52,10 @@ pub(crate) fn describe(e: Effect, v: f64, linear: bool) -> String {
         Effect::CastorDrag => format!(
             "drag of about {v:.1} N from the idler castors opposing the chassis's motion"
         ),
+        Effect::WheelGeometry => format!(
+            "wheel geometry other than configured: an effective track of {} (with the wheels' effective rolling radii)",
+            crate::numtext::quantity(v, 5, "m")
+        ),
     }
 }
 

@@ -54,6 +54,9 @@ pub(super) fn effect_grid(e: Effect, s: &Scales) -> (Vec<f64>, f64, f64) {
             let w = s.weight_n.max(1e-6);
             (log(1e-3 * w, 0.1 * w, 14), 1e-5 * w, 0.5 * w)
         }
+        // Not a fitting model's effect (no model lists it as applicable): its keys are the
+        // vehicle's nominal wheel radius and track; the calibration tries it.
+        Effect::WheelGeometry => (lin(0.9, 1.1, 11), 0.5, 2.0),
     }
 }
 

@@ -39,9 +39,16 @@ pub fn contract_json(recording: &str, scene_path: &str, c: &Calibration) -> serd
         .filter(|t| t.accepted)
         .map(|t| {
             let (name, value) = contract_param(&c.scene, t);
+            let mut params = serde_json::json!({ name: value });
+            if let (Effect::WheelGeometry, Some(g)) = (t.effect, c.wheel_geometry()) {
+                params["left_radius_m"] = serde_json::json!(g.radii_m[0].0);
+                params["right_radius_m"] = serde_json::json!(g.radii_m[1].0);
+                params["umbmark_ed"] = serde_json::json!(g.ed());
+                params["umbmark_eb"] = serde_json::json!(g.eb());
+            }
             serde_json::json!({
                 "name": t.effect.name(),
-                "params": { name: value },
+                "params": params,
                 "std": { name: t.std },
                 "scene_key": t.key,
                 "fit_pct": c.after.mean_fit_pct(),

@@ -28,11 +28,15 @@ pub enum Effect {
     SpeedFeedback,
     /// Drag from the idler castors.
     CastorDrag,
+    /// The drive wheels' effective rolling radii and the track differ from those the
+    /// odometry and the base controller are configured with (UMBmark's systematic errors:
+    /// unequal wheel diameters, an uncertain wheelbase).
+    WheelGeometry,
 }
 
 impl Effect {
     /// The whole vocabulary.
-    pub const ALL: [Effect; 10] = [
+    pub const ALL: [Effect; 11] = [
         Effect::Backlash,
         Effect::CoulombFriction,
         Effect::FrictionAsymmetry,
@@ -43,6 +47,7 @@ impl Effect {
         Effect::TransportDelay,
         Effect::SpeedFeedback,
         Effect::CastorDrag,
+        Effect::WheelGeometry,
     ];
 
     /// The contract's name.
@@ -58,6 +63,7 @@ impl Effect {
             Effect::TransportDelay => "transport_delay",
             Effect::SpeedFeedback => "speed_feedback",
             Effect::CastorDrag => "castor_drag",
+            Effect::WheelGeometry => "wheel_geometry",
         }
     }
 
@@ -76,6 +82,7 @@ impl Effect {
             Effect::TransportDelay => "delay_s",
             Effect::SpeedFeedback => "integral_gain",
             Effect::CastorDrag => "drag_N",
+            Effect::WheelGeometry => "track_m",
         }
     }
 
@@ -92,6 +99,7 @@ impl Effect {
             Effect::TransportDelay => "s",
             Effect::SpeedFeedback => "V/rad",
             Effect::CastorDrag => "N",
+            Effect::WheelGeometry => "m",
         }
     }
 
@@ -114,6 +122,7 @@ impl Effect {
             Effect::TransportDelay => "dcmc.command_delay_s",
             Effect::SpeedFeedback => "dcmc.ki_V_rad",
             Effect::CastorDrag => "castor_drag.drag_N",
+            Effect::WheelGeometry => "chassis.track_width_m",
         }
     }
 

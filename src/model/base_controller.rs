@@ -38,10 +38,20 @@ crate::declare_params! {
         /// The motor drivers' integral gain on the motor speed error. *Assumed*: the
         /// thesis unit's (`dcmc.ki_V_rad`).
         speed_ki_v_rad as "speed_ki_V_rad": f64 = 4.0, "V/rad", NonNegative;
+        /// The wheel radius the base controller and its odometry are configured with
+        /// (`diff_drive_controller`'s `wheel_radius` times its multiplier): what turns a
+        /// command into wheel speeds and encoder counts into distance. The wheels roll on
+        /// their effective radii (`wheel.left_rolling_radius_m`, ...) whatever it says.
+        wheel_radius_m: Option<f64> = None, "m", Positive, unset "wheel.radius_m";
+        /// The wheel separation the base controller and its odometry are configured with
+        /// (`wheel_separation` times its multiplier). The wheels meet the floor
+        /// `chassis.track_width_m` apart whatever it says.
+        wheel_separation_m: Option<f64> = None, "m", Positive, unset "chassis.track_width_m";
     }
 }
 
-/// The drive's geometry the base controller's kinematics use.
+/// The drive's geometry the base controller's kinematics use: the configured wheel
+/// separation and radius (what the controller believes), not the floor's.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BaseGeometry {
     /// Distance between the drive wheels, m.

@@ -241,8 +241,8 @@ impl Pose {
 pub struct NoSlipParams {
     /// The chassis with its payload.
     pub chassis: LoadedChassis,
-    /// Drive wheel radius, m.
-    pub wheel_radius_m: f64,
+    /// Drive wheels' effective rolling radii (left, right), m.
+    pub wheel_radii_m: [f64; 2],
     /// Inertia turning with each drive wheel, kg m^2.
     pub wheel_inertia_kg_m2: f64,
     /// Lumped castor drag on the forward speed, N s/m.
@@ -266,10 +266,10 @@ impl NoSlipParams {
     /// Wheel angular speeds (left, right) that roll without slip at this motion, rad/s.
     pub fn wheel_speeds_rad_s(&self, s: &NoSlipState) -> [f64; 2] {
         let h = 0.5 * self.chassis.track_width_m;
-        let r = self.wheel_radius_m;
+        let r = self.wheel_radii_m;
         [
-            (s.speed_m_s - h * s.yaw_rate_rad_s) / r,
-            (s.speed_m_s + h * s.yaw_rate_rad_s) / r,
+            (s.speed_m_s - h * s.yaw_rate_rad_s) / r[0],
+            (s.speed_m_s + h * s.yaw_rate_rad_s) / r[1],
         ]
     }
 
@@ -308,7 +308,7 @@ impl NoSlipParams {
             yaw_inertia_kg_m2: c.yaw_inertia_kg_m2,
             cg_ahead_m: c.cg_m[0],
             track_width_m: c.track_width_m,
-            wheel_radius_m: self.wheel_radius_m,
+            wheel_radii_m: self.wheel_radii_m,
             wheel_inertia_kg_m2: self.wheel_inertia_kg_m2,
         }
     }
@@ -326,8 +326,8 @@ pub struct NoSlipBody {
     pub cg_ahead_m: f64,
     /// Distance between the drive wheels, m.
     pub track_width_m: f64,
-    /// Drive wheel radius, m.
-    pub wheel_radius_m: f64,
+    /// Drive wheels' effective rolling radii (left, right), m.
+    pub wheel_radii_m: [f64; 2],
     /// Inertia turning with one drive wheel, referred to its axle, kg m^2 (the wheel, and
     /// through a rigid gear train the rotor times the ratio squared).
     pub wheel_inertia_kg_m2: f64,
@@ -338,26 +338,21 @@ impl NoSlipBody {
     /// (they cannot slip, so they turn with the body): kg and kg m^2.
     #[inline]
     pub fn effective_inertias(&self) -> (f64, f64) {
-        let (r, half, a) = (
-            self.wheel_radius_m,
-            0.5 * self.track_width_m,
-            self.cg_ahead_m,
-        );
+        let (r, half, a) = (self.wheel_radii_m, 0.5 * self.track_width_m, self.cg_ahead_m);
         let jw = self.wheel_inertia_kg_m2;
-        let m_eff = self.mass_kg + 2.0 * jw / (r * r);
+        let per_r2 = 1.0 / (r[0] * r[0]) + 1.0 / (r[1] * r[1]);
+        let m_eff = self.mass_kg + jw * per_r2;
         let i_axle = self.yaw_inertia_kg_m2 + self.mass_kg * a * a;
-        (m_eff, i_axle + 2.0 * jw * half * half / (r * r))
+        (m_eff, i_axle + jw * half * half * per_r2)
     }
 
     /// Forward force (N) and yaw moment (N m) of the wheel torques at the axles (left,
     /// right) on the body.
     #[inline]
     pub fn wheel_force_and_moment(&self, wheel_torque_nm: [f64; 2]) -> [f64; 2] {
-        let r = self.wheel_radius_m;
-        [
-            (wheel_torque_nm[0] + wheel_torque_nm[1]) / r,
-            (wheel_torque_nm[1] - wheel_torque_nm[0]) * 0.5 * self.track_width_m / r,
-        ]
+        let r = self.wheel_radii_m;
+        let f = [wheel_torque_nm[0] / r[0], wheel_torque_nm[1] / r[1]];
+        [f[0] + f[1], (f[1] - f[0]) * 0.5 * self.track_width_m]
     }
 
     /// Forward acceleration of the axle midpoint (m/s^2) and yaw acceleration (rad/s^2) at

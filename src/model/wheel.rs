@@ -14,6 +14,25 @@ crate::declare_params! {
         /// with backlash; through rigid gears it adds this over the ratio squared to the
         /// motor's.
         viscous_nm_s_rad as "viscous_Nm_s_rad": f64 = 0.0, "N m s/rad", NonNegative;
+        /// Effective rolling radius of the left drive wheel on the floor: the distance it
+        /// rolls per radian of its turn (a worn or soft tyre, a wheel a little smaller than
+        /// drawn). The contract's `wheel_geometry` (with the right one and the track). The
+        /// odometry and the base controller keep working with the configured radius
+        /// (`base.wheel_radius_m`).
+        left_rolling_radius_m: Option<f64> = None, "m", Positive, unset "wheel.radius_m";
+        /// Effective rolling radius of the right drive wheel on the floor (see the left's).
+        right_rolling_radius_m: Option<f64> = None, "m", Positive, unset "wheel.radius_m";
+    }
+}
+
+impl WheelParams {
+    /// The effective rolling radii on the floor (left, right), m: each side's where set,
+    /// else the wheel's radius.
+    pub fn rolling_radii_m(&self) -> [f64; 2] {
+        [
+            self.left_rolling_radius_m.unwrap_or(self.radius_m),
+            self.right_rolling_radius_m.unwrap_or(self.radius_m),
+        ]
     }
 }
 

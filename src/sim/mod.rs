@@ -251,7 +251,8 @@ impl Sim {
     /// Drive wheels' rim speeds (left, right), m/s: what encoders on the wheels would
     /// measure (tyre slip unseen).
     pub fn rim_speeds_m_s(&self) -> [f64; 2] {
-        let r = self.params.drivetrain.wheel.radius_m;
+        // The encoders' counts read with the configured radius, as odometry reads them.
+        let r = self.params.odometry_radius_m;
         self.drive.map(|w| w.wheel_speed_rad_s * r)
     }
 

@@ -131,6 +131,11 @@ pub struct SimParams {
     pub base: BaseParams,
     /// The geometry its kinematics use.
     pub base_geometry: BaseGeometry,
+    /// The radius the wheels' encoders are read with, m: the configured one (what a
+    /// robot's odometry and joint speeds in m/s assume).
+    pub odometry_radius_m: f64,
+    /// The drive wheels' effective rolling radii on the floor (left, right), m.
+    pub rolling_radii_m: [f64; 2],
     /// The firmware as the level runs it.
     pub firmware: Firmware,
     /// The PWM filter between firmware and DCMC.
@@ -191,7 +196,7 @@ impl SimParams {
         };
         let noslip = NoSlipParams {
             chassis,
-            wheel_radius_m: scene.wheel.radius_m,
+            wheel_radii_m: scene.wheel.rolling_radii_m(),
             wheel_inertia_kg_m2: scene.wheel.inertia_kg_m2,
             linear_drag_n_s_m: scene.castors.lumped_linear_drag_n_s_m,
             angular_drag_nm_s_rad: scene.castors.lumped_angular_drag_nm_s_rad,
@@ -243,10 +248,15 @@ impl SimParams {
             dcmc,
             base: scene.base,
             base_geometry: BaseGeometry {
-                track_width_m: scene.chassis.track_width_m,
-                wheel_radius_m: scene.wheel.radius_m,
+                track_width_m: scene
+                    .base
+                    .wheel_separation_m
+                    .unwrap_or(scene.chassis.track_width_m),
+                wheel_radius_m: scene.base.wheel_radius_m.unwrap_or(scene.wheel.radius_m),
                 gear_ratio: scene.gearbox.ratio,
             },
+            odometry_radius_m: scene.base.wheel_radius_m.unwrap_or(scene.wheel.radius_m),
+            rolling_radii_m: scene.wheel.rolling_radii_m(),
             firmware,
             pwm: PwmFilter {
                 corner_hz: scene.controller.pwm_filter_hz,

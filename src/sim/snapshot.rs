@@ -20,10 +20,12 @@ pub struct SideSnapshot {
     pub wheel_speed_rad_s: f64,
     /// Wheel angle, rad.
     pub wheel_angle_rad: f64,
-    /// Wheel rim speed, m/s.
+    /// Wheel rim speed as the wheel's encoder gives it, m/s: its turning rate times the
+    /// configured radius (`base.wheel_radius_m`, else the wheel's), as a robot's odometry
+    /// reads it.
     pub wheel_rim_m_s: f64,
-    /// Distance the wheel's rim has turned through since the start, m: what a wheel
-    /// encoder counts, times the wheel's radius.
+    /// Distance the wheel has turned through since the start as its encoder gives it, m:
+    /// the angle times the configured radius.
     pub wheel_rim_distance_m: f64,
     /// Gear output angle minus wheel angle, rad (inside +/- half the play: teeth apart).
     pub backlash_gap_rad: f64,
@@ -144,7 +146,7 @@ impl Sim {
                 wheel_speed_rad_s: d.wheel_speed_rad_s,
                 wheel_angle_rad: d.wheel_angle_rad,
                 wheel_rim_m_s: rims[i],
-                wheel_rim_distance_m: d.wheel_angle_rad * p.drivetrain.wheel.radius_m,
+                wheel_rim_distance_m: d.wheel_angle_rad * p.odometry_radius_m,
                 backlash_gap_rad: gap,
                 tooth_torque_nm: p.drivetrain.tooth_torque_nm(d),
                 tyre_force_n: t.force_n,

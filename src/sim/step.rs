@@ -254,7 +254,8 @@ impl Sim {
             Body::Rapier(engine) => {
                 let pose = engine.pose();
                 let wheels = p.chassis.wheel_points_m();
-                let r = dtp.wheel.radius_m;
+                // Each wheel rolls on its effective radius.
+                let r = p.rolling_radii_m;
                 let mut kin = [ContactKinematics::default(); 2];
                 let mut tyre_params = [p.drive_tyre(p.floor.default); 2];
                 for i in 0..2 {
@@ -272,14 +273,14 @@ impl Sim {
                     for i in 0..2 {
                         let t = dtp.tooth_torque_nm(&self.drive[i]);
                         dtp.motor_substep(&mut self.drive[i], terminals[i], t, h);
-                        kin[i].rim_m_s = self.drive[i].wheel_speed_rad_s * r;
+                        kin[i].rim_m_s = self.drive[i].wheel_speed_rad_s * r[i];
                         let out = tyre_params[i].step_force(
                             &mut self.tyres[i],
                             kin[i],
                             p.loads.drive_n[i],
                             h,
                         );
-                        dtp.wheel_substep(&mut self.drive[i], t, -r * out.force_n[0], h);
+                        dtp.wheel_substep(&mut self.drive[i], t, -r[i] * out.force_n[0], h);
                         force_sum[i][0] += out.force_n[0];
                         force_sum[i][1] += out.force_n[1];
                         // The last sub-step's sliding state (its slip measures follow the

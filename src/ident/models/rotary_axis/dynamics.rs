@@ -84,6 +84,7 @@ pub(crate) fn drivetrain_blocks(
             radius_m: wheel_radius_m,
             inertia_kg_m2: wheel.inertia_kg_m2,
             viscous_nm_s_rad: total_viscous * wheel_share * ratio * ratio,
+            ..*wheel
         },
     }
 }

@@ -167,7 +167,7 @@ impl Vehicle {
                 yaw_inertia_kg_m2: c.yaw_inertia_kg_m2,
                 cg_ahead_m: 0.0,
                 track_width_m: c.track_width_m,
-                wheel_radius_m: a.wheel.radius_m,
+                wheel_radii_m: [a.wheel.radius_m; 2],
                 wheel_inertia_kg_m2: wheel_side_kg_m2,
             },
             drive_wheel_load_n: c.drive_load_fraction * c.mass_kg * GRAVITY_M_S2 / 2.0,

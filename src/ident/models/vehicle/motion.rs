@@ -85,7 +85,7 @@ impl Vehicle {
         let [acc, yaw_acc] = body.accelerations(fwd, yaw_rate, torque, [drag[0], drag[2]]);
         let rim_acc = body.rim_speeds_m_s(acc, yaw_acc);
         for (side, rim_acc) in rim_acc.iter().enumerate() {
-            self.set_wheel_rates(x, side * SIDE, rim_acc / body.wheel_radius_m, dx);
+            self.set_wheel_rates(x, side * SIDE, rim_acc / body.wheel_radii_m[side], dx);
         }
         dx[BODY] = acc;
         dx[BODY + 1] = 0.0;
@@ -98,7 +98,7 @@ impl Vehicle {
         let (fwd, lat, yaw_rate) = (x[BODY], x[BODY + 1], x[BODY + 2]);
         let torque = self.wheel_side(b, x, driving, dx);
         let wheel_inertia = b.body.wheel_inertia_kg_m2;
-        let (r, track) = (b.body.wheel_radius_m, b.body.track_width_m);
+        let (r, track) = (b.body.wheel_radii_m[0], b.body.track_width_m);
         let mut force = [[0.0; 2]; 2];
         for side in 0..2 {
             let s = side * SIDE;
