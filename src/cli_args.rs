@@ -196,6 +196,7 @@ pub enum Command {
         /// Comma-separated scene keys to fit [default: the recording kind's set: motor
         /// resistance, torque constant, rotor inertia, viscous friction for a lifted drive;
         /// torque constant, resistance, chassis mass and yaw inertia for a vehicle; chassis mass, yaw inertia and the base's speed-loop gains for a vehicle driven by velocity commands].
+        /// `none`: fit only the effects' keys.
         #[arg(long, value_delimiter = ',')]
         free: Vec<String>,
         /// Comma-separated effects of the contract's vocabulary to try (backlash,

@@ -7,6 +7,7 @@
 
 pub mod effects;
 pub mod keys;
+pub mod odometry;
 pub mod pose_windows;
 pub mod prove;
 mod rounds;
@@ -507,9 +508,18 @@ pub fn calibrate_telling(
 ) -> Result<Calibration, CalibrateError> {
     let free: Vec<String> = if request.free.is_empty() {
         default_free_of(rec).iter().map(|s| s.to_string()).collect()
+    } else if request.free == ["none"] {
+        // The scene's keys as they are: only the effects' are fitted.
+        vec![]
     } else {
         request.free.clone()
     };
+    // Only the machine's physics is fitted: not the simulator's own settings.
+    if let Some(k) = free.iter().find(|k| k.starts_with("sim.")) {
+        return Err(CalibrateError::Key(format!(
+            "--free {k}: a setting of the simulation, not of the machine; only physical keys can be fitted"
+        )));
+    }
     progress("replaying the recording on the scene as written");
     let before = replay(scene, rec)?;
     let outputs: Vec<String> = contract_outputs(&rec.rig)
@@ -592,6 +602,12 @@ pub fn calibrate_telling(
         data,
         explore,
         held: Default::default(),
+        wheel_turns: windows.as_ref().and_then(|_| {
+            odometry::WheelTurns::of(
+                rec,
+                scene.base.wheel_radius_m.unwrap_or(scene.wheel.radius_m),
+            )
+        }),
         windows,
     };
     progress(&format!(
@@ -603,6 +619,16 @@ pub fn calibrate_telling(
     let rounds = rounds::effect_rounds(&problem, stage, &tried, driven, progress)?;
     let iterations = rounds.iterations;
     let mut keys = key_fits(scene, &rounds.stage, &rounds.starts);
+    // The wheel geometry from the wheels' odometry, where it was accepted and stays.
+    if let Some(geometry) = &rounds.geometry {
+        let kept = rounds
+            .trials
+            .iter()
+            .any(|t| t.effect == Effect::WheelGeometry && t.accepted);
+        if kept {
+            keys.extend(geometry.iter().cloned());
+        }
+    }
     // The keys the recording could not tell apart, held at the scene's values.
     for key in problem.held.lock().expect("no fit panics holding it").iter() {
         let value = keys::get(scene, key)?;

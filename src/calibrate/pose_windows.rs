@@ -69,6 +69,20 @@ impl PoseWindows {
         })
     }
 
+    /// The same windows for another dataset of the same rows whose outputs include the pose
+    /// (in any order).
+    pub fn for_dataset(&self, data: &Dataset) -> Option<PoseWindows> {
+        Some(PoseWindows {
+            columns: [
+                data.output_index(POSE[0])?,
+                data.output_index(POSE[1])?,
+                data.output_index(POSE[2])?,
+            ],
+            anchors: self.anchors.clone(),
+            window_s: self.window_s,
+        })
+    }
+
     /// The motion over each row's window, from a pose at every row: forward and left of
     /// the window's start in its frame, m, and the turn since, rad.
     fn relative(&self, pose: [&[f64]; 3], k: usize) -> Option<[f64; 3]> {

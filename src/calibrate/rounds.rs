@@ -47,6 +47,9 @@ pub(super) struct Rounds {
     pub starts: Vec<(String, f64)>,
     pub removed: Vec<Removal>,
     pub iterations: usize,
+    /// The wheel geometry's keys, where the wheels' odometry gave them (held, not fitted
+    /// through the simulator: [`Problem::geometry_by_odometry`]).
+    pub geometry: Option<Vec<super::KeyFit>>,
 }
 
 impl Rounds {
@@ -76,6 +79,7 @@ pub(super) fn effect_rounds(
         switches: vec![],
         starts: vec![],
         removed: vec![],
+        geometry: None,
     };
     // The scene's own effects that can be taken out, as the user wrote them.
     let scenes_own: Vec<Effect> = effects
@@ -133,10 +137,17 @@ fn forward(
             "effects, round {round}: racing {} (each key scanned, then fitted with the others for a few iterations)",
             names.join(", ")
         ));
-        let homes = remaining
+        let mut homes = remaining
             .iter()
             .map(|&e| effects::home(e, &r.stage.scene, driven))
             .collect::<Result<Vec<_>, _>>()?;
+        // The wheel geometry on the wheels' odometry, where the recording has their turns.
+        let mut by_odometry = None;
+        if let Some(i) = homes.iter().position(|h| h.effect == Effect::WheelGeometry) {
+            if let Some(found) = problem.geometry_by_odometry(&r.stage, &homes[i])? {
+                by_odometry = Some((found, homes.remove(i)));
+            }
+        }
         // Raced on the recording's first part, against the stage there.
         let explore = problem.explore();
         let stage_rss = explore.rss_of(&r.stage.scene, &r.stage.free)?;
@@ -170,12 +181,28 @@ fn forward(
             r.iterations += next.fit.iterations;
             r.record(t.clone());
         }
-        let best = tried
+        let mut candidates: Vec<((EffectTrial, Stage), &effects::Home)> = tried
             .into_iter()
             .zip(full.iter().map(|&i| &homes[i]))
+            .collect();
+        if let Some(((t, next, fits), home)) = &by_odometry {
+            r.record(t.clone());
+            if t.accepted {
+                r.geometry = Some(fits.clone());
+            }
+            candidates.push(((t.clone(), next.clone()), home));
+        }
+        let best = candidates
+            .into_iter()
             .filter(|((t, _), _)| t.accepted)
             .max_by(|((a, _), _), ((b, _), _)| a.delta_aic.total_cmp(&b.delta_aic));
         let Some(((mut t, next), home)) = best else { break };
+        if t.effect != Effect::WheelGeometry {
+            // A geometry found but not the best stays out of the scene this round.
+            if by_odometry.as_ref().is_some_and(|((g, _, _), _)| g.accepted) {
+                r.geometry = None;
+            }
+        }
         t.accepted_as = Some(r.trials.iter().filter(|t| t.accepted_as.is_some()).count() + 1);
         r.record(t.clone());
         progress(&format!(

@@ -57,6 +57,9 @@ pub(super) struct Problem<'a> {
     pub held: std::sync::Mutex<Vec<String>>,
     /// The windows a tracked pose is compared over (`data`'s pose is already so).
     pub windows: Option<super::pose_windows::PoseWindows>,
+    /// The wheels' measured turns, where the recording has them beside a tracked pose:
+    /// the wheel geometry is searched on their odometry ([`super::odometry`]).
+    pub wheel_turns: Option<super::odometry::WheelTurns>,
 }
 
 /// The span from which a recording's effects are raced on its first part only, s, and
@@ -119,6 +122,7 @@ impl Problem<'_> {
                 explore: None,
                 held: Default::default(),
                 windows: self.windows.clone(),
+                wheel_turns: self.wheel_turns.clone(),
             },
             None => Problem {
                 rec: self.rec,
@@ -130,6 +134,7 @@ impl Problem<'_> {
                 explore: None,
                 held: Default::default(),
                 windows: self.windows.clone(),
+                wheel_turns: self.wheel_turns.clone(),
             },
         }
     }
@@ -520,6 +525,107 @@ impl Problem<'_> {
         Ok(Presence { gain, off })
     }
 
+    /// The wheel geometry searched on the wheels' odometry (their measured turns through
+    /// the rolling law against the tracked pose, over the pose's windows: no dynamics) and
+    /// confirmed through the simulator: the stage replayed with the geometry must fit the
+    /// recording better than without it. Its evidence is the odometry's: the geometry
+    /// against the configured one on the pose. `None` where the recording has no wheel
+    /// turns to read (the geometry is then fitted through the simulator, as other
+    /// effects are).
+    pub fn geometry_by_odometry(
+        &self,
+        stage: &Stage,
+        home: &effects::Home,
+    ) -> Result<Option<(EffectTrial, Stage, Vec<super::KeyFit>)>, CalibrateError> {
+        use super::odometry::{Odometry, KEYS};
+        let Some(turns) = self.wheel_turns.clone() else {
+            return Ok(None);
+        };
+        let others: Vec<String> = self
+            .data
+            .output_names
+            .iter()
+            .filter(|n| !["x_m", "y_m", "heading_rad"].contains(&n.as_str()))
+            .cloned()
+            .collect();
+        let pose = self.data.without_outputs(&others);
+        if pose.output_names.len() < 3 {
+            return Ok(None);
+        }
+        let offs = home.off_values().expect("the geometry can be taken out");
+        let off_of = |key: &str| {
+            offs.iter()
+                .find(|(k, _)| k == key)
+                .map(|(_, v)| *v)
+                .expect("the geometry's keys")
+        };
+        let configured = [off_of(KEYS[0]), off_of(KEYS[1]), off_of(KEYS[2])];
+        let windows = self.windows.as_ref().and_then(|w| w.for_dataset(&pose));
+        let model = WindowedOdometry {
+            odometry: Odometry::new(turns, configured),
+            windows,
+        };
+        let weights = crate::ident::weighting::spread_weights(&pose);
+        let settings = |free: Vec<usize>| FitSettings {
+            free,
+            weighting: Weighting::outputs_only(weights.clone()),
+            max_iterations: MAX_ITERATIONS,
+            starts: vec![configured.to_vec()],
+        };
+        let fail = |e: FitError| CalibrateError::Fit {
+            file: self.rec.path.clone(),
+            message: format!("the wheels' odometry: {e}"),
+        };
+        let on = fit_predictor(&model, &pose, &settings(vec![0, 1, 2])).map_err(fail)?;
+        // The configured geometry: nothing free, its cost and outputs.
+        let off = fit_predictor_quick(&model, &pose, &settings(vec![]), false).map_err(fail)?;
+        let n_off = effective_n(&pose, &off.predicted);
+        let gain = Gain::of(&pose, &off, &n_off, &on);
+        // Through the simulator: the stage with the geometry, its free keys refitted.
+        let pairs: Vec<(String, f64)> = KEYS
+            .iter()
+            .map(|k| k.to_string())
+            .zip(on.params.iter().copied())
+            .collect();
+        let with = self.fit_quick(&keys::set(&stage.scene, &pairs)?, &stage.free, vec![])?;
+        let confirmed = with.fit.rss() < stage.fit.rss();
+        let distinct = (0..3).any(|i| {
+            on.std[i].is_some_and(|s| (on.params[i] - configured[i]).abs() > s)
+        });
+        let at_bound = (0..3).find_map(|i| crate::ident::bound_reached(on.params[i], model.odometry.param_specs()[i].lo, model.odometry.param_specs()[i].hi));
+        let trial = EffectTrial {
+            effect: home.effect,
+            key: home.key.to_string(),
+            value: on.params[2],
+            std: on.std[2],
+            at_bound,
+            delta_aic: gain.delta_aic,
+            rss_reduction_pct: 100.0 * gain.reduction,
+            accepted: gain.passes() && confirmed && distinct && at_bound.is_none(),
+            removed: false,
+            raced_only: false,
+            kept: false,
+            against_absence: None,
+            accepted_as: None,
+            scene_value: home.in_scene.then_some(home.start),
+        };
+        let fits = KEYS
+            .iter()
+            .enumerate()
+            .map(|(i, k)| super::KeyFit {
+                key: k.to_string(),
+                before: keys::get(self.belief, k).unwrap_or(configured[i]),
+                after: on.params[i],
+                fitted: on.params[i],
+                std: on.std[i],
+                at_bound: None,
+                held: false,
+                confounded: false,
+            })
+            .collect();
+        Ok(Some((trial, with, fits)))
+    }
+
     /// The evidence for the effect fitted in `next` against `reference`, whose effective
     /// residual counts are `n_ref`. Accepted only where the gain passes the rule and the
     /// key is an estimate: not at a bound, determined by the recording, and further from
@@ -567,6 +673,30 @@ impl Problem<'_> {
             accepted_as: None,
             scene_value: home.in_scene.then_some(home.start),
         }
+    }
+}
+
+/// The odometry model with its pose compared over the calibration's windows.
+struct WindowedOdometry {
+    odometry: super::odometry::Odometry,
+    windows: Option<super::pose_windows::PoseWindows>,
+}
+
+impl Predictor for WindowedOdometry {
+    fn param_specs(&self) -> &[ParamSpec] {
+        self.odometry.param_specs()
+    }
+
+    fn predict(
+        &self,
+        p: &[f64],
+        data: &Dataset,
+    ) -> Result<Vec<Vec<f64>>, crate::ident::model::Diverged> {
+        let mut y = self.odometry.predict(p, data)?;
+        if let Some(w) = &self.windows {
+            w.simulated(&mut y);
+        }
+        Ok(y)
     }
 }
 

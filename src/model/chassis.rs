@@ -387,6 +387,15 @@ impl NoSlipBody {
     }
 }
 
+/// The rolling law of a differential drive that does not slip: the distances its left and
+/// right wheels roll, `rims` (m, each its turn times its effective rolling radius), move
+/// the drive-axle midpoint `(l + r) / 2` forward and turn it `(r - l) / track` (rad). The
+/// inverse of [`NoSlipBody::rim_speeds_m_s`]; what wheel odometry integrates.
+#[inline]
+pub fn rolling_motion(rims: [f64; 2], track_m: f64) -> (f64, f64) {
+    (0.5 * (rims[0] + rims[1]), (rims[1] - rims[0]) / track_m)
+}
+
 /// An angle in (-pi, pi].
 pub fn wrap_angle(a: f64) -> f64 {
     let two_pi = 2.0 * std::f64::consts::PI;
