@@ -48,6 +48,16 @@ pub enum ImportFormat {
         /// Robot mass for the scene, kg [default: the thesis machine's 120, said as such].
         #[arg(long, value_parser = positive_number)]
         mass_kg: Option<f64>,
+        /// The robot's `diff_drive_controller` parameters (YAML, as ros2_control loads
+        /// them): its wheel_separation, wheel_radius and their multipliers become the
+        /// scene's configured odometry, its velocity and acceleration limits the base
+        /// controller's.
+        #[arg(long, value_name = "PARAMS.yaml")]
+        controller_yaml: Option<PathBuf>,
+        /// The battery, the motor and the gear [default: the battery topic's median
+        /// voltage; the thesis machine's motor and gear, said as assumed; no gear play].
+        #[command(flatten)]
+        drive: DriveArgs,
     },
     /// A MATLAB file (MAT level 5, as `save` writes by default) by a map file like the
     /// CSV's, each `column` naming a variable (a vector); see the README.
@@ -581,6 +591,40 @@ pub struct NewArgs {
     /// Drive wheel radius, m.
     #[arg(long, value_parser = positive_number)]
     pub wheel_radius_m: Option<f64>,
+    /// The battery, the motor and the gear.
+    #[command(flatten)]
+    pub drive: DriveArgs,
+    /// Tyre compound: hard_polyurethane, soft_rubber or high_grip (`agvsim presets`)
+    /// [default: hard_polyurethane].
+    #[arg(long)]
+    pub tyre: Option<String>,
+    /// Castors: yes (four, carrying 40 % of the load) or no (every load on the drive
+    /// wheels) [default: yes].
+    #[arg(long, value_parser = yes_no)]
+    pub castors: Option<bool>,
+    /// Guidance: `wire` (the thesis's guide wire and P-D firmware), `none` (a
+    /// velocity-commanded base, as a ROS robot: `run` drives its [manoeuvre], a square,
+    /// `replay` a recording's cmd_vel) or `open-loop` (constant demands) [default: none].
+    #[arg(long, value_parser = ["wire", "none", "open-loop"])]
+    pub guidance: Option<String>,
+    /// Body length, m [default: twice the track].
+    #[arg(long, value_parser = positive_number)]
+    pub length_m: Option<f64>,
+    /// Body width, m [default: the track plus 0.12 m].
+    #[arg(long, value_parser = positive_number)]
+    pub width_m: Option<f64>,
+    /// The scene's description.
+    #[arg(long)]
+    pub description: Option<String>,
+    /// Replace NAME.toml if it exists.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// A robot's battery, drive motor (one datasheet point) and gear, as `new` and `import
+/// ros2` take them; each in its unit.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct DriveArgs {
     /// Battery (open-circuit) voltage, V.
     #[arg(long = "battery-V", value_parser = positive_number)]
     pub battery_v: Option<f64>,
@@ -604,30 +648,6 @@ pub struct NewArgs {
     /// Gear play at the wheel, rad [default: 0, none].
     #[arg(long)]
     pub backlash_rad: Option<f64>,
-    /// Tyre compound: hard_polyurethane, soft_rubber or high_grip (`agvsim presets`)
-    /// [default: hard_polyurethane].
-    #[arg(long)]
-    pub tyre: Option<String>,
-    /// Castors: yes (four, carrying 40 % of the load) or no (every load on the drive
-    /// wheels) [default: yes].
-    #[arg(long, value_parser = yes_no)]
-    pub castors: Option<bool>,
-    /// Guidance: `wire` (the thesis's guide wire and P-D firmware) or `none` (constant
-    /// demands; `replay` drives it with a recording's commands) [default: none].
-    #[arg(long, value_parser = ["wire", "none"])]
-    pub guidance: Option<String>,
-    /// Body length, m [default: twice the track].
-    #[arg(long, value_parser = positive_number)]
-    pub length_m: Option<f64>,
-    /// Body width, m [default: the track plus 0.12 m].
-    #[arg(long, value_parser = positive_number)]
-    pub width_m: Option<f64>,
-    /// The scene's description.
-    #[arg(long)]
-    pub description: Option<String>,
-    /// Replace NAME.toml if it exists.
-    #[arg(long)]
-    pub force: bool,
 }
 
 fn yes_no(s: &str) -> Result<bool, String> {

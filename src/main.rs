@@ -287,6 +287,8 @@ fn import(format: ImportFormat) -> Result<(), CommandError> {
             wheel_radius_m,
             track_m,
             mass_kg,
+            controller_yaml,
+            drive,
         } => ros2(
             &Ros2Import {
                 bag,
@@ -296,6 +298,11 @@ fn import(format: ImportFormat) -> Result<(), CommandError> {
                     track_m,
                 },
                 mass_kg,
+                motor: motor_of(&drive)?,
+                battery_v: drive.battery_v,
+                gear_ratio: drive.gear_ratio,
+                backlash_rad: drive.backlash_rad,
+                controller_yaml,
                 out,
                 command: std::env::args().collect::<Vec<_>>().join(" "),
             },
@@ -377,29 +384,34 @@ fn sweep(args: SweepArgs) -> Result<(), CommandError> {
     )
 }
 
-/// `agvsim new`: the flags as the robot's numbers.
-fn new(a: NewArgs) -> Result<(), CommandError> {
-    use agvsim::scene::robot::{Guidance, MotorDatasheet, RobotSpec};
-    let motor_given = a.motor_no_load_rpm.is_some()
-        || a.motor_stall_current_a.is_some()
-        || a.motor_stall_torque_nm.is_some()
-        || a.motor_rated_v.is_some();
-    let motor = match (motor_given, a.motor_no_load_rpm, a.motor_rated_v.or(a.battery_v)) {
-        (false, _, _) => None,
-        (true, Some(rpm), Some(v)) => Some(MotorDatasheet {
+/// The motor's datasheet point the flags give, if any.
+fn motor_of(
+    d: &cli_args::DriveArgs,
+) -> Result<Option<agvsim::scene::robot::MotorDatasheet>, CommandError> {
+    let motor_given = d.motor_no_load_rpm.is_some()
+        || d.motor_stall_current_a.is_some()
+        || d.motor_stall_torque_nm.is_some()
+        || d.motor_rated_v.is_some();
+    match (motor_given, d.motor_no_load_rpm, d.motor_rated_v.or(d.battery_v)) {
+        (false, _, _) => Ok(None),
+        (true, Some(rpm), Some(v)) => Ok(Some(agvsim::scene::robot::MotorDatasheet {
             rated_v: v,
             no_load_rpm: rpm,
-            stall_current_a: a.motor_stall_current_a,
-            stall_torque_nm: a.motor_stall_torque_nm,
+            stall_current_a: d.motor_stall_current_a,
+            stall_torque_nm: d.motor_stall_torque_nm,
+        })),
+        (true, _, _) => Err(CommandError::Option {
+            option: "--motor-*".into(),
+            value: String::new(),
+            message: "a motor needs --motor-no-load-rpm and --motor-rated-V (or --battery-V), with --motor-stall-current-A or --motor-stall-torque-Nm".into(),
         }),
-        (true, _, _) => {
-            return Err(CommandError::Option {
-                option: "--motor-*".into(),
-                value: String::new(),
-                message: "a motor needs --motor-no-load-rpm and --motor-rated-V (or --battery-V), with --motor-stall-current-A or --motor-stall-torque-Nm".into(),
-            })
-        }
-    };
+    }
+}
+
+/// `agvsim new`: the flags as the robot's numbers.
+fn new(a: NewArgs) -> Result<(), CommandError> {
+    use agvsim::scene::robot::{Guidance, RobotSpec};
+    let motor = motor_of(&a.drive)?;
     let command = std::iter::once("agvsim".to_string())
         .chain(std::env::args().skip(1))
         .map(|w| if w.contains(' ') { format!("{w:?}") } else { w })
@@ -415,22 +427,21 @@ fn new(a: NewArgs) -> Result<(), CommandError> {
                 mass_kg: a.mass_kg,
                 track_m: a.track_m,
                 wheel_radius_m: a.wheel_radius_m,
-                battery_v: a.battery_v,
+                battery_v: a.drive.battery_v,
                 motor,
-                gear_ratio: a.gear_ratio,
-                backlash_rad: a.backlash_rad,
+                gear_ratio: a.drive.gear_ratio,
+                backlash_rad: a.drive.backlash_rad,
                 tyre: a.tyre,
                 castors: a.castors,
-                guidance: a.guidance.map(|g| {
-                    if g == "wire" {
-                        Guidance::Wire
-                    } else {
-                        Guidance::None
-                    }
+                guidance: a.guidance.map(|g| match g.as_str() {
+                    "wire" => Guidance::Wire,
+                    "open-loop" => Guidance::OpenLoop,
+                    _ => Guidance::None,
                 }),
                 length_m: a.length_m,
                 width_m: a.width_m,
                 description: a.description,
+                configured_geometry: false,
             },
         },
         &say,

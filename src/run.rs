@@ -36,6 +36,10 @@ pub struct RunOptions {
     pub out_dir: PathBuf,
     /// Name used for files (and by the watcher).
     pub name: String,
+    /// What a velocity-commanded base drives (`controller.kind = "velocity"`): the
+    /// scene's square or circle where `None`, or commands the caller read from the
+    /// scene's commands CSV.
+    pub manoeuvre: Option<crate::model::manoeuvre::Manoeuvre>,
 }
 
 /// Something that watches a run as it goes: asked at every physics step whether it wants
@@ -111,14 +115,36 @@ pub fn run_scene(
             .map_err(io(&recording))?;
     let record_every = ((scene.sim.record_interval_s / params.sim.dt_s).round() as u64).max(1);
     let duration = params.sim.duration_s;
+    let velocity = scene.controller.kind == crate::firmware::ControllerKind::Velocity;
     let mut sim = Sim::from_params(params)?;
     let mut metrics = MetricsObserver::default();
+    if velocity {
+        // No wire to follow: its coils are not read, and losing it is no event.
+        sim = sim.without_coils();
+        metrics = MetricsObserver::wireless();
+    }
     let first = sim.snapshot();
     writer.row(&first).map_err(io(&recording))?;
     metrics.observe(&first);
     let steps = (duration / sim.params().sim.dt_s).round() as u64;
+    let dt = sim.params().sim.dt_s;
+    // A velocity-commanded base drives its manoeuvre: the command is held a step.
+    let manoeuvre = velocity.then(
+        || {
+            opts.manoeuvre
+                .clone()
+                .unwrap_or_else(|| crate::model::manoeuvre::Manoeuvre::Shape(scene.manoeuvre.clone()))
+        },
+    );
     let mut viz_err = None;
     for k in 1..=steps {
+        if let Some(m) = &manoeuvre {
+            let (linear_m_s, angular_rad_s) = m.command_at((k - 1) as f64 * dt);
+            sim.set_actuation(crate::sim::Actuation::Velocity {
+                linear_m_s,
+                angular_rad_s,
+            });
+        }
         if let Err(e) = sim.step() {
             // A diverged run leaves no recording behind, not even the partial one.
             let _ = std::fs::remove_file(&partial);
@@ -180,6 +206,8 @@ pub fn render_summary(scene_path: &Path, scene: &Scene, s: &RunSummary) -> Strin
             out,
             "tracking   none: the wheels are lifted and the chassis stays put"
         );
+    } else if scene.controller.kind == crate::firmware::ControllerKind::Velocity {
+        out.push_str(&path_lines(scene, s));
     } else {
         out.push_str(&tracking_lines(s));
     }
@@ -215,6 +243,54 @@ fn event_words(e: &crate::sim::metrics::RunEvent) -> String {
         "{:.2} s, {:.2} m travelled, axle at ({:.2}, {:.2}) m",
         e.t_s, e.distance_m, e.at_m[0], e.at_m[1]
     )
+}
+
+/// A velocity-commanded base's lines: where its manoeuvre left it against where it
+/// started (a square or a circle followed exactly closes on its start), and its speeds.
+fn path_lines(scene: &Scene, s: &RunSummary) -> String {
+    use std::fmt::Write;
+    let m = &s.motion;
+    let mut out = String::new();
+    let (dx, dy) = (m.end.x_m - m.start.x_m, m.end.y_m - m.start.y_m);
+    let turned = m.end.heading_rad - m.start.heading_rad;
+    let manoeuvre = &scene.manoeuvre;
+    let closes = manoeuvre.kind != "commands";
+    let _ = if closes {
+        let laps = manoeuvre.laps.max(1) as f64;
+        let sign = if manoeuvre.clockwise { -1.0 } else { 1.0 };
+        // The shape turns a whole turn a lap; what is left over is the heading error.
+        let heading_error = turned - sign * laps * std::f64::consts::TAU;
+        writeln!(
+            out,
+            "path       {} {}: ended {:.3} m from its start, heading {:+.2} deg off (a base following its commands exactly closes on its start)",
+            manoeuvre.kind,
+            if manoeuvre.kind == "square" {
+                format!("of {} m sides", crate::param::plain_number(manoeuvre.side_m))
+            } else {
+                format!("of {} m radius", crate::param::plain_number(manoeuvre.radius_m))
+            },
+            dx.hypot(dy),
+            heading_error.to_degrees()
+        )
+    } else {
+        writeln!(
+            out,
+            "path       commands from {}: ended ({:.3}, {:.3}) m from its start, turned {:+.1} deg",
+            manoeuvre.commands,
+            dx,
+            dy,
+            turned.to_degrees()
+        )
+    };
+    let _ = writeln!(
+        out,
+        "speeds     mean {:.3} m/s while moving ({:.1} s), peak {:.3} m/s, peak yaw rate {:.3} rad/s",
+        m.mean_speed_m_s(),
+        m.moving_s,
+        m.peak_speed_m_s,
+        m.peak_yaw_rate_rad_s
+    );
+    out
 }
 
 /// The wire-following lines: settling, the error and what it covers, the limit cycle,

@@ -1103,6 +1103,7 @@ fn the_last_frame_and_row_are_the_end_of_the_run() {
         &agvsim::run::RunOptions {
             out_dir: out.clone(),
             name: "end".into(),
+            manoeuvre: None,
         },
         Some(&mut w),
     )

@@ -27,6 +27,7 @@ fn lab_recording(dir: &Path) -> Recording {
         &RunOptions {
             out_dir: dir.to_owned(),
             name: "lab".into(),
+            manoeuvre: None,
         },
         None,
     )

@@ -414,8 +414,24 @@ mod tests {
         let floor = Driven {
             drive: Drive::Voltages,
             on_floor: true,
+            tracked_pose: true,
             ..axis
         };
+        // The wheel geometry only with a pose apart from the wheels.
+        let e = home(
+            Effect::WheelGeometry,
+            &scene,
+            Driven {
+                tracked_pose: false,
+                ..floor
+            },
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("no pose measured apart from the wheels"), "{e}");
+        let g = home(Effect::WheelGeometry, &scene, floor).unwrap();
+        assert_eq!(g.keys().len(), 3);
+        assert!(!g.in_scene, "the default scene rolls as configured");
         let demand = Driven {
             drive: Drive::AxisDemand,
             ..axis

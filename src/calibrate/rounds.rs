@@ -132,21 +132,28 @@ fn forward(
     let mut round = 0;
     while !remaining.is_empty() {
         round += 1;
-        let names: Vec<&str> = remaining.iter().map(|e| e.name()).collect();
-        progress(&format!(
-            "effects, round {round}: racing {} (each key scanned, then fitted with the others for a few iterations)",
-            names.join(", ")
-        ));
         let mut homes = remaining
             .iter()
             .map(|&e| effects::home(e, &r.stage.scene, driven))
             .collect::<Result<Vec<_>, _>>()?;
-        // The wheel geometry on the wheels' odometry, where the recording has their turns.
+        // The wheel geometry on the wheels' odometry, where the recording has their turns;
+        // where that does not establish it (a robot whose tyres creep under hard
+        // acceleration rolls on other radii than its odometry assumes), through the
+        // simulator as every other effect.
         let mut by_odometry = None;
         if let Some(i) = homes.iter().position(|h| h.effect == Effect::WheelGeometry) {
             if let Some(found) = problem.geometry_by_odometry(&r.stage, &homes[i])? {
-                by_odometry = Some((found, homes.remove(i)));
+                if found.0.accepted {
+                    by_odometry = Some((found, homes.remove(i)));
+                }
             }
+        }
+        let names: Vec<&str> = homes.iter().map(|h| h.effect.name()).collect();
+        if !names.is_empty() {
+            progress(&format!(
+                "effects, round {round}: racing {} (each key scanned, then fitted with the others for a few iterations)",
+                names.join(", ")
+            ));
         }
         // Raced on the recording's first part, against the stage there.
         let explore = problem.explore();
@@ -164,10 +171,12 @@ fn forward(
         }
         let full = most_promising(&gains);
         let tried_names: Vec<&str> = full.iter().map(|&i| homes[i].effect.name()).collect();
-        progress(&format!(
-            "effects, round {round}: fitting {} with the keys",
-            tried_names.join(", ")
-        ));
+        if !tried_names.is_empty() {
+            progress(&format!(
+                "effects, round {round}: fitting {} with the keys",
+                tried_names.join(", ")
+            ));
+        }
         let tried = full
             .par_iter()
             .map(|&i| problem.try_effect(&r.stage, &homes[i], &raced[i]))

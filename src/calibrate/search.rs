@@ -94,6 +94,12 @@ const RESTART_GAIN: f64 = 0.01;
 /// Iteration limit of each fit through the simulator.
 pub(super) const MAX_ITERATIONS: usize = 30;
 
+/// A tracker's position noise, m, and heading noise, rad, where nothing says otherwise:
+/// what the wheels' odometry is weighed by ([`Problem::geometry_by_odometry`]).
+const TRACKER_POSITION_NOISE_M: f64 = 0.002;
+/// See [`TRACKER_POSITION_NOISE_M`].
+const TRACKER_HEADING_NOISE_RAD: f64 = 0.005;
+
 /// Iterations of an effect's race ([`Problem::race`]): enough to leave the scan's grid
 /// and settle the other keys' first response to the effect.
 const RACE_ITERATIONS: usize = 3;
@@ -565,7 +571,18 @@ impl Problem<'_> {
             odometry: Odometry::new(turns, configured),
             windows,
         };
-        let weights = crate::ident::weighting::spread_weights(&pose);
+        // Each pose output weighed by a tracker's noise (a motion-capture or map pose:
+        // 2 mm, 5 mrad, as the fitting vehicle assumes where a rig does not say): the
+        // odometry's residual is that noise and the encoders' counts, not the outputs'
+        // spread, which turning on the spot gives the heading alone.
+        let weights: Vec<f64> = pose
+            .output_names
+            .iter()
+            .map(|n| match n.as_str() {
+                "heading_rad" => 1.0 / TRACKER_HEADING_NOISE_RAD,
+                _ => 1.0 / TRACKER_POSITION_NOISE_M,
+            })
+            .collect();
         let settings = |free: Vec<usize>| FitSettings {
             free,
             weighting: Weighting::outputs_only(weights.clone()),
@@ -592,6 +609,25 @@ impl Problem<'_> {
         let distinct = (0..3).any(|i| {
             on.std[i].is_some_and(|s| (on.params[i] - configured[i]).abs() > s)
         });
+        // The evidence: the geometry's distance from the configured one in its own
+        // covariance (the Wald statistic, the likelihood ratio's measure where the
+        // odometry's residual is as correlated as a pose over a window is), against what
+        // the rule asks of three keys. The effective-sample likelihood gain counts a
+        // window's drift as one sample and asks far more.
+        let deviation = nalgebra::DVector::from_iterator(
+            3,
+            (0..3).map(|i| on.params[i] - configured[i]),
+        );
+        let wald = on
+            .covariance
+            .clone()
+            .pseudo_inverse(1e-30)
+            .map(|inv| (deviation.transpose() * inv * &deviation)[(0, 0)])
+            .unwrap_or(0.0);
+        let gain = Gain {
+            delta_aic: wald - 2.0 * 3.0,
+            reduction: gain.reduction,
+        };
         let at_bound = (0..3).find_map(|i| crate::ident::bound_reached(on.params[i], model.odometry.param_specs()[i].lo, model.odometry.param_specs()[i].hi));
         let trial = EffectTrial {
             effect: home.effect,

@@ -163,6 +163,42 @@ fn scene_of(rig: &Rig, rig_text: &str, rig_path: &std::path::Path) -> Option<Str
     Some(text)
 }
 
+/// The scene's text with a `diff_drive_controller` file's configured geometry and limits
+/// written into its `[base]` section, each commented with where it came from.
+fn with_controller_params(
+    text: &str,
+    p: &crate::import::ros2::controller::DiffDriveParams,
+    file: Option<&Path>,
+) -> Result<String, CommandError> {
+    let from = file.map_or("the controller file".to_string(), |f| f.display().to_string());
+    let mut doc: toml_edit::DocumentMut = text.parse().map_err(|e| CommandError::Contract {
+        what: "the robot's scene".into(),
+        message: format!("{e}"),
+    })?;
+    let base = doc["base"].or_insert(toml_edit::table());
+    let mut set = |key: &str, value: Option<f64>, what: &str| {
+        if let Some(v) = value {
+            let mut item = toml_edit::Value::from(v);
+            item.decor_mut().set_suffix(format!("  # {what} from {from}"));
+            base[key] = toml_edit::Item::Value(item);
+        }
+    };
+    set("wheel_separation_m", p.wheel_separation_m, "wheel_separation x wheel_separation_multiplier");
+    set(
+        "wheel_radius_m",
+        p.wheel_radius_m,
+        &match p.unequal_multipliers {
+            Some((l, r)) => format!("wheel_radius x the mean of its left ({l}) and right ({r}) multipliers: the scene's controller has one radius"),
+            None => "wheel_radius x its multiplier".to_string(),
+        },
+    );
+    set("max_linear_m_s", p.max_linear_m_s, "linear.x.max_velocity");
+    set("max_linear_accel_m_s2", p.max_linear_accel_m_s2, "linear.x.max_acceleration");
+    set("max_angular_rad_s", p.max_angular_rad_s, "angular.z.max_velocity");
+    set("max_angular_accel_rad_s2", p.max_angular_accel_rad_s2, "angular.z.max_acceleration");
+    Ok(doc.to_string())
+}
+
 /// What `agvsim import ros2` was asked.
 #[derive(Debug, Clone)]
 pub struct Ros2Import {
@@ -174,6 +210,16 @@ pub struct Ros2Import {
     pub geometry: crate::import::ros2::Geometry,
     /// Robot mass for the scene, kg.
     pub mass_kg: Option<f64>,
+    /// The drive motor's datasheet point, if given.
+    pub motor: Option<crate::scene::robot::MotorDatasheet>,
+    /// Battery voltage, V (else the battery topic's median).
+    pub battery_v: Option<f64>,
+    /// Motor turns per wheel turn, if given.
+    pub gear_ratio: Option<f64>,
+    /// Gear play at the wheel, rad (default 0).
+    pub backlash_rad: Option<f64>,
+    /// A `diff_drive_controller` parameter file.
+    pub controller_yaml: Option<PathBuf>,
     /// Output folder (default `runs/import`).
     pub out: Option<PathBuf>,
     /// The command line, for the scene's header.
@@ -197,15 +243,47 @@ pub fn ros2(req: &Ros2Import, say: Say) -> Result<(), CommandError> {
     check_recording(&text, &csv_path)?;
     let mut files = vec![(csv_path.clone(), text)];
     let scene_path = dir.join(format!("{stem}.scene.toml"));
-    if let Some((track_m, radius_m, from)) = &rec.geometry {
+    let params = match &req.controller_yaml {
+        Some(p) => Some(ros2::controller::load(p).map_err(|e| CommandError::Contract {
+            what: "--controller-yaml".into(),
+            message: e.to_string(),
+        })?),
+        None => None,
+    };
+    // The controller's file says what the odometry is configured with where the bag's
+    // description does not.
+    let geometry = rec.geometry.clone().or_else(|| {
+        let p = params.as_ref()?;
+        Some((
+            p.wheel_separation_m?,
+            p.wheel_radius_m?,
+            format!(
+                "wheel separation and radius from {}",
+                req.controller_yaml.as_ref()?.display()
+            ),
+        ))
+    });
+    if let Some((track_m, radius_m, from)) = &geometry {
+        let battery_v = req.battery_v.or(rec.battery_v);
         let spec = crate::scene::robot::RobotSpec {
             mass_kg: req.mass_kg,
             track_m: Some(*track_m),
             wheel_radius_m: Some(*radius_m),
-            battery_v: rec.battery_v,
+            battery_v,
+            motor: req.motor,
+            gear_ratio: req.gear_ratio,
+            // No play unless the user says: a robot is not the thesis machine.
+            backlash_rad: Some(req.backlash_rad.unwrap_or(0.0)),
+            guidance: Some(crate::scene::robot::Guidance::None),
+            configured_geometry: true,
             description: Some(format!(
-                "The robot of ROS 2 bag {stem}: {from}{}; the rest the thesis machine's until calibrated",
-                rec.battery_v.map_or(String::new(), |v| format!("; battery {} V, the median of its battery topic", crate::scene::plausibility::sig(v)))
+                "The robot of ROS 2 bag {stem}: {from}{}; {} until calibrated",
+                battery_v.map_or(String::new(), |v| format!(
+                    "; battery {} V{}",
+                    crate::scene::plausibility::sig(v),
+                    if req.battery_v.is_some() { "" } else { ", the median of its battery topic" }
+                )),
+                if req.motor.is_some() { "the rest derived from the numbers given" } else { "the motor and gear the thesis machine's (assumed: give --motor-* and --gear-ratio)" }
             )),
             ..Default::default()
         };
@@ -215,13 +293,17 @@ pub fn ros2(req: &Ros2Import, say: Say) -> Result<(), CommandError> {
             Some((Path::new("the thesis machine (agvsim's defaults)"), &base)),
             &req.command,
         )?;
-        crate::scene::Scene::from_toml(&new.text, &scene_path, &[]).map_err(|e| {
+        let mut text = new.text;
+        if let Some(p) = &params {
+            text = with_controller_params(&text, p, req.controller_yaml.as_deref())?;
+        }
+        crate::scene::Scene::from_toml(&text, &scene_path, &[]).map_err(|e| {
             CommandError::Contract {
                 what: "the robot's scene".into(),
                 message: e.to_string(),
             }
         })?;
-        files.push((scene_path.clone(), new.text));
+        files.push((scene_path.clone(), text));
     }
     std::fs::create_dir_all(&dir).map_err(io(&dir))?;
     for (path, text) in &files {

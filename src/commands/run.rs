@@ -28,6 +28,39 @@ pub struct RunRequest {
     pub rerun_interval_s: f64,
 }
 
+/// The commands a velocity-commanded scene's manoeuvre reads from its CSV (`manoeuvre.kind
+/// = "commands"`: `manoeuvre.commands`, relative to the scene's folder), each row's
+/// command held to the next; `None` for every other scene.
+fn commands_of(
+    scene_path: &std::path::Path,
+    scene: &Scene,
+) -> Result<Option<crate::model::manoeuvre::Manoeuvre>, CommandError> {
+    use crate::firmware::ControllerKind;
+    let m = &scene.manoeuvre;
+    if scene.controller.kind != ControllerKind::Velocity || m.kind != "commands" {
+        return Ok(None);
+    }
+    let path = scene_path
+        .parent()
+        .unwrap_or(std::path::Path::new("."))
+        .join(&m.commands);
+    let rec = crate::record::Recording::load(&path)?;
+    let (Some(v), Some(w)) = (rec.column("cmd_linear_m_s"), rec.column("cmd_angular_rad_s"))
+    else {
+        return Err(CommandError::Contract {
+            what: format!("{} (manoeuvre.commands)", path.display()),
+            message: "expected the columns cmd_linear_m_s and cmd_angular_rad_s".into(),
+        });
+    };
+    let rows = rec
+        .t_s
+        .iter()
+        .zip(v.iter().zip(w))
+        .filter_map(|(t, (v, w))| Some((*t, (*v)?, (*w)?)))
+        .collect();
+    Ok(Some(crate::model::manoeuvre::Manoeuvre::Commands(rows)))
+}
+
 /// Runs the scene and prints its summary, its claims' check and the files written.
 pub fn run(req: &RunRequest, say: Say) -> Result<(), CommandError> {
     let set = overrides(&req.set, req.duration_s, req.seed);
@@ -41,6 +74,7 @@ pub fn run(req: &RunRequest, say: Say) -> Result<(), CommandError> {
             .clone()
             .unwrap_or_else(|| PathBuf::from("runs").join(&name)),
         name: name.clone(),
+        manoeuvre: commands_of(&req.scene, &scene)?,
     };
     let _lock = super::lock_out("--out", &opts.out_dir)?;
     // The Rerun target first: a file that cannot be written (or a viewer that cannot be

@@ -323,6 +323,7 @@ pub fn run_experiment(
                 &RunOptions {
                     out_dir: opts.out_dir.clone(),
                     name: name.clone(),
+                    manoeuvre: None,
                 },
                 None,
             )?;

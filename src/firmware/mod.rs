@@ -27,6 +27,9 @@ pub enum ControllerKind {
     /// (`[controller.swing_away]`; needs `reverse = true`). The thesis describes it but
     /// did not build it.
     SwingAway,
+    /// No firmware: a velocity-commanded base (a ROS robot), its base controller and
+    /// drivers' speed loops (`[base]`) driven by the scene's manoeuvre (`[manoeuvre]`).
+    Velocity,
 }
 
 impl crate::param::Value for ControllerKind {}
@@ -34,7 +37,7 @@ impl crate::param::Value for SwingAwayDesign {}
 
 /// What `controller.kind` takes.
 fn controller_kinds() -> String {
-    "`pd`, `open_day`, `open_loop`, `swing_away` (needs `reverse = true`)".into()
+    "`pd`, `open_day`, `open_loop`, `swing_away` (needs `reverse = true`), `velocity` (a velocity-commanded base driving `[manoeuvre]`)".into()
 }
 
 /// What `controller.swing_away` takes.
@@ -332,6 +335,8 @@ impl Firmware {
         }
         let sign = if self.controller.reverse { -1.0 } else { 1.0 };
         match self.controller.kind {
+            // The run drives the base's velocity commands; the firmware asks nothing.
+            ControllerKind::Velocity => [0.0, 0.0],
             ControllerKind::OpenLoop => [
                 self.controller.open_loop_forward_pct * crate::firmware::pwm::COUNTS_PER_PCT,
                 self.controller.open_loop_turn_pct * crate::firmware::pwm::COUNTS_PER_PCT,

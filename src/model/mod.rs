@@ -10,6 +10,7 @@ pub mod chassis;
 pub mod dcmc;
 pub mod drivetrain;
 pub mod gearbox;
+pub mod manoeuvre;
 pub mod motor;
 pub mod speed_loop;
 pub mod tyre;

@@ -31,6 +31,7 @@ pub fn table() -> &'static KeyTable<Scene> {
             .section("base", |s| &s.base, |s| &mut s.base)
             .section("sensors", |s| &s.sensors, |s| &mut s.sensors)
             .section("controller", |s| &s.controller, |s| &mut s.controller)
+            .section("manoeuvre", |s| &s.manoeuvre, |s| &mut s.manoeuvre)
             .section(
                 "controller.swing_away",
                 |s| &s.controller.swing_away,

@@ -32,8 +32,11 @@ pub struct MotorDatasheet {
 pub enum Guidance {
     /// The thesis's guide wire and its P-D firmware.
     Wire,
-    /// None: constant (open-loop) demands, or a recording's commands through `replay`.
+    /// None: a velocity-commanded base (a ROS robot): no wire, no firmware; `run` drives
+    /// its manoeuvre (a square), `replay` a recording's `/cmd_vel`.
     None,
+    /// Constant (open-loop) demands into the DCMC, straight ahead.
+    OpenLoop,
 }
 
 /// The numbers of `agvsim new`; `None` where not given (taken from `--from`'s scene, or
@@ -66,6 +69,11 @@ pub struct RobotSpec {
     pub width_m: Option<f64>,
     /// The scene's description.
     pub description: Option<String>,
+    /// Write the track and wheel radius given as what the odometry and the base
+    /// controller are configured with too (`base.wheel_separation_m`,
+    /// `base.wheel_radius_m`: a ROS robot's URDF or `diff_drive_controller` values),
+    /// so that the physical ones can be calibrated apart from them.
+    pub configured_geometry: bool,
 }
 
 /// What is wrong with the numbers given to `agvsim new`.
@@ -562,6 +570,18 @@ fn supply_and_drive(n: &Numbers) -> Vec<Derived> {
     ]
 }
 
+/// A velocity-commanded base: no firmware, its manoeuvre UMBmark's square at half its top
+/// speed (0.1 to 0.5 m/s), the run as long as the manoeuvre.
+fn velocity_base(scene: &mut Scene, top_speed_m_s: f64) {
+    scene.controller.kind = ControllerKind::Velocity;
+    let speed = (0.5 * top_speed_m_s).clamp(0.1, 0.5);
+    scene.manoeuvre = crate::model::manoeuvre::ManoeuvreParams {
+        speed_m_s: round4(speed),
+        ..Default::default()
+    };
+    scene.sim.duration_s = round4(scene.manoeuvre.duration_s());
+}
+
 /// Writes a new robot's scene: `base` (the thesis machine when `from` is `None`) with
 /// the spec's numbers and every value derived from them, commented.
 pub fn new_scene(
@@ -585,17 +605,22 @@ pub fn new_scene(
     if let Some(t) = &spec.tyre {
         scene.tyre.compound = t.clone();
     }
+    let top_speed_m_s = scene.battery.drive_limit_v / scene.motor.torque_constant_nm_a
+        / scene.gearbox.ratio
+        * scene.wheel.radius_m;
     match spec.guidance {
         Some(Guidance::Wire) => scene.controller.kind = ControllerKind::Pd,
-        Some(Guidance::None) => {
+        Some(Guidance::OpenLoop) => {
             scene.controller.kind = ControllerKind::OpenLoop;
             scene.controller.open_loop_forward_pct = thesis::OPEN_LOOP_DEMAND_PCT;
         }
-        None if from.is_none() => {
-            scene.controller.kind = ControllerKind::OpenLoop;
-            scene.controller.open_loop_forward_pct = thesis::OPEN_LOOP_DEMAND_PCT;
-        }
+        Some(Guidance::None) => velocity_base(&mut scene, top_speed_m_s),
+        None if from.is_none() => velocity_base(&mut scene, top_speed_m_s),
         None => {}
+    }
+    if spec.configured_geometry {
+        scene.base.wheel_radius_m = Some(scene.wheel.radius_m);
+        scene.base.wheel_separation_m = Some(scene.chassis.track_width_m);
     }
     scene.expect = Default::default();
     scene.description = spec.description.clone().unwrap_or_else(|| {
@@ -627,12 +652,40 @@ pub fn new_scene(
             "not given: the thesis machine's (`agvsim presets`)".into(),
         ));
     }
+    if spec.configured_geometry {
+        let how = "the odometry's and the base controller's configured value: the drawing's; the wheels roll on their effective radii and track (`calibrate --effects wheel_geometry` finds them)";
+        notes_by_key.push(("base.wheel_radius_m", how.into()));
+        notes_by_key.push(("base.wheel_separation_m", how.into()));
+    }
     if spec.guidance.is_some() || from.is_none() {
         let how = match scene.controller.kind {
             ControllerKind::Pd => "guidance: the guide wire, the thesis's P-D firmware and gains",
-            _ => "guidance: none, so constant demands (replay drives it with a recording's commands instead)",
+            ControllerKind::Velocity => "guidance: none, a velocity-commanded base: its base controller and speed loops ([base]) drive the manoeuvre ([manoeuvre]) in `run`, a recording's cmd_vel in `replay`",
+            _ => "guidance: open loop, so constant demands (replay drives it with a recording's commands instead)",
         };
         notes_by_key.push(("controller.kind", how.into()));
+        if scene.controller.kind == ControllerKind::Velocity {
+            notes_by_key.push((
+                "manoeuvre.speed_m_s",
+                "half the top speed (at most 0.5 m/s): UMBmark's square of 1 m sides, a quarter turn on the spot at each corner".into(),
+            ));
+            notes_by_key.push((
+                "sim.duration_s",
+                "the manoeuvre's length with a second's rest either side".into(),
+            ));
+            for (key, how) in [
+                ("manoeuvre.kind", "UMBmark's square (`circle`, or `commands` with a commands CSV)"),
+                ("manoeuvre.turn_rate_rad_s", "a quarter turn on the spot at each corner at this rate"),
+                ("manoeuvre.side_m", "the square's side"),
+                ("manoeuvre.radius_m", "a circle's radius"),
+                ("manoeuvre.laps", "once round"),
+                ("manoeuvre.clockwise", "counter-clockwise"),
+                ("manoeuvre.rest_s", "at rest before and after"),
+                ("manoeuvre.commands", "the commands CSV of `kind = \"commands\"`"),
+            ] {
+                notes_by_key.push((key, how.into()));
+            }
+        }
         if scene.controller.kind == ControllerKind::OpenLoop {
             notes_by_key.push((
                 "controller.open_loop_forward_pct",

@@ -59,6 +59,9 @@ pub struct Scene {
     pub sensors: SensorParams,
     /// The firmware.
     pub controller: ControllerParams,
+    /// What a velocity-commanded base drives in a run (`controller.kind = "velocity"`).
+    #[serde(skip_serializing_if = "crate::model::manoeuvre::ManoeuvreParams::is_default")]
+    pub manoeuvre: crate::model::manoeuvre::ManoeuvreParams,
     /// The guide wire.
     pub wire: WireParams,
     /// Initial pose of the drive-axle midpoint, world frame.

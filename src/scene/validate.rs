@@ -171,6 +171,21 @@ impl Scene {
                 ));
             }
         }
+        let m = &self.manoeuvre;
+        if !["square", "circle", "commands"].contains(&m.kind.as_str()) {
+            return Err(bad(
+                "manoeuvre.kind",
+                format!("{:?}", m.kind),
+                "one of \"square\", \"circle\", \"commands\"",
+            ));
+        }
+        if m.kind == "commands" && m.commands.trim().is_empty() {
+            return Err(bad(
+                "manoeuvre.commands",
+                "\"\"",
+                "the commands CSV's path (t_s, cmd_linear_m_s, cmd_angular_rad_s) for manoeuvre.kind = \"commands\"",
+            ));
+        }
         Ok(())
     }
 

@@ -119,6 +119,8 @@ impl SlipWindow {
 pub struct RunSummary {
     /// Simulated time, s.
     pub duration_s: f64,
+    /// The path driven: where it started and ended, and the speeds on it.
+    pub motion: Motion,
     /// Distance travelled by the axle midpoint, m.
     pub distance_m: f64,
     /// Distance travelled until the lateral error last left the settled band; `None` if it
@@ -171,6 +173,51 @@ pub struct RunSummary {
     pub bumper_at: Option<RunEvent>,
 }
 
+/// The path a run drove: its start and end, and the speeds on it (what a
+/// velocity-commanded base's run is judged by, where there is no wire to follow).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Motion {
+    /// Pose of the drive-axle midpoint at the start.
+    pub start: crate::model::chassis::Pose,
+    /// Pose at the end.
+    pub end: crate::model::chassis::Pose,
+    /// Largest forward speed either way, m/s.
+    pub peak_speed_m_s: f64,
+    /// Largest yaw rate either way, rad/s.
+    pub peak_yaw_rate_rad_s: f64,
+    /// Time the base moved (faster than 1 cm/s or 0.01 rad/s), s.
+    pub moving_s: f64,
+    /// Distance moved while moving, m (its ratio to `moving_s`: the mean speed).
+    pub moving_m: f64,
+    started: bool,
+}
+
+impl Motion {
+    fn observe(&mut self, s: &Snapshot, dt: f64) {
+        if !self.started {
+            self.start = s.pose;
+            self.started = true;
+        }
+        self.end = s.pose;
+        let v = s.velocity_m_s[0].abs();
+        self.peak_speed_m_s = self.peak_speed_m_s.max(v);
+        self.peak_yaw_rate_rad_s = self.peak_yaw_rate_rad_s.max(s.yaw_rate_rad_s.abs());
+        if dt > 0.0 && (v > 0.01 || s.yaw_rate_rad_s.abs() > 0.01) {
+            self.moving_s += dt;
+            self.moving_m += v * dt;
+        }
+    }
+
+    /// Mean forward speed while moving, m/s.
+    pub fn mean_speed_m_s(&self) -> f64 {
+        if self.moving_s > 0.0 {
+            self.moving_m / self.moving_s
+        } else {
+            0.0
+        }
+    }
+}
+
 #[derive(Debug, Clone, Copy)]
 struct Sample {
     t_s: f64,
@@ -181,6 +228,9 @@ struct Sample {
 /// Accumulates a [`RunSummary`] from snapshots taken at regular intervals.
 #[derive(Debug, Clone, Default)]
 pub struct MetricsObserver {
+    /// No wire to follow (a velocity-commanded base): the coils' losing it means nothing.
+    wireless: bool,
+    motion: Motion,
     samples: Vec<Sample>,
     last_xy: Option<[f64; 2]>,
     distance_m: f64,
@@ -203,8 +253,17 @@ pub struct MetricsObserver {
 }
 
 impl MetricsObserver {
+    /// The measures of a run with no wire to follow: a wire lost or ended is no event.
+    pub fn wireless() -> MetricsObserver {
+        MetricsObserver {
+            wireless: true,
+            ..MetricsObserver::default()
+        }
+    }
+
     /// Takes one snapshot into the measures.
     pub fn observe(&mut self, s: &Snapshot) {
+        self.motion.observe(s, s.t_s - self.last_t);
         let xy = [s.pose.x_m, s.pose.y_m];
         if let Some(l) = self.last_xy {
             self.distance_m += (xy[0] - l[0]).hypot(xy[1] - l[1]);
@@ -251,26 +310,32 @@ impl MetricsObserver {
             distance_m: self.distance_m,
             at_m: xy,
         };
-        if s.lost_wire && self.wire_lost.is_none() {
+        let (lost_wire, past_wire_end) = if self.wireless {
+            (false, false)
+        } else {
+            (s.lost_wire, s.past_wire_end)
+        };
+        if lost_wire && self.wire_lost.is_none() {
             self.wire_lost = Some(event);
         }
-        if s.past_wire_end && self.wire_end.is_none() {
+        if past_wire_end && self.wire_end.is_none() {
             self.wire_end = Some(event);
         }
         if s.bumper && self.bumper_at.is_none() {
             self.bumper_at = Some(event);
         }
-        if s.lost_wire && !self.off_wire_now {
+        if lost_wire && !self.off_wire_now {
             self.wire_losses += 1;
         }
-        self.off_wire_now = s.lost_wire;
+        self.off_wire_now = lost_wire;
         self.wheels_lifted = s.wheels_lifted;
-        self.lost_wire |= s.lost_wire;
+        self.lost_wire |= lost_wire;
         self.bumper |= s.bumper;
     }
 
     /// The measures so far.
     pub fn summary(&self) -> RunSummary {
+        let motion = self.motion;
         // Tracking is judged only while there is a wire under the sensors: after the wire
         // is lost or ends, the "lateral error" measures distance from it, not tracking.
         let event_t = [self.wire_lost, self.wire_end]
@@ -347,6 +412,7 @@ impl MetricsObserver {
             .map(|s| (s.t_s, s.lateral_error_m))
             .collect();
         RunSummary {
+            motion,
             duration_s: self.last_t,
             distance_m: self.distance_m,
             settling_distance_m: settled.then(|| {

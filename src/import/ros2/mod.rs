@@ -14,6 +14,7 @@ mod align;
 pub mod bag;
 pub mod cdr;
 mod columns;
+pub mod controller;
 mod urdf;
 
 use std::path::{Path, PathBuf};
