@@ -211,7 +211,7 @@ pub enum Command {
         free: Vec<String>,
         /// Comma-separated effects of the contract's vocabulary to try (backlash,
         /// coulomb_friction, friction_asymmetry, offset, voltage_saturation, battery_sag,
-        /// transport_delay, speed_feedback, wheel_slip, castor_drag): each is switched on
+        /// transport_delay, speed_feedback, wheel_slip, castor_drag, wheel_geometry): each is switched on
         /// through its scene key and fitted with the free keys, and kept only where the
         /// recording gives evidence for it. `all`: every effect this recording can show;
         /// `none`: the free keys only.
@@ -396,7 +396,7 @@ pub enum Command {
         save: Option<PathBuf>,
         /// Comma-separated effects of the contract's vocabulary to try (backlash,
         /// coulomb_friction, friction_asymmetry, offset, voltage_saturation, battery_sag,
-        /// transport_delay, speed_feedback, wheel_slip, castor_drag). `all`: every effect
+        /// transport_delay, speed_feedback, wheel_slip, castor_drag, wheel_geometry). `all`: every effect
         /// that applies to the rig's model; `none`: the nominal model only.
         #[arg(
             long,

@@ -861,7 +861,7 @@ fn calibrate_writes_a_scene_a_json_and_a_rerun_overlay() {
     assert!(!dir.join("c.rrd.partial").exists());
     let j: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-    let tried: Vec<(&str, bool)> = j["effects"]
+    let mut tried: Vec<(&str, bool)> = j["effects"]
         .as_array()
         .unwrap()
         .iter()
@@ -872,6 +872,7 @@ fn calibrate_writes_a_scene_a_json_and_a_rerun_overlay() {
             )
         })
         .collect();
+    tried.sort();
     assert_eq!(
         tried,
         [("coulomb_friction", true), ("voltage_saturation", false)]

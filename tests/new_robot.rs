@@ -65,6 +65,9 @@ fn drive(r: &Robot) -> (f64, f64, String) {
         &wheel,
     ];
     args.extend_from_slice(r.extra);
+    // Constant full demand, straight ahead: the top speed (a velocity-commanded base, the
+    // default, would drive its square).
+    args.extend(["--guidance", "open-loop"]);
     let o = agvsim(&args);
     assert!(o.status.success(), "{}", text(&o));
     assert!(!text(&o).contains("warning"), "{}", text(&o));
