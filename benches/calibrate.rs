@@ -147,5 +147,42 @@ fn bench_base(c: &mut Criterion) {
     time_calibration(c, "calibrate_velocity_base_30s", "cmd_vel_steps_every_effect", &scene, &rec);
 }
 
-criterion_group!(benches, bench_lifted, bench_base);
+/// The real robot's run, imported as docs/ros2.md says (the binary's `import ros2`), its
+/// wheel geometry calibrated with the scene's keys held (`--effects wheel_geometry --free
+/// none`, the recipe). Skipped where `../shared` is not beside the project.
+fn bench_optiodom(c: &mut Criterion) {
+    let bag = Path::new("../shared/data/real/optiodom/square_230620202042_run1");
+    if !bag.is_dir() {
+        println!("calibrate optiodom: skipped, {} not found", bag.display());
+        return;
+    }
+    let out = scratch("optiodom");
+    let agvsim = env!("CARGO_BIN_EXE_agvsim");
+    let status = std::process::Command::new(agvsim)
+        .args(["import", "ros2", bag.to_str().unwrap(), "--out", out.to_str().unwrap()])
+        .args(["--mass-kg", "4", "--gear-ratio", "43.7"])
+        .output()
+        .unwrap();
+    assert!(status.status.success(), "{}", String::from_utf8_lossy(&status.stderr));
+    let scene = Scene::load(&out.join("square_230620202042_run1.scene.toml"), &[]).unwrap();
+    let rec = Recording::load(&out.join("square_230620202042_run1.csv")).unwrap();
+    let request = || Request {
+        free: vec!["none".into()],
+        effects: Choice::Named(vec![agvsim::ident::effects::Effect::WheelGeometry]),
+    };
+    let once = calibrate_telling(&scene, &rec, &request(), &|_| {}).unwrap();
+    println!("calibrate optiodom: geometry {:?}", once.wheel_geometry());
+    let mut g = c.benchmark_group("calibrate_optiodom_real_91s");
+    g.sample_size(10);
+    g.bench_function("wheel_geometry_recipe", |b| {
+        b.iter(|| {
+            calibrate_telling(&scene, &rec, &request(), &|_| {})
+                .unwrap()
+                .iterations
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench_lifted, bench_base, bench_optiodom);
 criterion_main!(benches);

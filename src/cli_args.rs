@@ -21,19 +21,22 @@ pub struct Cli {
 
 #[derive(Subcommand)]
 pub enum ImportFormat {
-    /// A ROS 2 bag (an .mcap file, a .db3 file, or a rosbag2 folder with metadata.yaml) of
-    /// a robot driven by velocity commands: BAG.csv, a `vehicle` recording with
-    /// cmd_linear_m_s, cmd_angular_rad_s from the Twist topic, wheel speeds from
-    /// JointState, yaw rate from Imu, odom_* from Odometry (the robot's own odometry, not
-    /// ground truth), x_m/y_m/heading_rad from an independent /tf pose, and how each was
-    /// made in its header; and BAG.scene.toml when the track and wheel radius are known
-    /// (from /robot_description or the flags).
+    /// A ROS bag (a ROS 2 .mcap or .db3 file or rosbag2 folder with metadata.yaml, or a ROS 1
+    /// .bag file) of a robot driven by velocity commands: BAG.csv, a `vehicle` recording
+    /// with cmd_linear_m_s, cmd_angular_rad_s from the Twist topic, wheel speeds from
+    /// JointState (else from the Odometry twist and the track), yaw rate from Imu, odom_*
+    /// from Odometry (the robot's own odometry, not ground truth), x_m/y_m/heading_rad from
+    /// an independent pose (a /tf chain to the base, or a PoseStamped,
+    /// PoseWithCovarianceStamped or mocap Odometry topic), and how each was made in its
+    /// header; and BAG.scene.toml when the track and wheel radius are known (from
+    /// /robot_description, the flags or --controller-yaml).
+    #[command(alias = "ros1", alias = "ros")]
     Ros2 {
         /// The bag.
         bag: PathBuf,
         /// A topic map (TOML) choosing among several topics of a type: keys cmd_vel,
-        /// joint_states, imu, odom, battery, pose = "PARENT:CHILD", left_wheel_joint,
-        /// right_wheel_joint, time = "header" or "log".
+        /// joint_states, imu, odom, battery, pose = "PARENT:CHILD" (frames on /tf) or
+        /// "/topic", left_wheel_joint, right_wheel_joint, time = "header" or "log".
         #[arg(long, value_name = "MAP.toml")]
         map: Option<PathBuf>,
         /// Output folder [default: runs/import].

@@ -75,6 +75,75 @@ fn import(bag: &Path, out: &Path, extra: &[&str]) -> Output {
     agvsim(&args)
 }
 
+/// The columns the `fixtures` messages (described below) convert to, from any storage.
+fn every_type_values(c: &[(String, Vec<f64>)]) {
+    let k: Vec<f64> = (0..5).map(f64::from).collect();
+    let of = |f: &dyn Fn(f64) -> f64| k.iter().map(|&k| f(k)).collect::<Vec<f64>>();
+    close(col(c, "t_s"), &of(&|k| 0.02 * k), "t_s");
+    close(
+        col(c, "cmd_linear_m_s"),
+        &of(&|k| 0.1 * k + 0.01),
+        "Twist linear.x",
+    );
+    close(
+        col(c, "cmd_angular_rad_s"),
+        &of(&|k| -0.2 * k - 0.02),
+        "Twist angular.z",
+    );
+    // Rim speeds: joint speed times the URDF's 0.1 m wheel.
+    close(
+        col(c, "left_wheel_speed_m_s"),
+        &of(&|k| 0.1 * (1.5 + k)),
+        "JointState velocity",
+    );
+    close(
+        col(c, "right_wheel_speed_m_s"),
+        &of(&|k| 0.1 * (2.5 + k)),
+        "JointState velocity",
+    );
+    close(
+        col(c, "left_wheel_angle_rad"),
+        &of(&|k| 0.1 * k),
+        "JointState position",
+    );
+    close(
+        col(c, "right_wheel_effort_Nm"),
+        &of(&|_| -0.3),
+        "JointState effort",
+    );
+    close(
+        col(c, "yaw_rate_rad_s"),
+        &of(&|k| 0.07 * k - 0.1),
+        "Imu angular_velocity.z",
+    );
+    close(col(c, "odom_x_m"), &of(&|k| 1.0 + k), "Odometry x");
+    close(col(c, "odom_y_m"), &of(&|k| 2.0 - k), "Odometry y");
+    close(
+        col(c, "odom_heading_rad"),
+        &of(&|k| 0.25 * k),
+        "Odometry yaw",
+    );
+    close(
+        col(c, "odom_linear_m_s"),
+        &of(&|k| 0.5 + k),
+        "Odometry twist",
+    );
+    close(
+        col(c, "odom_angular_rad_s"),
+        &of(&|k| -0.1 * k),
+        "Odometry twist",
+    );
+    close(col(c, "x_m"), &of(&|k| 3.0 + 0.2 * k), "tf x");
+    close(col(c, "y_m"), &of(&|k| -1.0 + 0.1 * k), "tf y");
+    close(col(c, "heading_rad"), &of(&|k| 0.3 - 0.05 * k), "tf yaw");
+    // float32 voltages as written.
+    close(
+        col(c, "battery_voltage_V"),
+        &of(&|k| 24.5 - 0.1 * k),
+        "BatteryState voltage",
+    );
+}
+
 /// The fixture's messages (tools/ros2_bags.py `fixtures`): message k (0..5, 50 Hz) has
 /// Twist (0.1k + 0.01, -0.2k - 0.02), TwistStamped (0.3k, 0.05k) stamped 1 ms late,
 /// Odometry pose (1 + k, 2 - k, yaw 0.25k) twist (0.5 + k, -0.1k), JointState velocities
@@ -93,72 +162,7 @@ fn every_message_type_decodes_to_its_values_from_both_storages() {
             &["--map", map.to_str().unwrap()],
         );
         assert!(o.status.success(), "{}", text(&o));
-        let c = columns(&dir.join(format!("types_{storage}.csv")));
-        let k: Vec<f64> = (0..5).map(f64::from).collect();
-        let of = |f: &dyn Fn(f64) -> f64| k.iter().map(|&k| f(k)).collect::<Vec<f64>>();
-        close(col(&c, "t_s"), &of(&|k| 0.02 * k), "t_s");
-        close(
-            col(&c, "cmd_linear_m_s"),
-            &of(&|k| 0.1 * k + 0.01),
-            "Twist linear.x",
-        );
-        close(
-            col(&c, "cmd_angular_rad_s"),
-            &of(&|k| -0.2 * k - 0.02),
-            "Twist angular.z",
-        );
-        // Rim speeds: joint speed times the URDF's 0.1 m wheel.
-        close(
-            col(&c, "left_wheel_speed_m_s"),
-            &of(&|k| 0.1 * (1.5 + k)),
-            "JointState velocity",
-        );
-        close(
-            col(&c, "right_wheel_speed_m_s"),
-            &of(&|k| 0.1 * (2.5 + k)),
-            "JointState velocity",
-        );
-        close(
-            col(&c, "left_wheel_angle_rad"),
-            &of(&|k| 0.1 * k),
-            "JointState position",
-        );
-        close(
-            col(&c, "right_wheel_effort_Nm"),
-            &of(&|_| -0.3),
-            "JointState effort",
-        );
-        close(
-            col(&c, "yaw_rate_rad_s"),
-            &of(&|k| 0.07 * k - 0.1),
-            "Imu angular_velocity.z",
-        );
-        close(col(&c, "odom_x_m"), &of(&|k| 1.0 + k), "Odometry x");
-        close(col(&c, "odom_y_m"), &of(&|k| 2.0 - k), "Odometry y");
-        close(
-            col(&c, "odom_heading_rad"),
-            &of(&|k| 0.25 * k),
-            "Odometry yaw",
-        );
-        close(
-            col(&c, "odom_linear_m_s"),
-            &of(&|k| 0.5 + k),
-            "Odometry twist",
-        );
-        close(
-            col(&c, "odom_angular_rad_s"),
-            &of(&|k| -0.1 * k),
-            "Odometry twist",
-        );
-        close(col(&c, "x_m"), &of(&|k| 3.0 + 0.2 * k), "tf x");
-        close(col(&c, "y_m"), &of(&|k| -1.0 + 0.1 * k), "tf y");
-        close(col(&c, "heading_rad"), &of(&|k| 0.3 - 0.05 * k), "tf yaw");
-        // float32 voltages as written.
-        close(
-            col(&c, "battery_voltage_V"),
-            &of(&|k| 24.5 - 0.1 * k),
-            "BatteryState voltage",
-        );
+        every_type_values(&columns(&dir.join(format!("types_{storage}.csv"))));
         // The odometry is not taken for the pose, and the scene has the URDF's geometry.
         let scene =
             std::fs::read_to_string(dir.join(format!("types_{storage}.scene.toml"))).unwrap();
@@ -276,6 +280,128 @@ fn malformed_bags_are_refused_naming_the_topic_or_record() {
     let junk = dir.join("junk.db3");
     std::fs::write(&junk, b"not sqlite").unwrap();
     refused(&junk, &[], &["junk.db3"]);
+}
+
+/// Writes `text` as a topic map in `dir`, returning its path as an argument.
+fn map_file(dir: &Path, text: &str) -> String {
+    let map = dir.join("map.toml");
+    std::fs::write(&map, text).unwrap();
+    map.to_str().unwrap().to_string()
+}
+
+/// ROS 1 bags (tools/ros2_bags.py `shapes`: rosbags' ROS 1 writer, the `fixtures` messages in
+/// ROS 1's serialisation with its `Header.seq`), uncompressed and in bz2 and lz4 chunks.
+#[test]
+fn ros1_bags_decode_to_the_same_values_in_every_compression() {
+    for compression in ["none", "bz2", "lz4"] {
+        let dir = scratch(&format!("ros1_{compression}"));
+        let bag = fixture(&format!("ros1_{compression}.bag"));
+        let map = map_file(&dir, "cmd_vel = \"/cmd_vel\"\n");
+        let o = import(&bag, &dir, &["--map", &map]);
+        assert!(o.status.success(), "{compression}: {}", text(&o));
+        assert!(text(&o).contains("ROS 1 bag"), "{}", text(&o));
+        let stem = format!("ros1_{compression}");
+        every_type_values(&columns(&dir.join(format!("{stem}.csv"))));
+        let scene = std::fs::read_to_string(dir.join(format!("{stem}.scene.toml"))).unwrap();
+        assert!(scene.contains("track_width_m = 0.42"), "{scene}");
+        // Header stamps (after ROS 1's seq) place the stamped commands 1 ms late.
+        let map = map_file(&dir, "cmd_vel = \"/cmd_vel_stamped\"\n");
+        let o = agvsim(&["import", "ros1", bag.to_str().unwrap(), "--out", dir.to_str().unwrap(), "--map", &map]);
+        assert!(o.status.success(), "{}", text(&o));
+        let c = columns(&dir.join(format!("{stem}.csv")));
+        close(col(&c, "cmd_linear_m_s"), &[0.0, 0.3, 0.6, 0.9], "TwistStamped linear.x");
+    }
+    // A bag cut short names the byte where it ends; a .bag that is not one says what a
+    // ROS 1 bag starts with.
+    let dir = scratch("ros1_bad");
+    let whole = std::fs::read(fixture("ros1_none.bag")).unwrap();
+    let cut = dir.join("cut.bag");
+    std::fs::write(&cut, &whole[..whole.len() / 2]).unwrap();
+    let o = import(&cut, &dir, &[]);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("cut.bag") && text(&o).contains("cut short"), "{}", text(&o));
+    let not = dir.join("not.bag");
+    std::fs::write(&not, "hello, world\n").unwrap();
+    let o = import(&not, &dir, &[]);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("not.bag") && text(&o).contains("#ROSBAG V2.0"), "{}", text(&o));
+}
+
+/// A bag with commands and poses only (no wheels): rows at the chosen pose's rate.
+#[test]
+fn a_bag_of_commands_and_a_pose_gives_rows_at_the_pose_rate() {
+    let bag = fixture("pose_only_mcap");
+    let dir = scratch("pose_only");
+    // Two pose topics: refused, naming both.
+    let o = import(&bag, &dir, &[]);
+    assert!(!o.status.success());
+    let t = text(&o);
+    assert!(t.contains("several pose topics") && t.contains("/amcl_pose") && t.contains("/mocap/pose"), "{t}");
+    let k: Vec<f64> = (0..5).map(f64::from).collect();
+    let of = |f: &dyn Fn(f64) -> f64| k.iter().map(|&k| f(k)).collect::<Vec<f64>>();
+    for (topic, x, y, yaw) in [
+        ("/mocap/pose", of(&|k| 1.0 + 0.1 * k), of(&|k| -0.2 * k), of(&|k| 0.1 * k)),
+        ("/amcl_pose", of(&|k| 5.0 + k), of(&|k| k), of(&|k| -0.2 * k)),
+    ] {
+        let map = map_file(&dir, &format!("pose = \"{topic}\"\n"));
+        let o = import(&bag, &dir, &["--map", &map]);
+        assert!(o.status.success(), "{}", text(&o));
+        let c = columns(&dir.join("pose_only_mcap.csv"));
+        close(col(&c, "t_s"), &of(&|k| 0.02 * k), "rows at the pose's stamps");
+        close(col(&c, "x_m"), &x, topic);
+        close(col(&c, "y_m"), &y, topic);
+        close(col(&c, "heading_rad"), &yaw, topic);
+        close(col(&c, "cmd_angular_rad_s"), &of(&|k| 0.1 * k), "Twist");
+        assert!(c.iter().all(|(n, _)| n != "left_wheel_speed_m_s"), "no wheels, no wheel speeds");
+        let head = std::fs::read_to_string(dir.join("pose_only_mcap.csv")).unwrap();
+        assert!(head.contains(&format!("{topic} (geometry_msgs/msg/Pose")), "{head}");
+    }
+}
+
+/// A bag with commands and odometry only (no joint states): the odometry's twist becomes
+/// the wheels' rim speeds through the track, and /tf chains are composed to the base.
+#[test]
+fn odometry_gives_the_wheel_speeds_and_tf_chains_compose() {
+    let bag = fixture("odom_tf_mcap");
+    let dir = scratch("odom_tf");
+    let track = ["--track-m", "0.4", "--wheel-radius-m", "0.05"];
+    // Two chains from root frames (the localiser's and the motion capture's): refused.
+    let o = import(&bag, &dir, &track);
+    assert!(!o.status.success());
+    let t = text(&o);
+    assert!(
+        t.contains("map -> odom -> base_link") && t.contains("world -> mocap -> base_link"),
+        "{t}"
+    );
+    let k: Vec<f64> = (0..5).map(f64::from).collect();
+    let of = |f: &dyn Fn(f64) -> f64| k.iter().map(|&k| f(k)).collect::<Vec<f64>>();
+    let map = map_file(&dir, "pose = \"world:base_link\"\n");
+    let mut args = track.to_vec();
+    args.extend(["--map", &map]);
+    let o = import(&bag, &dir, &args);
+    assert!(o.status.success(), "{}", text(&o));
+    let c = columns(&dir.join("odom_tf_mcap.csv"));
+    close(col(&c, "t_s"), &of(&|k| 0.02 * k), "rows at the odometry's stamps");
+    // v -/+ w track/2, with v = 0.5 + 0.1k, w = 0.2k, track 0.4 m.
+    close(col(&c, "left_wheel_speed_m_s"), &of(&|k| 0.5 + 0.1 * k - 0.04 * k), "left rim");
+    close(col(&c, "right_wheel_speed_m_s"), &of(&|k| 0.5 + 0.1 * k + 0.04 * k), "right rim");
+    // world -> mocap (0.5, -0.5, 0) then mocap -> base_link (0.1k + 0.01, 0.05k, 0.02k).
+    close(col(&c, "x_m"), &of(&|k| 0.51 + 0.1 * k), "composed x");
+    close(col(&c, "y_m"), &of(&|k| -0.5 + 0.05 * k), "composed y");
+    close(col(&c, "heading_rad"), &of(&|k| 0.02 * k), "composed heading");
+    // map -> odom, turned a quarter: x = X - y_odom, y = 1 + x_odom, with X the nearest
+    // correction (2 at k = 0, 1; 2.1 from k = 2, nearer the one at k = 3).
+    let map = map_file(&dir, "pose = \"map:base_link\"\n");
+    let mut args = track.to_vec();
+    args.extend(["--map", &map]);
+    let o = import(&bag, &dir, &args);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(text(&o).contains("localiser"), "{}", text(&o));
+    let c = columns(&dir.join("odom_tf_mcap.csv"));
+    let corr = [2.0, 2.0, 2.1, 2.1, 2.1];
+    close(col(&c, "x_m"), &of(&|k| corr[k as usize] - 0.05 * k), "map x");
+    close(col(&c, "y_m"), &of(&|k| 1.0 + 0.1 * k), "map y");
+    close(col(&c, "heading_rad"), &of(&|k| std::f64::consts::FRAC_PI_2 + 0.02 * k), "map heading");
 }
 
 /// Runs `tools/ros2_bags.py` (needs `python3 -m pip install rosbags`, which `.ci/run` does).

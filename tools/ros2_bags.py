@@ -6,6 +6,12 @@ storages), for agvsim's import tests.
       every message type agvsim decodes, at known values, as MCAP and as SQLite3 bags,
       and the malformed cases (an unknown message type, a topic with no messages)
 
+  ros2_bags.py shapes OUT_DIR
+      the bag shapes beside the usual one: a pose only (PoseStamped and
+      PoseWithCovarianceStamped, no JointState), odometry only with /tf chains
+      (map -> odom -> base_link, world -> mocap -> base_link), and ROS 1 .bag files (the
+      `fixtures` messages, with rosbags' ROS 1 writer, uncompressed, bz2 and lz4)
+
   ros2_bags.py from-recording RECORDING.csv OUT_BAG --wheel-radius-m R --track-m B
                 [--storage mcap|sqlite3]
       a bag of a robot as ROS logs it, from an agvsim recording's columns: /cmd_vel
@@ -23,10 +29,13 @@ import sys
 from pathlib import Path
 
 from rosbags.rosbag2 import StoragePlugin, Writer
-from rosbags.typesys import Stores, get_typestore
+from rosbags.typesys import Stores, get_typestore, get_types_from_msg
 
 TS = get_typestore(Stores.ROS2_HUMBLE)
 T = TS.types
+# ROS 1 (Noetic) types, with tf2's TFMessage, which the base store lacks.
+TS1 = get_typestore(Stores.ROS1_NOETIC)
+TS1.register(get_types_from_msg('geometry_msgs/TransformStamped[] transforms', 'tf2_msgs/msg/TFMessage'))
 T0_NS = 1_700_000_000 * 10**9  # an epoch time, as a real log has
 
 
@@ -35,6 +44,8 @@ def stamp(t_ns):
 
 
 def header(t_ns, frame):
+    if T is TS1.types:
+        return T['std_msgs/msg/Header'](seq=7, stamp=stamp(t_ns), frame_id=frame)
     return T['std_msgs/msg/Header'](stamp=stamp(t_ns), frame_id=frame)
 
 
@@ -136,35 +147,69 @@ class Bag:
         self.w.close()
 
 
+class Bag1:
+    """A ROS 1 bag, written by rosbags' ROS 1 writer, with the messages of the types in TS1."""
+
+    def __init__(self, path, compression):
+        from rosbags.rosbag1 import Writer as Writer1
+        path.unlink(missing_ok=True)
+        self.w = Writer1(path)
+        if compression != 'none':
+            self.w.set_compression(getattr(Writer1.CompressionFormat, compression.upper()))
+        self.w.open()
+        self.conns = {}
+
+    def topic(self, name, msgtype):
+        self.conns[name] = (self.w.add_connection(name, msgtype, typestore=TS1), msgtype)
+
+    def write(self, name, t_ns, msg):
+        conn, msgtype = self.conns[name]
+        self.w.write(conn, t_ns, bytes(TS1.serialize_ros1(msg, msgtype)))
+
+    def close(self):
+        self.w.close()
+
+
+def use_types(store):
+    """Builds the messages below from `store`'s types (ROS 2's or ROS 1's)."""
+    global T
+    T = store.types
+
+
+def every_type(b):
+    """Every message type agvsim decodes, at the values tests/ros2_import.rs expects."""
+    for name, ty in [('/cmd_vel', 'geometry_msgs/msg/Twist'),
+                     ('/cmd_vel_stamped', 'geometry_msgs/msg/TwistStamped'),
+                     ('/odom', 'nav_msgs/msg/Odometry'),
+                     ('/joint_states', 'sensor_msgs/msg/JointState'),
+                     ('/imu', 'sensor_msgs/msg/Imu'),
+                     ('/battery', 'sensor_msgs/msg/BatteryState'),
+                     ('/tf', 'tf2_msgs/msg/TFMessage'),
+                     ('/tf_static', 'tf2_msgs/msg/TFMessage'),
+                     ('/robot_description', 'std_msgs/msg/String')]:
+        b.topic(name, ty)
+    b.write('/robot_description', T0_NS, string_msg(urdf(0.42, 0.1)))
+    b.write('/tf_static', T0_NS, tf(T0_NS, 'base_link', 'imu_link', 0.1, 0.0, 0.0))
+    for k in range(5):
+        t = T0_NS + k * 20_000_000  # 50 Hz
+        # Values that tell every field apart: k/10 plus a field's own offset.
+        b.write('/cmd_vel', t, twist(0.1 * k + 0.01, -0.2 * k - 0.02))
+        b.write('/cmd_vel_stamped', t,
+                T['geometry_msgs/msg/TwistStamped'](header=header(t + 1_000_000, 'base_link'),
+                                                    twist=twist(0.3 * k, 0.05 * k)))
+        b.write('/odom', t, odometry(t, 1.0 + k, 2.0 - k, 0.25 * k, 0.5 + k, -0.1 * k))
+        b.write('/joint_states', t, joint_state(t, ['left_wheel_joint', 'right_wheel_joint'],
+                                                [0.1 * k, -0.1 * k], [1.5 + k, 2.5 + k], [0.3, -0.3]))
+        b.write('/imu', t, imu(t, 0.07 * k - 0.1))
+        b.write('/battery', t, battery(t, 24.5 - 0.1 * k))
+        b.write('/tf', t, tf(t, 'mocap', 'base_link', 3.0 + 0.2 * k, -1.0 + 0.1 * k, 0.3 - 0.05 * k))
+
+
 def fixtures(out):
     out.mkdir(parents=True, exist_ok=True)
     for storage in ('mcap', 'sqlite3'):
         b = Bag(out / f'types_{storage}', storage)
-        for name, ty in [('/cmd_vel', 'geometry_msgs/msg/Twist'),
-                         ('/cmd_vel_stamped', 'geometry_msgs/msg/TwistStamped'),
-                         ('/odom', 'nav_msgs/msg/Odometry'),
-                         ('/joint_states', 'sensor_msgs/msg/JointState'),
-                         ('/imu', 'sensor_msgs/msg/Imu'),
-                         ('/battery', 'sensor_msgs/msg/BatteryState'),
-                         ('/tf', 'tf2_msgs/msg/TFMessage'),
-                         ('/tf_static', 'tf2_msgs/msg/TFMessage'),
-                         ('/robot_description', 'std_msgs/msg/String')]:
-            b.topic(name, ty)
-        b.write('/robot_description', T0_NS, string_msg(urdf(0.42, 0.1)))
-        b.write('/tf_static', T0_NS, tf(T0_NS, 'base_link', 'imu_link', 0.1, 0.0, 0.0))
-        for k in range(5):
-            t = T0_NS + k * 20_000_000  # 50 Hz
-            # Values that tell every field apart: k/10 plus a field's own offset.
-            b.write('/cmd_vel', t, twist(0.1 * k + 0.01, -0.2 * k - 0.02))
-            b.write('/cmd_vel_stamped', t,
-                    T['geometry_msgs/msg/TwistStamped'](header=header(t + 1_000_000, 'base_link'),
-                                                        twist=twist(0.3 * k, 0.05 * k)))
-            b.write('/odom', t, odometry(t, 1.0 + k, 2.0 - k, 0.25 * k, 0.5 + k, -0.1 * k))
-            b.write('/joint_states', t, joint_state(t, ['left_wheel_joint', 'right_wheel_joint'],
-                                                    [0.1 * k, -0.1 * k], [1.5 + k, 2.5 + k], [0.3, -0.3]))
-            b.write('/imu', t, imu(t, 0.07 * k - 0.1))
-            b.write('/battery', t, battery(t, 24.5 - 0.1 * k))
-            b.write('/tf', t, tf(t, 'mocap', 'base_link', 3.0 + 0.2 * k, -1.0 + 0.1 * k, 0.3 - 0.05 * k))
+        every_type(b)
         b.close()
         # A topic of a type agvsim does not decode, on the commands' topic name.
         b = Bag(out / f'unknown_type_{storage}', storage)
@@ -185,6 +230,71 @@ def fixtures(out):
             b.write('/joint_states', t, joint_state(t, ['left_wheel_joint', 'right_wheel_joint'],
                                                     [0.0, 0.0], [1.0, 1.0], [0.0, 0.0]))
         b.close()
+
+
+def pose_stamped(t_ns, frame, x, y, yaw):
+    pose = T['geometry_msgs/msg/Pose'](position=T['geometry_msgs/msg/Point'](x=x, y=y, z=0.0),
+                                       orientation=quat_yaw(yaw))
+    return T['geometry_msgs/msg/PoseStamped'](header=header(t_ns, frame), pose=pose)
+
+
+def pose_with_covariance_stamped(t_ns, frame, x, y, yaw):
+    import numpy as np
+    pose = T['geometry_msgs/msg/Pose'](position=T['geometry_msgs/msg/Point'](x=x, y=y, z=0.0),
+                                       orientation=quat_yaw(yaw))
+    return T['geometry_msgs/msg/PoseWithCovarianceStamped'](
+        header=header(t_ns, frame),
+        pose=T['geometry_msgs/msg/PoseWithCovariance'](pose=pose, covariance=np.full(36, 0.01)))
+
+
+def shapes(out):
+    """The bag shapes tests/ros2_import.rs reads (message k = 0..5 at 50 Hz)."""
+    out.mkdir(parents=True, exist_ok=True)
+    # /cmd_vel and two poses, no wheels: PoseStamped (1 + 0.1k, -0.2k, yaw 0.1k) and
+    # PoseWithCovarianceStamped (5 + k, k, yaw -0.2k); a URDF (0.3 m track, 0.05 m wheels).
+    b = Bag(out / 'pose_only_mcap', 'mcap')
+    for name, ty in [('/cmd_vel', 'geometry_msgs/msg/Twist'),
+                     ('/mocap/pose', 'geometry_msgs/msg/PoseStamped'),
+                     ('/amcl_pose', 'geometry_msgs/msg/PoseWithCovarianceStamped'),
+                     ('/robot_description', 'std_msgs/msg/String')]:
+        b.topic(name, ty)
+    b.write('/robot_description', T0_NS, string_msg(urdf(0.3, 0.05)))
+    for k in range(5):
+        t = T0_NS + k * 20_000_000
+        b.write('/cmd_vel', t, twist(0.2, 0.1 * k))
+        b.write('/mocap/pose', t, pose_stamped(t, 'mocap', 1.0 + 0.1 * k, -0.2 * k, 0.1 * k))
+        b.write('/amcl_pose', t, pose_with_covariance_stamped(t, 'map', 5.0 + k, 1.0 * k, -0.2 * k))
+    b.close()
+    # /cmd_vel, /odom (pose (0.1k, 0.05k, yaw 0.02k), twist (0.5 + 0.1k, 0.2k)), no
+    # wheels, no URDF; /tf: odom -> base_link (the odometry), map -> odom (a localiser's
+    # correction, (2, 1, yaw pi/2), then (2.1, 1, pi/2) from k = 3), mocap -> base_link
+    # (0.1k + 0.01, 0.05k, 0.02k); /tf_static world -> mocap (0.5, -0.5, 0).
+    b = Bag(out / 'odom_tf_mcap', 'mcap')
+    for name, ty in [('/cmd_vel', 'geometry_msgs/msg/Twist'),
+                     ('/odom', 'nav_msgs/msg/Odometry'),
+                     ('/tf', 'tf2_msgs/msg/TFMessage'),
+                     ('/tf_static', 'tf2_msgs/msg/TFMessage')]:
+        b.topic(name, ty)
+    b.write('/tf_static', T0_NS, tf(T0_NS, 'world', 'mocap', 0.5, -0.5, 0.0))
+    for k in range(5):
+        t = T0_NS + k * 20_000_000
+        ox, oy, oyaw = 0.1 * k, 0.05 * k, 0.02 * k
+        b.write('/cmd_vel', t, twist(0.5, 0.2))
+        b.write('/odom', t, odometry(t, ox, oy, oyaw, 0.5 + 0.1 * k, 0.2 * k))
+        b.write('/tf', t, tf(t, 'odom', 'base_link', ox, oy, oyaw))
+        b.write('/tf', t, tf(t, 'mocap', 'base_link', ox + 0.01, oy, oyaw))
+        if k in (0, 3):
+            b.write('/tf', t, tf(t, 'map', 'odom', 2.0 if k == 0 else 2.1, 1.0, math.pi / 2))
+    b.close()
+    # ROS 1 bags of the `fixtures` messages.
+    use_types(TS1)
+    try:
+        for compression in ('none', 'bz2', 'lz4'):
+            b = Bag1(out / f'ros1_{compression}.bag', compression)
+            every_type(b)
+            b.close()
+    finally:
+        use_types(TS)
 
 
 def read_recording(path):
@@ -254,6 +364,8 @@ def main():
     sub = ap.add_subparsers(dest='cmd', required=True)
     f = sub.add_parser('fixtures')
     f.add_argument('out', type=Path)
+    f = sub.add_parser('shapes')
+    f.add_argument('out', type=Path)
     r = sub.add_parser('from-recording')
     r.add_argument('recording', type=Path)
     r.add_argument('out', type=Path)
@@ -265,6 +377,8 @@ def main():
     a = ap.parse_args()
     if a.cmd == 'fixtures':
         fixtures(a.out)
+    elif a.cmd == 'shapes':
+        shapes(a.out)
     else:
         from_recording(a.recording, a.out, a.wheel_radius_m, a.track_m, a.storage, a.battery_v, a.noise)
 

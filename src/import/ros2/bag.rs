@@ -1,7 +1,10 @@
-//! A ROS 2 bag's messages, raw: an MCAP file, or a rosbag2 folder (`metadata.yaml` with
-//! its `.mcap` or `.db3` files), or a lone `.db3` file. Each topic with its message type
-//! (`geometry_msgs/msg/Twist`) and its messages' log times and CDR bytes, in log-time
-//! order.
+//! A ROS bag's messages, raw: an MCAP file, or a rosbag2 folder (`metadata.yaml` with
+//! its `.mcap` or `.db3` files), a lone `.db3` file, or a ROS 1 `.bag` file. Each topic
+//! with its message type (ROS 2's name, `geometry_msgs/msg/Twist`) and its messages' log
+//! times and bytes (CDR, or ROS 1's serialisation behind [`cdr::ROS1_MARKER`]), in
+//! log-time order.
+
+use super::cdr;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -31,7 +34,7 @@ pub enum BagError {
     },
 }
 
-fn bad(path: &Path, message: impl Into<String>) -> BagError {
+pub(super) fn bad(path: &Path, message: impl Into<String>) -> BagError {
     BagError::Bad {
         path: path.to_owned(),
         message: message.into(),
@@ -45,6 +48,8 @@ pub enum Storage {
     Mcap,
     /// SQLite3 (`.db3`, Humble and older).
     Sqlite3,
+    /// A ROS 1 bag (`.bag`, format 2.0).
+    Rosbag1,
 }
 
 impl Storage {
@@ -53,6 +58,7 @@ impl Storage {
         match self {
             Storage::Mcap => "mcap",
             Storage::Sqlite3 => "sqlite3",
+            Storage::Rosbag1 => "ROS 1 bag",
         }
     }
 }
@@ -138,9 +144,10 @@ fn storage_of_file(path: &Path) -> Result<Storage, BagError> {
     match path.extension().and_then(|e| e.to_str()) {
         Some("mcap") => Ok(Storage::Mcap),
         Some("db3") => Ok(Storage::Sqlite3),
+        Some("bag") => Ok(Storage::Rosbag1),
         _ => Err(bad(
             path,
-            "expected an .mcap or .db3 file, or a rosbag2 folder holding metadata.yaml",
+            "expected an .mcap or .db3 file, a rosbag2 folder holding metadata.yaml, or a ROS 1 .bag file",
         )),
     }
 }
@@ -245,6 +252,13 @@ fn read_file(
     match storage {
         Storage::Mcap => read_mcap(path, topics),
         Storage::Sqlite3 => read_sqlite(path, topics),
+        Storage::Rosbag1 => {
+            let buf = std::fs::read(path).map_err(|source| BagError::Io {
+                path: path.to_owned(),
+                source,
+            })?;
+            super::rosbag1::read(path, &buf, topics)
+        }
     }
 }
 
@@ -265,6 +279,11 @@ fn read_mcap(path: &Path, topics: &mut BTreeMap<String, Topic>) -> Result<(), Ba
         channels.sort_by_key(|c| c.id);
         for c in channels {
             let ty = c.schema.as_ref().map_or(String::new(), |s| s.name.clone());
+            let ty = if c.message_encoding == "ros1" {
+                super::rosbag1::ros2_type(&ty)
+            } else {
+                ty
+            };
             topics.entry(c.topic.clone()).or_insert_with(|| Topic {
                 name: c.topic.clone(),
                 msg_type: ty,
@@ -280,15 +299,26 @@ fn read_mcap(path: &Path, topics: &mut BTreeMap<String, Topic>) -> Result<(), Ba
             .schema
             .as_ref()
             .map_or(String::new(), |s| s.name.clone());
-        if m.channel.message_encoding != "cdr" {
-            return Err(bad(
-                path,
-                format!(
-                    "topic `{}`: message encoding `{}`, expected `cdr` (ROS 2)",
-                    m.channel.topic, m.channel.message_encoding
-                ),
-            ));
-        }
+        // A ROS 1 data set converted to MCAP keeps ROS 1's serialisation and type names.
+        let ros1 = match m.channel.message_encoding.as_str() {
+            "cdr" => false,
+            "ros1" => true,
+            other => {
+                return Err(bad(
+                    path,
+                    format!(
+                        "topic `{}`: message encoding `{other}`, expected `cdr` (ROS 2) or `ros1`",
+                        m.channel.topic
+                    ),
+                ))
+            }
+        };
+        let ty = if ros1 { super::rosbag1::ros2_type(&ty) } else { ty };
+        let data = if ros1 {
+            [&cdr::ROS1_MARKER[..], &m.data].concat()
+        } else {
+            m.data.into_owned()
+        };
         topics
             .entry(m.channel.topic.clone())
             .or_insert_with(|| Topic {
@@ -299,7 +329,7 @@ fn read_mcap(path: &Path, topics: &mut BTreeMap<String, Topic>) -> Result<(), Ba
             .messages
             .push(RawMessage {
                 log_time_ns: m.log_time as i64,
-                data: m.data.into_owned(),
+                data,
             });
     }
     Ok(())

@@ -6,6 +6,14 @@
 //! primitive aligned to its own size counted from the end of the header. A string is a
 //! `u32` length (with its terminating NUL) and its bytes; a sequence a `u32` count and its
 //! elements; a fixed array its elements alone.
+//!
+//! The same decoders read ROS 1's serialisation (a ROS 1 bag's messages, behind
+//! [`ROS1_MARKER`]): little-endian, nothing aligned, strings without their NUL, and a
+//! `Header` that starts with a `uint32 seq`.
+
+/// The four bytes agvsim puts before a ROS 1 message so that [`Cdr`] reads it as ROS 1
+/// (not a CDR encapsulation: those start `00`).
+pub const ROS1_MARKER: [u8; 4] = *b"ROS1";
 
 /// Why a message cannot be decoded.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -24,7 +32,7 @@ pub enum CdrError {
     #[error("unknown CDR encapsulation {0:#06x} (expected 0x0000 or 0x0001, plain CDR)")]
     Encapsulation(u16),
     /// A string that is not UTF-8 or lacks its NUL.
-    #[error("string `{0}` is not a NUL-terminated UTF-8 string")]
+    #[error("string `{0}` is not a UTF-8 string (NUL-terminated, in CDR)")]
     BadString(&'static str),
 }
 
@@ -33,6 +41,8 @@ pub struct Cdr<'a> {
     buf: &'a [u8],
     pos: usize,
     little: bool,
+    /// ROS 1's layout: nothing aligned, strings without NUL, `Header.seq`.
+    ros1: bool,
 }
 
 /// Longest sequence accepted, elements: a count beyond the message's own size is a
@@ -51,6 +61,14 @@ impl<'a> Cdr<'a> {
                 field: "encapsulation header",
             });
         }
+        if buf[..4] == ROS1_MARKER {
+            return Ok(Cdr {
+                buf: &buf[4..],
+                pos: 0,
+                little: true,
+                ros1: true,
+            });
+        }
         let kind = u16::from_be_bytes([buf[0], buf[1]]);
         let little = match kind {
             0x0001 => true,
@@ -61,11 +79,13 @@ impl<'a> Cdr<'a> {
             buf: &buf[4..],
             pos: 0,
             little,
+            ros1: false,
         })
     }
 
     fn take(&mut self, n: usize, field: &'static str) -> Result<&'a [u8], CdrError> {
-        let pad = (n.min(8) - self.pos % n.min(8)) % n.min(8);
+        let align = if self.ros1 { 1 } else { n.min(8) };
+        let pad = (align - self.pos % align) % align;
         let start = self.pos + pad;
         let end = start + n;
         if end > self.buf.len() {
@@ -135,6 +155,11 @@ impl<'a> Cdr<'a> {
         }
         let bytes = &self.buf[self.pos..self.pos + n];
         self.pos += n;
+        if self.ros1 {
+            return std::str::from_utf8(bytes)
+                .map(str::to_owned)
+                .map_err(|_| CdrError::BadString(field));
+        }
         match bytes.split_last() {
             Some((0, text)) => std::str::from_utf8(text)
                 .map(str::to_owned)
@@ -192,6 +217,9 @@ pub struct Header {
 }
 
 fn header(c: &mut Cdr) -> Result<Header, CdrError> {
+    if c.ros1 {
+        c.u32("header.seq")?;
+    }
     let sec = c.i32("header.stamp.sec")? as i64;
     let nanosec = c.u32("header.stamp.nanosec")? as i64;
     Ok(Header {
@@ -272,6 +300,29 @@ pub fn decode_odometry(buf: &[u8]) -> Result<Odometry, CdrError> {
         pose: [p[0], p[1], yaw],
         twist: tw,
     })
+}
+
+/// A planar pose: x, y, m, and heading, rad, of `geometry_msgs/Pose`.
+fn pose(c: &mut Cdr, field: &'static str) -> Result<[f64; 3], CdrError> {
+    let p = vector3(c, field)?;
+    let yaw = quaternion_yaw(c, field)?;
+    Ok([p[0], p[1], yaw])
+}
+
+/// `geometry_msgs/PoseStamped`: the stamp and frame, and the planar pose.
+pub fn decode_pose_stamped(buf: &[u8]) -> Result<(Header, [f64; 3]), CdrError> {
+    let mut c = Cdr::new(buf)?;
+    Ok((header(&mut c)?, pose(&mut c, "pose")?))
+}
+
+/// `geometry_msgs/PoseWithCovarianceStamped` (a localiser's output): the stamp and frame,
+/// and the planar pose (the covariance read past).
+pub fn decode_pose_with_covariance_stamped(buf: &[u8]) -> Result<(Header, [f64; 3]), CdrError> {
+    let mut c = Cdr::new(buf)?;
+    let h = header(&mut c)?;
+    let p = pose(&mut c, "pose.pose")?;
+    c.skip_f64s(36, "pose.covariance")?;
+    Ok((h, p))
 }
 
 /// `sensor_msgs/JointState`.

@@ -54,6 +54,8 @@ const ODOMETRY: &str = "nav_msgs/msg/Odometry";
 const BATTERY: &str = "sensor_msgs/msg/BatteryState";
 const TF: &str = "tf2_msgs/msg/TFMessage";
 const STRING: &str = "std_msgs/msg/String";
+const POSE_STAMPED: &str = "geometry_msgs/msg/PoseStamped";
+const POSE_COV_STAMPED: &str = "geometry_msgs/msg/PoseWithCovarianceStamped";
 
 struct Converter<'a> {
     bag: &'a Bag,
@@ -381,13 +383,16 @@ pub fn convert(bag: &Bag, map: &TopicMap, geometry: &Geometry) -> Result<Ros2Rec
     let volts = volts.sorted();
     let (pose, pose_frames) = tracked_pose(&c, &mut notes)?;
 
-    // The time base: the wheels' stamps, else the gyro's, else the odometry's.
+    // The time base: the wheels' stamps, else the gyro's, else the odometry's, else the
+    // pose's.
+    let pose_source = pose_frames.as_ref().map(|(_, topic)| topic.clone());
     let (base, base_name) = [(&wheel, joints), (&gyro, imu), (&odometry, odom)]
         .into_iter()
         .find_map(|(s, t)| t.map(|t| (s, t.name.clone())))
+        .or_else(|| pose_source.map(|name| (&pose, name)))
         .ok_or_else(|| {
             c.err(format!(
-                "no output to compare: expected a {JOINT_STATE}, {IMU} or {ODOMETRY} topic; the bag has {}",
+                "no output to compare: expected a {JOINT_STATE}, {IMU} or {ODOMETRY} topic, or a pose (/tf to the base, {POSE_STAMPED}, {POSE_COV_STAMPED}); the bag has {}",
                 c.listing()
             ))
         })?;
@@ -493,6 +498,23 @@ pub fn convert(bag: &Bag, map: &TopicMap, geometry: &Geometry) -> Result<Ros2Rec
             &mut conversions,
         );
     }
+    // Without joint states, the odometry's twist is what the wheels measured: each wheel's
+    // rim speed from the body's through the configured track.
+    if let (None, Some(t), Some((track_m, track_from))) = (joints, odom, &track) {
+        let is_base = base_name == t.name;
+        let (v, w) = (align(&odometry, 3, is_base), align(&odometry, 4, is_base));
+        for (side, sign) in [("left", -1.0), ("right", 1.0)] {
+            add(
+                &format!("{side}_wheel_speed_m_s"),
+                v.iter()
+                    .zip(&w)
+                    .map(|(v, w)| Some(v.as_ref()? + sign * 0.5 * track_m * w.as_ref()?))
+                    .collect(),
+                format!("{} ({ODOMETRY}) twist.linear.x {} half the track {track_m} m ({track_from}) times twist.angular.z: the wheels' rim speeds as the odometry measured them (the bag has no {JOINT_STATE}); {}", t.name, if sign < 0.0 { "less" } else { "plus" }, placing(is_base)),
+                &mut conversions,
+            );
+        }
+    }
     if let Some(t) = odom {
         let is_base = base_name == t.name;
         let (frame, child) = odom_frames.clone().unwrap_or_default();
@@ -512,15 +534,21 @@ pub fn convert(bag: &Bag, map: &TopicMap, geometry: &Geometry) -> Result<Ros2Rec
         }
     }
     if let Some((frames, topic)) = &pose_frames {
+        let is_base = base_name == *topic;
         for (j, col, field) in [
-            (0, "x_m", "translation.x"),
-            (1, "y_m", "translation.y"),
-            (2, "heading_rad", "yaw of rotation, unwrapped"),
+            (0, "x_m", "x"),
+            (1, "y_m", "y"),
+            (2, "heading_rad", "heading (yaw), unwrapped"),
         ] {
+            let where_ = if frames.contains(" -> ") {
+                format!("{topic} transform {frames}")
+            } else {
+                format!("{topic} ({frames})")
+            };
             add(
                 col,
-                nearest(&rows, &pose, j, half),
-                format!("{topic} transform {frames}, {field}: an independent pose (the child frame taken at the drive-axle midpoint); each row takes the nearest transform within half a row interval, else the cell is empty"),
+                if is_base { nearest(&rows, &pose, j, 0) } else { nearest(&rows, &pose, j, half) },
+                format!("{where_}, {field}: an independent pose (the base frame taken at the drive-axle midpoint); {}", placing(is_base)),
                 &mut conversions,
             );
         }
@@ -552,6 +580,7 @@ pub fn convert(bag: &Bag, map: &TopicMap, geometry: &Geometry) -> Result<Ros2Rec
             .flatten()
             .any(|u| u.name == t.name)
             || t.msg_type == TF
+            || pose_frames.as_ref().is_some_and(|(_, topic)| *topic == t.name)
             || (t.msg_type == STRING && t.name.ends_with("robot_description"));
         if !used {
             notes.push(format!("topic `{}` ({}) not used", t.name, t.msg_type));
@@ -594,79 +623,265 @@ pub fn convert(bag: &Bag, map: &TopicMap, geometry: &Geometry) -> Result<Ros2Rec
     })
 }
 
-/// The independent pose from `/tf`: the map's `PARENT:CHILD`, else the one transform to
-/// the base (`base_link`, `base_footprint`) whose parent is not the odometry frame.
+/// The independent pose, and how it was found (`(what, topic)`):
+///
+/// - the map's `pose`: a topic (`/mocap/pose`: `geometry_msgs/PoseStamped`,
+///   `PoseWithCovarianceStamped`, or a motion-capture bridge's `nav_msgs/Odometry`), or
+///   `"PARENT:CHILD"` frames on `/tf` (a chain of transforms composed);
+/// - else the one chain of `/tf` (and `/tf_static`) transforms that ends at the base
+///   (`base_link`, `base_footprint`) from a root other than the odometry frame (`odom`):
+///   a motion-capture frame, or `map -> odom -> base_link` (a localiser's pose: it
+///   corrects the odometry's drift from other sensors, but between corrections it is the
+///   odometry, which a note says);
+/// - else the one `PoseStamped` or `PoseWithCovarianceStamped` topic.
 fn tracked_pose(
     c: &Converter,
     notes: &mut Vec<String>,
 ) -> Result<(Series, Option<(String, String)>), Ros2Error> {
-    let mut all: Vec<(String, String, String, i64, [f64; 3])> = vec![];
-    for t in c.bag.topics.iter().filter(|t| t.msg_type == TF) {
-        for (log, tfs) in c.decode(t, cdr::decode_tf)? {
-            for tr in tfs {
-                all.push((
-                    t.name.clone(),
-                    tr.header.frame_id.clone(),
-                    tr.child_frame_id.clone(),
-                    c.at(&tr.header, log),
-                    tr.pose,
-                ));
-            }
-        }
+    if let Some(p) = c.map.pose.as_deref().filter(|p| p.starts_with('/')) {
+        let t = c
+            .bag
+            .topics
+            .iter()
+            .find(|t| t.name == p)
+            .ok_or_else(|| c.err(format!("--map pose = \"{p}\": no such topic; the bag has {}", c.listing())))?;
+        return pose_topic(c, t).map(|(s, what)| (s, Some((what, t.name.clone()))));
     }
-    let pair = match &c.map.pose {
+    let links = tf_links(c)?;
+    let chain = match &c.map.pose {
         Some(p) => {
             let (parent, child) = p.split_once(':').ok_or_else(|| Ros2Error::Content {
                 bag: c.bag.path.clone(),
-                message: format!("--map pose = \"{p}\": expected \"PARENT:CHILD\" frames"),
+                message: format!("--map pose = \"{p}\": expected \"PARENT:CHILD\" frames or a topic (`/name`)"),
             })?;
-            if !all.iter().any(|a| a.1 == parent && a.2 == child) {
-                return Err(c.err(format!(
-                    "--map pose = \"{p}\": no /tf transform from `{parent}` to `{child}` in the bag"
-                )));
-            }
-            Some((parent.to_string(), child.to_string()))
+            Some(chain_between(&links, parent, child).ok_or_else(|| {
+                c.err(format!(
+                    "--map pose = \"{p}\": no /tf transform or chain of transforms from `{parent}` to `{child}` in the bag"
+                ))
+            })?)
         }
         None => {
-            let mut pairs: Vec<(String, String)> = all
+            let mut chains: Vec<Vec<usize>> = ["base_link", "base_footprint"]
                 .iter()
-                .filter(|a| matches!(a.2.as_str(), "base_link" | "base_footprint"))
-                .map(|a| (a.1.clone(), a.2.clone()))
+                .flat_map(|base| roots_of(&links, base).into_iter().filter_map(|root| chain_between(&links, &root, base)))
+                .filter(|ch| links[ch[0]].parent != "odom")
                 .collect();
-            pairs.sort();
-            pairs.dedup();
-            let (odometric, independent): (Vec<_>, Vec<_>) =
-                pairs.into_iter().partition(|(p, _)| p == "odom");
-            for (p, ch) in &odometric {
-                notes.push(format!("the /tf transform {p} -> {ch} is the wheel odometry, not an independent pose: not written as x_m, y_m, heading_rad"));
+            chains.sort();
+            chains.dedup();
+            for (i, l) in links.iter().enumerate() {
+                if l.parent == "odom" && matches!(l.child.as_str(), "base_link" | "base_footprint")
+                    && !chains.iter().any(|ch| ch.contains(&i))
+                {
+                    notes.push(format!("the /tf transform odom -> {} is the wheel odometry, not an independent pose: not written as x_m, y_m, heading_rad", l.child));
+                }
             }
-            match independent.as_slice() {
-                [] => None,
-                [one] => Some(one.clone()),
-                several => {
-                    let list: Vec<String> =
-                        several.iter().map(|(p, ch)| format!("{p}:{ch}")).collect();
+            match chains.len() {
+                0 => None,
+                1 => chains.pop(),
+                _ => {
+                    let list: Vec<String> = chains.iter().map(|ch| chain_words(&links, ch)).collect();
                     return Err(c.err(format!(
-                        "several /tf transforms to the base ({}): choose the independent pose with --map (key `pose`)",
-                        list.join(", ")
+                        "several /tf chains to the base ({}): choose the independent pose with --map (key `pose`, \"PARENT:CHILD\")",
+                        list.join("; ")
                     )));
                 }
             }
         }
     };
-    let Some((parent, child)) = pair else {
-        return Ok((Series::default(), None));
+    let Some(chain) = chain else {
+        // No /tf pose: a pose topic, where there is exactly one.
+        let topics: Vec<&Topic> = c
+            .bag
+            .topics
+            .iter()
+            .filter(|t| matches!(t.msg_type.as_str(), POSE_STAMPED | POSE_COV_STAMPED))
+            .collect();
+        return match topics.as_slice() {
+            [] => Ok((Series::default(), None)),
+            [t] => pose_topic(c, t).map(|(s, what)| (s, Some((what, t.name.clone())))),
+            several => Err(c.err(format!(
+                "several pose topics ({}): choose the independent pose with --map (key `pose`, the topic)",
+                several.iter().map(|t| t.name.as_str()).collect::<Vec<_>>().join(", ")
+            ))),
+        };
     };
-    let topic = all
-        .iter()
-        .find(|a| a.1 == parent && a.2 == child)
-        .map_or(String::new(), |a| a.0.clone());
-    let mut s = Series::default();
-    for a in all.iter().filter(|a| a.1 == parent && a.2 == child) {
-        s.push(a.3, a.4.to_vec());
+    if chain.len() > 1 && chain.iter().any(|&i| links[i].parent == "odom") {
+        notes.push(format!(
+            "the pose is the chain {}: a localiser's correction of the wheel odometry, independent of the wheels only where the localiser corrected it",
+            chain_words(&links, &chain)
+        ));
     }
-    let s = s.sorted().with_continuous(2);
-    Ok((s, Some((format!("{parent} -> {child}"), topic))))
+    let topic = links[*chain.last().expect("a chain has a link")].topic.clone();
+    Ok((compose(&links, &chain), Some((chain_words(&links, &chain), topic))))
+}
+
+/// One `/tf` (or `/tf_static`) link: parent, child, its topic, and its transforms in time.
+struct TfLink {
+    parent: String,
+    child: String,
+    topic: String,
+    series: Series,
+}
+
+/// Every parent-child link of the bag's transforms.
+fn tf_links(c: &Converter) -> Result<Vec<TfLink>, Ros2Error> {
+    let mut links: Vec<TfLink> = vec![];
+    for t in c.bag.topics.iter().filter(|t| t.msg_type == TF) {
+        for (log, tfs) in c.decode(t, cdr::decode_tf)? {
+            for tr in tfs {
+                let i = match links
+                    .iter()
+                    .position(|l| l.parent == tr.header.frame_id && l.child == tr.child_frame_id)
+                {
+                    Some(i) => i,
+                    None => {
+                        links.push(TfLink {
+                            parent: tr.header.frame_id.clone(),
+                            child: tr.child_frame_id.clone(),
+                            topic: t.name.clone(),
+                            series: Series::default(),
+                        });
+                        links.len() - 1
+                    }
+                };
+                links[i].series.push(c.at(&tr.header, log), tr.pose.to_vec());
+            }
+        }
+    }
+    for l in &mut links {
+        l.series = std::mem::take(&mut l.series).sorted().with_continuous(2);
+    }
+    Ok(links)
+}
+
+/// The root frames of the tree above `child`: its ancestors that are no frame's child
+/// (a chain from one of them is the whole chain, not a tail of a longer one).
+fn roots_of(links: &[TfLink], child: &str) -> Vec<String> {
+    let mut ancestors: Vec<String> = vec![];
+    let mut frontier = vec![child.to_string()];
+    while let Some(f) = frontier.pop() {
+        for l in links.iter().filter(|l| l.child == f) {
+            if !ancestors.contains(&l.parent) && l.parent != child {
+                ancestors.push(l.parent.clone());
+                frontier.push(l.parent.clone());
+            }
+        }
+    }
+    ancestors.retain(|a| !links.iter().any(|l| l.child == *a));
+    ancestors
+}
+
+/// The links from `parent` down to `child` (indices, root first), if a chain joins them.
+/// A frame may have several parents (a localiser's `odom -> base_link` and a motion
+/// capture's `mocap -> base_link`), so every parent is tried, depth first.
+fn chain_between(links: &[TfLink], parent: &str, child: &str) -> Option<Vec<usize>> {
+    fn up(links: &[TfLink], parent: &str, at: &str, chain: &mut Vec<usize>) -> bool {
+        if at == parent {
+            return !chain.is_empty();
+        }
+        for (i, l) in links.iter().enumerate().filter(|(_, l)| l.child == at) {
+            if chain.contains(&i) {
+                continue; // a cycle in a malformed tree
+            }
+            chain.push(i);
+            if up(links, parent, &l.parent, chain) {
+                return true;
+            }
+            chain.pop();
+        }
+        false
+    }
+    let mut chain = vec![];
+    up(links, parent, child, &mut chain).then(|| {
+        chain.reverse();
+        chain
+    })
+}
+
+fn chain_words(links: &[TfLink], chain: &[usize]) -> String {
+    let mut w = links[chain[0]].parent.clone();
+    for &i in chain {
+        w.push_str(" -> ");
+        w.push_str(&links[i].child);
+    }
+    w
+}
+
+/// The chain's transforms composed at each time of its last link (the one to the base),
+/// each other link at its transform nearest in time (a static one: its only one).
+fn compose(links: &[TfLink], chain: &[usize]) -> Series {
+    let last = &links[*chain.last().expect("a chain has a link")].series;
+    let mut out = Series::default();
+    for (k, &t) in last.t_ns.iter().enumerate() {
+        let mut pose = [0.0_f64, 0.0, 0.0];
+        for &i in chain {
+            let s = &links[i].series;
+            let v = if std::ptr::eq(s, last) {
+                Some(last.values[k].clone())
+            } else {
+                nearest_value(s, t)
+            };
+            let Some(v) = v else { continue };
+            let (sin, cos) = pose[2].sin_cos();
+            pose = [
+                pose[0] + cos * v[0] - sin * v[1],
+                pose[1] + sin * v[0] + cos * v[1],
+                pose[2] + v[2],
+            ];
+        }
+        out.push(t, pose.to_vec());
+    }
+    out.sorted()
+}
+
+/// The value of a series nearest in time to `t` (none for an empty series).
+fn nearest_value(s: &Series, t: i64) -> Option<Vec<f64>> {
+    let i = s.t_ns.partition_point(|&x| x < t);
+    let pick = match (i.checked_sub(1), (i < s.t_ns.len()).then_some(i)) {
+        (Some(a), Some(b)) => {
+            if t - s.t_ns[a] <= s.t_ns[b] - t {
+                a
+            } else {
+                b
+            }
+        }
+        (Some(a), None) => a,
+        (None, Some(b)) => b,
+        (None, None) => return None,
+    };
+    Some(s.values[pick].clone())
+}
+
+/// A pose topic's poses in time, and what they are in words.
+fn pose_topic(c: &Converter, t: &Topic) -> Result<(Series, String), Ros2Error> {
+    let mut s = Series::default();
+    let what = match t.msg_type.as_str() {
+        POSE_STAMPED => {
+            for (log, (h, p)) in c.decode(t, cdr::decode_pose_stamped)? {
+                s.push(c.at(&h, log), p.to_vec());
+            }
+            format!("{POSE_STAMPED} pose")
+        }
+        POSE_COV_STAMPED => {
+            for (log, (h, p)) in c.decode(t, cdr::decode_pose_with_covariance_stamped)? {
+                s.push(c.at(&h, log), p.to_vec());
+            }
+            format!("{POSE_COV_STAMPED} pose.pose")
+        }
+        ODOMETRY => {
+            for (log, m) in c.decode(t, cdr::decode_odometry)? {
+                s.push(c.at(&m.header, log), m.pose.to_vec());
+            }
+            format!("{ODOMETRY} pose.pose (a motion-capture bridge's, as --map pose says)")
+        }
+        other => {
+            return Err(c.err(format!(
+                "--map pose: topic `{}` is a {other}; a pose comes from {POSE_STAMPED}, {POSE_COV_STAMPED} or {ODOMETRY}",
+                t.name
+            )))
+        }
+    };
+    Ok((s.sorted().with_continuous(2), what))
 }
 
 impl Ros2Recording {

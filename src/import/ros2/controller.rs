@@ -79,7 +79,12 @@ pub fn parse(text: &str) -> Result<DiffDriveParams, String> {
     let right = positive("right_wheel_radius_multiplier")?.unwrap_or(1.0);
     // A limit ROS leaves at 0 or NaN is none (the scene's 0).
     let limit = |dotted: &str| -> Result<Option<f64>, String> {
-        Ok(get(dotted)?.filter(|x| *x > 0.0))
+        match lookup(params, dotted).map(|v| (v, v.as_f64())) {
+            None => Ok(None),
+            Some((_, Some(x))) if x.is_nan() || x <= 0.0 => Ok(None),
+            Some((_, Some(x))) if x.is_finite() => Ok(Some(x)),
+            Some((v, _)) => Err(format!("`{dotted}`: expected a number or .nan, found {v:?}")),
+        }
     };
     Ok(DiffDriveParams {
         wheel_separation_m: separation.map(|s| s * sep_mult),

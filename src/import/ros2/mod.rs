@@ -15,6 +15,7 @@ pub mod bag;
 pub mod cdr;
 mod columns;
 pub mod controller;
+mod rosbag1;
 mod urdf;
 
 use std::path::{Path, PathBuf};
@@ -72,7 +73,9 @@ pub struct TopicMap {
     pub odom: Option<String>,
     /// The `sensor_msgs/BatteryState` topic.
     pub battery: Option<String>,
-    /// The independent pose on `/tf`: `PARENT:CHILD` frames (`mocap:base_link`).
+    /// The independent pose: `PARENT:CHILD` frames on `/tf` (`mocap:base_link`, a chain
+    /// of transforms is composed), or a topic (`/mocap/pose`: `geometry_msgs/PoseStamped`,
+    /// `PoseWithCovarianceStamped` or a motion-capture bridge's `nav_msgs/Odometry`).
     pub pose: Option<String>,
     /// The left drive wheel's joint name.
     pub left_wheel_joint: Option<String>,
@@ -92,7 +95,7 @@ impl TopicMap {
         toml::from_str(&text).map_err(|e| Ros2Error::Map {
             file: path.to_owned(),
             message: format!(
-                "{} (keys: cmd_vel, joint_states, imu, odom, battery, pose = \"PARENT:CHILD\", left_wheel_joint, right_wheel_joint, time = \"header\" or \"log\")",
+                "{} (keys: cmd_vel, joint_states, imu, odom, battery, pose = \"PARENT:CHILD\" or \"/topic\", left_wheel_joint, right_wheel_joint, time = \"header\" or \"log\")",
                 e.message()
             ),
         })

@@ -1,0 +1,278 @@
+//! A ROS 1 bag (`.bag`, format 2.0): its connections and messages, read whole.
+//!
+//! The file is `#ROSBAG V2.0\n` and then records, each a `u32` header length, a header of
+//! `u32`-length-prefixed `name=value` fields (`op` names the record), a `u32` data length
+//! and the data. Messages live in chunk records (op 0x05, their data uncompressed, `bz2`
+//! or `lz4`), each holding connection records (op 0x07: `conn`, and in its data the
+//! connection header with `topic` and `type`) and message-data records (op 0x02: `conn`
+//! and `time`, two `u32` of s and ns; the data is the ROS 1 serialised message). The
+//! index records after the chunks are skipped: reading every chunk in order finds every
+//! message, also in a bag whose recording was cut short before its index was written.
+//!
+//! A message keeps its ROS 1 bytes behind [`ROS1_MARKER`], which tells the message
+//! decoders ([`super::cdr`]) to read ROS 1's layout; types are renamed to ROS 2's
+//! (`geometry_msgs/Twist` -> `geometry_msgs/msg/Twist`, `tf/tfMessage` ->
+//! `tf2_msgs/msg/TFMessage`: the same fields).
+
+use std::collections::BTreeMap;
+use std::io::Read;
+use std::path::Path;
+
+use super::bag::{bad, BagError, RawMessage, Topic};
+use super::cdr::ROS1_MARKER;
+
+const MAGIC: &[u8] = b"#ROSBAG V2.0\n";
+const OP_MESSAGE_DATA: u8 = 0x02;
+const OP_CHUNK: u8 = 0x05;
+const OP_CONNECTION: u8 = 0x07;
+/// Largest uncompressed chunk accepted, bytes (rosbag's chunks are 768 KiB by default).
+const MAX_CHUNK_BYTES: usize = 1 << 30;
+
+/// One record: its header fields and its data.
+struct Record<'a> {
+    fields: Vec<(&'a [u8], &'a [u8])>,
+    data: &'a [u8],
+}
+
+impl<'a> Record<'a> {
+    fn field(&self, name: &str) -> Option<&'a [u8]> {
+        self.fields
+            .iter()
+            .find(|(n, _)| *n == name.as_bytes())
+            .map(|(_, v)| *v)
+    }
+
+    fn op(&self) -> Option<u8> {
+        self.field("op").and_then(|v| v.first().copied())
+    }
+
+    fn u32_field(&self, name: &str) -> Option<u32> {
+        let v: [u8; 4] = self.field(name)?.try_into().ok()?;
+        Some(u32::from_le_bytes(v))
+    }
+}
+
+fn le_u32(buf: &[u8], at: usize) -> Option<u32> {
+    Some(u32::from_le_bytes(buf.get(at..at + 4)?.try_into().ok()?))
+}
+
+/// `name=value` fields, each after its `u32` length.
+fn fields(mut h: &[u8]) -> Option<Vec<(&[u8], &[u8])>> {
+    let mut out = vec![];
+    while !h.is_empty() {
+        let n = le_u32(h, 0)? as usize;
+        let f = h.get(4..4 + n)?;
+        let eq = f.iter().position(|&b| b == b'=')?;
+        out.push((&f[..eq], &f[eq + 1..]));
+        h = &h[4 + n..];
+    }
+    Some(out)
+}
+
+/// The records of `buf` in order with their offsets; `Err(offset)` where one is cut short
+/// or malformed.
+fn records(buf: &[u8]) -> Result<Vec<(usize, Record<'_>)>, usize> {
+    let mut out = vec![];
+    let mut at = 0;
+    while at < buf.len() {
+        let rec = (|| {
+            let hl = le_u32(buf, at)? as usize;
+            let header = buf.get(at + 4..at + 4 + hl)?;
+            let dl = le_u32(buf, at + 4 + hl)? as usize;
+            let data = buf.get(at + 8 + hl..at + 8 + hl + dl)?;
+            Some((
+                Record {
+                    fields: fields(header)?,
+                    data,
+                },
+                8 + hl + dl,
+            ))
+        })();
+        let (r, len) = rec.ok_or(at)?;
+        out.push((at, r));
+        at += len;
+    }
+    Ok(out)
+}
+
+/// A chunk's records' bytes, decompressed.
+fn chunk_bytes(path: &Path, rec: &Record, offset: usize) -> Result<Vec<u8>, BagError> {
+    let compression = rec.field("compression").unwrap_or(b"none");
+    let size = rec.u32_field("size").unwrap_or(0) as usize;
+    if size > MAX_CHUNK_BYTES {
+        return Err(bad(
+            path,
+            format!("the chunk at byte {offset} says {size} bytes uncompressed, more than the {MAX_CHUNK_BYTES} accepted (a damaged bag?)"),
+        ));
+    }
+    let mut out = Vec::with_capacity(size);
+    let decoded = match compression {
+        b"none" => {
+            out.extend_from_slice(rec.data);
+            Ok(())
+        }
+        b"bz2" => bzip2::read::BzDecoder::new(rec.data)
+            .take(size as u64)
+            .read_to_end(&mut out)
+            .map(|_| ()),
+        b"lz4" => lz4::Decoder::new(rec.data)
+            .and_then(|d| d.take(size as u64).read_to_end(&mut out))
+            .map(|_| ()),
+        other => {
+            return Err(bad(
+                path,
+                format!(
+                    "the chunk at byte {offset} is compressed with `{}`; expected none, bz2 or lz4",
+                    String::from_utf8_lossy(other)
+                ),
+            ))
+        }
+    };
+    decoded.map_err(|e| {
+        bad(
+            path,
+            format!(
+                "the {} chunk at byte {offset} does not decompress: {e} (a damaged bag?)",
+                String::from_utf8_lossy(compression)
+            ),
+        )
+    })?;
+    if out.len() != size {
+        return Err(bad(
+            path,
+            format!(
+                "the chunk at byte {offset} decompresses to {} bytes, its header says {size} (a damaged bag?)",
+                out.len()
+            ),
+        ));
+    }
+    Ok(out)
+}
+
+/// A ROS 1 type in ROS 2's naming.
+pub(super) fn ros2_type(ros1: &str) -> String {
+    match ros1 {
+        "tf/tfMessage" => "tf2_msgs/msg/TFMessage".into(),
+        t => match t.split_once('/') {
+            Some((pkg, name)) if !name.contains('/') => format!("{pkg}/msg/{name}"),
+            _ => t.into(),
+        },
+    }
+}
+
+/// Reads a ROS 1 bag's topics into `topics`.
+pub fn read(path: &Path, buf: &[u8], topics: &mut BTreeMap<String, Topic>) -> Result<(), BagError> {
+    let body = buf.strip_prefix(MAGIC).ok_or_else(|| {
+        let head = String::from_utf8_lossy(&buf[..buf.len().min(13)]).trim_end().to_string();
+        bad(
+            path,
+            format!("starts `{head}`; expected `#ROSBAG V2.0` (a ROS 1 bag of format 2.0, the only one rosbag writes since 2010)"),
+        )
+    })?;
+    let cut = |at: usize, inside: &str| {
+        bad(
+            path,
+            format!("a record {inside}at byte {at} is cut short or malformed (a damaged bag? `rosbag reindex` repairs one whose recording was cut short)"),
+        )
+    };
+    let top = records(body).map_err(|at| cut(at + MAGIC.len(), ""))?;
+    // conn -> (topic, type); messages by conn until every connection is known.
+    let mut conns: BTreeMap<u32, (String, String)> = BTreeMap::new();
+    let mut messages: Vec<(u32, RawMessage)> = vec![];
+    let mut take = |rec: &Record, conns: &mut BTreeMap<u32, (String, String)>| -> Result<(), String> {
+        match rec.op() {
+            Some(OP_CONNECTION) => {
+                let conn = rec.u32_field("conn").ok_or("a connection record without `conn`")?;
+                let h = fields(rec.data).ok_or("a connection record whose header is malformed")?;
+                let get = |n: &str| {
+                    h.iter()
+                        .find(|(k, _)| *k == n.as_bytes())
+                        .map(|(_, v)| String::from_utf8_lossy(v).into_owned())
+                };
+                let topic = rec
+                    .field("topic")
+                    .map(|v| String::from_utf8_lossy(v).into_owned())
+                    .or_else(|| get("topic"))
+                    .ok_or("a connection record without `topic`")?;
+                let ty = get("type").ok_or_else(|| format!("connection `{topic}` has no `type`"))?;
+                conns.entry(conn).or_insert((topic, ros2_type(&ty)));
+            }
+            Some(OP_MESSAGE_DATA) => {
+                let conn = rec.u32_field("conn").ok_or("a message record without `conn`")?;
+                let time = rec
+                    .field("time")
+                    .filter(|t| t.len() == 8)
+                    .ok_or("a message record without an 8-byte `time`")?;
+                let sec = le_u32(time, 0).expect("8 bytes") as i64;
+                let nsec = le_u32(time, 4).expect("8 bytes") as i64;
+                let mut data = Vec::with_capacity(rec.data.len() + ROS1_MARKER.len());
+                data.extend_from_slice(&ROS1_MARKER);
+                data.extend_from_slice(rec.data);
+                messages.push((
+                    conn,
+                    RawMessage {
+                        log_time_ns: sec * 1_000_000_000 + nsec,
+                        data,
+                    },
+                ));
+            }
+            _ => {}
+        }
+        Ok(())
+    };
+    for (at, rec) in &top {
+        let offset = at + MAGIC.len();
+        if rec.op() == Some(OP_CHUNK) {
+            let bytes = chunk_bytes(path, rec, offset)?;
+            let inner = records(&bytes).map_err(|at| cut(at, &format!("in the chunk at byte {offset}, ")))?;
+            for (_, r) in &inner {
+                take(r, &mut conns).map_err(|m| bad(path, format!("in the chunk at byte {offset}: {m}")))?;
+            }
+        } else {
+            take(rec, &mut conns).map_err(|m| bad(path, format!("at byte {offset}: {m}")))?;
+        }
+    }
+    for (topic, ty) in conns.values() {
+        topics.entry(topic.clone()).or_insert_with(|| Topic {
+            name: topic.clone(),
+            msg_type: ty.clone(),
+            messages: vec![],
+        });
+    }
+    for (conn, m) in messages {
+        let (topic, _) = conns.get(&conn).ok_or_else(|| {
+            bad(path, format!("a message of connection {conn}, which no connection record names"))
+        })?;
+        topics.get_mut(topic).expect("every connection's topic is listed").messages.push(m);
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ros1_types_are_named_as_ros2_names_them() {
+        assert_eq!(ros2_type("geometry_msgs/Twist"), "geometry_msgs/msg/Twist");
+        assert_eq!(ros2_type("tf/tfMessage"), "tf2_msgs/msg/TFMessage");
+        assert_eq!(ros2_type("tf2_msgs/TFMessage"), "tf2_msgs/msg/TFMessage");
+    }
+
+    #[test]
+    fn a_record_cut_short_is_found_at_its_offset() {
+        // One whole record (op 0x03 with a one-byte data), then one cut inside its header.
+        let mut buf = vec![];
+        let field = b"op=\x03";
+        buf.extend_from_slice(&(4 + field.len() as u32).to_le_bytes());
+        buf.extend_from_slice(&(field.len() as u32).to_le_bytes());
+        buf.extend_from_slice(field);
+        buf.extend_from_slice(&1u32.to_le_bytes());
+        buf.push(0);
+        let whole = buf.len();
+        buf.extend_from_slice(&100u32.to_le_bytes());
+        buf.extend_from_slice(b"op");
+        assert_eq!(records(&buf).err(), Some(whole));
+        assert_eq!(records(&buf[..whole]).map(|r| (r[0].0, r[0].1.op())), Ok((0, Some(0x03))));
+    }
+}
