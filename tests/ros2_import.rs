@@ -402,6 +402,19 @@ fn odometry_gives_the_wheel_speeds_and_tf_chains_compose() {
     close(col(&c, "x_m"), &of(&|k| corr[k as usize] - 0.05 * k), "map x");
     close(col(&c, "y_m"), &of(&|k| 1.0 + 0.1 * k), "map y");
     close(col(&c, "heading_rad"), &of(&|k| std::f64::consts::FRAC_PI_2 + 0.02 * k), "map heading");
+    // A nav_msgs/Odometry topic named as the pose (what VRPN, OptiTrack and Vicon bridges
+    // publish) gives its pose.pose.
+    let map = map_file(&dir, "pose = \"/odom\"\n");
+    let mut args = track.to_vec();
+    args.extend(["--map", &map]);
+    let o = import(&bag, &dir, &args);
+    assert!(o.status.success(), "{}", text(&o));
+    let c = columns(&dir.join("odom_tf_mcap.csv"));
+    close(col(&c, "x_m"), &of(&|k| 0.1 * k), "odometry pose x");
+    close(col(&c, "y_m"), &of(&|k| 0.05 * k), "odometry pose y");
+    close(col(&c, "heading_rad"), &of(&|k| 0.02 * k), "odometry pose heading");
+    let head = std::fs::read_to_string(dir.join("odom_tf_mcap.csv")).unwrap();
+    assert!(head.contains("/odom (nav_msgs/msg/Odometry pose.pose"), "{head}");
 }
 
 /// Runs `tools/ros2_bags.py` (needs `python3 -m pip install rosbags`, which `.ci/run` does).
