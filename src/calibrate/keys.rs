@@ -15,17 +15,19 @@ pub fn get(scene: &Scene, key: &str) -> Result<f64, CalibrateError> {
             "`{key}`: not a number ({}), so it cannot be fitted",
             k.takes.text()
         ))),
-        Some(k) => k.get(scene).or_else(|| {
-            // An optional key that stands for another while unset (a wheel's rolling
-            // radius is the wheel's radius) starts from that one's value.
-            table.find(k.unset).and_then(|other| other.get(scene))
-        })
-        .ok_or_else(|| {
-            CalibrateError::Key(format!(
-                "`{key}` is not set in the scene ({}): give it a value to fit",
-                k.unset
-            ))
-        }),
+        Some(k) => k
+            .get(scene)
+            .or_else(|| {
+                // An optional key that stands for another while unset (a wheel's rolling
+                // radius is the wheel's radius) starts from that one's value.
+                table.find(k.unset).and_then(|other| other.get(scene))
+            })
+            .ok_or_else(|| {
+                CalibrateError::Key(format!(
+                    "`{key}` is not set in the scene ({}): give it a value to fit",
+                    k.unset
+                ))
+            }),
     }
 }
 
@@ -38,7 +40,9 @@ pub fn set(scene: &Scene, pairs: &[(String, f64)]) -> Result<Scene, CalibrateErr
         if !crate::scene::keys::set_number(&mut out, k, *v) {
             // Not a numeric key: `get` names why.
             get(scene, k)?;
-            return Err(CalibrateError::Key(format!("`{k}`: not a numeric scene key")));
+            return Err(CalibrateError::Key(format!(
+                "`{k}`: not a numeric scene key"
+            )));
         }
     }
     out.validate().map_err(|bad| {

@@ -368,6 +368,35 @@ pub struct EffectTrial {
     pub scene_value: Option<f64>,
 }
 
+impl EffectTrial {
+    /// The trial of `home`'s effect with its strength key at `value`, weighed by
+    /// `gain`; not (yet) accepted, removed, raced only, kept or weighed against absence.
+    fn of(
+        home: &effects::Home,
+        value: f64,
+        std: Option<f64>,
+        at_bound: Option<f64>,
+        gain: &crate::diagnose::evidence::Gain,
+    ) -> EffectTrial {
+        EffectTrial {
+            effect: home.effect,
+            key: home.key.to_string(),
+            value,
+            std,
+            at_bound,
+            delta_aic: gain.delta_aic,
+            rss_reduction_pct: 100.0 * gain.reduction,
+            accepted: false,
+            removed: false,
+            raced_only: false,
+            kept: false,
+            against_absence: None,
+            accepted_as: None,
+            scene_value: home.in_scene.then_some(home.start),
+        }
+    }
+}
+
 /// A key set (not fitted) to switch an accepted effect's physics on.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Switch {
@@ -546,9 +575,11 @@ pub fn calibrate_telling(
         drive: before.drive,
         on_floor: rec.rig == "vehicle",
         max_command_v: Some(max_command_v(&before)),
-        tracked_pose: ["x_m", "y_m", "heading_rad"]
-            .iter()
-            .all(|c| before.output(c).is_some_and(|o| o.measured.iter().flatten().count() >= 2)),
+        tracked_pose: ["x_m", "y_m", "heading_rad"].iter().all(|c| {
+            before
+                .output(c)
+                .is_some_and(|o| o.measured.iter().flatten().count() >= 2)
+        }),
     };
     // Every effect's home is checked before any fit's work.
     let tried = effects::chosen(&request.effects, scene, driven)?;
@@ -630,7 +661,12 @@ pub fn calibrate_telling(
         }
     }
     // The keys the recording could not tell apart, held at the scene's values.
-    for key in problem.held.lock().expect("no fit panics holding it").iter() {
+    for key in problem
+        .held
+        .lock()
+        .expect("no fit panics holding it")
+        .iter()
+    {
         let value = keys::get(scene, key)?;
         keys.push(KeyFit {
             key: key.clone(),

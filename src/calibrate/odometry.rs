@@ -63,7 +63,10 @@ impl WheelTurns {
                 0 => [0.0; 2],
                 k => {
                     let dt = rec.t_s[k] - rec.t_s[k - 1];
-                    [l[k] * dt / configured_radius_m, r[k] * dt / configured_radius_m]
+                    [
+                        l[k] * dt / configured_radius_m,
+                        r[k] * dt / configured_radius_m,
+                    ]
                 }
             })
             .collect();

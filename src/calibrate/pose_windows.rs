@@ -87,7 +87,10 @@ impl PoseWindows {
     /// the window's start in its frame, m, and the turn since, rad.
     fn relative(&self, pose: [&[f64]; 3], k: usize) -> Option<[f64; 3]> {
         let j = self.anchors[k]?;
-        Some(motion_from([pose[0][j], pose[1][j], pose[2][j]], [pose[0][k], pose[1][k], pose[2][k]]))
+        Some(motion_from(
+            [pose[0][j], pose[1][j], pose[2][j]],
+            [pose[0][k], pose[1][k], pose[2][k]],
+        ))
     }
 
     /// `data` with its pose outputs as motions over their windows (empty where the row or
@@ -102,17 +105,21 @@ impl PoseWindows {
         let cells: Vec<Vec<f64>> = self
             .columns
             .iter()
-            .map(|&j| data.outputs[j].iter().map(|c| c.unwrap_or(f64::NAN)).collect())
+            .map(|&j| {
+                data.outputs[j]
+                    .iter()
+                    .map(|c| c.unwrap_or(f64::NAN))
+                    .collect()
+            })
             .collect();
-        let mut starts: Vec<Option<[f64; 3]>> = vec![None; data.len()];
+        let mut is_anchor = vec![false; data.len()];
         for &j in self.anchors.iter().flatten() {
-            starts[j] = Some([f64::NAN; 3]);
+            is_anchor[j] = true;
         }
+        let mut starts: Vec<Option<[f64; 3]>> = vec![None; data.len()];
         for seg in data.segments() {
-            for j in seg.clone() {
-                if starts[j].is_some() {
-                    starts[j] = Some(anchor_pose(&data.t_s, &cells, seg.clone(), j));
-                }
+            for j in seg.clone().filter(|&j| is_anchor[j]) {
+                starts[j] = Some(anchor_pose(&data.t_s, &cells, seg.clone(), j));
             }
         }
         for k in 0..data.len() {
@@ -275,7 +282,10 @@ mod tests {
         let cells: Vec<Vec<f64>> = (0..3)
             .map(|i| {
                 let e = [0.005, 0.005, 0.005][i];
-                t.iter().enumerate().map(|(k, &t)| truth(t)[i] + e * noise(k)).collect()
+                t.iter()
+                    .enumerate()
+                    .map(|(k, &t)| truth(t)[i] + e * noise(k))
+                    .collect()
             })
             .collect();
         for (j, share) in [(0, 1.0 / 3.0), (200, 0.2)] {

@@ -166,8 +166,12 @@ pub fn clean_machine(kind: Kind) -> Result<Scene, CalibrateError> {
             };
             let made = new_scene(&spec, None, "agvsim new").map_err(|e| key(e.to_string()))?;
             let text = made.text;
-            Scene::from_toml(&text, Path::new("base.toml"), &["motor.coulomb_Nm=0".into()])
-                .map_err(|e| key(e.to_string()))
+            Scene::from_toml(
+                &text,
+                Path::new("base.toml"),
+                &["motor.coulomb_Nm=0".into()],
+            )
+            .map_err(|e| key(e.to_string()))
         }
         _ => lab(&[]),
     }
@@ -207,9 +211,15 @@ fn peak_command_v(kind: Kind, excitation: Excitation, s: &Scene) -> Result<f64, 
             },
         });
         for _ in 0..per {
-            sim.step().map_err(|e| CalibrateError::Data(e.to_string()))?;
+            sim.step()
+                .map_err(|e| CalibrateError::Data(e.to_string()))?;
             let snap = sim.snapshot();
-            peak = peak.max(snap.sides[0].voltage_v.abs().max(snap.sides[1].voltage_v.abs()));
+            peak = peak.max(
+                snap.sides[0]
+                    .voltage_v
+                    .abs()
+                    .max(snap.sides[1].voltage_v.abs()),
+            );
         }
     }
     Ok(peak)
@@ -274,7 +284,13 @@ fn effects_of(kind: Kind) -> Vec<Effect> {
         ],
         // Not Coulomb friction: the drivers' speed loops integrate a constant friction
         // away, and what a transient shows of it their gains absorb.
-        Kind::BaseVelocity => vec![WheelSlip, CastorDrag, Backlash, TransportDelay, WheelGeometry],
+        Kind::BaseVelocity => vec![
+            WheelSlip,
+            CastorDrag,
+            Backlash,
+            TransportDelay,
+            WheelGeometry,
+        ],
     }
 }
 
@@ -282,7 +298,6 @@ fn effects_of(kind: Kind) -> Vec<Effect> {
 /// the clean machine's physics.
 fn concealed(
     effect: Effect,
-    kind: Kind,
     peak_v: f64,
     clean: &Scene,
 ) -> (&'static str, f64, Vec<String>, Vec<String>) {
@@ -343,7 +358,6 @@ fn concealed(
             )
         }
     };
-    let _ = kind;
     extra.push(format!("{key}={value}"));
     (key, value, extra, common)
 }
@@ -374,7 +388,7 @@ pub fn cases(kinds: &[Kind]) -> Result<Vec<Case>, CalibrateError> {
             });
             let peak_v = peak_command_v(kind, excitation, &clean)?;
             for effect in effects_of(kind) {
-                let (key, value, machine, common) = concealed(effect, kind, peak_v, &clean);
+                let (key, value, machine, common) = concealed(effect, peak_v, &clean);
                 out.push(Case {
                     name: name(effect.name()),
                     kind,
@@ -445,7 +459,11 @@ fn excitation_rows(
                 .map(|k| {
                     let t = k as f64 * 0.005;
                     // Zero until the DCMC's enable delay has passed.
-                    vec![if t < 0.6 { 0.0 } else { sines(t, 0, peak_demand(kind)) }]
+                    vec![if t < 0.6 {
+                        0.0
+                    } else {
+                        sines(t, 0, peak_demand(kind))
+                    }]
                 })
                 .collect(),
         ),
@@ -549,7 +567,10 @@ pub fn record_text(
     columns.extend(outputs);
     let mut text = crate::record::header(
         rig_of(case.kind),
-        &[("description", format!("calibration proof case {}", case.name))],
+        &[(
+            "description",
+            format!("calibration proof case {}", case.name),
+        )],
         &columns,
     );
     for (k, u) in rows.iter().enumerate() {
@@ -559,11 +580,15 @@ pub fn record_text(
         let _ = writeln!(text, "{}", cells.join(","));
     }
     let path = Path::new(&case.name).with_extension("csv");
-    let inputs_rec = Recording::parse(&text, &path).map_err(|e| CalibrateError::Data(e.to_string()))?;
+    let inputs_rec =
+        Recording::parse(&text, &path).map_err(|e| CalibrateError::Data(e.to_string()))?;
     let r = replay(machine, &inputs_rec)?;
     let mut noisy = crate::record::header(
         rig_of(case.kind),
-        &[("description", format!("calibration proof case {}", case.name))],
+        &[(
+            "description",
+            format!("calibration proof case {}", case.name),
+        )],
         &columns,
     );
     let sd: Vec<f64> = outputs
@@ -593,22 +618,19 @@ pub fn record_text(
 
 /// The scene a case is calibrated from: the clean machine with its fitted keys each off by
 /// a seeded 5-20 % either way (the concealed effect stays off).
-pub fn belief(
-    kind: Kind,
-    clean: &Scene,
-    free: &[&str],
-    seed: u64,
-) -> Result<Scene, CalibrateError> {
+pub fn belief(clean: &Scene, free: &[&str], seed: u64) -> Result<Scene, CalibrateError> {
     let mut rng = Pcg64::seed_from_u64(seed ^ 0x9e37_79b9_7f4a_7c15);
     let pairs: Vec<(String, f64)> = free
         .iter()
         .map(|k| {
             let v = keys::get(clean, k)?;
             let sign = if rng.random::<bool>() { 1.0 } else { -1.0 };
-            Ok((k.to_string(), v * (1.0 + sign * rng.random_range(0.05..0.20))))
+            Ok((
+                k.to_string(),
+                v * (1.0 + sign * rng.random_range(0.05..0.20)),
+            ))
         })
         .collect::<Result<_, CalibrateError>>()?;
-    let _ = kind;
     keys::set(clean, &pairs)
 }
 
@@ -621,7 +643,7 @@ pub fn setup(case: &Case, seed: u64) -> Result<(Scene, Recording, Scene), Calibr
         .map_err(|e| CalibrateError::Key(e.to_string()))?;
     let rec = record(case, &machine, seed)?;
     let free = super::default_free_of(&rec);
-    let belief = belief(case.kind, &known, free, seed)?;
+    let belief = belief(&known, free, seed)?;
     Ok((machine, rec, belief))
 }
 
@@ -650,7 +672,14 @@ pub fn run(case: &Case, seed: u64) -> Result<(Outcome, Calibration), CalibrateEr
         .keys
         .iter()
         .filter(|k| k.calibrated())
-        .filter_map(|k| Some((k.key.clone(), keys::get(&machine, &k.key).ok()?, k.after, k.std)))
+        .filter_map(|k| {
+            Some((
+                k.key.clone(),
+                keys::get(&machine, &k.key).ok()?,
+                k.after,
+                k.std,
+            ))
+        })
         .collect();
     let outcome = Outcome {
         case: case.clone(),

@@ -20,8 +20,8 @@
 use rayon::prelude::*;
 
 use super::search::{Problem, Stage};
-use crate::diagnose::evidence::Gain;
 use super::{effects, CalibrateError, EffectTrial, Removal, Switch};
+use crate::diagnose::evidence::Gain;
 use crate::diagnose::{MIN_DELTA_AIC, MIN_RSS_REDUCTION};
 use crate::ident::effects::Effect;
 
@@ -86,8 +86,7 @@ pub(super) fn effect_rounds(
         .iter()
         .copied()
         .filter(|&e| {
-            effects::home(e, &r.stage.scene, driven)
-                .is_ok_and(|h| h.in_scene && h.off.is_some())
+            effects::home(e, &r.stage.scene, driven).is_ok_and(|h| h.in_scene && h.off.is_some())
         })
         .collect();
     forward(problem, &mut r, effects.to_vec(), driven, progress)?;
@@ -205,10 +204,15 @@ fn forward(
             .into_iter()
             .filter(|((t, _), _)| t.accepted)
             .max_by(|((a, _), _), ((b, _), _)| a.delta_aic.total_cmp(&b.delta_aic));
-        let Some(((mut t, next), home)) = best else { break };
+        let Some(((mut t, next), home)) = best else {
+            break;
+        };
         if t.effect != Effect::WheelGeometry {
             // A geometry found but not the best stays out of the scene this round.
-            if by_odometry.as_ref().is_some_and(|((g, _, _), _)| g.accepted) {
+            if by_odometry
+                .as_ref()
+                .is_some_and(|((g, _, _), _)| g.accepted)
+            {
                 r.geometry = None;
             }
         }
@@ -305,7 +309,10 @@ fn backward(
             break;
         };
         let home = &homes[weakest];
-        let w = weighed.into_iter().nth(weakest).expect("an index of the list");
+        let w = weighed
+            .into_iter()
+            .nth(weakest)
+            .expect("an index of the list");
         let was = crate::calibrate::keys::get(&r.stage.scene, home.key)?;
         progress(&format!(
             "the model's effects: {} removed ({} = {} is not supported by the recording; AIC gain {:.0} against its absence)",
@@ -314,7 +321,6 @@ fn backward(
             crate::numtext::quantity(was, 4, crate::numtext::unit_key_or_name(home.key)),
             w.gain.delta_aic
         ));
-        let off = home.off.expect("weighed effects can be taken out");
         // Taken out of the user's scene where it had the effect; an effect only this
         // calibration added is simply not added.
         if scenes_own.contains(&home.effect) {
@@ -328,27 +334,14 @@ fn backward(
                 });
             }
         }
-        let _ = off;
         // An effect accepted earlier and now taken out leaves its switches and start.
         r.switches.retain(|s| s.effect != home.effect);
         let keys = home.keys();
         r.starts.retain(|(k, _)| !keys.contains(&k.as_str()));
-        let mut trial = r.trial(home.effect).cloned().unwrap_or(EffectTrial {
-            effect: home.effect,
-            key: home.key.to_string(),
-            value: was,
-            std: None,
-            at_bound: None,
-            delta_aic: w.gain.delta_aic,
-            rss_reduction_pct: 100.0 * w.gain.reduction,
-            accepted: false,
-            removed: false,
-            raced_only: false,
-            kept: false,
-            against_absence: None,
-            accepted_as: None,
-            scene_value: home.in_scene.then_some(home.start),
-        });
+        let mut trial = r
+            .trial(home.effect)
+            .cloned()
+            .unwrap_or_else(|| EffectTrial::of(home, was, None, None, &w.gain));
         trial.accepted = false;
         trial.removed = true;
         trial.kept = false;
@@ -429,20 +422,13 @@ fn most_promising(reductions: &[f64]) -> Vec<usize> {
 /// the residual its race removed on the recording's first part.
 fn raced_trial(home: &effects::Home, s: &Stage, reduction: f64) -> EffectTrial {
     let i = s.free.len() - 1;
-    EffectTrial {
-        effect: home.effect,
-        key: home.key.to_string(),
-        value: s.fit.params[i],
-        std: None,
-        at_bound: s.at_bound(i),
+    // No AIC gain: a race's few iterations weigh nothing.
+    let race = crate::diagnose::evidence::Gain {
         delta_aic: f64::NAN,
-        rss_reduction_pct: 100.0 * reduction,
-        accepted: false,
-        removed: false,
+        reduction,
+    };
+    EffectTrial {
         raced_only: true,
-        kept: false,
-        against_absence: None,
-            accepted_as: None,
-        scene_value: home.in_scene.then_some(home.start),
+        ..EffectTrial::of(home, s.fit.params[i], None, s.at_bound(i), &race)
     }
 }

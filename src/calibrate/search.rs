@@ -606,18 +606,15 @@ impl Problem<'_> {
             .collect();
         let with = self.fit_quick(&keys::set(&stage.scene, &pairs)?, &stage.free, vec![])?;
         let confirmed = with.fit.rss() < stage.fit.rss();
-        let distinct = (0..3).any(|i| {
-            on.std[i].is_some_and(|s| (on.params[i] - configured[i]).abs() > s)
-        });
+        let distinct =
+            (0..3).any(|i| on.std[i].is_some_and(|s| (on.params[i] - configured[i]).abs() > s));
         // The evidence: the geometry's distance from the configured one in its own
         // covariance (the Wald statistic, the likelihood ratio's measure where the
         // odometry's residual is as correlated as a pose over a window is), against what
         // the rule asks of three keys. The effective-sample likelihood gain counts a
         // window's drift as one sample and asks far more.
-        let deviation = nalgebra::DVector::from_iterator(
-            3,
-            (0..3).map(|i| on.params[i] - configured[i]),
-        );
+        let deviation =
+            nalgebra::DVector::from_iterator(3, (0..3).map(|i| on.params[i] - configured[i]));
         let wald = on
             .covariance
             .clone()
@@ -628,22 +625,12 @@ impl Problem<'_> {
             delta_aic: wald - 2.0 * 3.0,
             reduction: gain.reduction,
         };
-        let at_bound = (0..3).find_map(|i| crate::ident::bound_reached(on.params[i], model.odometry.param_specs()[i].lo, model.odometry.param_specs()[i].hi));
+        let specs = model.odometry.param_specs();
+        let at_bound = (0..3)
+            .find_map(|i| crate::ident::bound_reached(on.params[i], specs[i].lo, specs[i].hi));
         let trial = EffectTrial {
-            effect: home.effect,
-            key: home.key.to_string(),
-            value: on.params[2],
-            std: on.std[2],
-            at_bound,
-            delta_aic: gain.delta_aic,
-            rss_reduction_pct: 100.0 * gain.reduction,
             accepted: gain.passes() && confirmed && distinct && at_bound.is_none(),
-            removed: false,
-            raced_only: false,
-            kept: false,
-            against_absence: None,
-            accepted_as: None,
-            scene_value: home.in_scene.then_some(home.start),
+            ..EffectTrial::of(home, on.params[2], on.std[2], at_bound, &gain)
         };
         let fits = KEYS
             .iter()
@@ -689,25 +676,16 @@ impl Problem<'_> {
             .chain([home.off.unwrap_or(0.0)])
             .collect();
         let slots = next.free.len() - n..next.free.len();
-        let at_bound = next.at_bound(i).or_else(|| slots.clone().find_map(|j| next.at_bound(j)));
-        let distinct = slots.zip(&offs).any(|(j, off)| {
-            next.fit.std[j].is_some_and(|s| (next.fit.params[j] - off).abs() > s)
-        }) && std.is_some();
+        let at_bound = next
+            .at_bound(i)
+            .or_else(|| slots.clone().find_map(|j| next.at_bound(j)));
+        let distinct = slots
+            .zip(&offs)
+            .any(|(j, off)| next.fit.std[j].is_some_and(|s| (next.fit.params[j] - off).abs() > s))
+            && std.is_some();
         EffectTrial {
-            effect: home.effect,
-            key: home.key.to_string(),
-            value,
-            std,
-            at_bound,
-            delta_aic: gain.delta_aic,
-            rss_reduction_pct: 100.0 * gain.reduction,
             accepted: gain.passes() && at_bound.is_none() && distinct,
-            removed: false,
-            raced_only: false,
-            kept: false,
-            against_absence: None,
-            accepted_as: None,
-            scene_value: home.in_scene.then_some(home.start),
+            ..EffectTrial::of(home, value, std, at_bound, &gain)
         }
     }
 }

@@ -313,7 +313,11 @@ fn read_mcap(path: &Path, topics: &mut BTreeMap<String, Topic>) -> Result<(), Ba
                 ))
             }
         };
-        let ty = if ros1 { super::rosbag1::ros2_type(&ty) } else { ty };
+        let ty = if ros1 {
+            super::rosbag1::ros2_type(&ty)
+        } else {
+            ty
+        };
         let data = if ros1 {
             [&cdr::ROS1_MARKER[..], &m.data].concat()
         } else {

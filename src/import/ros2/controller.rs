@@ -83,7 +83,9 @@ pub fn parse(text: &str) -> Result<DiffDriveParams, String> {
             None => Ok(None),
             Some((_, Some(x))) if x.is_nan() || x <= 0.0 => Ok(None),
             Some((_, Some(x))) if x.is_finite() => Ok(Some(x)),
-            Some((v, _)) => Err(format!("`{dotted}`: expected a number or .nan, found {v:?}")),
+            Some((v, _)) => Err(format!(
+                "`{dotted}`: expected a number or .nan, found {v:?}"
+            )),
         }
     };
     Ok(DiffDriveParams {
@@ -142,6 +144,9 @@ mod tests {
         let e = parse("a: 1").unwrap_err();
         assert!(e.contains("wheel_separation"), "{e}");
         let e = parse("c:\n  ros__parameters:\n    wheel_separation: -1\n").unwrap_err();
-        assert!(e.contains("wheel_separation") && e.contains("positive"), "{e}");
+        assert!(
+            e.contains("wheel_separation") && e.contains("positive"),
+            "{e}"
+        );
     }
 }

@@ -15,6 +15,7 @@ pub mod bag;
 pub mod cdr;
 mod columns;
 pub mod controller;
+mod pose;
 mod rosbag1;
 mod urdf;
 

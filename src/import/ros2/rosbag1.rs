@@ -179,10 +179,14 @@ pub fn read(path: &Path, buf: &[u8], topics: &mut BTreeMap<String, Topic>) -> Re
     // conn -> (topic, type); messages by conn until every connection is known.
     let mut conns: BTreeMap<u32, (String, String)> = BTreeMap::new();
     let mut messages: Vec<(u32, RawMessage)> = vec![];
-    let mut take = |rec: &Record, conns: &mut BTreeMap<u32, (String, String)>| -> Result<(), String> {
+    let mut take = |rec: &Record,
+                    conns: &mut BTreeMap<u32, (String, String)>|
+     -> Result<(), String> {
         match rec.op() {
             Some(OP_CONNECTION) => {
-                let conn = rec.u32_field("conn").ok_or("a connection record without `conn`")?;
+                let conn = rec
+                    .u32_field("conn")
+                    .ok_or("a connection record without `conn`")?;
                 let h = fields(rec.data).ok_or("a connection record whose header is malformed")?;
                 let get = |n: &str| {
                     h.iter()
@@ -194,11 +198,14 @@ pub fn read(path: &Path, buf: &[u8], topics: &mut BTreeMap<String, Topic>) -> Re
                     .map(|v| String::from_utf8_lossy(v).into_owned())
                     .or_else(|| get("topic"))
                     .ok_or("a connection record without `topic`")?;
-                let ty = get("type").ok_or_else(|| format!("connection `{topic}` has no `type`"))?;
+                let ty =
+                    get("type").ok_or_else(|| format!("connection `{topic}` has no `type`"))?;
                 conns.entry(conn).or_insert((topic, ros2_type(&ty)));
             }
             Some(OP_MESSAGE_DATA) => {
-                let conn = rec.u32_field("conn").ok_or("a message record without `conn`")?;
+                let conn = rec
+                    .u32_field("conn")
+                    .ok_or("a message record without `conn`")?;
                 let time = rec
                     .field("time")
                     .filter(|t| t.len() == 8)
@@ -224,9 +231,11 @@ pub fn read(path: &Path, buf: &[u8], topics: &mut BTreeMap<String, Topic>) -> Re
         let offset = at + MAGIC.len();
         if rec.op() == Some(OP_CHUNK) {
             let bytes = chunk_bytes(path, rec, offset)?;
-            let inner = records(&bytes).map_err(|at| cut(at, &format!("in the chunk at byte {offset}, ")))?;
+            let inner = records(&bytes)
+                .map_err(|at| cut(at, &format!("in the chunk at byte {offset}, ")))?;
             for (_, r) in &inner {
-                take(r, &mut conns).map_err(|m| bad(path, format!("in the chunk at byte {offset}: {m}")))?;
+                take(r, &mut conns)
+                    .map_err(|m| bad(path, format!("in the chunk at byte {offset}: {m}")))?;
             }
         } else {
             take(rec, &mut conns).map_err(|m| bad(path, format!("at byte {offset}: {m}")))?;
@@ -241,9 +250,16 @@ pub fn read(path: &Path, buf: &[u8], topics: &mut BTreeMap<String, Topic>) -> Re
     }
     for (conn, m) in messages {
         let (topic, _) = conns.get(&conn).ok_or_else(|| {
-            bad(path, format!("a message of connection {conn}, which no connection record names"))
+            bad(
+                path,
+                format!("a message of connection {conn}, which no connection record names"),
+            )
         })?;
-        topics.get_mut(topic).expect("every connection's topic is listed").messages.push(m);
+        topics
+            .get_mut(topic)
+            .expect("every connection's topic is listed")
+            .messages
+            .push(m);
     }
     Ok(())
 }
@@ -273,6 +289,9 @@ mod tests {
         buf.extend_from_slice(&100u32.to_le_bytes());
         buf.extend_from_slice(b"op");
         assert_eq!(records(&buf).err(), Some(whole));
-        assert_eq!(records(&buf[..whole]).map(|r| (r[0].0, r[0].1.op())), Ok((0, Some(0x03))));
+        assert_eq!(
+            records(&buf[..whole]).map(|r| (r[0].0, r[0].1.op())),
+            Ok((0, Some(0x03)))
+        );
     }
 }
