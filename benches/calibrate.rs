@@ -104,8 +104,7 @@ fn velocity_base_30s() -> (Scene, Recording) {
                 "heading_rad" => 0.005,
                 _ => {
                     let m = y.iter().sum::<f64>() / y.len() as f64;
-                    0.01 * (y.iter().map(|v| (v - m).powi(2)).sum::<f64>() / y.len() as f64)
-                        .sqrt()
+                    0.01 * (y.iter().map(|v| (v - m).powi(2)).sum::<f64>() / y.len() as f64).sqrt()
                 }
             };
             let e: f64 = StandardNormal.sample(&mut rng);
@@ -114,7 +113,10 @@ fn velocity_base_30s() -> (Scene, Recording) {
         noisy.push_str(&row);
         noisy.push('\n');
     }
-    (belief, Recording::parse(&noisy, Path::new("base30.csv")).unwrap())
+    (
+        belief,
+        Recording::parse(&noisy, Path::new("base30.csv")).unwrap(),
+    )
 }
 
 fn time_calibration(c: &mut Criterion, group: &str, name: &str, scene: &Scene, rec: &Recording) {
@@ -139,12 +141,24 @@ fn time_calibration(c: &mut Criterion, group: &str, name: &str, scene: &Scene, r
 
 fn bench_lifted(c: &mut Criterion) {
     let (scene, rec) = lifted_axis_20s();
-    time_calibration(c, "calibrate_lifted_axis_20s", "random_demand_every_effect", &scene, &rec);
+    time_calibration(
+        c,
+        "calibrate_lifted_axis_20s",
+        "random_demand_every_effect",
+        &scene,
+        &rec,
+    );
 }
 
 fn bench_base(c: &mut Criterion) {
     let (scene, rec) = velocity_base_30s();
-    time_calibration(c, "calibrate_velocity_base_30s", "cmd_vel_steps_every_effect", &scene, &rec);
+    time_calibration(
+        c,
+        "calibrate_velocity_base_30s",
+        "cmd_vel_steps_every_effect",
+        &scene,
+        &rec,
+    );
 }
 
 /// The real robot's run, imported as docs/ros2.md says (the binary's `import ros2`), its
@@ -159,11 +173,21 @@ fn bench_optiodom(c: &mut Criterion) {
     let out = scratch("optiodom");
     let agvsim = env!("CARGO_BIN_EXE_agvsim");
     let status = std::process::Command::new(agvsim)
-        .args(["import", "ros2", bag.to_str().unwrap(), "--out", out.to_str().unwrap()])
+        .args([
+            "import",
+            "ros2",
+            bag.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
         .args(["--mass-kg", "4", "--gear-ratio", "43.7"])
         .output()
         .unwrap();
-    assert!(status.status.success(), "{}", String::from_utf8_lossy(&status.stderr));
+    assert!(
+        status.status.success(),
+        "{}",
+        String::from_utf8_lossy(&status.stderr)
+    );
     let scene = Scene::load(&out.join("square_230620202042_run1.scene.toml"), &[]).unwrap();
     let rec = Recording::load(&out.join("square_230620202042_run1.csv")).unwrap();
     let request = || Request {

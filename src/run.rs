@@ -129,13 +129,11 @@ pub fn run_scene(
     let steps = (duration / sim.params().sim.dt_s).round() as u64;
     let dt = sim.params().sim.dt_s;
     // A velocity-commanded base drives its manoeuvre: the command is held a step.
-    let manoeuvre = velocity.then(
-        || {
-            opts.manoeuvre
-                .clone()
-                .unwrap_or_else(|| crate::model::manoeuvre::Manoeuvre::Shape(scene.manoeuvre.clone()))
-        },
-    );
+    let manoeuvre = velocity.then(|| {
+        opts.manoeuvre
+            .clone()
+            .unwrap_or_else(|| crate::model::manoeuvre::Manoeuvre::Shape(scene.manoeuvre.clone()))
+    });
     let mut viz_err = None;
     for k in 1..=steps {
         if let Some(m) = &manoeuvre {

@@ -189,7 +189,8 @@ fn a_key_that_ends_at_its_bound_is_reported_and_not_written() {
         .find(|l| l.starts_with("viscous_Nm_s_rad"))
         .unwrap();
     assert!(
-        line.starts_with("viscous_Nm_s_rad = 0.0001") && line.contains("not calibrated against m.csv: the fit ended at the bound"),
+        line.starts_with("viscous_Nm_s_rad = 0.0001")
+            && line.contains("not calibrated against m.csv: the fit ended at the bound"),
         "{line}"
     );
 }
@@ -642,7 +643,11 @@ fn the_thesis_random_demand_run_names_its_gear_play() {
     let c = calibrate_telling(&belief, &rec, &request, &|_| {}).unwrap();
     print!("{}", agvsim::calibrate::write::render(&c));
     let accepted = c.accepted_in_order();
-    assert_eq!(accepted.first().map(|a| a.0), Some(Effect::Backlash), "{accepted:?}");
+    assert_eq!(
+        accepted.first().map(|a| a.0),
+        Some(Effect::Backlash),
+        "{accepted:?}"
+    );
     let play = accepted[0].1;
     assert!((play / 0.1745 - 1.0).abs() < 0.15, "{play}");
 }
@@ -689,7 +694,9 @@ fn play_the_machine_lacks_is_removed_from_the_scene() {
         .find(|l| l.starts_with("backlash_rad"))
         .unwrap();
     assert!(
-        line.starts_with("backlash_rad = 0.0") && line.contains("backlash removed") && line.contains("0.174533 rad"),
+        line.starts_with("backlash_rad = 0.0")
+            && line.contains("backlash removed")
+            && line.contains("0.174533 rad"),
         "{line}"
     );
     let reloaded = Scene::from_toml(&written, Path::new("calibrated.toml"), &[]).unwrap();
@@ -728,7 +735,10 @@ fn a_key_the_recording_cannot_determine_is_not_written() {
     let written = calibrated_text(&belief.to_toml(), &c, "pair.csv", &[]).unwrap();
     for k in kept {
         assert_eq!(k.after, k.before, "{k:?}");
-        assert_eq!(agvsim::calibrate::keys::get(&c.scene, &k.key).unwrap(), k.before);
+        assert_eq!(
+            agvsim::calibrate::keys::get(&c.scene, &k.key).unwrap(),
+            k.before
+        );
         let leaf = k.key.rsplit('.').next().unwrap();
         let line = written
             .lines()
@@ -736,7 +746,10 @@ fn a_key_the_recording_cannot_determine_is_not_written() {
             .unwrap();
         assert!(line.contains("not calibrated against pair.csv"), "{line}");
         let reloaded = Scene::from_toml(&written, Path::new("c.toml"), &[]).unwrap();
-        assert_eq!(agvsim::calibrate::keys::get(&reloaded, &k.key).unwrap(), k.before);
+        assert_eq!(
+            agvsim::calibrate::keys::get(&reloaded, &k.key).unwrap(),
+            k.before
+        );
     }
 }
 
@@ -790,7 +803,10 @@ fn the_wheel_geometry_comes_back_from_a_motion_capture_pose() {
     let mut rng = rand_pcg::Pcg64::seed_from_u64(44);
     let mut noisy = String::from("# agvsim-recording: 1\n# rig: vehicle\nt_s,cmd_linear_m_s,cmd_angular_rad_s,x_m,y_m,heading_rad,left_wheel_speed_m_s,right_wheel_speed_m_s\n");
     for k in 0..made.t_s.len() {
-        let mut row = format!("{},{},{}", made.t_s[k], made.inputs[0][k], made.inputs[1][k]);
+        let mut row = format!(
+            "{},{},{}",
+            made.t_s[k], made.inputs[0][k], made.inputs[1][k]
+        );
         for (name, sd) in [
             ("x_m", 0.001),
             ("y_m", 0.001),
@@ -799,7 +815,10 @@ fn the_wheel_geometry_comes_back_from_a_motion_capture_pose() {
             ("right_wheel_speed_m_s", 0.004),
         ] {
             let e: f64 = StandardNormal.sample(&mut rng);
-            row.push_str(&format!(",{}", made.output(name).unwrap().simulated[k] + sd * e));
+            row.push_str(&format!(
+                ",{}",
+                made.output(name).unwrap().simulated[k] + sd * e
+            ));
         }
         noisy.push_str(&row);
         noisy.push('\n');
@@ -813,13 +832,20 @@ fn the_wheel_geometry_comes_back_from_a_motion_capture_pose() {
     };
     let c = calibrate_telling(&known, &rec, &request, &|_| {}).unwrap();
     print!("{}", agvsim::calibrate::write::render(&c));
-    assert_eq!(c.accepted_in_order().first().map(|a| a.0), Some(Effect::WheelGeometry));
+    assert_eq!(
+        c.accepted_in_order().first().map(|a| a.0),
+        Some(Effect::WheelGeometry)
+    );
     for (key, truth) in [
         ("wheel.left_rolling_radius_m", r),
         ("wheel.right_rolling_radius_m", 0.99 * r),
         ("chassis.track_width_m", 1.02 * b),
     ] {
         let k = c.keys.iter().find(|k| k.key == key).unwrap();
-        assert!((k.after / truth - 1.0).abs() < 0.002, "{key}: {} against {truth}", k.after);
+        assert!(
+            (k.after / truth - 1.0).abs() < 0.002,
+            "{key}: {} against {truth}",
+            k.after
+        );
     }
 }

@@ -10,7 +10,10 @@ fn prove_kind(kind: Kind) -> Vec<Outcome> {
     let only = std::env::var("AGVSIM_PROOF_CASE").ok();
     let mut out = vec![];
     for case in cases(&[kind]).unwrap() {
-        if only.as_ref().is_some_and(|o| !case.name.contains(o.as_str())) {
+        if only
+            .as_ref()
+            .is_some_and(|o| !case.name.contains(o.as_str()))
+        {
             continue;
         }
         if let Ok(dir) = std::env::var("AGVSIM_PROOF_DUMP") {
@@ -34,7 +37,10 @@ fn prove_kind(kind: Kind) -> Vec<Outcome> {
     }
     println!("{}", render(&out));
     let (share, n) = coverage(&out);
-    println!("{kind:?}: 1-sigma coverage {:.0} % of {n} keys", 100.0 * share);
+    println!(
+        "{kind:?}: 1-sigma coverage {:.0} % of {n} keys",
+        100.0 * share
+    );
     let failed: Vec<&str> = out
         .iter()
         .filter(|o| !o.passed)

@@ -89,7 +89,8 @@ fn calibrate(scene: &Path, rec: &Path, json: &Path, write: Option<&Path>) -> [(f
     let o = agvsim(&args);
     assert!(o.status.success(), "{}", text(&o));
     println!("{}", text(&o));
-    let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(json).unwrap()).unwrap();
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(json).unwrap()).unwrap();
     let g = &j["wheel_geometry"];
     assert!(g.is_object(), "no geometry in {j:#}\n{}", text(&o));
     let v = |k: &str| g[k].as_f64().unwrap();
@@ -155,7 +156,10 @@ fn the_geometry_calibrated_on_a_square_run_holds_on_every_other_run() {
     }
     // The nominal track moved: it was 0.200, 0.3 % from the published.
     assert!((b.0 - 0.2).abs() > 1e-4, "{b:?}");
-    for other in runs(&bags).iter().filter(|n| *n != "square_230620202042_run1") {
+    for other in runs(&bags)
+        .iter()
+        .filter(|n| *n != "square_230620202042_run1")
+    {
         let d = dir.join(other);
         let (_, rec) = import(&bags, other, &d);
         let before = replay_fit(&scene, &rec, &d.join("before"));
@@ -191,6 +195,9 @@ fn each_square_runs_uncertainty_covers_the_spread_between_runs() {
         let spread = (values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
         let mean_std = fits.iter().map(|f| f[i].1).sum::<f64>() / n;
         println!("{key}: estimates {values:?}, spread {spread:.6} m, mean standard deviation {mean_std:.6} m");
-        assert!(mean_std >= spread, "{key}: standard deviations {mean_std} against a spread of {spread}");
+        assert!(
+            mean_std >= spread,
+            "{key}: standard deviations {mean_std} against a spread of {spread}"
+        );
     }
 }

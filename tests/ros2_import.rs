@@ -306,10 +306,22 @@ fn ros1_bags_decode_to_the_same_values_in_every_compression() {
         assert!(scene.contains("track_width_m = 0.42"), "{scene}");
         // Header stamps (after ROS 1's seq) place the stamped commands 1 ms late.
         let map = map_file(&dir, "cmd_vel = \"/cmd_vel_stamped\"\n");
-        let o = agvsim(&["import", "ros1", bag.to_str().unwrap(), "--out", dir.to_str().unwrap(), "--map", &map]);
+        let o = agvsim(&[
+            "import",
+            "ros1",
+            bag.to_str().unwrap(),
+            "--out",
+            dir.to_str().unwrap(),
+            "--map",
+            &map,
+        ]);
         assert!(o.status.success(), "{}", text(&o));
         let c = columns(&dir.join(format!("{stem}.csv")));
-        close(col(&c, "cmd_linear_m_s"), &[0.0, 0.3, 0.6, 0.9], "TwistStamped linear.x");
+        close(
+            col(&c, "cmd_linear_m_s"),
+            &[0.0, 0.3, 0.6, 0.9],
+            "TwistStamped linear.x",
+        );
     }
     // A bag cut short names the byte where it ends; a .bag that is not one says what a
     // ROS 1 bag starts with.
@@ -319,12 +331,20 @@ fn ros1_bags_decode_to_the_same_values_in_every_compression() {
     std::fs::write(&cut, &whole[..whole.len() / 2]).unwrap();
     let o = import(&cut, &dir, &[]);
     assert!(!o.status.success());
-    assert!(text(&o).contains("cut.bag") && text(&o).contains("cut short"), "{}", text(&o));
+    assert!(
+        text(&o).contains("cut.bag") && text(&o).contains("cut short"),
+        "{}",
+        text(&o)
+    );
     let not = dir.join("not.bag");
     std::fs::write(&not, "hello, world\n").unwrap();
     let o = import(&not, &dir, &[]);
     assert!(!o.status.success());
-    assert!(text(&o).contains("not.bag") && text(&o).contains("#ROSBAG V2.0"), "{}", text(&o));
+    assert!(
+        text(&o).contains("not.bag") && text(&o).contains("#ROSBAG V2.0"),
+        "{}",
+        text(&o)
+    );
 }
 
 /// A bag with commands and poses only (no wheels): rows at the chosen pose's rate.
@@ -336,25 +356,48 @@ fn a_bag_of_commands_and_a_pose_gives_rows_at_the_pose_rate() {
     let o = import(&bag, &dir, &[]);
     assert!(!o.status.success());
     let t = text(&o);
-    assert!(t.contains("several pose topics") && t.contains("/amcl_pose") && t.contains("/mocap/pose"), "{t}");
+    assert!(
+        t.contains("several pose topics") && t.contains("/amcl_pose") && t.contains("/mocap/pose"),
+        "{t}"
+    );
     let k: Vec<f64> = (0..5).map(f64::from).collect();
     let of = |f: &dyn Fn(f64) -> f64| k.iter().map(|&k| f(k)).collect::<Vec<f64>>();
     for (topic, x, y, yaw) in [
-        ("/mocap/pose", of(&|k| 1.0 + 0.1 * k), of(&|k| -0.2 * k), of(&|k| 0.1 * k)),
-        ("/amcl_pose", of(&|k| 5.0 + k), of(&|k| k), of(&|k| -0.2 * k)),
+        (
+            "/mocap/pose",
+            of(&|k| 1.0 + 0.1 * k),
+            of(&|k| -0.2 * k),
+            of(&|k| 0.1 * k),
+        ),
+        (
+            "/amcl_pose",
+            of(&|k| 5.0 + k),
+            of(&|k| k),
+            of(&|k| -0.2 * k),
+        ),
     ] {
         let map = map_file(&dir, &format!("pose = \"{topic}\"\n"));
         let o = import(&bag, &dir, &["--map", &map]);
         assert!(o.status.success(), "{}", text(&o));
         let c = columns(&dir.join("pose_only_mcap.csv"));
-        close(col(&c, "t_s"), &of(&|k| 0.02 * k), "rows at the pose's stamps");
+        close(
+            col(&c, "t_s"),
+            &of(&|k| 0.02 * k),
+            "rows at the pose's stamps",
+        );
         close(col(&c, "x_m"), &x, topic);
         close(col(&c, "y_m"), &y, topic);
         close(col(&c, "heading_rad"), &yaw, topic);
         close(col(&c, "cmd_angular_rad_s"), &of(&|k| 0.1 * k), "Twist");
-        assert!(c.iter().all(|(n, _)| n != "left_wheel_speed_m_s"), "no wheels, no wheel speeds");
+        assert!(
+            c.iter().all(|(n, _)| n != "left_wheel_speed_m_s"),
+            "no wheels, no wheel speeds"
+        );
         let head = std::fs::read_to_string(dir.join("pose_only_mcap.csv")).unwrap();
-        assert!(head.contains(&format!("{topic} (geometry_msgs/msg/Pose")), "{head}");
+        assert!(
+            head.contains(&format!("{topic} (geometry_msgs/msg/Pose")),
+            "{head}"
+        );
     }
 }
 
@@ -381,14 +424,30 @@ fn odometry_gives_the_wheel_speeds_and_tf_chains_compose() {
     let o = import(&bag, &dir, &args);
     assert!(o.status.success(), "{}", text(&o));
     let c = columns(&dir.join("odom_tf_mcap.csv"));
-    close(col(&c, "t_s"), &of(&|k| 0.02 * k), "rows at the odometry's stamps");
+    close(
+        col(&c, "t_s"),
+        &of(&|k| 0.02 * k),
+        "rows at the odometry's stamps",
+    );
     // v -/+ w track/2, with v = 0.5 + 0.1k, w = 0.2k, track 0.4 m.
-    close(col(&c, "left_wheel_speed_m_s"), &of(&|k| 0.5 + 0.1 * k - 0.04 * k), "left rim");
-    close(col(&c, "right_wheel_speed_m_s"), &of(&|k| 0.5 + 0.1 * k + 0.04 * k), "right rim");
+    close(
+        col(&c, "left_wheel_speed_m_s"),
+        &of(&|k| 0.5 + 0.1 * k - 0.04 * k),
+        "left rim",
+    );
+    close(
+        col(&c, "right_wheel_speed_m_s"),
+        &of(&|k| 0.5 + 0.1 * k + 0.04 * k),
+        "right rim",
+    );
     // world -> mocap (0.5, -0.5, 0) then mocap -> base_link (0.1k + 0.01, 0.05k, 0.02k).
     close(col(&c, "x_m"), &of(&|k| 0.51 + 0.1 * k), "composed x");
     close(col(&c, "y_m"), &of(&|k| -0.5 + 0.05 * k), "composed y");
-    close(col(&c, "heading_rad"), &of(&|k| 0.02 * k), "composed heading");
+    close(
+        col(&c, "heading_rad"),
+        &of(&|k| 0.02 * k),
+        "composed heading",
+    );
     // map -> odom, turned a quarter: x = X - y_odom, y = 1 + x_odom, with X the nearest
     // correction (2 at k = 0, 1; 2.1 from k = 2, nearer the one at k = 3).
     let map = map_file(&dir, "pose = \"map:base_link\"\n");
@@ -399,9 +458,17 @@ fn odometry_gives_the_wheel_speeds_and_tf_chains_compose() {
     assert!(text(&o).contains("localiser"), "{}", text(&o));
     let c = columns(&dir.join("odom_tf_mcap.csv"));
     let corr = [2.0, 2.0, 2.1, 2.1, 2.1];
-    close(col(&c, "x_m"), &of(&|k| corr[k as usize] - 0.05 * k), "map x");
+    close(
+        col(&c, "x_m"),
+        &of(&|k| corr[k as usize] - 0.05 * k),
+        "map x",
+    );
     close(col(&c, "y_m"), &of(&|k| 1.0 + 0.1 * k), "map y");
-    close(col(&c, "heading_rad"), &of(&|k| std::f64::consts::FRAC_PI_2 + 0.02 * k), "map heading");
+    close(
+        col(&c, "heading_rad"),
+        &of(&|k| std::f64::consts::FRAC_PI_2 + 0.02 * k),
+        "map heading",
+    );
     // A nav_msgs/Odometry topic named as the pose (what VRPN, OptiTrack and Vicon bridges
     // publish) gives its pose.pose.
     let map = map_file(&dir, "pose = \"/odom\"\n");
@@ -412,9 +479,16 @@ fn odometry_gives_the_wheel_speeds_and_tf_chains_compose() {
     let c = columns(&dir.join("odom_tf_mcap.csv"));
     close(col(&c, "x_m"), &of(&|k| 0.1 * k), "odometry pose x");
     close(col(&c, "y_m"), &of(&|k| 0.05 * k), "odometry pose y");
-    close(col(&c, "heading_rad"), &of(&|k| 0.02 * k), "odometry pose heading");
+    close(
+        col(&c, "heading_rad"),
+        &of(&|k| 0.02 * k),
+        "odometry pose heading",
+    );
     let head = std::fs::read_to_string(dir.join("odom_tf_mcap.csv")).unwrap();
-    assert!(head.contains("/odom (nav_msgs/msg/Odometry pose.pose"), "{head}");
+    assert!(
+        head.contains("/odom (nav_msgs/msg/Odometry pose.pose"),
+        "{head}"
+    );
 }
 
 /// Runs `tools/ros2_bags.py` (needs `python3 -m pip install rosbags`, which `.ci/run` does).

@@ -170,7 +170,9 @@ fn with_controller_params(
     p: &crate::import::ros2::controller::DiffDriveParams,
     file: Option<&Path>,
 ) -> Result<String, CommandError> {
-    let from = file.map_or("the controller file".to_string(), |f| f.display().to_string());
+    let from = file.map_or("the controller file".to_string(), |f| {
+        f.display().to_string()
+    });
     let mut doc: toml_edit::DocumentMut = text.parse().map_err(|e| CommandError::Contract {
         what: "the robot's scene".into(),
         message: format!("{e}"),
@@ -179,11 +181,16 @@ fn with_controller_params(
     let mut set = |key: &str, value: Option<f64>, what: &str| {
         if let Some(v) = value {
             let mut item = toml_edit::Value::from(v);
-            item.decor_mut().set_suffix(format!("  # {what} from {from}"));
+            item.decor_mut()
+                .set_suffix(format!("  # {what} from {from}"));
             base[key] = toml_edit::Item::Value(item);
         }
     };
-    set("wheel_separation_m", p.wheel_separation_m, "wheel_separation x wheel_separation_multiplier");
+    set(
+        "wheel_separation_m",
+        p.wheel_separation_m,
+        "wheel_separation x wheel_separation_multiplier",
+    );
     set(
         "wheel_radius_m",
         p.wheel_radius_m,
@@ -193,9 +200,21 @@ fn with_controller_params(
         },
     );
     set("max_linear_m_s", p.max_linear_m_s, "linear.x.max_velocity");
-    set("max_linear_accel_m_s2", p.max_linear_accel_m_s2, "linear.x.max_acceleration");
-    set("max_angular_rad_s", p.max_angular_rad_s, "angular.z.max_velocity");
-    set("max_angular_accel_rad_s2", p.max_angular_accel_rad_s2, "angular.z.max_acceleration");
+    set(
+        "max_linear_accel_m_s2",
+        p.max_linear_accel_m_s2,
+        "linear.x.max_acceleration",
+    );
+    set(
+        "max_angular_rad_s",
+        p.max_angular_rad_s,
+        "angular.z.max_velocity",
+    );
+    set(
+        "max_angular_accel_rad_s2",
+        p.max_angular_accel_rad_s2,
+        "angular.z.max_acceleration",
+    );
     Ok(doc.to_string())
 }
 
@@ -244,10 +263,12 @@ pub fn ros2(req: &Ros2Import, say: Say) -> Result<(), CommandError> {
     let mut files = vec![(csv_path.clone(), text)];
     let scene_path = dir.join(format!("{stem}.scene.toml"));
     let params = match &req.controller_yaml {
-        Some(p) => Some(ros2::controller::load(p).map_err(|e| CommandError::Contract {
-            what: "--controller-yaml".into(),
-            message: e.to_string(),
-        })?),
+        Some(p) => Some(
+            ros2::controller::load(p).map_err(|e| CommandError::Contract {
+                what: "--controller-yaml".into(),
+                message: e.to_string(),
+            })?,
+        ),
         None => None,
     };
     // The controller's file says what the odometry is configured with where the bag's
@@ -281,9 +302,17 @@ pub fn ros2(req: &Ros2Import, say: Say) -> Result<(), CommandError> {
                 battery_v.map_or(String::new(), |v| format!(
                     "; battery {} V{}",
                     crate::scene::plausibility::sig(v),
-                    if req.battery_v.is_some() { "" } else { ", the median of its battery topic" }
+                    if req.battery_v.is_some() {
+                        ""
+                    } else {
+                        ", the median of its battery topic"
+                    }
                 )),
-                if req.motor.is_some() { "the rest derived from the numbers given" } else { "the motor and gear the thesis machine's (assumed: give --motor-* and --gear-ratio)" }
+                if req.motor.is_some() {
+                    "the rest derived from the numbers given"
+                } else {
+                    "the motor and gear the thesis machine's (assumed: give --motor-* and --gear-ratio)"
+                }
             )),
             ..Default::default()
         };

@@ -45,8 +45,10 @@ fn commands_of(
         .unwrap_or(std::path::Path::new("."))
         .join(&m.commands);
     let rec = crate::record::Recording::load(&path)?;
-    let (Some(v), Some(w)) = (rec.column("cmd_linear_m_s"), rec.column("cmd_angular_rad_s"))
-    else {
+    let (Some(v), Some(w)) = (
+        rec.column("cmd_linear_m_s"),
+        rec.column("cmd_angular_rad_s"),
+    ) else {
         return Err(CommandError::Contract {
             what: format!("{} (manoeuvre.commands)", path.display()),
             message: "expected the columns cmd_linear_m_s and cmd_angular_rad_s".into(),

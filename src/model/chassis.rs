@@ -338,7 +338,11 @@ impl NoSlipBody {
     /// (they cannot slip, so they turn with the body): kg and kg m^2.
     #[inline]
     pub fn effective_inertias(&self) -> (f64, f64) {
-        let (r, half, a) = (self.wheel_radii_m, 0.5 * self.track_width_m, self.cg_ahead_m);
+        let (r, half, a) = (
+            self.wheel_radii_m,
+            0.5 * self.track_width_m,
+            self.cg_ahead_m,
+        );
         let jw = self.wheel_inertia_kg_m2;
         let per_r2 = 1.0 / (r[0] * r[0]) + 1.0 / (r[1] * r[1]);
         let m_eff = self.mass_kg + jw * per_r2;

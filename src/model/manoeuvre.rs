@@ -60,7 +60,10 @@ impl ManoeuvreParams {
 
     /// Time one side of the square takes (straight, then the quarter turn), s.
     fn side_s(&self) -> (f64, f64) {
-        (self.side_m / self.speed_m_s, FRAC_PI_2 / self.turn_rate_rad_s)
+        (
+            self.side_m / self.speed_m_s,
+            FRAC_PI_2 / self.turn_rate_rad_s,
+        )
     }
 
     /// The shape's own length (its rests included), s.

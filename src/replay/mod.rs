@@ -595,7 +595,11 @@ fn align_start_pose(
     let (Some(ix), Some(iy), Some(ih)) = (find("x_m"), find("y_m"), find("heading_rad")) else {
         return;
     };
-    let (Some(mx), Some(my), Some(mh)) = (rec.column("x_m"), rec.column("y_m"), rec.column("heading_rad")) else {
+    let (Some(mx), Some(my), Some(mh)) = (
+        rec.column("x_m"),
+        rec.column("y_m"),
+        rec.column("heading_rad"),
+    ) else {
         return;
     };
     let t0 = rec.t_s[rows.start];
@@ -624,7 +628,11 @@ fn align_start_pose(
         simulated[ih][j] += turn;
     }
     let shift = |m: &[Option<f64>], i: usize, sim: &[Vec<f64>]| {
-        window.iter().map(|&j| m[rows.start + j].unwrap() - sim[i][j]).sum::<f64>() / n
+        window
+            .iter()
+            .map(|&j| m[rows.start + j].unwrap() - sim[i][j])
+            .sum::<f64>()
+            / n
     };
     let (sx, sy) = (shift(mx, ix, simulated), shift(my, iy, simulated));
     for j in 0..rows.len() {
@@ -654,7 +662,11 @@ mod tests {
         let rec = Recording::parse(&text, std::path::Path::new("moving.csv")).unwrap();
         let chans: Vec<Channel> = ["x_m", "y_m", "heading_rad"]
             .iter()
-            .map(|n| Channel { name: n.to_string(), read: |_| 0.0, rate_of: None })
+            .map(|n| Channel {
+                name: n.to_string(),
+                read: |_| 0.0,
+                rate_of: None,
+            })
             .collect();
         // The simulated path: the measured one turned 0.02 rad and shifted by (3, -2) mm.
         let (turn, ox, oy) = (0.02_f64, 0.003, -0.002);
@@ -670,7 +682,12 @@ mod tests {
         for k in 0..n {
             let p = path(t[k]);
             for i in 0..3 {
-                assert!((sim[i][k] - p[i]).abs() < 1e-9, "row {k}, pose {i}: {} vs {}", sim[i][k], p[i]);
+                assert!(
+                    (sim[i][k] - p[i]).abs() < 1e-9,
+                    "row {k}, pose {i}: {} vs {}",
+                    sim[i][k],
+                    p[i]
+                );
             }
         }
     }

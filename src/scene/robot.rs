@@ -605,9 +605,9 @@ pub fn new_scene(
     if let Some(t) = &spec.tyre {
         scene.tyre.compound = t.clone();
     }
-    let top_speed_m_s = scene.battery.drive_limit_v / scene.motor.torque_constant_nm_a
-        / scene.gearbox.ratio
-        * scene.wheel.radius_m;
+    let top_speed_m_s =
+        scene.battery.drive_limit_v / scene.motor.torque_constant_nm_a / scene.gearbox.ratio
+            * scene.wheel.radius_m;
     match spec.guidance {
         Some(Guidance::Wire) => scene.controller.kind = ControllerKind::Pd,
         Some(Guidance::OpenLoop) => {
@@ -674,14 +674,23 @@ pub fn new_scene(
                 "the manoeuvre's length with a second's rest either side".into(),
             ));
             for (key, how) in [
-                ("manoeuvre.kind", "UMBmark's square (`circle`, or `commands` with a commands CSV)"),
-                ("manoeuvre.turn_rate_rad_s", "a quarter turn on the spot at each corner at this rate"),
+                (
+                    "manoeuvre.kind",
+                    "UMBmark's square (`circle`, or `commands` with a commands CSV)",
+                ),
+                (
+                    "manoeuvre.turn_rate_rad_s",
+                    "a quarter turn on the spot at each corner at this rate",
+                ),
                 ("manoeuvre.side_m", "the square's side"),
                 ("manoeuvre.radius_m", "a circle's radius"),
                 ("manoeuvre.laps", "once round"),
                 ("manoeuvre.clockwise", "counter-clockwise"),
                 ("manoeuvre.rest_s", "at rest before and after"),
-                ("manoeuvre.commands", "the commands CSV of `kind = \"commands\"`"),
+                (
+                    "manoeuvre.commands",
+                    "the commands CSV of `kind = \"commands\"`",
+                ),
             ] {
                 notes_by_key.push((key, how.into()));
             }
