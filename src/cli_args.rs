@@ -124,17 +124,7 @@ pub enum ImportFormat {
 }
 
 fn parse_mechanism(s: &str) -> Result<agvsim::import::wpilib::Mechanism, String> {
-    use agvsim::import::wpilib::Mechanism;
-    match s {
-        "drivetrain" => Ok(Mechanism::Drivetrain),
-        "drivetrain-angular" => Ok(Mechanism::DrivetrainAngular),
-        "simple" => Ok(Mechanism::Simple),
-        "elevator" => Ok(Mechanism::Elevator),
-        "arm" => Ok(Mechanism::Arm),
-        _ => Err(format!(
-            "`{s}`: expected drivetrain, drivetrain-angular, simple, elevator or arm"
-        )),
-    }
+    s.parse()
 }
 
 pub fn positive_number(s: &str) -> Result<f64, String> {

@@ -388,24 +388,13 @@ fn sweep(args: SweepArgs) -> Result<(), CommandError> {
 fn motor_of(
     d: &cli_args::DriveArgs,
 ) -> Result<Option<agvsim::scene::robot::MotorDatasheet>, CommandError> {
-    let motor_given = d.motor_no_load_rpm.is_some()
-        || d.motor_stall_current_a.is_some()
-        || d.motor_stall_torque_nm.is_some()
-        || d.motor_rated_v.is_some();
-    match (motor_given, d.motor_no_load_rpm, d.motor_rated_v.or(d.battery_v)) {
-        (false, _, _) => Ok(None),
-        (true, Some(rpm), Some(v)) => Ok(Some(agvsim::scene::robot::MotorDatasheet {
-            rated_v: v,
-            no_load_rpm: rpm,
-            stall_current_a: d.motor_stall_current_a,
-            stall_torque_nm: d.motor_stall_torque_nm,
-        })),
-        (true, _, _) => Err(CommandError::Option {
-            option: "--motor-*".into(),
-            value: String::new(),
-            message: "a motor needs --motor-no-load-rpm and --motor-rated-V (or --battery-V), with --motor-stall-current-A or --motor-stall-torque-Nm".into(),
-        }),
-    }
+    commands::new::motor_datasheet(&commands::new::MotorFlags {
+        rated_v: d.motor_rated_v,
+        no_load_rpm: d.motor_no_load_rpm,
+        stall_current_a: d.motor_stall_current_a,
+        stall_torque_nm: d.motor_stall_torque_nm,
+        battery_v: d.battery_v,
+    })
 }
 
 /// `agvsim new`: the flags as the robot's numbers.

@@ -216,6 +216,8 @@ fn malformed_bags_are_refused_naming_the_topic_or_record() {
         let o = import(bag, &out, extra);
         let t = text(&o);
         assert!(!o.status.success(), "{} was accepted: {t}", bag.display());
+        // A bag to mend is the user's input: status 2, as a bad scene or recording.
+        assert_eq!(o.status.code(), Some(2), "{t}");
         assert!(!t.contains("panicked"), "{t}");
         for w in wanted {
             assert!(t.contains(w), "wanted `{w}` in: {t}");

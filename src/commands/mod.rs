@@ -153,6 +153,7 @@ impl CommandError {
             | CommandError::Effects(_)
             | CommandError::Import(_)
             | CommandError::SysId(_)
+            | CommandError::Ros2(_)
             | CommandError::Contract { .. }
             | CommandError::Option { .. } => 2,
             CommandError::Replay(ReplayError::Recording { .. }) => 2,

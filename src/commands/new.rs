@@ -4,8 +4,46 @@
 use std::path::PathBuf;
 
 use super::{CommandError, Say};
-use crate::scene::robot::{new_scene, RobotSpec};
+use crate::scene::robot::{new_scene, MotorDatasheet, RobotSpec};
 use crate::scene::{keys, plausibility::sig, Scene};
+
+/// The motor's datasheet numbers as given (`--motor-*`, `--battery-V`).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct MotorFlags {
+    /// The datasheet's rated voltage, V.
+    pub rated_v: Option<f64>,
+    /// No-load speed at the rated voltage, rpm.
+    pub no_load_rpm: Option<f64>,
+    /// Stall current at the rated voltage, A.
+    pub stall_current_a: Option<f64>,
+    /// Stall torque at the rated voltage, N m.
+    pub stall_torque_nm: Option<f64>,
+    /// The battery's voltage, V: the rated voltage when none is given.
+    pub battery_v: Option<f64>,
+}
+
+/// The motor's datasheet point the numbers give: `None` when no motor number is given;
+/// an error naming the flags when some are given but not enough for a motor.
+pub fn motor_datasheet(m: &MotorFlags) -> Result<Option<MotorDatasheet>, CommandError> {
+    let motor_given = m.no_load_rpm.is_some()
+        || m.stall_current_a.is_some()
+        || m.stall_torque_nm.is_some()
+        || m.rated_v.is_some();
+    match (motor_given, m.no_load_rpm, m.rated_v.or(m.battery_v)) {
+        (false, _, _) => Ok(None),
+        (true, Some(rpm), Some(v)) => Ok(Some(MotorDatasheet {
+            rated_v: v,
+            no_load_rpm: rpm,
+            stall_current_a: m.stall_current_a,
+            stall_torque_nm: m.stall_torque_nm,
+        })),
+        (true, _, _) => Err(CommandError::Option {
+            option: "--motor-*".into(),
+            value: String::new(),
+            message: "a motor needs --motor-no-load-rpm and --motor-rated-V (or --battery-V), with --motor-stall-current-A or --motor-stall-torque-Nm".into(),
+        }),
+    }
+}
 
 /// What `agvsim new` was asked.
 #[derive(Debug, Clone)]

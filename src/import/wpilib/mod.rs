@@ -31,6 +31,25 @@ pub enum Mechanism {
     Arm,
 }
 
+impl std::str::FromStr for Mechanism {
+    type Err = String;
+
+    /// The mechanism as the command line names it (`drivetrain`, `drivetrain-angular`,
+    /// `simple`, `elevator`, `arm`).
+    fn from_str(s: &str) -> Result<Mechanism, String> {
+        match s {
+            "drivetrain" => Ok(Mechanism::Drivetrain),
+            "drivetrain-angular" => Ok(Mechanism::DrivetrainAngular),
+            "simple" => Ok(Mechanism::Simple),
+            "elevator" => Ok(Mechanism::Elevator),
+            "arm" => Ok(Mechanism::Arm),
+            _ => Err(format!(
+                "`{s}`: expected drivetrain, drivetrain-angular, simple, elevator or arm"
+            )),
+        }
+    }
+}
+
 impl Mechanism {
     /// The name SysId's JSON uses in `"test"`.
     pub fn name(self) -> &'static str {
