@@ -136,8 +136,7 @@ pub(super) fn loop_gains(params: &SimParams, sim: &Sim) -> Option<LoopGains> {
 pub fn close_loop(l: &Linearisation) -> Option<ClosedLoop> {
     let g = l.controller.as_ref()?;
     let n = l.a.nrows();
-    let f = l.continuous_a();
-    let b = &l.b / l.dt_s;
+    let (f, b) = l.continuous();
     let cx = l.c.row(0) - l.c.row(1);
     // Turn counts per unit of state: -Kp X + Kd T dX/dt, with dX/dt = C_x f x (the coils
     // do not see the voltages directly).

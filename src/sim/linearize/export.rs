@@ -44,7 +44,7 @@ pub fn to_json(l: &Linearisation) -> serde_json::Value {
     };
     let d = nalgebra::DMatrix::<f64>::zeros(l.c.nrows(), l.b.ncols());
     json!({
-        "description": "agvsim linearize: discrete-time x[k+1] = A x[k] + B u[k], y[k] = C x[k] + D u[k]",
+        "description": "agvsim linearize: discrete-time x[k+1] = A x[k] + B u[k], y[k] = C x[k] + D u[k]; the poles agvsim prints are those of its zero-order-hold continuous equivalent (MATLAB d2c(sys), SciPy: logm of [[A, B], [0, I]] / Ts), ln(z)/Ts of each pole z of A",
         "operating_point": operating_point(l),
         "Ts_s": l.dt_s,
         "A": rows(&l.a),
@@ -81,7 +81,7 @@ pub fn to_mat(l: &Linearisation) -> Vec<u8> {
         .text(
             "description",
             &format!(
-                "discrete-time over Ts: sys = ss(A, B, C, D, Ts); operating point {}",
+                "discrete-time over Ts: sys = ss(A, B, C, D, Ts); agvsim prints the poles of d2c(sys) (zero-order hold), log(z)/Ts of each pole z of A; operating point {}",
                 operating_point(l)
             ),
         );

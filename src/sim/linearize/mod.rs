@@ -17,6 +17,7 @@ use crate::model::motor::Terminal;
 use crate::scene::{Fidelity, Scene};
 
 mod closed_loop;
+pub mod d2c;
 pub mod export;
 mod reach;
 
@@ -154,10 +155,17 @@ impl Sim {
 }
 
 impl Linearisation {
-    /// The continuous-time state matrix `(A - I)/dt`, 1/s.
-    pub fn continuous_a(&self) -> DMatrix<f64> {
-        let n = self.a.nrows();
-        (&self.a - DMatrix::identity(n, n)) / self.dt_s
+    /// The continuous-time state and input matrices the discrete model samples (its
+    /// zero-order-hold inverse, MATLAB's `d2c`: [`d2c::zoh_to_continuous`]), 1/s and per
+    /// second; the first-order `((A - I)/dt, B/dt)` where no logarithm exists.
+    pub fn continuous(&self) -> (DMatrix<f64>, DMatrix<f64>) {
+        d2c::zoh_to_continuous(&self.a, &self.b, self.dt_s).unwrap_or_else(|| {
+            let n = self.a.nrows();
+            (
+                (&self.a - DMatrix::identity(n, n)) / self.dt_s,
+                &self.b / self.dt_s,
+            )
+        })
     }
 }
 
@@ -373,6 +381,11 @@ pub fn render(l: &Linearisation, r: &Reach) -> String {
         );
     }
     let _ = writeln!(s, "\npoles (1/s)      {}", pole_list(&r.poles));
+    let _ = writeln!(
+        s,
+        "                 continuous time: the discrete model's zero-order-hold equivalent over {} ms (MATLAB's d2c), ln(z)/Ts of each discrete pole z",
+        1000.0 * l.dt_s
+    );
     match (&l.controller, close_loop(l)) {
         (Some(g), Some(cl)) => {
             let _ = writeln!(

@@ -22,7 +22,8 @@ pub struct Reach {
     pub uncontrollable_share: Vec<f64>,
     /// Per state: the share (0-1) of it the coil readings cannot see.
     pub unobservable_share: Vec<f64>,
-    /// Continuous-time poles (eigenvalues of (A - I)/dt), 1/s, as (re, im).
+    /// Continuous-time poles (of the zero-order-hold equivalent, `ln(z)/dt` of each
+    /// discrete pole `z`), 1/s, as (re, im).
     pub poles: Vec<(f64, f64)>,
 }
 
@@ -84,9 +85,9 @@ pub fn analyse(l: &Linearisation) -> Reach {
         n,
         STATE_SCALE.iter().map(|x| 1.0 / x),
     ));
-    let f = l.continuous_a();
+    let (f, b) = l.continuous();
     let f_scaled = &s_inv * &f * &s;
-    let b_scaled = &s_inv * &l.b * (VOLTAGE_SCALE_V / l.dt_s);
+    let b_scaled = &s_inv * &b * VOLTAGE_SCALE_V;
     let c_scaled = &l.c * &s / READING_SCALE_ADC;
     let ctrb = krylov_basis(&f_scaled, &b_scaled);
     let obsv = krylov_basis(&f_scaled.transpose(), &c_scaled.transpose());
