@@ -182,6 +182,37 @@ pub fn run_scene(
     })
 }
 
+/// What the summary says of a window with no limit cycle: its swing, and why it is not a
+/// cycle (too small, dying away, or too short a window to call one).
+fn no_cycle_text(n: Option<crate::sim::metrics::NoCycle>, tail_pct: f64, over: &str) -> String {
+    use crate::sim::metrics::NoCycleReason;
+    let min_mm = 1000.0 * crate::sim::metrics::LIMIT_CYCLE_MIN_AMPLITUDE_M;
+    let Some(n) = n else {
+        return format!(
+            "none (no sustained swing of {min_mm:.0} mm or more in the last {tail_pct:.0} % {over})"
+        );
+    };
+    let swing = format!(
+        "+/-{:.1} mm in the last {tail_pct:.0} % {over} ({:.1} s)",
+        1000.0 * n.swing_m,
+        n.window_s
+    );
+    match n.reason {
+        NoCycleReason::Small => format!(
+            "none (the lateral error swings {swing}, under the {min_mm:.0} mm a limit cycle needs)"
+        ),
+        NoCycleReason::Decaying => format!(
+            "none: the swing is dying away ({swing}; its later half swings less than half as far)"
+        ),
+        NoCycleReason::TooShort => format!(
+            "too short to call: the lateral error swings {swing}, fewer than two full periods between its upward crossings; a longer run tells whether it is a limit cycle"
+        ),
+        NoCycleReason::NoWindow => {
+            format!("none (too few samples in the last {tail_pct:.0} % {over} to look for one)")
+        }
+    }
+}
+
 /// The summary `agvsim run` prints: one labelled line per measure, with units. Every
 /// error figure says what stretch of the run it covers.
 pub fn render_summary(scene_path: &Path, scene: &Scene, s: &RunSummary) -> String {
@@ -294,9 +325,7 @@ fn path_lines(scene: &Scene, s: &RunSummary) -> String {
 /// The wire-following lines: settling, the error and what it covers, the limit cycle,
 /// and the wire lost or ended.
 fn tracking_lines(s: &RunSummary) -> String {
-    use crate::sim::metrics::{
-        ErrorWindow, LIMIT_CYCLE_MIN_AMPLITUDE_M, LIMIT_CYCLE_TAIL_FRACTION, SETTLED_BAND_M,
-    };
+    use crate::sim::metrics::{ErrorWindow, LIMIT_CYCLE_TAIL_FRACTION, SETTLED_BAND_M};
     use std::fmt::Write;
     let band_mm = 1000.0 * SETTLED_BAND_M;
     let mut out = String::new();
@@ -332,11 +361,7 @@ fn tracking_lines(s: &RunSummary) -> String {
             1000.0 * c.amplitude_m,
             c.period_s
         ),
-        None => writeln!(
-            out,
-            "cycle      none (no sustained swing of {:.0} mm or more in the last {tail_pct:.0} % {cycle_over})",
-            1000.0 * LIMIT_CYCLE_MIN_AMPLITUDE_M
-        ),
+        None => writeln!(out, "cycle      {}", no_cycle_text(s.no_cycle, tail_pct, cycle_over)),
     };
     if let Some(e) = s.wire_lost {
         let after = if s.off_wire_at_end {

@@ -1119,3 +1119,76 @@ fn the_last_frame_and_row_are_the_end_of_the_run() {
     let end = *rec.t_s.last().unwrap();
     assert!((end - 0.373).abs() < 0.5 * dt, "last row at {end} s");
 }
+
+/// A run too short to hold two periods of its swing says so, with the swing the
+/// recording shows, instead of "no cycle"; a sweep leaves its amplitude empty (unknown),
+/// not 0.
+#[test]
+fn a_swing_too_short_to_call_a_cycle_is_reported_with_its_size() {
+    let out = tmp("short-cycle");
+    let st = agvsim()
+        .args(["run", "scenes/high_gain_slip.toml", "--set"])
+        .args(["controller.gain_scale=3.5", "--duration", "10", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&st.stdout);
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
+    let line = stdout.lines().find(|l| l.starts_with("cycle ")).unwrap();
+    assert!(line.contains("too short to call"), "{line}");
+    let printed_mm: f64 = line[line.find("+/-").unwrap() + 3..]
+        .split(' ')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    // Half the peak-to-peak lateral error of the recording's last 40 % (4 s of 10).
+    let csv = std::fs::read_to_string(out.join("high_gain_slip.csv")).unwrap();
+    let mut rows = csv.lines().filter(|l| !l.starts_with('#'));
+    let header: Vec<&str> = rows.next().unwrap().split(',').collect();
+    let col = |n: &str| header.iter().position(|h| *h == n).unwrap();
+    let (t, e) = (col("t_s"), col("lateral_error_m"));
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for row in rows {
+        let c: Vec<f64> = row
+            .split(',')
+            .map(|x| x.parse().unwrap_or(f64::NAN))
+            .collect();
+        if c[t] >= 6.0 - 1e-9 {
+            lo = lo.min(c[e]);
+            hi = hi.max(c[e]);
+        }
+    }
+    let swing_mm = 500.0 * (hi - lo);
+    assert!(swing_mm > 20.0, "{swing_mm}");
+    assert!(
+        (printed_mm - swing_mm).abs() < 0.1,
+        "printed {printed_mm}, recording {swing_mm}"
+    );
+    // The same run in a sweep: the amplitude is left empty, not called 0.
+    let sweep = tmp("short-cycle-sweep");
+    let st = agvsim()
+        .args(["sweep", "scenes/high_gain_slip.toml", "--vary"])
+        .args(["controller.gain_scale=3.5", "--duration", "10", "--out"])
+        .arg(&sweep)
+        .output()
+        .unwrap();
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
+    let results = std::fs::read_to_string(sweep.join("results.csv")).unwrap();
+    let mut lines = results.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let row: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let k = header
+        .iter()
+        .position(|h| *h == "limit_cycle_amplitude_m")
+        .unwrap();
+    assert_eq!(row[k], "", "{results}");
+}

@@ -19,6 +19,31 @@ pub const LIMIT_CYCLE_MIN_AMPLITUDE_M: f64 = 0.002;
 /// the rest to settle from its start offset.
 pub const LIMIT_CYCLE_TAIL_FRACTION: f64 = 0.4;
 
+/// What the cycle window of a run shows when it holds no limit cycle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NoCycle {
+    /// Half the peak-to-peak lateral error over the window, m.
+    pub swing_m: f64,
+    /// The window's length, s.
+    pub window_s: f64,
+    /// Why the swing is not called a limit cycle.
+    pub reason: NoCycleReason,
+}
+
+/// Why a window's swing is not a limit cycle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NoCycleReason {
+    /// Smaller than [`LIMIT_CYCLE_MIN_AMPLITUDE_M`].
+    Small,
+    /// Dying away: the window's later half swings less than half as far as its earlier.
+    Decaying,
+    /// Large and not decaying, but fewer than two full periods fit in the window: too
+    /// short to tell a limit cycle from a slow transient.
+    TooShort,
+    /// Too few samples in the window (a run that left the wire almost at once).
+    NoWindow,
+}
+
 /// A sustained oscillation of the lateral error at the end of a run.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LimitCycle {
@@ -135,6 +160,9 @@ pub struct RunSummary {
     /// A sustained oscillation over the last [`LIMIT_CYCLE_TAIL_FRACTION`] of the run, or
     /// of the part of it before the wire was lost or ended.
     pub limit_cycle: Option<LimitCycle>,
+    /// What the same window shows when it holds no limit cycle (`None` with a cycle, or
+    /// with the wheels lifted).
+    pub no_cycle: Option<NoCycle>,
     /// Peak |slip ratio| of the drive tyres over [`RunSummary::slip_window`].
     pub peak_abs_slip_ratio: f64,
     /// Time mean of |slip ratio| over both drive tyres, over [`RunSummary::slip_window`].
@@ -429,6 +457,11 @@ impl MetricsObserver {
             } else {
                 limit_cycle(&cycle_tail)
             },
+            no_cycle: if self.wheels_lifted {
+                None
+            } else {
+                classify_cycle(&cycle_tail).err()
+            },
             peak_abs_slip_ratio: late_slip.iter().map(|x| x.1).fold(0.0, f64::max),
             mean_abs_slip_ratio: late_slip.iter().map(|x| x.2).sum::<f64>() / late_n,
             sliding_fraction: late_slip.iter().filter(|x| x.3).count() as f64 / late_n,
@@ -463,8 +496,23 @@ impl MetricsObserver {
 /// (the later half of the window swings at least half as far as the earlier half: a loop
 /// still ringing down from its start is not cycling).
 pub fn limit_cycle(samples: &[(f64, f64)]) -> Option<LimitCycle> {
+    classify_cycle(samples).ok()
+}
+
+/// The limit cycle in `(t_s, e_m)` samples ([`limit_cycle`]), or what the window shows
+/// instead: its swing, its length and why the swing is not a limit cycle.
+pub fn classify_cycle(samples: &[(f64, f64)]) -> Result<LimitCycle, NoCycle> {
+    let window_s = match (samples.first(), samples.last()) {
+        (Some(a), Some(b)) => b.0 - a.0,
+        _ => 0.0,
+    };
+    let no = |swing_m: f64, reason| NoCycle {
+        swing_m,
+        window_s,
+        reason,
+    };
     if samples.len() < 8 {
-        return None;
+        return Err(no(0.0, NoCycleReason::NoWindow));
     }
     let mean = samples.iter().map(|s| s.1).sum::<f64>() / samples.len() as f64;
     let p2p = |w: &[(f64, f64)]| {
@@ -477,11 +525,11 @@ pub fn limit_cycle(samples: &[(f64, f64)]) -> Option<LimitCycle> {
     };
     let amplitude = 0.5 * p2p(samples);
     if !(amplitude >= LIMIT_CYCLE_MIN_AMPLITUDE_M) {
-        return None;
+        return Err(no(amplitude, NoCycleReason::Small));
     }
     let mid = samples.len() / 2;
     if p2p(&samples[mid..]) < 0.5 * p2p(&samples[..mid]) {
-        return None;
+        return Err(no(amplitude, NoCycleReason::Decaying));
     }
     // Upward crossings of the mean, with hysteresis.
     let band = 0.25 * amplitude;
@@ -497,10 +545,10 @@ pub fn limit_cycle(samples: &[(f64, f64)]) -> Option<LimitCycle> {
         }
     }
     if ups.len() < 3 {
-        return None;
+        return Err(no(amplitude, NoCycleReason::TooShort));
     }
     let period_s = (ups[ups.len() - 1] - ups[0]) / (ups.len() - 1) as f64;
-    Some(LimitCycle {
+    Ok(LimitCycle {
         amplitude_m: amplitude,
         period_s,
     })
@@ -565,6 +613,27 @@ mod tests {
         assert!((c.amplitude_m - 0.01).abs() < 1e-4, "{c:?}");
         // Crossings are found to the sample (10 ms) over 5 periods: a few ms of error.
         assert!((c.period_s - 1.3).abs() < 0.01, "{c:?}");
+    }
+
+    #[test]
+    fn a_window_without_a_cycle_says_what_it_shows() {
+        let why = |v: &[(f64, f64)]| classify_cycle(v).unwrap_err();
+        // Ringing down: the swing is reported with the decay as the reason.
+        let d = why(&sine(0.02, 1.0, 0.5));
+        assert_eq!(d.reason, NoCycleReason::Decaying);
+        assert!(d.swing_m > 0.01, "{d:?}");
+        // 1 mm: under the 2 mm a cycle needs.
+        let s = why(&sine(0.001, 1.0, 0.0));
+        assert_eq!(s.reason, NoCycleReason::Small);
+        assert!((s.swing_m - 0.001).abs() < 1e-4, "{s:?}");
+        // A steady 60 mm swing with a 5 s period in an 8 s window: fewer than two periods,
+        // too short to call, its swing given.
+        let t = why(&sine(0.06, 5.0, 0.0));
+        assert_eq!(t.reason, NoCycleReason::TooShort);
+        assert!(
+            (t.swing_m - 0.06).abs() < 1e-3 && (t.window_s - 7.99).abs() < 1e-9,
+            "{t:?}"
+        );
     }
 
     #[test]

@@ -43,7 +43,7 @@ pub const METRICS: [(&str, &str); 18] = [
     ),
     (
         "limit_cycle_amplitude_m",
-        "limit-cycle amplitude (half peak-to-peak; 0: none), m",
+        "limit-cycle amplitude (half peak-to-peak; 0: none; empty: the window too short to tell), m",
     ),
     ("limit_cycle_period_s", "limit-cycle period, s"),
     (
@@ -90,6 +90,17 @@ fn num(v: f64) -> String {
     format!("{r}")
 }
 
+/// The limit-cycle amplitude: 0 where the window shows none, empty where it is too short
+/// to tell (a swing with fewer than two periods in the window is not "no cycle").
+fn cycle_amplitude_cell(s: &RunSummary) -> String {
+    use crate::sim::metrics::NoCycleReason;
+    match (s.limit_cycle, s.no_cycle) {
+        (Some(c), _) => num(c.amplitude_m),
+        (None, Some(n)) if n.reason == NoCycleReason::TooShort => String::new(),
+        _ => num(0.0),
+    }
+}
+
 fn metric_cells(s: &RunSummary) -> Vec<String> {
     let mut faults = s.faults.clone();
     if s.bumper_stop {
@@ -100,7 +111,7 @@ fn metric_cells(s: &RunSummary) -> Vec<String> {
         num(s.peak_lateral_error_m),
         s.error_window.name().to_string(),
         s.settling_distance_m.map(num).unwrap_or_default(),
-        num(s.limit_cycle.map(|c| c.amplitude_m).unwrap_or(0.0)),
+        cycle_amplitude_cell(s),
         s.limit_cycle.map(|c| num(c.period_s)).unwrap_or_default(),
         num(s.peak_abs_slip_ratio),
         num(s.mean_abs_slip_ratio),
