@@ -392,3 +392,41 @@ fn a_scene_made_from_a_shipped_one_drops_its_claims_and_derives_only_from_what_c
     assert_eq!(o.status.code(), Some(2));
     assert!(text(&o).contains("exists"), "{}", text(&o));
 }
+
+#[test]
+fn millimetres_typed_as_metres_are_warned_by_new_and_check() {
+    let dir = scratch("millimetres");
+    let path = dir.join("mm.toml");
+    let p = path.to_str().unwrap();
+    let o = agvsim(&[
+        "new",
+        p,
+        "--mass-kg",
+        "60",
+        "--track-m",
+        "400",
+        "--wheel-radius-m",
+        "50",
+        "--battery-V",
+        "12",
+        "--motor-no-load-rpm",
+        "3000",
+        "--motor-stall-current-A",
+        "60",
+        "--gear-ratio",
+        "20",
+    ]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    for said in [
+        "`chassis.track_width_m` = 400 m: expected 0.03 to 5 m",
+        "`wheel.radius_m` = 50 m: expected 0.005 to 1 m",
+        "millimetres",
+        "gives 769 m/s",
+    ] {
+        assert!(t.contains(said), "`{said}` not in:\n{t}");
+    }
+    let o = agvsim(&["check", p]);
+    let t = text(&o);
+    assert!(t.contains("3 plausibility warnings"), "{t}");
+}

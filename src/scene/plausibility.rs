@@ -44,15 +44,79 @@ const YAW_INERTIA_SPAN: (f64, f64) = (1.0 / 3.0, 2.0);
 /// to dry rough concrete); above is racing rubber or a no-slip idealisation.
 const TYRE_MU_SPAN: (f64, f64) = (0.1, 1.3);
 
+/// Sizes a differential-drive vehicle has, from a toy robot to a heavy AGV: outside them a
+/// value is most likely in another unit (millimetres, grams, millivolts typed as metres,
+/// kilograms, volts). (key, unit, lowest, highest, the unit it looks typed in).
+const VEHICLE_SIZES: [(&str, &str, f64, f64, &str); 5] = [
+    ("chassis.mass_kg", "kg", 0.2, 30_000.0, "grams"),
+    ("chassis.track_width_m", "m", 0.03, 5.0, "millimetres"),
+    ("wheel.radius_m", "m", 0.005, 1.0, "millimetres"),
+    ("battery.open_circuit_V", "V", 1.0, 1_000.0, "millivolts"),
+    (
+        "gearbox.ratio",
+        "motor turns per wheel turn",
+        0.1,
+        1_000.0,
+        "another convention",
+    ),
+];
+
+/// Fastest top speed (the motors' no-load speed at the drive limit, at the wheel) of a
+/// wheeled robot or AGV, m/s: industrial AGVs run under 2 m/s, fast mobile robots under 10.
+const TOP_SPEED_MAX_M_S: f64 = 20.0;
+
 /// Every plausibility warning of a scene, in key order.
 pub fn warnings(scene: &Scene) -> Vec<Warning> {
     let mut w = Vec::new();
+    sizes(scene, &mut w);
     yaw_inertia(scene, &mut w);
     geometry(scene, &mut w);
     supply(scene, &mut w);
     dcmc_gains(scene, &mut w);
     tyre_friction(scene, &mut w);
     w
+}
+
+/// Sizes no wheeled robot has, and a top speed none reaches: a unit slipped.
+fn sizes(scene: &Scene, w: &mut Vec<Warning>) {
+    let value = |key: &str| crate::scene::keys::number(scene, key).unwrap_or(f64::NAN);
+    for (key, unit, lo, hi, typed) in VEHICLE_SIZES {
+        let v = value(key);
+        if v.is_finite() && !(lo..=hi).contains(&v) {
+            w.push(Warning {
+                key,
+                value: format!("{} {unit}", sig(v)),
+                expected: format!(
+                    "{} to {} {unit} for a wheeled robot or AGV",
+                    sig(lo),
+                    sig(hi)
+                ),
+                why: format!("a value in {typed} where the key takes {unit}?"),
+            });
+        }
+    }
+    let top_m_s = scene
+        .battery
+        .drive_limit_v
+        .min(scene.battery.open_circuit_v)
+        / scene.motor.torque_constant_nm_a
+        / scene.gearbox.ratio
+        * scene.wheel.radius_m;
+    if top_m_s.is_finite() && top_m_s > TOP_SPEED_MAX_M_S {
+        w.push(Warning {
+            key: "motor.torque_constant_Nm_A",
+            value: format!("{} N m/A", sig(scene.motor.torque_constant_nm_a)),
+            expected: format!("a top speed under {} m/s", sig(TOP_SPEED_MAX_M_S)),
+            why: format!(
+                "the motor's no-load speed at the drive limit ({} V / {} N m/A) through gearbox.ratio = {} to a {} m wheel gives {} m/s; a no-load speed given in rad/s as rpm, or a radius or ratio in another unit?",
+                sig(scene.battery.drive_limit_v.min(scene.battery.open_circuit_v)),
+                sig(scene.motor.torque_constant_nm_a),
+                sig(scene.gearbox.ratio),
+                sig(scene.wheel.radius_m),
+                sig(top_m_s)
+            ),
+        });
+    }
 }
 
 fn yaw_inertia(scene: &Scene, w: &mut Vec<Warning>) {
@@ -245,6 +309,33 @@ mod tests {
                 "dcmc.forward_gain_V_pct"
             ]
         );
+    }
+
+    #[test]
+    fn millimetres_typed_as_metres_are_caught() {
+        let mut s = Scene::default();
+        // `new --track-m 400 --wheel-radius-m 50`: the body follows the track.
+        s.chassis.track_width_m = 400.0;
+        s.chassis.width_m = 400.12;
+        (s.chassis.front_m, s.chassis.rear_m) = (400.0, 400.0);
+        s.wheel.radius_m = 50.0;
+        let w = warnings(&s);
+        let keys: Vec<&str> = w.iter().map(|w| w.key).collect();
+        assert!(
+            keys.starts_with(&[
+                "chassis.track_width_m",
+                "wheel.radius_m",
+                "motor.torque_constant_Nm_A"
+            ]),
+            "{w:?}"
+        );
+        assert!(w[0].why.contains("millimetres"), "{}", w[0]);
+        // 23.5 V / 0.063 N m/A / 23.41 x 50 m = 797 m/s.
+        assert!(w[2].why.contains("797 m/s"), "{}", w[2]);
+        // Grams typed as kilograms.
+        let mut s = Scene::default();
+        s.chassis.mass_kg = 60_000.0;
+        assert_eq!(warnings(&s)[0].key, "chassis.mass_kg");
     }
 
     #[test]
