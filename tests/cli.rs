@@ -1192,3 +1192,33 @@ fn a_swing_too_short_to_call_a_cycle_is_reported_with_its_size() {
         .unwrap();
     assert_eq!(row[k], "", "{results}");
 }
+
+/// `--connect` with no viewer stops at once, saying so, instead of waiting in silence.
+#[test]
+fn connect_without_a_viewer_says_so_at_once() {
+    let addr = std::net::SocketAddr::from(([127, 0, 0, 1], 9876));
+    if std::net::TcpStream::connect_timeout(&addr, std::time::Duration::from_millis(200)).is_ok() {
+        eprintln!("a Rerun viewer listens at {addr}: nothing to check here");
+        return;
+    }
+    let out = tmp("connect");
+    let o = agvsim()
+        .args([
+            "run",
+            "scenes/lab_offset_120mm.toml",
+            "--duration",
+            "1",
+            "--connect",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("--connect: no Rerun viewer answers at 127.0.0.1:9876"),
+        "{err}"
+    );
+    assert!(!out.exists(), "a run was written without its viewer");
+}

@@ -32,6 +32,22 @@ pub enum RerunTarget {
     Connect,
 }
 
+/// How long `--connect` waits for the viewer's port to answer.
+const CONNECT_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(2);
+
+/// Checks that a viewer listens on the SDK's default address before streaming to it: the
+/// SDK would otherwise buffer the whole run and wait at its end, saying nothing.
+fn viewer_listening() -> Result<(), VizError> {
+    let addr = std::net::SocketAddr::from(([127, 0, 0, 1], rerun::DEFAULT_SERVER_PORT));
+    std::net::TcpStream::connect_timeout(&addr, CONNECT_TIMEOUT)
+        .map(|_| ())
+        .map_err(|e| {
+            VizError(format!(
+                "--connect: no Rerun viewer answers at {addr} ({e}); start one with `rerun` (pip install rerun-sdk==0.36.3), or use --spawn to start it, or --save FILE.rrd"
+            ))
+        })
+}
+
 /// Errors from the Rerun SDK, as text (the SDK's error types differ per sink).
 #[derive(Debug, thiserror::Error)]
 #[error("rerun: {0}")]
@@ -145,7 +161,10 @@ impl RerunRecorder {
                 builder.save(&tmp).map_err(err)?
             }
             RerunTarget::Spawn => builder.spawn().map_err(err)?,
-            RerunTarget::Connect => builder.connect_grpc().map_err(err)?,
+            RerunTarget::Connect => {
+                viewer_listening()?;
+                builder.connect_grpc().map_err(err)?
+            }
         };
         // Named after the scene in the viewer's sources panel (a fixed recording id keeps
         // the builder from sending the name itself).
