@@ -73,6 +73,21 @@ pub fn estimate(v: f64, std: Option<f64>, unit: &str) -> String {
     with_unit(format!("{v:.decimals$} ± {s:.decimals$}"), unit)
 }
 
+/// The value of [`estimate`] alone, to the decimal place its standard deviation `std`
+/// supports (6 figures where the deviation is under a millionth of it): what a table of
+/// values beside a table of estimates prints, so both show the same number.
+pub fn estimate_value(v: f64, std: f64, unit: &str) -> String {
+    if v != 0.0 && std < 1e-6 * v.abs() {
+        return quantity(v, 6, unit);
+    }
+    let decimals = 1 - std.log10().floor() as i32;
+    if !(0..=9).contains(&decimals) || !(PLAIN.0..PLAIN.1).contains(&v.abs().max(std)) {
+        return quantity(v, 6, unit);
+    }
+    let decimals = decimals as usize;
+    with_unit(format!("{v:.decimals$}"), unit)
+}
+
 /// A share in percent to one decimal, with its sign when it is a change (`-81.2 %`).
 pub fn change_pct(v: f64) -> String {
     format!("{v:+.1} %")
@@ -153,6 +168,13 @@ mod tests {
     fn quantities_carry_their_unit() {
         assert_eq!(quantity(11.0, 4, "V"), "11 V");
         assert_eq!(quantity(1.817, 3, ""), "1.82");
+    }
+
+    #[test]
+    fn an_estimates_value_alone_has_the_estimates_digits() {
+        assert_eq!(estimate_value(0.04897, 0.0021, "N m"), "0.0490 N m");
+        assert_eq!(estimate_value(2.73243, 0.03968, "N m"), "2.732 N m");
+        assert_eq!(estimate_value(0.05, 1e-12, "N m"), "0.05 N m");
     }
 
     #[test]

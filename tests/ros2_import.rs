@@ -659,4 +659,21 @@ fn slip_on_a_slippery_floor_is_diagnosed_from_the_bag() {
         d["final"]["fit_pct"].as_f64().unwrap(),
     );
     assert!(fin > base + 20.0, "{base} -> {fin}");
+    // Said as `diagnose --rig` says it: a Found line with the value, then the fit from the
+    // baseline (the scene's keys fitted, no effect), the JSON's numbers.
+    assert!(t.contains("Found: wheel_slip — "), "{t}");
+    assert!(
+        t.contains(&format!(
+            "fit        {base:.1} % (baseline: the scene's keys fitted, no effect) -> {fin:.1} % diagnosed"
+        )),
+        "{t}"
+    );
+    assert!(
+        d["baseline"]["fit_pct_per_output"]
+            .as_object()
+            .unwrap()
+            .len()
+            >= 2,
+        "{d:#}"
+    );
 }

@@ -438,7 +438,11 @@ pub struct Calibration {
     pub after: Replay,
     /// The calibrated scene (the original with the fitted keys changed).
     pub scene: Scene,
-    /// Solver iterations in all.
+    /// The scene with its free keys fitted and no effect tried yet: the nominal model
+    /// fitted, which `diagnose` calls the baseline.
+    pub baseline: Scene,
+    /// Solver iterations in all (the keys' fit, the effects' races and fits, the
+    /// settling).
     pub iterations: usize,
 }
 
@@ -642,11 +646,12 @@ pub fn calibrate_telling(
         windows,
     };
     progress(&format!(
-        "fitting {} keys through the simulator ({} or more replays an iteration, at most 30 iterations)",
+        "fitting {} keys through the simulator ({} or more replays an iteration, at most 30 iterations in this stage)",
         free.len(),
         free.len() + 1,
     ));
     let stage = problem.first_stage(scene, &free)?;
+    let baseline = stage.scene.clone();
     let rounds = rounds::effect_rounds(&problem, stage, &tried, driven, progress)?;
     let iterations = rounds.iterations;
     let mut keys = key_fits(scene, &rounds.stage, &rounds.starts);
@@ -698,7 +703,7 @@ pub fn calibrate_telling(
         }
     }
     progress(&format!(
-        "fitted in {iterations} iterations; replaying the recording on the calibrated scene"
+        "fitted in {iterations} iterations in all stages; replaying the recording on the calibrated scene"
     ));
     let after = replay(&final_scene, rec)?;
     Ok(Calibration {
@@ -711,6 +716,7 @@ pub fn calibrate_telling(
         before,
         after,
         scene: final_scene,
+        baseline,
         iterations,
     })
 }

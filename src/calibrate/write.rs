@@ -241,6 +241,15 @@ fn key_table(s: &mut String, c: &Calibration) {
     }
 }
 
+/// An effect's value as the key table prints it: an accepted one to the digits its
+/// standard deviation supports (the key table's number), others to 4 figures.
+fn effect_value(t: &super::EffectTrial, unit: &str) -> String {
+    match t.std.filter(|s| t.accepted && s.is_finite() && *s > 0.0) {
+        Some(std) => crate::numtext::estimate_value(t.value, std, unit),
+        None => quantity(t.value, 4, unit),
+    }
+}
+
 /// What became of an effect tried, in words.
 fn verdict(t: &super::EffectTrial, unit: &str) -> String {
     let kept = |was: Option<f64>| match was {
@@ -273,7 +282,11 @@ fn verdict(t: &super::EffectTrial, unit: &str) -> String {
             quantity(b, 4, unit),
             kept(was)
         ),
-        (false, was, None) => format!("not supported by the recording: {}", kept(was)),
+        (false, Some(was), None) => format!(
+            "the scene's {} stands: refitting it gained too little to count",
+            quantity(was, 4, unit)
+        ),
+        (false, None, None) => "not supported by the recording: not added".to_string(),
     }
 }
 
@@ -310,7 +323,7 @@ pub fn render(c: &Calibration) -> String {
                 "{:<20} {:<32} {:>14} {:>9} {:>10}  {verdict}",
                 t.effect.name(),
                 t.key,
-                quantity(t.value, 4, unit),
+                effect_value(t, unit),
                 aic,
                 residual
             );

@@ -81,7 +81,7 @@ pub fn run(req: &CalibrateRequest, say: Say) -> Result<(), CommandError> {
     })?;
     say(&cw::render(&c));
     say(&format!(
-        "mean       {:.1} % -> {:.1} % over the fitted outputs ({} iterations)\n",
+        "mean       {:.1} % -> {:.1} % over the fitted outputs ({} iterations in all stages)\n",
         cw::mean_fit(&c.before, &c.outputs),
         cw::mean_fit(&c.after, &c.outputs),
         c.iterations

@@ -193,6 +193,11 @@ fn through_simulator(
         )?)
     })?;
     say(&crate::calibrate::write::render(&c));
+    // The baseline as `diagnose --rig` has it: the model without effects, its keys fitted.
+    let baseline = crate::replay::replay(&c.baseline, &rec)?;
+    say(&crate::diagnose::through_simulator::findings_text(
+        &c, &baseline,
+    ));
     if let Some(p) = &req.json {
         let name = rec
             .path
@@ -202,6 +207,7 @@ fn through_simulator(
             &name,
             &scene_path.display().to_string(),
             &c,
+            &baseline,
         );
         write_file(p, serde_json::to_string_pretty(&v).unwrap_or_default())?;
         say(&format!("wrote      {}\n", p.display()));

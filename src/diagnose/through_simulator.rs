@@ -7,6 +7,7 @@
 use crate::calibrate::{Calibration, EffectTrial};
 use crate::ident::effects::Effect;
 use crate::model::GRAVITY_M_S2;
+use crate::replay::Replay;
 use crate::scene::Scene;
 
 /// An accepted effect's parameter in the contract's terms: its name and value. The scene
@@ -25,14 +26,70 @@ pub fn contract_param(scene: &Scene, t: &EffectTrial) -> (&'static str, f64) {
     (name, value)
 }
 
-/// The contract's diagnosis object for a calibration with effects.
-pub fn contract_json(recording: &str, scene_path: &str, c: &Calibration) -> serde_json::Value {
+/// The diagnosis's conclusion in the words `diagnose --rig` uses: a `Found:` line for each
+/// effect accepted, with what it is and its value, then the fit from the baseline (the
+/// scene's free keys fitted, no effect) to the diagnosed scene; or the verdict that
+/// nothing is missing.
+pub fn findings_text(c: &Calibration, baseline: &Replay) -> String {
+    use crate::numtext::estimate;
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let found: Vec<&EffectTrial> = c.effects.iter().filter(|t| t.accepted).collect();
+    if found.is_empty() {
+        let _ = writeln!(
+            s,
+            "Verdict: nothing is missing; no effect explains enough of the residual to be told from noise."
+        );
+    }
+    for t in &found {
+        let (param, value) = contract_param(&c.scene, t);
+        let unit = t.effect.unit(false);
+        // The contract's value in its units; the scene key's deviation scales with it.
+        let std = t
+            .std
+            .map(|sd| sd * (value / t.value).abs())
+            .filter(|_| t.value != 0.0);
+        let _ = writeln!(
+            s,
+            "Found: {} — {} ({param} = {})",
+            t.effect.name(),
+            super::evidence::describe(t.effect, value, false),
+            estimate(value, std, unit)
+        );
+    }
+    let _ = writeln!(
+        s,
+        "fit        {:.1} % (baseline: the scene's keys fitted, no effect) -> {:.1} % diagnosed",
+        baseline.mean_fit_pct(),
+        c.after.mean_fit_pct()
+    );
+    s
+}
+
+/// The contract's diagnosis object for a calibration with effects. `baseline`: the
+/// recording replayed on [`Calibration::baseline`] (the free keys fitted, no effect), as
+/// `diagnose --rig`'s baseline is the nominal model fitted.
+pub fn contract_json(
+    recording: &str,
+    scene_path: &str,
+    c: &Calibration,
+    baseline: &Replay,
+) -> serde_json::Value {
     let baseline_params: serde_json::Map<String, serde_json::Value> = c
         .keys
         .iter()
         .filter(|k| !c.effects.iter().any(|e| e.key == k.key))
-        .map(|k| (k.key.clone(), serde_json::json!(k.before)))
+        .map(|k| {
+            let v = crate::calibrate::keys::get(&c.baseline, &k.key).unwrap_or(k.before);
+            (k.key.clone(), serde_json::json!(v))
+        })
         .collect();
+    let per_output = |r: &Replay| {
+        r.outputs
+            .iter()
+            .map(|o| (o.name.clone(), serde_json::json!(o.fit_pct)))
+            .collect::<serde_json::Map<_, _>>()
+    };
     let effects: Vec<serde_json::Value> = c
         .effects
         .iter()
@@ -63,12 +120,14 @@ pub fn contract_json(recording: &str, scene_path: &str, c: &Calibration) -> serd
         "recording": recording,
         "model": format!("the simulator on {scene_path}"),
         "baseline": {
-            "fit_pct": c.before.mean_fit_pct(),
+            "fit_pct": baseline.mean_fit_pct(),
+            "fit_pct_per_output": per_output(baseline),
             "params": baseline_params,
         },
         "effects": effects,
         "final": {
             "fit_pct": c.after.mean_fit_pct(),
+            "fit_pct_per_output": per_output(&c.after),
             "params": c.keys.iter().map(|k| (k.key.clone(), serde_json::json!(k.after))).collect::<serde_json::Map<_, _>>(),
         },
         "left_out": c.left_out.iter().map(|l| serde_json::json!({"output": l.output, "why": l.why})).collect::<Vec<_>>(),
