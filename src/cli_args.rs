@@ -63,7 +63,21 @@ pub enum ImportFormat {
         drive: DriveArgs,
     },
     /// A MATLAB file (MAT level 5, as `save` writes by default) by a map file like the
-    /// CSV's, each `column` naming a variable (a vector); see the README.
+    /// CSV's, each `column` naming a variable (a vector).
+    ///
+    /// The map (TOML) names the rig, the time column and each contract column's source,
+    /// with a unit (ms, us, rpm, deg, deg_s, rev, mm, cm, mm_s, mV, mA, mNm) or a `scale`
+    /// (and an optional `offset`):
+    ///
+    ///     rig = "drive_axis"
+    ///     time = { column = "time_ms", unit = "ms" }
+    ///     [columns]
+    ///     voltage_V = { column = "volts" }
+    ///     motor_speed_rad_s = { column = "vel_rpm", unit = "rpm" }
+    ///     current_A = { column = "amps_x10", scale = 0.1 }
+    ///
+    /// docs/commands.md (import csv) and docs/matlab.md have more.
+    #[command(verbatim_doc_comment)]
     Mat {
         /// The MAT-file.
         file: PathBuf,
@@ -74,8 +88,22 @@ pub enum ImportFormat {
         #[arg(long)]
         out: Option<PathBuf>,
     },
-    /// Any CSV whose columns have other names or units, by a map file (see the README):
-    /// the time and each contract column with its source column and unit or scale.
+    /// Any CSV whose columns have other names or units, by a map file: the time and each
+    /// contract column with its source column and unit or scale.
+    ///
+    /// The map (TOML) names the rig, the time column and each contract column's source,
+    /// with a unit (ms, us, rpm, deg, deg_s, rev, mm, cm, mm_s, mV, mA, mNm) or a `scale`
+    /// (and an optional `offset`):
+    ///
+    ///     rig = "drive_axis"
+    ///     time = { column = "time_ms", unit = "ms" }
+    ///     [columns]
+    ///     voltage_V = { column = "volts" }
+    ///     motor_speed_rad_s = { column = "vel_rpm", unit = "rpm" }
+    ///     current_A = { column = "amps_x10", scale = 0.1 }
+    ///
+    /// docs/commands.md (import csv) and docs/matlab.md have more.
+    #[command(verbatim_doc_comment)]
     Csv {
         /// The CSV file (a header row, then data).
         file: PathBuf,
@@ -114,11 +142,13 @@ pub enum ImportFormat {
         /// Motor resistance per side, ohm [default: from the logged current, else 0.05, said as assumed].
         #[arg(long, value_parser = positive_number)]
         resistance_ohm: Option<f64>,
-        /// Track width, m [default: from a turning test's gyro, else 0.6, said as assumed].
-        #[arg(long, value_parser = positive_number)]
+        /// Track width, m [default: from a turning test's gyro, else 0.6, said as assumed]
+        /// (`--track-width-m` is an older name for it).
+        #[arg(long = "track-m", alias = "track-width-m", value_parser = positive_number)]
         track_width_m: Option<f64>,
-        /// Battery voltage, V [default: none stated; the logged voltages are the applied ones].
-        #[arg(long, value_parser = positive_number)]
+        /// Battery voltage, V [default: none stated; the logged voltages are the applied ones]
+        /// (`--supply-v` is an older name for it).
+        #[arg(long = "battery-V", alias = "supply-v", value_parser = positive_number)]
         supply_v: Option<f64>,
     },
 }

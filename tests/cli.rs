@@ -1060,6 +1060,16 @@ fn options_are_named_alike_in_every_command() {
         assert!(help.contains("--report <DIR>"), "{cmd}:\n{help}");
         assert!(help.contains("--validate <OTHER.csv>"), "{cmd}:\n{help}");
     }
+    // The track and the battery are named alike wherever a robot is described.
+    for cmd in [&["new"][..], &["import", "ros2"], &["import", "wpilib"]] {
+        let help = help_of(cmd);
+        assert!(help.contains("--battery-V"), "{cmd:?}:\n{help}");
+        assert!(!help.contains("--supply-v <"), "{cmd:?}:\n{help}");
+        assert!(!help.contains("--track-width-m <"), "{cmd:?}:\n{help}");
+    }
+    for cmd in [&["new"][..], &["import", "ros2"], &["import", "wpilib"]] {
+        assert!(help_of(cmd).contains("--track-m"), "{cmd:?}");
+    }
 }
 
 /// A watcher that wants every 20th step, as the Rerun recorder does at its frame interval.
@@ -1224,4 +1234,20 @@ fn connect_without_a_viewer_says_so_at_once() {
         !out.join("lab_offset_120mm.csv").exists(),
         "a run was written without its viewer"
     );
+}
+
+/// A recording given where a scene goes is named as such, not as a TOML syntax error.
+#[test]
+fn a_recording_given_as_a_scene_is_named_as_one() {
+    let o = agvsim()
+        .args(["run", "data/calibrate_example/multisine_inputs.csv"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("multisine_inputs.csv: this is a recording (CSV), not a scene"),
+        "{err}"
+    );
+    assert!(!err.contains("TOML parse error"), "{err}");
 }

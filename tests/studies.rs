@@ -165,6 +165,22 @@ fn soft_compound_slips_less_and_its_slip_cycles_start_at_a_higher_gain_on_painte
         hard.mean_sliding_over(&both)
     );
     assert!(out.summary.contains("| soft_rubber | painted_concrete |"));
+    // One payload (quick): the onset plot shows each compound's onset side by side, not a
+    // dot per line on a payload axis; "none" where the gains swept found none.
+    let svg = out
+        .files
+        .iter()
+        .find(|f| f.ends_with("slip_cycle_onset.svg"))
+        .map(|f| std::fs::read_to_string(f).unwrap())
+        .unwrap();
+    assert!(svg.contains("payload 0 kg"), "{svg}");
+    assert!(
+        svg.contains(&format!(">{} <", agvsim::numtext::sig(hard_onset, 3))),
+        "{svg}"
+    );
+    if soft.slip_cycle_onset_gain.is_none() {
+        assert!(svg.contains(">none<"), "{svg}");
+    }
 }
 
 #[test]

@@ -92,6 +92,8 @@ _FLAGS = {
     "--backlash-rad": "backlash_rad",
     "--mass-kg": "mass_kg",
     "--track-m": "track_m",
+    "--track-width-m": "track_m",
+    "--supply-v": "battery_v",
     "--wheel-radius-m": "wheel_radius_m",
     "--length-m": "length_m",
     "--width-m": "width_m",
@@ -837,8 +839,8 @@ def import_wpilib(
     mechanism: Optional[str] = None,
     wheel_radius_m: Optional[float] = None,
     resistance_ohm: Optional[float] = None,
-    track_width_m: Optional[float] = None,
-    supply_v: Optional[float] = None,
+    track_m: Optional[float] = None,
+    battery_v: Optional[float] = None,
 ) -> Imported:
     """Converts a WPILib SysId log (``.json`` or ``.wpilog``), as ``agvsim import wpilib``:
     a recording per test and a rig."""
@@ -846,7 +848,7 @@ def import_wpilib(
         lambda: _native.import_wpilib(
             Path(file), Path(out), routine=routine, motors=list(motors), mechanism=mechanism,
             wheel_radius_m=wheel_radius_m, resistance_ohm=resistance_ohm,
-            track_width_m=track_width_m, supply_v=supply_v,
+            track_width_m=track_m, supply_v=battery_v,
         )
     )
     return Imported(report)

@@ -79,6 +79,8 @@ pub fn run(req: &RunRequest, say: Say) -> Result<(), CommandError> {
         manoeuvre: commands_of(&req.scene, &scene)?,
     };
     let _lock = super::lock_out("--out", &opts.out_dir)?;
+    // An earlier run's recording there is replaced: said, not done in silence.
+    let earlier = opts.out_dir.join(format!("{name}.csv")).exists();
     // The Rerun target first: a file that cannot be written (or a viewer that cannot be
     // reached) stops the run before any output is left behind.
     let mut recorder = match &req.rerun {
@@ -100,7 +102,15 @@ pub fn run(req: &RunRequest, say: Say) -> Result<(), CommandError> {
     }
     say(&render_summary(&req.scene, &scene, &out.summary));
     say(&render_expectations(&scene, &out.summary, !set.is_empty()));
-    say(&format!("recording  {}\n", out.recording.display()));
+    say(&format!(
+        "recording  {}{}\n",
+        out.recording.display(),
+        if earlier {
+            " (replaces the earlier run's; --out DIR keeps both)"
+        } else {
+            ""
+        }
+    ));
     if let Some(RerunTarget::Save(p)) = &req.rerun {
         say(&format!("rerun      {}\n", p.display()));
     }

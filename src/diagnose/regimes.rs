@@ -180,14 +180,23 @@ pub fn measured_speed(data: &Dataset) -> Vec<f64> {
     vec![0.0; data.len()]
 }
 
-/// Shares of `energy` (one value per sample) by regime, most concentrated first.
+/// The largest share of a recording a regime may cover and still locate something: a
+/// "regime" of most samples (steps in a multisine, which changes every sample) says no
+/// more than "somewhere in the recording".
+pub const MAX_REGIME_SAMPLES_SHARE: f64 = 0.5;
+
+/// Shares of `energy` (one value per sample) by regime, most concentrated first; regimes
+/// of no sample or of more than [`MAX_REGIME_SAMPLES_SHARE`] of them are left out.
 pub fn shares(regimes: &[Regime], energy: &[f64], baseline_total: f64) -> Vec<RegimeShare> {
     let total: f64 = energy.iter().sum::<f64>().max(1e-300);
     let reference = baseline_total.max(1e-300);
     let n = energy.len() as f64;
     let mut out: Vec<RegimeShare> = regimes
         .iter()
-        .filter(|r| r.mask.iter().any(|m| *m))
+        .filter(|r| {
+            let count = r.mask.iter().filter(|m| **m).count() as f64;
+            count > 0.0 && count <= MAX_REGIME_SAMPLES_SHARE * n
+        })
         .map(|r| {
             let count = r.mask.iter().filter(|m| **m).count() as f64;
             let e: f64 = r
@@ -220,4 +229,33 @@ pub fn energy_per_sample(data: &Dataset, predicted: &[Vec<f64>], weights: &[f64]
                 .sum()
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_regime_of_most_samples_locates_nothing_and_is_left_out() {
+        let n = 100;
+        let regime = |label: &str, upto: usize| Regime {
+            label: label.into(),
+            mask: (0..n).map(|k| k < upto).collect(),
+        };
+        // The energy sits in the first 20 samples.
+        let energy: Vec<f64> = (0..n).map(|k| if k < 20 { 1.0 } else { 0.01 }).collect();
+        let s = shares(
+            &[
+                regime("nearly all", 90),
+                regime("the first fifth", 20),
+                regime("none", 0),
+            ],
+            &energy,
+            energy.iter().sum(),
+        );
+        let names: Vec<&str> = s.iter().map(|r| r.regime.as_str()).collect();
+        assert_eq!(names, ["the first fifth"]);
+        assert!((s[0].samples_pct - 20.0).abs() < 1e-9);
+        assert!(s[0].concentration() > 4.0, "{:?}", s[0]);
+    }
 }

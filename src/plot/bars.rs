@@ -14,7 +14,8 @@ pub struct BarGroup {
 }
 
 /// A bar chart. `series` gives each bar's legend text and colour; `unit` is printed after
-/// each value and in the scale note, which says what every bar is a share of.
+/// each value and in the scale note, which says what every bar is a share of. A value
+/// that is not finite has no bar and reads "none".
 pub fn bar_chart(
     title: &str,
     scale_note: &str,
@@ -79,13 +80,24 @@ pub fn bar_chart(
         );
         for (k, ((_, colour), v)) in series.iter().zip(&g.values).enumerate() {
             let yy = y + 4.0 + k as f64 * bar_h;
+            if !v.is_finite() {
+                // No value (none in the range looked at): no bar, said in words.
+                let _ = writeln!(
+                    s,
+                    "<text x=\"{:.1}\" y=\"{:.1}\" font-size=\"10\" fill=\"#555\">none</text>",
+                    left + 4.0,
+                    yy + 9.5
+                );
+                continue;
+            }
             let w = width * v.max(0.0) / max;
             let _ = writeln!(
                 s,
-                "<rect x=\"{left:.1}\" y=\"{yy:.1}\" width=\"{w:.1}\" height=\"{:.1}\" fill=\"{colour}\"/><text x=\"{:.1}\" y=\"{:.1}\" font-size=\"10\">{v:.1} {unit}</text>",
+                "<rect x=\"{left:.1}\" y=\"{yy:.1}\" width=\"{w:.1}\" height=\"{:.1}\" fill=\"{colour}\"/><text x=\"{:.1}\" y=\"{:.1}\" font-size=\"10\">{} {unit}</text>",
                 bar_h - 1.0,
                 left + w + 4.0,
-                yy + 9.5
+                yy + 9.5,
+                crate::numtext::sig(*v, 3)
             );
         }
     }

@@ -58,6 +58,30 @@ pub enum SceneError {
     },
 }
 
+/// What a file that does not parse as a scene is instead, where it is plainly something
+/// else (a recording, a rig, a bag), said instead of the TOML reader's complaint.
+fn not_a_scene(text: &str, path: &Path) -> Option<String> {
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    let head = text.trim_start();
+    if head.starts_with("# agvsim-recording") || ext == "csv" {
+        return Some(
+            "this is a recording (CSV), not a scene: a scene is a TOML file (scenes/*.toml, or `agvsim new`); a recording goes to --recording".into(),
+        );
+    }
+    if matches!(
+        ext.as_str(),
+        "mcap" | "db3" | "bag" | "wpilog" | "mat" | "json"
+    ) {
+        return Some(format!(
+            "this is a .{ext} file, not a scene: a scene is a TOML file (scenes/*.toml, or `agvsim new`); `agvsim import` converts logs"
+        ));
+    }
+    None
+}
+
 /// A scene that loaded, with its plausibility warnings.
 #[derive(Debug)]
 pub struct Checked {
@@ -128,7 +152,8 @@ impl Scene {
         // Parse the file on its own first so that its errors carry its own line numbers.
         let mut scene: Scene = toml::from_str(text).map_err(|e| SceneError::Parse {
             file: path.to_owned(),
-            message: e.to_string().trim_end().to_string(),
+            message: not_a_scene(text, path)
+                .unwrap_or_else(|| e.to_string().trim_end().to_string()),
         })?;
         for arg in overrides {
             check_override(arg)?;

@@ -196,30 +196,56 @@ pub fn run(
         e.1.push(g.slip_cycle_onset_gain.unwrap_or(f64::NAN));
     }
     let labels: Vec<String> = lines.keys().map(|(c, s)| format!("{c} on {s}")).collect();
-    let series: Vec<Series> = lines
-        .values()
-        .zip(&labels)
-        .enumerate()
-        .map(|(i, ((x, y), label))| Series::line(label, x, y, COLOURS[i % COLOURS.len()]))
-        .collect();
+    let payloads: std::collections::BTreeSet<&str> =
+        groups.iter().map(|g| g.payload_kg.as_str()).collect();
     let plot: PathBuf = opts.out_dir.join("slip_cycle_onset.svg");
     std::fs::create_dir_all(&opts.out_dir).map_err(crate::sweep::io_err(&opts.out_dir))?;
-    crate::output::write_atomically(
-        &plot,
-        Plot {
-            title: "onset of slip-driven limit cycles",
-            x_label: "payload, kg",
-            y_label: "gain_scale",
-            series: &series,
-            band: None,
-            flags: None,
-            empty_note: "no run reached a slip-driven limit cycle at the gains swept",
-        }
-        .render(),
-    )
-    .map_err(crate::sweep::io_err(&plot))?;
+    let (svg, plot_says) = if payloads.len() == 1 {
+        // One payload (the quick study): a line against payload would be a dot each on
+        // an axis of nothing; the onsets side by side say it.
+        let payload = payloads.iter().next().copied().unwrap_or("0");
+        let bars: Vec<crate::plot::bars::BarGroup> = lines
+            .values()
+            .zip(&labels)
+            .map(|((_, y), label)| crate::plot::bars::BarGroup {
+                label: label.clone(),
+                values: vec![y.first().copied().unwrap_or(f64::NAN)],
+            })
+            .collect();
+        (
+            crate::plot::bars::bar_chart(
+                &format!("onset of slip-driven limit cycles, payload {payload} kg"),
+                "the lowest controller.gain_scale swept at which the tyres slide in a limit cycle; none: not at the gains swept",
+                &[("onset gain_scale", COLOURS[0])],
+                &bars,
+                "",
+            ),
+            "onset gain by compound and floor, one payload",
+        )
+    } else {
+        let series: Vec<Series> = lines
+            .values()
+            .zip(&labels)
+            .enumerate()
+            .map(|(i, ((x, y), label))| Series::line(label, x, y, COLOURS[i % COLOURS.len()]))
+            .collect();
+        (
+            Plot {
+                title: "onset of slip-driven limit cycles",
+                x_label: "payload, kg",
+                y_label: "gain_scale",
+                series: &series,
+                band: None,
+                flags: None,
+                empty_note: "no run reached a slip-driven limit cycle at the gains swept",
+            }
+            .render(),
+            "onset gain against payload",
+        )
+    };
+    crate::output::write_atomically(&plot, svg).map_err(crate::sweep::io_err(&plot))?;
     files.push(plot);
-    summary.push_str("\nPlots: `slip_cycle_onset.svg` (onset gain against payload); `sweep/plots/` (every metric against gain, one line per compound, floor and payload; a cross marks a gain where a run lost the wire).\n");
+    summary.push_str(&format!("\nPlots: `slip_cycle_onset.svg` ({plot_says}); `sweep/plots/` (every metric against gain, one line per compound, floor and payload; a cross marks a gain where a run lost the wire).\n"));
     files.push(write_summary(&opts.out_dir, &summary)?);
     Ok((groups, StudyOutput { summary, files }))
 }
