@@ -266,6 +266,11 @@ pub enum Command {
         /// overlaid per output on one timeline, to this Rerun .rrd file.
         #[arg(long, value_name = "FILE.rrd")]
         save: Option<PathBuf>,
+        /// Write one self-contained HTML report here (the recording, the keys with their
+        /// standard deviations and verdicts, each effect tried with its evidence, the fits
+        /// before and after with the plots, the scene's changes, the command).
+        #[arg(long, value_name = "FILE.html")]
+        html: Option<PathBuf>,
         /// Worker threads [default: one per core]; the result is the same for any count.
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
         jobs: Option<u32>,
@@ -417,6 +422,11 @@ pub enum Command {
         /// Save measured, baseline and diagnosed outputs to a Rerun .rrd file.
         #[arg(long, value_name = "FILE.rrd")]
         save: Option<PathBuf>,
+        /// Write one self-contained HTML report here (the recording, the estimates with their
+        /// standard deviations and verdicts, the fits before and after with the plots, the
+        /// command): no network needed to open it.
+        #[arg(long, value_name = "FILE.html")]
+        html: Option<PathBuf>,
         /// Comma-separated effects of the contract's vocabulary to try (backlash,
         /// coulomb_friction, friction_asymmetry, offset, voltage_saturation, battery_sag,
         /// transport_delay, speed_feedback, wheel_slip, castor_drag, wheel_geometry). `all`: every effect
@@ -486,6 +496,11 @@ pub enum Command {
         /// Save measured and simulated outputs to a Rerun .rrd file.
         #[arg(long, value_name = "FILE.rrd")]
         save: Option<PathBuf>,
+        /// Write one self-contained HTML report here (the recording, the estimates with their
+        /// standard deviations and verdicts, the fits before and after with the plots, the
+        /// command): no network needed to open it.
+        #[arg(long, value_name = "FILE.html")]
+        html: Option<PathBuf>,
         /// Number of solver starts (rig values, then perturbed within a factor 2).
         #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=50))]
         starts: u32,

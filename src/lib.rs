@@ -28,6 +28,7 @@ pub mod commands;
 pub mod diagnose;
 pub mod experiment;
 pub mod firmware;
+pub mod html;
 pub mod ident;
 pub mod import;
 pub mod jobs;

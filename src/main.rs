@@ -123,6 +123,7 @@ fn dispatch(command: Command) -> Result<(), CommandError> {
             json,
             report,
             save,
+            html,
             effects,
             jobs,
         } => {
@@ -134,6 +135,8 @@ fn dispatch(command: Command) -> Result<(), CommandError> {
                 json,
                 report_dir: report,
                 save_rrd: save,
+                html,
+                command: command_line(),
                 options: agvsim::diagnose::DiagnoseOptions {
                     effects: agvsim::ident::effects::Choice::parse(&effects)?,
                     progress: Some(cli_progress::stage),
@@ -169,6 +172,7 @@ fn dispatch(command: Command) -> Result<(), CommandError> {
             json,
             report,
             save,
+            html,
             starts,
             max_iterations,
         } => commands::identify::run(
@@ -186,6 +190,8 @@ fn dispatch(command: Command) -> Result<(), CommandError> {
                 json,
                 plot_dir: report,
                 save_rrd: save,
+                html,
+                command: command_line(),
             },
             &say,
         ),
@@ -216,6 +222,7 @@ fn dispatch(command: Command) -> Result<(), CommandError> {
             json,
             report,
             save,
+            html,
             jobs,
         } => {
             let request = commands::calibrate::CalibrateRequest {
@@ -229,6 +236,8 @@ fn dispatch(command: Command) -> Result<(), CommandError> {
                 json,
                 report,
                 save,
+                html,
+                command: command_line(),
                 jobs: jobs.unwrap_or(0) as usize,
                 progress: cli_progress::stage,
             };
@@ -397,15 +406,21 @@ fn motor_of(
     })
 }
 
+/// The command line as typed (`agvsim` and its arguments; a word with a space quoted), for
+/// the headers and reports that say what made them.
+fn command_line() -> String {
+    std::iter::once("agvsim".to_string())
+        .chain(std::env::args().skip(1))
+        .map(|w| if w.contains(' ') { format!("{w:?}") } else { w })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
 /// `agvsim new`: the flags as the robot's numbers.
 fn new(a: NewArgs) -> Result<(), CommandError> {
     use agvsim::scene::robot::{Guidance, RobotSpec};
     let motor = motor_of(&a.drive)?;
-    let command = std::iter::once("agvsim".to_string())
-        .chain(std::env::args().skip(1))
-        .map(|w| if w.contains(' ') { format!("{w:?}") } else { w })
-        .collect::<Vec<_>>()
-        .join(" ");
+    let command = command_line();
     commands::new::run(
         &commands::new::NewRequest {
             out: a.out,

@@ -581,6 +581,7 @@ def calibrate(
     validate: Any = (),
     out: Optional[PathLike] = None,
     jobs: int = 0,
+    html: Optional[PathLike] = None,
 ) -> CalibrateResult:
     """Fits the scene to recordings through the simulator, as ``agvsim calibrate``.
 
@@ -588,7 +589,7 @@ def calibrate(
     ``"none"`` or effect names; ``validate``: recordings to compare the scenes on; ``jobs``:
     worker threads (0: one per core). Returns the JSON's fields, the report and the
     calibrated :class:`Scene`; ``out`` keeps ``calibrated.toml``, ``calibrate.json`` and the
-    plots there.
+    plots there; ``html`` writes the self-contained report (the CLI's ``--html``).
     """
     import json
 
@@ -606,6 +607,7 @@ def calibrate(
             path, values, paths, list(free), list(effects),
             folder / "calibrate.json", folder / "calibrated.toml", check,
             report=folder / "plots" if out is not None else None, jobs=jobs,
+            html=None if html is None else Path(html), command="agvsim.calibrate (Python)",
         )
         data = json.loads((folder / "calibrate.json").read_text())
     except BaseException:
@@ -626,6 +628,7 @@ def diagnose(
     validate: Union[Recording, PathLike, None] = None,
     out: Optional[PathLike] = None,
     jobs: int = 0,
+    html: Optional[PathLike] = None,
 ) -> Result:
     """Finds what physics the model leaves out, as ``agvsim diagnose``: with a ``rig``
     (the fitting models) or a ``scene`` (through the simulator). Returns the contract's
@@ -652,6 +655,7 @@ def diagnose(
             None if rig is None else Path(rig), scene_path, paths, list(effects),
             folder / "diagnosis.json", validate=check,
             report=folder / "report" if out is not None else None, jobs=jobs,
+            html=None if html is None else Path(html), command="agvsim.diagnose (Python)",
         )
         return Result(json.loads((folder / "diagnosis.json").read_text()), report)
     finally:
@@ -667,6 +671,7 @@ def identify(
     starts: int = 3,
     max_iterations: int = 100,
     out: Optional[PathLike] = None,
+    html: Optional[PathLike] = None,
 ) -> Result:
     """Fits a rig's model to recordings, as ``agvsim identify``; returns the JSON report's
     fields (parameters with standard deviations, fits, loss)."""
@@ -683,6 +688,7 @@ def identify(
             free=None if free is None else list(free), validate=check,
             report=folder / "plots" if out is not None else None,
             starts=starts, max_iterations=max_iterations,
+            html=None if html is None else Path(html), command="agvsim.identify (Python)",
         )
         return Result(json.loads((folder / "identify.json").read_text()), report)
     finally:

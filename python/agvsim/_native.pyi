@@ -59,6 +59,8 @@ def calibrate(
     validate: Sequence[_Path],
     report: Optional[_Path] = None,
     jobs: int = 0,
+    html: Optional[_Path] = None,
+    command: str = ...,
 ) -> str: ...
 def diagnose(
     rig: Optional[_Path],
@@ -69,6 +71,8 @@ def diagnose(
     validate: Optional[_Path] = None,
     report: Optional[_Path] = None,
     jobs: int = 0,
+    html: Optional[_Path] = None,
+    command: str = ...,
 ) -> str: ...
 def identify(
     rig: _Path,
@@ -80,6 +84,8 @@ def identify(
     report: Optional[_Path] = None,
     starts: int = 3,
     max_iterations: int = 100,
+    html: Optional[_Path] = None,
+    command: str = ...,
 ) -> str: ...
 def sweep(
     scene: _Path,

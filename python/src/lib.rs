@@ -285,7 +285,7 @@ fn replay(
 
 /// `agvsim calibrate --scene SCENE --recording REC... --json J --write W`.
 #[pyfunction]
-#[pyo3(signature = (scene, set, recordings, free, effects, json, write, validate, report=None, jobs=0))]
+#[pyo3(signature = (scene, set, recordings, free, effects, json, write, validate, report=None, jobs=0, html=None, command=String::new()))]
 #[allow(clippy::too_many_arguments)]
 fn calibrate(
     py: Python<'_>,
@@ -299,6 +299,8 @@ fn calibrate(
     validate: Vec<PathBuf>,
     report: Option<PathBuf>,
     jobs: usize,
+    html: Option<PathBuf>,
+    command: String,
 ) -> PyResult<String> {
     job(py, false, move |say| {
         commands::calibrate::run(
@@ -313,6 +315,8 @@ fn calibrate(
                 json: Some(json),
                 report,
                 save: None,
+                html,
+                command,
                 jobs,
                 progress: quiet,
             },
@@ -323,7 +327,7 @@ fn calibrate(
 
 /// `agvsim diagnose --rig RIG | --scene SCENE --recording REC... --json J`.
 #[pyfunction]
-#[pyo3(signature = (rig, scene, recordings, effects, json, validate=None, report=None, jobs=0))]
+#[pyo3(signature = (rig, scene, recordings, effects, json, validate=None, report=None, jobs=0, html=None, command=String::new()))]
 #[allow(clippy::too_many_arguments)]
 fn diagnose(
     py: Python<'_>,
@@ -335,6 +339,8 @@ fn diagnose(
     validate: Option<PathBuf>,
     report: Option<PathBuf>,
     jobs: usize,
+    html: Option<PathBuf>,
+    command: String,
 ) -> PyResult<String> {
     let effects =
         agvsim::ident::effects::Choice::parse(&effects).map_err(|e| to_py((e.to_string(), 2)))?;
@@ -348,6 +354,8 @@ fn diagnose(
                 json: Some(json),
                 report_dir: report,
                 save_rrd: None,
+                html,
+                command,
                 options: agvsim::diagnose::DiagnoseOptions {
                     effects,
                     ..Default::default()
@@ -361,7 +369,7 @@ fn diagnose(
 
 /// `agvsim identify --rig RIG --recording REC... --json J`.
 #[pyfunction]
-#[pyo3(signature = (rig, recordings, json, model=None, free=None, validate=None, report=None, starts=3, max_iterations=100))]
+#[pyo3(signature = (rig, recordings, json, model=None, free=None, validate=None, report=None, starts=3, max_iterations=100, html=None, command=String::new()))]
 #[allow(clippy::too_many_arguments)]
 fn identify(
     py: Python<'_>,
@@ -374,6 +382,8 @@ fn identify(
     report: Option<PathBuf>,
     starts: usize,
     max_iterations: usize,
+    html: Option<PathBuf>,
+    command: String,
 ) -> PyResult<String> {
     let model = model
         .map(|m| {
@@ -403,6 +413,8 @@ fn identify(
                 json: Some(json),
                 plot_dir: report,
                 save_rrd: None,
+                html,
+                command,
             },
             say,
         )

@@ -251,7 +251,7 @@ fn effect_value(t: &super::EffectTrial, unit: &str) -> String {
 }
 
 /// What became of an effect tried, in words.
-fn verdict(t: &super::EffectTrial, unit: &str) -> String {
+pub(crate) fn verdict(t: &super::EffectTrial, unit: &str) -> String {
     let kept = |was: Option<f64>| match was {
         Some(was) => format!("the scene keeps its {}", quantity(was, 4, unit)),
         None => "not added".to_string(),
@@ -462,8 +462,13 @@ pub fn write_plots(
     c: &Calibration,
     rec_name: &str,
 ) -> std::io::Result<Vec<std::path::PathBuf>> {
-    use crate::plot::{svg, Series, Style};
-    std::fs::create_dir_all(dir)?;
+    crate::plot::write_figures(dir, &figures(c, rec_name))
+}
+
+/// The figures of [`write_plots`]: per fitted output, the recording replayed on the
+/// original and on the calibrated scene.
+pub fn figures(c: &Calibration, rec_name: &str) -> Vec<crate::plot::Figure> {
+    use crate::plot::{svg, Figure, Series, Style};
     let mut files = vec![];
     for name in &c.outputs {
         let (Some(b), Some(a)) = (c.before.output(name), c.after.output(name)) else {
@@ -483,9 +488,10 @@ pub fn write_plots(
             ],
             None,
         );
-        let f = dir.join(format!("{name}_calibrated.svg"));
-        crate::output::write_atomically(&f, doc)?;
-        files.push(f);
+        files.push(Figure {
+            file: format!("{name}_calibrated.svg"),
+            svg: doc,
+        });
     }
-    Ok(files)
+    files
 }

@@ -33,6 +33,10 @@ pub struct CalibrateRequest {
     pub report: Option<PathBuf>,
     /// Where to write the Rerun overlay.
     pub save: Option<PathBuf>,
+    /// Where to write the self-contained HTML report.
+    pub html: Option<PathBuf>,
+    /// The command line, for the HTML report.
+    pub command: String,
     /// Worker threads (0: one per core).
     pub jobs: usize,
     /// Told each stage as it starts.
@@ -41,6 +45,8 @@ pub struct CalibrateRequest {
 
 /// Calibrates, prints the keys, effects and fits, and writes the outputs asked for.
 pub fn run(req: &CalibrateRequest, say: Say) -> Result<(), CommandError> {
+    let transcript = super::Transcript::new(say);
+    let say = |s: &str| transcript.say(s);
     let request = Request {
         free: req.free.clone(),
         effects: Choice::parse(&req.effects)?,
@@ -64,6 +70,7 @@ pub fn run(req: &CalibrateRequest, say: Say) -> Result<(), CommandError> {
         ("--json", req.json.as_deref(), false),
         ("--report", req.report.as_deref(), true),
         ("--save", req.save.as_deref(), false),
+        ("--html", req.html.as_deref(), false),
     ])?;
     say(&format!(
         "calibrate  {} against {} (fidelity {}), through the simulator\n",
@@ -130,6 +137,18 @@ pub fn run(req: &CalibrateRequest, say: Say) -> Result<(), CommandError> {
     if let Some(p) = &req.save {
         crate::viz::save_calibration(p, &source_name, &c)?;
         say(&format!("rerun      {}\n", p.display()));
+    }
+    if let Some(p) = &req.html {
+        let html = crate::html::reports::calibration(
+            &c,
+            &req.scene.display().to_string(),
+            &recordings,
+            &rec,
+            &transcript.text(),
+            &req.command,
+        );
+        write_file(p, html)?;
+        say(&format!("html       {}\n", p.display()));
     }
     Ok(())
 }

@@ -27,6 +27,10 @@ pub struct DiagnoseRequest {
     pub report_dir: Option<PathBuf>,
     /// Where to write a Rerun recording.
     pub save_rrd: Option<PathBuf>,
+    /// Where to write the self-contained HTML report.
+    pub html: Option<PathBuf>,
+    /// The command line, for the HTML report.
+    pub command: String,
     /// Effects to try, progress reporting.
     pub options: DiagnoseOptions,
     /// Worker threads (0: one per core).
@@ -35,14 +39,17 @@ pub struct DiagnoseRequest {
 
 /// Diagnoses, prints the diagnosis, and writes the files asked for.
 pub fn run(req: &DiagnoseRequest, say: Say) -> Result<(), CommandError> {
+    let transcript = super::Transcript::new(say);
+    let say = |s: &str| transcript.say(s);
     // Output paths are checked before the diagnosis's work, not after it.
     check_targets(&[
         ("--json", req.json.as_deref(), false),
         ("--report", req.report_dir.as_deref(), true),
         ("--save", req.save_rrd.as_deref(), false),
+        ("--html", req.html.as_deref(), false),
     ])?;
     let rig_path = match (&req.rig, &req.scene) {
-        (_, Some(scene)) => return through_simulator(req, scene, say),
+        (_, Some(scene)) => return through_simulator(req, scene, &transcript),
         (Some(r), None) => r,
         (None, None) => {
             return Err(CommandError::Option {
@@ -86,6 +93,13 @@ pub fn run(req: &DiagnoseRequest, say: Say) -> Result<(), CommandError> {
     }
     for f in &written {
         say(&format!("wrote      {}\n", f.display()));
+    }
+    if let Some(p) = &req.html {
+        let names = super::joined_names(&req.recordings);
+        let html =
+            crate::html::reports::diagnosis(&d, &names, &rec, &transcript.text(), &req.command);
+        write_file(p, html)?;
+        say(&format!("wrote      {}\n", p.display()));
     }
     Ok(())
 }
@@ -165,8 +179,9 @@ fn prove_calibration(req: &ProveRequest, say: Say) -> Result<(), CommandError> {
 fn through_simulator(
     req: &DiagnoseRequest,
     scene_path: &Path,
-    say: Say,
+    transcript: &super::Transcript,
 ) -> Result<(), CommandError> {
+    let say = |s: &str| transcript.say(s);
     for (option, given) in [
         ("--validate", req.validate.is_some()),
         ("--report", req.report_dir.is_some()),
@@ -210,6 +225,19 @@ fn through_simulator(
             &baseline,
         );
         write_file(p, serde_json::to_string_pretty(&v).unwrap_or_default())?;
+        say(&format!("wrote      {}\n", p.display()));
+    }
+    if let Some(p) = &req.html {
+        let names = super::joined_names(&req.recordings);
+        let html = crate::html::reports::calibration(
+            &c,
+            &scene_path.display().to_string(),
+            &names,
+            &rec,
+            &transcript.text(),
+            &req.command,
+        );
+        write_file(p, html)?;
         say(&format!("wrote      {}\n", p.display()));
     }
     Ok(())

@@ -27,15 +27,22 @@ pub struct IdentifyRequest {
     pub plot_dir: Option<PathBuf>,
     /// Where to write a Rerun recording.
     pub save_rrd: Option<PathBuf>,
+    /// Where to write the self-contained HTML report.
+    pub html: Option<PathBuf>,
+    /// The command line, for the HTML report.
+    pub command: String,
 }
 
 /// Identifies, prints the report, and writes the files asked for.
 pub fn run(req: &IdentifyRequest, say: Say) -> Result<(), CommandError> {
+    let transcript = super::Transcript::new(say);
+    let say = |s: &str| transcript.say(s);
     // Output paths are checked before the fit's work, not after it.
     check_targets(&[
         ("--json", req.json.as_deref(), false),
         ("--report", req.plot_dir.as_deref(), true),
         ("--save", req.save_rrd.as_deref(), false),
+        ("--html", req.html.as_deref(), false),
     ])?;
     let rig = Rig::load(&req.rig)?;
     let rec = Recording::load_joined(&req.recordings)?;
@@ -66,6 +73,18 @@ pub fn run(req: &IdentifyRequest, say: Say) -> Result<(), CommandError> {
     }
     for f in &written {
         say(&format!("wrote      {}\n", f.display()));
+    }
+    if let Some(p) = &req.html {
+        let names = super::joined_names(&req.recordings);
+        let html = crate::html::reports::identification(
+            &id,
+            &names,
+            &rec,
+            &transcript.text(),
+            &req.command,
+        );
+        write_file(p, html)?;
+        say(&format!("wrote      {}\n", p.display()));
     }
     Ok(())
 }

@@ -41,6 +41,32 @@ use crate::viz::VizError;
 /// Where a command's report goes, one piece at a time (each ends with its own newline).
 pub type Say<'a> = &'a dyn Fn(&str);
 
+/// What a command said, kept as it says it (for the report written with `--html`).
+pub(crate) struct Transcript<'a> {
+    say: Say<'a>,
+    kept: std::cell::RefCell<String>,
+}
+
+impl<'a> Transcript<'a> {
+    pub(crate) fn new(say: Say<'a>) -> Self {
+        Transcript {
+            say,
+            kept: Default::default(),
+        }
+    }
+
+    /// Says `s` and keeps it.
+    pub(crate) fn say(&self, s: &str) {
+        self.kept.borrow_mut().push_str(s);
+        (self.say)(s)
+    }
+
+    /// Everything said so far.
+    pub(crate) fn text(&self) -> String {
+        self.kept.borrow().clone()
+    }
+}
+
 /// Why a command stopped. Input a user must mend (a scene, rig, recording, map, log or
 /// option) exits with status 2, a failed job with 1, an interrupted one with 130.
 #[derive(Debug, thiserror::Error)]
@@ -178,6 +204,15 @@ pub(crate) fn io(path: &Path) -> impl Fn(std::io::Error) -> CommandError + '_ {
         path: path.to_owned(),
         source,
     }
+}
+
+/// The paths as the user gave them, joined by ` + ` (several tests of one machine).
+pub(crate) fn joined_names(paths: &[PathBuf]) -> String {
+    paths
+        .iter()
+        .map(|p| p.display().to_string())
+        .collect::<Vec<_>>()
+        .join(" + ")
 }
 
 /// A file's name without its extension, or `fallback`.

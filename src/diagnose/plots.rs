@@ -6,11 +6,15 @@ use std::path::{Path, PathBuf};
 
 use super::regimes::RegimeShare;
 use super::Diagnosis;
-use crate::plot::{bar_chart, svg, BarGroup, Series, Style};
+use crate::plot::{bar_chart, svg, BarGroup, Figure, Series, Style};
 
 /// Writes `OUTPUT_compare.svg` and `OUTPUT_residual.svg` per output and `regimes.svg`.
 pub fn write(dir: &Path, d: &Diagnosis) -> std::io::Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir)?;
+    crate::plot::write_figures(dir, &figures(d)?)
+}
+
+/// The report's figures: per output the comparison and the residual, then the regimes.
+pub fn figures(d: &Diagnosis) -> std::io::Result<Vec<Figure>> {
     let Some(data) = d.baseline.data.as_ref() else {
         return Err(std::io::Error::other("the diagnosis holds no data to plot"));
     };
@@ -53,9 +57,10 @@ pub fn write(dir: &Path, d: &Diagnosis) -> std::io::Result<Vec<PathBuf>> {
             ],
             None,
         );
-        let f = dir.join(format!("{name}_compare.svg"));
-        crate::output::write_atomically(&f, doc)?;
-        files.push(f);
+        files.push(Figure {
+            file: format!("{name}_compare.svg"),
+            svg: doc,
+        });
         let residual = |pred: &[f64]| -> (Vec<f64>, Vec<f64>) {
             data.outputs[j]
                 .iter()
@@ -76,13 +81,15 @@ pub fn write(dir: &Path, d: &Diagnosis) -> std::io::Result<Vec<PathBuf>> {
             ],
             None,
         );
-        let f = dir.join(format!("{name}_residual.svg"));
-        crate::output::write_atomically(&f, doc)?;
-        files.push(f);
+        files.push(Figure {
+            file: format!("{name}_residual.svg"),
+            svg: doc,
+        });
     }
-    let f = dir.join("regimes.svg");
-    crate::output::write_atomically(&f, regime_bars(&d.where_before, &d.where_after))?;
-    files.push(f);
+    files.push(Figure {
+        file: "regimes.svg".into(),
+        svg: regime_bars(&d.where_before, &d.where_after),
+    });
     Ok(files)
 }
 

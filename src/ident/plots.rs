@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use super::Evaluation;
-use crate::plot::{measured_points, svg, Series, Style, W};
+use crate::plot::{measured_points, svg, Figure, Series, Style, W};
 
 /// Height of one stacked residual plot, px (as rendered by [`svg`] with a one-row legend).
 fn stacked_height(doc: &str) -> f64 {
@@ -18,7 +18,11 @@ fn stacked_height(doc: &str) -> f64 {
 /// Writes `PREFIX_OUTPUT_fit.svg` and `PREFIX_OUTPUT_resid.svg` for each output of an
 /// evaluation into `dir`; returns the files written.
 pub fn write_evaluation(dir: &Path, prefix: &str, e: &Evaluation) -> std::io::Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir)?;
+    crate::plot::write_figures(dir, &evaluation_figures(prefix, e)?)
+}
+
+/// The figures of [`write_evaluation`]: per output the fit and the residual checks.
+pub fn evaluation_figures(prefix: &str, e: &Evaluation) -> std::io::Result<Vec<Figure>> {
     let Some(data) = e.data.as_ref() else {
         return Err(std::io::Error::other(
             "the evaluation holds no data to plot",
@@ -31,7 +35,7 @@ pub fn write_evaluation(dir: &Path, prefix: &str, e: &Evaluation) -> std::io::Re
         let fit = e.fit_pct[name];
         let doc = svg(
             &format!(
-                "{name}: measured and simulated ({} , fit {fit:.1} %)",
+                "{name}: measured and simulated ({}, fit {fit:.1} %)",
                 e.recording
             ),
             "t (s)",
@@ -44,9 +48,10 @@ pub fn write_evaluation(dir: &Path, prefix: &str, e: &Evaluation) -> std::io::Re
             ],
             None,
         );
-        let f = dir.join(format!("{prefix}_{name}_fit.svg"));
-        crate::output::write_atomically(&f, doc)?;
-        files.push(f);
+        files.push(Figure {
+            file: format!("{prefix}_{name}_fit.svg"),
+            svg: doc,
+        });
         let c = &e.checks[j];
         let lags: Vec<f64> = c.whiteness.lags.iter().map(|&l| l as f64).collect();
         let mut doc = svg(
@@ -79,9 +84,10 @@ pub fn write_evaluation(dir: &Path, prefix: &str, e: &Evaluation) -> std::io::Re
         let outer = format!(
             "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{W}\" height=\"{y}\">\n{stacked}</svg>\n"
         );
-        let f = dir.join(format!("{prefix}_{name}_resid.svg"));
-        crate::output::write_atomically(&f, outer)?;
-        files.push(f);
+        files.push(Figure {
+            file: format!("{prefix}_{name}_resid.svg"),
+            svg: outer,
+        });
     }
     Ok(files)
 }

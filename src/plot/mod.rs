@@ -130,6 +130,31 @@ pub struct Plot<'a> {
     pub empty_note: &'a str,
 }
 
+/// A figure: the file name it is written under and its SVG text.
+#[derive(Debug, Clone)]
+pub struct Figure {
+    /// File name, `NAME.svg`.
+    pub file: String,
+    /// The SVG document.
+    pub svg: String,
+}
+
+/// Writes each figure into `dir` (each atomically); returns the files written.
+pub fn write_figures(
+    dir: &std::path::Path,
+    figures: &[Figure],
+) -> std::io::Result<Vec<std::path::PathBuf>> {
+    std::fs::create_dir_all(dir)?;
+    figures
+        .iter()
+        .map(|f| {
+            let path = dir.join(&f.file);
+            crate::output::write_atomically(&path, &f.svg)?;
+            Ok(path)
+        })
+        .collect()
+}
+
 /// A simple line plot (the common case).
 pub fn svg(
     title: &str,

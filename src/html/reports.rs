@@ -1,0 +1,357 @@
+//! The three shareable reports: a calibration, a diagnosis, an identification. Each has
+//! the recording's summary, the numbers as tables (every estimate with its standard
+//! deviation and verdict), the fit per output before and after with the plots, what
+//! changed, the report as the command printed it, and the command.
+
+use super::{Cell, Document};
+use crate::calibrate::{Calibration, KeyFit};
+use crate::diagnose::Diagnosis;
+use crate::ident::Identification;
+use crate::numtext::{estimate, quantity, sig, unit_of_key};
+use crate::record::Recording;
+
+/// A percentage to one decimal, as the reports print fits.
+fn pct(v: f64) -> Cell {
+    Cell::Num(if v.is_finite() {
+        format!("{v:.1} %")
+    } else {
+        "-".into()
+    })
+}
+
+/// What a calibrated key's number is: an estimate, or why the scene keeps its value.
+fn key_verdict(k: &KeyFit, unit: &str) -> String {
+    match (k.at_bound, k.std) {
+        (Some(b), _) => format!(
+            "at bound {}: not an estimate; the scene keeps its value",
+            quantity(b, 4, unit)
+        ),
+        (None, None) if k.confounded => {
+            "not told apart from the other keys by the recording: held at the scene's value".into()
+        }
+        (None, None) => "undetermined by the recording: the scene keeps its value".into(),
+        (None, Some(_)) if !k.calibrated() => {
+            "its standard deviation exceeds its value: the scene keeps its value".into()
+        }
+        (None, Some(_)) if k.held => {
+            "held by its stated belief: the recording determines it less well".into()
+        }
+        (None, Some(_)) => "estimate".into(),
+    }
+}
+
+/// The calibration report.
+pub fn calibration(
+    c: &Calibration,
+    scene_path: &str,
+    recording_names: &str,
+    rec: &Recording,
+    text_report: &str,
+    command: &str,
+) -> String {
+    let mut d = Document::new(&format!(
+        "Calibration of {scene_path} against {recording_names}"
+    ));
+    d.paragraph(
+        &format!(
+            "The scene's keys fitted to the recording through the simulator, and the effects the recording shows: mean replay fit {:.1} % with the scene as written, {:.1} % calibrated, over the fitted outputs ({} solver iterations in all stages).",
+            crate::calibrate::write::mean_fit(&c.before, &c.outputs),
+            crate::calibrate::write::mean_fit(&c.after, &c.outputs),
+            c.iterations
+        ),
+        "",
+    );
+    d.heading("The recording");
+    d.recording(recording_names, rec);
+    d.heading("Fitted keys");
+    let rows = c
+        .keys
+        .iter()
+        .map(|k| {
+            let unit = unit_of_key(&k.key);
+            vec![
+                k.key.as_str().into(),
+                unit.into(),
+                Cell::Num(sig(k.before, 6)),
+                Cell::Num(match (k.calibrated(), k.at_bound) {
+                    (true, None) => estimate(k.after, k.std, ""),
+                    _ => sig(k.after, 6),
+                }),
+                key_verdict(k, unit).into(),
+            ]
+        })
+        .collect();
+    d.table(
+        &["key", "unit", "scene", "calibrated ± 1 std", "verdict"],
+        rows,
+    );
+    if !c.effects.is_empty() {
+        d.heading("Effects tried");
+        d.paragraph("Each effect's evidence: the Akaike information criterion's gain and the change of the weighted residual with the effect against without it.", "note");
+        let rows = c
+            .effects
+            .iter()
+            .map(|t| {
+                let unit = unit_of_key(&t.key);
+                vec![
+                    t.effect.name().into(),
+                    t.key.as_str().into(),
+                    Cell::Num(if t.accepted {
+                        estimate(t.value, t.std, unit)
+                    } else {
+                        quantity(t.value, 4, unit)
+                    }),
+                    Cell::Num(if t.delta_aic.is_finite() {
+                        format!("{:.1}", t.delta_aic)
+                    } else {
+                        "-".into()
+                    }),
+                    Cell::Num(crate::numtext::change_pct(-t.rss_reduction_pct)),
+                    crate::calibrate::write::verdict(t, unit).into(),
+                ]
+            })
+            .collect();
+        d.table(
+            &["effect", "key", "value", "AIC gain", "residual", "verdict"],
+            rows,
+        );
+    }
+    d.heading("Replay fit per output");
+    let rows = c
+        .outputs
+        .iter()
+        .filter_map(|name| {
+            let (b, a) = (c.before.output(name)?, c.after.output(name)?);
+            Some(vec![name.as_str().into(), pct(b.fit_pct), pct(a.fit_pct)])
+        })
+        .collect();
+    d.table(&["output", "scene as written", "calibrated"], rows);
+    for l in &c.left_out {
+        d.paragraph(&format!("Left out: {} ({})", l.output, l.why), "note");
+    }
+    d.figures(&crate::calibrate::write::figures(c, recording_names));
+    d.heading("What the calibrated scene changes");
+    let mut rows: Vec<Vec<Cell>> = c
+        .keys
+        .iter()
+        // A change below what 6 figures show is not one to list.
+        .filter(|k| k.calibrated() && sig(k.after, 6) != sig(k.before, 6))
+        .map(|k| {
+            vec![
+                k.key.as_str().into(),
+                Cell::Num(quantity(k.before, 6, unit_of_key(&k.key))),
+                Cell::Num(quantity(k.after, 6, unit_of_key(&k.key))),
+                "fitted".into(),
+            ]
+        })
+        .collect();
+    rows.extend(c.removed.iter().map(|r| {
+        vec![
+            r.key.as_str().into(),
+            Cell::Num(quantity(r.was, 6, unit_of_key(&r.key))),
+            Cell::Num(quantity(r.off, 6, unit_of_key(&r.key))),
+            format!(
+                "{} removed: the recording does not support it",
+                r.effect.name()
+            )
+            .into(),
+        ]
+    }));
+    rows.extend(c.switches.iter().map(|s| {
+        vec![
+            s.key.as_str().into(),
+            "".into(),
+            Cell::Num(s.value.clone()),
+            format!("set to switch {} on", s.effect.name()).into(),
+        ]
+    }));
+    if rows.is_empty() {
+        d.paragraph("Nothing: every key keeps the scene's value.", "note");
+    } else {
+        d.table(&["key", "scene", "calibrated scene", "why"], rows);
+    }
+    d.heading("The report as printed");
+    d.pre(text_report);
+    d.command(command);
+    d.finish()
+}
+
+/// The diagnosis report.
+pub fn diagnosis(
+    diag: &Diagnosis,
+    recording_names: &str,
+    rec: &Recording,
+    text_report: &str,
+    command: &str,
+) -> String {
+    let mut d = Document::new(&format!("Diagnosis of {recording_names}"));
+    d.paragraph(
+        &format!(
+            "Model: {}. Fit {:.1} % with the nominal model fitted (the baseline), {:.1} % diagnosed.",
+            diag.model, diag.baseline_fit_pct, diag.final_fit_pct
+        ),
+        "",
+    );
+    d.heading("The recording");
+    d.recording(recording_names, rec);
+    d.heading("Found");
+    if diag.findings.is_empty() {
+        d.paragraph(
+            "Nothing is missing: no effect explains enough of the residual to be told from noise.",
+            "good",
+        );
+    }
+    for f in &diag.findings {
+        d.paragraph(
+            &format!(
+                "{} — {} ({} = {})",
+                f.effect.name(),
+                f.description,
+                f.param,
+                estimate(f.value, f.std, f.effect.unit(false))
+            ),
+            "bad",
+        );
+        d.paragraph(&format!("Evidence: {}", f.evidence), "");
+        for a in &f.alternatives {
+            d.paragraph(
+                &format!(
+                    "The recording cannot tell it from {} ({} = {}, dAIC {:.1} behind): {}",
+                    a.name,
+                    a.param,
+                    sig(a.value, 4),
+                    a.delta_aic_behind,
+                    a.separated_by
+                ),
+                "note",
+            );
+        }
+    }
+    d.heading("Fit per output");
+    let rows = diag
+        .baseline
+        .fit_pct
+        .iter()
+        .map(|(name, b)| {
+            vec![
+                name.as_str().into(),
+                pct(*b),
+                pct(diag
+                    .diagnosed
+                    .fit_pct
+                    .get(name)
+                    .copied()
+                    .unwrap_or(f64::NAN)),
+            ]
+        })
+        .collect();
+    d.table(&["output", "baseline", "diagnosed"], rows);
+    if let Ok(figures) = crate::diagnose::plots::figures(diag) {
+        d.figures(&figures);
+    }
+    d.heading("Parameters");
+    let rows = diag
+        .final_estimates
+        .iter()
+        .filter(|p| p.free)
+        .map(|p| {
+            vec![
+                p.name.as_str().into(),
+                Cell::Num(sig(p.nominal, 6)),
+                Cell::Num(match p.at_bound {
+                    Some(b) => format!("at bound {}", sig(b, 4)),
+                    None => estimate(p.value, p.std, ""),
+                }),
+            ]
+        })
+        .collect();
+    d.table(&["parameter", "rig", "diagnosed ± 1 std"], rows);
+    d.heading("The report as printed");
+    d.pre(text_report);
+    d.command(command);
+    d.finish()
+}
+
+/// The identification report.
+pub fn identification(
+    id: &Identification,
+    recording_names: &str,
+    rec: &Recording,
+    text_report: &str,
+    command: &str,
+) -> String {
+    let mut d = Document::new(&format!("Identification of {recording_names}"));
+    d.paragraph(
+        &format!(
+            "Model: {} on the rig {}. {} free parameters, {} residuals, loss (FPE) {}, AIC {:.1}; {} after {} iterations from {} starts.",
+            id.model,
+            id.rig,
+            id.n_free,
+            id.n_residuals,
+            sig(id.fpe, 4),
+            id.aic,
+            if id.converged { "converged" } else { "not converged" },
+            id.iterations,
+            id.starts
+        ),
+        if id.converged { "" } else { "bad" },
+    );
+    d.heading("The recording");
+    d.recording(recording_names, rec);
+    d.heading("Parameters");
+    let rows = id
+        .params
+        .iter()
+        .map(|p| {
+            vec![
+                p.name.as_str().into(),
+                Cell::Num(sig(p.nominal, 6)),
+                Cell::Num(match (p.free, p.at_bound) {
+                    (false, _) => sig(p.value, 6),
+                    (true, Some(b)) => format!("at bound {}", sig(b, 4)),
+                    (true, None) => estimate(p.value, p.std, ""),
+                }),
+                (if !p.free {
+                    "fixed at the rig's value"
+                } else if p.at_bound.is_some() {
+                    "at a bound: not an estimate (check the rig's value or the model)"
+                } else if p.std.is_none() {
+                    "undetermined by the recording"
+                } else {
+                    "estimate"
+                })
+                .into(),
+            ]
+        })
+        .collect();
+    d.table(&["parameter", "rig", "identified ± 1 std", "verdict"], rows);
+    d.heading("Fit per output");
+    let rows = id
+        .estimation
+        .fit_pct
+        .iter()
+        .map(|(name, f)| {
+            let v = id
+                .validation
+                .as_ref()
+                .and_then(|v| v.fit_pct.get(name).copied())
+                .unwrap_or(f64::NAN);
+            vec![name.as_str().into(), pct(*f), pct(v)]
+        })
+        .collect();
+    d.table(&["output", "estimation", "validation"], rows);
+    if let Ok(f) = crate::ident::plots::evaluation_figures("estimation", &id.estimation) {
+        d.figures(&f);
+    }
+    if let Some(Ok(f)) = id
+        .validation
+        .as_ref()
+        .map(|v| crate::ident::plots::evaluation_figures("validation", v))
+    {
+        d.figures(&f);
+    }
+    d.heading("The report as printed");
+    d.pre(text_report);
+    d.command(command);
+    d.finish()
+}
