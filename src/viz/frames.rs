@@ -21,12 +21,15 @@ pub(super) struct FrameBuffer {
     /// The vehicle frame on the floor: axle midpoint, m, and heading, rad.
     pub(super) pose_xy: Vec<[f32; 3]>,
     pub(super) pose_heading_rad: Vec<f32>,
-    /// 2 coils per frame: colour and label (positions are static in the vehicle frame).
+    /// 2 coils per frame: colour (positions are static in the vehicle frame); 1 label
+    /// per frame with both readings, on a point ahead of the vehicle.
     pub(super) coil_colors: Vec<[u8; 4]>,
     pub(super) coil_labels: Vec<String>,
     /// Tyre force and slip arrows from the wheel contacts, vehicle frame, 2 per frame each.
     pub(super) contacts: Vec<[f32; 3]>,
     pub(super) force: Vec<[f32; 3]>,
+    /// Slip arrows start beside the wheel, outboard: 2 per frame.
+    pub(super) slip_origins: Vec<[f32; 3]>,
     pub(super) slip: Vec<[f32; 3]>,
     /// Slip arrow colours, 2 per frame: sliding beyond the friction peak or not.
     pub(super) slip_colors: Vec<[u8; 4]>,
@@ -80,20 +83,25 @@ impl FrameBuffer {
         rec.send_columns("world/agv", times(), pose).map_err(err)?;
         let coils = rerun::Points3D::update_fields()
             .with_colors(std::mem::take(&mut self.coil_colors))
-            .with_labels(std::mem::take(&mut self.coil_labels))
             .columns(per(2))
             .map_err(err)?;
         rec.send_columns("world/agv/coils", times(), coils)
             .map_err(err)?;
+        let readings = rerun::Points3D::update_fields()
+            .with_labels(std::mem::take(&mut self.coil_labels))
+            .columns(per(1))
+            .map_err(err)?;
+        rec.send_columns("world/agv/coil_readings", times(), readings)
+            .map_err(err)?;
         let contacts = std::mem::take(&mut self.contacts);
         let force = rerun::Arrows3D::from_vectors(std::mem::take(&mut self.force))
-            .with_origins(contacts.clone())
+            .with_origins(contacts)
             .columns(per(2))
             .map_err(err)?;
         rec.send_columns("world/agv/tyre_force", times(), force)
             .map_err(err)?;
         let slip = rerun::Arrows3D::from_vectors(std::mem::take(&mut self.slip))
-            .with_origins(contacts)
+            .with_origins(std::mem::take(&mut self.slip_origins))
             .with_colors(std::mem::take(&mut self.slip_colors))
             .columns(per(2))
             .map_err(err)?;

@@ -47,7 +47,7 @@ const HALF_FOV_RAD: f64 = 0.48;
 const OVERVIEW_ASPECT: f64 = 2.2;
 
 /// A fixed, valid (version 4) UUID per blueprint item.
-fn id(n: u8) -> [u8; 16] {
+pub(super) fn id(n: u8) -> [u8; 16] {
     [
         0xa6, 0x05, 0x1d, 0x00, 0, 0, 0x40, 0, 0x80, 0, 0, 0, 0, 0, 0, n,
     ]
@@ -74,7 +74,7 @@ fn container_path(n: u8) -> String {
 }
 
 /// Logs one view: class ("3D", "TimeSeries"), title, origin and content queries.
-fn view(
+pub(super) fn view(
     bp: &RecordingStream,
     n: u8,
     class: &str,
@@ -120,7 +120,7 @@ fn eye(
     .map_err(err)
 }
 
-fn container(
+pub(super) fn container(
     bp: &RecordingStream,
     n: u8,
     kind: ContainerKind,
@@ -135,6 +135,10 @@ fn container(
         c = c.with_display_name(name);
     }
     match (kind, shares) {
+        (ContainerKind::Grid, Some(s)) => {
+            // A grid's "shares" is its column count.
+            c = c.with_grid_columns(s.first().map_or(1, |v| *v as u32));
+        }
         (ContainerKind::Horizontal, Some(s)) => {
             c = c.with_col_shares(s.iter().map(|v| ColumnShare((*v).into())));
         }
@@ -145,6 +149,54 @@ fn container(
     }
     bp.log(path.as_str(), &c).map_err(err)?;
     Ok(path)
+}
+
+/// Hides a time-series view's legend (the series are named elsewhere: a legend in a
+/// narrow plot sits on the data).
+pub(super) fn hide_legend(bp: &RecordingStream, view: &str) -> Result<(), VizError> {
+    use rerun::external::re_sdk_types::blueprint::archetypes::PlotLegend;
+    bp.log(
+        format!("{view}/PlotLegend"),
+        &PlotLegend::new().with_visible(false),
+    )
+    .map_err(err)
+}
+
+/// Builds a layout on a blueprint stream (`build` returns its root container's id) and
+/// sends it to `rec` as its active and default layout.
+pub(super) fn send_layout(
+    rec: &RecordingStream,
+    build: impl FnOnce(&RecordingStream) -> Result<u8, VizError>,
+) -> Result<(), VizError> {
+    let (bp, storage) = RecordingStreamBuilder::new("agvsim")
+        .recording_id("agvsim-layout")
+        .blueprint()
+        .memory()
+        .map_err(err)?;
+    bp.set_time_sequence("blueprint", 0);
+    let root = build(&bp)?;
+    bp.log(
+        "viewport",
+        &ViewportBlueprint::new()
+            .with_root_container(RootContainer(id(root).into()))
+            .with_auto_layout(false)
+            .with_auto_views(false),
+    )
+    .map_err(err)?;
+    bp.flush_blocking().map_err(err)?;
+    let msgs = storage.take();
+    let Some(blueprint_id) = msgs.first().map(|m| m.store_id().clone()) else {
+        return Err(VizError("the layout produced no messages".into()));
+    };
+    rec.send_blueprint(
+        msgs,
+        BlueprintActivationCommand {
+            blueprint_id,
+            make_active: true,
+            make_default: true,
+        },
+    );
+    Ok(())
 }
 
 /// The region of the floor the overview frames: (min, max) corners, world frame, m.
@@ -186,6 +238,7 @@ pub fn send_blueprint(rec: &RecordingStream, region: Region) -> Result<(), VizEr
             "/world/**",
             "- /world/agv/nearby_wire",
             "- /world/agv/coils",
+            "- /world/agv/coil_readings",
         ],
     )?;
     let (lo, hi) = region;
@@ -244,7 +297,7 @@ pub fn send_blueprint(rec: &RecordingStream, region: Region) -> Result<(), VizEr
         ContainerKind::Vertical,
         None,
         &[follow, legend, overview],
-        Some(&[0.55, 0.11, 0.34]),
+        Some(&[0.53, 0.14, 0.33]),
     )?;
     let right = container(&bp, 41, ContainerKind::Tabs, None, &tabs, None)?;
     container(

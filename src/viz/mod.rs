@@ -66,15 +66,38 @@ const ASSUMED: [u8; 4] = [255, 255, 120, 255];
 const LEFT: [u8; 4] = [230, 90, 90, 255];
 const RIGHT: [u8; 4] = [90, 140, 230, 255];
 
-/// Tyre-force arrows: metres of arrow per newton (1 m per 400 N: a drive tyre at its grip
-/// limit on painted concrete, about 400 N, draws as long as the vehicle).
-pub const FORCE_ARROW_M_PER_N: f64 = 0.0025;
+/// Tyre-force arrows are [`FORCE_ARROW_M`] times the square root of the force over this,
+/// N: a drive tyre at its grip limit on painted concrete (about 400 N) draws 1 m, as long
+/// as the vehicle, and the few newtons of steady rolling still draw a visible 0.1 m (a
+/// linear scale left them as invisible stubs).
+pub const FORCE_ARROW_REF_N: f64 = 400.0;
+/// Length of a force arrow at [`FORCE_ARROW_REF_N`], m.
+pub const FORCE_ARROW_M: f64 = 1.0;
+/// Slip arrows start this far outboard of the wheel, m: a sliding tyre's force and slip
+/// point along one line, and drawn from one point they hid each other.
+const SLIP_ARROW_OUTBOARD_M: f64 = 0.08;
+/// The coil readings' label sits this far ahead of the body's front, m: on the coils it
+/// covered the front castors.
+const COIL_LABEL_AHEAD_M: f64 = 0.15;
 /// Slip arrows: the slip vector (ratio forward, angle in rad sideways) drawn along itself
 /// with a length of this many metres times the square root of its size: a rolling tyre's
 /// 1 % draws 0.1 m and is seen, a spinning wheel's 100 % draws 1 m and stays on screen.
 pub const SLIP_ARROW_M: f64 = 1.0;
 /// Slip arrow colour when the tyre slides beyond its friction peak.
 const SLIDING: [u8; 4] = [255, 60, 40, 255];
+/// The travelled path's and the wire's widths, UI points: the path wider and below, the
+/// wire narrower and above (it ran hidden under a path that follows it), both visible at
+/// any zoom.
+const PATH_UI_POINTS: f32 = 3.0;
+const WIRE_UI_POINTS: f32 = 1.2;
+/// Height of the wire above the floor in the views, m, so that it draws over the path.
+const WIRE_ABOVE_PATH_M: f32 = 0.01;
+
+/// A floor point lifted to draw above the path (the wire).
+fn above_path(p: [f64; 2]) -> [f32; 3] {
+    [p[0] as f32, p[1] as f32, WIRE_ABOVE_PATH_M]
+}
+
 /// Half the side of the square around the axle in which the follow view shows the wire, m.
 const NEARBY_WIRE_HALF_M: f64 = 2.5;
 
@@ -274,6 +297,13 @@ impl RerunRecorder {
         )
         .map_err(err)?;
         rec.log_static(
+            "world/agv/coil_readings",
+            &rerun::Points3D::new([w([front + COIL_LABEL_AHEAD_M, 0.0])])
+                .with_radii([0.005f32])
+                .with_colors([WIRE]),
+        )
+        .map_err(err)?;
+        rec.log_static(
             "world/agv/tyre_force",
             &rerun::Arrows3D::update_fields()
                 .with_colors([FORCE])
@@ -297,7 +327,7 @@ impl RerunRecorder {
             "world/agv/nearby_wire",
             &rerun::LineStrips3D::update_fields()
                 .with_colors([WIRE])
-                .with_radii([0.006f32]),
+                .with_radii([rerun::Radius::new_ui_points(WIRE_UI_POINTS)]),
         )
         .map_err(err)?;
         if p.firmware.swing_away.is_some() {
@@ -318,9 +348,10 @@ impl RerunRecorder {
     /// are short, and at the view's edge be cut off.
     fn log_legend(&self) -> Result<(), VizError> {
         let text = format!(
-            "**Magenta**: tyre force, 1 m per {:.0} N. **Yellow**: slip, {SLIP_ARROW_M} m x \
-             sqrt(slip), **red** while sliding. **Orange**: the wire. Coil label: ADC counts.",
-            1.0 / FORCE_ARROW_M_PER_N
+            "**Magenta**: tyre force, {FORCE_ARROW_M} m x sqrt(F / {:.0} N). **Yellow** (**red**: \
+             sliding): slip, beside the wheel, {SLIP_ARROW_M} m x sqrt(slip). **Orange**: the \
+             wire, over the green path. Label ahead: coils, ADC counts.",
+            FORCE_ARROW_REF_N
         );
         self.rec
             .log_static(
@@ -424,15 +455,14 @@ impl RerunRecorder {
             "coils L {:.0} R {:.0}",
             s.sensors_adc[0], s.sensors_adc[1]
         ));
-        b.coil_labels.push(String::new());
         // The wheels do not steer: wheel-frame forces and slips are body-frame vectors.
         for (x, c) in s.sides.iter().zip(self.contacts) {
             b.contacts.push(c);
-            let f = x.tyre_force_n;
-            b.force.push([
-                (FORCE_ARROW_M_PER_N * f[0]) as f32,
-                (FORCE_ARROW_M_PER_N * f[1]) as f32,
-                0.0,
+            b.force.push(force_arrow(x.tyre_force_n));
+            b.slip_origins.push([
+                c[0],
+                c[1] + (SLIP_ARROW_OUTBOARD_M as f32).copysign(c[1]),
+                c[2],
             ]);
             b.slip.push(slip_arrow(x.slip_ratio, x.slip_angle_rad));
             b.slip_colors.push(if x.sliding { SLIDING } else { SLIP });
@@ -450,7 +480,8 @@ impl RerunRecorder {
         let before = b.nearby_wire.len();
         for seg in pts.windows(2) {
             if let Some((a, z)) = clip_segment(seg[0], seg[1], lo, hi) {
-                b.nearby_wire.push(vec![body(a), body(z)]);
+                let lift = |p: [f32; 3]| [p[0], p[1], WIRE_ABOVE_PATH_M];
+                b.nearby_wire.push(vec![lift(body(a)), lift(body(z))]);
             }
         }
         b.nearby_wire_per_frame.push(b.nearby_wire.len() - before);
@@ -468,7 +499,9 @@ impl RerunRecorder {
         self.rec
             .log(
                 "world/path",
-                &rerun::LineStrips3D::new([self.path.clone()]).with_colors([PATH]),
+                &rerun::LineStrips3D::new([self.path.clone()])
+                    .with_colors([PATH])
+                    .with_radii([rerun::Radius::new_ui_points(PATH_UI_POINTS)]),
             )
             .map_err(err)
     }
@@ -500,14 +533,14 @@ impl RerunRecorder {
         let strips: Vec<Vec<[f32; 3]>> = pts
             .windows(2)
             .filter_map(|s| clip_segment(s[0], s[1], lo, hi))
-            .map(|(a, b)| vec![w(a), w(b)])
+            .map(|(a, b)| vec![above_path(a), above_path(b)])
             .collect();
         self.rec
             .log_static(
                 "world/wire",
                 &rerun::LineStrips3D::new(strips)
                     .with_colors([WIRE])
-                    .with_radii([0.006f32]),
+                    .with_radii([rerun::Radius::new_ui_points(WIRE_UI_POINTS)]),
             )
             .map_err(err)?;
         let RerunRecorder { rec, save_as, .. } = self;
@@ -518,6 +551,17 @@ impl RerunRecorder {
         }
         Ok(())
     }
+}
+
+/// The force arrow of a tyre, vehicle frame, m: along the force, [`FORCE_ARROW_M`] times
+/// the square root of its size over [`FORCE_ARROW_REF_N`] long.
+fn force_arrow(f_n: [f64; 2]) -> [f32; 3] {
+    let size = f_n[0].hypot(f_n[1]);
+    if size == 0.0 || !size.is_finite() {
+        return [0.0; 3];
+    }
+    let scale = FORCE_ARROW_M * (size / FORCE_ARROW_REF_N).sqrt() / size;
+    [(scale * f_n[0]) as f32, (scale * f_n[1]) as f32, 0.0]
 }
 
 /// The slip arrow of a tyre, vehicle frame, m: along the slip vector (ratio forward,
@@ -571,5 +615,31 @@ impl crate::run::Watcher for RerunRecorder {
 
     fn observe(&mut self, s: &Snapshot, params: &SimParams) -> Result<(), String> {
         RerunRecorder::observe(self, s, params).map_err(|e| e.to_string())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn length(v: [f32; 3]) -> f64 {
+        f64::from(v[0]).hypot(f64::from(v[1]))
+    }
+
+    #[test]
+    fn force_arrows_grow_with_the_square_root_of_the_force() {
+        // A tyre at its grip limit (400 N) draws 1 m; steady rolling's 4 N still 0.1 m.
+        assert!((length(force_arrow([400.0, 0.0])) - 1.0).abs() < 1e-6);
+        assert!((length(force_arrow([0.0, -4.0])) - 0.1).abs() < 1e-6);
+        // Along the force.
+        let a = force_arrow([30.0, -40.0]);
+        assert!((f64::from(a[1]) / f64::from(a[0]) + 4.0 / 3.0).abs() < 1e-6);
+        assert_eq!(force_arrow([0.0, 0.0]), [0.0; 3]);
+    }
+
+    #[test]
+    fn slip_arrows_grow_with_the_square_root_of_the_slip() {
+        assert!((length(slip_arrow(0.01, 0.0)) - 0.1).abs() < 1e-6);
+        assert!((length(slip_arrow(0.0, 1.0)) - 1.0).abs() < 1e-6);
     }
 }

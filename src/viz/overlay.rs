@@ -5,8 +5,11 @@
 //! recording's inputs (the commands that drove it). The recording is named after the
 //! command and the recording file, and the file takes its name only when complete.
 
-use rerun::blueprint::{Blueprint, Horizontal, TimeSeriesView, Vertical};
-use rerun::RecordingStreamBuilder;
+use rerun::blueprint::components::{ContainerKind, PlayState};
+use rerun::external::re_sdk_types::blueprint::archetypes::TimePanelBlueprint;
+use rerun::{RecordingStream, RecordingStreamBuilder};
+
+use super::layout::{container, hide_legend, send_layout, view};
 
 use super::{err, VizError};
 
@@ -79,8 +82,9 @@ fn part(s: &str) -> String {
         .collect()
 }
 
-/// The fit view's title: the output and each model's fit, in the legend's order (short, so
-/// that it stays readable in a narrow column: `motor_speed_rad_s: fit 94.6 % -> 100.0 %`).
+/// The fit view's title: each model's fit, in the legend's order, then the output (the fits
+/// first: a narrow column cuts a title's end, and the output's name is in the difference
+/// view's title below too: `fit 94.6 % -> 100.0 %, motor_speed_rad_s`).
 fn title(o: &Output) -> String {
     let fits: Vec<String> = o
         .models
@@ -90,37 +94,181 @@ fn title(o: &Output) -> String {
     if fits.is_empty() {
         format!("{}: measured and simulated", o.name)
     } else {
-        format!("{}: fit {}", o.name, fits.join(" -> "))
+        format!("fit {}, {}", fits.join(" -> "), o.name)
     }
 }
 
-/// The inputs across the top, then a column per output: its fit above its differences.
-fn blueprint(o: &Overlay) -> Blueprint {
-    let columns: Vec<rerun::blueprint::ContainerLike> = o
-        .outputs
-        .iter()
-        .map(|out| {
-            let p = part(&out.name);
-            Vertical::new([
-                TimeSeriesView::new(title(out))
-                    .with_origin(format!("/{p}/fit"))
-                    .into(),
-                TimeSeriesView::new(format!("{}: measured - simulated", out.name))
-                    .with_origin(format!("/{p}/difference"))
-                    .into(),
-            ])
-            .with_row_shares([0.65, 0.35])
-            .into()
-        })
-        .collect();
-    let outputs = Horizontal::new(columns);
-    if o.inputs.is_empty() {
-        return Blueprint::new(outputs);
+/// Where the first model (the original scene, the baseline) is furthest from the
+/// measurement, each output's difference over its measured spread: the time window around
+/// it, s (a tenth of the recording, at least a second, inside it). The overlay opens
+/// playing in this window, so the eye starts where the models differ most.
+pub fn largest_difference_window(o: &Overlay) -> Option<(f64, f64)> {
+    let mut worst: Option<(f64, f64)> = None;
+    let (mut t_lo, mut t_hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for out in &o.outputs {
+        let Some(m) = out.models.first() else {
+            continue;
+        };
+        let measured: Vec<f64> = out.measured.iter().flatten().copied().collect();
+        let spread = measured.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+            - measured.iter().copied().fold(f64::INFINITY, f64::min);
+        if !(spread > 0.0) {
+            continue;
+        }
+        for ((t, y), s) in out.t_s.iter().zip(out.measured).zip(m.values) {
+            t_lo = t_lo.min(*t);
+            t_hi = t_hi.max(*t);
+            if let Some(y) = y {
+                let d = (y - s).abs() / spread;
+                if d.is_finite() && worst.is_none_or(|w| d > w.1) {
+                    worst = Some((*t, d));
+                }
+            }
+        }
     }
-    let names: Vec<&str> = o.inputs.iter().map(|i| i.name).collect();
-    let inputs = TimeSeriesView::new(format!("inputs of {}: {}", o.recording, names.join(", ")))
-        .with_origin("/inputs");
-    Blueprint::new(Vertical::new([inputs.into(), outputs.into()]).with_row_shares([0.28, 0.72]))
+    let (t, _) = worst?;
+    let half = (0.05 * (t_hi - t_lo)).max(0.5);
+    Some(((t - half).max(t_lo), (t + half).min(t_hi)))
+}
+
+/// Seconds as the time line's integer nanoseconds.
+fn nanos(t_s: f64) -> rerun::time::TimeInt {
+    rerun::time::TimeInt::new_temporal((t_s * 1e9).round() as i64)
+}
+
+/// Columns of outputs side by side at most; more wrap into a grid of this many columns
+/// (six in a row cut every title and squeezed every plot).
+const MAX_COLUMNS: usize = 3;
+
+/// The colours in words, for the key above the plots (the plots' own legends are hidden:
+/// in a narrow column they sat on the data).
+fn colour_key(o: &Overlay) -> String {
+    const MODEL_NAMES: [&str; 3] = ["orange", "blue", "green"];
+    const INPUT_NAMES: [&str; 4] = ["red", "blue", "yellow", "purple"];
+    let models: Vec<String> = o
+        .outputs
+        .first()
+        .map(|out| {
+            out.models
+                .iter()
+                .enumerate()
+                .map(|(k, m)| format!("**{}**: {}", MODEL_NAMES[k % MODEL_NAMES.len()], m.label))
+                .collect()
+        })
+        .unwrap_or_default();
+    let mut key = format!(
+        "**Grey, wide**: measured. {}; below, measured minus each.",
+        models.join(". ")
+    );
+    if !o.inputs.is_empty() {
+        let inputs: Vec<String> = o
+            .inputs
+            .iter()
+            .enumerate()
+            .map(|(k, i)| format!("{} {}", INPUT_NAMES[k % INPUT_NAMES.len()], i.name))
+            .collect();
+        key.push_str(&format!(" Inputs: {}.", inputs.join(", ")));
+    }
+    if let Some((a, b)) = largest_difference_window(o) {
+        key.push_str(&format!(
+            " Highlighted: {a:.1}-{b:.1} s, where the first model is furthest off."
+        ));
+    }
+    key
+}
+
+/// The layout: the colour key and the inputs across the top, then per output its fit
+/// above its differences, in columns (a grid beyond [`MAX_COLUMNS`]). Fixed ids: the same
+/// overlay writes the same layout.
+fn layout(bp: &RecordingStream, o: &Overlay) -> Result<u8, VizError> {
+    let mut n: u8 = 0;
+    let mut next = || {
+        n = n.wrapping_add(1);
+        n
+    };
+    let mut columns = Vec::new();
+    for out in &o.outputs {
+        let p = part(&out.name);
+        let fit = view(
+            bp,
+            next(),
+            "TimeSeries",
+            &title(out),
+            &format!("/{p}/fit"),
+            &["$origin/**"],
+        )?;
+        hide_legend(bp, &fit)?;
+        let diff = view(
+            bp,
+            next(),
+            "TimeSeries",
+            &format!("{}: measured - simulated", out.name),
+            &format!("/{p}/difference"),
+            &["$origin/**"],
+        )?;
+        hide_legend(bp, &diff)?;
+        columns.push(container(
+            bp,
+            next(),
+            ContainerKind::Vertical,
+            None,
+            &[fit, diff],
+            Some(&[0.65, 0.35]),
+        )?);
+    }
+    let outputs = if columns.len() <= MAX_COLUMNS {
+        container(bp, next(), ContainerKind::Horizontal, None, &columns, None)?
+    } else {
+        container(
+            bp,
+            next(),
+            ContainerKind::Grid,
+            None,
+            &columns,
+            Some(&[MAX_COLUMNS as f32]),
+        )?
+    };
+    let key = view(bp, next(), "TextDocument", "Colours", "/key", &["$origin"])?;
+    let mut rows = vec![key];
+    let mut shares = vec![0.12];
+    if !o.inputs.is_empty() {
+        let names: Vec<&str> = o.inputs.iter().map(|i| i.name).collect();
+        let inputs = view(
+            bp,
+            next(),
+            "TimeSeries",
+            &format!("inputs of {}: {}", o.recording, names.join(", ")),
+            "/inputs",
+            &["$origin/**"],
+        )?;
+        hide_legend(bp, &inputs)?;
+        rows.push(inputs);
+        shares.push(0.22);
+    }
+    rows.push(outputs);
+    shares.push(1.0 - shares.iter().sum::<f32>());
+    let root = next();
+    container(
+        bp,
+        root,
+        ContainerKind::Vertical,
+        None,
+        &rows,
+        Some(&shares),
+    )?;
+    let mut panel = TimePanelBlueprint::new()
+        .with_timeline("t")
+        .with_play_state(PlayState::Paused);
+    if let Some((a, b)) = largest_difference_window(o) {
+        panel = panel.with_time_selection(
+            rerun::external::re_sdk_types::datatypes::AbsoluteTimeRange {
+                min: nanos(a).into(),
+                max: nanos(b).into(),
+            },
+        );
+    }
+    bp.log("time_panel", &panel).map_err(err)?;
+    Ok(root)
 }
 
 /// Sends one series as a column chunk: far cheaper than a log call per sample.
@@ -163,9 +311,14 @@ pub fn save(path: &std::path::Path, o: &Overlay) -> Result<(), VizError> {
     let partial = crate::output::partial_name(path);
     let rec = RecordingStreamBuilder::new("agvsim")
         .recording_id(format!("agvsim-{}-{}", part(o.what), o.recording))
-        .with_blueprint(blueprint(o))
         .save(&partial)
         .map_err(err)?;
+    send_layout(&rec, |bp| layout(bp, o))?;
+    rec.log_static(
+        "key",
+        &rerun::TextDocument::new(colour_key(o)).with_media_type(rerun::MediaType::markdown()),
+    )
+    .map_err(err)?;
     rec.send_recording_name(format!("{} of {}", o.what, o.recording))
         .map_err(err)?;
     for (k, i) in o.inputs.iter().enumerate() {
@@ -218,4 +371,53 @@ pub fn save(path: &std::path::Path, o: &Overlay) -> Result<(), VizError> {
     drop(rec);
     std::fs::rename(&partial, path).map_err(|e| err(format!("{}: {e}", path.display())))?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_window_opens_where_the_first_model_is_furthest_off_and_titles_lead_with_the_fits() {
+        let t: Vec<f64> = (0..1000).map(|k| k as f64 * 0.01).collect();
+        let measured: Vec<Option<f64>> = t.iter().map(|t| Some(t.sin())).collect();
+        // Off by 0.5 around 7 s only.
+        let first: Vec<f64> = t
+            .iter()
+            .map(|t| t.sin() + if (*t - 7.0).abs() < 0.05 { 0.5 } else { 0.0 })
+            .collect();
+        let second: Vec<f64> = t.iter().map(|t| t.sin()).collect();
+        let out = Output {
+            name: "motor_speed_rad_s".into(),
+            t_s: &t,
+            measured: &measured,
+            models: vec![
+                Simulation {
+                    label: "original".into(),
+                    values: &first,
+                    fit_pct: Some(80.0),
+                },
+                Simulation {
+                    label: "calibrated".into(),
+                    values: &second,
+                    fit_pct: Some(99.0),
+                },
+            ],
+        };
+        assert_eq!(title(&out), "fit 80.0 % -> 99.0 %, motor_speed_rad_s");
+        let o = Overlay {
+            what: "calibration",
+            recording: "r.csv",
+            inputs: vec![],
+            outputs: vec![out],
+        };
+        let (a, b) = largest_difference_window(&o).unwrap();
+        // A tenth of the 10 s recording around 7 s.
+        assert!(a < 7.0 && b > 7.0 && (b - a - 1.0).abs() < 0.02, "{a} {b}");
+        assert!(
+            colour_key(&o).contains("Highlighted: 6.5-7.5 s"),
+            "{}",
+            colour_key(&o)
+        );
+    }
 }
