@@ -27,15 +27,27 @@ pub const PLOTS: [(&str, &str); 7] = [
         "plots/lateral_error_m",
         "Lateral error, m (sensor pair; left of the wire +)",
     ),
-    ("plots/coils_adc", "Coil readings, ADC counts"),
-    ("plots/demand_pct", "DCMC demand, pct"),
-    ("plots/voltage_V", "Motor voltage, V"),
-    ("plots/motor_speed_rad_s", "Motor speed, rad/s"),
+    (
+        "plots/coils_adc",
+        "Coil readings, ADC counts (red left, blue right)",
+    ),
+    (
+        "plots/demand_pct",
+        "DCMC demand, pct (grey forward, orange turn)",
+    ),
+    ("plots/voltage_V", "Motor voltage, V (red left, blue right)"),
+    (
+        "plots/motor_speed_rad_s",
+        "Motor speed, rad/s (red left, blue right)",
+    ),
     (
         "plots/slip_ratio",
-        "Drive-tyre slip ratio (1: wheel spins, vehicle still)",
+        "Drive-tyre slip ratio (1: spins, vehicle still; red left, blue right)",
     ),
-    ("plots/backlash_gap_rad", "Gear backlash gap, rad"),
+    (
+        "plots/backlash_gap_rad",
+        "Gear backlash gap, rad (red left, blue right)",
+    ),
 ];
 
 /// Height of the follow view's eye above the floor, m: the 1 m vehicle and its arrows
@@ -265,14 +277,17 @@ pub fn send_blueprint(rec: &RecordingStream, region: Region) -> Result<(), VizEr
         let mut views = vec![];
         for &k in plots.iter() {
             let origin = format!("/{}", PLOTS[k].0);
-            views.push(view(
+            let plot = view(
                 &bp,
                 10 + k as u8,
                 "TimeSeries",
                 PLOTS[k].1,
                 &origin,
                 &["$origin/**"],
-            )?);
+            )?;
+            // The title names the colours: a legend sat on the data.
+            hide_legend(&bp, &plot)?;
+            views.push(plot);
         }
         tabs.push(container(
             &bp,
