@@ -580,6 +580,7 @@ fn output_paths_are_checked_before_the_work() {
             json: Some(file.join("x.json")),
             plot_dir: None,
             save_rrd: None,
+            ..Default::default()
         },
         &|_| {},
     )
@@ -599,6 +600,7 @@ fn output_paths_are_checked_before_the_work() {
             save_rrd: None,
             options: Default::default(),
             jobs: 0,
+            ..Default::default()
         },
         &|_| {},
     )
