@@ -28,7 +28,9 @@ pub fn safe_file_stem(name: &str) -> String {
     let s: String = name
         .chars()
         .map(|c| {
-            if c.is_ascii_alphanumeric() || "._-".contains(c) {
+            // Letters and digits of any script stay (names of several bags in Greek or
+            // Japanese must not all become `___` and overwrite each other).
+            if c.is_alphanumeric() || "._-".contains(c) {
                 c
             } else {
                 '_'
@@ -175,6 +177,8 @@ mod tests {
         assert_eq!(safe_file_stem(".."), "unnamed");
         assert_eq!(safe_file_stem(&"a".repeat(300)).len(), 120);
         assert_eq!(safe_file_stem("slow-forward"), "slow-forward");
+        assert_eq!(safe_file_stem("δοκιμή 1"), "δοκιμή_1");
+        assert_ne!(safe_file_stem("走行"), safe_file_stem("試験"));
     }
 
     #[test]

@@ -25,9 +25,11 @@ impl Shard {
     /// The whole job as one slice.
     pub const WHOLE: Shard = Shard { index: 1, count: 1 };
 
-    /// The item numbers `[start, end)` of this shard among `total`.
+    /// The item numbers `[start, end)` of this shard among `total` (in 128-bit arithmetic:
+    /// a count near the integer limit times the items overflowed).
     pub fn range(self, total: usize) -> std::ops::Range<usize> {
-        (total * (self.index - 1) / self.count)..(total * self.index / self.count)
+        let at = |k: usize| (total as u128 * k as u128 / self.count.max(1) as u128) as usize;
+        at(self.index - 1)..at(self.index)
     }
 }
 

@@ -24,7 +24,11 @@ current_A = { column = "amps_x10", scale = 0.1 }
 "#;
 
 fn run(data: &str, map: &str) -> Result<String, String> {
-    let dir = tmp("case");
+    // A folder per call: the tests run in parallel, and a shared one was removed under
+    // another test's feet.
+    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let n = CALLS.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+    let dir = tmp(&format!("case-{n}"));
     let (d, m) = (dir.join("log.csv"), dir.join("map.toml"));
     std::fs::write(&d, data).unwrap();
     std::fs::write(&m, map).unwrap();

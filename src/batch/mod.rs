@@ -81,6 +81,14 @@ pub struct Entry {
 /// Why a batch could not run.
 #[derive(Debug, thiserror::Error)]
 pub enum BatchError {
+    /// Every recording of the batch (or of its shard) failed: the summary says why.
+    #[error("every one of the {failed} recordings failed; {} says why", summary.display())]
+    AllFailed {
+        /// Recordings that failed.
+        failed: usize,
+        /// The summary written.
+        summary: PathBuf,
+    },
     /// The recordings could not be found or listed.
     #[error("{path}: {message}")]
     Items {

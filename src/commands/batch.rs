@@ -106,6 +106,14 @@ pub fn run(req: &BatchRequest, say: Say) -> Result<(), CommandError> {
         out.join("summary.csv").display(),
         out.join("fleet.md").display()
     ));
+    if outcome.failed > 0 && outcome.failed == outcome.in_shard {
+        // A batch with no result is a failed job, whatever the summary holds.
+        return Err(batch::BatchError::AllFailed {
+            failed: outcome.failed,
+            summary: out.join("summary.csv"),
+        }
+        .into());
+    }
     Ok(())
 }
 

@@ -270,6 +270,41 @@ pub(crate) fn on_workers<R: Send>(
     })?
 }
 
+/// A scene error about a `--set` the command made from its own option (`--duration`,
+/// `--seed`) named by that option, not as a `--set` the user never typed.
+pub(crate) fn name_own_options(
+    e: crate::scene::SceneError,
+    user_set: &[String],
+    duration_s: Option<f64>,
+    seed: Option<u64>,
+) -> crate::scene::SceneError {
+    use crate::scene::{Origin, SceneError};
+    let own = |arg: &str| -> Option<String> {
+        if user_set.iter().any(|s| s == arg) {
+            return None;
+        }
+        match (duration_s, seed) {
+            (Some(d), _) if arg == format!("sim.duration_s={d}") => Some(format!("--duration {d}")),
+            (_, Some(s)) if arg == format!("sim.seed={s}") => Some(format!("--seed {s}")),
+            _ => None,
+        }
+    };
+    match e {
+        SceneError::Invalid {
+            origin: Origin::Set(arg),
+            key,
+            value,
+            expected,
+        } => SceneError::Invalid {
+            origin: own(&arg).map_or(Origin::Set(arg), Origin::Flag),
+            key,
+            value,
+            expected,
+        },
+        other => other,
+    }
+}
+
 /// The scene overrides a command's `--duration` and `--seed` stand for, after its `--set`.
 pub(crate) fn overrides(set: &[String], duration_s: Option<f64>, seed: Option<u64>) -> Vec<String> {
     let mut set = set.to_vec();

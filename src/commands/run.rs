@@ -66,7 +66,8 @@ fn commands_of(
 /// Runs the scene and prints its summary, its claims' check and the files written.
 pub fn run(req: &RunRequest, say: Say) -> Result<(), CommandError> {
     let set = overrides(&req.set, req.duration_s, req.seed);
-    let checked = Scene::load_checked(&req.scene, &set)?;
+    let checked = Scene::load_checked(&req.scene, &set)
+        .map_err(|e| super::name_own_options(e, &req.set, req.duration_s, req.seed))?;
     say(&checked.render_warnings());
     let scene = checked.scene;
     let name = stem(&req.scene, "run");

@@ -17,6 +17,9 @@ pub enum Origin {
     },
     /// A `--set KEY=VALUE` argument (as typed).
     Set(String),
+    /// A command's own option that sets a scene key (`--duration 1e19` sets
+    /// `sim.duration_s`): the option and its value as typed.
+    Flag(String),
 }
 
 impl std::fmt::Display for Origin {
@@ -30,6 +33,7 @@ impl std::fmt::Display for Origin {
                 write!(f, "{} (key not in the file: its default)", file.display())
             }
             Origin::Set(arg) => write!(f, "--set {arg}"),
+            Origin::Flag(flag) => write!(f, "{flag}"),
         }
     }
 }

@@ -89,6 +89,17 @@ impl Scene {
                 ),
             ));
         }
+        if s.duration_s < s.record_interval_s {
+            // A run shorter than one recorded interval writes one row: nothing to see.
+            return Err(bad(
+                "sim.duration_s",
+                format!("{} s", s.duration_s),
+                &format!(
+                    "a run at least one recording interval long (sim.record_interval_s = {} s)",
+                    s.record_interval_s
+                ),
+            ));
+        }
         if s.record_interval_s < s.dt_s {
             return Err(bad(
                 "sim.record_interval_s",

@@ -30,18 +30,43 @@ impl Series {
     }
 
     /// Component `j`, an angle in rad, made continuous: no jump of 2 pi between
-    /// neighbouring samples (a heading read from quaternions wraps at +-pi).
+    /// neighbouring samples (a heading read from quaternions wraps at +-pi). A sample that
+    /// is not a number (a NaN quaternion) stays one and is left out of the unwrapping: it
+    /// must not poison every later heading.
     pub fn with_continuous(mut self, j: usize) -> Series {
         let tau = std::f64::consts::TAU;
-        for k in 1..self.values.len() {
-            let (Some(&prev), Some(cur)) = (self.values[k - 1].get(j), self.values[k].get(j))
-            else {
+        let mut prev: Option<f64> = None;
+        for v in self.values.iter_mut() {
+            let Some(cur) = v.get_mut(j) else {
                 continue;
             };
-            let turns = ((cur - prev) / tau).round();
-            self.values[k][j] -= turns * tau;
+            if !cur.is_finite() {
+                continue;
+            }
+            if let Some(p) = prev {
+                *cur -= ((*cur - p) / tau).round() * tau;
+            }
+            prev = Some(*cur);
         }
         self
+    }
+}
+
+#[cfg(test)]
+mod continuity_tests {
+    use super::*;
+
+    #[test]
+    fn a_nan_heading_does_not_spoil_the_later_ones() {
+        let s = Series {
+            t_ns: vec![0, 1, 2, 3],
+            values: vec![vec![3.0], vec![f64::NAN], vec![-3.0], vec![-2.9]],
+        }
+        .with_continuous(0);
+        assert!(s.values[1][0].is_nan());
+        // -3 after 3 is a small turn past pi, unwrapped to 2 pi - 3.
+        assert!((s.values[2][0] - (std::f64::consts::TAU - 3.0)).abs() < 1e-12);
+        assert!((s.values[3][0] - (std::f64::consts::TAU - 2.9)).abs() < 1e-12);
     }
 }
 

@@ -1,0 +1,199 @@
+//! The third reliability campaign's findings (issue "hostile bags, clocks that disagree,
+//! fleets merged wrong"), each built from its description with inputs made here.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn agvsim(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_agvsim"))
+        .args(args)
+        .output()
+        .expect("agvsim runs")
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("campaign3-{name}"));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn example_bag() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("data/ros2_example/robot_square")
+}
+
+/// A copy of the example rosbag2 folder whose metadata.yaml names `file` as its storage.
+fn bag_naming(dir: &Path, file: &str) -> PathBuf {
+    let bag = dir.join("bag");
+    std::fs::create_dir_all(&bag).unwrap();
+    std::fs::copy(
+        example_bag().join("robot_square.mcap"),
+        bag.join("robot_square.mcap"),
+    )
+    .unwrap();
+    let meta = std::fs::read_to_string(example_bag().join("metadata.yaml")).unwrap();
+    assert!(meta.contains("- robot_square.mcap"), "{meta}");
+    std::fs::write(
+        bag.join("metadata.yaml"),
+        meta.replace("- robot_square.mcap", &format!("- {file}")),
+    )
+    .unwrap();
+    bag
+}
+
+#[test]
+fn a_bag_folder_reads_only_files_inside_it() {
+    let dir = tmp("outside");
+    for (name, file) in [
+        ("etc", "/etc/passwd"),
+        ("up", "../robot_square.mcap"),
+        ("dev", "/dev/zero"),
+    ] {
+        let d = dir.join(name);
+        let bag = bag_naming(&d, file);
+        let o = agvsim(&[
+            "import",
+            "ros2",
+            bag.to_str().unwrap(),
+            "--out",
+            d.join("out").to_str().unwrap(),
+        ]);
+        let t = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{file}: {t}");
+        assert!(
+            t.contains("relative_file_paths") && t.contains(file),
+            "{file}: {t}"
+        );
+        assert!(
+            !d.join("out").exists() || std::fs::read_dir(d.join("out")).unwrap().next().is_none()
+        );
+    }
+    // A folder of its own file reads as before.
+    let d = dir.join("own");
+    let bag = bag_naming(&d, "robot_square.mcap");
+    let o = agvsim(&[
+        "import",
+        "ros2",
+        bag.to_str().unwrap(),
+        "--out",
+        d.join("out").to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+}
+
+#[test]
+fn bags_named_in_other_scripts_keep_their_names() {
+    let dir = tmp("unicode");
+    let out = dir.join("out");
+    for name in ["δοκιμή", "試験"] {
+        let bag = dir.join(format!("{name}.mcap"));
+        std::fs::copy(example_bag().join("robot_square.mcap"), &bag).unwrap();
+        let o = agvsim(&[
+            "import",
+            "ros2",
+            bag.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+    }
+    // Two recordings, not one overwritten by the other.
+    for name in ["δοκιμή", "試験"] {
+        assert!(out.join(format!("{name}.csv")).exists(), "{name}");
+    }
+}
+
+#[test]
+fn shard_counts_near_the_integer_limit_do_not_overflow() {
+    let dir = tmp("shard");
+    let max = u64::MAX.to_string();
+    let shard = format!("{max}/{max}");
+    let o = agvsim(&[
+        "sweep",
+        "scenes/lab_offset_120mm.toml",
+        "--vary",
+        "controller.gain_scale=1,2",
+        "--duration",
+        "0.5",
+        "--shard",
+        &shard,
+        "--out",
+        dir.join("sweep").to_str().unwrap(),
+    ]);
+    let t = text(&o);
+    assert!(
+        !t.contains("panicked") && o.status.code() != Some(101),
+        "{t}"
+    );
+    // The last of 2^64-1 shards of two runs holds the second run.
+    if o.status.success() {
+        let csv = std::fs::read_to_string(dir.join("sweep/results.csv")).unwrap();
+        assert_eq!(csv.lines().count(), 2, "{csv}");
+    }
+}
+
+#[test]
+fn a_batch_whose_every_recording_failed_is_a_failed_job() {
+    let dir = tmp("all-failed");
+    let fleet = dir.join("fleet");
+    std::fs::create_dir_all(&fleet).unwrap();
+    for name in ["a", "b"] {
+        std::fs::write(fleet.join(format!("{name}.csv")), "not a recording\n").unwrap();
+    }
+    let out = dir.join("out");
+    let o = agvsim(&[
+        "batch",
+        "calibrate",
+        fleet.to_str().unwrap(),
+        "--scene",
+        "scenes/lab_offset_120mm.toml",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{t}");
+    assert!(t.contains("every one of the 2 recordings failed"), "{t}");
+    // The summary says why, row by row.
+    let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+    assert_eq!(summary.matches(",error,").count(), 2, "{summary}");
+    assert!(summary.contains("missing metadata"), "{summary}");
+}
+
+#[test]
+fn durations_are_named_as_the_option_given_and_a_run_of_no_row_is_refused() {
+    let dir = tmp("duration");
+    let o = agvsim(&[
+        "run",
+        "scenes/lab_offset_120mm.toml",
+        "--duration",
+        "1e19",
+        "--out",
+        dir.join("a").to_str().unwrap(),
+    ]);
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{t}");
+    assert!(
+        t.contains("error: --duration 10000000000000000000: `sim.duration_s`"),
+        "{t}"
+    );
+    let o = agvsim(&[
+        "run",
+        "scenes/lab_offset_120mm.toml",
+        "--duration",
+        "1e-9",
+        "--out",
+        dir.join("b").to_str().unwrap(),
+    ]);
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{t}");
+    assert!(t.contains("at least one recording interval long"), "{t}");
+    assert!(!dir.join("b/lab_offset_120mm.csv").exists());
+}
