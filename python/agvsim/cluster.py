@@ -86,6 +86,16 @@ def batch_shard(
         return _files_under(out)
 
 
+def _shard_folders(out: Path, results: List[Dict[str, bytes]]) -> List[Path]:
+    """Writes each shard's files under ``out/shards/shard_I_of_N``; returns the folders."""
+    folders = []
+    for i, files in enumerate(results, start=1):
+        folder = out / "shards" / f"shard_{i}_of_{len(results)}"
+        _write_files(folder, files)
+        folders.append(folder)
+    return folders
+
+
 def _gathered(submit: Submit, gather: Gather, shards: int, task: Callable[[str], Any]) -> List[Dict[str, bytes]]:
     if shards < 1:
         raise agvsim.InputError(f"shards={shards}: expected 1 or more")
@@ -114,12 +124,7 @@ def sweep(
         submit, gather, shards,
         lambda s: submit(sweep_shard, str(scene.path), scene.values, dict(vary), s, options, cwd),
     )
-    folders = []
-    for i, files in enumerate(results, start=1):
-        folder = out / "shards" / f"shard_{i}_of_{shards}"
-        _write_files(folder, files)
-        folders.append(folder)
-    return agvsim.sweep_merge(folders, out)
+    return agvsim.sweep_merge(_shard_folders(out, results), out)
 
 
 def batch(
@@ -146,9 +151,4 @@ def batch(
             None if rig is None else str(rig), effects, s, jobs_per_task, cwd,
         ),
     )
-    folders = []
-    for i, files in enumerate(results, start=1):
-        folder = out / "shards" / f"shard_{i}_of_{shards}"
-        _write_files(folder, files)
-        folders.append(folder)
-    return agvsim.batch_merge(folders, out)
+    return agvsim.batch_merge(_shard_folders(out, results), out)

@@ -124,6 +124,25 @@ where
     }
 }
 
+/// The motor's datasheet point from the numbers given (as `agvsim new`'s `--motor-*`),
+/// each checked positive and named as Python passes it.
+fn motor_of(
+    rated_v: Option<f64>,
+    no_load_rpm: Option<f64>,
+    stall_current_a: Option<f64>,
+    stall_torque_nm: Option<f64>,
+    battery_v: Option<f64>,
+) -> PyResult<Option<agvsim::scene::robot::MotorDatasheet>> {
+    commands::new::motor_datasheet(&commands::new::MotorFlags {
+        rated_v: positive("motor_rated_v", rated_v)?,
+        no_load_rpm: positive("motor_no_load_rpm", no_load_rpm)?,
+        stall_current_a: positive("motor_stall_current_a", stall_current_a)?,
+        stall_torque_nm: positive("motor_stall_torque_nm", stall_torque_nm)?,
+        battery_v: positive("battery_v", battery_v)?,
+    })
+    .map_err(|e| to_py((e.to_string(), e.exit_code())))
+}
+
 /// A progress callback that tells nobody (the CLI draws bars; Python callers read the
 /// report).
 fn quiet(_: &str) {}
@@ -193,14 +212,13 @@ fn new_scene(
         Some("none") => Some(Guidance::None),
         Some(g) => return Err(bad_argument("guidance", g, "wire, none or open-loop")),
     };
-    let motor = commands::new::motor_datasheet(&commands::new::MotorFlags {
-        rated_v: positive("motor_rated_v", motor_rated_v)?,
-        no_load_rpm: positive("motor_no_load_rpm", motor_no_load_rpm)?,
-        stall_current_a: positive("motor_stall_current_a", motor_stall_current_a)?,
-        stall_torque_nm: positive("motor_stall_torque_nm", motor_stall_torque_nm)?,
-        battery_v: positive("battery_v", battery_v)?,
-    })
-    .map_err(|e| to_py((e.to_string(), e.exit_code())))?;
+    let motor = motor_of(
+        motor_rated_v,
+        motor_no_load_rpm,
+        motor_stall_current_a,
+        motor_stall_torque_nm,
+        battery_v,
+    )?;
     let spec = RobotSpec {
         mass_kg: positive("mass_kg", mass_kg)?,
         track_m: positive("track_m", track_m)?,
@@ -537,14 +555,13 @@ fn import_ros2(
     gear_ratio: Option<f64>,
     backlash_rad: Option<f64>,
 ) -> PyResult<String> {
-    let motor = commands::new::motor_datasheet(&commands::new::MotorFlags {
-        rated_v: positive("motor_rated_v", motor_rated_v)?,
-        no_load_rpm: positive("motor_no_load_rpm", motor_no_load_rpm)?,
-        stall_current_a: positive("motor_stall_current_a", motor_stall_current_a)?,
-        stall_torque_nm: positive("motor_stall_torque_nm", motor_stall_torque_nm)?,
-        battery_v: positive("battery_v", battery_v)?,
-    })
-    .map_err(|e| to_py((e.to_string(), e.exit_code())))?;
+    let motor = motor_of(
+        motor_rated_v,
+        motor_no_load_rpm,
+        motor_stall_current_a,
+        motor_stall_torque_nm,
+        battery_v,
+    )?;
     let request = commands::import::Ros2Import {
         bag,
         map,

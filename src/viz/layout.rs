@@ -217,141 +217,116 @@ pub type Region = ([f64; 2], [f64; 2]);
 /// Sends the layout to `rec`, the overview framed on `region` (the floor travelled, or
 /// expected to be). Sent again with the travelled region when a run ends.
 pub fn send_blueprint(rec: &RecordingStream, region: Region) -> Result<(), VizError> {
-    let (bp, storage) = RecordingStreamBuilder::new("agvsim")
-        .recording_id("agvsim-layout")
-        .blueprint()
-        .memory()
-        .map_err(err)?;
-    bp.set_time_sequence("blueprint", 0);
-    let follow = view(
-        &bp,
-        1,
-        "3D",
-        "Vehicle, followed (its frame: forward up, left to the left)",
-        "/world/agv",
-        &["$origin/**"],
-    )?;
-    eye(
-        &bp,
-        &follow,
-        [0.3, 0.0, FOLLOW_EYE_HEIGHT_M],
-        [0.3, 0.0, 0.0],
-        [1.0, 0.0, 0.0],
-    )?;
-    let overview = view(
-        &bp,
-        2,
-        "3D",
-        "Floor (world frame, m: x to the right, y up)",
-        "/world",
-        // The coil readings are the follow view's: on the floor their label would print
-        // over the path wherever the vehicle is, cut off at the view's edge.
-        &[
-            "/world/**",
-            "- /world/agv/nearby_wire",
-            "- /world/agv/coils",
-            "- /world/agv/coil_readings",
-        ],
-    )?;
-    let (lo, hi) = region;
-    let centre = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
-    let half = (0.5 * (hi[1] - lo[1]))
-        .max(0.5 * (hi[0] - lo[0]) / OVERVIEW_ASPECT)
-        .max(1.0);
-    let height = (1.1 * half / HALF_FOV_RAD.tan()) as f32;
-    let c = [centre[0] as f32, centre[1] as f32];
-    eye(
-        &bp,
-        &overview,
-        [c[0], c[1], height],
-        [c[0], c[1], 0.0],
-        [0.0, 1.0, 0.0],
-    )?;
-    let mut tabs = vec![];
-    let groups: [(&str, &[usize]); 3] = [
-        ("Tracking", &[0, 1]),
-        ("Drive", &[2, 3, 4]),
-        ("Wheels", &[5, 6]),
-    ];
-    for (g, (name, plots)) in groups.iter().enumerate() {
-        let mut views = vec![];
-        for &k in plots.iter() {
-            let origin = format!("/{}", PLOTS[k].0);
-            let plot = view(
-                &bp,
-                10 + k as u8,
-                "TimeSeries",
-                PLOTS[k].1,
-                &origin,
-                &["$origin/**"],
-            )?;
-            // The title names the colours: a legend sat on the data.
-            hide_legend(&bp, &plot)?;
-            views.push(plot);
+    send_layout(rec, |bp| {
+        let follow = view(
+            bp,
+            1,
+            "3D",
+            "Vehicle, followed (its frame: forward up, left to the left)",
+            "/world/agv",
+            &["$origin/**"],
+        )?;
+        eye(
+            bp,
+            &follow,
+            [0.3, 0.0, FOLLOW_EYE_HEIGHT_M],
+            [0.3, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+        )?;
+        let overview = view(
+            bp,
+            2,
+            "3D",
+            "Floor (world frame, m: x to the right, y up)",
+            "/world",
+            // The coil readings are the follow view's: on the floor their label would print
+            // over the path wherever the vehicle is, cut off at the view's edge.
+            &[
+                "/world/**",
+                "- /world/agv/nearby_wire",
+                "- /world/agv/coils",
+                "- /world/agv/coil_readings",
+            ],
+        )?;
+        let (lo, hi) = region;
+        let centre = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
+        let half = (0.5 * (hi[1] - lo[1]))
+            .max(0.5 * (hi[0] - lo[0]) / OVERVIEW_ASPECT)
+            .max(1.0);
+        let height = (1.1 * half / HALF_FOV_RAD.tan()) as f32;
+        let c = [centre[0] as f32, centre[1] as f32];
+        eye(
+            bp,
+            &overview,
+            [c[0], c[1], height],
+            [c[0], c[1], 0.0],
+            [0.0, 1.0, 0.0],
+        )?;
+        let mut tabs = vec![];
+        let groups: [(&str, &[usize]); 3] = [
+            ("Tracking", &[0, 1]),
+            ("Drive", &[2, 3, 4]),
+            ("Wheels", &[5, 6]),
+        ];
+        for (g, (name, plots)) in groups.iter().enumerate() {
+            let mut views = vec![];
+            for &k in plots.iter() {
+                let origin = format!("/{}", PLOTS[k].0);
+                let plot = view(
+                    bp,
+                    10 + k as u8,
+                    "TimeSeries",
+                    PLOTS[k].1,
+                    &origin,
+                    &["$origin/**"],
+                )?;
+                // The title names the colours: a legend sat on the data.
+                hide_legend(bp, &plot)?;
+                views.push(plot);
+            }
+            tabs.push(container(
+                bp,
+                30 + g as u8,
+                ContainerKind::Vertical,
+                Some(name),
+                &views,
+                None,
+            )?);
         }
-        tabs.push(container(
-            &bp,
-            30 + g as u8,
+        let legend = view(
+            bp,
+            3,
+            "TextDocument",
+            "What the vehicle view draws",
+            "/legend",
+            &["$origin"],
+        )?;
+        let left = container(
+            bp,
+            40,
             ContainerKind::Vertical,
-            Some(name),
-            &views,
             None,
-        )?);
-    }
-    let legend = view(
-        &bp,
-        3,
-        "TextDocument",
-        "What the vehicle view draws",
-        "/legend",
-        &["$origin"],
-    )?;
-    let left = container(
-        &bp,
-        40,
-        ContainerKind::Vertical,
-        None,
-        &[follow, legend, overview],
-        Some(&[0.53, 0.14, 0.33]),
-    )?;
-    let right = container(&bp, 41, ContainerKind::Tabs, None, &tabs, None)?;
-    container(
-        &bp,
-        42,
-        ContainerKind::Horizontal,
-        None,
-        &[left, right],
-        Some(&[0.55, 0.45]),
-    )?;
-    // The viewer opens at the latest moment logged: a saved run at its end, a live one
-    // following the simulation; the time panel scrubs back.
-    bp.log(
-        "time_panel",
-        &TimePanelBlueprint::new()
-            .with_timeline("sim_time")
-            .with_play_state(PlayState::Following),
-    )
-    .map_err(err)?;
-    bp.log(
-        "viewport",
-        &ViewportBlueprint::new()
-            .with_root_container(RootContainer(id(42).into()))
-            .with_auto_layout(false)
-            .with_auto_views(false),
-    )
-    .map_err(err)?;
-    bp.flush_blocking().map_err(err)?;
-    let msgs = storage.take();
-    let Some(blueprint_id) = msgs.first().map(|m| m.store_id().clone()) else {
-        return Err(VizError("the layout produced no messages".into()));
-    };
-    rec.send_blueprint(
-        msgs,
-        BlueprintActivationCommand {
-            blueprint_id,
-            make_active: true,
-            make_default: true,
-        },
-    );
-    Ok(())
+            &[follow, legend, overview],
+            Some(&[0.53, 0.14, 0.33]),
+        )?;
+        let right = container(bp, 41, ContainerKind::Tabs, None, &tabs, None)?;
+        container(
+            bp,
+            42,
+            ContainerKind::Horizontal,
+            None,
+            &[left, right],
+            Some(&[0.55, 0.45]),
+        )?;
+        // The viewer opens at the latest moment logged: a saved run at its end, a live one
+        // following the simulation; the time panel scrubs back.
+        bp.log(
+            "time_panel",
+            &TimePanelBlueprint::new()
+                .with_timeline("sim_time")
+                .with_play_state(PlayState::Following),
+        )
+        .map_err(err)?;
+        Ok(42)
+    })
 }
