@@ -64,28 +64,28 @@ pub fn estimate(v: f64, std: Option<f64>, unit: &str) -> String {
     if v != 0.0 && s < 1e-6 * v.abs() {
         return format!("{} (± < 0.0001 %)", quantity(v, 6, unit));
     }
-    let exponent = s.log10().floor() as i32;
-    let decimals = 1 - exponent;
-    if !(0..=9).contains(&decimals) || !(PLAIN.0..PLAIN.1).contains(&v.abs().max(s)) {
-        return format!("{} ± {}", sig(v, 6), quantity(s, 2, unit));
+    match decimals_of(v, s) {
+        Some(d) => with_unit(format!("{v:.d$} ± {s:.d$}"), unit),
+        None => format!("{} ± {}", sig(v, 6), quantity(s, 2, unit)),
     }
-    let decimals = decimals as usize;
-    with_unit(format!("{v:.decimals$} ± {s:.decimals$}"), unit)
+}
+
+/// The decimal places a deviation `s` supports (its two significant figures), where
+/// `v` and `s` print in plain decimals; `None` where they do not.
+fn decimals_of(v: f64, s: f64) -> Option<usize> {
+    let decimals = 1 - s.log10().floor() as i32;
+    ((0..=9).contains(&decimals) && (PLAIN.0..PLAIN.1).contains(&v.abs().max(s)))
+        .then_some(decimals as usize)
 }
 
 /// The value of [`estimate`] alone, to the decimal place its standard deviation `std`
 /// supports (6 figures where the deviation is under a millionth of it): what a table of
 /// values beside a table of estimates prints, so both show the same number.
 pub fn estimate_value(v: f64, std: f64, unit: &str) -> String {
-    if v != 0.0 && std < 1e-6 * v.abs() {
-        return quantity(v, 6, unit);
+    match decimals_of(v, std).filter(|_| v == 0.0 || std >= 1e-6 * v.abs()) {
+        Some(d) => with_unit(format!("{v:.d$}"), unit),
+        None => quantity(v, 6, unit),
     }
-    let decimals = 1 - std.log10().floor() as i32;
-    if !(0..=9).contains(&decimals) || !(PLAIN.0..PLAIN.1).contains(&v.abs().max(std)) {
-        return quantity(v, 6, unit);
-    }
-    let decimals = decimals as usize;
-    with_unit(format!("{v:.decimals$}"), unit)
 }
 
 /// A share in percent to one decimal, with its sign when it is a change (`-81.2 %`).

@@ -187,6 +187,39 @@ fn drop_claims(doc: &mut toml_edit::DocumentMut) -> Option<String> {
     Some(text)
 }
 
+/// A fitted key's calibrated value as printed (with its deviation where it has one;
+/// `None`: no number worth printing, a key at its bound) and, where it is no plain
+/// estimate, why the scene keeps its value: the key table's and the HTML report's cells.
+pub(crate) fn key_cells(k: &super::KeyFit, unit: &str) -> (Option<String>, Option<String>) {
+    let keeps = |why: &str| Some(why.to_string());
+    match (k.at_bound, k.std) {
+        (None, None) if k.confounded => (
+            Some(sig(k.after, 6)),
+            keeps("not told apart from the other keys by the recording: held at the scene's value"),
+        ),
+        (None, Some(std)) if !k.calibrated() => (
+            Some(estimate(k.fitted, Some(std), "")),
+            keeps("its standard deviation exceeds its value: the scene keeps its value"),
+        ),
+        (Some(b), _) => (
+            None,
+            Some(format!(
+                "at bound {}: not an estimate; the scene keeps its value (check the belief or the model)",
+                quantity(b, 4, unit)
+            )),
+        ),
+        (None, None) => (
+            Some(sig(k.after, 6)),
+            keeps("undetermined by the recording: the scene keeps its value"),
+        ),
+        (None, Some(std)) if k.held => (
+            Some(estimate(k.after, Some(std), "")),
+            keeps("held by its stated belief: the recording determines it less well"),
+        ),
+        (None, Some(std)) => (Some(estimate(k.after, Some(std), "")), None),
+    }
+}
+
 /// Each fitted key before and after, with its unit and standard deviation.
 fn key_table(s: &mut String, c: &Calibration) {
     use std::fmt::Write as _;
@@ -198,33 +231,11 @@ fn key_table(s: &mut String, c: &Calibration) {
     for k in &c.keys {
         let unit = unit_of_key(&k.key);
         let head = format!("{:<30} {:<10} {:>12}", k.key, unit, sig(k.before, 6));
-        let _ = match (k.at_bound, k.std) {
-            (None, None) if k.confounded => writeln!(
-                s,
-                "{head}   {:<30} not told apart from the other keys by the recording: held at the scene's value",
-                sig(k.after, 6)
-            ),
-            (None, Some(std)) if !k.calibrated() => writeln!(
-                s,
-                "{head}   {:<30} its standard deviation exceeds its value: the scene keeps its value",
-                estimate(k.fitted, Some(std), "")
-            ),
-            (Some(b), _) => writeln!(
-                s,
-                "{head}   at bound {}: not an estimate; the scene keeps its value (check the belief or the model)",
-                quantity(b, 4, unit)
-            ),
-            (None, None) => writeln!(
-                s,
-                "{head}   {:<30} undetermined by the recording: the scene keeps its value",
-                sig(k.after, 6)
-            ),
-            (None, Some(std)) if k.held => writeln!(
-                s,
-                "{head}   {:<30} held by its stated belief: the recording determines it less well",
-                estimate(k.after, Some(std), "")
-            ),
-            (None, Some(std)) => writeln!(s, "{head}   {}", estimate(k.after, Some(std), "")),
+        let _ = match key_cells(k, unit) {
+            (Some(v), Some(note)) => writeln!(s, "{head}   {v:<30} {note}"),
+            (Some(v), None) => writeln!(s, "{head}   {v}"),
+            (None, Some(note)) => writeln!(s, "{head}   {note}"),
+            (None, None) => writeln!(s, "{head}"),
         };
     }
     for r in &c.removed {

@@ -63,7 +63,7 @@ pub fn run(req: &CalibrateRequest, say: Say) -> Result<(), CommandError> {
     let other = (!req.validate.is_empty())
         .then(|| Recording::load_joined(&req.validate))
         .transpose()?;
-    let recordings = names(&req.recording);
+    let recordings = super::joined_names(&req.recording);
     // The output paths are checked before the fit's work.
     check_targets(&[
         ("--write", req.write.as_deref(), false),
@@ -102,7 +102,7 @@ pub fn run(req: &CalibrateRequest, say: Say) -> Result<(), CommandError> {
         })?;
         say(&format!(
             "validate   {}: {:.1} % -> {:.1} %\n",
-            names(&req.validate),
+            super::joined_names(&req.validate),
             cw::mean_fit(&b, &c.outputs),
             cw::mean_fit(&a, &c.outputs)
         ));
@@ -151,13 +151,4 @@ pub fn run(req: &CalibrateRequest, say: Say) -> Result<(), CommandError> {
         say(&format!("html       {}\n", p.display()));
     }
     Ok(())
-}
-
-/// The paths as the user gave them, joined by ` + `.
-fn names(paths: &[PathBuf]) -> String {
-    paths
-        .iter()
-        .map(|p| p.display().to_string())
-        .collect::<Vec<_>>()
-        .join(" + ")
 }

@@ -125,9 +125,7 @@ impl Document {
             (Some(a), Some(b)) => b - a,
             _ => 0.0,
         };
-        let mut dts: Vec<f64> = rec.t_s.windows(2).map(|w| w[1] - w[0]).collect();
-        dts.sort_by(f64::total_cmp);
-        let dt = dts.get(dts.len() / 2).copied().unwrap_or(f64::NAN);
+        let dt = crate::record::median_interval_s(&rec.t_s).unwrap_or(f64::NAN);
         let columns: Vec<String> = rec
             .names
             .iter()

@@ -4,7 +4,7 @@
 //! changed, the report as the command printed it, and the command.
 
 use super::{Cell, Document};
-use crate::calibrate::{Calibration, KeyFit};
+use crate::calibrate::Calibration;
 use crate::diagnose::Diagnosis;
 use crate::ident::Identification;
 use crate::numtext::{estimate, quantity, sig, unit_of_key};
@@ -17,27 +17,6 @@ fn pct(v: f64) -> Cell {
     } else {
         "-".into()
     })
-}
-
-/// What a calibrated key's number is: an estimate, or why the scene keeps its value.
-fn key_verdict(k: &KeyFit, unit: &str) -> String {
-    match (k.at_bound, k.std) {
-        (Some(b), _) => format!(
-            "at bound {}: not an estimate; the scene keeps its value",
-            quantity(b, 4, unit)
-        ),
-        (None, None) if k.confounded => {
-            "not told apart from the other keys by the recording: held at the scene's value".into()
-        }
-        (None, None) => "undetermined by the recording: the scene keeps its value".into(),
-        (None, Some(_)) if !k.calibrated() => {
-            "its standard deviation exceeds its value: the scene keeps its value".into()
-        }
-        (None, Some(_)) if k.held => {
-            "held by its stated belief: the recording determines it less well".into()
-        }
-        (None, Some(_)) => "estimate".into(),
-    }
 }
 
 /// The calibration report.
@@ -69,15 +48,13 @@ pub fn calibration(
         .iter()
         .map(|k| {
             let unit = unit_of_key(&k.key);
+            let (value, note) = crate::calibrate::write::key_cells(k, unit);
             vec![
                 k.key.as_str().into(),
                 unit.into(),
                 Cell::Num(sig(k.before, 6)),
-                Cell::Num(match (k.calibrated(), k.at_bound) {
-                    (true, None) => estimate(k.after, k.std, ""),
-                    _ => sig(k.after, 6),
-                }),
-                key_verdict(k, unit).into(),
+                Cell::Num(value.unwrap_or_else(|| sig(k.after, 6))),
+                note.unwrap_or_else(|| "estimate".into()).into(),
             ]
         })
         .collect();

@@ -334,6 +334,14 @@ mod tests {
     }
 }
 
+/// The median interval of a time column, s (`None` under two rows): the sample time a
+/// logger's jitter does not move.
+pub fn median_interval_s(t_s: &[f64]) -> Option<f64> {
+    let mut dts: Vec<f64> = t_s.windows(2).map(|w| w[1] - w[0]).collect();
+    dts.sort_by(f64::total_cmp);
+    dts.get(dts.len() / 2).copied()
+}
+
 /// A stated `sample_time_s` must be the time column's: a header that says 1 ms over a
 /// column stamped in seconds where milliseconds were meant (or the reverse) is a recording
 /// whose every time constant would come out a thousand times off.
@@ -348,12 +356,9 @@ fn check_sample_time(meta: &BTreeMap<String, String>, t_s: &[f64]) -> Result<(),
         .ok_or_else(|| {
             format!("metadata `sample_time_s: {raw}`: expected a positive number of seconds")
         })?;
-    if t_s.len() < 2 {
+    let Some(median) = median_interval_s(t_s) else {
         return Ok(());
-    }
-    let mut dts: Vec<f64> = t_s.windows(2).map(|w| w[1] - w[0]).collect();
-    dts.sort_by(f64::total_cmp);
-    let median = dts[dts.len() / 2];
+    };
     // Loggers jitter and their clocks drift by a few percent; a unit slip is a factor of
     // ten or more and a decimated log a factor of two, so a quarter separates them.
     if (median / stated - 1.0).abs() > 0.25 {

@@ -16,10 +16,12 @@ mod frames;
 mod layout;
 mod overlay;
 mod reports;
+mod shapes;
 
 use frames::{FrameBuffer, PLOT_BATCH_FRAMES};
 pub use layout::send_blueprint;
 pub use reports::{save_calibration, save_diagnosis, save_identification, save_replay};
+use shapes::{above_path, clip_segment, force_arrow, rectangle, slip_arrow, w};
 
 /// Where the recording goes.
 #[derive(Debug, Clone)]
@@ -93,18 +95,8 @@ const WIRE_UI_POINTS: f32 = 1.2;
 /// Height of the wire above the floor in the views, m, so that it draws over the path.
 const WIRE_ABOVE_PATH_M: f32 = 0.01;
 
-/// A floor point lifted to draw above the path (the wire).
-fn above_path(p: [f64; 2]) -> [f32; 3] {
-    [p[0] as f32, p[1] as f32, WIRE_ABOVE_PATH_M]
-}
-
 /// Half the side of the square around the axle in which the follow view shows the wire, m.
 const NEARBY_WIRE_HALF_M: f64 = 2.5;
-
-/// A floor point at z = 0.
-fn w(p: [f64; 2]) -> [f32; 3] {
-    [p[0] as f32, p[1] as f32, 0.0]
-}
 
 /// Logs snapshots to Rerun every `every` physics steps.
 pub struct RerunRecorder {
@@ -143,25 +135,6 @@ fn batcher_config() -> rerun::log::ChunkBatcherConfig {
 
 fn err(e: impl std::fmt::Display) -> VizError {
     VizError(e.to_string())
-}
-
-/// A closed rectangle on the floor: centre, half extents along its own x and y, and its
-/// rotation, rad (vehicle parts use 0 in the vehicle frame; obstacles their angle).
-fn rectangle(c: [f64; 2], half: [f64; 2], angle_rad: f64) -> Vec<[f32; 3]> {
-    let (s, co) = angle_rad.sin_cos();
-    [
-        [-1.0, -1.0],
-        [1.0, -1.0],
-        [1.0, 1.0],
-        [-1.0, 1.0],
-        [-1.0, -1.0],
-    ]
-    .iter()
-    .map(|k: &[f64; 2]| {
-        let (x, y) = (k[0] * half[0], k[1] * half[1]);
-        w([c[0] + co * x - s * y, c[1] + s * x + co * y])
-    })
-    .collect()
 }
 
 impl RerunRecorder {
@@ -440,7 +413,8 @@ impl RerunRecorder {
     /// The vehicle's moving parts for one frame, in its own frame.
     fn buffer_vehicle(&mut self, s: &Snapshot) {
         let pose = s.pose;
-        let body = |p: [f64; 2]| w(pose.unrotate([p[0] - pose.x_m, p[1] - pose.y_m]));
+        let in_body = |p: [f64; 2]| pose.unrotate([p[0] - pose.x_m, p[1] - pose.y_m]);
+        let body = |p: [f64; 2]| w(in_body(p));
         let b = &mut self.frames;
         b.pose_xy.push(w([pose.x_m, pose.y_m]));
         b.pose_heading_rad.push(pose.heading_rad as f32);
@@ -480,8 +454,8 @@ impl RerunRecorder {
         let before = b.nearby_wire.len();
         for seg in pts.windows(2) {
             if let Some((a, z)) = clip_segment(seg[0], seg[1], lo, hi) {
-                let lift = |p: [f32; 3]| [p[0], p[1], WIRE_ABOVE_PATH_M];
-                b.nearby_wire.push(vec![lift(body(a)), lift(body(z))]);
+                b.nearby_wire
+                    .push(vec![above_path(in_body(a)), above_path(in_body(z))]);
             }
         }
         b.nearby_wire_per_frame.push(b.nearby_wire.len() - before);
@@ -553,61 +527,6 @@ impl RerunRecorder {
     }
 }
 
-/// The force arrow of a tyre, vehicle frame, m: along the force, [`FORCE_ARROW_M`] times
-/// the square root of its size over [`FORCE_ARROW_REF_N`] long.
-fn force_arrow(f_n: [f64; 2]) -> [f32; 3] {
-    let size = f_n[0].hypot(f_n[1]);
-    if size == 0.0 || !size.is_finite() {
-        return [0.0; 3];
-    }
-    let scale = FORCE_ARROW_M * (size / FORCE_ARROW_REF_N).sqrt() / size;
-    [(scale * f_n[0]) as f32, (scale * f_n[1]) as f32, 0.0]
-}
-
-/// The slip arrow of a tyre, vehicle frame, m: along the slip vector (ratio forward,
-/// angle sideways), [`SLIP_ARROW_M`] times the square root of its size long.
-fn slip_arrow(ratio: f64, angle_rad: f64) -> [f32; 3] {
-    let size = ratio.hypot(angle_rad);
-    if size == 0.0 || !size.is_finite() {
-        return [0.0; 3];
-    }
-    let scale = SLIP_ARROW_M * size.sqrt() / size;
-    [(scale * ratio) as f32, (scale * angle_rad) as f32, 0.0]
-}
-
-/// The part of a segment inside an axis-aligned box (Liang-Barsky), if any.
-fn clip_segment(
-    a: [f64; 2],
-    b: [f64; 2],
-    lo: [f64; 2],
-    hi: [f64; 2],
-) -> Option<([f64; 2], [f64; 2])> {
-    let d = [b[0] - a[0], b[1] - a[1]];
-    let (mut t0, mut t1) = (0.0f64, 1.0f64);
-    for k in 0..2 {
-        for (p, q) in [(-d[k], a[k] - lo[k]), (d[k], hi[k] - a[k])] {
-            if p == 0.0 {
-                if q < 0.0 {
-                    return None;
-                }
-            } else {
-                let r = q / p;
-                if p < 0.0 {
-                    t0 = t0.max(r);
-                } else {
-                    t1 = t1.min(r);
-                }
-            }
-        }
-    }
-    (t0 <= t1).then(|| {
-        (
-            [a[0] + t0 * d[0], a[1] + t0 * d[1]],
-            [a[0] + t1 * d[0], a[1] + t1 * d[1]],
-        )
-    })
-}
-
 impl crate::run::Watcher for RerunRecorder {
     fn due(&mut self) -> bool {
         RerunRecorder::due(self)
@@ -615,31 +534,5 @@ impl crate::run::Watcher for RerunRecorder {
 
     fn observe(&mut self, s: &Snapshot, params: &SimParams) -> Result<(), String> {
         RerunRecorder::observe(self, s, params).map_err(|e| e.to_string())
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn length(v: [f32; 3]) -> f64 {
-        f64::from(v[0]).hypot(f64::from(v[1]))
-    }
-
-    #[test]
-    fn force_arrows_grow_with_the_square_root_of_the_force() {
-        // A tyre at its grip limit (400 N) draws 1 m; steady rolling's 4 N still 0.1 m.
-        assert!((length(force_arrow([400.0, 0.0])) - 1.0).abs() < 1e-6);
-        assert!((length(force_arrow([0.0, -4.0])) - 0.1).abs() < 1e-6);
-        // Along the force.
-        let a = force_arrow([30.0, -40.0]);
-        assert!((f64::from(a[1]) / f64::from(a[0]) + 4.0 / 3.0).abs() < 1e-6);
-        assert_eq!(force_arrow([0.0, 0.0]), [0.0; 3]);
-    }
-
-    #[test]
-    fn slip_arrows_grow_with_the_square_root_of_the_slip() {
-        assert!((length(slip_arrow(0.01, 0.0)) - 0.1).abs() < 1e-6);
-        assert!((length(slip_arrow(0.0, 1.0)) - 1.0).abs() < 1e-6);
     }
 }

@@ -142,7 +142,7 @@ const MAX_COLUMNS: usize = 3;
 
 /// The colours in words, for the key above the plots (the plots' own legends are hidden:
 /// in a narrow column they sat on the data).
-fn colour_key(o: &Overlay) -> String {
+fn colour_key(o: &Overlay, window: Option<(f64, f64)>) -> String {
     const MODEL_NAMES: [&str; 3] = ["orange", "blue", "green"];
     const INPUT_NAMES: [&str; 4] = ["red", "blue", "yellow", "purple"];
     let models: Vec<String> = o
@@ -169,7 +169,7 @@ fn colour_key(o: &Overlay) -> String {
             .collect();
         key.push_str(&format!(" Inputs: {}.", inputs.join(", ")));
     }
-    if let Some((a, b)) = largest_difference_window(o) {
+    if let Some((a, b)) = window {
         key.push_str(&format!(
             " Highlighted: {a:.1}-{b:.1} s, where the first model is furthest off."
         ));
@@ -180,7 +180,7 @@ fn colour_key(o: &Overlay) -> String {
 /// The layout: the colour key and the inputs across the top, then per output its fit
 /// above its differences, in columns (a grid beyond [`MAX_COLUMNS`]). Fixed ids: the same
 /// overlay writes the same layout.
-fn layout(bp: &RecordingStream, o: &Overlay) -> Result<u8, VizError> {
+fn layout(bp: &RecordingStream, o: &Overlay, window: Option<(f64, f64)>) -> Result<u8, VizError> {
     let mut n: u8 = 0;
     let mut next = || {
         n = n.wrapping_add(1);
@@ -259,7 +259,7 @@ fn layout(bp: &RecordingStream, o: &Overlay) -> Result<u8, VizError> {
     let mut panel = TimePanelBlueprint::new()
         .with_timeline("t")
         .with_play_state(PlayState::Paused);
-    if let Some((a, b)) = largest_difference_window(o) {
+    if let Some((a, b)) = window {
         panel = panel.with_time_selection(
             rerun::external::re_sdk_types::datatypes::AbsoluteTimeRange {
                 min: nanos(a).into(),
@@ -313,10 +313,12 @@ pub fn save(path: &std::path::Path, o: &Overlay) -> Result<(), VizError> {
         .recording_id(format!("agvsim-{}-{}", part(o.what), o.recording))
         .save(&partial)
         .map_err(err)?;
-    send_layout(&rec, |bp| layout(bp, o))?;
+    let window = largest_difference_window(o);
+    send_layout(&rec, |bp| layout(bp, o, window))?;
     rec.log_static(
         "key",
-        &rerun::TextDocument::new(colour_key(o)).with_media_type(rerun::MediaType::markdown()),
+        &rerun::TextDocument::new(colour_key(o, window))
+            .with_media_type(rerun::MediaType::markdown()),
     )
     .map_err(err)?;
     rec.send_recording_name(format!("{} of {}", o.what, o.recording))
@@ -414,10 +416,7 @@ mod tests {
         let (a, b) = largest_difference_window(&o).unwrap();
         // A tenth of the 10 s recording around 7 s.
         assert!(a < 7.0 && b > 7.0 && (b - a - 1.0).abs() < 0.02, "{a} {b}");
-        assert!(
-            colour_key(&o).contains("Highlighted: 6.5-7.5 s"),
-            "{}",
-            colour_key(&o)
-        );
+        let key = colour_key(&o, Some((a, b)));
+        assert!(key.contains("Highlighted: 6.5-7.5 s"), "{key}");
     }
 }
