@@ -13,6 +13,40 @@ use std::path::{Path, PathBuf};
 /// the test of interest first (`ros2 bag convert` or `mcap filter`).
 pub const MAX_BAG_BYTES: u64 = 2 << 30;
 
+/// Longest record read, bytes, decompressed: an MCAP record or chunk, a ROS 1 chunk, an
+/// SQLite3 row's message. A recorder's chunks are about a megabyte.
+pub const MAX_RECORD_BYTES: usize = 64 << 20;
+
+/// Most message bytes read from one bag, decompressed: a few kilobytes of compressed
+/// zeros can claim terabytes, so what is decompressed is counted, not the file's size.
+pub const MAX_MESSAGE_BYTES: u64 = 512 << 20;
+
+/// Longest an SQLite3 bag's queries may run, s (a view over itself never ends).
+pub const MAX_QUERY_SECONDS: u64 = 60;
+
+/// The message bytes a bag has left to give.
+#[derive(Debug, Default)]
+pub(super) struct Budget {
+    /// Message bytes read so far, decompressed.
+    bytes: u64,
+}
+
+impl Budget {
+    /// Counts `n` more message bytes; an error naming the file past [`MAX_MESSAGE_BYTES`].
+    pub(super) fn take(&mut self, path: &Path, n: usize) -> Result<(), BagError> {
+        self.bytes = self.bytes.saturating_add(n as u64);
+        if self.bytes > MAX_MESSAGE_BYTES {
+            return Err(bad(
+                path,
+                format!(
+                    "its messages hold more than {MAX_MESSAGE_BYTES} bytes decompressed; cut the log to the test first (`ros2 bag convert` with a time window, or only the topics agvsim reads)"
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// Why a bag cannot be read.
 #[derive(Debug, thiserror::Error)]
 pub enum BagError {
@@ -102,10 +136,11 @@ pub fn open(path: &Path) -> Result<Bag, BagError> {
     };
     let meta = std::fs::metadata(path).map_err(io(path))?;
     let mut topics: BTreeMap<String, Topic> = BTreeMap::new();
+    let mut budget = Budget::default();
     let storage = if meta.is_dir() {
         let info = folder_info(path)?;
         for f in &info.files {
-            read_file(&path.join(f), info.storage, &mut topics)?;
+            read_file(&path.join(f), info.storage, &mut topics, &mut budget)?;
         }
         for (name, ty, count) in &info.topics {
             let t = topics.entry(name.clone()).or_insert_with(|| Topic {
@@ -126,7 +161,7 @@ pub fn open(path: &Path) -> Result<Bag, BagError> {
         info.storage
     } else {
         let storage = storage_of_file(path)?;
-        read_file(path, storage, &mut topics)?;
+        read_file(path, storage, &mut topics, &mut budget)?;
         storage
     };
     let mut topics: Vec<Topic> = topics.into_values().collect();
@@ -258,6 +293,7 @@ fn read_file(
     path: &Path,
     storage: Storage,
     topics: &mut BTreeMap<String, Topic>,
+    budget: &mut Budget,
 ) -> Result<(), BagError> {
     let len = std::fs::metadata(path)
         .map_err(|source| BagError::Io {
@@ -274,152 +310,230 @@ fn read_file(
         ));
     }
     match storage {
-        Storage::Mcap => read_mcap(path, topics),
-        Storage::Sqlite3 => read_sqlite(path, topics),
+        Storage::Mcap => read_mcap(path, topics, budget),
+        Storage::Sqlite3 => read_sqlite(path, topics, budget),
         Storage::Rosbag1 => {
             let buf = std::fs::read(path).map_err(|source| BagError::Io {
                 path: path.to_owned(),
                 source,
             })?;
-            super::rosbag1::read(path, &buf, topics)
+            super::rosbag1::read(path, &buf, topics, budget)
         }
     }
 }
 
-fn read_mcap(path: &Path, topics: &mut BTreeMap<String, Topic>) -> Result<(), BagError> {
+fn read_mcap(
+    path: &Path,
+    topics: &mut BTreeMap<String, Topic>,
+    budget: &mut Budget,
+) -> Result<(), BagError> {
     let buf = std::fs::read(path).map_err(|source| BagError::Io {
         path: path.to_owned(),
         source,
     })?;
-    let mcap_err = |what: &str, e: mcap::McapError| {
-        bad(
-            path,
-            format!("{what}: {e} (a truncated or damaged MCAP file? `mcap doctor` says more)"),
-        )
-    };
     // Channels without messages are listed in the summary, when the file has one.
-    if let Ok(Some(summary)) = mcap::Summary::read(&buf) {
+    if let Ok(Some(summary)) = read_mcap_summary(&buf) {
         let mut channels: Vec<_> = summary.channels.values().collect();
         channels.sort_by_key(|c| c.id);
         for c in channels {
             let ty = c.schema.as_ref().map_or(String::new(), |s| s.name.clone());
-            let ty = if c.message_encoding == "ros1" {
-                super::rosbag1::ros2_type(&ty)
-            } else {
-                ty
-            };
-            topics.entry(c.topic.clone()).or_insert_with(|| Topic {
-                name: c.topic.clone(),
-                msg_type: ty,
-                messages: vec![],
-            });
+            mcap_topic(topics, &c.topic, &c.message_encoding, ty);
         }
     }
-    let stream = mcap::MessageStream::new(&buf).map_err(|e| mcap_err("cannot start reading", e))?;
-    for (k, m) in stream.enumerate() {
-        let m = m.map_err(|e| mcap_err(&format!("message record {}", k + 1), e))?;
-        let ty = m
-            .channel
-            .schema
-            .as_ref()
-            .map_or(String::new(), |s| s.name.clone());
-        // A ROS 1 data set converted to MCAP keeps ROS 1's serialisation and type names.
-        let ros1 = match m.channel.message_encoding.as_str() {
-            "cdr" => false,
-            "ros1" => true,
-            other => {
-                return Err(bad(
-                    path,
-                    format!(
-                        "topic `{}`: message encoding `{other}`, expected `cdr` (ROS 2) or `ros1`",
-                        m.channel.topic
-                    ),
-                ))
+    // The records are read one by one, each chunk's lengths (compressed and decompressed)
+    // checked before it is decompressed: a record claiming a terabyte is refused, not
+    // allocated.
+    let mut reader = mcap::sans_io::LinearReader::new_with_options(
+        mcap::sans_io::LinearReaderOptions::default()
+            .with_prevalidate_chunk_crcs(true)
+            .with_record_length_limit(MAX_RECORD_BYTES),
+    );
+    let mut stream = McapStream::default();
+    let mut rest: &[u8] = &buf;
+    while let Some(event) = reader.next_event() {
+        let record = match event {
+            Ok(mcap::sans_io::LinearReadEvent::ReadRequest(need)) => {
+                let n = need.min(rest.len());
+                reader.insert(n).copy_from_slice(&rest[..n]);
+                reader.notify_read(n);
+                rest = &rest[n..];
+                continue;
             }
+            Ok(mcap::sans_io::LinearReadEvent::Record { opcode, data }) => {
+                mcap::parse_record(opcode, data)
+            }
+            Err(e) => Err(e),
         };
-        let ty = if ros1 {
-            super::rosbag1::ros2_type(&ty)
-        } else {
-            ty
-        };
-        let data = if ros1 {
-            [&cdr::ROS1_MARKER[..], &m.data].concat()
-        } else {
-            m.data.into_owned()
-        };
-        topics
-            .entry(m.channel.topic.clone())
-            .or_insert_with(|| Topic {
-                name: m.channel.topic.clone(),
-                msg_type: ty,
-                messages: vec![],
-            })
-            .messages
-            .push(RawMessage {
-                log_time_ns: m.log_time as i64,
-                data,
-            });
+        stream.count += 1;
+        let record = record.map_err(|e| {
+            bad(
+                path,
+                format!(
+                    "record {}: {e} (a truncated or damaged MCAP file? `mcap doctor` says more; no record or chunk longer than {MAX_RECORD_BYTES} bytes is read)",
+                    stream.count
+                ),
+            )
+        })?;
+        stream.take(path, record, topics, budget)?;
     }
     Ok(())
 }
 
-fn read_sqlite(path: &Path, topics: &mut BTreeMap<String, Topic>) -> Result<(), BagError> {
+/// What an MCAP file's records have declared so far.
+#[derive(Default)]
+struct McapStream {
+    /// Schema id -> its type name.
+    schemas: BTreeMap<u16, String>,
+    /// Channel id -> (topic, message encoding).
+    channels: BTreeMap<u16, (String, String)>,
+    /// Records read.
+    count: usize,
+}
+
+impl McapStream {
+    fn take(
+        &mut self,
+        path: &Path,
+        record: mcap::records::Record,
+        topics: &mut BTreeMap<String, Topic>,
+        budget: &mut Budget,
+    ) -> Result<(), BagError> {
+        use mcap::records::Record;
+        match record {
+            Record::Schema { header, .. } => {
+                self.schemas.insert(header.id, header.name);
+            }
+            Record::Channel(c) => {
+                let ty = self.schemas.get(&c.schema_id).cloned().unwrap_or_default();
+                mcap_topic(topics, &c.topic, &c.message_encoding, ty);
+                self.channels.insert(c.id, (c.topic, c.message_encoding));
+            }
+            Record::Message { header, data } => {
+                let count = self.count;
+                let (topic, encoding) = self.channels.get(&header.channel_id).ok_or_else(|| {
+                    bad(
+                        path,
+                        format!(
+                            "record {count}: a message on channel {}, which no channel record before it declares",
+                            header.channel_id
+                        ),
+                    )
+                })?;
+                // A ROS 1 data set converted to MCAP keeps ROS 1's serialisation.
+                let ros1 = match encoding.as_str() {
+                    "cdr" => false,
+                    "ros1" => true,
+                    other => {
+                        return Err(bad(
+                            path,
+                            format!(
+                                "topic `{topic}`: message encoding `{other}`, expected `cdr` (ROS 2) or `ros1`"
+                            ),
+                        ))
+                    }
+                };
+                budget.take(path, data.len())?;
+                let data = if ros1 {
+                    [&cdr::ROS1_MARKER[..], &data].concat()
+                } else {
+                    data.into_owned()
+                };
+                if let Some(t) = topics.get_mut(topic) {
+                    t.messages.push(RawMessage {
+                        log_time_ns: header.log_time as i64,
+                        data,
+                    });
+                }
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+}
+
+/// Lists a channel's topic, ROS 1 type names as ROS 2's.
+fn mcap_topic(topics: &mut BTreeMap<String, Topic>, topic: &str, encoding: &str, ty: String) {
+    let ty = if encoding == "ros1" {
+        super::rosbag1::ros2_type(&ty)
+    } else {
+        ty
+    };
+    topics.entry(topic.to_string()).or_insert_with(|| Topic {
+        name: topic.to_string(),
+        msg_type: ty,
+        messages: vec![],
+    });
+}
+
+/// An MCAP file's summary section, its records' lengths limited.
+fn read_mcap_summary(buf: &[u8]) -> mcap::McapResult<Option<mcap::Summary>> {
+    use std::io::{Read, Seek};
+    let mut cursor = std::io::Cursor::new(buf);
+    let mut reader = mcap::sans_io::SummaryReader::new_with_options(
+        mcap::sans_io::SummaryReaderOptions::default()
+            .with_file_size(buf.len() as u64)
+            .with_record_length_limit(MAX_RECORD_BYTES),
+    );
+    while let Some(event) = reader.next_event() {
+        match event? {
+            mcap::sans_io::SummaryReadEvent::ReadRequest(n) => {
+                let read = cursor.read(reader.insert(n))?;
+                reader.notify_read(read);
+            }
+            mcap::sans_io::SummaryReadEvent::SeekRequest(to) => {
+                let pos = cursor.seek(to)?;
+                reader.notify_seeked(pos);
+            }
+        }
+    }
+    Ok(reader.finish())
+}
+
+fn read_sqlite(
+    path: &Path,
+    topics: &mut BTreeMap<String, Topic>,
+    budget: &mut Budget,
+) -> Result<(), BagError> {
     let sql_err = |e: rusqlite::Error| {
         bad(
             path,
-            format!("{e} (not a rosbag2 SQLite3 file, or a damaged one)"),
+            format!("{e} (not a rosbag2 SQLite3 file, or a damaged one; no message longer than {MAX_RECORD_BYTES} bytes and no query longer than {MAX_QUERY_SECONDS} s is read)"),
         )
     };
-    let db = rusqlite::Connection::open_with_flags(
-        path,
-        rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY | rusqlite::OpenFlags::SQLITE_OPEN_NO_MUTEX,
-    )
-    .map_err(sql_err)?;
-    let mut by_id: BTreeMap<i64, String> = BTreeMap::new();
-    {
-        let mut q = db
-            .prepare("SELECT id, name, type, serialization_format FROM topics")
-            .map_err(sql_err)?;
-        let rows = q
-            .query_map([], |r| {
-                Ok((
-                    r.get::<_, i64>(0)?,
-                    r.get::<_, String>(1)?,
-                    r.get::<_, String>(2)?,
-                    r.get::<_, String>(3)?,
-                ))
-            })
-            .map_err(sql_err)?;
-        for row in rows {
-            let (id, name, ty, format) = row.map_err(sql_err)?;
-            if format != "cdr" {
-                return Err(bad(
-                    path,
-                    format!("topic `{name}`: serialization format `{format}`, expected `cdr`"),
-                ));
-            }
-            topics.entry(name.clone()).or_insert_with(|| Topic {
-                name: name.clone(),
-                msg_type: ty,
-                messages: vec![],
-            });
-            by_id.insert(id, name);
+    let db = open_sqlite(path).map_err(sql_err)?;
+    // rosbag2 writes tables; a view (over itself, or of huge blobs) is not a recording.
+    for table in ["topics", "messages"] {
+        let kind: Option<String> = db
+            .query_row(
+                "SELECT type FROM sqlite_master WHERE name = ?1",
+                [table],
+                |r| r.get(0),
+            )
+            .ok();
+        if kind.as_deref() != Some("table") {
+            return Err(bad(
+                path,
+                format!(
+                    "`{table}` is {}; a rosbag2 SQLite3 file holds a table of that name",
+                    kind.map_or("missing".to_string(), |k| format!("a {k}, not a table"))
+                ),
+            ));
         }
     }
+    let by_id = sqlite_topics(path, &db, topics).map_err(|e| match e {
+        SqliteRead::Sql(e) => sql_err(e),
+        SqliteRead::Bag(e) => e,
+    })?;
     let mut q = db
         .prepare("SELECT topic_id, timestamp, data FROM messages ORDER BY timestamp")
         .map_err(sql_err)?;
-    let rows = q
-        .query_map([], |r| {
-            Ok((
-                r.get::<_, i64>(0)?,
-                r.get::<_, i64>(1)?,
-                r.get::<_, Vec<u8>>(2)?,
-            ))
-        })
-        .map_err(sql_err)?;
-    for row in rows {
-        let (id, t, data) = row.map_err(sql_err)?;
+    let mut rows = q.query([]).map_err(sql_err)?;
+    while let Some(row) = rows.next().map_err(sql_err)? {
+        let id: i64 = row.get(0).map_err(sql_err)?;
+        let t: i64 = row.get(1).map_err(sql_err)?;
+        let data = row.get_ref(2).map_err(sql_err)?;
+        let data = data.as_blob().map_err(|e| sql_err(e.into()))?;
+        budget.take(path, data.len())?;
         let name = by_id.get(&id).ok_or_else(|| {
             bad(
                 path,
@@ -429,9 +543,70 @@ fn read_sqlite(path: &Path, topics: &mut BTreeMap<String, Topic>) -> Result<(), 
         if let Some(topic) = topics.get_mut(name) {
             topic.messages.push(RawMessage {
                 log_time_ns: t,
-                data,
+                data: data.to_vec(),
             });
         }
     }
     Ok(())
+}
+
+/// An SQLite3 file opened read-only, no value longer than [`MAX_RECORD_BYTES`] and no
+/// query running past [`MAX_QUERY_SECONDS`].
+fn open_sqlite(path: &Path) -> rusqlite::Result<rusqlite::Connection> {
+    let db = rusqlite::Connection::open_with_flags(
+        path,
+        rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY | rusqlite::OpenFlags::SQLITE_OPEN_NO_MUTEX,
+    )?;
+    db.set_limit(
+        rusqlite::limits::Limit::SQLITE_LIMIT_LENGTH,
+        MAX_RECORD_BYTES as i32,
+    )?;
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(MAX_QUERY_SECONDS);
+    db.progress_handler(10_000, Some(move || std::time::Instant::now() > deadline));
+    Ok(db)
+}
+
+enum SqliteRead {
+    Sql(rusqlite::Error),
+    Bag(BagError),
+}
+
+impl From<rusqlite::Error> for SqliteRead {
+    fn from(e: rusqlite::Error) -> Self {
+        SqliteRead::Sql(e)
+    }
+}
+
+/// The topics table: each topic listed in `topics`, and topic id -> name.
+fn sqlite_topics(
+    path: &Path,
+    db: &rusqlite::Connection,
+    topics: &mut BTreeMap<String, Topic>,
+) -> Result<BTreeMap<i64, String>, SqliteRead> {
+    let mut by_id: BTreeMap<i64, String> = BTreeMap::new();
+    let mut q = db.prepare("SELECT id, name, type, serialization_format FROM topics")?;
+    let rows = q.query_map([], |r| {
+        Ok((
+            r.get::<_, i64>(0)?,
+            r.get::<_, String>(1)?,
+            r.get::<_, String>(2)?,
+            r.get::<_, String>(3)?,
+        ))
+    })?;
+    for row in rows {
+        let (id, name, ty, format) = row?;
+        if format != "cdr" {
+            return Err(SqliteRead::Bag(bad(
+                path,
+                format!("topic `{name}`: serialization format `{format}`, expected `cdr`"),
+            )));
+        }
+        topics.entry(name.clone()).or_insert_with(|| Topic {
+            name: name.clone(),
+            msg_type: ty,
+            messages: vec![],
+        });
+        by_id.insert(id, name);
+    }
+    Ok(by_id)
 }

@@ -18,15 +18,13 @@ use std::collections::BTreeMap;
 use std::io::Read;
 use std::path::Path;
 
-use super::bag::{bad, BagError, RawMessage, Topic};
+use super::bag::{bad, BagError, Budget, RawMessage, Topic, MAX_RECORD_BYTES};
 use super::cdr::ROS1_MARKER;
 
 const MAGIC: &[u8] = b"#ROSBAG V2.0\n";
 const OP_MESSAGE_DATA: u8 = 0x02;
 const OP_CHUNK: u8 = 0x05;
 const OP_CONNECTION: u8 = 0x07;
-/// Largest uncompressed chunk accepted, bytes (rosbag's chunks are 768 KiB by default).
-const MAX_CHUNK_BYTES: usize = 1 << 30;
 
 /// One record: its header fields and its data.
 struct Record<'a> {
@@ -96,15 +94,24 @@ fn records(buf: &[u8]) -> Result<Vec<(usize, Record<'_>)>, usize> {
 }
 
 /// A chunk's records' bytes, decompressed.
-fn chunk_bytes(path: &Path, rec: &Record, offset: usize) -> Result<Vec<u8>, BagError> {
+///
+/// Its size is checked before it is decompressed (rosbag's chunks are 768 KiB by default)
+/// and counted against the bag's `budget`.
+fn chunk_bytes(
+    path: &Path,
+    rec: &Record,
+    offset: usize,
+    budget: &mut Budget,
+) -> Result<Vec<u8>, BagError> {
     let compression = rec.field("compression").unwrap_or(b"none");
     let size = rec.u32_field("size").unwrap_or(0) as usize;
-    if size > MAX_CHUNK_BYTES {
+    if size > MAX_RECORD_BYTES {
         return Err(bad(
             path,
-            format!("the chunk at byte {offset} says {size} bytes uncompressed, more than the {MAX_CHUNK_BYTES} accepted (a damaged bag?)"),
+            format!("the chunk at byte {offset} says {size} bytes uncompressed, more than the {MAX_RECORD_BYTES} accepted (a damaged bag?)"),
         ));
     }
+    budget.take(path, size)?;
     let mut out = Vec::with_capacity(size);
     let decoded = match compression {
         b"none" => {
@@ -161,7 +168,12 @@ pub(super) fn ros2_type(ros1: &str) -> String {
 }
 
 /// Reads a ROS 1 bag's topics into `topics`.
-pub fn read(path: &Path, buf: &[u8], topics: &mut BTreeMap<String, Topic>) -> Result<(), BagError> {
+pub fn read(
+    path: &Path,
+    buf: &[u8],
+    topics: &mut BTreeMap<String, Topic>,
+    budget: &mut Budget,
+) -> Result<(), BagError> {
     let body = buf.strip_prefix(MAGIC).ok_or_else(|| {
         let head = String::from_utf8_lossy(&buf[..buf.len().min(13)]).trim_end().to_string();
         bad(
@@ -230,7 +242,7 @@ pub fn read(path: &Path, buf: &[u8], topics: &mut BTreeMap<String, Topic>) -> Re
     for (at, rec) in &top {
         let offset = at + MAGIC.len();
         if rec.op() == Some(OP_CHUNK) {
-            let bytes = chunk_bytes(path, rec, offset)?;
+            let bytes = chunk_bytes(path, rec, offset, budget)?;
             let inner = records(&bytes)
                 .map_err(|at| cut(at, &format!("in the chunk at byte {offset}, ")))?;
             for (_, r) in &inner {
