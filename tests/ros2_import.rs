@@ -677,3 +677,70 @@ fn slip_on_a_slippery_floor_is_diagnosed_from_the_bag() {
         "{d:#}"
     );
 }
+
+/// The data rows of an imported recording (its comment lines left out).
+fn data_rows(csv: &Path) -> String {
+    std::fs::read_to_string(csv)
+        .unwrap()
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// Header stamps on clocks that disagree with the log times (commands on a simulation
+/// clock, a 5 s skew, a jump back an hour, one stamp in 2038): each bag is imported at
+/// its log times with a note saying why, its rows those of the same robot stamped on one
+/// clock; a map asking for header stamps is refused naming the topic. Half a stream
+/// unstamped beside stamps on the log clock loses no row.
+#[test]
+fn stamps_on_clocks_that_disagree_are_found_and_log_times_used() {
+    let dir = scratch("clocks");
+    let cmd = dir.join("cmd.csv");
+    commands(&cmd);
+    let clean = dir.join("clean");
+    write_bag(&cmd, &clean, &[]);
+    let args = ["--wheel-radius-m", "0.075", "--track-m", "0.5"];
+    let o = import(&clean, &dir.join("clean_out"), &args);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(!text(&o).contains("header stamps not used"), "{}", text(&o));
+    let expected = data_rows(&dir.join("clean_out/clean.csv"));
+    let header_map = dir.join("header.toml");
+    std::fs::write(&header_map, "time = \"header\"\n").unwrap();
+    for (kind, topic) in [
+        ("sim-cmd", "/cmd_vel"),
+        ("skew-cmd", "/cmd_vel"),
+        ("jump-back", "/battery"),
+        ("y2038", "/joint_states"),
+    ] {
+        let bag = dir.join(kind);
+        write_bag(&cmd, &bag, &["--clock", kind]);
+        let out = dir.join(format!("{kind}_out"));
+        let o = import(&bag, &out, &args);
+        let t = text(&o);
+        assert!(o.status.success(), "{kind}: {t}");
+        assert!(t.contains("header stamps not used"), "{kind}: {t}");
+        assert!(t.contains(&format!("`{topic}`")), "{kind}: {t}");
+        assert_eq!(
+            data_rows(&out.join(format!("{kind}.csv"))),
+            expected,
+            "{kind}: the rows differ from the same robot's on one clock"
+        );
+        let mut with_map = args.to_vec();
+        with_map.extend(["--map", header_map.to_str().unwrap()]);
+        let o = import(&bag, &dir.join(format!("{kind}_header")), &with_map);
+        let t = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{kind}: {t}");
+        assert!(t.contains("asks for header stamps"), "{t}");
+        assert!(t.contains(&format!("`{topic}`")), "{kind}: {t}");
+    }
+    let bag = dir.join("half-unstamped");
+    write_bag(&cmd, &bag, &["--clock", "half-unstamped"]);
+    let o = import(&bag, &dir.join("half_out"), &args);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(!text(&o).contains("header stamps not used"), "{}", text(&o));
+    assert_eq!(
+        data_rows(&dir.join("half_out/half-unstamped.csv")),
+        expected
+    );
+}

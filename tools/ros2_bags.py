@@ -18,6 +18,12 @@ storages), for agvsim's import tests.
       (Twist) from cmd_linear_m_s and cmd_angular_rad_s, /joint_states (wheel angles and
       speeds), /imu (yaw rate), /odom (odometry integrated from the wheels), /tf (the
       tracked pose, mocap -> base_link), /battery and /robot_description (a URDF)
+      --clock KIND stamps the messages on clocks that disagree with the log times:
+        sim-cmd     /cmd_vel as TwistStamped stamped on a simulation clock (from 0 s)
+        skew-cmd    /cmd_vel as TwistStamped stamped 5 s after its log times
+        jump-back   every stamp from the middle on an hour earlier than its log time
+        y2038       one /joint_states message stamped in 2038
+        half-unstamped  every other /joint_states, /imu and /odom message unstamped
 
 Install: python3 -m pip install rosbags
 """
@@ -309,13 +315,33 @@ def read_recording(path):
     return cols
 
 
-def from_recording(rec, out, radius, track, storage, battery_v, noise):
+def twist_stamped(t_ns, v, w):
+    return T['geometry_msgs/msg/TwistStamped'](header=header(t_ns, 'base_link'), twist=twist(v, w))
+
+
+def clock_stamp(clock, topic, k, n, t_ns):
+    """The header stamp a message logged at t_ns gets under the hostile clock `clock`."""
+    if clock == 'sim-cmd' and topic == '/cmd_vel':
+        return t_ns - T0_NS
+    if clock == 'skew-cmd' and topic == '/cmd_vel':
+        return t_ns + 5 * 10**9
+    if clock == 'jump-back' and k >= n // 2:
+        return t_ns - 3600 * 10**9
+    if clock == 'y2038' and topic == '/joint_states' and k == n // 3:
+        return 2_147_000_000 * 10**9
+    if clock == 'half-unstamped' and topic in ('/joint_states', '/imu', '/odom') and k % 2:
+        return 0
+    return t_ns
+
+
+def from_recording(rec, out, radius, track, storage, battery_v, noise, clock=None):
     import random
     rng = random.Random(1)
     n = lambda sd: rng.gauss(0.0, sd) if noise else 0.0
     c = read_recording(rec)
     b = Bag(out, storage)
-    for name, ty in [('/cmd_vel', 'geometry_msgs/msg/Twist'),
+    cmd_type = 'geometry_msgs/msg/TwistStamped' if clock in ('sim-cmd', 'skew-cmd') else 'geometry_msgs/msg/Twist'
+    for name, ty in [('/cmd_vel', cmd_type),
                      ('/joint_states', 'sensor_msgs/msg/JointState'),
                      ('/imu', 'sensor_msgs/msg/Imu'),
                      ('/odom', 'nav_msgs/msg/Odometry'),
@@ -328,13 +354,15 @@ def from_recording(rec, out, radius, track, storage, battery_v, noise):
     pos = [0.0, 0.0]
     ox = oy = oyaw = 0.0
     last_cmd = None
+    n_rows = len(t_s)
     for k, t in enumerate(t_s):
         t_ns = T0_NS + round(t * 1e9)
+        at = lambda topic: clock_stamp(clock, topic, k, n_rows, t_ns)
         cmd = (c['cmd_linear_m_s'][k], c['cmd_angular_rad_s'][k])
         # A teleop node publishes on change and at its own rate; here every change and
         # every tenth row.
         if cmd != last_cmd or k % 10 == 0:
-            b.write('/cmd_vel', t_ns, twist(*cmd))
+            b.write('/cmd_vel', t_ns, twist_stamped(at('/cmd_vel'), *cmd) if cmd_type.endswith('Stamped') else twist(*cmd))
             last_cmd = cmd
         vl, vr = c['left_wheel_speed_m_s'][k], c['right_wheel_speed_m_s'][k]
         if k > 0:
@@ -347,15 +375,15 @@ def from_recording(rec, out, radius, track, storage, battery_v, noise):
             oy += v * math.sin(oyaw) * h
             oyaw += w * h
         # Encoder speeds and a gyro with their noise (0.05 rad/s at the wheel, 0.01 rad/s).
-        b.write('/joint_states', t_ns, joint_state(t_ns, ['left_wheel_joint', 'right_wheel_joint'],
+        b.write('/joint_states', t_ns, joint_state(at('/joint_states'), ['left_wheel_joint', 'right_wheel_joint'],
                                                    list(pos), [vl / radius + n(0.05), vr / radius + n(0.05)],
                                                    [0.0, 0.0]))
-        b.write('/imu', t_ns, imu(t_ns, c['yaw_rate_rad_s'][k] + n(0.01)))
-        b.write('/odom', t_ns, odometry(t_ns, ox, oy, oyaw, 0.5 * (vl + vr), (vr - vl) / track))
+        b.write('/imu', t_ns, imu(at('/imu'), c['yaw_rate_rad_s'][k] + n(0.01)))
+        b.write('/odom', t_ns, odometry(at('/odom'), ox, oy, oyaw, 0.5 * (vl + vr), (vr - vl) / track))
         if k % 2 == 0 and c.get('x_m') and c['x_m'][k] is not None:  # a slower tracker
-            b.write('/tf', t_ns, tf(t_ns, 'mocap', 'base_link', c['x_m'][k], c['y_m'][k], c['heading_rad'][k]))
+            b.write('/tf', t_ns, tf(at('/tf'), 'mocap', 'base_link', c['x_m'][k], c['y_m'][k], c['heading_rad'][k]))
         if k % 20 == 0:
-            b.write('/battery', t_ns, battery(t_ns, battery_v))
+            b.write('/battery', t_ns, battery(at('/battery'), battery_v))
     b.close()
 
 
@@ -374,13 +402,16 @@ def main():
     r.add_argument('--battery-v', type=float, default=24.0)
     r.add_argument('--storage', choices=['mcap', 'sqlite3'], default='mcap')
     r.add_argument('--noise', action='store_true', help='add encoder and gyro noise (seeded)')
+    r.add_argument('--clock', choices=['sim-cmd', 'skew-cmd', 'jump-back', 'y2038', 'half-unstamped'],
+                   help='stamp messages on clocks that disagree with the log times')
     a = ap.parse_args()
     if a.cmd == 'fixtures':
         fixtures(a.out)
     elif a.cmd == 'shapes':
         shapes(a.out)
     else:
-        from_recording(a.recording, a.out, a.wheel_radius_m, a.track_m, a.storage, a.battery_v, a.noise)
+        from_recording(a.recording, a.out, a.wheel_radius_m, a.track_m, a.storage, a.battery_v, a.noise,
+                       a.clock)
 
 
 if __name__ == '__main__':

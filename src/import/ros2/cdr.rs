@@ -208,7 +208,7 @@ impl<'a> Cdr<'a> {
 }
 
 /// `std_msgs/Header`: the stamp, s since the epoch, and the frame.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct Header {
     /// The stamp, ns since the epoch (0: not stamped).
     pub stamp_ns: i64,

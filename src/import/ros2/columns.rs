@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use super::align::{held, median_interval_ns, nearest, seconds_of_ns, Series};
 use super::bag::{Bag, Storage, Topic};
 use super::cdr::{self, CdrError, Header};
-use super::urdf;
+use super::{clock, urdf};
 use super::{Geometry, Ros2Error, TimeSource, TopicMap};
 
 /// How one column was made, for the recording's header.
@@ -62,6 +62,8 @@ pub(super) struct Converter<'a> {
     pub(super) bag: &'a Bag,
     pub(super) map: &'a TopicMap,
     time: TimeSource,
+    /// Each stream's (log time, time placed at), for the clocks' check.
+    placed: std::cell::RefCell<clock::StreamTimes>,
 }
 
 fn s_of(ns: i64) -> f64 {
@@ -171,12 +173,19 @@ impl<'a> Converter<'a> {
             .collect()
     }
 
-    pub(super) fn at(&self, h: &Header, log_ns: i64) -> i64 {
-        if self.time == TimeSource::Header && h.stamp_ns > 0 {
+    /// Where a message of `topic` is placed in time: its header stamp or its log time.
+    pub(super) fn at(&self, topic: &str, h: &Header, log_ns: i64) -> i64 {
+        let at = if self.time == TimeSource::Header && h.stamp_ns > 0 {
             h.stamp_ns
         } else {
             log_ns
-        }
+        };
+        self.placed
+            .borrow_mut()
+            .entry(topic.to_string())
+            .or_default()
+            .push((log_ns, at));
+        at
     }
 
     fn time_words(&self) -> &'static str {
@@ -188,11 +197,51 @@ impl<'a> Converter<'a> {
 }
 
 /// Converts a bag's topics to a velocity-commanded vehicle recording.
+///
+/// Messages are placed at their header stamps unless the map says `time = "log"`; where
+/// the stamps are not one clock with the log times ([`clock::disagreement`]) every
+/// message is placed at its log time instead, and a note says why; a map that asks for
+/// header stamps then has the bag refused.
 pub fn convert(bag: &Bag, map: &TopicMap, geometry: &Geometry) -> Result<Ros2Recording, Ros2Error> {
+    let time = map.time.unwrap_or_default();
+    match convert_timed(bag, map, geometry, time)? {
+        Timed::Done(r) => Ok(r),
+        Timed::ClocksDisagree(why) if map.time.is_none() => {
+            match convert_timed(bag, map, geometry, TimeSource::Log)? {
+                Timed::Done(mut r) => {
+                    r.notes.insert(
+                        0,
+                        format!("header stamps not used: {why}; every message is placed at its log time (say time = \"log\" in a --map file to choose it)"),
+                    );
+                    Ok(r)
+                }
+                Timed::ClocksDisagree(why) => unreachable!("log times are one clock: {why}"),
+            }
+        }
+        Timed::ClocksDisagree(why) => Err(Ros2Error::Content {
+            bag: bag.path.clone(),
+            message: format!("the --map file asks for header stamps (time = \"header\"), but {why}; say time = \"log\" to place each message at its log time"),
+        }),
+    }
+}
+
+/// A conversion done, or stopped because the header stamps are not one clock.
+enum Timed {
+    Done(Ros2Recording),
+    ClocksDisagree(String),
+}
+
+fn convert_timed(
+    bag: &Bag,
+    map: &TopicMap,
+    geometry: &Geometry,
+    time: TimeSource,
+) -> Result<Timed, Ros2Error> {
     let c = Converter {
         bag,
         map,
-        time: map.time.unwrap_or_default(),
+        time,
+        placed: Default::default(),
     };
     let mut conversions = vec![];
     let mut notes = vec![];
@@ -260,11 +309,18 @@ pub fn convert(bag: &Bag, map: &TopicMap, geometry: &Geometry) -> Result<Ros2Rec
     let mut commands = Series::default();
     if cmd_topic.msg_type.ends_with("TwistStamped") {
         for (log, (h, tw)) in c.decode(cmd_topic, cdr::decode_twist_stamped)? {
-            commands.push(c.at(&h, log), vec![tw.linear_x_m_s, tw.angular_z_rad_s]);
+            commands.push(
+                c.at(&cmd_topic.name, &h, log),
+                vec![tw.linear_x_m_s, tw.angular_z_rad_s],
+            );
         }
     } else {
+        let unstamped = Header::default();
         for (log, tw) in c.decode(cmd_topic, cdr::decode_twist)? {
-            commands.push(log, vec![tw.linear_x_m_s, tw.angular_z_rad_s]);
+            commands.push(
+                c.at(&cmd_topic.name, &unstamped, log),
+                vec![tw.linear_x_m_s, tw.angular_z_rad_s],
+            );
         }
     }
     let commands = commands.sorted();
@@ -335,7 +391,7 @@ pub fn convert(bag: &Bag, map: &TopicMap, geometry: &Geometry) -> Result<Ros2Rec
                     .unwrap_or(f64::NAN)
             };
             wheel.push(
-                c.at(&m.header, *log),
+                c.at(&t.name, &m.header, *log),
                 vec![
                     pick(&m.velocity, &l),
                     pick(&m.velocity, &r),
@@ -353,7 +409,7 @@ pub fn convert(bag: &Bag, map: &TopicMap, geometry: &Geometry) -> Result<Ros2Rec
     let mut gyro = Series::default();
     if let Some(t) = imu {
         for (log, m) in c.decode(t, cdr::decode_imu)? {
-            gyro.push(c.at(&m.header, log), vec![m.yaw_rate_rad_s]);
+            gyro.push(c.at(&t.name, &m.header, log), vec![m.yaw_rate_rad_s]);
         }
     }
     let gyro = gyro.sorted();
@@ -363,7 +419,7 @@ pub fn convert(bag: &Bag, map: &TopicMap, geometry: &Geometry) -> Result<Ros2Rec
         for (log, m) in c.decode(t, cdr::decode_odometry)? {
             odom_frames.get_or_insert((m.header.frame_id.clone(), m.child_frame_id.clone()));
             odometry.push(
-                c.at(&m.header, log),
+                c.at(&t.name, &m.header, log),
                 vec![
                     m.pose[0],
                     m.pose[1],
@@ -378,11 +434,16 @@ pub fn convert(bag: &Bag, map: &TopicMap, geometry: &Geometry) -> Result<Ros2Rec
     let mut volts = Series::default();
     if let Some(t) = battery {
         for (log, m) in c.decode(t, cdr::decode_battery_state)? {
-            volts.push(c.at(&m.header, log), vec![m.voltage_v]);
+            volts.push(c.at(&t.name, &m.header, log), vec![m.voltage_v]);
         }
     }
     let volts = volts.sorted();
     let (pose, pose_frames) = super::pose::tracked_pose(&c, &mut notes)?;
+    if time == TimeSource::Header {
+        if let Some(why) = clock::disagreement(&c.placed.borrow()) {
+            return Ok(Timed::ClocksDisagree(why));
+        }
+    }
 
     // The time base: the wheels' stamps, else the gyro's, else the odometry's, else the
     // pose's.
@@ -404,7 +465,11 @@ pub fn convert(bag: &Bag, map: &TopicMap, geometry: &Geometry) -> Result<Ros2Rec
             rows.push(t);
         }
     }
-    let dropped = base.t_ns.iter().filter(|&&t| t >= first_cmd).count() - rows.len();
+    let before = base.t_ns.iter().filter(|&&t| t < first_cmd).count();
+    if before > 0 {
+        notes.push(format!("{before} message(s) of {base_name} before the first command were left out (rows start at the first command)"));
+    }
+    let dropped = base.t_ns.len() - before - rows.len();
     if dropped > 0 {
         notes.push(format!("{dropped} message(s) of {base_name} repeat an earlier stamp and were dropped (rows must be strictly increasing)"));
     }
@@ -605,7 +670,7 @@ pub fn convert(bag: &Bag, map: &TopicMap, geometry: &Geometry) -> Result<Ros2Rec
         ),
         ("time_zero_ns".to_string(), t0.to_string()),
     ];
-    Ok(Ros2Recording {
+    Ok(Timed::Done(Ros2Recording {
         bag: bag.path.clone(),
         storage: bag.storage,
         time_zero_ns: t0,
@@ -623,7 +688,7 @@ pub fn convert(bag: &Bag, map: &TopicMap, geometry: &Geometry) -> Result<Ros2Rec
         },
         battery_v,
         notes,
-    })
+    }))
 }
 
 impl Ros2Recording {

@@ -13,6 +13,7 @@
 mod align;
 pub mod bag;
 pub mod cdr;
+pub mod clock;
 mod columns;
 pub mod controller;
 mod pose;

@@ -143,7 +143,7 @@ fn tf_links(c: &Converter) -> Result<Vec<TfLink>, Ros2Error> {
                 };
                 links[i]
                     .series
-                    .push(c.at(&tr.header, log), tr.pose.to_vec());
+                    .push(c.at(&t.name, &tr.header, log), tr.pose.to_vec());
             }
         }
     }
@@ -257,19 +257,19 @@ fn pose_topic(c: &Converter, t: &Topic) -> Result<(Series, String), Ros2Error> {
     let what = match t.msg_type.as_str() {
         POSE_STAMPED => {
             for (log, (h, p)) in c.decode(t, cdr::decode_pose_stamped)? {
-                s.push(c.at(&h, log), p.to_vec());
+                s.push(c.at(&t.name, &h, log), p.to_vec());
             }
             format!("{POSE_STAMPED} pose")
         }
         POSE_COV_STAMPED => {
             for (log, (h, p)) in c.decode(t, cdr::decode_pose_with_covariance_stamped)? {
-                s.push(c.at(&h, log), p.to_vec());
+                s.push(c.at(&t.name, &h, log), p.to_vec());
             }
             format!("{POSE_COV_STAMPED} pose.pose")
         }
         ODOMETRY => {
             for (log, m) in c.decode(t, cdr::decode_odometry)? {
-                s.push(c.at(&m.header, log), m.pose.to_vec());
+                s.push(c.at(&t.name, &m.header, log), m.pose.to_vec());
             }
             format!("{ODOMETRY} pose.pose (a motion-capture bridge's, as --map pose says)")
         }
