@@ -744,3 +744,46 @@ fn stamps_on_clocks_that_disagree_are_found_and_log_times_used() {
         expected
     );
 }
+
+/// Joint states that do not give the wheels' speeds (joints named differently from the
+/// URDF's, a velocity array shorter than `name`, positions only, NaN speeds): refused,
+/// naming the topic and the joint, never imported without wheel columns.
+#[test]
+fn joint_states_without_the_wheels_speeds_are_refused_naming_the_joint() {
+    let dir = scratch("joints");
+    let cmd = dir.join("cmd.csv");
+    commands(&cmd);
+    let args = ["--wheel-radius-m", "0.075", "--track-m", "0.5"];
+    for (kind, says) in [
+        (
+            "renamed",
+            &[
+                "no joint named `left_wheel_joint`",
+                "`wheel_l`, `wheel_r`",
+                "--map left_wheel_joint",
+            ][..],
+        ),
+        (
+            "short-velocity",
+            &[
+                "joint `right_wheel_joint` (the right wheel) gives no speed",
+                "shorter than `name`",
+            ],
+        ),
+        (
+            "position-only",
+            &["joint `left_wheel_joint`", "positions only"],
+        ),
+        ("nan", &["joint `left_wheel_joint`", "NaN"]),
+    ] {
+        let bag = dir.join(kind);
+        write_bag(&cmd, &bag, &["--joints", kind]);
+        let o = import(&bag, &dir.join(format!("{kind}_out")), &args);
+        let t = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{kind}: {t}");
+        assert!(t.contains("topic `/joint_states`"), "{kind}: {t}");
+        for s in says {
+            assert!(t.contains(s), "{kind}: expected `{s}` in: {t}");
+        }
+    }
+}

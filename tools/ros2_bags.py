@@ -24,6 +24,11 @@ storages), for agvsim's import tests.
         jump-back   every stamp from the middle on an hour earlier than its log time
         y2038       one /joint_states message stamped in 2038
         half-unstamped  every other /joint_states, /imu and /odom message unstamped
+      --joints KIND writes /joint_states as drivers that do not match the URDF do:
+        renamed        joints `wheel_l` and `wheel_r` (the URDF says left_wheel_joint, ...)
+        short-velocity a velocity array holding the left wheel's speed only
+        position-only  positions, no velocities
+        nan            velocities all NaN
 
 Install: python3 -m pip install rosbags
 """
@@ -334,7 +339,20 @@ def clock_stamp(clock, topic, k, n, t_ns):
     return t_ns
 
 
-def from_recording(rec, out, radius, track, storage, battery_v, noise, clock=None):
+def driver_joints(kind, names, pos, vel):
+    """The names, positions and speeds a /joint_states message carries under `kind`."""
+    if kind == 'renamed':
+        return ['wheel_l', 'wheel_r'], pos, vel
+    if kind == 'short-velocity':
+        return names, pos, vel[:1]
+    if kind == 'position-only':
+        return names, pos, []
+    if kind == 'nan':
+        return names, pos, [float('nan')] * len(vel)
+    return names, pos, vel
+
+
+def from_recording(rec, out, radius, track, storage, battery_v, noise, clock=None, joints=None):
     import random
     rng = random.Random(1)
     n = lambda sd: rng.gauss(0.0, sd) if noise else 0.0
@@ -375,9 +393,9 @@ def from_recording(rec, out, radius, track, storage, battery_v, noise, clock=Non
             oy += v * math.sin(oyaw) * h
             oyaw += w * h
         # Encoder speeds and a gyro with their noise (0.05 rad/s at the wheel, 0.01 rad/s).
-        b.write('/joint_states', t_ns, joint_state(at('/joint_states'), ['left_wheel_joint', 'right_wheel_joint'],
-                                                   list(pos), [vl / radius + n(0.05), vr / radius + n(0.05)],
-                                                   [0.0, 0.0]))
+        names, jpos, jvel = driver_joints(joints, ['left_wheel_joint', 'right_wheel_joint'], list(pos),
+                                          [vl / radius + n(0.05), vr / radius + n(0.05)])
+        b.write('/joint_states', t_ns, joint_state(at('/joint_states'), names, jpos, jvel, [0.0] * len(jvel)))
         b.write('/imu', t_ns, imu(at('/imu'), c['yaw_rate_rad_s'][k] + n(0.01)))
         b.write('/odom', t_ns, odometry(at('/odom'), ox, oy, oyaw, 0.5 * (vl + vr), (vr - vl) / track))
         if k % 2 == 0 and c.get('x_m') and c['x_m'][k] is not None:  # a slower tracker
@@ -404,6 +422,8 @@ def main():
     r.add_argument('--noise', action='store_true', help='add encoder and gyro noise (seeded)')
     r.add_argument('--clock', choices=['sim-cmd', 'skew-cmd', 'jump-back', 'y2038', 'half-unstamped'],
                    help='stamp messages on clocks that disagree with the log times')
+    r.add_argument('--joints', choices=['renamed', 'short-velocity', 'position-only', 'nan'],
+                   help='write /joint_states as a driver that does not match the URDF')
     a = ap.parse_args()
     if a.cmd == 'fixtures':
         fixtures(a.out)
@@ -411,7 +431,7 @@ def main():
         shapes(a.out)
     else:
         from_recording(a.recording, a.out, a.wheel_radius_m, a.track_m, a.storage, a.battery_v, a.noise,
-                       a.clock)
+                       a.clock, a.joints)
 
 
 if __name__ == '__main__':

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use super::align::{held, median_interval_ns, nearest, seconds_of_ns, Series};
 use super::bag::{Bag, Storage, Topic};
 use super::cdr::{self, CdrError, Header};
-use super::{clock, urdf};
+use super::{clock, joints, urdf};
 use super::{Geometry, Ros2Error, TimeSource, TopicMap};
 
 /// How one column was made, for the recording's header.
@@ -382,6 +382,20 @@ fn convert_timed(
                 t.name
             )));
         };
+        let named_by = |side: &str, explicit: &Option<String>| match (explicit, &described) {
+            (Some(_), _) => format!("--map {side}_wheel_joint"),
+            (None, Some(_)) => "/robot_description's wheel joint".to_string(),
+            (None, None) => format!("the joint whose name holds `{side}` and `wheel`"),
+        };
+        let all: Vec<&cdr::JointState> = msgs.iter().map(|(_, m)| m).collect();
+        for (side, joint, explicit) in [
+            ("left", &l, &map.left_wheel_joint),
+            ("right", &r, &map.right_wheel_joint),
+        ] {
+            let note = joints::check(&t.name, &all, side, joint, &named_by(side, explicit))
+                .map_err(|m| c.err(m))?;
+            notes.extend(note);
+        }
         for (log, m) in &msgs {
             let pick = |v: &[f64], name: &str| {
                 m.name

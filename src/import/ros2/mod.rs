@@ -16,6 +16,7 @@ pub mod cdr;
 pub mod clock;
 mod columns;
 pub mod controller;
+mod joints;
 mod pose;
 mod rosbag1;
 mod urdf;
