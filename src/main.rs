@@ -446,6 +446,7 @@ fn new(a: NewArgs) -> Result<(), CommandError> {
                 width_m: a.width_m,
                 description: a.description,
                 configured_geometry: false,
+                origins: vec![],
             },
         },
         &say,

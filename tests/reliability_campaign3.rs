@@ -197,3 +197,103 @@ fn durations_are_named_as_the_option_given_and_a_run_of_no_row_is_refused() {
     assert!(t.contains("at least one recording interval long"), "{t}");
     assert!(!dir.join("b/lab_offset_120mm.csv").exists());
 }
+
+/// The longest run of digits in a text (a 1e-300 printed plainly has over 300).
+fn longest_digit_run(t: &str) -> usize {
+    t.split(|c: char| !c.is_ascii_digit())
+        .map(str::len)
+        .max()
+        .unwrap_or(0)
+}
+
+#[test]
+fn absurd_numbers_given_to_new_are_named_by_their_options() {
+    let dir = tmp("absurd-new");
+    let base = [
+        "--track-m",
+        "0.4",
+        "--wheel-radius-m",
+        "0.05",
+        "--battery-V",
+        "12",
+        "--motor-stall-current-A",
+        "20",
+    ];
+    let new = |name: &str, extra: &[&str]| {
+        let path = dir.join(name);
+        let mut args = vec!["new", path.to_str().unwrap()];
+        args.extend(base);
+        args.extend(extra);
+        agvsim(&args)
+    };
+    // Each warning names the option as typed; no number prints hundreds of digits.
+    for (name, extra, says) in [
+        (
+            "grams.toml",
+            &[
+                "--mass-kg",
+                "1e-300",
+                "--gear-ratio",
+                "20",
+                "--motor-no-load-rpm",
+                "3000",
+            ][..],
+            "warning: --mass-kg 1e-300 (",
+        ),
+        (
+            "ratio.toml",
+            &[
+                "--mass-kg",
+                "60",
+                "--gear-ratio",
+                "1e-300",
+                "--motor-no-load-rpm",
+                "3000",
+            ],
+            "warning: --gear-ratio 1e-300 (",
+        ),
+        (
+            "rad_s.toml",
+            &[
+                "--mass-kg",
+                "60",
+                "--gear-ratio",
+                "20",
+                "--motor-no-load-rpm",
+                "314",
+            ],
+            "warning: --motor-rated-V 12 --motor-no-load-rpm 314 (",
+        ),
+    ] {
+        let o = new(name, extra);
+        let t = text(&o);
+        assert!(o.status.success(), "{name}: {t}");
+        assert!(t.contains(says), "{name}: expected `{says}` in {t}");
+        assert!(longest_digit_run(&t) < 30, "{name}: {t}");
+    }
+    // The rad/s typed as rpm: a top speed no robot that drives itself has.
+    let o = agvsim(&["check", dir.join("rad_s.toml").to_str().unwrap()]);
+    let t = text(&o);
+    assert!(
+        t.contains("expected a top speed of at least 0.1 m/s"),
+        "{t}"
+    );
+    // A mass whose derived values are infinite: refused, naming the options first.
+    let o = new(
+        "huge.toml",
+        &[
+            "--mass-kg",
+            "1e308",
+            "--gear-ratio",
+            "20",
+            "--motor-no-load-rpm",
+            "3000",
+        ],
+    );
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{t}");
+    assert!(t.starts_with("error: --mass-kg 1e308 "), "{t}");
+    assert!(t.contains("beyond any wheeled robot's"), "{t}");
+    assert!(longest_digit_run(&t) < 30, "{t}");
+    assert!(!dir.join("huge.toml").exists());
+}

@@ -267,7 +267,7 @@ fn malformed_bags_are_refused_naming_the_topic_or_record() {
     refused(
         &cut,
         &[],
-        &["cut.mcap", "message record", "truncated or damaged"],
+        &["cut.mcap", ": record ", "truncated or damaged"],
     );
     let folder = dir.join("cut_folder");
     std::fs::create_dir_all(&folder).unwrap();
@@ -786,4 +786,45 @@ fn joint_states_without_the_wheels_speeds_are_refused_naming_the_joint() {
             assert!(t.contains(s), "{kind}: expected `{s}` in: {t}");
         }
     }
+}
+
+/// A battery topic in millivolts and a URDF wheel of infinite radius: the warning names
+/// the topic, the error the robot description, neither an option never given.
+#[test]
+fn numbers_from_a_bag_are_named_by_the_topic_they_came_from() {
+    let dir = scratch("absurd");
+    let cmd = dir.join("cmd.csv");
+    commands(&cmd);
+    let mv = dir.join("millivolts");
+    write_bag(&cmd, &mv, &["--battery-v", "24000"]);
+    let o = import(&mv, &dir.join("mv_out"), &["--mass-kg", "120"]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(
+        t.contains("warning: the median voltage of /battery ("),
+        "{t}"
+    );
+    assert!(t.contains("`battery.open_circuit_V` = 24000 V"), "{t}");
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/ros2_bags.py");
+    let inf = dir.join("infinite");
+    let o = Command::new("python3")
+        .arg(script)
+        .args([
+            "from-recording",
+            cmd.to_str().unwrap(),
+            inf.to_str().unwrap(),
+        ])
+        .args(["--wheel-radius-m", "inf", "--track-m", "0.5"])
+        .output()
+        .expect("python3 runs");
+    assert!(o.status.success(), "{}", text(&o));
+    let o = import(&inf, &dir.join("inf_out"), &[]);
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{t}");
+    assert!(
+        t.contains("wheel radius inf from /robot_description: joint `left_wheel_joint`"),
+        "{t}"
+    );
+    assert!(!t.contains("--track-m") && !t.contains(".csv:"), "{t}");
+    assert!(!dir.join("inf_out").exists());
 }

@@ -234,6 +234,7 @@ fn new_scene(
         width_m: positive("width_m", width_m)?,
         description,
         configured_geometry: false,
+        origins: vec![],
     };
     job(py, false, move |say| {
         commands::new::run(

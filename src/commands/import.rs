@@ -245,6 +245,45 @@ pub struct Ros2Import {
     pub command: String,
 }
 
+/// Where an imported robot's track, wheel radius and battery voltage came from, when not
+/// from an option: the bag's description (or the controller's file) and battery topic.
+fn geometry_origins(
+    rec: &crate::import::ros2::Ros2Recording,
+    geometry: &Option<(f64, f64, String)>,
+    battery_from_topic: bool,
+) -> Vec<(&'static str, String)> {
+    let mut origins = vec![];
+    if let Some((_, _, from)) = geometry {
+        for (key, part) in [
+            ("chassis.track_width_m", "track"),
+            ("wheel.radius_m", "wheel radius"),
+        ] {
+            // `from` reads "track from X; wheel radius from Y" (or one source for both).
+            let said = from
+                .split("; ")
+                .find_map(|p| p.strip_prefix(&format!("{part} from ")))
+                .unwrap_or(from);
+            if !said.starts_with("--") {
+                origins.push((key, said.to_string()));
+            }
+        }
+    }
+    if battery_from_topic {
+        if let Some(c) = rec
+            .conversions
+            .iter()
+            .find(|c| c.column == "battery_voltage_V")
+        {
+            let topic = c.how.split(' ').next().unwrap_or("the battery topic");
+            origins.push((
+                "battery.open_circuit_V",
+                format!("the median voltage of {topic}"),
+            ));
+        }
+    }
+    origins
+}
+
 /// Reads the bag, writes `DIR/BAG.csv` and, where the track and wheel radius are known,
 /// `DIR/BAG.scene.toml` (every file or none), and says how each column was made.
 pub fn ros2(req: &Ros2Import, say: Say) -> Result<(), CommandError> {
@@ -284,6 +323,7 @@ pub fn ros2(req: &Ros2Import, say: Say) -> Result<(), CommandError> {
             ),
         ))
     });
+    let mut warnings: Vec<String> = vec![];
     if let Some((track_m, radius_m, from)) = &geometry {
         let battery_v = req.battery_v.or(rec.battery_v);
         let spec = crate::scene::robot::RobotSpec {
@@ -297,6 +337,7 @@ pub fn ros2(req: &Ros2Import, say: Say) -> Result<(), CommandError> {
             backlash_rad: Some(req.backlash_rad.unwrap_or(0.0)),
             guidance: Some(crate::scene::robot::Guidance::None),
             configured_geometry: true,
+            origins: geometry_origins(&rec, &geometry, req.battery_v.is_none()),
             description: Some(format!(
                 "The robot of ROS 2 bag {stem}: {from}{}; {} until calibrated",
                 battery_v.map_or(String::new(), |v| format!(
@@ -326,6 +367,16 @@ pub fn ros2(req: &Ros2Import, say: Say) -> Result<(), CommandError> {
         if let Some(p) = &params {
             text = with_controller_params(&text, p, req.controller_yaml.as_deref())?;
         }
+        if let Ok(checked) = crate::scene::Scene::checked_from_toml(&text, &scene_path, &[]) {
+            // Each warning names where its number came from: an option, the bag's
+            // description, its battery topic.
+            for (origin, w) in &checked.warnings {
+                warnings.push(match spec.options_setting(w.key) {
+                    Some(from) => format!("warning: {from} ({origin}): {w}\n"),
+                    None => format!("warning: {origin}: {w}\n"),
+                });
+            }
+        }
         crate::scene::Scene::from_toml(&text, &scene_path, &[]).map_err(|e| {
             CommandError::Contract {
                 what: "the robot's scene".into(),
@@ -353,6 +404,9 @@ pub fn ros2(req: &Ros2Import, say: Say) -> Result<(), CommandError> {
     }
     for n in &rec.notes {
         report.push_str(&format!("note: {n}\n"));
+    }
+    for w in &warnings {
+        report.push_str(w);
     }
     report.push_str(&format!("recording  {}\n", csv_path.display()));
     if files.len() > 1 {

@@ -94,15 +94,22 @@ pub fn run(req: &NewRequest, say: Say) -> Result<(), CommandError> {
     for n in &new.notes {
         report.push_str(&format!("note: {n}\n"));
     }
+    let n = crate::param::plain_number;
     report.push_str(&format!(
         "top speed {} m/s: the motor's no-load speed at the drive limit {} V through the {}:1 gear to a {} m wheel\n",
         sig(new.top_speed_m_s),
-        new.scene.battery.drive_limit_v,
-        new.scene.gearbox.ratio,
-        new.scene.wheel.radius_m
+        n(new.scene.battery.drive_limit_v),
+        n(new.scene.gearbox.ratio),
+        n(new.scene.wheel.radius_m)
     ));
     let checked = Scene::checked_from_toml(&new.text, &req.out, &[])?;
-    report.push_str(&checked.render_warnings());
+    // Each warning names the options that set its key, as the user typed them.
+    for (origin, w) in &checked.warnings {
+        match req.spec.options_setting(w.key) {
+            Some(options) => report.push_str(&format!("warning: {options} ({origin}): {w}\n")),
+            None => report.push_str(&format!("warning: {origin}: {w}\n")),
+        }
+    }
     say(&report);
     crate::output::write_atomically(&req.out, &new.text).map_err(super::io(&req.out))?;
     say(&format!("scene      {}\n", req.out.display()));

@@ -65,6 +65,10 @@ const VEHICLE_SIZES: [(&str, &str, f64, f64, &str); 5] = [
 /// wheeled robot or AGV, m/s: industrial AGVs run under 2 m/s, fast mobile robots under 10.
 const TOP_SPEED_MAX_M_S: f64 = 20.0;
 
+/// Slowest top speed of a robot that drives itself, m/s: a motor's no-load speed given in
+/// rad/s where rpm is asked, or a gearmotor's output speed geared down again, lands below.
+const TOP_SPEED_MIN_M_S: f64 = 0.1;
+
 /// Every plausibility warning of a scene, in key order.
 pub fn warnings(scene: &Scene) -> Vec<Warning> {
     let mut w = Vec::new();
@@ -102,6 +106,21 @@ fn sizes(scene: &Scene, w: &mut Vec<Warning>) {
         / scene.motor.torque_constant_nm_a
         / scene.gearbox.ratio
         * scene.wheel.radius_m;
+    if top_m_s.is_finite() && top_m_s > 0.0 && top_m_s < TOP_SPEED_MIN_M_S {
+        w.push(Warning {
+            key: "motor.torque_constant_Nm_A",
+            value: format!("{} N m/A", sig(scene.motor.torque_constant_nm_a)),
+            expected: format!("a top speed of at least {} m/s", sig(TOP_SPEED_MIN_M_S)),
+            why: format!(
+                "the motor's no-load speed at the drive limit ({} V / {} N m/A) through gearbox.ratio = {} to a {} m wheel gives {} m/s; a no-load speed in rad/s given as rpm, or a gearmotor's output speed with its ratio applied again?",
+                sig(scene.battery.drive_limit_v.min(scene.battery.open_circuit_v)),
+                sig(scene.motor.torque_constant_nm_a),
+                sig(scene.gearbox.ratio),
+                sig(scene.wheel.radius_m),
+                sig(top_m_s)
+            ),
+        });
+    }
     if top_m_s.is_finite() && top_m_s > TOP_SPEED_MAX_M_S {
         w.push(Warning {
             key: "motor.torque_constant_Nm_A",

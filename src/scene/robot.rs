@@ -74,6 +74,9 @@ pub struct RobotSpec {
     /// `base.wheel_radius_m`: a ROS robot's URDF or `diff_drive_controller` values),
     /// so that the physical ones can be calibrated apart from them.
     pub configured_geometry: bool,
+    /// Where a number came from when it is not an option typed to `agvsim new`, by key
+    /// (an import's `/robot_description` or battery topic), for warnings and errors.
+    pub origins: Vec<(&'static str, String)>,
 }
 
 /// What is wrong with the numbers given to `agvsim new`.
@@ -95,6 +98,32 @@ pub enum RobotError {
     /// The starting scene, or the result, does not load.
     #[error(transparent)]
     Scene(#[from] SceneError),
+    /// A number from elsewhere than an option (an import's bag) outside what it may be.
+    #[error("`{key}` = {value} from {origin}: expected {expected}")]
+    InvalidFrom {
+        /// The key.
+        key: &'static str,
+        /// Where it came from.
+        origin: String,
+        /// The value.
+        value: String,
+        /// What was expected.
+        expected: String,
+    },
+    /// A value derived from the numbers given breaks its key's rule.
+    #[error("{options}: `{key}` = {value} ({how}): expected {expected}; the numbers given are beyond any wheeled robot's")]
+    Derived {
+        /// The options behind it, as typed.
+        options: String,
+        /// The derived key.
+        key: String,
+        /// Its value.
+        value: String,
+        /// What its rule expects.
+        expected: String,
+        /// How it was derived.
+        how: String,
+    },
 }
 
 /// A number the builder gave or a derived value depends on.
@@ -217,7 +246,7 @@ fn positive(option: &'static str, v: Option<f64>) -> Result<Option<f64>, RobotEr
     match v {
         Some(x) if !(x.is_finite() && x > 0.0) => Err(RobotError::Invalid {
             option,
-            value: format!("{x}"),
+            value: crate::param::plain_number(x),
             expected: "a finite number greater than zero".into(),
         }),
         other => Ok(other),
@@ -228,11 +257,28 @@ impl RobotSpec {
     /// Checks each given number and that, without a starting scene, the needed ones are
     /// there.
     fn check(&self, has_base: bool) -> Result<(), RobotError> {
-        positive("mass-kg", self.mass_kg)?;
-        positive("track-m", self.track_m)?;
-        positive("wheel-radius-m", self.wheel_radius_m)?;
-        positive("battery-V", self.battery_v)?;
-        positive("gear-ratio", self.gear_ratio)?;
+        for (key, option, v) in [
+            ("chassis.mass_kg", "mass-kg", self.mass_kg),
+            ("chassis.track_width_m", "track-m", self.track_m),
+            ("wheel.radius_m", "wheel-radius-m", self.wheel_radius_m),
+            ("battery.open_circuit_V", "battery-V", self.battery_v),
+            ("gearbox.ratio", "gear-ratio", self.gear_ratio),
+        ] {
+            positive(option, v).map_err(|e| match (self.origin(key), e) {
+                (
+                    Some(origin),
+                    RobotError::Invalid {
+                        value, expected, ..
+                    },
+                ) => RobotError::InvalidFrom {
+                    key,
+                    origin: origin.to_string(),
+                    value,
+                    expected,
+                },
+                (_, e) => e,
+            })?;
+        }
         positive("length-m", self.length_m)?;
         positive("width-m", self.width_m)?;
         if let Some(m) = &self.motor {
@@ -250,7 +296,7 @@ impl RobotSpec {
             if !(b.is_finite() && (0.0..1.0).contains(&b)) {
                 return Err(RobotError::Invalid {
                     option: "backlash-rad",
-                    value: format!("{b}"),
+                    value: crate::param::plain_number(b),
                     expected: "a play in [0, 1) rad at the wheel".into(),
                 });
             }
@@ -315,6 +361,82 @@ impl RobotSpec {
         .into_iter()
         .filter_map(|(g, i)| g.then_some(i))
         .collect()
+    }
+
+    /// The options given that set `key` directly or through the motor's datasheet, as
+    /// typed (`--mass-kg 0.001`), for warnings and errors that name what the user gave.
+    pub fn options_setting(&self, key: &str) -> Option<String> {
+        let flags = self.flags_setting(key);
+        (!flags.is_empty()).then(|| flags.join(" "))
+    }
+
+    /// Where `key`'s number came from when not from an option.
+    fn origin(&self, key: &str) -> Option<&str> {
+        self.origins
+            .iter()
+            .find(|(k, _)| *k == key)
+            .map(|(_, o)| o.as_str())
+    }
+
+    /// Each option (`--mass-kg 0.001`) that sets `key`, or where its number came from.
+    fn flags_setting(&self, key: &str) -> Vec<String> {
+        if let Some(o) = self.origin(key) {
+            return vec![o.to_string()];
+        }
+        let n = crate::param::plain_number;
+        let one = |flag: &str, v: Option<f64>| v.map(|v| format!("{flag} {}", n(v)));
+        let m = self.motor.as_ref();
+        let motor = |f: &dyn Fn(&MotorDatasheet) -> Option<String>| m.and_then(f);
+        let flags = match key {
+            "chassis.mass_kg" => vec![one("--mass-kg", self.mass_kg)],
+            "chassis.track_width_m" => vec![one("--track-m", self.track_m)],
+            "wheel.radius_m" => vec![one("--wheel-radius-m", self.wheel_radius_m)],
+            "battery.open_circuit_V" => vec![one("--battery-V", self.battery_v)],
+            "gearbox.ratio" => vec![one("--gear-ratio", self.gear_ratio)],
+            "motor.torque_constant_Nm_A" => vec![
+                motor(&|m| Some(format!("--motor-rated-V {}", n(m.rated_v)))),
+                motor(&|m| Some(format!("--motor-no-load-rpm {}", n(m.no_load_rpm)))),
+            ],
+            "motor.resistance_ohm" => vec![
+                motor(&|m| Some(format!("--motor-rated-V {}", n(m.rated_v)))),
+                motor(&|m| {
+                    m.stall_current_a
+                        .map(|a| format!("--motor-stall-current-A {}", n(a)))
+                }),
+                motor(&|m| {
+                    m.stall_current_a
+                        .is_none()
+                        .then_some(m.stall_torque_nm)
+                        .flatten()
+                        .map(|t| format!("--motor-stall-torque-Nm {}", n(t)))
+                }),
+            ],
+            _ => vec![],
+        };
+        flags.into_iter().flatten().collect()
+    }
+
+    /// The options given behind a derived value's inputs, as typed, each once.
+    fn options_behind(&self, inputs: &[Input]) -> Vec<String> {
+        use Input::*;
+        let mut out: Vec<String> = vec![];
+        for i in inputs {
+            let keys: &[&str] = match i {
+                Mass => &["chassis.mass_kg"],
+                Track | Footprint => &["chassis.track_width_m"],
+                Wheel => &["wheel.radius_m"],
+                Battery => &["battery.open_circuit_V"],
+                Motor => &["motor.torque_constant_Nm_A", "motor.resistance_ohm"],
+                Ratio => &["gearbox.ratio"],
+                Backlash | Castors => &[],
+            };
+            for flag in keys.iter().flat_map(|k| self.flags_setting(k)) {
+                if !out.contains(&flag) {
+                    out.push(flag);
+                }
+            }
+        }
+        out
     }
 
     /// The numbers, each given or taken from the starting scene.
@@ -710,7 +832,33 @@ pub fn new_scene(
         command,
     );
     let path = Path::new("(new scene)");
-    let scene = Scene::from_toml(&text, path, &[])?;
+    let scene = Scene::from_toml(&text, path, &[]).map_err(|e| match &e {
+        SceneError::Invalid {
+            key,
+            value,
+            expected,
+            ..
+        } => match derived.iter().find(|d| d.key == key) {
+            Some(d) => RobotError::Derived {
+                options: spec.options_behind(d.from).join(" "),
+                key: key.clone(),
+                value: value.clone(),
+                expected: expected.clone(),
+                how: d.how.clone(),
+            },
+            None => match spec.options_setting(key) {
+                Some(options) => RobotError::Derived {
+                    options,
+                    key: key.clone(),
+                    value: value.clone(),
+                    expected: expected.clone(),
+                    how: "as given".into(),
+                },
+                None => RobotError::Scene(e),
+            },
+        },
+        _ => RobotError::Scene(e),
+    })?;
     let top_speed_m_s =
         scene.battery.drive_limit_v / scene.motor.torque_constant_nm_a / scene.gearbox.ratio
             * scene.wheel.radius_m;

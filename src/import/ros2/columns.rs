@@ -296,6 +296,19 @@ fn convert_timed(
             })
         });
 
+    // A radius or track that is not a length (an infinite cylinder in the URDF) is named
+    // with where it came from before any column is made of it.
+    for (what, v) in [("wheel radius", &radius), ("track", &track)] {
+        if let Some((v, from)) = v {
+            if !(v.is_finite() && *v > 0.0) {
+                return Err(c.err(format!(
+                    "{what} {} from {from}: expected a finite length greater than zero, m",
+                    crate::param::plain_number(*v)
+                )));
+            }
+        }
+    }
+
     // Commands.
     let cmd_topic = c
         .pick(
