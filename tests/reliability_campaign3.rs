@@ -297,3 +297,63 @@ fn absurd_numbers_given_to_new_are_named_by_their_options() {
     assert!(longest_digit_run(&t) < 30, "{t}");
     assert!(!dir.join("huge.toml").exists());
 }
+
+#[test]
+fn keys_at_1e308_stop_the_run_naming_the_key_instead_of_writing_nan_cells() {
+    let dir = tmp("1e308");
+    for key in [
+        "controller.gain_scale",
+        "castors.rolling_resistance",
+        "battery.open_circuit_V",
+        "battery.internal_resistance_ohm",
+    ] {
+        let out = dir.join(key);
+        let o = agvsim(&[
+            "run",
+            "scenes/lab_offset_120mm.toml",
+            "--duration",
+            "2",
+            "--set",
+            &format!("{key}=1e308"),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let t = text(&o);
+        assert!(!o.status.success(), "{key}: {t}");
+        assert!(t.contains("the simulation diverged"), "{key}: {t}");
+        assert!(t.contains(&format!("{key} = 1e308")), "{key}: {t}");
+        assert!(!out.join("lab_offset_120mm.csv").exists(), "{key}");
+        assert!(longest_digit_run(&t) < 30, "{key}: {t}");
+    }
+    // A sweep to 1e308 reports the run as failed, not "ok".
+    let o = agvsim(&[
+        "sweep",
+        "scenes/lab_offset_120mm.toml",
+        "--vary",
+        "castors.rolling_resistance=0.02,1e308",
+        "--set",
+        "sim.duration_s=1",
+        "--out",
+        dir.join("sweep").to_str().unwrap(),
+    ]);
+    let t = text(&o);
+    let results = std::fs::read_to_string(dir.join("sweep/results.csv")).unwrap();
+    let row = results.lines().find(|l| l.starts_with("1,1e308")).unwrap();
+    assert!(row.contains("error: the simulation diverged"), "{row}\n{t}");
+    // An encoder noise of 1e308 rad/s is no encoder.
+    let o = agvsim(&[
+        "experiment",
+        "coast-down",
+        "scenes/lab_offset_120mm.toml",
+        "--speed-noise",
+        "1e308",
+        "--out",
+        dir.join("exp").to_str().unwrap(),
+    ]);
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{t}");
+    assert!(
+        t.contains("--speed-noise 1e308: expected an RMS noise"),
+        "{t}"
+    );
+}

@@ -121,6 +121,9 @@ impl FromStr for DemandPattern {
     }
 }
 
+/// Largest encoder speed noise an experiment adds, rad/s RMS (the simulator's speed limit).
+pub const MAX_SPEED_NOISE_RAD_S: f64 = 1.0e4;
+
 /// Settings of an experiment; `None` takes the experiment's default.
 #[derive(Debug, Clone)]
 pub struct ExperimentOptions {
@@ -266,13 +269,22 @@ pub fn run_experiment(
     let interval = opts.interval_s.unwrap_or(kind.default_interval_s());
     if !(interval > 0.0 && interval.is_finite()) {
         return Err(ExperimentError::Setup(format!(
-            "--interval {interval}: expected a positive number of seconds"
+            "--interval {}: expected a positive number of seconds",
+            crate::param::plain_number(interval)
         )));
     }
     if !(0.0..1.0).contains(&opts.rig_error) {
         return Err(ExperimentError::Setup(format!(
             "--rig-error {}: expected a fraction from 0 up to (not including) 1; beliefs off by 100 % or more can turn a resistance, an inertia or a gain negative",
-            opts.rig_error
+            crate::param::plain_number(opts.rig_error)
+        )));
+    }
+    // An encoder's noise is a fraction of the speeds it reads; beyond the simulator's own
+    // speed limit it is no encoder (and 1e308 would write infinite cells).
+    if !(0.0..=MAX_SPEED_NOISE_RAD_S).contains(&opts.speed_noise_rad_s) {
+        return Err(ExperimentError::Setup(format!(
+            "--speed-noise {}: expected an RMS noise from 0 to {MAX_SPEED_NOISE_RAD_S} rad/s",
+            crate::param::plain_number(opts.speed_noise_rad_s)
         )));
     }
     {
@@ -281,7 +293,8 @@ pub fn run_experiment(
         let steps = d / scene.sim.dt_s;
         if !(d.is_finite() && d > 0.0 && steps <= scene.sim.max_steps as f64) {
             return Err(ExperimentError::Setup(format!(
-                "--duration {d}: expected a positive length of at most sim.max_steps = {} physics steps of sim.dt_s = {} s ({} s); raise sim.max_steps in the scene if it is meant",
+                "--duration {}: expected a positive length of at most sim.max_steps = {} physics steps of sim.dt_s = {} s ({} s); raise sim.max_steps in the scene if it is meant",
+                crate::param::plain_number(d),
                 scene.sim.max_steps,
                 scene.sim.dt_s,
                 crate::param::plain_number(scene.sim.max_steps as f64 * scene.sim.dt_s)

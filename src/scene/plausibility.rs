@@ -168,7 +168,7 @@ fn geometry(scene: &Scene, w: &mut Vec<Warning>) {
             value: format!("{} m", num(c.track_width_m)),
             expected: format!(
                 "at most the body's width, chassis.width_m = {} m",
-                c.width_m
+                num(c.width_m)
             ),
             why: "the drive wheels' centres would stand outside the body's outline".into(),
         });
@@ -201,7 +201,7 @@ fn supply(scene: &Scene, w: &mut Vec<Warning>) {
             value: format!("{} V", num(b.drive_limit_v)),
             expected: format!(
                 "at most battery.open_circuit_V = {} V (the thesis's bridges deliver 23.5 of 24 V: here about {} V)",
-                b.open_circuit_v,
+                num(b.open_circuit_v),
                 sig(b.open_circuit_v * 23.5 / 24.0)
             ),
             why: "H-bridges cannot deliver more than the battery's voltage".into(),
@@ -222,8 +222,8 @@ fn supply(scene: &Scene, w: &mut Vec<Warning>) {
             why: format!(
                 "both motors at {} A (dcmc.current_limit_A, or stall) sag the {} V battery (internal resistance {} ohm) by {} V, so the unit would fault at full current",
                 sig(most_a),
-                b.open_circuit_v,
-                b.internal_resistance_ohm,
+                num(b.open_circuit_v),
+                num(b.internal_resistance_ohm),
                 sig(sag_v)
             ),
         });

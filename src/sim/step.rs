@@ -15,6 +15,8 @@ use crate::sensing::coil::{adc_counts, adc_unquantised};
 
 /// Speeds beyond this are not physical for this machine: a diverging run, rad/s.
 const MAX_SPEED_RAD_S: f64 = 1.0e4;
+/// Voltages beyond this are no vehicle's supply: a scene value far out of range, V.
+const MAX_VOLTAGE_V: f64 = 1.0e5;
 
 impl Sim {
     /// Advances the simulation by one physics step `dt`. The order is fixed:
@@ -350,6 +352,39 @@ impl Sim {
                 if !v.is_finite() || v.abs() > limit {
                     return Err(bad(&format!("{side} {name}"), v));
                 }
+            }
+        }
+        // What the blocks around the drive output: a supply or a gain far beyond any
+        // machine's (1e308 V, a gain scale of 1e308) shows here before it reaches a cell.
+        let l = &self.last;
+        let outputs = [
+            ("left motor voltage (V)", l.motor_v[0], MAX_VOLTAGE_V),
+            ("right motor voltage (V)", l.motor_v[1], MAX_VOLTAGE_V),
+            ("battery voltage (V)", l.battery_v, MAX_VOLTAGE_V),
+            ("battery current (A)", l.battery_current_a, 1.0e4),
+            ("left demand (%)", l.demand_pct[0], f64::MAX),
+            ("right demand (%)", l.demand_pct[1], f64::MAX),
+            (
+                "left command (counts)",
+                self.firmware.command_counts[0],
+                f64::MAX,
+            ),
+            (
+                "right command (counts)",
+                self.firmware.command_counts[1],
+                f64::MAX,
+            ),
+            ("left tyre force (N)", l.tyre[0].force_n[0], f64::MAX),
+            ("right tyre force (N)", l.tyre[1].force_n[0], f64::MAX),
+        ];
+        for (name, v, limit) in outputs {
+            if !v.is_finite() || v.abs() > limit {
+                return Err(bad(name, v));
+            }
+        }
+        for f in l.castor_force_n.iter().flatten() {
+            if !f.is_finite() {
+                return Err(bad("castor force (N)", *f));
             }
         }
         let pose = self.pose();
