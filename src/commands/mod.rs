@@ -183,6 +183,7 @@ impl CommandError {
             | CommandError::Contract { .. }
             | CommandError::Option { .. } => 2,
             CommandError::Replay(ReplayError::Recording { .. }) => 2,
+            CommandError::Experiment(ExperimentError::Setup(_)) => 2,
             CommandError::Ident(IdentError::Rig(_) | IdentError::Recording(_)) => 2,
             // The shell's code for a process ended by SIGINT.
             CommandError::Sweep(SweepError::Interrupted { .. }) => 130,
