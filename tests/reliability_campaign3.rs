@@ -357,3 +357,45 @@ fn keys_at_1e308_stop_the_run_naming_the_key_instead_of_writing_nan_cells() {
         "{t}"
     );
 }
+
+#[test]
+fn a_recording_with_two_drives_says_which_one_drove_the_replay() {
+    let dir = tmp("two-drives");
+    let o = agvsim(&[
+        "run",
+        "scenes/lab_offset_120mm.toml",
+        "--duration",
+        "1",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let run = std::fs::read_to_string(dir.join("lab_offset_120mm.csv")).unwrap();
+    let mut both = String::new();
+    for l in run.lines() {
+        both.push_str(l);
+        if l.starts_with("t_s") {
+            both.push_str(",cmd_linear_m_s,cmd_angular_rad_s");
+        } else if !l.starts_with('#') {
+            both.push_str(",0.3,0");
+        }
+        both.push('\n');
+    }
+    let rec = dir.join("both.csv");
+    std::fs::write(&rec, both).unwrap();
+    let o = agvsim(&[
+        "replay",
+        "--scene",
+        "scenes/lab_offset_120mm.toml",
+        "--recording",
+        rec.to_str().unwrap(),
+        "--out",
+        dir.join("replay").to_str().unwrap(),
+    ]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(
+        t.contains("driven by left_voltage_V and right_voltage_V; the velocity commands cmd_linear_m_s and cmd_angular_rad_s are in the recording too and were not used"),
+        "{t}"
+    );
+}

@@ -255,6 +255,20 @@ fn choose_drive(rec: &Recording) -> Result<Drive, ReplayError> {
         })
 }
 
+/// A note when the recording also holds velocity commands that a voltage or demand drive
+/// leaves unused: two drives in one recording, and the replay follows one.
+fn unused_drive_note(rec: &Recording, drive: Drive) -> Option<String> {
+    let velocity = Drive::Velocity.columns();
+    let present = velocity.iter().all(|c| rec.column(c).is_some());
+    (drive != Drive::Velocity && present && rec.rig == "vehicle").then(|| {
+        format!(
+            "driven by {}; the velocity commands {} are in the recording too and were not used (voltages, then demands, then velocity commands: drop the columns of the drive not meant)",
+            drive.columns().join(" and "),
+            velocity.join(" and ")
+        )
+    })
+}
+
 /// The input columns, each held over missing cells (a cell before the first value is an
 /// error: the start must be known).
 fn held_inputs(rec: &Recording, drive: Drive) -> Result<Vec<Vec<f64>>, ReplayError> {
@@ -372,6 +386,7 @@ pub fn replay(scene: &Scene, rec: &Recording) -> Result<Replay, ReplayError> {
     scene.sim.wheels_lifted = drive.lifted() || rec.rig == "drive_pair";
     let mut simulated = vec![Vec::with_capacity(rec.t_s.len()); chans.len()];
     let mut notes = clipped_inputs(&scene, drive, &inputs);
+    notes.extend(unused_drive_note(rec, drive));
     let mut peak_terminal_v = 0.0_f64;
     // Joined tests each start from their own state of rest.
     for rows in rec.segments() {
