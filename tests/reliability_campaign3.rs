@@ -399,3 +399,81 @@ fn a_recording_with_two_drives_says_which_one_drove_the_replay() {
         "{t}"
     );
 }
+
+#[test]
+fn a_column_without_spread_is_left_out_and_reported_everywhere() {
+    let dir = tmp("stuck");
+    let o = agvsim(&[
+        "run",
+        "scenes/lab_offset_120mm.toml",
+        "--duration",
+        "2",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    // The left wheel's encoder stuck at 0.25 m/s for the whole run.
+    let run = std::fs::read_to_string(dir.join("lab_offset_120mm.csv")).unwrap();
+    let mut col = None;
+    let mut stuck = String::new();
+    for l in run.lines() {
+        if l.starts_with('#') {
+            stuck.push_str(l);
+        } else if l.starts_with("t_s") {
+            col = l.split(',').position(|c| c == "left_wheel_speed_m_s");
+            stuck.push_str(l);
+        } else {
+            let mut cells: Vec<&str> = l.split(',').collect();
+            cells[col.unwrap()] = "0.25";
+            stuck.push_str(&cells.join(","));
+        }
+        stuck.push('\n');
+    }
+    let rec = dir.join("stuck.csv");
+    std::fs::write(&rec, stuck).unwrap();
+    let o = agvsim(&[
+        "replay",
+        "--scene",
+        "scenes/lab_offset_120mm.toml",
+        "--recording",
+        rec.to_str().unwrap(),
+        "--out",
+        dir.join("replay").to_str().unwrap(),
+    ]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    let line = t
+        .lines()
+        .find(|l| l.starts_with("left_wheel_speed_m_s"))
+        .unwrap();
+    assert!(line.contains("constant at 0.25: no spread to score"), "{t}");
+    let mean = t.lines().find(|l| l.starts_with("mean")).unwrap();
+    let mean: f64 = mean.split_whitespace().nth(1).unwrap().parse().unwrap();
+    assert!(mean.is_finite() && mean > 50.0, "{t}");
+    // Calibrate leaves it out of the fit and says why, in its report and its JSON.
+    let json = dir.join("c.json");
+    let o = agvsim(&[
+        "calibrate",
+        "--scene",
+        "scenes/lab_offset_120mm.toml",
+        "--recording",
+        rec.to_str().unwrap(),
+        "--effects",
+        "coulomb_friction",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(
+        t.contains("left_wheel_speed_m_s         left out: constant at 0.25 over its"),
+        "{t}"
+    );
+    let j = std::fs::read_to_string(&json).unwrap();
+    assert!(
+        j.contains("\"output\":\"left_wheel_speed_m_s\"")
+            || j.contains("\"output\": \"left_wheel_speed_m_s\""),
+        "{j}"
+    );
+    assert!(!t.contains("-inf") && !j.contains("-inf"), "{t}");
+}

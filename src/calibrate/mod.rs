@@ -596,6 +596,17 @@ pub fn calibrate_telling(
     } else {
         let names: Vec<String> = left_out.iter().map(|l| l.output.clone()).collect();
         let kept: Vec<String> = outputs.into_iter().filter(|o| !names.contains(o)).collect();
+        if kept.is_empty() {
+            return Err(CalibrateError::Data(format!(
+                "{}: no output left to fit: {}",
+                rec.path.display(),
+                left_out
+                    .iter()
+                    .map(|l| format!("{} ({})", l.output, l.why))
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            )));
+        }
         (data.without_outputs(&names), kept)
     };
     if outputs.is_empty() {
@@ -725,14 +736,15 @@ pub fn calibrate_telling(
 /// voltages without a turn leaves its yaw outputs out (the gyro's noise, and the model's
 /// answer to the drivers' imbalance, would steer the fit without showing anything;
 /// [`crate::ident::models::vehicle::Turning`]).
+///
+/// Outputs without spread are left out whatever the drive ([`Dataset::flat_outputs`]).
 fn unexcited_outputs(data: &Dataset, drive: Drive) -> Vec<crate::ident::LeftOut> {
-    if drive != Drive::Voltages {
-        return Vec::new();
-    }
-    crate::ident::LeftOut::of(
-        data,
-        crate::ident::models::vehicle::Turning::of(data).yaw_left_out(),
-    )
+    let yaw = if drive == Drive::Voltages {
+        crate::ident::models::vehicle::Turning::of(data).yaw_left_out()
+    } else {
+        Vec::new()
+    };
+    crate::ident::LeftOut::of(data, yaw)
 }
 
 /// Each fitted key of the final stage against the user's scene (for an effect's key the

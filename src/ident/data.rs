@@ -139,6 +139,27 @@ impl Dataset {
         })
     }
 
+    /// The outputs whose measured cells are all one value, each with why: no normalised
+    /// fit can score a column without spread (its fit divides by the spread), and a model
+    /// fitted to it learns the sensor's fault (a stuck encoder read as a slipping wheel).
+    pub fn flat_outputs(&self) -> Vec<(String, String)> {
+        self.output_names
+            .iter()
+            .zip(&self.outputs)
+            .filter_map(|(name, col)| {
+                let v = crate::ident::evaluate::constant_value(col)?;
+                Some((
+                    name.clone(),
+                    format!(
+                        "constant at {} over its {} measured cells: no spread to fit (a stuck sensor, or a quantity the record does not move)",
+                        crate::param::plain_number(v),
+                        col.iter().flatten().count()
+                    ),
+                ))
+            })
+            .collect()
+    }
+
     /// Number of rows.
     pub fn len(&self) -> usize {
         self.t_s.len()

@@ -45,39 +45,70 @@ pub struct Evaluation {
     pub data: Option<Dataset>,
 }
 
-/// Normalised fit, %, over the measured cells.
+/// The one value every measured cell holds, when there are at least two and they are
+/// all equal: a column without spread, which no normalised fit scores.
+pub fn constant_value(measured: &[Option<f64>]) -> Option<f64> {
+    let mut cells = measured.iter().flatten();
+    let first = *cells.next()?;
+    let mut n = 1;
+    for v in cells {
+        if *v != first {
+            return None;
+        }
+        n += 1;
+    }
+    (n >= 2).then_some(first)
+}
+
+/// Normalised fit, %, over the measured cells: `100 (1 - |y - yhat| / |y - mean y|)`.
+/// NaN for a column without spread ([`constant_value`]): the ratio has no meaning there
+/// (it was -inf for a stuck encoder), and the column is left out of every mean.
 pub fn fit_pct(measured: &[Option<f64>], predicted: &[f64]) -> f64 {
     let pairs: Vec<(f64, f64)> = measured
         .iter()
         .zip(predicted)
         .filter_map(|(y, p)| y.map(|y| (y, *p)))
         .collect();
-    let mean = pairs.iter().map(|p| p.0).sum::<f64>() / pairs.len().max(1) as f64;
+    // Scaled by the largest magnitude, so that outputs near 1e300 do not overflow
+    // their squares (the ratio is unchanged).
+    let scale = pairs
+        .iter()
+        .map(|(y, p)| y.abs().max(p.abs()))
+        .fold(0.0_f64, f64::max);
+    if scale == 0.0 || !scale.is_finite() {
+        return f64::NAN;
+    }
+    let mean = pairs.iter().map(|p| p.0 / scale).sum::<f64>() / pairs.len().max(1) as f64;
     let err: f64 = pairs
         .iter()
-        .map(|(y, p)| (y - p).powi(2))
+        .map(|(y, p)| (y / scale - p / scale).powi(2))
         .sum::<f64>()
         .sqrt();
     let spread: f64 = pairs
         .iter()
-        .map(|(y, _)| (y - mean).powi(2))
+        .map(|(y, _)| (y / scale - mean).powi(2))
         .sum::<f64>()
         .sqrt();
-    if spread == 0.0 {
-        return if err == 0.0 { 100.0 } else { f64::NEG_INFINITY };
+    if spread == 0.0 || constant_value(measured).is_some() {
+        return f64::NAN;
     }
     100.0 * (1.0 - err / spread)
 }
 
-/// Mean over outputs of the normalised fit, %.
+/// Mean over outputs of the normalised fit, %, over the outputs a fit scores (NaN when
+/// none: every column without spread).
 pub fn fit_pct_mean(data: &Dataset, predicted: &[Vec<f64>]) -> f64 {
     let f: Vec<f64> = data
         .outputs
         .iter()
         .zip(predicted)
         .map(|(y, p)| fit_pct(y, p))
+        .filter(|f| !f.is_nan())
         .collect();
-    f.iter().sum::<f64>() / f.len().max(1) as f64
+    if f.is_empty() {
+        return f64::NAN;
+    }
+    f.iter().sum::<f64>() / f.len() as f64
 }
 
 /// Loss V: determinant of the residual covariance over rows where all outputs are measured
@@ -151,5 +182,27 @@ pub fn evaluate(data: &Dataset, predicted: Vec<Vec<f64>>, max_lag: usize) -> Eva
         checks,
         predicted,
         data: Some(data.clone()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_column_without_spread_has_no_fit_and_huge_values_do_not_overflow() {
+        let stuck = [Some(0.25), Some(0.25), None, Some(0.25)];
+        assert_eq!(constant_value(&stuck), Some(0.25));
+        assert!(fit_pct(&stuck, &[0.25, 0.25, 0.0, 0.25]).is_nan());
+        assert!(fit_pct(&stuck, &[0.1, 0.2, 0.0, 0.3]).is_nan());
+        assert_eq!(constant_value(&[Some(1.0)]), None);
+        // 100 (1 - |e| / |y - mean|) for y = (0, 1, 2), yhat = y + (0.1, -0.1, 0):
+        // |e| = sqrt(0.02), |y - mean| = sqrt(2): 90 %. The same scaled by 1e300.
+        let y = [Some(0.0), Some(1.0), Some(2.0)];
+        let p = [0.1, 0.9, 2.0];
+        assert!((fit_pct(&y, &p) - 90.0).abs() < 1e-9);
+        let big: Vec<Option<f64>> = y.iter().map(|v| v.map(|v| v * 1e300)).collect();
+        let pbig: Vec<f64> = p.iter().map(|v| v * 1e300).collect();
+        assert!((fit_pct(&big, &pbig) - 90.0).abs() < 1e-9);
     }
 }

@@ -704,13 +704,20 @@ pub struct LeftOut {
 }
 
 impl LeftOut {
-    /// The outputs of `unexcited` (output, why) that `data` measures.
+    /// The outputs of `unexcited` (output, why) that `data` measures, then those whose
+    /// measured cells do not spread ([`Dataset::flat_outputs`]): one rule for every fit.
     pub fn of(data: &Dataset, unexcited: Vec<(String, String)>) -> Vec<LeftOut> {
-        unexcited
+        let mut left: Vec<LeftOut> = unexcited
             .into_iter()
             .filter(|(o, _)| data.output_index(o).is_some())
             .map(|(output, why)| LeftOut { output, why })
-            .collect()
+            .collect();
+        for (output, why) in data.flat_outputs() {
+            if !left.iter().any(|l| l.output == output) {
+                left.push(LeftOut { output, why });
+            }
+        }
+        left
     }
 }
 

@@ -46,6 +46,17 @@ pub fn simulated_csv(r: &Replay, rec: &Recording, scene_path: &Path) -> String {
     s
 }
 
+/// Why an output has no fit: fewer than two measured cells, or no spread to score.
+fn unscored(o: &crate::replay::ReplayedOutput) -> String {
+    match crate::ident::evaluate::constant_value(&o.measured) {
+        Some(v) => format!(
+            "constant at {}: no spread to score (a stuck sensor?), left out of the mean",
+            crate::param::plain_number(v)
+        ),
+        None => "not measured: simulated only".to_string(),
+    }
+}
+
 /// The fit table `agvsim replay` prints.
 pub fn render(r: &Replay) -> String {
     let mut s = String::new();
@@ -60,11 +71,7 @@ pub fn render(r: &Replay) -> String {
                 crate::numtext::quantity(o.rms_error, 4, crate::numtext::unit_of_name(&o.name))
             );
         } else {
-            let _ = writeln!(
-                s,
-                "{:<28} {:>8}   not measured: simulated only",
-                o.name, "-"
-            );
+            let _ = writeln!(s, "{:<28} {:>8}   {}", o.name, "-", unscored(o));
         }
     }
     if r.mean_fit_pct().is_finite() {
@@ -93,7 +100,7 @@ pub fn write_plots(dir: &Path, r: &Replay, rec_name: &str) -> std::io::Result<Ve
         let fit = if o.fit_pct.is_finite() {
             format!("fit {:.1} %", o.fit_pct)
         } else {
-            "not measured".to_string()
+            unscored(o)
         };
         let doc = svg(
             &format!(
