@@ -477,3 +477,46 @@ fn a_column_without_spread_is_left_out_and_reported_everywhere() {
     );
     assert!(!t.contains("-inf") && !j.contains("-inf"), "{t}");
 }
+
+#[test]
+fn a_rig_with_a_wheel_and_no_gear_ratio_is_refused_naming_the_key() {
+    let dir = tmp("no-ratio");
+    let o = agvsim(&[
+        "experiment",
+        "lifted-random-demand",
+        "scenes/lifted_identification.toml",
+        "--duration",
+        "3",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let rig = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.to_string_lossy().ends_with(".rig.toml"))
+        .expect("a rig file");
+    let csv = std::path::PathBuf::from(rig.to_string_lossy().replace(".rig.toml", ".csv"));
+    let text_rig = std::fs::read_to_string(&rig).unwrap();
+    assert!(text_rig.contains("[wheel]"), "{text_rig}");
+    let stripped: String = text_rig
+        .lines()
+        .filter(|l| !l.starts_with("ratio") && !l.starts_with("[gearbox]"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let bad = dir.join("no_ratio.rig.toml");
+    std::fs::write(&bad, stripped).unwrap();
+    let o = agvsim(&[
+        "identify",
+        "--rig",
+        bad.to_str().unwrap(),
+        "--recording",
+        csv.to_str().unwrap(),
+    ]);
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{t}");
+    assert!(
+        t.contains("no_ratio.rig.toml: `gearbox.ratio` is missing"),
+        "{t}"
+    );
+}

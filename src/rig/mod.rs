@@ -375,6 +375,29 @@ impl Rig {
         })
     }
 
+    /// Motor turns per wheel turn: `gearbox.ratio`, required when the rig states a
+    /// wheel-side value (which the motor sees through the gear); a rig of the motor alone
+    /// (a linear axis, a motor on a bench) is taken as direct drive, 1.
+    pub fn gear_ratio(&self, path: &Path) -> Result<f64, RigError> {
+        if let Some(n) = self.get("gearbox.ratio") {
+            return Ok(n);
+        }
+        let wheel: Vec<&str> = ["wheel.inertia_kg_m2", "wheel.radius_m"]
+            .into_iter()
+            .filter(|k| self.get(k).is_some())
+            .collect();
+        if wheel.is_empty() {
+            return Ok(1.0);
+        }
+        Err(RigError::Invalid {
+            file: path.to_owned(),
+            message: format!(
+                "`gearbox.ratio` is missing: the rig states {}, which the motor sees through the gear (say ratio = 1 under [gearbox] for a direct drive)",
+                wheel.join(" and ")
+            ),
+        })
+    }
+
     /// Every numeric value scaled by `f(key, value)` (a perturbed belief).
     pub fn map_numbers(&mut self, mut f: impl FnMut(&str, f64) -> f64) {
         let table = keys::table();

@@ -93,7 +93,7 @@ impl CoastDown {
         Ok(CoastDown {
             binding: Binding::new(coast_keys(), &specs),
             specs,
-            ratio: rig.get("gearbox.ratio").unwrap_or(1.0),
+            ratio: rig.gear_ratio(path)?,
             encoder: rig.get("sensors.motor_encoder_counts_per_rev").is_some(),
         })
     }

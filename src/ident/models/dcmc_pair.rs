@@ -121,7 +121,7 @@ impl DcmcPair {
             need("motor.resistance_ohm")?,
             need("motor.torque_constant_Nm_A")?,
         );
-        let n = rig.get("gearbox.ratio").unwrap_or(1.0);
+        let n = rig.gear_ratio(path)?;
         let j = need("motor.rotor_inertia_kg_m2")?
             + rig.get("wheel.inertia_kg_m2").unwrap_or(0.0) / (n * n);
         let b = rig.get("motor.viscous_Nm_s_rad").unwrap_or(0.0);

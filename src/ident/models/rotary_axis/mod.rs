@@ -335,7 +335,7 @@ impl RotaryAxis {
             binding: Binding::new(axis_keys(), &specs),
             specs,
             input,
-            ratio: rig.get("gearbox.ratio").unwrap_or(1.0),
+            ratio: rig.gear_ratio(path)?,
             encoder: rig.get("sensors.motor_encoder_counts_per_rev").is_some(),
             supply_v: rig.get("supply.voltage_V").unwrap_or(24.0),
             effects: effects::EffectSlots::default(),
