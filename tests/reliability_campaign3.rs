@@ -520,3 +520,58 @@ fn a_rig_with_a_wheel_and_no_gear_ratio_is_refused_naming_the_key() {
         "{t}"
     );
 }
+
+/// A 1 s run of the lab scene, its recording's text.
+fn lab_run(dir: &Path) -> String {
+    let o = agvsim(&[
+        "run",
+        "scenes/lab_offset_120mm.toml",
+        "--duration",
+        "1",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    std::fs::read_to_string(dir.join("lab_offset_120mm.csv")).unwrap()
+}
+
+#[test]
+fn a_time_column_nanoseconds_apart_is_refused_unless_stated() {
+    let dir = tmp("ns");
+    let run = lab_run(&dir);
+    let mut ns = String::new();
+    for l in run.lines() {
+        if l.starts_with("# sample_time_s") {
+            continue;
+        }
+        if l.starts_with('#') || l.starts_with("t_s") {
+            ns.push_str(l);
+        } else {
+            let (t, rest) = l.split_once(',').unwrap();
+            let t: f64 = t.parse().unwrap();
+            ns.push_str(&format!("{:e},{rest}", t * 2.4e-7));
+        }
+        ns.push('\n');
+    }
+    let rec = dir.join("ns.csv");
+    std::fs::write(&rec, &ns).unwrap();
+    let replay = |rec: &Path| {
+        agvsim(&[
+            "replay",
+            "--scene",
+            "scenes/lab_offset_120mm.toml",
+            "--recording",
+            rec.to_str().unwrap(),
+            "--out",
+            dir.join("replay").to_str().unwrap(),
+        ])
+    };
+    let o = replay(&rec);
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{t}");
+    assert!(
+        t.contains("ns.csv: the time column's median interval is 2.40e-9 s"),
+        "{t}"
+    );
+    assert!(t.contains("a time column in ns"), "{t}");
+}

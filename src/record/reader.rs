@@ -342,12 +342,27 @@ pub fn median_interval_s(t_s: &[f64]) -> Option<f64> {
     dts.get(dts.len() / 2).copied()
 }
 
+/// Shortest interval between rows a recording is taken to mean when it does not state
+/// `sample_time_s`, s: a megahertz logger's (a drive's current loop is logged at tens of
+/// kilohertz at most).
+pub const MIN_SAMPLE_TIME_S: f64 = 1e-6;
+
 /// A stated `sample_time_s` must be the time column's: a header that says 1 ms over a
 /// column stamped in seconds where milliseconds were meant (or the reverse) is a recording
 /// whose every time constant would come out a thousand times off.
+///
+/// Unstated, the column's own interval must be one a logger keeps: rows nanoseconds
+/// apart are a time column in ns (or µs) read as seconds, which a replay would step
+/// through a million rows to a physics step.
 fn check_sample_time(meta: &BTreeMap<String, String>, t_s: &[f64]) -> Result<(), String> {
     let Some(raw) = meta.get("sample_time_s") else {
-        return Ok(());
+        return match median_interval_s(t_s) {
+            Some(median) if median < MIN_SAMPLE_TIME_S => Err(format!(
+                "the time column's median interval is {} s, shorter than any logger's ({MIN_SAMPLE_TIME_S} s): a time column in ns or µs? (`t_s` is in seconds; say `# sample_time_s:` in the header if the interval is meant)",
+                crate::scene::plausibility::sig(median)
+            )),
+            _ => Ok(()),
+        };
     };
     let stated: f64 = raw
         .parse()
