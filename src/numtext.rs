@@ -209,3 +209,88 @@ mod tests {
         assert_eq!(change_pct(2.1), "+2.1 %");
     }
 }
+
+/// TOML text with every float literal longer than 24 characters (a 1e300 written out in
+/// 301 digits by the TOML writer) rewritten in e-notation (`1e300`, valid TOML); strings
+/// and comments untouched.
+pub fn toml_short_floats(text: &str) -> String {
+    let chars: Vec<char> = text.chars().collect();
+    let mut out = String::with_capacity(text.len());
+    let mut i = 0;
+    while i < chars.len() {
+        let c = chars[i];
+        // A string (basic or literal, one line or three quotes), copied as it is.
+        if c == '"' || c == '\'' {
+            let triple = chars.get(i + 1) == Some(&c) && chars.get(i + 2) == Some(&c);
+            let quote_len = if triple { 3 } else { 1 };
+            let mut j = i + quote_len;
+            while j < chars.len() {
+                if c == '"' && chars[j] == '\\' {
+                    j += 2;
+                    continue;
+                }
+                if chars[j] == c
+                    && (!triple || (chars.get(j + 1) == Some(&c) && chars.get(j + 2) == Some(&c)))
+                {
+                    j += quote_len;
+                    break;
+                }
+                j += 1;
+            }
+            let end = j.min(chars.len());
+            out.extend(&chars[i..end]);
+            i = end;
+            continue;
+        }
+        if c == '#' {
+            let end = chars[i..]
+                .iter()
+                .position(|&x| x == '\n')
+                .map_or(chars.len(), |p| i + p);
+            out.extend(&chars[i..end]);
+            i = end;
+            continue;
+        }
+        let starts_number = (c.is_ascii_digit() || c == '-' || c == '+')
+            && (i == 0 || matches!(chars[i - 1], ' ' | '=' | '[' | ',' | '\n' | '\t'));
+        if starts_number {
+            let end = chars[i..]
+                .iter()
+                .position(|x| {
+                    !(x.is_ascii_digit() || matches!(x, '.' | 'e' | 'E' | '+' | '-' | '_'))
+                })
+                .map_or(chars.len(), |p| i + p);
+            let token: String = chars[i..end].iter().collect();
+            match token.replace('_', "").parse::<f64>() {
+                Ok(v) if token.len() > 24 && v.is_finite() => out.push_str(&format!("{v:e}")),
+                _ => out.push_str(&token),
+            }
+            i = end;
+            continue;
+        }
+        out.push(c);
+        i += 1;
+    }
+    out
+}
+
+#[cfg(test)]
+mod toml_float_tests {
+    use super::toml_short_floats;
+
+    #[test]
+    fn long_float_literals_become_e_notation_and_strings_stay() {
+        let big = format!("{}.0", 1e300);
+        let text = format!("a = {big}\nb = [[{big}, -0.5]]\nc = \"{big}\" # {big}\nd = 1.5\n");
+        let short = toml_short_floats(&text);
+        assert_eq!(
+            short,
+            format!("a = 1e300\nb = [[1e300, -0.5]]\nc = \"{big}\" # {big}\nd = 1.5\n")
+        );
+        let v: toml::Table = toml::from_str(&short).unwrap();
+        assert_eq!(v["a"].as_float(), Some(1e300));
+        let tiny = format!("x = {}\n", 1e-30_f64);
+        assert_eq!(toml_short_floats(&tiny), "x = 1e-30\n");
+        assert_eq!(toml_short_floats("y = 0.1\n"), "y = 0.1\n");
+    }
+}

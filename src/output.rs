@@ -84,13 +84,16 @@ pub(crate) fn check_target(path: &Path, folder: bool) -> Result<(), String> {
     Ok(())
 }
 
-/// An output folder owned by this process while it writes there: `.agvsim.lock` holds
-/// its process id, created exclusively, removed when the lock is dropped. A second
-/// writer is refused, naming the first; a lock left by a process that no longer runs
-/// (killed) is taken over.
+/// An output folder owned by this process while it writes there: `.agvsim.lock`, locked
+/// with `flock` (a lock the kernel holds and releases when the process ends, however it
+/// ends, whatever PID namespace it runs in; on NFS the kernel takes it on the server),
+/// holding the owner's process id and host for the message a second writer gets. The
+/// file is removed when the lock is dropped.
 #[derive(Debug)]
 pub struct FolderLock {
     path: PathBuf,
+    /// The open, locked file: closing it releases the lock.
+    _file: std::fs::File,
     /// The folder, if taking the lock created it: removed again if left empty (a command
     /// that stopped before writing leaves nothing behind).
     created: Option<PathBuf>,
@@ -99,17 +102,59 @@ pub struct FolderLock {
 /// The lock file's name inside an output folder.
 pub const LOCK_FILE: &str = ".agvsim.lock";
 
-/// Whether a process of this id runs (on Unix; elsewhere every lock is taken as live).
-fn process_runs(pid: u32) -> bool {
+/// This machine's name, for the lock's owner ("unknown host" where it cannot be read).
+fn host_name() -> String {
     #[cfg(unix)]
     {
-        // SAFETY: kill with signal 0 only checks that the process exists.
-        let r = unsafe { libc::kill(pid as libc::pid_t, 0) };
-        r == 0 || std::io::Error::last_os_error().raw_os_error() == Some(libc::EPERM)
+        let mut buf = [0u8; 256];
+        // SAFETY: the buffer is writable for its length; gethostname NUL-terminates
+        // within it when the name fits.
+        let r = unsafe { libc::gethostname(buf.as_mut_ptr().cast(), buf.len()) };
+        if r == 0 {
+            let end = buf.iter().position(|&b| b == 0).unwrap_or(buf.len());
+            return String::from_utf8_lossy(&buf[..end]).into_owned();
+        }
+    }
+    "unknown host".into()
+}
+
+/// Takes an exclusive lock on `f` without waiting: `Ok(false)` when another holds it.
+fn try_lock(f: &std::fs::File) -> std::io::Result<bool> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::io::AsRawFd;
+        // SAFETY: flock on an open descriptor of ours.
+        let r = unsafe { libc::flock(f.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) };
+        if r == 0 {
+            return Ok(true);
+        }
+        let e = std::io::Error::last_os_error();
+        if e.raw_os_error() == Some(libc::EWOULDBLOCK) {
+            return Ok(false);
+        }
+        Err(e)
     }
     #[cfg(not(unix))]
     {
-        let _ = pid;
+        let _ = f;
+        Ok(true)
+    }
+}
+
+/// Whether `f` is still the file at `path` (a lock taken on a file its owner removed
+/// meanwhile locks nothing anyone else opens).
+fn still_at(f: &std::fs::File, path: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        match (f.metadata(), std::fs::metadata(path)) {
+            (Ok(a), Ok(b)) => a.ino() == b.ino() && a.dev() == b.dev(),
+            _ => false,
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = (f, path);
         true
     }
 }
@@ -118,39 +163,39 @@ impl FolderLock {
     /// Creates `dir` if needed and takes its lock; the message says what is wrong (the
     /// caller names the option and the folder).
     pub fn acquire(dir: &Path) -> Result<FolderLock, String> {
+        use std::io::{Read, Seek, Write};
         let created = (!dir.exists()).then(|| dir.to_path_buf());
         std::fs::create_dir_all(dir).map_err(|e| format!("cannot create the folder: {e}"))?;
         let path = dir.join(LOCK_FILE);
-        let me = std::process::id();
-        for _ in 0..2 {
-            match std::fs::OpenOptions::new()
+        let cannot = |e: std::io::Error| format!("cannot take the folder's lock: {e}");
+        for _ in 0..10 {
+            let mut f = std::fs::OpenOptions::new()
+                .read(true)
                 .write(true)
-                .create_new(true)
+                .create(true)
+                .truncate(false)
                 .open(&path)
-            {
-                Ok(mut f) => {
-                    use std::io::Write;
-                    let _ = writeln!(f, "{me}");
-                    return Ok(FolderLock { path, created });
-                }
-                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
-                    let owner = std::fs::read_to_string(&path)
-                        .ok()
-                        .and_then(|t| t.trim().parse::<u32>().ok());
-                    match owner {
-                        Some(pid) if pid != me && process_runs(pid) => {
-                            return Err(format!(
-                                "another agvsim (process {pid}) is writing there; wait for it to finish or choose another folder"
-                            ))
-                        }
-                        // A lock of a process that ended without removing it.
-                        _ => {
-                            let _ = std::fs::remove_file(&path);
-                        }
-                    }
-                }
-                Err(e) => return Err(format!("cannot take the folder's lock: {e}")),
+                .map_err(cannot)?;
+            if !try_lock(&f).map_err(cannot)? {
+                let mut owner = String::new();
+                let _ = f.read_to_string(&mut owner);
+                let owner = owner.trim();
+                return Err(format!(
+                    "another agvsim ({}) is writing there; wait for it to finish or choose another folder",
+                    if owner.is_empty() { "starting" } else { owner }
+                ));
             }
+            if !still_at(&f, &path) {
+                continue; // its owner removed it as we locked it: take the new one
+            }
+            f.set_len(0).map_err(cannot)?;
+            f.rewind().map_err(cannot)?;
+            writeln!(f, "process {} on {}", std::process::id(), host_name()).map_err(cannot)?;
+            return Ok(FolderLock {
+                path,
+                _file: f,
+                created,
+            });
         }
         Err("the folder's lock changed hands while it was taken; try again".into())
     }
@@ -158,6 +203,7 @@ impl FolderLock {
 
 impl Drop for FolderLock {
     fn drop(&mut self) {
+        // Removed while still locked; the lock goes with the file's descriptor.
         let _ = std::fs::remove_file(&self.path);
         if let Some(dir) = &self.created {
             // Only if empty: remove_dir refuses a folder with files in it.
@@ -186,15 +232,23 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("agvsim_lock_{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         let held = FolderLock::acquire(&dir).unwrap();
-        // Another live process's lock: pid 1 always runs.
-        std::fs::write(dir.join(LOCK_FILE), "1\n").unwrap();
+        // The kernel's lock refuses a second taker, even in this process (a lock is
+        // the open file's), naming the holder.
         let err = FolderLock::acquire(&dir).unwrap_err();
-        assert!(err.contains("process 1"), "{err}");
-        // A process id that cannot run: the lock is stale and taken over.
-        std::fs::write(dir.join(LOCK_FILE), format!("{}\n", i32::MAX)).unwrap();
-        let again = FolderLock::acquire(&dir).unwrap();
+        assert!(
+            err.contains(&format!("process {} on ", std::process::id())),
+            "{err}"
+        );
         drop(held);
+        // The folder the first lock created, left empty, is gone with it.
+        assert!(!dir.exists());
+        // A lock file left by a killed writer holds no lock: it is taken over, whatever
+        // process id it names (another container's, a reused one).
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join(LOCK_FILE), "process 1 on elsewhere\n").unwrap();
+        let again = FolderLock::acquire(&dir).unwrap();
         drop(again);
         assert!(!dir.join(LOCK_FILE).exists());
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

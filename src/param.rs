@@ -207,11 +207,20 @@ pub fn true_or_false() -> String {
     "true, false".into()
 }
 
+/// Most points a wire or floor outline may have.
+pub const MAX_FLOOR_POINTS: usize = 100_000;
+
 /// A list of floor points, each exactly `[x, y]` (m): a third coordinate is an error, not
 /// silently dropped. For `#[serde(deserialize_with = ...)]`.
 pub fn points_2d<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<[f64; 2]>, D::Error> {
     use serde::Deserialize;
     let raw: Vec<Vec<f64>> = Vec::deserialize(d)?;
+    if raw.len() > MAX_FLOOR_POINTS {
+        return Err(serde::de::Error::custom(format!(
+            "{} points, more than the {MAX_FLOOR_POINTS} a wire or outline may have (a kilometre at centimetre spacing): resample it",
+            raw.len()
+        )));
+    }
     raw.iter()
         .enumerate()
         .map(|(i, p)| match p.as_slice() {

@@ -80,7 +80,17 @@ pub fn run_scene(
     std::fs::create_dir_all(&opts.out_dir).map_err(io(&opts.out_dir))?;
     let recording = opts.out_dir.join(format!("{}.csv", opts.name));
     let scene_used = opts.out_dir.join(format!("{}.scene.toml", opts.name));
-    crate::output::write_atomically(&scene_used, scene.to_toml()).map_err(io(&scene_used))?;
+    // A rerun replaces both files: the old pair goes first, and the new scene takes its
+    // name only after the new recording, so that an interrupted rerun never leaves a
+    // new scene beside the old recording (nor the old scene beside a new one).
+    for old in [&recording, &scene_used] {
+        match std::fs::remove_file(old) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(io(old)(e)),
+            _ => {}
+        }
+    }
+    let scene_partial = crate::output::partial_name(&scene_used);
+    std::fs::write(&scene_partial, scene.to_toml()).map_err(io(&scene_partial))?;
     // The recording streams into `NAME.csv.partial` and takes its name only when the run
     // has finished: a run killed or stopped by an error leaves no file that looks like a
     // finished, shorter run.
@@ -146,6 +156,7 @@ pub fn run_scene(
         if let Err(e) = sim.step() {
             // A diverged run leaves no recording behind, not even the partial one.
             let _ = std::fs::remove_file(&partial);
+            let _ = std::fs::remove_file(&scene_partial);
             return Err(e.naming_suspects(scene).into());
         }
         // The run's last step is always recorded and shown: the recording's last row and
@@ -172,9 +183,11 @@ pub fn run_scene(
     writer.finish().map_err(io(&recording))?;
     if let Some(e) = viz_err {
         let _ = std::fs::remove_file(&partial);
+        let _ = std::fs::remove_file(&scene_partial);
         return Err(RunError::Watcher(e));
     }
     std::fs::rename(&partial, &recording).map_err(io(&recording))?;
+    std::fs::rename(&scene_partial, &scene_used).map_err(io(&scene_used))?;
     Ok(RunOutput {
         summary: metrics.summary(),
         recording,

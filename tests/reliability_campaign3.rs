@@ -575,3 +575,432 @@ fn a_time_column_nanoseconds_apart_is_refused_unless_stated() {
     );
     assert!(t.contains("a time column in ns"), "{t}");
 }
+
+#[test]
+fn sweep_merge_refuses_a_row_edited_to_nan() {
+    let dir = tmp("merge-nan");
+    for i in [1, 2] {
+        let o = agvsim(&[
+            "sweep",
+            "scenes/lab_offset_120mm.toml",
+            "--vary",
+            "controller.gain_scale=0.8,1.2",
+            "--set",
+            "sim.duration_s=1",
+            "--shard",
+            &format!("{i}/2"),
+            "--out",
+            dir.join(format!("s{i}")).to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+    }
+    let results = dir.join("s2/results.csv");
+    let csv = std::fs::read_to_string(&results).unwrap();
+    let mut lines: Vec<String> = csv.lines().map(String::from).collect();
+    let header: Vec<&str> = lines[0].split(',').collect();
+    let col = header
+        .iter()
+        .position(|h| *h == "rms_lateral_error_m")
+        .unwrap();
+    let mut cells: Vec<String> = lines[1].split(',').map(String::from).collect();
+    cells[col] = "NaN".into();
+    lines[1] = cells.join(",");
+    std::fs::write(&results, lines.join("\n") + "\n").unwrap();
+    let o = agvsim(&[
+        "sweep",
+        "merge",
+        dir.join("s1").to_str().unwrap(),
+        dir.join("s2").to_str().unwrap(),
+        "--out",
+        dir.join("merged").to_str().unwrap(),
+    ]);
+    let t = text(&o);
+    assert!(!o.status.success(), "{t}");
+    assert!(t.contains("s2/results.csv"), "{t}");
+    assert!(
+        t.contains("line 2: column `rms_lateral_error_m`: `NaN`"),
+        "{t}"
+    );
+    assert!(!dir.join("merged/results.csv").exists());
+}
+
+#[test]
+fn list_files_hold_names_with_spaces_and_hashes_and_a_csv_rig_is_one_error() {
+    let dir = tmp("list");
+    let run = lab_run(&dir);
+    std::fs::write(dir.join("my run #1.csv"), &run).unwrap();
+    // A byte-order mark, a quoted name with a space and a `#`, a comment, and a second
+    // quoted name that is missing: the error is about line 3 and names it whole.
+    let list = dir.join("fleet.txt");
+    std::fs::write(
+        &list,
+        "\u{feff}\"my run #1.csv\"   # the first\n\n\"gone away.csv\"\n",
+    )
+    .unwrap();
+    let o = agvsim(&[
+        "batch",
+        "calibrate",
+        list.to_str().unwrap(),
+        "--scene",
+        "scenes/lab_offset_120mm.toml",
+        "--out",
+        dir.join("out").to_str().unwrap(),
+    ]);
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{t}");
+    assert!(t.contains("line 3: "), "{t}");
+    assert!(t.contains("gone away.csv is not a file"), "{t}");
+    // A CSV given as the rig: one error, before any recording is worked on.
+    std::fs::write(&list, "\"my run #1.csv\"\n").unwrap();
+    let o = agvsim(&[
+        "batch",
+        "diagnose",
+        list.to_str().unwrap(),
+        "--rig",
+        dir.join("my run #1.csv").to_str().unwrap(),
+        "--out",
+        dir.join("out2").to_str().unwrap(),
+    ]);
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{t}");
+    assert_eq!(t.matches("my run #1.csv").count(), 1, "{t}");
+    assert!(!dir.join("out2/summary.csv").exists());
+}
+
+#[test]
+fn an_interrupted_rerun_leaves_no_new_scene_beside_the_old_recording() {
+    let dir = tmp("rerun");
+    lab_run(&dir);
+    let csv = dir.join("lab_offset_120mm.csv");
+    let scene = dir.join("lab_offset_120mm.scene.toml");
+    assert!(csv.exists() && scene.exists());
+    // A rerun with another gain, killed once its recording has started streaming.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_agvsim"))
+        .args([
+            "run",
+            "scenes/lab_offset_120mm.toml",
+            "--duration",
+            "600",
+            "--set",
+            "controller.gain_scale=1.5",
+            "--out",
+            dir.to_str().unwrap(),
+        ])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let partial = dir.join("lab_offset_120mm.csv.partial");
+    let t0 = std::time::Instant::now();
+    while !partial.exists() && t0.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(partial.exists(), "the rerun never started streaming");
+    // Neither half of the old pair stands beside the other's replacement.
+    assert!(!scene.exists(), "a scene stands without its recording");
+    assert!(
+        !csv.exists(),
+        "the old recording stands after a rerun began"
+    );
+}
+
+/// A fleet of three 1 s recordings of the lab scene with different gains.
+fn small_fleet(dir: &Path) -> PathBuf {
+    let fleet = dir.join("fleet");
+    std::fs::create_dir_all(&fleet).unwrap();
+    for (i, gain) in ["0.9", "1.0", "1.1"].iter().enumerate() {
+        let out = dir.join(format!("run{i}"));
+        let o = agvsim(&[
+            "run",
+            "scenes/lab_offset_120mm.toml",
+            "--duration",
+            "1",
+            "--set",
+            &format!("controller.gain_scale={gain}"),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+        std::fs::copy(
+            out.join("lab_offset_120mm.csv"),
+            fleet.join(format!("robot{i}.csv")),
+        )
+        .unwrap();
+    }
+    fleet
+}
+
+fn batch_shard(fleet: &Path, out: &Path, shard: &str) -> Output {
+    agvsim(&[
+        "batch",
+        "calibrate",
+        fleet.to_str().unwrap(),
+        "--scene",
+        "scenes/lab_offset_120mm.toml",
+        "--effects",
+        "coulomb_friction",
+        "--shard",
+        shard,
+        "--out",
+        out.to_str().unwrap(),
+    ])
+}
+
+fn batch_merge(dir: &Path, shards: &[&Path]) -> Output {
+    let mut args = vec!["batch", "merge"];
+    args.extend(shards.iter().map(|s| s.to_str().unwrap()));
+    let out = dir.join("merged");
+    let _ = std::fs::remove_dir_all(&out);
+    args.extend(["--out", out.to_str().unwrap()]);
+    agvsim(&args)
+}
+
+#[test]
+fn batch_merge_checks_each_shard_against_the_batch_and_the_recordings_as_they_are() {
+    let dir = tmp("batch-merge");
+    let fleet = small_fleet(&dir);
+    let (s1, s2) = (dir.join("s1"), dir.join("s2"));
+    for (out, shard) in [(&s1, "1/2"), (&s2, "2/2")] {
+        let o = batch_shard(&fleet, out, shard);
+        assert!(o.status.success(), "{}", text(&o));
+        assert!(out.join("batch.json").exists());
+    }
+    let o = batch_merge(&dir, &[&s1, &s2]);
+    assert!(o.status.success(), "{}", text(&o));
+    let refused = |o: Output, says: &str| {
+        let t = text(&o);
+        assert!(!o.status.success(), "accepted: {t}");
+        assert!(t.contains(says), "expected `{says}` in: {t}");
+        assert!(!dir.join("merged/summary.csv").exists(), "{t}");
+    };
+    // A shard left out.
+    refused(
+        batch_merge(&dir, &[&s1]),
+        "shard(s) 2/2 of the batch's 2 are missing",
+    );
+    // A shard of another fleet (one recording fewer).
+    let other = dir.join("other");
+    std::fs::create_dir_all(&other).unwrap();
+    for i in 0..2 {
+        std::fs::copy(
+            fleet.join(format!("robot{i}.csv")),
+            other.join(format!("robot{i}.csv")),
+        )
+        .unwrap();
+    }
+    let o2 = dir.join("o2");
+    assert!(batch_shard(&other, &o2, "2/2").status.success());
+    refused(
+        batch_merge(&dir, &[&s1, &o2]),
+        "is a shard of another batch",
+    );
+    // A result edited to 1e308.
+    let result = s2.join("results/robot2.json");
+    let original = std::fs::read_to_string(&result).unwrap();
+    let v: serde_json::Value = serde_json::from_str(&original).unwrap();
+    let fit = v["fit_after_pct"].to_string();
+    std::fs::write(&result, original.replace(&fit, "1e308")).unwrap();
+    refused(
+        batch_merge(&dir, &[&s1, &s2]),
+        "robot2.json: its contents differ from what the batch wrote",
+    );
+    std::fs::write(&result, &original).unwrap();
+    assert!(batch_merge(&dir, &[&s1, &s2]).status.success());
+    // A recording changed since its result, and one removed.
+    let rec = fleet.join("robot1.csv");
+    let bytes = std::fs::read(&rec).unwrap();
+    std::fs::write(&rec, [&bytes[..], b"\n"].concat()).unwrap();
+    refused(
+        batch_merge(&dir, &[&s1, &s2]),
+        "changed since this result was computed",
+    );
+    std::fs::remove_file(&rec).unwrap();
+    refused(
+        batch_merge(&dir, &[&s1, &s2]),
+        "is gone since the batch ran",
+    );
+    // A shard folder reused for another count: its manifest is the new batch's.
+    std::fs::write(&rec, &bytes).unwrap();
+    assert!(batch_shard(&fleet, &s2, "2/3").status.success());
+    refused(batch_merge(&dir, &[&s1, &s2]), "the shard count");
+}
+
+#[test]
+fn base_keys_set_or_swept_on_a_wire_following_scene_are_said_to_do_nothing() {
+    let dir = tmp("inert");
+    let o = agvsim(&[
+        "run",
+        "scenes/lab_offset_120mm.toml",
+        "--duration",
+        "0.5",
+        "--set",
+        "base.speed_kp_V_s_rad=5",
+        "--out",
+        dir.join("run").to_str().unwrap(),
+    ]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(
+        t.contains(
+            "warning: --set base.speed_kp_V_s_rad=5: no effect on this run: the [base] speed loops"
+        ),
+        "{t}"
+    );
+    assert!(t.contains("this scene's controller is `pd`"), "{t}");
+    let o = agvsim(&[
+        "sweep",
+        "scenes/lab_offset_120mm.toml",
+        "--vary",
+        "base.speed_ki_V_rad=1,8",
+        "--set",
+        "sim.duration_s=0.5",
+        "--out",
+        dir.join("sweep").to_str().unwrap(),
+    ]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(
+        t.contains("warning: --vary base.speed_ki_V_rad: the [base] speed loops"),
+        "{t}"
+    );
+    // The odometry's radius is read by every scene: no warning.
+    let o = agvsim(&[
+        "run",
+        "scenes/lab_offset_120mm.toml",
+        "--duration",
+        "0.5",
+        "--set",
+        "base.wheel_radius_m=0.08",
+        "--out",
+        dir.join("run2").to_str().unwrap(),
+    ]);
+    assert!(!text(&o).contains("no effect"), "{}", text(&o));
+}
+
+#[test]
+fn a_validation_recording_of_another_rig_or_drive_is_refused_before_the_fit() {
+    let dir = tmp("validate");
+    let run = lab_run(&dir);
+    let rec = dir.join("lab_offset_120mm.csv");
+    // Another rig: a lifted axis's recording.
+    let o = agvsim(&[
+        "experiment",
+        "lifted-random-demand",
+        "scenes/lifted_identification.toml",
+        "--duration",
+        "2",
+        "--out",
+        dir.join("axis").to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let axis = std::fs::read_dir(dir.join("axis"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|x| x == "csv"))
+        .unwrap();
+    // Another drive: the same run driven by velocity commands alone.
+    let mut velocity = String::new();
+    for l in run.lines() {
+        if l.starts_with('#') {
+            velocity.push_str(l);
+        } else if l.starts_with("t_s") {
+            velocity.push_str("t_s,cmd_linear_m_s,cmd_angular_rad_s,x_m,y_m");
+        } else {
+            let t = l.split(',').next().unwrap();
+            velocity.push_str(&format!("{t},0.3,0,0,0"));
+        }
+        velocity.push('\n');
+    }
+    let vel = dir.join("velocity.csv");
+    std::fs::write(&vel, velocity).unwrap();
+    for (other, says) in [
+        (axis, "recording, where the recording fitted is `vehicle`"),
+        (vel, "driven by cmd_linear_m_s and cmd_angular_rad_s, where the recording fitted is driven by left_voltage_V"),
+    ] {
+        let o = agvsim(&[
+            "calibrate",
+            "--scene",
+            "scenes/lab_offset_120mm.toml",
+            "--recording",
+            rec.to_str().unwrap(),
+            "--validate",
+            other.to_str().unwrap(),
+        ]);
+        let t = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{t}");
+        assert!(t.contains("--validate"), "{t}");
+        assert!(t.contains(says), "{t}");
+        assert!(!t.contains("mean "), "the fit ran: {t}");
+    }
+}
+
+#[test]
+fn huge_wires_and_deeply_nested_scenes_are_refused_with_short_messages() {
+    let dir = tmp("huge-scene");
+    let base = std::fs::read_to_string("scenes/lab_offset_120mm.toml").unwrap();
+    let run = |name: &str, text: &str| {
+        let scene = dir.join(name);
+        std::fs::write(&scene, text).unwrap();
+        agvsim(&[
+            "run",
+            scene.to_str().unwrap(),
+            "--duration",
+            "0.5",
+            "--out",
+            dir.join("out").to_str().unwrap(),
+        ])
+    };
+    // Two million wire points: refused by the file's size, before it is parsed.
+    let mut points = String::from("\n[wire]\npoints_m = [");
+    for i in 0..2_000_000 {
+        points.push_str(&format!("[{}.0, 0.0],", i));
+    }
+    points.push_str("]\n");
+    let o = run(
+        "two_million.toml",
+        &format!("{}{points}", base.replace("[wire]", "[old_wire]")),
+    );
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{}", &t[..t.len().min(2000)]);
+    assert!(
+        t.contains("a scene may hold"),
+        "{}",
+        &t[..t.len().min(2000)]
+    );
+    assert!(t.len() < 2000, "{} bytes of message", t.len());
+    // A value nested a hundred thousand deep: an error, not a crash, and a short one.
+    let nested = format!(
+        "{}\nx = {}{}\n",
+        base,
+        "[".repeat(100_000),
+        "]".repeat(100_000)
+    );
+    let o = run("nested.toml", &nested);
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{}", &t[..t.len().min(2000)]);
+    assert!(t.len() < 5000, "{} bytes of message", t.len());
+}
+
+#[test]
+fn a_body_faster_than_its_motors_can_drive_it_stops_the_run_naming_the_key() {
+    // A yaw inertia of 1e-3 kg m^2 on a 120 kg AGV: the integration gains energy (it
+    // travelled 68 m in 5 s, twelve times the drive's top speed).
+    let dir = tmp("yaw-inertia");
+    let o = agvsim(&[
+        "run",
+        "scenes/lab_offset_120mm.toml",
+        "--duration",
+        "5",
+        "--set",
+        "chassis.yaw_inertia_kg_m2=1e-3",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    let t = text(&o);
+    assert!(!o.status.success(), "{t}");
+    assert!(t.contains("the simulation diverged"), "{t}");
+    assert!(t.contains("chassis.yaw_inertia_kg_m2 = 0.001"), "{t}");
+    assert!(!dir.join("lab_offset_120mm.csv").exists());
+}

@@ -149,8 +149,31 @@ fn a_replay_says_when_it_clipped_inputs_or_the_dcmc_faulted() {
 #[test]
 fn outputs_belong_to_one_process_and_a_stopped_run_claims_no_file() {
     let dir = tmp("lock");
-    let mut other = Command::new("sleep").arg("30").spawn().unwrap();
-    std::fs::write(dir.join(".agvsim.lock"), format!("{}\n", other.id())).unwrap();
+    // Another writer holding the folder's lock as the kernel keeps it (util-linux
+    // `flock`, an independent taker), with its owner's line in the file.
+    let lock = dir.join(".agvsim.lock");
+    std::fs::write(&lock, "process 4242 on another-host\n").unwrap();
+    // `-o`: the lock is `flock`'s own, not handed to its command, so killing `flock`
+    // ends the writer.
+    let mut other = Command::new("flock")
+        .arg("-o")
+        .arg(&lock)
+        .args(["sleep", "30"])
+        .spawn()
+        .unwrap();
+    // Until `flock` holds it (a lock taken is visible to a non-blocking try).
+    let t0 = std::time::Instant::now();
+    while Command::new("flock")
+        .args(["-n"])
+        .arg(&lock)
+        .arg("true")
+        .status()
+        .unwrap()
+        .success()
+    {
+        assert!(t0.elapsed().as_secs() < 10, "flock never took the lock");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
     let o = agvsim()
         .args([
             "run",
@@ -165,12 +188,14 @@ fn outputs_belong_to_one_process_and_a_stopped_run_claims_no_file() {
     let t = text(&o);
     assert_eq!(o.status.code(), Some(2), "{t}");
     assert!(
-        t.contains(&format!("another agvsim (process {})", other.id())),
+        t.contains("another agvsim (process 4242 on another-host) is writing there"),
         "{t}"
     );
     other.kill().unwrap();
     other.wait().unwrap();
-    // The writer gone, its lock is stale and the run goes ahead, leaving no lock.
+    // The writer gone, the kernel has released its lock: the file it left names a
+    // process that may run (another container's id) but holds no lock, and the run goes
+    // ahead, leaving no lock.
     let o = agvsim()
         .args([
             "run",

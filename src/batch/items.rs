@@ -1,6 +1,7 @@
 //! A batch's recordings: every `*.csv` of a folder (each with `NAME.rig.toml` beside it
 //! when there is one), or the lines of a list file (`recording.csv [rig.toml]`, paths
-//! relative to the list; `#` starts a comment), in name order.
+//! relative to the list; a name in double quotes may hold spaces and `#`; a `#` that
+//! starts a word starts a comment), in name order.
 
 use std::path::{Path, PathBuf};
 
@@ -39,6 +40,44 @@ fn rig_beside(recording: &Path) -> Option<PathBuf> {
     rig.is_file().then_some(rig)
 }
 
+/// The words of a list file's line: separated by white space, a word in double quotes
+/// may hold spaces and `#`; a `#` that starts a word starts a comment.
+fn list_words(line: &str) -> Result<Vec<String>, String> {
+    let mut words = Vec::new();
+    let mut chars = line.chars().peekable();
+    loop {
+        while chars.next_if(|c| c.is_whitespace()).is_some() {}
+        match chars.peek() {
+            None | Some('#') => return Ok(words),
+            Some('"') => {
+                chars.next();
+                let mut word = String::new();
+                let mut closed = false;
+                for c in chars.by_ref() {
+                    if c == '"' {
+                        closed = true;
+                        break;
+                    }
+                    word.push(c);
+                }
+                if !closed {
+                    return Err(format!(
+                        "`\"{word}`: a quoted name without its closing quote"
+                    ));
+                }
+                words.push(word);
+            }
+            Some(_) => {
+                let mut word = String::new();
+                while let Some(c) = chars.next_if(|c| !c.is_whitespace()) {
+                    word.push(c);
+                }
+                words.push(word);
+            }
+        }
+    }
+}
+
 /// The recordings of a folder or list file, each with its rig (`rig`, when given, for
 /// all), sorted by name; two recordings of one name are refused.
 pub fn find_items(source: &Path, rig: Option<&Path>) -> Result<Vec<Item>, BatchError> {
@@ -64,14 +103,16 @@ pub fn find_items(source: &Path, rig: Option<&Path>) -> Result<Vec<Item>, BatchE
         found
     } else {
         let text = std::fs::read_to_string(source).map_err(|e| err(format!("cannot read: {e}")))?;
+        // A UTF-8 byte-order mark, as some editors write, is not part of the first name.
+        let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
         let base = source.parent().unwrap_or(Path::new(""));
         let mut found = Vec::new();
         for (i, line) in text.lines().enumerate() {
-            let line = line.split('#').next().unwrap_or("").trim();
-            if line.is_empty() {
+            let words = list_words(line).map_err(|m| err(format!("line {}: {m}", i + 1)))?;
+            if words.is_empty() {
                 continue;
             }
-            let words: Vec<&str> = line.split_whitespace().collect();
+            let words: Vec<&str> = words.iter().map(String::as_str).collect();
             if words.len() > 2 {
                 return Err(err(format!(
                     "line {}: expected `recording.csv [rig.toml]`, found {} words",
@@ -106,4 +147,24 @@ pub fn find_items(source: &Path, rig: Option<&Path>) -> Result<Vec<Item>, BatchE
         )));
     }
     Ok(items)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::list_words;
+
+    #[test]
+    fn list_lines_hold_quoted_names_with_spaces_and_hashes_and_comments() {
+        assert_eq!(
+            list_words("  a.csv  b.rig.toml # two"),
+            Ok(vec!["a.csv".into(), "b.rig.toml".into()])
+        );
+        assert_eq!(
+            list_words(r#""run #3 left.csv" "my rig.toml""#),
+            Ok(vec!["run #3 left.csv".into(), "my rig.toml".into()])
+        );
+        assert_eq!(list_words("# only a comment"), Ok(vec![]));
+        assert_eq!(list_words("a#b.csv"), Ok(vec!["a#b.csv".into()]));
+        assert!(list_words(r#""open.csv"#).is_err());
+    }
 }

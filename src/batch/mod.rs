@@ -8,6 +8,7 @@
 //! scene's bytes, the job's options and agvsim's version) is the same.
 
 pub mod items;
+pub mod manifest;
 pub mod summary;
 
 use std::collections::BTreeMap;
@@ -76,6 +77,30 @@ pub struct Entry {
     pub params: BTreeMap<String, f64>,
     /// Things to know (a parameter at a bound, outputs left out).
     pub warnings: Vec<String>,
+    /// The fingerprint of the entry's own contents as written (this field empty): a
+    /// result edited since does not merge. (Numbers read back exactly: serde_json's
+    /// `float_roundtrip`.)
+    #[serde(default)]
+    pub seal: String,
+}
+
+impl Entry {
+    fn contents_print(&self) -> String {
+        let mut bare = self.clone();
+        bare.seal = String::new();
+        fnv1a(&[serde_json::to_string(&bare).unwrap_or_default().as_bytes()])
+    }
+
+    /// The entry with its seal set.
+    pub fn sealed(mut self) -> Entry {
+        self.seal = self.contents_print();
+        self
+    }
+
+    /// Whether the entry is as it was sealed.
+    pub fn seal_holds(&self) -> bool {
+        self.seal == self.contents_print()
+    }
 }
 
 /// Why a batch could not run.
@@ -105,23 +130,14 @@ pub enum BatchError {
         /// Why.
         source: std::io::Error,
     },
-    /// A result file that is not a batch result.
-    #[error("{}: not a batch result: {message}", path.display())]
+    /// A result, summary or manifest of a batch that cannot be used (the message says
+    /// why).
+    #[error("{}: {message}", path.display())]
     Result {
         /// The file.
         path: PathBuf,
         /// The reader's complaint.
         message: String,
-    },
-    /// Two shards hold different results for one recording.
-    #[error("{name}: the shards {a} and {b} hold different results; merge shards of one batch")]
-    Conflict {
-        /// The recording.
-        name: String,
-        /// One folder.
-        a: String,
-        /// The other.
-        b: String,
     },
 }
 
@@ -130,6 +146,27 @@ fn io(path: &Path) -> impl Fn(std::io::Error) -> BatchError + '_ {
         path: path.to_owned(),
         source,
     }
+}
+
+/// The fingerprint of a `kind` job (`diagnose` or `calibrate`) on `recording` with its
+/// rig or scene `model` and effect words: their bytes, the options and agvsim's version.
+pub(crate) fn fingerprint_of(
+    kind: &str,
+    recording: &Path,
+    model: Option<&Path>,
+    words: &[String],
+) -> Result<String, BatchError> {
+    let read = |p: &Path| std::fs::read(p).map_err(io(p));
+    let recording = read(recording)?;
+    let model = model.map(read).transpose()?.unwrap_or_default();
+    let words = words.join(",");
+    Ok(fnv1a(&[
+        kind.as_bytes(),
+        env!("CARGO_PKG_VERSION").as_bytes(),
+        &recording,
+        &model,
+        words.as_bytes(),
+    ]))
 }
 
 /// FNV-1a, 64 bits: a fingerprint stable across runs, builds and platforms.
@@ -147,32 +184,19 @@ fn fnv1a(parts: &[&[u8]]) -> String {
 impl Job {
     /// The fingerprint of this job on `item`.
     pub fn fingerprint(&self, item: &Item) -> Result<String, BatchError> {
-        let read = |p: &Path| std::fs::read(p).map_err(io(p));
-        let recording = read(&item.recording)?;
-        let (kind, model, words) = match self {
-            Job::Diagnose { effect_words, .. } => (
+        match self {
+            Job::Diagnose { effect_words, .. } => fingerprint_of(
                 "diagnose",
-                item.rig
-                    .as_deref()
-                    .map(read)
-                    .transpose()?
-                    .unwrap_or_default(),
+                &item.recording,
+                item.rig.as_deref(),
                 effect_words,
             ),
             Job::Calibrate {
                 scene,
                 effect_words,
                 ..
-            } => ("calibrate", read(scene)?, effect_words),
-        };
-        let words = words.join(",");
-        Ok(fnv1a(&[
-            kind.as_bytes(),
-            env!("CARGO_PKG_VERSION").as_bytes(),
-            &recording,
-            &model,
-            words.as_bytes(),
-        ]))
+            } => fingerprint_of("calibrate", &item.recording, Some(scene), effect_words),
+        }
     }
 
     /// Runs the job on one item: its entry and its full report (text).
@@ -188,6 +212,7 @@ impl Job {
             effects: vec![],
             params: BTreeMap::new(),
             warnings: vec![],
+            seal: String::new(),
         };
         let report = match self {
             Job::Diagnose { effects, .. } => diagnose_one(item, effects, &mut entry),
@@ -311,9 +336,12 @@ pub fn result_path(out: &Path, name: &str) -> PathBuf {
     out.join("results").join(format!("{name}.json"))
 }
 
-/// Reads a result file, `None` if it is missing or not a result (it is then redone).
+/// Reads a result file, `None` if it is missing, not a result or not as written (it is
+/// then redone).
 fn read_entry(path: &Path) -> Option<Entry> {
-    serde_json::from_slice(&std::fs::read(path).ok()?).ok()
+    serde_json::from_slice::<Entry>(&std::fs::read(path).ok()?)
+        .ok()
+        .filter(Entry::seal_holds)
 }
 
 /// Runs `job` on this shard's items in parallel (on the current rayon pool), writing each
@@ -334,6 +362,16 @@ pub fn run(
         .iter()
         .map(|i| job.fingerprint(i))
         .collect::<Result<_, _>>()?;
+    // What this folder is part of, before any work; a summary of an earlier run goes, so
+    // that a run stopped midway leaves none that reads as this one's.
+    manifest::Manifest::new(job, items, shard, &prints).write(out)?;
+    for old in [summary::SUMMARY_FILE, summary::FLEET_FILE] {
+        let p = out.join(old);
+        match std::fs::remove_file(&p) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(io(&p)(e)),
+            _ => {}
+        }
+    }
     let outcomes: Vec<Result<(Entry, bool), BatchError>> = mine
         .par_iter()
         .zip(prints.par_iter())
@@ -344,6 +382,7 @@ pub fn run(
                 return Ok((e, true));
             }
             let (entry, report) = job.run(item, print.clone());
+            let entry = entry.sealed();
             let text = results.join(format!("{}.txt", item.name));
             crate::output::write_atomically(&text, report).map_err(io(&text))?;
             let json = serde_json::to_string_pretty(&entry).unwrap_or_default();
@@ -368,4 +407,36 @@ pub fn run(
         computed: mine.len() - kept,
         failed,
     })
+}
+
+#[cfg(test)]
+mod seal_tests {
+    use super::*;
+
+    #[test]
+    fn a_sealed_entry_read_back_holds_and_an_edited_one_does_not() {
+        let mut params = BTreeMap::new();
+        params.insert("motor.coulomb_Nm".to_string(), 1.0 / 3.0);
+        params.insert("gearbox.backlash_rad".to_string(), 0.1 + 0.2);
+        let entry = Entry {
+            name: "a".into(),
+            recording: "a.csv".into(),
+            fingerprint: "0123".into(),
+            status: "ok".into(),
+            error: None,
+            fit_before_pct: Some(81.234_567_891_234_5),
+            fit_after_pct: Some(97.0e-3 / 7.0),
+            effects: vec![],
+            params,
+            warnings: vec![],
+            seal: String::new(),
+        }
+        .sealed();
+        let text = serde_json::to_string_pretty(&entry).unwrap();
+        let back: Entry = serde_json::from_str(&text).unwrap();
+        assert!(back.seal_holds());
+        let edited: Entry =
+            serde_json::from_str(&text.replace("81.2345678912345", "1e308")).unwrap();
+        assert!(!edited.seal_holds());
+    }
 }

@@ -7,7 +7,13 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use super::{io, read_entry, BatchError, Entry};
+use super::manifest::{check_entry, Manifest};
+use super::{io, BatchError, Entry};
+
+/// The summary table's file name.
+pub const SUMMARY_FILE: &str = "summary.csv";
+/// The fleet report's file name.
+pub const FLEET_FILE: &str = "fleet.md";
 
 /// A number as the summary prints it: 6 significant figures, plain.
 pub(crate) fn num(v: f64) -> String {
@@ -175,48 +181,75 @@ pub fn fleet_text(entries: &[Entry]) -> String {
 
 /// Writes `summary.csv` and `fleet.md` for `entries` into `out`.
 pub fn write(out: &Path, entries: &[Entry]) -> Result<(), BatchError> {
-    let csv_path = out.join("summary.csv");
+    let csv_path = out.join(SUMMARY_FILE);
     crate::output::write_atomically(&csv_path, csv_text(entries)?).map_err(io(&csv_path))?;
-    let md = out.join("fleet.md");
+    let md = out.join(FLEET_FILE);
     crate::output::write_atomically(&md, fleet_text(entries)).map_err(io(&md))?;
     Ok(())
 }
 
-/// The finished results in a batch folder.
-pub fn read_results(dir: &Path) -> Result<Vec<(Entry, PathBuf)>, BatchError> {
-    let results = dir.join("results");
-    let listing = std::fs::read_dir(&results).map_err(io(&results))?;
-    let mut out = Vec::new();
-    for e in listing {
-        let p = e.map_err(io(&results))?.path();
-        let is_result = p.extension().is_some_and(|x| x == "json");
-        if is_result {
-            let entry = read_entry(&p).ok_or_else(|| BatchError::Result {
-                path: p.clone(),
-                message: "expected the JSON of a batch result".into(),
-            })?;
-            out.push((entry, p));
+/// Joins shard folders into `out`: each shard's `batch.json` must describe one batch
+/// (job, options, recordings, shard count), every shard given once and none missing;
+/// each result whole, unedited, and computed from its recording as it is now. Writes the
+/// results, one summary and the batch's manifest. Returns the number of results.
+pub fn merge(shards: &[PathBuf], out: &Path) -> Result<usize, BatchError> {
+    let merge_err = |message: String| BatchError::Items {
+        path: out.to_owned(),
+        message,
+    };
+    let manifests: Vec<Manifest> = shards
+        .iter()
+        .map(|d| Manifest::read(d))
+        .collect::<Result<_, _>>()?;
+    let Some(first) = manifests.first() else {
+        return Err(merge_err("no shard folders given".into()));
+    };
+    let mut by_index: BTreeMap<usize, &PathBuf> = BTreeMap::new();
+    for (m, dir) in manifests.iter().zip(shards) {
+        let d = first.differences(m);
+        if !d.is_empty() {
+            return Err(merge_err(format!(
+                "{} is a shard of another batch than {} (they differ in {}); merge the shards of one batch",
+                dir.display(),
+                shards[0].display(),
+                d.join(", ")
+            )));
+        }
+        if let Some(other) = by_index.insert(m.shard_index, dir) {
+            return Err(merge_err(format!(
+                "shard {} is given twice ({} and {})",
+                m.shard(),
+                other.display(),
+                dir.display()
+            )));
         }
     }
-    Ok(out)
-}
-
-/// Joins shard folders into `out`: their results (each recording once; two shards with
-/// different results for one are refused) and one summary. Returns the number of results.
-pub fn merge(shards: &[PathBuf], out: &Path) -> Result<usize, BatchError> {
+    let missing: Vec<String> = (1..=first.shard_count)
+        .filter(|i| !by_index.contains_key(i))
+        .map(|i| format!("{i}/{}", first.shard_count))
+        .collect();
+    if !missing.is_empty() {
+        return Err(merge_err(format!(
+            "shard(s) {} of the batch's {} are missing: give every shard's folder",
+            missing.join(", "),
+            first.shard_count
+        )));
+    }
     let mut all: BTreeMap<String, (Entry, PathBuf)> = BTreeMap::new();
-    for dir in shards {
-        for (entry, path) in read_results(dir)? {
-            if let Some((other, other_path)) = all.get(&entry.name) {
-                if *other != entry {
-                    return Err(BatchError::Conflict {
-                        name: entry.name.clone(),
-                        a: other_path.display().to_string(),
-                        b: path.display().to_string(),
-                    });
-                }
-                continue;
-            }
+    for (m, dir) in manifests.iter().zip(shards) {
+        for item in &m.items[m.shard().range(m.items.len())] {
+            let path = super::result_path(dir, &item.name);
+            let entry: Entry = std::fs::read(&path)
+                .ok()
+                .and_then(|b| serde_json::from_slice(&b).ok())
+                .ok_or_else(|| BatchError::Result {
+                    path: path.clone(),
+                    message: format!(
+                        "no whole result for {} (the shard did not finish); run the shard again",
+                        item.name
+                    ),
+                })?;
+            check_entry(m, item, &entry, &path)?;
             all.insert(entry.name.clone(), (entry, path));
         }
     }
@@ -234,5 +267,19 @@ pub fn merge(shards: &[PathBuf], out: &Path) -> Result<usize, BatchError> {
     }
     let entries: Vec<Entry> = all.into_values().map(|(e, _)| e).collect();
     write(out, &entries)?;
+    Manifest {
+        shard_index: 1,
+        shard_count: 1,
+        fingerprints: {
+            let mut in_order: Vec<&Manifest> = manifests.iter().collect();
+            in_order.sort_by_key(|m| m.shard_index);
+            in_order
+                .iter()
+                .flat_map(|m| m.fingerprints.iter().cloned())
+                .collect()
+        },
+        ..first.clone()
+    }
+    .write(out)?;
     Ok(entries.len())
 }

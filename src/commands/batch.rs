@@ -59,6 +59,11 @@ pub fn run(req: &BatchRequest, say: Say) -> Result<(), CommandError> {
         }
         None => (Shard::WHOLE, None),
     };
+    // A rig given for every recording is read once, before any work: a CSV given as the
+    // rig is one error, not one per recording.
+    if let Some(rig) = &req.rig {
+        crate::rig::Rig::load(rig)?;
+    }
     let items = find_items(&req.recordings, req.rig.as_deref())?;
     let out = req.out.clone().unwrap_or_else(|| {
         let mut n = format!("batch_{}", stem(&req.recordings, "recordings"));

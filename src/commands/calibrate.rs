@@ -63,6 +63,14 @@ pub fn run(req: &CalibrateRequest, say: Say) -> Result<(), CommandError> {
     let other = (!req.validate.is_empty())
         .then(|| Recording::load_joined(&req.validate))
         .transpose()?;
+    // A validation recording that cannot validate this fit is refused before the fit.
+    if let Some(o) = &other {
+        crate::replay::check_validation(&rec, o).map_err(|message| CommandError::Option {
+            option: "--validate".into(),
+            value: super::joined_names(&req.validate),
+            message,
+        })?;
+    }
     let recordings = super::joined_names(&req.recording);
     // The output paths are checked before the fit's work.
     check_targets(&[

@@ -70,6 +70,14 @@ pub fn run(req: &RunRequest, say: Say) -> Result<(), CommandError> {
         .map_err(|e| super::name_own_options(e, &req.set, req.duration_s, req.seed))?;
     say(&checked.render_warnings());
     let scene = checked.scene;
+    for arg in &req.set {
+        let key = arg.split('=').next().unwrap_or("").trim();
+        if let Some(why) = crate::scene::inert::inert_reason(&scene, key) {
+            say(&format!(
+                "warning: --set {arg}: no effect on this run: {why}\n"
+            ));
+        }
+    }
     let name = stem(&req.scene, "run");
     let opts = RunOptions {
         out_dir: req

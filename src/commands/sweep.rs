@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 
 use super::{CommandError, Say};
+use crate::scene::Scene;
 use crate::sweep::{self, Shard, SweepOptions};
 
 /// What `agvsim sweep` was asked.
@@ -74,6 +75,13 @@ pub fn run(req: &SweepRequest, say: Say) -> Result<(), CommandError> {
     let opts = options(req)?;
     let _lock = super::lock_out("--out", &opts.out_dir)?;
     let range = opts.shard.range(opts.grid.total());
+    if let Ok(scene) = Scene::from_toml(&opts.scene_text, &opts.scene_path, &opts.set) {
+        for v in &opts.grid.varies {
+            if let Some(why) = crate::scene::inert::inert_reason(&scene, &v.key) {
+                say(&format!("warning: --vary {}: {why}\n", v.key));
+            }
+        }
+    }
     let previous = sweep::previous_outputs(&opts.out_dir);
     if !previous.is_empty() {
         say(&format!(

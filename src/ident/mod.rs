@@ -661,6 +661,17 @@ pub fn identify(
     validation: Option<&Recording>,
     opts: &IdentifyOptions,
 ) -> Result<Identification, IdentError> {
+    if let Some(v) = validation {
+        if v.rig != rec.rig {
+            return Err(IdentError::Mismatch {
+                file: v.path.clone(),
+                message: format!(
+                    "the validation recording is a `{}` recording, the one identified `{}`: validate on a recording of the same rig",
+                    v.rig, rec.rig
+                ),
+            });
+        }
+    }
     let structure = build_structure(rig, rig_path, rec, opts.model)?;
     let model = structure.model();
     let (data, left_out) = dataset_for(model, rec)?;

@@ -255,6 +255,45 @@ fn choose_drive(rec: &Recording) -> Result<Drive, ReplayError> {
         })
 }
 
+/// Whether `other` can validate what is fitted on `rec`: a recording of the same rig,
+/// driven by the same inputs, measuring at least one output `rec` measures; the message
+/// says what differs (a recording of another rig or robot would print fits of nothing).
+pub fn check_validation(rec: &Recording, other: &Recording) -> Result<(), String> {
+    if other.rig != rec.rig {
+        return Err(format!(
+            "a `{}` recording, where the recording fitted is `{}`: validate on a recording of the same rig",
+            other.rig, rec.rig
+        ));
+    }
+    let (a, b) = (
+        choose_drive(rec).map_err(|e| e.to_string())?,
+        choose_drive(other).map_err(|e| e.to_string())?,
+    );
+    if a != b {
+        return Err(format!(
+            "driven by {}, where the recording fitted is driven by {}: validate on a recording of the same inputs",
+            b.columns().join(" and "),
+            a.columns().join(" and ")
+        ));
+    }
+    let (mine, _) = channels(rec, a);
+    let (theirs, _) = channels(other, b);
+    let common = mine
+        .iter()
+        .filter(|c| theirs.iter().any(|t| t.name == c.name))
+        .count();
+    if common == 0 {
+        return Err(format!(
+            "measures none of the outputs the recording fitted measures ({})",
+            mine.iter()
+                .map(|c| c.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
+    Ok(())
+}
+
 /// A note when the recording also holds velocity commands that a voltage or demand drive
 /// leaves unused: two drives in one recording, and the replay follows one.
 fn unused_drive_note(rec: &Recording, drive: Drive) -> Option<String> {

@@ -3,6 +3,7 @@
 //! was expected.
 
 mod expect;
+pub mod inert;
 pub mod keys;
 pub mod origin;
 pub mod plausibility;
@@ -112,6 +113,30 @@ pub struct Invalid {
     pub expected: String,
 }
 
+/// Largest scene file read, bytes: a wire of a kilometre at centimetre spacing is about
+/// 2 MB; beyond this a file is a mistake (or hostile), not a floor.
+pub const MAX_SCENE_BYTES: usize = 8 << 20;
+
+/// A parser's message with each line cut to 200 characters and at most 20 lines: a
+/// message quoting a 200 kB line (a deeply nested value) stays readable.
+fn clipped(message: &str) -> String {
+    let mut out: Vec<String> = message
+        .lines()
+        .take(20)
+        .map(|l| {
+            if l.chars().count() > 200 {
+                format!("{}...", l.chars().take(200).collect::<String>())
+            } else {
+                l.to_string()
+            }
+        })
+        .collect();
+    if message.lines().count() > 20 {
+        out.push("...".into());
+    }
+    out.join("\n")
+}
+
 impl Scene {
     /// Reads, overrides (`key=value` pairs, TOML values; bare words are strings) and
     /// validates a scene file.
@@ -149,11 +174,19 @@ impl Scene {
 
     /// As [`Scene::load`], from text; `path` is used in messages only.
     pub fn from_toml(text: &str, path: &Path, overrides: &[String]) -> Result<Scene, SceneError> {
+        if text.len() > MAX_SCENE_BYTES {
+            return Err(SceneError::Parse {
+                file: path.to_owned(),
+                message: format!(
+                    "{} bytes, more than the {MAX_SCENE_BYTES} a scene may hold (a wire or floor of millions of points? resample it to centimetres)",
+                    text.len()
+                ),
+            });
+        }
         // Parse the file on its own first so that its errors carry its own line numbers.
         let mut scene: Scene = toml::from_str(text).map_err(|e| SceneError::Parse {
             file: path.to_owned(),
-            message: not_a_scene(text, path)
-                .unwrap_or_else(|| e.to_string().trim_end().to_string()),
+            message: not_a_scene(text, path).unwrap_or_else(|| clipped(e.to_string().trim_end())),
         })?;
         for arg in overrides {
             check_override(arg)?;
@@ -195,7 +228,9 @@ impl Scene {
 
     /// The scene as TOML text (what a run actually used, overrides included).
     pub fn to_toml(&self) -> String {
-        toml::to_string(self).unwrap_or_else(|e| format!("# scene not serialisable: {e}\n"))
+        toml::to_string(self)
+            .map(|t| crate::numtext::toml_short_floats(&t))
+            .unwrap_or_else(|e| format!("# scene not serialisable: {e}\n"))
     }
 }
 

@@ -935,7 +935,7 @@ fn render(
         }
     }
     out.push_str(&tables_after(scene));
-    out
+    crate::numtext::toml_short_floats(&out)
 }
 
 /// The array-of-tables keys (floor regions, obstacles) and stated uncertainties, as TOML.

@@ -400,10 +400,29 @@ impl Sim {
         if let Body::Rapier(e) = &self.body {
             let v = e.body_velocity();
             let speed = v.axle_m_s[0].hypot(v.axle_m_s[1]);
-            if !speed.is_finite() || speed > 100.0 {
+            let bound = self.speed_bound_m_s();
+            if !speed.is_finite() || speed > bound.min(100.0) {
                 return Err(bad("chassis speed (m/s)", speed));
+            }
+            let yaw_bound = 2.0 * bound / self.params.chassis.track_width_m;
+            if !v.yaw_rate_rad_s.is_finite() || v.yaw_rate_rad_s.abs() > yaw_bound {
+                return Err(bad("yaw rate (rad/s)", v.yaw_rate_rad_s));
             }
         }
         Ok(())
+    }
+
+    /// The fastest the chassis can move, m/s: the motors' no-load speed at the supply,
+    /// through the gear to the larger rolling radius, three times over, plus 1 m/s (for
+    /// transients and collisions). Every joule of a floor run comes from the motors, so a
+    /// body faster than this has gained energy from an integration gone unstable (a yaw
+    /// inertia far below the body's, a stiffness too high for `sim.dt_s`).
+    fn speed_bound_m_s(&self) -> f64 {
+        let p = &self.params;
+        let d = &p.drivetrain;
+        let no_load_m_s =
+            p.battery.open_circuit_v.abs() / d.motor.torque_constant_nm_a / d.gearbox.ratio
+                * p.rolling_radii_m[0].max(p.rolling_radii_m[1]);
+        3.0 * no_load_m_s + 1.0
     }
 }

@@ -70,6 +70,7 @@ pub fn merge(shards: &[PathBuf], out: &Path) -> Result<(PathBuf, Vec<PathBuf>), 
         }
         for (run, line, cells) in &table.rows {
             table.check_on_grid(&grid, &path, *line, cells)?;
+            finite_metrics(&table.header, &path, *line, cells)?;
             if rows.insert(*run, cells.clone()).is_some() {
                 return Err(SweepError::Merge(format!(
                     "run {run} appears twice (in {} and an earlier shard); give each shard once",
@@ -115,4 +116,30 @@ pub fn merge(shards: &[PathBuf], out: &Path) -> Result<(PathBuf, Vec<PathBuf>), 
     let table = Table::parse(&csv, &path)?;
     let plots = super::plots::write(out, &merged.grid(), &table)?;
     Ok((path, plots))
+}
+
+/// Every number after a row's `outcome` is finite: a run writes no NaN or infinite
+/// metric (a diverged run is an `error:` outcome with empty cells), so one is an edit.
+fn finite_metrics(
+    header: &[String],
+    path: &Path,
+    line: usize,
+    cells: &[String],
+) -> Result<(), SweepError> {
+    let Some(from) = header.iter().position(|h| h == "outcome") else {
+        return Ok(());
+    };
+    for (name, cell) in header.iter().zip(cells).skip(from + 1) {
+        if let Ok(v) = cell.trim().parse::<f64>() {
+            if !v.is_finite() {
+                return Err(SweepError::Format {
+                    path: path.to_owned(),
+                    message: format!(
+                        "line {line}: column `{name}`: `{cell}`: expected a finite number or an empty cell (a sweep writes no NaN or infinity; was the file edited?)"
+                    ),
+                });
+            }
+        }
+    }
+    Ok(())
 }

@@ -22,7 +22,7 @@ pub const MAX_RECORD_BYTES: usize = 64 << 20;
 pub const MAX_MESSAGE_BYTES: u64 = 512 << 20;
 
 /// Longest an SQLite3 bag's queries may run, s (a view over itself never ends).
-pub const MAX_QUERY_SECONDS: u64 = 60;
+pub const MAX_QUERY_SECONDS: u64 = 30;
 
 /// The message bytes a bag has left to give.
 #[derive(Debug, Default)]
@@ -32,9 +32,16 @@ pub(super) struct Budget {
 }
 
 impl Budget {
-    /// Counts `n` more message bytes; an error naming the file past [`MAX_MESSAGE_BYTES`].
+    /// Counts a message of `n` bytes (and what keeping it costs beside its bytes); an
+    /// error naming the file past [`MAX_MESSAGE_BYTES`].
     pub(super) fn take(&mut self, path: &Path, n: usize) -> Result<(), BagError> {
-        self.bytes = self.bytes.saturating_add(n as u64);
+        // A kept message is its bytes, a vector and a time: tens of millions of empty
+        // messages weigh as much as their data would.
+        const PER_MESSAGE_BYTES: u64 = 48;
+        self.bytes = self
+            .bytes
+            .saturating_add(n as u64)
+            .saturating_add(PER_MESSAGE_BYTES);
         if self.bytes > MAX_MESSAGE_BYTES {
             return Err(bad(
                 path,

@@ -259,11 +259,20 @@ fn convert_timed(
                     description.map_or("", |t| &t.name)
                 ))
             })?;
-            urdf::drive_geometry(
+            match urdf::drive_geometry(
                 &xml,
                 map.left_wheel_joint.as_deref(),
                 map.right_wheel_joint.as_deref(),
-            )
+            ) {
+                Ok(g) => Some(g),
+                Err(why) => {
+                    notes.push(format!(
+                        "topic `{}` not used for the drive's geometry: {why}",
+                        description.map_or("", |t| &t.name)
+                    ));
+                    None
+                }
+            }
         }
         None => None,
     };

@@ -1,7 +1,7 @@
 //! The two numbers a drive needs from a URDF robot description: the track (the lateral
 //! distance between the drive wheels' joints) and the wheel radius (the wheel link's
-//! cylinder). Read by plain text search: a URDF from `xacro` is flat XML, and only these
-//! attributes matter.
+//! cylinder). Read with an XML parser (`roxmltree`), so that attributes on lines of their
+//! own, single quotes, comments and padded numbers read as any URDF tool reads them.
 
 /// Track and wheel radius from a URDF, with the joint names used.
 #[derive(Debug, Clone, PartialEq)]
@@ -14,42 +14,32 @@ pub struct DriveGeometry {
     pub joints: [String; 2],
 }
 
-/// The value of attribute `name` in an element's text.
-fn attr<'a>(element: &'a str, name: &str) -> Option<&'a str> {
-    let key = format!("{name}=\"");
-    let start = element.find(&key)? + key.len();
-    let len = element[start..].find('"')?;
-    Some(&element[start..start + len])
+type Node<'a, 'i> = roxmltree::Node<'a, 'i>;
+
+/// The element's children named `tag`.
+fn children<'a, 'i>(node: Node<'a, 'i>, tag: &'a str) -> impl Iterator<Item = Node<'a, 'i>> {
+    node.children()
+        .filter(move |c| c.is_element() && c.tag_name().name() == tag)
 }
 
-/// The `<tag ...>...</tag>` (or self-closed) elements of `xml`.
-fn elements<'a>(xml: &'a str, tag: &str) -> Vec<&'a str> {
-    let open = format!("<{tag} ");
-    let close = format!("</{tag}>");
-    let mut out = vec![];
-    let mut rest = xml;
-    while let Some(i) = rest.find(&open) {
-        let from = &rest[i..];
-        let head_end = from.find('>').unwrap_or(from.len());
-        let end = if from[..head_end].ends_with('/') {
-            head_end + 1
-        } else {
-            from.find(&close).map_or(from.len(), |j| j + close.len())
-        };
-        out.push(&from[..end]);
-        rest = &from[end..];
-    }
-    out
+/// A number attribute, white space around it allowed.
+fn number(node: Node, attr: &str) -> Option<f64> {
+    node.attribute(attr)?.trim().parse().ok()
 }
 
-/// A wheel joint: continuous, its name chosen or naming the side and "wheel".
-fn wheel_joint<'a>(joints: &[&'a str], side: &str, chosen: Option<&str>) -> Option<&'a str> {
-    joints.iter().copied().find(|j| {
-        let name = attr(j, "name").unwrap_or("");
+/// A wheel joint: the one named `chosen`, else a continuous (or revolute) joint whose
+/// name holds the side and "wheel".
+fn wheel_joint<'a, 'i>(
+    robot: Node<'a, 'i>,
+    side: &str,
+    chosen: Option<&str>,
+) -> Option<Node<'a, 'i>> {
+    children(robot, "joint").find(|j| {
+        let name = j.attribute("name").unwrap_or("");
         match chosen {
             Some(c) => name == c,
             None => {
-                attr(j, "type") == Some("continuous")
+                matches!(j.attribute("type"), Some("continuous" | "revolute"))
                     && name.contains("wheel")
                     && name.contains(side)
             }
@@ -57,31 +47,74 @@ fn wheel_joint<'a>(joints: &[&'a str], side: &str, chosen: Option<&str>) -> Opti
     })
 }
 
-/// The drive's geometry, if the description has both wheels' joints and the left
-/// wheel's cylinder.
-pub fn drive_geometry(xml: &str, left: Option<&str>, right: Option<&str>) -> Option<DriveGeometry> {
-    let joints = elements(xml, "joint");
-    let (l, r) = (
-        wheel_joint(&joints, "left", left)?,
-        wheel_joint(&joints, "right", right)?,
-    );
-    let y = |j: &str| -> Option<f64> {
-        let origin = elements(j, "origin").into_iter().next()?;
-        attr(origin, "xyz")?.split_whitespace().nth(1)?.parse().ok()
+/// A joint's lateral offset: the y of its origin's `xyz` (0 without an origin).
+fn lateral_m(joint: Node) -> Option<f64> {
+    match children(joint, "origin").next() {
+        None => Some(0.0),
+        Some(o) => match o.attribute("xyz") {
+            None => Some(0.0),
+            Some(xyz) => xyz.split_whitespace().nth(1)?.parse().ok(),
+        },
+    }
+}
+
+/// The radius of the first cylinder of the link's visual or collision geometry.
+fn cylinder_radius_m(link: Node) -> Option<f64> {
+    link.descendants()
+        .filter(|n| n.is_element() && n.tag_name().name() == "cylinder")
+        .find_map(|c| number(c, "radius"))
+}
+
+/// The drive's geometry, or why the description gives none (not XML, no wheel joints,
+/// no cylinder on the left wheel's link).
+pub fn drive_geometry(
+    xml: &str,
+    left: Option<&str>,
+    right: Option<&str>,
+) -> Result<DriveGeometry, String> {
+    let doc = roxmltree::Document::parse(xml).map_err(|e| format!("not XML: {e}"))?;
+    let robot = doc.root_element();
+    if robot.tag_name().name() != "robot" {
+        return Err(format!(
+            "its root element is <{}>, not <robot>",
+            robot.tag_name().name()
+        ));
+    }
+    let joint = |side: &str, chosen: Option<&str>| {
+        wheel_joint(robot, side, chosen).ok_or_else(|| match chosen {
+            Some(c) => format!("no joint named `{c}`"),
+            None => format!(
+                "no continuous or revolute joint whose name holds `{side}` and `wheel` (name them with --map left_wheel_joint, right_wheel_joint)"
+            ),
+        })
     };
-    let child = elements(l, "child").into_iter().next()?;
-    let link_name = attr(child, "link")?;
-    let link = elements(xml, "link")
-        .into_iter()
-        .find(|k| attr(k, "name") == Some(link_name))?;
-    let radius: f64 = elements(link, "cylinder")
-        .into_iter()
-        .find_map(|c| attr(c, "radius")?.parse().ok())?;
+    let (l, r) = (joint("left", left)?, joint("right", right)?);
+    let name = |j: Node| j.attribute("name").unwrap_or("").to_string();
+    let link_name = children(l, "child")
+        .next()
+        .and_then(|c| c.attribute("link"))
+        .ok_or_else(|| format!("joint `{}` has no <child link=...>", name(l)))?;
+    let link = children(robot, "link")
+        .find(|k| k.attribute("name") == Some(link_name))
+        .ok_or_else(|| format!("no link `{link_name}` (the child of joint `{}`)", name(l)))?;
+    let radius = cylinder_radius_m(link)
+        .ok_or_else(|| format!("link `{link_name}` has no <cylinder radius=...>"))?;
+    let y = |j: Node| {
+        lateral_m(j)
+            .ok_or_else(|| format!("joint `{}`: its origin's xyz is not three numbers", name(j)))
+    };
     let track = (y(l)? - y(r)?).abs();
-    (track > 0.0 && radius > 0.0).then(|| DriveGeometry {
+    if track <= 0.0 {
+        return Err(format!(
+            "joints `{}` and `{}` are at the same lateral offset: no track",
+            name(l),
+            name(r)
+        ));
+    }
+    Ok(DriveGeometry {
         track_m: track,
         wheel_radius_m: radius,
-        joints: [l, r].map(|j| attr(j, "name").unwrap_or("").to_string()),
+        joints: [name(l), name(r)],
     })
 }
 
@@ -100,6 +133,30 @@ mod tests {
         let g = drive_geometry(xml, None, None).unwrap();
         assert!((g.track_m - 0.40).abs() < 1e-12);
         assert_eq!(g.wheel_radius_m, 0.08);
-        assert!(drive_geometry(xml, Some("nope"), None).is_none());
+        assert!(drive_geometry(xml, Some("nope"), None)
+            .unwrap_err()
+            .contains("no joint named `nope`"));
+    }
+
+    #[test]
+    fn attributes_on_their_own_lines_single_quotes_revolute_joints_and_padding_read() {
+        let xml = "<?xml version='1.0'?>\n<!-- from xacro -->\n<robot\n  name='r'>\n\
+          <link name='lw'>\n  <collision>\n    <geometry>\n      <cylinder\n        length='0.03'\n        radius=' 0.0825 '/>\n    </geometry>\n  </collision>\n</link>\n\
+          <joint\n    name='wheel_left_joint'\n    type='revolute'>\n  <child link='lw'/>\n  <origin\n    xyz='0 0.1 0'/>\n</joint>\n\
+          <joint type='revolute' name='wheel_right_joint'><child link='rw'/><origin xyz='0 -0.1 0'/></joint>\n</robot>\n";
+        let g = drive_geometry(xml, None, None).unwrap();
+        assert!((g.track_m - 0.2).abs() < 1e-12);
+        assert_eq!(g.wheel_radius_m, 0.0825);
+        assert_eq!(g.joints, ["wheel_left_joint", "wheel_right_joint"]);
+    }
+
+    #[test]
+    fn a_description_that_is_not_urdf_says_why() {
+        assert!(drive_geometry("<robot", None, None)
+            .unwrap_err()
+            .starts_with("not XML"));
+        assert!(drive_geometry("<sdf/>", None, None)
+            .unwrap_err()
+            .contains("<sdf>"));
     }
 }
