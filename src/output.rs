@@ -11,6 +11,42 @@ pub fn partial_name(path: &Path) -> PathBuf {
     path.with_file_name(name)
 }
 
+/// A file's bytes, read only if it is a regular file of at most `max_bytes` (a device, a
+/// pipe or a symlink to `/dev/zero` has no end; a file of gigabytes is not an input).
+/// Read through a limit, so a file that grows while it is read stops at it too.
+pub fn read_bounded(path: &Path, max_bytes: u64) -> std::io::Result<Vec<u8>> {
+    use std::io::Read;
+    let invalid = |m: String| std::io::Error::new(std::io::ErrorKind::InvalidInput, m);
+    let meta = std::fs::metadata(path)?;
+    if !meta.is_file() {
+        return Err(invalid(
+            "not a regular file (a device, a pipe or a folder)".into(),
+        ));
+    }
+    let mut bytes = Vec::with_capacity(meta.len().min(max_bytes) as usize);
+    std::fs::File::open(path)?
+        .take(max_bytes + 1)
+        .read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > max_bytes {
+        return Err(invalid(format!(
+            "larger than the {max_bytes} bytes read from such a file"
+        )));
+    }
+    Ok(bytes)
+}
+
+/// As [`read_bounded`], as UTF-8 text.
+pub fn read_text_bounded(path: &Path, max_bytes: u64) -> std::io::Result<String> {
+    String::from_utf8(read_bounded(path, max_bytes)?)
+        .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))
+}
+
+/// Largest text input read whole (a recording, a list file), bytes.
+pub const MAX_INPUT_BYTES: u64 = 2 << 30;
+
+/// Largest small configuration file read (a rig, a topic map, a controller's YAML), bytes.
+pub const MAX_CONFIG_BYTES: u64 = 16 << 20;
+
 /// Writes `bytes` to `path` atomically (on one file system, as the temporary file is).
 pub fn write_atomically(path: &Path, bytes: impl AsRef<[u8]>) -> std::io::Result<()> {
     let tmp = partial_name(path);

@@ -229,3 +229,53 @@ fn an_sqlite_message_longer_than_a_record_is_refused() {
     assert!(t.contains("too big"), "{t}");
     let _ = std::fs::remove_file(&bag);
 }
+
+#[test]
+fn a_device_given_as_a_bag_scene_rig_or_recording_is_refused_not_read_forever() {
+    let dir = tmp("devices");
+    let link = |name: &str| {
+        let p = dir.join(name);
+        std::os::unix::fs::symlink("/dev/zero", &p).unwrap();
+        p
+    };
+    let bag = link("zero.mcap");
+    let o = import(&bag, &dir.join("out"));
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{t}");
+    assert!(t.contains("zero.mcap: not a regular file"), "{t}");
+    let scene = link("zero.toml");
+    let rig = link("zero.rig.toml");
+    let rec = link("zero.csv");
+    for args in [
+        vec![
+            "run",
+            scene.to_str().unwrap(),
+            "--out",
+            dir.join("o1").to_str().unwrap(),
+        ],
+        vec![
+            "diagnose",
+            "--rig",
+            rig.to_str().unwrap(),
+            "--recording",
+            rec.to_str().unwrap(),
+        ],
+        vec![
+            "replay",
+            "--scene",
+            "scenes/lab_offset_120mm.toml",
+            "--recording",
+            rec.to_str().unwrap(),
+            "--out",
+            dir.join("o2").to_str().unwrap(),
+        ],
+    ] {
+        let o = Command::new(env!("CARGO_BIN_EXE_agvsim"))
+            .args(&args)
+            .output()
+            .unwrap();
+        let t = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {t}");
+        assert!(t.contains("not a regular file"), "{args:?}: {t}");
+    }
+}

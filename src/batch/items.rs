@@ -102,7 +102,8 @@ pub fn find_items(source: &Path, rig: Option<&Path>) -> Result<Vec<Item>, BatchE
         }
         found
     } else {
-        let text = std::fs::read_to_string(source).map_err(|e| err(format!("cannot read: {e}")))?;
+        let text = crate::output::read_text_bounded(source, crate::output::MAX_CONFIG_BYTES)
+            .map_err(|e| err(format!("cannot read: {e}")))?;
         // A UTF-8 byte-order mark, as some editors write, is not part of the first name.
         let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
         let base = source.parent().unwrap_or(Path::new(""));

@@ -51,11 +51,7 @@ pub fn run(req: &CalibrateRequest, say: Say) -> Result<(), CommandError> {
         free: req.free.clone(),
         effects: Choice::parse(&req.effects)?,
     };
-    let text =
-        std::fs::read_to_string(&req.scene).map_err(|source| crate::scene::SceneError::Read {
-            file: req.scene.clone(),
-            source,
-        })?;
+    let text = crate::scene::read_scene_text(&req.scene)?;
     let checked = Scene::checked_from_toml(&text, &req.scene, &req.set)?;
     say(&checked.render_warnings());
     let scene = checked.scene;

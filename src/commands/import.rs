@@ -32,10 +32,12 @@ fn out_dir(out: &Option<PathBuf>) -> PathBuf {
 /// recording, and writes it as `DIR/FILE_STEM.csv`.
 pub fn mapped(req: &MappedImport, say: Say) -> Result<(), CommandError> {
     let map = csv_map::load_map(&req.map)?;
-    let bytes = std::fs::read(&req.file).map_err(|source| ImportError::Read {
-        file: req.file.clone(),
-        source,
-    })?;
+    let bytes = crate::output::read_bounded(&req.file, crate::output::MAX_INPUT_BYTES).map_err(
+        |source| ImportError::Read {
+            file: req.file.clone(),
+            source,
+        },
+    )?;
     let text = if req.mat {
         mat::convert(&bytes, &req.file, &map, &req.map)?
     } else {

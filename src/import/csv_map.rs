@@ -106,10 +106,12 @@ fn factor(target: &str, m: &ColumnMap, map_file: &Path) -> Result<(f64, String),
 
 /// Reads a map file.
 pub fn load_map(path: &Path) -> Result<CsvMap, ImportError> {
-    let text = std::fs::read_to_string(path).map_err(|source| ImportError::Read {
-        file: path.to_owned(),
-        source,
-    })?;
+    let text = crate::output::read_text_bounded(path, crate::output::MAX_INPUT_BYTES).map_err(
+        |source| ImportError::Read {
+            file: path.to_owned(),
+            source,
+        },
+    )?;
     let map: CsvMap = toml::from_str(&text).map_err(|e| ImportError::Map {
         file: path.to_owned(),
         message: e.to_string().trim_end().to_string(),

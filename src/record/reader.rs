@@ -83,10 +83,12 @@ impl Recording {
                 });
             }
         }
-        let text = std::fs::read_to_string(path).map_err(|source| RecordingError::Read {
-            file: path.to_owned(),
-            source,
-        })?;
+        let text = crate::output::read_text_bounded(path, crate::output::MAX_INPUT_BYTES).map_err(
+            |source| RecordingError::Read {
+                file: path.to_owned(),
+                source,
+            },
+        )?;
         Recording::parse(&text, path)
     }
 

@@ -86,10 +86,11 @@ impl Rig {
 
     /// Reads and checks a rig file.
     pub fn load(path: &Path) -> Result<Rig, RigError> {
-        let text = std::fs::read_to_string(path).map_err(|source| RigError::Read {
-            file: path.to_owned(),
-            source,
-        })?;
+        let text = crate::output::read_text_bounded(path, crate::output::MAX_CONFIG_BYTES)
+            .map_err(|source| RigError::Read {
+                file: path.to_owned(),
+                source,
+            })?;
         Rig::parse(&text, path)
     }
 

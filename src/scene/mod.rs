@@ -137,24 +137,40 @@ fn clipped(message: &str) -> String {
     out.join("\n")
 }
 
+/// A scene file's text: a regular file of at most [`MAX_SCENE_BYTES`].
+pub fn read_scene_text(path: &Path) -> Result<String, SceneError> {
+    match std::fs::metadata(path) {
+        Ok(m) if m.is_file() && m.len() > MAX_SCENE_BYTES as u64 => {
+            return Err(SceneError::Parse {
+                file: path.to_owned(),
+                message: format!(
+                    "{} bytes, more than the {MAX_SCENE_BYTES} a scene may hold (a wire or floor of millions of points? resample it to centimetres)",
+                    m.len()
+                ),
+            })
+        }
+        _ => {}
+    }
+    crate::output::read_text_bounded(path, MAX_SCENE_BYTES as u64 + 1).map_err(|source| {
+        SceneError::Read {
+            file: path.to_owned(),
+            source,
+        }
+    })
+}
+
 impl Scene {
     /// Reads, overrides (`key=value` pairs, TOML values; bare words are strings) and
     /// validates a scene file.
     pub fn load(path: &Path, overrides: &[String]) -> Result<Scene, SceneError> {
-        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
-            file: path.to_owned(),
-            source,
-        })?;
+        let text = read_scene_text(path)?;
         Scene::from_toml(&text, path, overrides)
     }
 
     /// As [`Scene::load`], with the plausibility warnings of the result, each with where
     /// its value came from.
     pub fn load_checked(path: &Path, overrides: &[String]) -> Result<Checked, SceneError> {
-        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
-            file: path.to_owned(),
-            source,
-        })?;
+        let text = read_scene_text(path)?;
         Scene::checked_from_toml(&text, path, overrides)
     }
 

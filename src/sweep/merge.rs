@@ -56,7 +56,8 @@ pub fn merge(shards: &[PathBuf], out: &Path) -> Result<(PathBuf, Vec<PathBuf>), 
                 partial.display()
             )));
         }
-        let text = std::fs::read_to_string(&path).map_err(io_err(&path))?;
+        let text = crate::output::read_text_bounded(&path, crate::output::MAX_INPUT_BYTES)
+            .map_err(io_err(&path))?;
         let table = Table::parse(&text, &path)?;
         match &header {
             None => header = Some(table.header.clone()),

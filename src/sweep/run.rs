@@ -58,12 +58,7 @@ impl SweepOptions {
         traces: bool,
         out_dir: PathBuf,
     ) -> Result<SweepOptions, SweepError> {
-        let scene_text = std::fs::read_to_string(scene_path).map_err(|source| {
-            crate::scene::SceneError::Read {
-                file: scene_path.to_owned(),
-                source,
-            }
-        })?;
+        let scene_text = crate::scene::read_scene_text(scene_path)?;
         let mut o = SweepOptions::from_text(scene_path, scene_text, set, varies, repeat)?;
         o.shard = shard;
         o.jobs = jobs;

@@ -21,6 +21,9 @@ pub const MAX_RECORD_BYTES: usize = 64 << 20;
 /// zeros can claim terabytes, so what is decompressed is counted, not the file's size.
 pub const MAX_MESSAGE_BYTES: u64 = 512 << 20;
 
+/// Largest `metadata.yaml` read, bytes (rosbag2 writes a few kilobytes).
+pub const MAX_METADATA_BYTES: u64 = 16 << 20;
+
 /// Longest an SQLite3 bag's queries may run, s (a view over itself never ends).
 pub const MAX_QUERY_SECONDS: u64 = 30;
 
@@ -210,9 +213,21 @@ fn folder_info(dir: &Path) -> Result<FolderInfo, BagError> {
             "no metadata.yaml: a rosbag2 folder holds one beside its .mcap or .db3 files (give the .mcap or .db3 file itself to read it alone)",
         ));
     }
-    let text = std::fs::read_to_string(&file).map_err(|source| BagError::Io {
-        path: file.clone(),
-        source,
+    // metadata.yaml is a few kilobytes; a device or a gigabyte file is not one.
+    match std::fs::metadata(&file) {
+        Ok(m) if !m.is_file() || m.len() > MAX_METADATA_BYTES => {
+            return Err(bad(
+                &file,
+                format!("expected a rosbag2 metadata file: a regular file of at most {MAX_METADATA_BYTES} bytes"),
+            ))
+        }
+        _ => {}
+    }
+    let text = crate::output::read_text_bounded(&file, MAX_METADATA_BYTES).map_err(|source| {
+        BagError::Io {
+            path: file.clone(),
+            source,
+        }
     })?;
     let doc: serde_yaml::Value =
         serde_yaml::from_str(&text).map_err(|e| bad(&file, format!("not YAML: {e}")))?;
@@ -302,12 +317,19 @@ fn read_file(
     topics: &mut BTreeMap<String, Topic>,
     budget: &mut Budget,
 ) -> Result<(), BagError> {
-    let len = std::fs::metadata(path)
-        .map_err(|source| BagError::Io {
-            path: path.to_owned(),
-            source,
-        })?
-        .len();
+    let meta = std::fs::metadata(path).map_err(|source| BagError::Io {
+        path: path.to_owned(),
+        source,
+    })?;
+    // A device or a pipe (a symlink to /dev/zero named `.mcap`) has no length to check
+    // and no end: only a regular file is read.
+    if !meta.is_file() {
+        return Err(bad(
+            path,
+            "not a regular file (a device, a pipe or a folder): expected a bag file",
+        ));
+    }
+    let len = meta.len();
     if len > MAX_BAG_BYTES {
         return Err(bad(
             path,

@@ -44,7 +44,8 @@ pub fn load(path: &Path) -> Result<DiffDriveParams, ControllerFileError> {
         file: path.to_owned(),
         message,
     };
-    let text = std::fs::read_to_string(path).map_err(|e| err(format!("cannot read: {e}")))?;
+    let text = crate::output::read_text_bounded(path, crate::output::MAX_CONFIG_BYTES)
+        .map_err(|e| err(format!("cannot read: {e}")))?;
     parse(&text).map_err(err)
 }
 

@@ -91,10 +91,11 @@ pub struct TopicMap {
 impl TopicMap {
     /// Reads a map file.
     pub fn load(path: &Path) -> Result<TopicMap, Ros2Error> {
-        let text = std::fs::read_to_string(path).map_err(|e| Ros2Error::Map {
-            file: path.to_owned(),
-            message: format!("cannot read: {e}"),
-        })?;
+        let text = crate::output::read_text_bounded(path, crate::output::MAX_CONFIG_BYTES)
+            .map_err(|e| Ros2Error::Map {
+                file: path.to_owned(),
+                message: format!("cannot read: {e}"),
+            })?;
         toml::from_str(&text).map_err(|e| Ros2Error::Map {
             file: path.to_owned(),
             message: format!(

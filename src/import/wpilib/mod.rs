@@ -282,7 +282,8 @@ pub fn load(path: &std::path::Path, choice: &wpilog::Choice) -> Result<SysIdLog,
         file: path.to_owned(),
         message,
     };
-    let bytes = std::fs::read(path).map_err(|e| fail(format!("cannot read: {e}")))?;
+    let bytes = crate::output::read_bounded(path, crate::output::MAX_INPUT_BYTES)
+        .map_err(|e| fail(format!("cannot read: {e}")))?;
     if bytes.starts_with(b"WPILOG") {
         let log = datalog::parse(&bytes).map_err(|e| fail(e.to_string()))?;
         wpilog::extract(&log, choice).map_err(fail)
