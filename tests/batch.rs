@@ -3,6 +3,9 @@
 //! run, for sweeps and for a batch of recordings interrupted and resumed; and the deploy
 //! templates name what the code reads and parse.
 
+mod common;
+use common::tmp;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
@@ -34,13 +37,6 @@ fn ok(o: Output) -> String {
     );
     assert!(o.status.success(), "{text}");
     text
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("agvsim_batch_{}_{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
 }
 
 /// Each scheduler's variables for shard `i` (0-based) of 3, as it sets them: Slurm

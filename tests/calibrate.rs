@@ -2,7 +2,10 @@
 //! differs from the scene, the fitted keys written back into the scene, and the
 //! improvement shown in the simulator's own replay.
 
-use std::path::{Path, PathBuf};
+mod common;
+use common::tmp;
+
+use std::path::Path;
 
 use agvsim::calibrate::effects::Choice;
 use agvsim::calibrate::{
@@ -12,13 +15,6 @@ use agvsim::ident::effects::Effect;
 use agvsim::record::Recording;
 use agvsim::replay::{replay, report::simulated_csv};
 use agvsim::scene::Scene;
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("cal-{name}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 const SCENE: &str = "scenes/lab_offset_120mm.toml";
 

@@ -1,17 +1,13 @@
 //! The command line as a user meets it: runs, determinism, bad input (acceptance 8-9).
 
-use std::path::{Path, PathBuf};
+mod common;
+use common::tmp;
+
+use std::path::Path;
 use std::process::Command;
 
 fn agvsim() -> Command {
     Command::new(env!("CARGO_BIN_EXE_agvsim"))
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("test-{name}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
 }
 
 #[test]

@@ -5,6 +5,9 @@
 //! values 20-30 % off the rig's beliefs and 0.2 % sensor noise; the fit must bring the
 //! values back within 2 % (a few standard deviations at this noise).
 
+mod common;
+use common::tmp;
+
 use std::path::{Path, PathBuf};
 
 use agvsim::diagnose::{diagnose, DiagnoseOptions};
@@ -16,13 +19,6 @@ use agvsim::ident::models::rotary_axis::{AxisInput, RotaryAxis, TorqueCommand};
 use agvsim::ident::{identify, IdentifyOptions};
 use agvsim::record::Recording;
 use agvsim::rig::Rig;
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("inputs-{name}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 fn rig(dir: &Path, text: &str) -> (Rig, PathBuf) {
     let p = dir.join("axis.rig.toml");

@@ -6,6 +6,9 @@
 //! together and on each slow (quasi-static) test alone, where the mass cannot be told and
 //! must stay at what the import believed.
 
+mod common;
+use common::tmp;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -16,13 +19,6 @@ const TESTS: [&str; 4] = [
     "fast-forward",
     "fast-backward",
 ];
-
-fn tmp(name: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("frc-{name}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 fn agvsim(args: &[String]) -> std::process::Child {
     Command::new(env!("CARGO_BIN_EXE_agvsim"))

@@ -2,7 +2,10 @@
 //! script, nothing fetched) whose numbers are the command's own (its JSON's), with the
 //! plots inline and the command that made it.
 
-use std::path::{Path, PathBuf};
+mod common;
+use common::tmp;
+
+use std::path::Path;
 use std::process::Command;
 
 fn agvsim(args: &[&str]) -> String {
@@ -17,13 +20,6 @@ fn agvsim(args: &[&str]) -> String {
         String::from_utf8_lossy(&o.stderr)
     );
     text
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("html-{name}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
 }
 
 fn dev(name: &str) -> String {

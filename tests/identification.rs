@@ -1,6 +1,9 @@
 //! Identification (issue 3): virtual experiments on the simulated AGV, then grey-box fits
 //! whose answers are known from the scene.
 
+mod common;
+use common::tmp;
+
 use std::path::{Path, PathBuf};
 
 use agvsim::experiment::{run_experiment, ExperimentKind, ExperimentOptions};
@@ -8,13 +11,6 @@ use agvsim::ident::{identify, Identification, IdentifyOptions, ModelChoice};
 use agvsim::record::Recording;
 use agvsim::rig::Rig;
 use agvsim::scene::Scene;
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("ident-{name}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 fn experiment(
     kind: ExperimentKind,

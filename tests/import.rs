@@ -1,17 +1,13 @@
 //! `agvsim import csv`: a CSV with other column names and units becomes a contract
 //! recording with its conversions stated; bad rows, cells and units are named.
 
-use std::path::{Path, PathBuf};
+mod common;
+use common::tmp;
+
+use std::path::Path;
 
 use agvsim::import::csv_map::{convert, load_map};
 use agvsim::record::Recording;
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("import-{name}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 const MAP: &str = r#"
 rig = "drive_axis"

@@ -2,19 +2,15 @@
 //! from their published descriptions), MATLAB MAT-files (read against files SciPy wrote,
 //! and the EMPS benchmark's layout), and the linearisation exported for MATLAB and SciPy.
 
-use std::path::{Path, PathBuf};
+mod common;
+use common::tmp;
+
+use std::path::Path;
 use std::process::Command;
 
 use agvsim::import::wpilib::{self, datalog, wpilog::Choice, Assumptions};
 use agvsim::matfile::{self, Data};
 use agvsim::record::Recording;
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("formats-{name}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 fn agvsim(args: &[&str]) -> (bool, String, String) {
     let o = Command::new(env!("CARGO_BIN_EXE_agvsim"))

@@ -4,6 +4,9 @@
 //! scene copied from the thesis machine are each named with the key, the value and what
 //! was expected.
 
+mod common;
+use common::{text, tmp as scratch};
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -12,21 +15,6 @@ fn agvsim(args: &[&str]) -> Output {
         .args(args)
         .output()
         .expect("agvsim runs")
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("agvsim_new_robot_{}_{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
 }
 
 /// A robot's datasheet numbers.

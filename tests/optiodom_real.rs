@@ -12,6 +12,9 @@
 //!
 //! Skipped (with a line saying so) where `../shared` is not beside the project.
 
+mod common;
+use common::{text, tmp as scratch};
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -29,21 +32,6 @@ fn agvsim(args: &[&str]) -> Output {
         .args(args)
         .output()
         .expect("agvsim runs")
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("optiodom-{name}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
 }
 
 /// Imports a run: its recording and its scene (a 4 kg robot, the 43.7:1 gear the data

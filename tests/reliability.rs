@@ -1,6 +1,9 @@
 //! Reliability (issue 18, first findings): bad input gets a clear refusal that names the
 //! file, key or cell, never a silent wrong answer. Each test fails on the code before.
 
+mod common;
+use common::tmp;
+
 use std::path::{Path, PathBuf};
 
 use agvsim::experiment::{run_experiment, ExperimentKind, ExperimentOptions};
@@ -8,13 +11,6 @@ use agvsim::ident::{identify, IdentifyOptions, ModelChoice};
 use agvsim::record::Recording;
 use agvsim::rig::Rig;
 use agvsim::scene::Scene;
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("rel-{name}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 /// A lifted-wheel run on the estimator's known-truth rig.
 fn lifted(dir: &Path, duration_s: f64) -> (Rig, PathBuf, PathBuf) {

@@ -3,7 +3,10 @@
 //! whose `messages` is a view over itself. Each file is written here, byte by byte; each
 //! must be refused naming the file, quickly and without taking the memory it claims.
 
-use std::path::{Path, PathBuf};
+mod common;
+use common::{text, tmp};
+
+use std::path::Path;
 use std::process::{Command, Output};
 
 fn import(bag: &Path, out: &Path) -> Output {
@@ -14,21 +17,6 @@ fn import(bag: &Path, out: &Path) -> Output {
         .arg(out)
         .output()
         .expect("agvsim runs")
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("bags-{name}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
 }
 
 /// MCAP's records, as the specification lays them out (mcap.dev/spec).

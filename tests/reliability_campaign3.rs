@@ -1,6 +1,9 @@
 //! The third reliability campaign's findings (issue "hostile bags, clocks that disagree,
 //! fleets merged wrong"), each built from its description with inputs made here.
 
+mod common;
+use common::{text, tmp};
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -9,21 +12,6 @@ fn agvsim(args: &[&str]) -> Output {
         .args(args)
         .output()
         .expect("agvsim runs")
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("campaign3-{name}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
 }
 
 fn example_bag() -> PathBuf {

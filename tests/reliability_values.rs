@@ -4,26 +4,14 @@
 //! writer of an output folder is refused and a stopped run leaves no file under its
 //! final name; and evidence given twice is refused.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+mod common;
+use common::{text, tmp};
+
+use std::path::Path;
+use std::process::{Command, Stdio};
 
 fn agvsim() -> Command {
     Command::new(env!("CARGO_BIN_EXE_agvsim"))
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("agvsim_values_{}_{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
 }
 
 /// Panic class: an infinite DCMC gain used to panic in the DCMC's limiter.

@@ -1,19 +1,15 @@
 //! `agvsim replay`: the simulator driven by a recording's inputs reproduces its own
 //! recordings, and a machine that differs in its physics fits them worse.
 
-use std::path::{Path, PathBuf};
+mod common;
+use common::tmp;
+
+use std::path::Path;
 
 use agvsim::record::Recording;
 use agvsim::replay::{replay, Drive};
 use agvsim::run::{run_scene, RunOptions};
 use agvsim::scene::Scene;
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("replay-{name}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 fn lab(set: &[&str]) -> Scene {
     let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();

@@ -3,6 +3,9 @@
 //! both storages, malformed bags refused naming the topic or record, and a round trip of a
 //! velocity-commanded robot through the simulator, a bag, the import and a calibration.
 
+mod common;
+use common::{text, tmp as scratch};
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -11,21 +14,6 @@ fn agvsim(args: &[&str]) -> Output {
         .args(args)
         .output()
         .expect("agvsim runs")
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("agvsim_ros2_{}_{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
 }
 
 fn fixture(name: &str) -> PathBuf {

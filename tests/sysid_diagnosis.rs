@@ -5,18 +5,14 @@
 //! `agvsim diagnose` with the four tests together must name what the simulated machine
 //! has that the imported linear rig lacks.
 
+mod common;
+use common::tmp;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use agvsim::record::Recording;
 use agvsim::scene::Scene;
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("sysid-{name}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 fn agvsim(args: &[&str]) -> (bool, String, String) {
     let o = Command::new(env!("CARGO_BIN_EXE_agvsim"))

@@ -205,7 +205,7 @@ impl<'a> Converter<'a> {
 pub fn convert(bag: &Bag, map: &TopicMap, geometry: &Geometry) -> Result<Ros2Recording, Ros2Error> {
     let time = map.time.unwrap_or_default();
     match convert_timed(bag, map, geometry, time)? {
-        Timed::Done(r) => Ok(r),
+        Timed::Done(r) => Ok(*r),
         Timed::ClocksDisagree(why) if map.time.is_none() => {
             match convert_timed(bag, map, geometry, TimeSource::Log)? {
                 Timed::Done(mut r) => {
@@ -213,7 +213,7 @@ pub fn convert(bag: &Bag, map: &TopicMap, geometry: &Geometry) -> Result<Ros2Rec
                         0,
                         format!("header stamps not used: {why}; every message is placed at its log time (say time = \"log\" in a --map file to choose it)"),
                     );
-                    Ok(r)
+                    Ok(*r)
                 }
                 Timed::ClocksDisagree(why) => unreachable!("log times are one clock: {why}"),
             }
@@ -227,7 +227,7 @@ pub fn convert(bag: &Bag, map: &TopicMap, geometry: &Geometry) -> Result<Ros2Rec
 
 /// A conversion done, or stopped because the header stamps are not one clock.
 enum Timed {
-    Done(Ros2Recording),
+    Done(Box<Ros2Recording>),
     ClocksDisagree(String),
 }
 
@@ -706,7 +706,7 @@ fn convert_timed(
         ),
         ("time_zero_ns".to_string(), t0.to_string()),
     ];
-    Ok(Timed::Done(Ros2Recording {
+    Ok(Timed::Done(Box::new(Ros2Recording {
         bag: bag.path.clone(),
         storage: bag.storage,
         time_zero_ns: t0,
@@ -724,7 +724,7 @@ fn convert_timed(
         },
         battery_v,
         notes,
-    }))
+    })))
 }
 
 impl Ros2Recording {
