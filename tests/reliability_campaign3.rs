@@ -813,6 +813,19 @@ fn batch_merge_checks_each_shard_against_the_batch_and_the_recordings_as_they_ar
     std::fs::write(&rec, &bytes).unwrap();
     assert!(batch_shard(&fleet, &s2, "2/3").status.success());
     refused(batch_merge(&dir, &[&s1, &s2]), "the shard count");
+    // A manifest edited to a shard that cannot be.
+    let manifest = s1.join("batch.json");
+    let m = std::fs::read_to_string(&manifest).unwrap();
+    assert!(m.contains("\"shard_index\": 1"), "{m}");
+    std::fs::write(
+        &manifest,
+        m.replace("\"shard_index\": 1", "\"shard_index\": 0"),
+    )
+    .unwrap();
+    refused(
+        batch_merge(&dir, &[&s1, &s2]),
+        "expected a shard from 1 to the count",
+    );
 }
 
 #[test]

@@ -105,10 +105,20 @@ impl Manifest {
             path: path.clone(),
             message: "missing: not a batch's output folder (or one written by an agvsim that did not record its batch); run the shard again".into(),
         })?;
-        serde_json::from_slice(&bytes).map_err(|e| BatchError::Result {
-            path,
+        let m: Manifest = serde_json::from_slice(&bytes).map_err(|e| BatchError::Result {
+            path: path.clone(),
             message: format!("not a batch manifest: {e}"),
-        })
+        })?;
+        if m.shard_count == 0 || !(1..=m.shard_count).contains(&m.shard_index) {
+            return Err(BatchError::Result {
+                path,
+                message: format!(
+                    "shard {} of {}: expected a shard from 1 to the count (edited?)",
+                    m.shard_index, m.shard_count
+                ),
+            });
+        }
+        Ok(m)
     }
 
     /// This shard.
