@@ -34,7 +34,10 @@ def test_a_long_call_lets_other_python_threads_run(root):
 
 
 CHILD = """
-import sys, agvsim
+import signal, sys, agvsim
+# Python's own Ctrl-C handler even where the child was started with SIGINT ignored (a
+# shell's background job, as a CI script under nohup runs it).
+signal.signal(signal.SIGINT, signal.default_int_handler)
 print("start", flush=True)
 try:
     if sys.argv[1] == "run":
