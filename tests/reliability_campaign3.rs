@@ -158,28 +158,14 @@ fn a_batch_whose_every_recording_failed_is_a_failed_job() {
 #[test]
 fn durations_are_named_as_the_option_given_and_a_run_of_no_row_is_refused() {
     let dir = tmp("duration");
-    let o = agvsim(&[
-        "run",
-        "scenes/lab_offset_120mm.toml",
-        "--duration",
-        "1e19",
-        "--out",
-        dir.join("a").to_str().unwrap(),
-    ]);
+    let o = run_lab(dir.join("a").as_ref(), "1e19", &[]);
     let t = text(&o);
     assert_eq!(o.status.code(), Some(2), "{t}");
     assert!(
         t.contains("error: --duration 10000000000000000000: `sim.duration_s`"),
         "{t}"
     );
-    let o = agvsim(&[
-        "run",
-        "scenes/lab_offset_120mm.toml",
-        "--duration",
-        "1e-9",
-        "--out",
-        dir.join("b").to_str().unwrap(),
-    ]);
+    let o = run_lab(dir.join("b").as_ref(), "1e-9", &[]);
     let t = text(&o);
     assert_eq!(o.status.code(), Some(2), "{t}");
     assert!(t.contains("at least one recording interval long"), "{t}");
@@ -296,16 +282,7 @@ fn keys_at_1e308_stop_the_run_naming_the_key_instead_of_writing_nan_cells() {
         "battery.internal_resistance_ohm",
     ] {
         let out = dir.join(key);
-        let o = agvsim(&[
-            "run",
-            "scenes/lab_offset_120mm.toml",
-            "--duration",
-            "2",
-            "--set",
-            &format!("{key}=1e308"),
-            "--out",
-            out.to_str().unwrap(),
-        ]);
+        let o = run_lab(out.as_ref(), "2", &[&format!("{key}=1e308")]);
         let t = text(&o);
         assert!(!o.status.success(), "{key}: {t}");
         assert!(t.contains("the simulation diverged"), "{key}: {t}");
@@ -349,14 +326,7 @@ fn keys_at_1e308_stop_the_run_naming_the_key_instead_of_writing_nan_cells() {
 #[test]
 fn a_recording_with_two_drives_says_which_one_drove_the_replay() {
     let dir = tmp("two-drives");
-    let o = agvsim(&[
-        "run",
-        "scenes/lab_offset_120mm.toml",
-        "--duration",
-        "1",
-        "--out",
-        dir.to_str().unwrap(),
-    ]);
+    let o = run_lab(dir.as_ref(), "1", &[]);
     assert!(o.status.success(), "{}", text(&o));
     let run = std::fs::read_to_string(dir.join("lab_offset_120mm.csv")).unwrap();
     let mut both = String::new();
@@ -371,15 +341,7 @@ fn a_recording_with_two_drives_says_which_one_drove_the_replay() {
     }
     let rec = dir.join("both.csv");
     std::fs::write(&rec, both).unwrap();
-    let o = agvsim(&[
-        "replay",
-        "--scene",
-        "scenes/lab_offset_120mm.toml",
-        "--recording",
-        rec.to_str().unwrap(),
-        "--out",
-        dir.join("replay").to_str().unwrap(),
-    ]);
+    let o = replay_on_lab(&rec, &dir.join("replay"));
     let t = text(&o);
     assert!(o.status.success(), "{t}");
     assert!(
@@ -391,14 +353,7 @@ fn a_recording_with_two_drives_says_which_one_drove_the_replay() {
 #[test]
 fn a_column_without_spread_is_left_out_and_reported_everywhere() {
     let dir = tmp("stuck");
-    let o = agvsim(&[
-        "run",
-        "scenes/lab_offset_120mm.toml",
-        "--duration",
-        "2",
-        "--out",
-        dir.to_str().unwrap(),
-    ]);
+    let o = run_lab(dir.as_ref(), "2", &[]);
     assert!(o.status.success(), "{}", text(&o));
     // The left wheel's encoder stuck at 0.25 m/s for the whole run.
     let run = std::fs::read_to_string(dir.join("lab_offset_120mm.csv")).unwrap();
@@ -419,15 +374,7 @@ fn a_column_without_spread_is_left_out_and_reported_everywhere() {
     }
     let rec = dir.join("stuck.csv");
     std::fs::write(&rec, stuck).unwrap();
-    let o = agvsim(&[
-        "replay",
-        "--scene",
-        "scenes/lab_offset_120mm.toml",
-        "--recording",
-        rec.to_str().unwrap(),
-        "--out",
-        dir.join("replay").to_str().unwrap(),
-    ]);
+    let o = replay_on_lab(&rec, &dir.join("replay"));
     let t = text(&o);
     assert!(o.status.success(), "{t}");
     let line = t
@@ -509,16 +456,37 @@ fn a_rig_with_a_wheel_and_no_gear_ratio_is_refused_naming_the_key() {
     );
 }
 
-/// A 1 s run of the lab scene, its recording's text.
-fn lab_run(dir: &Path) -> String {
-    let o = agvsim(&[
+/// The lab scene run for `duration` s with `set` (`KEY=VALUE`) into `out`.
+fn run_lab(out: &Path, duration: &str, set: &[&str]) -> Output {
+    let mut args = vec![
         "run",
         "scenes/lab_offset_120mm.toml",
         "--duration",
-        "1",
+        duration,
+    ];
+    for s in set {
+        args.extend(["--set", s]);
+    }
+    args.extend(["--out", out.to_str().unwrap()]);
+    agvsim(&args)
+}
+
+/// `rec` replayed on the lab scene into `out`.
+fn replay_on_lab(rec: &Path, out: &Path) -> Output {
+    agvsim(&[
+        "replay",
+        "--scene",
+        "scenes/lab_offset_120mm.toml",
+        "--recording",
+        rec.to_str().unwrap(),
         "--out",
-        dir.to_str().unwrap(),
-    ]);
+        out.to_str().unwrap(),
+    ])
+}
+
+/// A 1 s run of the lab scene, its recording's text.
+fn lab_run(dir: &Path) -> String {
+    let o = run_lab(dir.as_ref(), "1", &[]);
     assert!(o.status.success(), "{}", text(&o));
     std::fs::read_to_string(dir.join("lab_offset_120mm.csv")).unwrap()
 }
@@ -543,17 +511,7 @@ fn a_time_column_nanoseconds_apart_is_refused_unless_stated() {
     }
     let rec = dir.join("ns.csv");
     std::fs::write(&rec, &ns).unwrap();
-    let replay = |rec: &Path| {
-        agvsim(&[
-            "replay",
-            "--scene",
-            "scenes/lab_offset_120mm.toml",
-            "--recording",
-            rec.to_str().unwrap(),
-            "--out",
-            dir.join("replay").to_str().unwrap(),
-        ])
-    };
+    let replay = |rec: &Path| replay_on_lab(&rec, &dir.join("replay"));
     let o = replay(&rec);
     let t = text(&o);
     assert_eq!(o.status.code(), Some(2), "{t}");
@@ -700,16 +658,11 @@ fn small_fleet(dir: &Path) -> PathBuf {
     std::fs::create_dir_all(&fleet).unwrap();
     for (i, gain) in ["0.9", "1.0", "1.1"].iter().enumerate() {
         let out = dir.join(format!("run{i}"));
-        let o = agvsim(&[
-            "run",
-            "scenes/lab_offset_120mm.toml",
-            "--duration",
+        let o = run_lab(
+            out.as_ref(),
             "1",
-            "--set",
-            &format!("controller.gain_scale={gain}"),
-            "--out",
-            out.to_str().unwrap(),
-        ]);
+            &[&format!("controller.gain_scale={gain}")],
+        );
         assert!(o.status.success(), "{}", text(&o));
         std::fs::copy(
             out.join("lab_offset_120mm.csv"),
@@ -831,16 +784,11 @@ fn batch_merge_checks_each_shard_against_the_batch_and_the_recordings_as_they_ar
 #[test]
 fn base_keys_set_or_swept_on_a_wire_following_scene_are_said_to_do_nothing() {
     let dir = tmp("inert");
-    let o = agvsim(&[
-        "run",
-        "scenes/lab_offset_120mm.toml",
-        "--duration",
+    let o = run_lab(
+        dir.join("run").as_ref(),
         "0.5",
-        "--set",
-        "base.speed_kp_V_s_rad=5",
-        "--out",
-        dir.join("run").to_str().unwrap(),
-    ]);
+        &["base.speed_kp_V_s_rad=5"],
+    );
     let t = text(&o);
     assert!(o.status.success(), "{t}");
     assert!(
@@ -867,16 +815,11 @@ fn base_keys_set_or_swept_on_a_wire_following_scene_are_said_to_do_nothing() {
         "{t}"
     );
     // The odometry's radius is read by every scene: no warning.
-    let o = agvsim(&[
-        "run",
-        "scenes/lab_offset_120mm.toml",
-        "--duration",
+    let o = run_lab(
+        dir.join("run2").as_ref(),
         "0.5",
-        "--set",
-        "base.wheel_radius_m=0.08",
-        "--out",
-        dir.join("run2").to_str().unwrap(),
-    ]);
+        &["base.wheel_radius_m=0.08"],
+    );
     assert!(!text(&o).contains("no effect"), "{}", text(&o));
 }
 
@@ -989,16 +932,7 @@ fn a_body_faster_than_its_motors_can_drive_it_stops_the_run_naming_the_key() {
     // A yaw inertia of 1e-3 kg m^2 on a 120 kg AGV: the integration gains energy (it
     // travelled 68 m in 5 s, twelve times the drive's top speed).
     let dir = tmp("yaw-inertia");
-    let o = agvsim(&[
-        "run",
-        "scenes/lab_offset_120mm.toml",
-        "--duration",
-        "5",
-        "--set",
-        "chassis.yaw_inertia_kg_m2=1e-3",
-        "--out",
-        dir.to_str().unwrap(),
-    ]);
+    let o = run_lab(dir.as_ref(), "5", &["chassis.yaw_inertia_kg_m2=1e-3"]);
     let t = text(&o);
     assert!(!o.status.success(), "{t}");
     assert!(t.contains("the simulation diverged"), "{t}");

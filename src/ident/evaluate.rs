@@ -89,6 +89,8 @@ pub fn fit_pct(measured: &[Option<f64>], predicted: &[f64]) -> f64 {
         .map(|(y, _)| (y / scale - mean).powi(2))
         .sum::<f64>()
         .sqrt();
+    // No spread: every measured cell one value. Checked on the values, not only the
+    // computed spread, which rounding leaves a hair above zero for some constants.
     if spread == 0.0 || constant_value(measured).is_some() {
         return f64::NAN;
     }

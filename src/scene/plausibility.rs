@@ -106,28 +106,27 @@ fn sizes(scene: &Scene, w: &mut Vec<Warning>) {
         / scene.motor.torque_constant_nm_a
         / scene.gearbox.ratio
         * scene.wheel.radius_m;
-    if top_m_s.is_finite() && top_m_s > 0.0 && top_m_s < TOP_SPEED_MIN_M_S {
+    // Too slow or too fast: one warning, the band and the likeliest slip differing.
+    let band = if top_m_s.is_finite() && top_m_s > 0.0 && top_m_s < TOP_SPEED_MIN_M_S {
+        Some((
+            format!("a top speed of at least {} m/s", sig(TOP_SPEED_MIN_M_S)),
+            "a no-load speed in rad/s given as rpm, or a gearmotor's output speed with its ratio applied again?",
+        ))
+    } else if top_m_s.is_finite() && top_m_s > TOP_SPEED_MAX_M_S {
+        Some((
+            format!("a top speed under {} m/s", sig(TOP_SPEED_MAX_M_S)),
+            "a no-load speed given in rad/s as rpm, or a radius or ratio in another unit?",
+        ))
+    } else {
+        None
+    };
+    if let Some((expected, slip)) = band {
         w.push(Warning {
             key: "motor.torque_constant_Nm_A",
             value: format!("{} N m/A", sig(scene.motor.torque_constant_nm_a)),
-            expected: format!("a top speed of at least {} m/s", sig(TOP_SPEED_MIN_M_S)),
+            expected,
             why: format!(
-                "the motor's no-load speed at the drive limit ({} V / {} N m/A) through gearbox.ratio = {} to a {} m wheel gives {} m/s; a no-load speed in rad/s given as rpm, or a gearmotor's output speed with its ratio applied again?",
-                sig(scene.battery.drive_limit_v.min(scene.battery.open_circuit_v)),
-                sig(scene.motor.torque_constant_nm_a),
-                sig(scene.gearbox.ratio),
-                sig(scene.wheel.radius_m),
-                sig(top_m_s)
-            ),
-        });
-    }
-    if top_m_s.is_finite() && top_m_s > TOP_SPEED_MAX_M_S {
-        w.push(Warning {
-            key: "motor.torque_constant_Nm_A",
-            value: format!("{} N m/A", sig(scene.motor.torque_constant_nm_a)),
-            expected: format!("a top speed under {} m/s", sig(TOP_SPEED_MAX_M_S)),
-            why: format!(
-                "the motor's no-load speed at the drive limit ({} V / {} N m/A) through gearbox.ratio = {} to a {} m wheel gives {} m/s; a no-load speed given in rad/s as rpm, or a radius or ratio in another unit?",
+                "the motor's no-load speed at the drive limit ({} V / {} N m/A) through gearbox.ratio = {} to a {} m wheel gives {} m/s; {slip}",
                 sig(scene.battery.drive_limit_v.min(scene.battery.open_circuit_v)),
                 sig(scene.motor.torque_constant_nm_a),
                 sig(scene.gearbox.ratio),

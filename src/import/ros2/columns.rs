@@ -180,11 +180,13 @@ impl<'a> Converter<'a> {
         } else {
             log_ns
         };
-        self.placed
-            .borrow_mut()
-            .entry(topic.to_string())
-            .or_default()
-            .push((log_ns, at));
+        let mut placed = self.placed.borrow_mut();
+        match placed.get_mut(topic) {
+            Some(times) => times.push((log_ns, at)),
+            None => {
+                placed.insert(topic.to_string(), vec![(log_ns, at)]);
+            }
+        }
         at
     }
 
@@ -215,7 +217,12 @@ pub fn convert(bag: &Bag, map: &TopicMap, geometry: &Geometry) -> Result<Ros2Rec
                     );
                     Ok(*r)
                 }
-                Timed::ClocksDisagree(why) => unreachable!("log times are one clock: {why}"),
+                // Not reached (log times are one clock and are not checked), but an
+                // error, not a panic, if it were.
+                Timed::ClocksDisagree(why) => Err(Ros2Error::Content {
+                    bag: bag.path.clone(),
+                    message: why,
+                }),
             }
         }
         Timed::ClocksDisagree(why) => Err(Ros2Error::Content {
