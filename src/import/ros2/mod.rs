@@ -17,8 +17,10 @@ pub mod clock;
 mod columns;
 pub mod controller;
 mod joints;
+mod mcap;
 mod pose;
 mod rosbag1;
+mod sqlite;
 mod urdf;
 
 use std::path::{Path, PathBuf};
