@@ -97,10 +97,13 @@ pub fn write_plots(dir: &Path, r: &Replay, rec_name: &str) -> std::io::Result<Ve
     let mut files = vec![];
     for o in &r.outputs {
         let (t, y) = crate::plot::measured_points(&r.t_s, &o.measured);
+        // The title keeps to a line: the table says why in full.
         let fit = if o.fit_pct.is_finite() {
             format!("fit {:.1} %", o.fit_pct)
+        } else if crate::ident::evaluate::constant_value(&o.measured).is_some() {
+            "constant: no fit".to_string()
         } else {
-            unscored(o)
+            "not measured".to_string()
         };
         let doc = svg(
             &format!(
