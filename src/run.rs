@@ -120,9 +120,13 @@ pub fn run_scene(
             "rad, counter-clockwise from world x, unwrapped".to_string(),
         ),
     ];
-    let mut writer =
-        RecordingWriter::new(BufWriter::new(file), "vehicle", &meta, vehicle_columns())
-            .map_err(io(&recording))?;
+    let mut writer = RecordingWriter::new(
+        BufWriter::new(file),
+        crate::rig::RigKind::Vehicle,
+        &meta,
+        vehicle_columns(),
+    )
+    .map_err(io(&recording))?;
     let record_every = ((scene.sim.record_interval_s / params.sim.dt_s).round() as u64).max(1);
     let duration = params.sim.duration_s;
     let velocity = scene.controller.kind == crate::firmware::ControllerKind::Velocity;

@@ -287,13 +287,13 @@ fn recordings_round_trip_and_shared_data_parses() {
         .unwrap();
     assert!(st.status.success());
     let r = Recording::load(&out.join("lab_offset_120mm.csv")).unwrap();
-    assert_eq!(r.rig, "vehicle");
+    assert_eq!(r.rig.as_str(), "vehicle");
     assert_eq!(r.t_s.len(), 101);
     assert!(r.require_complete("left_voltage_V").is_ok());
     let shared = Path::new("../shared/data");
     if shared.exists() {
         let emps = Recording::load(&shared.join("real/emps/data_emps.csv")).unwrap();
-        assert_eq!(emps.rig, "drive_axis");
+        assert_eq!(emps.rig.as_str(), "drive_axis");
         assert!(emps.t_s.len() > 20000);
         let v = Recording::load(&shared.join("dev/dev_vehicle_01.csv")).unwrap();
         let x = v.column("x_m").expect("tracker column");

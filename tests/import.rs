@@ -39,7 +39,7 @@ fn columns_are_renamed_and_converted_with_the_conversions_stated() {
     println!("{text}");
     assert!(text.contains("# conversion: motor_speed_rad_s = vel_rpm rpm -> rad_s"));
     let rec = Recording::parse(&text, Path::new("log.csv")).unwrap();
-    assert_eq!(rec.rig, "drive_axis");
+    assert_eq!(rec.rig.as_str(), "drive_axis");
     assert_eq!(rec.t_s, vec![0.0, 0.005, 0.01]);
     let speed = rec.column("motor_speed_rad_s").unwrap();
     // 60 rpm is one turn per second: 2 pi rad/s.

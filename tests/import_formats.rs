@@ -196,7 +196,7 @@ fn a_sysid_json_drivetrain_imports_to_four_vehicle_recordings_and_its_ks_is_sysi
         "fast-backward",
     ] {
         let rec = Recording::load(&out.join(format!("drive_{name}.csv"))).unwrap();
-        assert_eq!(rec.rig, "vehicle");
+        assert_eq!(rec.rig.as_str(), "vehicle");
         assert_eq!(rec.t_s[0], 0.0, "time counts from the test's first row");
         assert!(rec.meta.contains_key("time_origin_s"));
         // Speeds in m/s: rotations x unitsPerRotation.
@@ -340,7 +340,7 @@ fn a_wpilog_sysid_routine_imports_test_by_test_with_units_from_its_metadata() {
     assert_eq!(names, ["quasistatic-forward", "dynamic-reverse"]);
     assert_eq!(imported.log.mechanism, wpilib::Mechanism::Simple);
     let rec = Recording::parse(&imported.recordings[0].text, Path::new("q.csv")).unwrap();
-    assert_eq!(rec.rig, "drive_axis");
+    assert_eq!(rec.rig.as_str(), "drive_axis");
     // Rotations per second to rad/s: 2 pi.
     let w = rec.column("motor_speed_rad_s").unwrap();
     let expected = side(&tests_volts()[0].1)[700].2 / 0.5 * std::f64::consts::TAU;

@@ -314,7 +314,7 @@ class Recording:
         self.t_s = np.asarray(t_s, dtype=float)
         #: The columns by name, in the file's order.
         self.columns: Dict[str, np.ndarray] = {k: np.asarray(v, dtype=float) for k, v in columns.items()}
-        #: The rig kind (``vehicle``, ``axis``, ...).
+        #: The rig kind (``drive_axis``, ``vehicle`` or ``drive_pair``).
         self.rig = rig
         #: The metadata lines, in the file's order.
         self.meta: Dict[str, str] = dict(meta or {})

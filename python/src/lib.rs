@@ -656,7 +656,7 @@ fn read_recording(py: Python<'_>, path: PathBuf) -> PyResult<RecordingParts> {
         .map(|c| f64_bytes(py, c.iter().map(|v| v.unwrap_or(f64::NAN))))
         .collect();
     Ok((
-        rec.rig.clone(),
+        rec.rig.as_str().to_string(),
         rec.meta
             .iter()
             .map(|(k, v)| (k.clone(), v.clone()))
@@ -710,12 +710,19 @@ fn write_recording(
             t_s.len()
         )));
     }
+    let kind = agvsim::rig::RigKind::from_name(&rig).ok_or_else(|| {
+        bad_argument(
+            "rig",
+            &rig,
+            &format!("one of {}", agvsim::rig::RigKind::names()),
+        )
+    })?;
     py.allow_threads(|| {
         let meta: Vec<(&str, String)> = meta.iter().map(|(k, v)| (k.as_str(), v.clone())).collect();
         let header_names: Vec<&str> = std::iter::once("t_s")
             .chain(names.iter().map(String::as_str))
             .collect();
-        let mut text = agvsim::record::header(&rig, &meta, &header_names);
+        let mut text = agvsim::record::header(kind, &meta, &header_names);
         for (row, t) in t_s.iter().enumerate() {
             text.push_str(&cell(*t));
             for c in &columns {

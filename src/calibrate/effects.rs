@@ -17,8 +17,8 @@ pub struct Home {
     pub effect: Effect,
     /// The scene key holding the effect's strength, fitted by the calibration.
     pub key: &'static str,
-    /// Other keys set (as `--set` would) to switch the physics on, with their values.
-    pub switches: Vec<(&'static str, String)>,
+    /// Other keys set to switch the physics on, with their values.
+    pub switches: Vec<SwitchOn>,
     /// Where the fit starts the key.
     pub start: f64,
     /// Whether the scene already had the effect's physics on (the start is the scene's
@@ -40,6 +40,46 @@ pub struct Home {
     /// outputs follow the key smoothly from its start (the wheel geometry, a few
     /// percent from the configured).
     pub scanned: bool,
+}
+
+/// A scene key an effect sets to switch its physics on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SwitchOn {
+    /// The dotted scene key.
+    pub key: &'static str,
+    /// Its value.
+    pub value: Setting,
+}
+
+/// A switch's value, typed as the scene holds it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Setting {
+    /// A number (a bridge rating, V).
+    Number(f64),
+    /// The DCMC's loop structure.
+    DcmcKind(crate::model::dcmc::DcmcKind),
+}
+
+impl SwitchOn {
+    /// Sets the key on a scene (not validated: [`switched_on`] validates the whole).
+    fn apply(&self, scene: &mut Scene) -> Result<(), CalibrateError> {
+        match self.value {
+            Setting::Number(v) => keys::set_number(scene, self.key, v),
+            Setting::DcmcKind(k) => {
+                scene.dcmc.kind = k;
+                Ok(())
+            }
+        }
+    }
+
+    /// The value as TOML text, as the report and a written scene show it (`"pi"`,
+    /// `2.4e1`).
+    pub fn value_text(&self) -> String {
+        match self.value {
+            Setting::Number(v) => format!("{v:e}"),
+            Setting::DcmcKind(k) => format!("\"{}\"", k.name()),
+        }
+    }
 }
 
 /// A key fitted with an effect's strength key.
@@ -169,8 +209,10 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
                 ));
             }
             if b.bridge_rated_v <= 0.0 {
-                h.switches
-                    .push(("battery.bridge_rated_V", format!("{:e}", b.open_circuit_v)));
+                h.switches.push(SwitchOn {
+                    key: "battery.bridge_rated_V",
+                    value: Setting::Number(b.open_circuit_v),
+                });
             }
             h
         }
@@ -311,25 +353,30 @@ fn speed_loop_home(scene: &Scene, mut h: Home) -> Home {
         scene.motor.torque_constant_nm_a / SPEED_LOOP_START_CORRECTION_S
     };
     let kind = match d.kind {
-        DcmcKind::Gain | DcmcKind::GainPi => "\"gain_pi\"",
-        DcmcKind::P | DcmcKind::Pi => "\"pi\"",
+        DcmcKind::Gain | DcmcKind::GainPi => DcmcKind::GainPi,
+        DcmcKind::P | DcmcKind::Pi => DcmcKind::Pi,
     };
-    h.switches.push(("dcmc.kind", kind.into()));
+    h.switches.push(SwitchOn {
+        key: "dcmc.kind",
+        value: Setting::DcmcKind(kind),
+    });
     h
 }
 
-/// The scene with the effect switched on at its start (validated as a `--set` would be).
+/// The scene with the effect switched on at its start: set on the typed scene, then
+/// validated as a `--set` would be (no text round trip).
 pub fn switched_on(scene: &Scene, home: &Home) -> Result<Scene, CalibrateError> {
-    let mut sets: Vec<String> = home
-        .switches
-        .iter()
-        .map(|(k, v)| format!("{k}={v}"))
-        .collect();
-    for c in &home.also {
-        sets.push(format!("{}={:e}", c.key, c.start));
+    let mut on = scene.clone();
+    for s in &home.switches {
+        s.apply(&mut on)?;
     }
-    sets.push(format!("{}={:e}", home.key, home.start));
-    keys::set_texts(scene, &sets)
+    let mut starts: Vec<(String, f64)> = home
+        .also
+        .iter()
+        .map(|c| (c.key.to_string(), c.start))
+        .collect();
+    starts.push((home.key.to_string(), home.start));
+    keys::set(&on, &starts)
 }
 
 /// The effects a choice names for this recording: named ones must have a home (the first

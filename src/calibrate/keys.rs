@@ -1,8 +1,6 @@
 //! Scene keys by their dotted names (`motor.resistance_ohm`): read one, or set several
 //! through the same path as `--set`, so a fitted value is validated like a user's.
 
-use std::path::Path;
-
 use super::CalibrateError;
 use crate::scene::Scene;
 
@@ -37,13 +35,7 @@ pub fn get(scene: &Scene, key: &str) -> Result<f64, CalibrateError> {
 pub fn set(scene: &Scene, pairs: &[(String, f64)]) -> Result<Scene, CalibrateError> {
     let mut out = scene.clone();
     for (k, v) in pairs {
-        if !crate::scene::keys::set_number(&mut out, k, *v) {
-            // Not a numeric key: `get` names why.
-            get(scene, k)?;
-            return Err(CalibrateError::Key(format!(
-                "`{k}`: not a numeric scene key"
-            )));
-        }
+        set_number(&mut out, k, *v)?;
     }
     out.validate().map_err(|bad| {
         CalibrateError::Key(format!(
@@ -54,10 +46,16 @@ pub fn set(scene: &Scene, pairs: &[(String, f64)]) -> Result<Scene, CalibrateErr
     Ok(out)
 }
 
-/// The scene with each `KEY=VALUE` text applied, as `--set` applies it.
-pub fn set_texts(scene: &Scene, overrides: &[String]) -> Result<Scene, CalibrateError> {
-    Scene::from_toml(&scene.to_toml(), Path::new("<calibrated scene>"), overrides)
-        .map_err(|e| CalibrateError::Key(e.to_string()))
+/// Sets one numeric key on the typed scene, not yet validated ([`set`] validates).
+pub fn set_number(scene: &mut Scene, key: &str, value: f64) -> Result<(), CalibrateError> {
+    if crate::scene::keys::set_number(scene, key, value) {
+        return Ok(());
+    }
+    // Not a numeric key: `get` names why.
+    get(scene, key)?;
+    Err(CalibrateError::Key(format!(
+        "`{key}`: not a numeric scene key"
+    )))
 }
 
 #[cfg(test)]

@@ -24,6 +24,7 @@ use crate::ident::model::{Diverged, ParamSpec, Predictor};
 use crate::ident::weighting::spread_weights;
 use crate::record::Recording;
 use crate::replay::{replay, Drive, Replay, ReplayError};
+use crate::rig::RigKind;
 use crate::scene::Scene;
 use search::{Problem, Stage};
 
@@ -58,9 +59,9 @@ pub enum CalibrateError {
 }
 
 /// The contract's outputs per rig: what a real rig measures, and what a calibration fits.
-pub fn contract_outputs(rig: &str) -> &'static [&'static str] {
+pub fn contract_outputs(rig: RigKind) -> &'static [&'static str] {
     match rig {
-        "drive_axis" => &[
+        RigKind::DriveAxis => &[
             "motor_speed_rad_s",
             "motor_angle_rad",
             "wheel_angle_rad",
@@ -89,9 +90,9 @@ pub fn contract_outputs(rig: &str) -> &'static [&'static str] {
 ///   its time constant and its current;
 /// - a `vehicle`: the torque constant and resistance (the drive's gain) and the chassis
 ///   mass and yaw inertia (how fast it answers in speed and in turn).
-pub fn default_free(rig: &str) -> &'static [&'static str] {
+pub fn default_free(rig: RigKind) -> &'static [&'static str] {
     match rig {
-        "vehicle" => &[
+        RigKind::Vehicle => &[
             "motor.torque_constant_Nm_A",
             "motor.resistance_ohm",
             "chassis.mass_kg",
@@ -114,7 +115,7 @@ pub fn default_free_of(rec: &Recording) -> &'static [&'static str] {
         .columns()
         .iter()
         .all(|c| rec.column(c).is_some());
-    if rec.rig == "vehicle" && velocity {
+    if rec.rig == RigKind::Vehicle && velocity {
         &[
             "chassis.mass_kg",
             "chassis.yaw_inertia_kg_m2",
@@ -122,7 +123,7 @@ pub fn default_free_of(rec: &Recording) -> &'static [&'static str] {
             "base.speed_ki_V_rad",
         ]
     } else {
-        default_free(&rec.rig)
+        default_free(rec.rig)
     }
 }
 
@@ -555,7 +556,7 @@ pub fn calibrate_telling(
     }
     progress("replaying the recording on the scene as written");
     let before = replay(scene, rec)?;
-    let outputs: Vec<String> = contract_outputs(&rec.rig)
+    let outputs: Vec<String> = contract_outputs(rec.rig)
         .iter()
         .filter(|n| before.output(n).is_some())
         .map(|n| n.to_string())
@@ -565,7 +566,7 @@ pub fn calibrate_telling(
             file: rec.path.clone(),
             message: format!(
                 "none of the rig's outputs to fit ({})",
-                contract_outputs(&rec.rig).join(", ")
+                contract_outputs(rec.rig).join(", ")
             ),
         });
     }
@@ -577,7 +578,7 @@ pub fn calibrate_telling(
         .collect();
     let driven = effects::Driven {
         drive: before.drive,
-        on_floor: rec.rig == "vehicle",
+        on_floor: rec.rig == RigKind::Vehicle,
         max_command_v: Some(max_command_v(&before)),
         tracked_pose: ["x_m", "y_m", "heading_rad"].iter().all(|c| {
             before

@@ -23,6 +23,7 @@ use super::{calibrate_telling, effects::Choice, keys, CalibrateError, Calibratio
 use crate::ident::effects::Effect;
 use crate::record::Recording;
 use crate::replay::replay;
+use crate::rig::RigKind;
 use crate::scene::Scene;
 
 /// Largest relative error of the concealed effect's key.
@@ -179,7 +180,7 @@ pub fn clean_machine(kind: Kind) -> Result<Scene, CalibrateError> {
 
 /// The motor's stall torque at the drive limit, N m.
 fn stall_nm(s: &Scene) -> f64 {
-    s.motor.torque_constant_nm_a * s.battery.drive_limit_v / s.motor.resistance_ohm
+    s.motor.stall_torque_nm(s.battery.drive_limit_v)
 }
 
 /// Largest terminal voltage the excitation (its seed-1 rows) puts on a motor of `s`, V:
@@ -312,8 +313,7 @@ fn concealed(
         // Viscous friction two and a half times as strong forward, the viscous loss
         // raised to a fifth of the back-EMF damping so that it shows.
         Effect::FrictionAsymmetry => {
-            let k = clean.motor.torque_constant_nm_a;
-            let damping = 0.2 * k * k / clean.motor.resistance_ohm;
+            let damping = 0.2 * clean.motor.electrical_damping_nm_s_rad();
             // The scene knows the loss, not its asymmetry.
             common.push(format!("motor.viscous_Nm_s_rad={damping}"));
             (2.5, vec![])
@@ -537,11 +537,11 @@ fn outputs_of(kind: Kind) -> &'static [&'static str] {
     }
 }
 
-fn rig_of(kind: Kind) -> &'static str {
+fn rig_of(kind: Kind) -> RigKind {
     match kind {
-        Kind::AxisVoltage | Kind::AxisDemand => "drive_axis",
-        Kind::PairDemand => "drive_pair",
-        _ => "vehicle",
+        Kind::AxisVoltage | Kind::AxisDemand => RigKind::DriveAxis,
+        Kind::PairDemand => RigKind::DrivePair,
+        _ => RigKind::Vehicle,
     }
 }
 

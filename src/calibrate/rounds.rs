@@ -225,10 +225,10 @@ fn forward(
             crate::numtext::quantity(t.value, 4, crate::numtext::unit_key_or_name(&t.key)),
             t.delta_aic
         ));
-        r.switches.extend(home.switches.iter().map(|(k, v)| Switch {
+        r.switches.extend(home.switches.iter().map(|s| Switch {
             effect: home.effect,
-            key: k.to_string(),
-            value: v.clone(),
+            key: s.key.to_string(),
+            value: s.value_text(),
         }));
         r.starts.push((home.key.to_string(), home.start));
         r.starts

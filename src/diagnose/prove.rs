@@ -201,7 +201,7 @@ fn record(
     let interval = per as f64 * dt;
     let n = (duration_s / interval) as usize;
     let mut csv = crate::record::header(
-        "drive_axis",
+        crate::rig::RigKind::DriveAxis,
         &[
             (
                 "description",
@@ -248,7 +248,7 @@ fn nominal_rig(scene: &Scene, rng: &mut Pcg64) -> Rig {
         x * (1.0 + sign * rng.random_range(0.05..0.25))
     };
     let m = &scene.motor;
-    let mut rig = Rig::new("drive_axis");
+    let mut rig = Rig::new(crate::rig::RigKind::DriveAxis);
     // In this order: each belief draws its error in turn.
     rig.set("motor.resistance_ohm", off(m.resistance_ohm));
     rig.set("motor.inductance_H", off(m.inductance_h));
@@ -439,7 +439,7 @@ fn record_vehicle(
     let interval = per as f64 * dt;
     let n = (duration_s / interval) as usize;
     let mut csv = crate::record::header(
-        "vehicle",
+        crate::rig::RigKind::Vehicle,
         &[
             (
                 "description",
@@ -528,7 +528,7 @@ fn nominal_vehicle_rig(scene: &Scene, rng: &mut Pcg64) -> Result<Rig, ProveError
         let sign = if rng.random::<bool>() { 1.0 } else { -1.0 };
         x * (1.0 + sign * rng.random_range(lo..hi))
     };
-    rig.rig = "vehicle".into();
+    rig.rig = crate::rig::RigKind::Vehicle;
     let c = &params.chassis;
     let load_fraction = params.loads.drive_n.iter().sum::<f64>() / params.weight_n();
     rig.set("chassis.mass_kg", off(c.mass_kg, 0.05, 0.25));

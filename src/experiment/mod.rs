@@ -407,7 +407,7 @@ fn lifted_random_demand(
     let mut demand = [0.0, 0.0];
     let mut hold_left = 0usize;
     let mut csv = header(
-        "drive_pair",
+        crate::rig::RigKind::DrivePair,
         &[
             ("description", format!("wheels lifted, {:?} forward and turn demands into the DCMC, motor encoders ({} counts/rev)", opts.pattern, ENCODER_COUNTS).to_lowercase()),
             ("sample_time_s", format!("{interval}")),
@@ -487,7 +487,7 @@ fn falling_weight(
     let per = ((interval / h).round() as u64).max(1);
     let mut s = MotorState::default();
     let mut csv = header(
-        "drive_axis",
+        crate::rig::RigKind::DriveAxis,
         &[
             (
                 "description",
@@ -552,7 +552,7 @@ fn coast_down(
     sim.run_for((5.0 * tau).max(2.0), |_| {})?;
     sim.set_actuation(Actuation::Open);
     let mut csv = header(
-        "drive_axis",
+        crate::rig::RigKind::DriveAxis,
         &[
             (
                 "description",

@@ -7,7 +7,7 @@ use rand_pcg::Pcg64;
 
 use super::{ExperimentOptions, ENCODER_COUNTS};
 use crate::model::dcmc::DcmcKind;
-use crate::rig::Rig;
+use crate::rig::{Rig, RigKind};
 use crate::scene::Scene;
 
 /// The motor's rig keys.
@@ -21,7 +21,7 @@ const MOTOR: [&str; 6] = [
 ];
 
 /// A rig of `kind` stating the scene's value of each rig key in `keys`.
-fn from_scene(kind: &str, scene: &Scene, keys: &[&str]) -> Rig {
+fn from_scene(kind: RigKind, scene: &Scene, keys: &[&str]) -> Rig {
     let mut rig = Rig::new(kind);
     let table = crate::scene::keys::table();
     for key in keys {
@@ -45,7 +45,7 @@ pub(super) fn axis_rig(scene: &Scene) -> Rig {
         "wheel.inertia_kg_m2",
         "supply.voltage_V",
     ]);
-    with_encoder(from_scene("drive_axis", scene, &keys))
+    with_encoder(from_scene(RigKind::DriveAxis, scene, &keys))
 }
 
 fn with_encoder(mut rig: Rig) -> Rig {
@@ -79,13 +79,13 @@ fn with_controller(mut rig: Rig, scene: &Scene) -> Rig {
 /// Two lifted drive axes behind the DCMC.
 pub(super) fn pair_rig(scene: &Scene) -> Rig {
     let mut rig = with_controller(axis_rig(scene), scene);
-    rig.rig = "drive_pair".into();
+    rig.rig = RigKind::DrivePair;
     rig
 }
 
 /// The motor off the vehicle under a falling weight.
 pub(super) fn falling_weight_rig(scene: &Scene, opts: &ExperimentOptions) -> Rig {
-    let mut rig = with_encoder(from_scene("drive_axis", scene, &MOTOR));
+    let mut rig = with_encoder(from_scene(RigKind::DriveAxis, scene, &MOTOR));
     rig.set("falling_weight.mass_kg", opts.weight_mass_kg);
     rig.set("falling_weight.pulley_radius_m", opts.pulley_radius_m);
     rig.set("falling_weight.drop_m", opts.drop_m);
@@ -95,7 +95,7 @@ pub(super) fn falling_weight_rig(scene: &Scene, opts: &ExperimentOptions) -> Rig
 /// The whole vehicle: the axis's keys, the DCMC and the chassis with its payload.
 pub(super) fn vehicle_rig(scene: &Scene) -> Rig {
     let mut rig = with_controller(axis_rig(scene), scene);
-    rig.rig = "vehicle".into();
+    rig.rig = RigKind::Vehicle;
     let c = &scene.chassis;
     rig.set("chassis.mass_kg", c.mass_kg + scene.payload.mass_kg);
     rig.set("chassis.yaw_inertia_kg_m2", c.yaw_inertia_kg_m2);

@@ -29,7 +29,7 @@ use rand::{Rng, SeedableRng};
 use serde::Serialize;
 
 use crate::record::{Recording, RecordingError};
-use crate::rig::{Rig, RigError};
+use crate::rig::{Rig, RigError, RigKind};
 use data::Dataset;
 pub use evaluate::{evaluate, fit_pct, fit_pct_mean, Evaluation, OutputChecks};
 use fit::{Fit, FitError, FitSettings};
@@ -152,11 +152,11 @@ pub enum IdentError {
         /// The model asked for.
         model: String,
         /// The rig kind it needs.
-        want: String,
+        want: RigKind,
         /// The rig file.
         rig: PathBuf,
         /// Its kind.
-        have: String,
+        have: RigKind,
     },
     /// A `--free` name given twice.
     #[error("--free: `{name}` is given twice; name each parameter once")]
@@ -276,8 +276,8 @@ fn structure_of(
         None => match rec.meta.get("experiment").map(String::as_str) {
             Some("falling-weight") => ModelChoice::FallingWeight,
             Some("coast-down") => ModelChoice::CoastDown,
-            _ => match rig.rig.as_str() {
-                "drive_pair" => match rig.text("controller.kind") {
+            _ => match rig.rig {
+                RigKind::DrivePair => match rig.text("controller.kind") {
                     Some("p") => ModelChoice::P,
                     Some("pi") => ModelChoice::Pi,
                     _ => ModelChoice::Gain,
@@ -297,15 +297,15 @@ fn structure_of(
             ),
         });
     }
-    let wrong_rig = |want: &str| IdentError::WrongRig {
+    let wrong_rig = |want: RigKind| IdentError::WrongRig {
         model: format!("{choice:?}").to_lowercase(),
-        want: want.to_string(),
+        want,
         rig: rig_path.to_owned(),
-        have: rig.rig.clone(),
+        have: rig.rig,
     };
     Ok(match choice {
         ModelChoice::DriveAxis => {
-            if rig.rig == "vehicle" {
+            if rig.rig == RigKind::Vehicle {
                 if rec.column("left_voltage_V").is_none() || rec.column("right_voltage_V").is_none()
                 {
                     return Err(IdentError::Mismatch {
@@ -319,8 +319,8 @@ fn structure_of(
                     .any(|c| rec.column(c).is_some());
                 return Ok(Structure::Vehicle(m));
             }
-            if rig.rig != "drive_axis" {
-                return Err(wrong_rig("drive_axis"));
+            if rig.rig != RigKind::DriveAxis {
+                return Err(wrong_rig(RigKind::DriveAxis));
             }
             if rig.is_linear() {
                 let force_input = rec.column("force_N").is_some()
@@ -347,14 +347,14 @@ fn structure_of(
             }
         }
         ModelChoice::FallingWeight => {
-            if rig.rig != "drive_axis" {
-                return Err(wrong_rig("drive_axis"));
+            if rig.rig != RigKind::DriveAxis {
+                return Err(wrong_rig(RigKind::DriveAxis));
             }
             Structure::Falling(FallingWeight::from_rig(rig, rig_path)?)
         }
         ModelChoice::CoastDown => {
-            if rig.rig != "drive_axis" {
-                return Err(wrong_rig("drive_axis"));
+            if rig.rig != RigKind::DriveAxis {
+                return Err(wrong_rig(RigKind::DriveAxis));
             }
             let w0 = rec
                 .column("motor_speed_rad_s")
@@ -363,8 +363,8 @@ fn structure_of(
             Structure::Coast(CoastDown::from_rig(rig, rig_path, w0)?)
         }
         ModelChoice::Gain | ModelChoice::P | ModelChoice::Pi => {
-            if rig.rig != "drive_pair" {
-                return Err(wrong_rig("drive_pair"));
+            if rig.rig != RigKind::DrivePair {
+                return Err(wrong_rig(RigKind::DrivePair));
             }
             let case = match choice {
                 ModelChoice::Gain => Case::Gain,

@@ -138,7 +138,8 @@ mod tests {
             motor.viscous_nm_s_rad,
         );
         // Steady state: K (V - K w) / R = Tc + b w.
-        let w = (k * v / r - motor.coulomb_nm) / (b + k * k / r);
+        let w = (motor.stall_torque_nm(v) - motor.coulomb_nm)
+            / (b + motor.electrical_damping_nm_s_rad());
         assert!(((v - t.ks_v) / t.kv - w).abs() < 1e-9 * w, "{t:?}");
         // From rest, current settled at V / R: J dw/dt = K V / R - Tc.
         let acc = (k * v / r - motor.coulomb_nm) / j;

@@ -16,6 +16,7 @@
 //! are reported with their line and column, never fixed silently; an empty cell stays
 //! empty (a missing sample, as the contract says).
 
+use crate::rig::RigKind;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -104,6 +105,22 @@ fn factor(target: &str, m: &ColumnMap, map_file: &Path) -> Result<(f64, String),
     }
 }
 
+impl CsvMap {
+    /// The rig kind the map names: a drive axis or a vehicle (a map converts one table).
+    pub fn kind(&self, map_file: &Path) -> Result<RigKind, ImportError> {
+        match RigKind::from_name(&self.rig) {
+            Some(k @ (RigKind::DriveAxis | RigKind::Vehicle)) => Ok(k),
+            _ => Err(ImportError::Map {
+                file: map_file.to_owned(),
+                message: format!(
+                    "rig = \"{}\": expected \"drive_axis\" or \"vehicle\"",
+                    self.rig
+                ),
+            }),
+        }
+    }
+}
+
 /// Reads a map file.
 pub fn load_map(path: &Path) -> Result<CsvMap, ImportError> {
     let text = crate::output::read_text_bounded(path, crate::output::MAX_INPUT_BYTES).map_err(
@@ -116,15 +133,7 @@ pub fn load_map(path: &Path) -> Result<CsvMap, ImportError> {
         file: path.to_owned(),
         message: e.to_string().trim_end().to_string(),
     })?;
-    if !matches!(map.rig.as_str(), "drive_axis" | "vehicle") {
-        return Err(ImportError::Map {
-            file: path.to_owned(),
-            message: format!(
-                "rig = \"{}\": expected \"drive_axis\" or \"vehicle\"",
-                map.rig
-            ),
-        });
-    }
+    map.kind(path)?;
     if map.columns.is_empty() {
         return Err(ImportError::Map {
             file: path.to_owned(),
@@ -207,7 +216,7 @@ pub fn convert(
         ));
     }
     let names: Vec<&str> = plan.iter().map(|p| p.0.as_str()).collect();
-    let mut out = crate::record::header(&map.rig, &meta, &names);
+    let mut out = crate::record::header(map.kind(map_file)?, &meta, &names);
     let mut last_t: Option<f64> = None;
     for rec in reader.records() {
         let rec = rec.map_err(|e| ImportError::Data {

@@ -39,6 +39,18 @@ pub enum DcmcKind {
 
 impl crate::param::Value for DcmcKind {}
 
+impl DcmcKind {
+    /// The name a scene uses (`dcmc.kind = "gain_pi"`).
+    pub fn name(self) -> &'static str {
+        match self {
+            DcmcKind::Gain => "gain",
+            DcmcKind::P => "p",
+            DcmcKind::Pi => "pi",
+            DcmcKind::GainPi => "gain_pi",
+        }
+    }
+}
+
 /// What `dcmc.kind` takes.
 fn dcmc_kinds() -> String {
     "`gain`, `p`, `pi`, `gain_pi`".into()
@@ -523,6 +535,15 @@ impl Dcmc {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn each_kind_is_named_as_a_scene_reads_it() {
+        for k in [DcmcKind::Gain, DcmcKind::P, DcmcKind::Pi, DcmcKind::GainPi] {
+            let text = format!("kind = \"{}\"", k.name());
+            let back: DcmcParams = toml::from_str(&text).unwrap();
+            assert_eq!(back.kind, k, "{text}");
+        }
+    }
 
     fn dcmc() -> Dcmc {
         Dcmc {

@@ -56,6 +56,30 @@ impl MotorParams {
         self.torque_constant_nm_a * speed_rad_s
     }
 
+    /// Electrical damping K^2/R, N m s/rad: the braking torque per unit speed of the
+    /// back-EMF through the armature resistance (a shorted or voltage-driven motor).
+    pub fn electrical_damping_nm_s_rad(&self) -> f64 {
+        electrical_damping_nm_s_rad(self.torque_constant_nm_a, self.resistance_ohm)
+    }
+
+    /// No-load speed at a supply voltage, rad/s: `V / K`, where the back-EMF meets the
+    /// supply (the no-load current and the motor's own friction neglected).
+    pub fn no_load_speed_rad_s(&self, supply_v: f64) -> f64 {
+        supply_v / self.torque_constant_nm_a
+    }
+
+    /// Stall torque at a supply voltage, N m: `K V / R`, the torque of the current the
+    /// resistance alone limits.
+    pub fn stall_torque_nm(&self, supply_v: f64) -> f64 {
+        self.torque_constant_nm_a * supply_v / self.resistance_ohm
+    }
+
+    /// Mechanical time constant `J R / K^2` of the motor driving an inertia (kg m^2 at the
+    /// shaft) against its back-EMF and viscous friction, s.
+    pub fn mechanical_time_constant_s(&self, inertia_kg_m2: f64) -> f64 {
+        inertia_kg_m2 / (self.viscous_nm_s_rad + self.electrical_damping_nm_s_rad())
+    }
+
     /// Electrical time constant L/R, s.
     #[inline]
     pub fn electrical_time_constant_s(&self) -> f64 {
@@ -91,7 +115,7 @@ impl MotorParams {
             return 0.0;
         }
         let b = viscous_coefficient(self.viscous_nm_s_rad, self.viscous_ratio, drive);
-        (drive - stall * drive.signum()) / (k * k / self.resistance_ohm + b)
+        (drive - stall * drive.signum()) / (self.electrical_damping_nm_s_rad() + b)
     }
 
     /// Rate of change of the armature current at a terminal voltage, A/s
@@ -160,6 +184,12 @@ impl MotorParams {
         );
         s.angle_rad += s.speed_rad_s * h;
     }
+}
+
+/// Electrical damping `K^2 / R` of a motor with torque constant `k` (N m/A) and
+/// armature resistance `r` (ohm), N m s/rad.
+pub fn electrical_damping_nm_s_rad(k: f64, r: f64) -> f64 {
+    k * k / r
 }
 
 /// Rate of change of the armature current, A/s: `L di/dt = V - R i - K w` (terminal
@@ -246,6 +276,27 @@ mod tests {
             coulomb_nm: 0.02,
             offset_nm: 0.0,
         }
+    }
+
+    #[test]
+    fn derived_quantities_meet_at_the_ends_of_the_torque_speed_line() {
+        // Without friction the steady speed at V is the no-load speed, and the stall torque
+        // over the damping is the same speed: the torque-speed line's two ends.
+        let m = MotorParams {
+            viscous_nm_s_rad: 0.0,
+            coulomb_nm: 0.0,
+            ..motor()
+        };
+        let v = 24.0;
+        let w0 = m.no_load_speed_rad_s(v);
+        assert!((w0 - 24.0 / 0.063).abs() < 1e-9);
+        assert!((m.steady_speed_rad_s(v, 0.0) - w0).abs() < 1e-9 * w0);
+        assert!((m.stall_torque_nm(v) / m.electrical_damping_nm_s_rad() - w0).abs() < 1e-9 * w0);
+        // The thesis motor: 4.32 N m stall at 24 V, K^2/R = 0.01134 N m s/rad.
+        assert!((m.stall_torque_nm(v) - 4.32).abs() < 1e-12);
+        assert!((m.electrical_damping_nm_s_rad() - 0.01134).abs() < 1e-15);
+        // J R / K^2 with J = 2e-4 kg m^2: 17.6 ms.
+        assert!((m.mechanical_time_constant_s(2e-4) - 2e-4 / 0.01134).abs() < 1e-15);
     }
 
     #[test]

@@ -142,7 +142,7 @@ mod tests {
         let columns: Vec<&str> = header.split(',').collect();
         let text = format!(
             "{}{}\n",
-            crate::record::header("drive_axis", &[], &columns),
+            crate::record::header(crate::rig::RigKind::DriveAxis, &[], &columns),
             rows.join("\n")
         );
         Recording::parse(&text, Path::new(name)).unwrap()

@@ -6,6 +6,8 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use crate::rig::RigKind;
+
 /// A recording as read.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Recording {
@@ -13,8 +15,8 @@ pub struct Recording {
     pub path: PathBuf,
     /// Metadata (`key: value` lines), in file order of keys.
     pub meta: BTreeMap<String, String>,
-    /// `drive_axis`, `vehicle` or (this project's) `drive_pair`.
-    pub rig: String,
+    /// What machine it was made on (`# rig: ...`).
+    pub rig: RigKind,
     /// Sample times, s (strictly increasing).
     pub t_s: Vec<f64>,
     /// Column names after `t_s`, in file order.
@@ -147,15 +149,10 @@ impl Recording {
                 file: file(),
                 message: "missing metadata `# rig: drive_axis` or `# rig: vehicle`".into(),
             })?;
-        if !crate::rig::RIG_KINDS.contains(&rig.as_str()) {
-            return Err(RecordingError::File {
-                file: file(),
-                message: format!(
-                    "rig `{rig}`: expected one of {}",
-                    crate::rig::RIG_KINDS.join(", ")
-                ),
-            });
-        }
+        let rig = RigKind::from_name(&rig).ok_or_else(|| RecordingError::File {
+            file: file(),
+            message: format!("rig `{rig}`: expected one of {}", RigKind::names()),
+        })?;
         let cols: Vec<String> = header.split(',').map(|c| c.trim().to_string()).collect();
         if cols.first().map(String::as_str) != Some("t_s") {
             return Err(at(

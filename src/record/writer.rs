@@ -2,6 +2,7 @@
 //! unit-suffixed column names, one row per sample. Numbers are printed with a fixed
 //! number of decimals so that the same run gives the same bytes.
 
+use crate::rig::RigKind;
 use std::io::Write;
 
 use crate::sim::Snapshot;
@@ -60,7 +61,7 @@ pub fn vehicle_columns() -> Vec<Column> {
 /// The head of a recording in the exchange format: the format's version, the rig, one
 /// `# key: value` line per metadata entry (a value's newlines become spaces, so a
 /// description cannot break the metadata), then the column names.
-pub fn header(rig: &str, meta: &[(&str, String)], columns: &[&str]) -> String {
+pub fn header(rig: RigKind, meta: &[(&str, String)], columns: &[&str]) -> String {
     use std::fmt::Write as _;
     let mut s = format!("# agvsim-recording: 1\n# rig: {rig}\n");
     for (k, v) in meta {
@@ -82,7 +83,7 @@ impl<W: Write> RecordingWriter<W> {
     /// Writes the metadata and header. `meta` are extra `key: value` lines.
     pub fn new(
         mut out: W,
-        rig: &str,
+        rig: RigKind,
         meta: &[(&str, String)],
         columns: Vec<Column>,
     ) -> std::io::Result<Self> {

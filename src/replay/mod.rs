@@ -20,6 +20,7 @@ use std::path::PathBuf;
 
 use crate::ident::evaluate::fit_pct;
 use crate::record::{vehicle_columns, Recording};
+use crate::rig::RigKind;
 use crate::scene::Scene;
 use crate::sim::{Actuation, Sim, SimError, Snapshot};
 
@@ -210,18 +211,10 @@ fn recording_err(rec: &Recording, message: String) -> ReplayError {
 
 /// The drive the recording's columns give, voltages first.
 fn choose_drive(rec: &Recording) -> Result<Drive, ReplayError> {
-    let candidates: &[Drive] = match rec.rig.as_str() {
-        "drive_axis" => &[Drive::AxisVoltage, Drive::AxisDemand],
-        "vehicle" => &[Drive::Voltages, Drive::Demands, Drive::Velocity],
-        "drive_pair" => &[Drive::Voltages, Drive::Demands],
-        other => {
-            return Err(recording_err(
-                rec,
-                format!(
-                "rig `{other}`: replay drives `vehicle`, `drive_axis` and `drive_pair` recordings"
-            ),
-            ))
-        }
+    let candidates: &[Drive] = match rec.rig {
+        RigKind::DriveAxis => &[Drive::AxisVoltage, Drive::AxisDemand],
+        RigKind::Vehicle => &[Drive::Voltages, Drive::Demands, Drive::Velocity],
+        RigKind::DrivePair => &[Drive::Voltages, Drive::Demands],
     };
     candidates
         .iter()
@@ -299,7 +292,7 @@ pub fn check_validation(rec: &Recording, other: &Recording) -> Result<(), String
 fn unused_drive_note(rec: &Recording, drive: Drive) -> Option<String> {
     let velocity = Drive::Velocity.columns();
     let present = velocity.iter().all(|c| rec.column(c).is_some());
-    (drive != Drive::Velocity && present && rec.rig == "vehicle").then(|| {
+    (drive != Drive::Velocity && present && rec.rig == RigKind::Vehicle).then(|| {
         format!(
             "driven by {}; the velocity commands {} are in the recording too and were not used (voltages, then demands, then velocity commands: drop the columns of the drive not meant)",
             drive.columns().join(" and "),
@@ -422,7 +415,7 @@ pub fn replay(scene: &Scene, rec: &Recording) -> Result<Replay, ReplayError> {
     let mut scene = scene.clone();
     // A drive axis, and this project's lifted pair, are recorded with the wheels off
     // the floor.
-    scene.sim.wheels_lifted = drive.lifted() || rec.rig == "drive_pair";
+    scene.sim.wheels_lifted = drive.lifted() || rec.rig == RigKind::DrivePair;
     let mut simulated = vec![Vec::with_capacity(rec.t_s.len()); chans.len()];
     let mut notes = clipped_inputs(&scene, drive, &inputs);
     notes.extend(unused_drive_note(rec, drive));

@@ -17,7 +17,7 @@ pub fn simulated_csv(r: &Replay, rec: &Recording, scene_path: &Path) -> String {
     columns.extend(r.drive.columns().iter().copied());
     columns.extend(r.outputs.iter().map(|o| o.name.as_str()));
     let mut s = crate::record::header(
-        &rec.rig,
+        rec.rig,
         &[
             (
                 "description",

@@ -21,10 +21,12 @@
 
 pub mod blocks;
 pub mod keys;
+pub mod kind;
 
 use std::path::{Path, PathBuf};
 
 use keys::RigKey;
+pub use kind::RigKind;
 
 /// A value a rig states.
 #[derive(Debug, Clone, PartialEq)]
@@ -35,10 +37,10 @@ enum Stated {
 
 /// A rig file as read: its kind and every value it states, by key. A rig states only what
 /// it believes; every value is optional.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Rig {
-    /// `drive_axis`, `vehicle` or `drive_pair`.
-    pub rig: String,
+    /// What machine it is.
+    pub rig: RigKind,
     /// `rotary` (default) or `linear` (drive axis only).
     pub motion: Option<String>,
     /// Stated values by their key's place in the table ([`keys::table`]), in that order.
@@ -72,15 +74,14 @@ pub enum RigError {
     },
 }
 
-/// Rig kinds this reader knows.
-pub const RIG_KINDS: [&str; 3] = ["drive_axis", "vehicle", "drive_pair"];
-
 impl Rig {
     /// A rig of a kind stating nothing yet.
-    pub fn new(kind: &str) -> Rig {
+    pub fn new(kind: RigKind) -> Rig {
         Rig {
-            rig: kind.to_string(),
-            ..Rig::default()
+            rig: kind,
+            motion: None,
+            values: Vec::new(),
+            uncertainty_pct: Vec::new(),
         }
     }
 
@@ -110,10 +111,13 @@ impl Rig {
             }
             invalid(msg)
         })?;
-        let mut rig = Rig::default();
+        // The kind as named, checked once every value is read (so that its error comes
+        // where a missing kind's does).
+        let mut kind_name: Option<&str> = None;
+        let mut rig = Rig::new(RigKind::DriveAxis);
         for (name, value) in &table {
             match (name.as_str(), value) {
-                ("rig", toml::Value::String(k)) => rig.rig = k.clone(),
+                ("rig", toml::Value::String(k)) => kind_name = Some(k),
                 ("motion", toml::Value::String(m)) => rig.motion = Some(m.clone()),
                 ("rig" | "motion", other) => {
                     return Err(invalid(format!(
@@ -138,12 +142,20 @@ impl Rig {
                 }
             }
         }
-        if rig.rig.is_empty() {
-            return Err(invalid(format!(
-                "no `rig = \"...\"`: expected the rig kind, one of {}",
-                RIG_KINDS.join(", ")
-            )));
-        }
+        rig.rig = match kind_name {
+            None | Some("") => {
+                return Err(invalid(format!(
+                    "no `rig = \"...\"`: expected the rig kind, one of {}",
+                    RigKind::names()
+                )))
+            }
+            Some(name) => RigKind::from_name(name).ok_or_else(|| {
+                invalid(format!(
+                    "rig = \"{name}\": expected one of {}",
+                    RigKind::names()
+                ))
+            })?,
+        };
         rig.check().map_err(invalid)?;
         Ok(rig)
     }
@@ -269,15 +281,8 @@ impl Rig {
         Some(())
     }
 
-    /// Checks the kind, the motion and every stated number against its key's rule.
+    /// Checks the motion and every stated number against its key's rule.
     fn check(&self) -> Result<(), String> {
-        if !RIG_KINDS.contains(&self.rig.as_str()) {
-            return Err(format!(
-                "rig = \"{}\": expected one of {}",
-                self.rig,
-                RIG_KINDS.join(", ")
-            ));
-        }
         match self.motion.as_deref() {
             None | Some("rotary") | Some("linear") => {}
             Some(m) => {
@@ -447,7 +452,7 @@ impl Rig {
     /// rig does not state is the scene's default (the thesis's vehicle): the comments say
     /// so.
     pub fn scene_toml(&self, description: &str) -> Option<String> {
-        if self.rig != "vehicle" {
+        if self.rig != RigKind::Vehicle {
             return None;
         }
         let mut doc = toml_edit::DocumentMut::new();
@@ -531,7 +536,9 @@ pub fn electrical_damping(rig: &Rig) -> Option<f64> {
         rig.get("motor.torque_constant_Nm_A"),
         rig.get("motor.resistance_ohm"),
     ) {
-        (Some(k), Some(r)) if r > 0.0 => Some(k * k / r),
+        (Some(k), Some(r)) if r > 0.0 => {
+            Some(crate::model::motor::electrical_damping_nm_s_rad(k, r))
+        }
         _ => None,
     }
 }

@@ -253,7 +253,7 @@ fn dcmc_gains(scene: &Scene, w: &mut Vec<Warning>) {
             }
         }
         DcmcKind::P | DcmcKind::Pi => {
-            let no_load_rad_s = drive_v / scene.motor.torque_constant_nm_a;
+            let no_load_rad_s = scene.motor.no_load_speed_rad_s(drive_v);
             let full_rad_s = d.speed_per_pct_rad_s * 100.0;
             if full_rad_s > 1.05 * no_load_rad_s {
                 w.push(Warning {

@@ -11,6 +11,7 @@ use std::path::Path;
 use super::plausibility::slab_yaw_inertia_kg_m2;
 use super::{keys, Scene, SceneError};
 use crate::firmware::ControllerKind;
+use crate::model::motor::MotorParams;
 use crate::model::tyre_presets;
 
 /// What a builder knows about the drive motor: one datasheet operating line.
@@ -632,14 +633,20 @@ fn castors(n: &Numbers) -> Vec<Derived> {
 fn motor(n: &Numbers) -> Vec<Derived> {
     use Input::*;
     let (k, r) = (n.torque_constant_nm_a, n.resistance_ohm);
-    let stall_nm = k * n.rated_v / r;
+    let datasheet = MotorParams {
+        torque_constant_nm_a: k,
+        resistance_ohm: r,
+        ..MotorParams::default()
+    };
+    let stall_nm = datasheet.stall_torque_nm(n.rated_v);
+    let emf_damping = datasheet.electrical_damping_nm_s_rad();
     vec![
         d("motor.torque_constant_Nm_A", k, &[Motor], format!("rated {} V over the no-load speed in rad/s (the back-EMF constant; no-load current neglected)", n.rated_v)),
         d("motor.resistance_ohm", r, &[Motor], "rated voltage over stall current"),
         d("motor.inductance_H", r * thesis::ELECTRICAL_TAU_S, &[Motor], format!("assumed: an electrical time constant L/R of {:.2} ms, the thesis machine's", 1e3 * thesis::ELECTRICAL_TAU_S)),
-        d("motor.rotor_inertia_kg_m2", thesis::MECHANICAL_TAU_S * k * k / r, &[Motor], format!("assumed: a mechanical time constant J R / K^2 of {:.1} ms, the thesis machine's", 1e3 * thesis::MECHANICAL_TAU_S)),
+        d("motor.rotor_inertia_kg_m2", thesis::MECHANICAL_TAU_S * emf_damping, &[Motor], format!("assumed: a mechanical time constant J R / K^2 of {:.1} ms, the thesis machine's", 1e3 * thesis::MECHANICAL_TAU_S)),
         d("motor.coulomb_Nm", thesis::COULOMB_SHARE_OF_STALL * stall_nm, &[Motor], format!("assumed: {:.2} % of the stall torque ({} N m), the thesis machine's share", 100.0 * thesis::COULOMB_SHARE_OF_STALL, round4(stall_nm))),
-        d("motor.viscous_Nm_s_rad", thesis::VISCOUS_SHARE_OF_EMF_DAMPING * k * k / r, &[Motor], format!("assumed: {:.2} % of the back-EMF damping K^2/R, the thesis machine's share", 100.0 * thesis::VISCOUS_SHARE_OF_EMF_DAMPING)),
+        d("motor.viscous_Nm_s_rad", thesis::VISCOUS_SHARE_OF_EMF_DAMPING * emf_damping, &[Motor], format!("assumed: {:.2} % of the back-EMF damping K^2/R, the thesis machine's share", 100.0 * thesis::VISCOUS_SHARE_OF_EMF_DAMPING)),
     ]
 }
 

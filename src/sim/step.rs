@@ -420,9 +420,9 @@ impl Sim {
     fn speed_bound_m_s(&self) -> f64 {
         let p = &self.params;
         let d = &p.drivetrain;
-        let no_load_m_s =
-            p.battery.open_circuit_v.abs() / d.motor.torque_constant_nm_a / d.gearbox.ratio
-                * p.rolling_radii_m[0].max(p.rolling_radii_m[1]);
+        let no_load_m_s = d.motor.no_load_speed_rad_s(p.battery.open_circuit_v.abs())
+            / d.gearbox.ratio
+            * p.rolling_radii_m[0].max(p.rolling_radii_m[1]);
         3.0 * no_load_m_s + 1.0
     }
 }

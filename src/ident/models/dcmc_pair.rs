@@ -17,6 +17,7 @@ use nalgebra::DMatrix;
 
 use crate::ident::data::Dataset;
 use crate::ident::model::{Binding, Dynamics, GreyBox, OutputKind, ParamSpec};
+use crate::model::motor::electrical_damping_nm_s_rad;
 use crate::param::KeyTable;
 use crate::rig::{Rig, RigError};
 
@@ -126,7 +127,7 @@ impl DcmcPair {
             + rig.get("wheel.inertia_kg_m2").unwrap_or(0.0) / (n * n);
         let b = rig.get("motor.viscous_Nm_s_rad").unwrap_or(0.0);
         let m = MotorLag {
-            alpha: (b + k * k / r) / j,
+            alpha: (b + electrical_damping_nm_s_rad(k, r)) / j,
             beta: k / (r * j),
         };
         let gf = rig.get("controller.gain_V_pct").unwrap_or(0.24);

@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 
 use super::{Mechanism, SysIdLog, Test};
 use crate::ident::feedforward::{self, Feedforward, Gravity, Series};
-use crate::rig::Rig;
+use crate::rig::{Rig, RigKind};
 
 /// What the log cannot say and the user may: each `None` takes the stated default.
 #[derive(Debug, Clone, Default)]
@@ -147,7 +147,11 @@ pub(crate) fn convert(
                 header.push("current_A");
             }
         }
-        let rig = if drive { "vehicle" } else { "drive_axis" };
+        let rig = if drive {
+            RigKind::Vehicle
+        } else {
+            RigKind::DriveAxis
+        };
         let mut s = crate::record::header(rig, &meta, &header);
         for x in &test.samples {
             let mut row = vec![format!("{}", x.t_s - t0)];
@@ -297,7 +301,7 @@ pub(crate) fn nominal_rig(
         ),
     };
     notes.push(format!("resistance {r_ohm:.5} ohm {r_note}; inductance = resistance x {ELECTRICAL_TIME_S} s (assumed)"));
-    let mut rig = Rig::default();
+    let mut rig = Rig::new(RigKind::DriveAxis);
     rig.set("motor.resistance_ohm", r_ohm);
     rig.set("motor.inductance_H", r_ohm * ELECTRICAL_TIME_S);
     rig.set("motor.viscous_Nm_s_rad", 0.0);
@@ -334,7 +338,7 @@ pub(crate) fn nominal_rig(
         }
         rig.set("motor.torque_constant_Nm_A", k);
         rig.set("motor.rotor_inertia_kg_m2", 0.5 * j);
-        rig.rig = "vehicle".into();
+        rig.rig = RigKind::Vehicle;
         rig.set("wheel.radius_m", r);
         rig.set("wheel.inertia_kg_m2", 0.5 * j);
         rig.set("chassis.mass_kg", mass);
@@ -346,7 +350,7 @@ pub(crate) fn nominal_rig(
     } else {
         rig.set("motor.torque_constant_Nm_A", kv);
         rig.set("motor.rotor_inertia_kg_m2", ka * kv / r_ohm);
-        rig.rig = "drive_axis".into();
+        rig.rig = RigKind::DriveAxis;
         rig.set(
             "wheel.radius_m",
             a.wheel_radius_m.unwrap_or(DEFAULT_WHEEL_RADIUS_M),

@@ -115,7 +115,7 @@ pub fn reference_recording(spec: &ReferenceSpec) -> String {
     let noise = m.noise_rms_rad_s();
     let mut rng = Pcg64::seed_from_u64(spec.seed);
     let mut csv = crate::record::header(
-        "drive_pair",
+        crate::rig::RigKind::DrivePair,
         &[
             (
                 "description",

@@ -407,8 +407,7 @@ impl Vehicle {
         let n2 = self.ratio * self.ratio;
         let (m, r) = (a.chassis.mass_kg, a.wheel.radius_m);
         let j = self.drivetrain_inertia_at_motor(a) + 0.5 * m * r * r / n2;
-        let k = a.motor.torque_constant_nm_a;
-        j / (a.motor.viscous_nm_s_rad + k * k / a.motor.resistance_ohm)
+        a.motor.mechanical_time_constant_s(j)
     }
 
     /// Terminal voltages of the two motors from the commands and the currents, V: the
