@@ -139,7 +139,7 @@ fn numbers(e: &Element) -> Result<Vec<f64>, MatError> {
         MI_UINT64 => (8, |b| u64::from_le_bytes(b.try_into().unwrap()) as f64),
         k => return err(e.offset, format!("data type {k} is not numeric")),
     };
-    if d.len() % conv.0 != 0 {
+    if !d.len().is_multiple_of(conv.0) {
         return err(e.offset, "numeric data not a whole number of values");
     }
     Ok(d.chunks_exact(conv.0).map(conv.1).collect())

@@ -55,7 +55,7 @@ fn with_unit(number: String, unit: &str) -> String {
 pub fn estimate(v: f64, std: Option<f64>, unit: &str) -> String {
     let Some(s) = std.filter(|s| s.is_finite() && *s > 0.0) else {
         let why = match std {
-            Some(s) if s == 0.0 => "(std 0)",
+            Some(0.0) => "(std 0)",
             Some(_) => "(std not finite)",
             None => "(std not determined)",
         };

@@ -400,9 +400,14 @@ pub struct Key<T> {
     pub meaning: &'static str,
     /// What an optional key left out means.
     pub unset: &'static str,
-    get: Box<dyn Fn(&T) -> Option<f64> + Send + Sync>,
-    set: Box<dyn Fn(&mut T, f64) + Send + Sync>,
+    get: Getter<T>,
+    set: Setter<T>,
 }
+
+/// Reads a key's number from a composition.
+type Getter<T> = Box<dyn Fn(&T) -> Option<f64> + Send + Sync>;
+/// Sets a key's number in a composition.
+type Setter<T> = Box<dyn Fn(&mut T, f64) + Send + Sync>;
 
 impl<T> Key<T> {
     /// The key's value in `t` as a number (`None`: an optional key left out, or not a

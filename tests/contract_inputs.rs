@@ -228,8 +228,7 @@ fn replay_names_the_inputs_the_simulated_machine_cannot_take() {
     let rec = record(&dir, "torque", &m, &m.nominal(), &[("torque_Nm", u)], 1e-3);
     let scene = agvsim::scene::Scene::load(Path::new("scenes/lab_offset_120mm.toml"), &[]).unwrap();
     let err = agvsim::replay::replay(&scene, &rec)
-        .err()
-        .expect("refused")
+        .expect_err("refused")
         .to_string();
     println!("{err}");
     assert!(

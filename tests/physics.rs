@@ -44,7 +44,7 @@ fn no_slip_limit_matches_wheel_kinematics() {
     for k in 0..steps {
         let t = k as f64 * dt;
         // A gentle S: both wheels forward, the difference swapping sign every 2.5 s.
-        let turn = if (t / 2.5) as usize % 2 == 0 {
+        let turn = if ((t / 2.5) as usize).is_multiple_of(2) {
             0.6
         } else {
             -0.6

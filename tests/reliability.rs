@@ -142,8 +142,7 @@ fn sweep_refuses_a_key_both_set_and_varied() {
         vec![vary],
         1,
     )
-    .err()
-    .expect("refused")
+    .expect_err("refused")
     .to_string();
     println!("{err}");
     assert!(
@@ -191,8 +190,7 @@ fn bad_override_values_are_quoted_as_the_user_typed_them() {
         vec![parse_vary("controller.gain_scale=a,b").unwrap()],
         1,
     )
-    .err()
-    .expect("refused")
+    .expect_err("refused")
     .to_string();
     println!("{err}");
     assert!(
@@ -280,8 +278,7 @@ fn an_unwritable_rerun_file_leaves_no_partial_output() {
         },
         &|_| {},
     )
-    .err()
-    .expect("refused")
+    .expect_err("refused")
     .to_string();
     println!("{err}");
     assert!(err.contains("/no/such/dir/y.rrd"), "{err}");
@@ -424,8 +421,7 @@ fn a_runaway_grid_and_a_file_as_out_folder_are_refused_up_front() {
     let err = run_sweep(&opts, &|_, _| {
         runs.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
     })
-    .err()
-    .expect("refused")
+    .expect_err("refused")
     .to_string();
     println!("{err}");
     assert!(
@@ -580,8 +576,7 @@ fn output_paths_are_checked_before_the_work() {
         },
         &|_| {},
     )
-    .err()
-    .expect("refused")
+    .expect_err("refused")
     .to_string();
     println!("{err}");
     assert!(err.contains("--json") && err.contains("is a file"), "{err}");
@@ -600,8 +595,7 @@ fn output_paths_are_checked_before_the_work() {
         },
         &|_| {},
     )
-    .err()
-    .expect("refused")
+    .expect_err("refused")
     .to_string();
     println!("{err}");
     assert!(
@@ -818,7 +812,7 @@ fn an_interrupted_sweep_keeps_its_finished_runs_and_resumes_to_the_same_bytes() 
     let text = std::fs::read_to_string(&partial).unwrap();
     assert_eq!(text.lines().count(), 1 + done, "{text}");
     assert!(expected.starts_with(text.as_bytes()), "not a prefix");
-    let err = merge(&[cut.clone()], &dir.join("m"))
+    let err = merge(std::slice::from_ref(&cut), &dir.join("m"))
         .unwrap_err()
         .to_string();
     assert!(
@@ -857,8 +851,7 @@ fn an_interrupted_sweep_keeps_its_finished_runs_and_resumes_to_the_same_bytes() 
 fn a_run_beyond_its_step_budget_is_refused_up_front() {
     let scene = Path::new("scenes/high_gain_slip.toml");
     let err = Scene::load(scene, &["sim.duration_s=1e7".into()])
-        .err()
-        .expect("refused")
+        .expect_err("refused")
         .to_string();
     println!("{err}");
     assert!(

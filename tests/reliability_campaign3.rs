@@ -486,7 +486,7 @@ fn replay_on_lab(rec: &Path, out: &Path) -> Output {
 
 /// A 1 s run of the lab scene, its recording's text.
 fn lab_run(dir: &Path) -> String {
-    let o = run_lab(dir.as_ref(), "1", &[]);
+    let o = run_lab(dir, "1", &[]);
     assert!(o.status.success(), "{}", text(&o));
     std::fs::read_to_string(dir.join("lab_offset_120mm.csv")).unwrap()
 }
@@ -511,7 +511,7 @@ fn a_time_column_nanoseconds_apart_is_refused_unless_stated() {
     }
     let rec = dir.join("ns.csv");
     std::fs::write(&rec, &ns).unwrap();
-    let replay = |rec: &Path| replay_on_lab(&rec, &dir.join("replay"));
+    let replay = |rec: &Path| replay_on_lab(rec, &dir.join("replay"));
     let o = replay(&rec);
     let t = text(&o);
     assert_eq!(o.status.code(), Some(2), "{t}");

@@ -141,8 +141,7 @@ fn repeats_without_a_noise_source_are_refused() {
     let text = std::fs::read_to_string(path).unwrap();
     let vary = || vec![parse_vary("controller.gain_scale=1,2").unwrap()];
     let err = SweepOptions::from_text(path, text.clone(), vec![], vary(), 3)
-        .err()
-        .expect("refused")
+        .expect_err("refused")
         .to_string();
     println!("{err}");
     assert!(

@@ -69,7 +69,7 @@ fn a_sweep_gives_the_same_results_with_one_or_two_jobs_and_when_sharded_and_merg
     );
 
     // A missing shard, a shard twice, or a shard of another sweep is refused.
-    let e = sweep::merge(&[s1.out_dir.clone()], &tmp("m2"))
+    let e = sweep::merge(std::slice::from_ref(&s1.out_dir), &tmp("m2"))
         .unwrap_err()
         .to_string();
     assert!(e.contains("25 of 50 runs are missing"), "{e}");

@@ -278,7 +278,7 @@ mod tests {
     fn a_window_start_averages_the_trackers_noise() {
         let t: Vec<f64> = (0..400).map(|k| k as f64 * 0.005).collect();
         let truth = |t: f64| [0.4 * t * t, 0.05 * t * t * t, 0.3 * t * t];
-        let noise = |k: usize| if k % 2 == 0 { 1.0 } else { -1.0 };
+        let noise = |k: usize| if k.is_multiple_of(2) { 1.0 } else { -1.0 };
         let cells: Vec<Vec<f64>> = (0..3)
             .map(|i| {
                 let e = [0.005, 0.005, 0.005][i];

@@ -15,6 +15,9 @@ use crate::ident::model::{ParamSpec, Predictor};
 use crate::record::Recording;
 use crate::scene::Scene;
 
+/// A simulation's outputs, one series per fitted output (`None`: diverged).
+type Outputs = Vec<Vec<f64>>;
+
 /// One fit of the scene's keys: the scene as fitted (a key that is no estimate keeps its
 /// start), and as the fit reached it.
 #[derive(Clone)]
@@ -373,7 +376,7 @@ impl Problem<'_> {
         &self,
         scene: &Scene,
         home: &effects::Home,
-    ) -> Result<Vec<(f64, Option<Vec<Vec<f64>>>)>, CalibrateError> {
+    ) -> Result<Vec<(f64, Option<Outputs>)>, CalibrateError> {
         let model =
             SceneReplay::with_signed(scene, self.rec, &[home.key.to_string()], &self.signed)?
                 .windowed(self.windows.clone());
@@ -398,7 +401,7 @@ impl Problem<'_> {
         &self,
         scene: &Scene,
         home: &effects::Home,
-    ) -> Result<(f64, Option<Vec<Vec<f64>>>, f64), CalibrateError> {
+    ) -> Result<(f64, Option<Outputs>, f64), CalibrateError> {
         let scanned = self.scan(scene, home)?;
         let best = scanned
             .into_iter()

@@ -50,7 +50,7 @@ pub fn run(req: &ReplayRequest, say: Say) -> Result<(), CommandError> {
     let csv = dir.join(format!("{name}.replay.csv"));
     let written = (|| -> std::io::Result<()> {
         std::fs::create_dir_all(&dir)?;
-        report::write_atomically(&csv, &report::simulated_csv(&r, &rec, &req.scene))?;
+        report::write_atomically(&csv, report::simulated_csv(&r, &rec, &req.scene))?;
         report::write_plots(&dir, &r, &name)?;
         Ok(())
     })();

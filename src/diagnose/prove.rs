@@ -195,7 +195,7 @@ fn record(
     peak_v: f64,
     rng: &mut Pcg64,
 ) -> Result<String, ProveError> {
-    let mut sim = Sim::new(scene).map_err(|e| ProveError::from(e))?;
+    let mut sim = Sim::new(scene).map_err(ProveError::from)?;
     let dt = sim.params().sim.dt_s;
     let per = ((1.0 / rate_hz) / dt).round().max(1.0) as usize;
     let interval = per as f64 * dt;
@@ -228,7 +228,7 @@ fn record(
         let _ = writeln!(csv, "{:.6},{v:.4},{speed:.4},{i:.2}", k as f64 * interval);
         sim.set_actuation(Actuation::Voltage([v, v]));
         for _ in 0..per {
-            sim.step().map_err(|e| ProveError::from(e))?;
+            sim.step().map_err(ProveError::from)?;
         }
     }
     Ok(csv)
@@ -295,7 +295,7 @@ pub fn prove(
         }
         let mut rng = Pcg64::seed_from_u64(seed.wrapping_mul(31).wrapping_add(i as u64));
         let scene = Scene::from_toml("", Path::new("<proof>"), &spec.overrides)
-            .map_err(|e| ProveError::from(e))?;
+            .map_err(ProveError::from)?;
         let csv = record(
             &scene,
             if quick { 8.0 } else { 20.0 },
@@ -320,7 +320,7 @@ pub fn prove(
             }
             let mut rng = Pcg64::seed_from_u64(seed.wrapping_mul(37).wrapping_add(100 + i as u64));
             let scene = Scene::from_toml("", Path::new("<proof>"), &spec.overrides)
-                .map_err(|e| ProveError::from(e))?;
+                .map_err(ProveError::from)?;
             let csv = record_vehicle(&scene, 16.0, VEHICLE_RATE_HZ, &mut rng)?;
             let rig = nominal_vehicle_rig(&scene, &mut rng)?;
             let truth = vehicle_truth(&scene, spec.effect)?;
@@ -433,7 +433,7 @@ fn record_vehicle(
     rate_hz: f64,
     rng: &mut Pcg64,
 ) -> Result<String, ProveError> {
-    let mut sim = Sim::new(scene).map_err(|e| ProveError::from(e))?;
+    let mut sim = Sim::new(scene).map_err(ProveError::from)?;
     let dt = sim.params().sim.dt_s;
     let per = ((1.0 / rate_hz) / dt).round().max(1.0) as usize;
     let interval = per as f64 * dt;
@@ -513,7 +513,7 @@ fn record_vehicle(
         );
         sim.set_actuation(Actuation::Voltage(level));
         for _ in 0..per {
-            sim.step().map_err(|e| ProveError::from(e))?;
+            sim.step().map_err(ProveError::from)?;
         }
     }
     Ok(csv)
@@ -522,7 +522,7 @@ fn record_vehicle(
 /// The vehicle rig an experimenter would write: the scene's values 5-25 % off (wheel radius
 /// and track 1-3 %), and no word of the effect.
 fn nominal_vehicle_rig(scene: &Scene, rng: &mut Pcg64) -> Result<Rig, ProveError> {
-    let params = crate::sim::SimParams::from_scene(scene).map_err(|e| ProveError::from(e))?;
+    let params = crate::sim::SimParams::from_scene(scene).map_err(ProveError::from)?;
     let mut rig = nominal_rig(scene, &mut Pcg64::seed_from_u64(rng.random()));
     let mut off = |x: f64, lo: f64, hi: f64| {
         let sign = if rng.random::<bool>() { 1.0 } else { -1.0 };
@@ -555,7 +555,7 @@ const VEHICLE_RATE_HZ: f64 = 200.0;
 
 /// The truth of a vehicle case's effect parameter, from the scene.
 fn vehicle_truth(scene: &Scene, effect: Option<Effect>) -> Result<f64, ProveError> {
-    let params = crate::sim::SimParams::from_scene(scene).map_err(|e| ProveError::from(e))?;
+    let params = crate::sim::SimParams::from_scene(scene).map_err(ProveError::from)?;
     Ok(match effect {
         Some(Effect::WheelSlip) => params.drive_tyre(params.floor.default).peak_mu,
         Some(Effect::CastorDrag) => {

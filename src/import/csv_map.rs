@@ -95,7 +95,7 @@ fn factor(target: &str, m: &ColumnMap, map_file: &Path) -> Result<(f64, String),
                     known.join(", ")
                 )));
             };
-            if !target.ends_with(&format!("_{to}")) && !(target == "t_s" && *to == "s") {
+            if !(target.ends_with(&format!("_{to}")) || target == "t_s" && *to == "s") {
                 return Err(bad(format!(
                     "`{target}`: unit `{u}` converts to {to}, but the column's unit is another"
                 )));

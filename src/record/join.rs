@@ -114,7 +114,7 @@ impl Recording {
         Recording {
             path: self.path.clone(),
             meta: self.meta.clone(),
-            rig: self.rig.clone(),
+            rig: self.rig,
             t_s: self.t_s[..n].to_vec(),
             names: self.names.clone(),
             columns: self.columns.iter().map(|c| c[..n].to_vec()).collect(),

@@ -271,6 +271,57 @@ impl Recording {
     }
 }
 
+/// The median interval of a time column, s (`None` under two rows): the sample time a
+/// logger's jitter does not move.
+pub fn median_interval_s(t_s: &[f64]) -> Option<f64> {
+    let mut dts: Vec<f64> = t_s.windows(2).map(|w| w[1] - w[0]).collect();
+    dts.sort_by(f64::total_cmp);
+    dts.get(dts.len() / 2).copied()
+}
+
+/// Shortest interval between rows a recording is taken to mean when it does not state
+/// `sample_time_s`, s: a megahertz logger's (a drive's current loop is logged at tens of
+/// kilohertz at most).
+pub const MIN_SAMPLE_TIME_S: f64 = 1e-6;
+
+/// A stated `sample_time_s` must be the time column's: a header that says 1 ms over a
+/// column stamped in seconds where milliseconds were meant (or the reverse) is a recording
+/// whose every time constant would come out a thousand times off.
+///
+/// Unstated, the column's own interval must be one a logger keeps: rows nanoseconds
+/// apart are a time column in ns (or µs) read as seconds, which a replay would step
+/// through a million rows to a physics step.
+fn check_sample_time(meta: &BTreeMap<String, String>, t_s: &[f64]) -> Result<(), String> {
+    let Some(raw) = meta.get("sample_time_s") else {
+        return match median_interval_s(t_s) {
+            Some(median) if median < MIN_SAMPLE_TIME_S => Err(format!(
+                "the time column's median interval is {} s, shorter than any logger's ({MIN_SAMPLE_TIME_S} s): a time column in ns or µs? (`t_s` is in seconds; say `# sample_time_s:` in the header if the interval is meant)",
+                crate::scene::plausibility::sig(median)
+            )),
+            _ => Ok(()),
+        };
+    };
+    let stated: f64 = raw
+        .parse()
+        .ok()
+        .filter(|v: &f64| v.is_finite() && *v > 0.0)
+        .ok_or_else(|| {
+            format!("metadata `sample_time_s: {raw}`: expected a positive number of seconds")
+        })?;
+    let Some(median) = median_interval_s(t_s) else {
+        return Ok(());
+    };
+    // Loggers jitter and their clocks drift by a few percent; a unit slip is a factor of
+    // ten or more and a decimated log a factor of two, so a quarter separates them.
+    if (median / stated - 1.0).abs() > 0.25 {
+        return Err(format!(
+            "metadata `sample_time_s: {raw}` but the time column's median interval is {} s: which is right? (a time column in ms, or a header copied from another recording?)",
+            crate::scene::plausibility::sig(median)
+        ));
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -331,55 +382,4 @@ mod tests {
         let e = parse("# rig: vehicle\nt_s\n0\n").unwrap_err().to_string();
         assert!(e.contains("agvsim-recording"), "{e}");
     }
-}
-
-/// The median interval of a time column, s (`None` under two rows): the sample time a
-/// logger's jitter does not move.
-pub fn median_interval_s(t_s: &[f64]) -> Option<f64> {
-    let mut dts: Vec<f64> = t_s.windows(2).map(|w| w[1] - w[0]).collect();
-    dts.sort_by(f64::total_cmp);
-    dts.get(dts.len() / 2).copied()
-}
-
-/// Shortest interval between rows a recording is taken to mean when it does not state
-/// `sample_time_s`, s: a megahertz logger's (a drive's current loop is logged at tens of
-/// kilohertz at most).
-pub const MIN_SAMPLE_TIME_S: f64 = 1e-6;
-
-/// A stated `sample_time_s` must be the time column's: a header that says 1 ms over a
-/// column stamped in seconds where milliseconds were meant (or the reverse) is a recording
-/// whose every time constant would come out a thousand times off.
-///
-/// Unstated, the column's own interval must be one a logger keeps: rows nanoseconds
-/// apart are a time column in ns (or µs) read as seconds, which a replay would step
-/// through a million rows to a physics step.
-fn check_sample_time(meta: &BTreeMap<String, String>, t_s: &[f64]) -> Result<(), String> {
-    let Some(raw) = meta.get("sample_time_s") else {
-        return match median_interval_s(t_s) {
-            Some(median) if median < MIN_SAMPLE_TIME_S => Err(format!(
-                "the time column's median interval is {} s, shorter than any logger's ({MIN_SAMPLE_TIME_S} s): a time column in ns or µs? (`t_s` is in seconds; say `# sample_time_s:` in the header if the interval is meant)",
-                crate::scene::plausibility::sig(median)
-            )),
-            _ => Ok(()),
-        };
-    };
-    let stated: f64 = raw
-        .parse()
-        .ok()
-        .filter(|v: &f64| v.is_finite() && *v > 0.0)
-        .ok_or_else(|| {
-            format!("metadata `sample_time_s: {raw}`: expected a positive number of seconds")
-        })?;
-    let Some(median) = median_interval_s(t_s) else {
-        return Ok(());
-    };
-    // Loggers jitter and their clocks drift by a few percent; a unit slip is a factor of
-    // ten or more and a decimated log a factor of two, so a quarter separates them.
-    if (median / stated - 1.0).abs() > 0.25 {
-        return Err(format!(
-            "metadata `sample_time_s: {raw}` but the time column's median interval is {} s: which is right? (a time column in ms, or a header copied from another recording?)",
-            crate::scene::plausibility::sig(median)
-        ));
-    }
-    Ok(())
 }

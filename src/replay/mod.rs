@@ -134,8 +134,11 @@ fn encoder_source(name: &str) -> Option<fn(&Snapshot) -> f64> {
     }
 }
 
+/// Reads one output from a simulator snapshot.
+type Probe = fn(&Snapshot) -> f64;
+
 /// The drive-axis outputs (the left drive of the lifted simulator).
-fn axis_channels() -> Vec<(&'static str, fn(&Snapshot) -> f64)> {
+fn axis_channels() -> Vec<(&'static str, Probe)> {
     vec![
         ("motor_speed_rad_s", |s| s.sides[0].motor_speed_rad_s),
         ("motor_angle_rad", |s| s.sides[0].motor_angle_rad),
@@ -331,7 +334,7 @@ fn held_inputs(rec: &Recording, drive: Drive) -> Result<Vec<Vec<f64>>, ReplayErr
 
 /// The simulator outputs this recording has columns for.
 fn channels(rec: &Recording, drive: Drive) -> (Vec<Channel>, Vec<String>) {
-    let table: Vec<(&str, fn(&Snapshot) -> f64)> = if drive.lifted() {
+    let table: Vec<(&str, Probe)> = if drive.lifted() {
         axis_channels()
     } else {
         vehicle_columns()

@@ -4,6 +4,9 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+/// A series' points binned by x (scaled to an integer): the sums of x and y, and the count.
+type Bins = BTreeMap<i64, (f64, f64, usize)>;
+
 use super::grid::Grid;
 use super::results::{Table, METRICS};
 use super::{io_err, SweepError};
@@ -64,8 +67,7 @@ pub fn write(dir: &Path, grid: &Grid, table: &Table) -> Result<Vec<PathBuf>, Swe
             continue;
         };
         // series label -> x -> (sum, count)
-        let mut lines: BTreeMap<Vec<usize>, (String, BTreeMap<i64, (f64, f64, usize)>)> =
-            BTreeMap::new();
+        let mut lines: BTreeMap<Vec<usize>, (String, Bins)> = BTreeMap::new();
         let tracking = TRACKING_METRICS.contains(metric);
         // Grid x of runs that failed or lost the wire: marked on every metric. A failed
         // run has no value; a lost run's tracking figures measure distance from the wire,

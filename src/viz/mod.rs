@@ -356,7 +356,7 @@ impl RerunRecorder {
     /// Called once per physics step: whether this step's snapshot is to be logged (every
     /// `every`-th step, from the first). The caller builds the snapshot only then.
     pub fn due(&mut self) -> bool {
-        let due = self.count % self.every == 0;
+        let due = self.count.is_multiple_of(self.every);
         self.count += 1;
         due
     }
