@@ -39,25 +39,25 @@ fn levels(c: &mut Criterion) {
 /// Rerun logging overhead: `agvsim run` of 20 s of the lab scene, a typical run (CSV recording and metrics),
 /// with and without saving a Rerun recording at the default frame interval (0.02 s).
 fn logging(c: &mut Criterion) {
+    use agvsim::commands::flags::RerunFlags;
     use agvsim::commands::run::{run, RunRequest};
-    use agvsim::viz::RerunTarget;
     let dir = std::env::temp_dir().join(format!("agvsim_bench_{}", std::process::id()));
     let mut group = c.benchmark_group("run_lab_20s");
     group.sample_size(10);
-    for (name, rerun) in [
+    for (name, save) in [
         ("csv_only", None),
-        (
-            "csv_and_rerun",
-            Some(RerunTarget::Save(dir.join("bench.rrd"))),
-        ),
+        ("csv_and_rerun", Some(dir.join("bench.rrd"))),
     ] {
         let req = RunRequest {
             scene: "scenes/lab_offset_120mm.toml".into(),
             out: Some(dir.clone()),
-            set: vec![],
+            set: Default::default(),
             duration_s: Some(20.0),
             seed: None,
-            rerun,
+            rerun: RerunFlags {
+                save,
+                ..Default::default()
+            },
             rerun_interval_s: 0.02,
         };
         group.bench_function(name, |b| b.iter(|| run(&req, &|_| {}).unwrap()));

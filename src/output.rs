@@ -80,17 +80,55 @@ pub fn safe_file_stem(name: &str) -> String {
     }
 }
 
+/// Why an output path cannot be written (the caller names the option and the path).
+#[derive(Debug, thiserror::Error)]
+pub enum TargetError {
+    /// A file was asked for where a folder is.
+    #[error("is a folder; give a file name")]
+    IsFolder,
+    /// A folder was asked for where a file is.
+    #[error("is a file; give a folder")]
+    IsFile,
+    /// Part of the way to it is a file.
+    #[error("{} is a file, so nothing can be written under it", .0.display())]
+    UnderFile(PathBuf),
+    /// The nearest existing folder takes no file.
+    #[error("{} cannot be written: {source}", folder.display())]
+    Unwritable {
+        /// The folder.
+        folder: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+}
+
+/// Why an output folder's lock could not be taken.
+#[derive(Debug, thiserror::Error)]
+pub enum LockError {
+    /// The folder could not be made.
+    #[error("cannot create the folder: {0}")]
+    Create(std::io::Error),
+    /// The lock file could not be opened, locked or written.
+    #[error("cannot take the folder's lock: {0}")]
+    Lock(std::io::Error),
+    /// Another process holds it (as its lock file names it).
+    #[error("another agvsim ({}) is writing there; wait for it to finish or choose another folder", if .0.is_empty() { "starting" } else { .0.as_str() })]
+    Held(String),
+    /// The lock file was replaced each time it was taken.
+    #[error("the folder's lock changed hands while it was taken; try again")]
+    Moving,
+}
+
 /// Checks, before any work, that `path` can be written as a file (`folder = false`) or a
 /// folder: no existing part of the way to it is a file, and a file target is not an
 /// existing folder (nor a folder target an existing file). The message says what is
 /// wrong; the caller's error names the option and the path.
-pub(crate) fn check_target(path: &Path, folder: bool) -> Result<(), String> {
-    let say = |why: String| Err(why);
+pub(crate) fn check_target(path: &Path, folder: bool) -> Result<(), TargetError> {
     if path.is_dir() && !folder {
-        return say("is a folder; give a file name".into());
+        return Err(TargetError::IsFolder);
     }
     if path.is_file() && folder {
-        return say("is a file; give a folder".into());
+        return Err(TargetError::IsFile);
     }
     for a in path.ancestors().skip(1) {
         let a = if a.as_os_str().is_empty() {
@@ -100,10 +138,7 @@ pub(crate) fn check_target(path: &Path, folder: bool) -> Result<(), String> {
         };
         if a.exists() {
             if !a.is_dir() {
-                return say(format!(
-                    "{} is a file, so nothing can be written under it",
-                    a.display()
-                ));
+                return Err(TargetError::UnderFile(a.to_owned()));
             }
             // The nearest existing folder must take a file (permissions, a read-only
             // mount): found now, not after the work.
@@ -112,7 +147,12 @@ pub(crate) fn check_target(path: &Path, folder: bool) -> Result<(), String> {
                 Ok(_) => {
                     let _ = std::fs::remove_file(&probe);
                 }
-                Err(e) => return say(format!("{} cannot be written: {e}", a.display())),
+                Err(source) => {
+                    return Err(TargetError::Unwritable {
+                        folder: a.to_owned(),
+                        source,
+                    })
+                }
             }
             break;
         }
@@ -198,12 +238,12 @@ fn still_at(f: &std::fs::File, path: &Path) -> bool {
 impl FolderLock {
     /// Creates `dir` if needed and takes its lock; the message says what is wrong (the
     /// caller names the option and the folder).
-    pub fn acquire(dir: &Path) -> Result<FolderLock, String> {
+    pub fn acquire(dir: &Path) -> Result<FolderLock, LockError> {
         use std::io::{Read, Seek, Write};
         let created = (!dir.exists()).then(|| dir.to_path_buf());
-        std::fs::create_dir_all(dir).map_err(|e| format!("cannot create the folder: {e}"))?;
+        std::fs::create_dir_all(dir).map_err(LockError::Create)?;
         let path = dir.join(LOCK_FILE);
-        let cannot = |e: std::io::Error| format!("cannot take the folder's lock: {e}");
+        let cannot = LockError::Lock;
         for _ in 0..10 {
             let mut f = std::fs::OpenOptions::new()
                 .read(true)
@@ -215,11 +255,7 @@ impl FolderLock {
             if !try_lock(&f).map_err(cannot)? {
                 let mut owner = String::new();
                 let _ = f.read_to_string(&mut owner);
-                let owner = owner.trim();
-                return Err(format!(
-                    "another agvsim ({}) is writing there; wait for it to finish or choose another folder",
-                    if owner.is_empty() { "starting" } else { owner }
-                ));
+                return Err(LockError::Held(owner.trim().to_string()));
             }
             if !still_at(&f, &path) {
                 continue; // its owner removed it as we locked it: take the new one
@@ -233,7 +269,7 @@ impl FolderLock {
                 created,
             });
         }
-        Err("the folder's lock changed hands while it was taken; try again".into())
+        Err(LockError::Moving)
     }
 }
 
@@ -270,7 +306,7 @@ mod tests {
         let held = FolderLock::acquire(&dir).unwrap();
         // The kernel's lock refuses a second taker, even in this process (a lock is
         // the open file's), naming the holder.
-        let err = FolderLock::acquire(&dir).unwrap_err();
+        let err = FolderLock::acquire(&dir).unwrap_err().to_string();
         assert!(
             err.contains(&format!("process {} on ", std::process::id())),
             "{err}"

@@ -264,16 +264,18 @@ fn scene_geometry_that_cannot_be_meant_is_refused() {
 #[test]
 fn an_unwritable_rerun_file_leaves_no_partial_output() {
     use agvsim::commands::run::{run, RunRequest};
-    use agvsim::viz::RerunTarget;
     let dir = tmp("save").join("out");
     let err = run(
         &RunRequest {
             scene: PathBuf::from("scenes/high_gain_slip.toml"),
             out: Some(dir.clone()),
-            set: vec![],
+            set: Default::default(),
             duration_s: Some(0.1),
             seed: None,
-            rerun: Some(RerunTarget::Save(PathBuf::from("/no/such/dir/y.rrd"))),
+            rerun: agvsim::commands::flags::RerunFlags {
+                save: Some(PathBuf::from("/no/such/dir/y.rrd")),
+                ..Default::default()
+            },
             rerun_interval_s: 0.02,
         },
         &|_| {},
@@ -568,7 +570,6 @@ fn output_paths_are_checked_before_the_work() {
             rig: rig.clone(),
             recordings: vec![rec.clone()],
             validate: None,
-            options: IdentifyOptions::default(),
             json: Some(file.join("x.json")),
             plot_dir: None,
             save_rrd: None,
@@ -589,8 +590,6 @@ fn output_paths_are_checked_before_the_work() {
             json: None,
             report_dir: Some(file.clone()),
             save_rrd: None,
-            options: Default::default(),
-            jobs: 0,
             ..Default::default()
         },
         &|_| {},

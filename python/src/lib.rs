@@ -24,6 +24,7 @@ use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 
+use agvsim::commands::flags::Jobs;
 use agvsim::commands::{self, CommandError};
 
 create_exception!(
@@ -169,7 +170,13 @@ fn scene_info(path: PathBuf, set: Vec<String>) -> PyResult<(String, Vec<KeyValue
 #[pyo3(signature = (scene, set))]
 fn check(py: Python<'_>, scene: PathBuf, set: Vec<String>) -> PyResult<String> {
     job(py, false, move |say| {
-        commands::new::check(&commands::new::CheckRequest { scene, set }, say)
+        commands::new::check(
+            &commands::new::CheckRequest {
+                scene,
+                set: set.into(),
+            },
+            say,
+        )
     })
 }
 
@@ -267,10 +274,10 @@ fn run(
             &commands::run::RunRequest {
                 scene,
                 out: Some(out),
-                set,
+                set: set.into(),
                 duration_s,
                 seed,
-                rerun: None,
+                rerun: Default::default(),
                 rerun_interval_s: 0.02,
             },
             say,
@@ -294,7 +301,7 @@ fn replay(
                 scene,
                 recording,
                 out: Some(out),
-                set,
+                set: set.into(),
                 save: None,
             },
             say,
@@ -327,16 +334,16 @@ fn calibrate(
                 scene,
                 recording: recordings,
                 free,
-                effects,
+                effects: effects.into(),
                 write: Some(write),
                 validate,
-                set,
+                set: set.into(),
                 json: Some(json),
                 report,
                 save: None,
                 html,
+                jobs: Jobs::of(jobs),
                 command,
-                jobs,
                 progress: quiet,
             },
             say,
@@ -361,8 +368,6 @@ fn diagnose(
     html: Option<PathBuf>,
     command: String,
 ) -> PyResult<String> {
-    let effects =
-        agvsim::ident::effects::Choice::parse(&effects).map_err(|e| to_py((e.to_string(), 2)))?;
     job(py, false, move |say| {
         commands::diagnose::run(
             &commands::diagnose::DiagnoseRequest {
@@ -375,11 +380,9 @@ fn diagnose(
                 save_rrd: None,
                 html,
                 command,
-                options: agvsim::diagnose::DiagnoseOptions {
-                    effects,
-                    ..Default::default()
-                },
-                jobs,
+                effects: effects.into(),
+                jobs: Jobs::of(jobs),
+                progress: None,
             },
             say,
         )
@@ -422,13 +425,10 @@ fn identify(
                 rig,
                 recordings,
                 validate,
-                options: agvsim::ident::IdentifyOptions {
-                    model,
-                    free,
-                    starts,
-                    max_iterations,
-                    ..Default::default()
-                },
+                model,
+                free,
+                starts: starts as u32,
+                max_iterations: max_iterations as u32,
                 json: Some(json),
                 plot_dir: report,
                 save_rrd: None,
@@ -466,17 +466,19 @@ fn sweep(
     job(py, true, move |say| {
         commands::sweep::run(
             &commands::sweep::SweepRequest {
-                scene,
-                vary,
-                repeat,
-                jobs,
-                shard,
-                out: Some(out),
-                set,
-                duration_s,
-                traces,
-                max_runs: max_runs.unwrap_or(agvsim::sweep::DEFAULT_MAX_RUNS),
-                resume,
+                flags: commands::sweep::SweepFlags {
+                    scene: Some(scene),
+                    vary,
+                    repeat: repeat as u32,
+                    jobs: Jobs::of(jobs),
+                    shard,
+                    out: Some(out),
+                    set: set.into(),
+                    duration_s,
+                    traces,
+                    max_runs: max_runs.unwrap_or(agvsim::sweep::DEFAULT_MAX_RUNS),
+                    resume,
+                },
                 progress: &|_, _| {},
                 stop: Some(&STOP),
             },
@@ -513,10 +515,10 @@ fn batch(
                 recordings,
                 rig,
                 scene,
-                effects,
+                effects: effects.into(),
                 shard,
                 out: Some(out),
-                jobs,
+                jobs: Jobs::of(jobs),
                 progress: quiet,
             },
             say,

@@ -40,9 +40,14 @@ fn rig_beside(recording: &Path) -> Option<PathBuf> {
     rig.is_file().then_some(rig)
 }
 
+/// A list file's word opened with a quote and never closed (the word as far as it went).
+#[derive(Debug, PartialEq, thiserror::Error)]
+#[error("`\"{0}`: a quoted name without its closing quote")]
+pub struct UnclosedQuote(String);
+
 /// The words of a list file's line: separated by white space, a word in double quotes
 /// may hold spaces and `#`; a `#` that starts a word starts a comment.
-fn list_words(line: &str) -> Result<Vec<String>, String> {
+fn list_words(line: &str) -> Result<Vec<String>, UnclosedQuote> {
     let mut words = Vec::new();
     let mut chars = line.chars().peekable();
     loop {
@@ -61,9 +66,7 @@ fn list_words(line: &str) -> Result<Vec<String>, String> {
                     word.push(c);
                 }
                 if !closed {
-                    return Err(format!(
-                        "`\"{word}`: a quoted name without its closing quote"
-                    ));
+                    return Err(UnclosedQuote(word));
                 }
                 words.push(word);
             }

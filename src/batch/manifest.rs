@@ -152,7 +152,7 @@ impl Manifest {
     }
 
     /// The fingerprint `name`'s recording (and rig or scene) has now, or why it has none.
-    pub fn fingerprint_now(&self, item: &ManifestItem) -> Result<String, String> {
+    pub fn fingerprint_now(&self, item: &ManifestItem) -> Result<String, BatchError> {
         let model = match self.job.as_str() {
             "calibrate" => self.scene.as_deref(),
             _ => item.rig.as_deref(),
@@ -162,10 +162,10 @@ impl Manifest {
             .flatten()
         {
             if !p.is_file() {
-                return Err(format!("{} is gone since the batch ran", p.display()));
+                return Err(BatchError::Gone { path: p.to_owned() });
             }
         }
-        fingerprint_of(&self.job, &item.recording, model, &self.effects).map_err(|e| e.to_string())
+        fingerprint_of(&self.job, &item.recording, model, &self.effects)
     }
 }
 
@@ -197,7 +197,9 @@ pub fn check_entry(
             "computed by an earlier run of the shard folder, not by the batch its batch.json describes; run the shard again".into(),
         ));
     }
-    let now = manifest.fingerprint_now(item).map_err(&bad)?;
+    let now = manifest
+        .fingerprint_now(item)
+        .map_err(|e| bad(e.to_string()))?;
     if now != entry.fingerprint {
         return Err(bad(format!(
             "{} (or its rig or scene) changed since this result was computed; run its shard again",

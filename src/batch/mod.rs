@@ -130,6 +130,12 @@ pub enum BatchError {
         /// Why.
         source: std::io::Error,
     },
+    /// A recording (or its rig or scene) removed since the batch ran.
+    #[error("{} is gone since the batch ran", path.display())]
+    Gone {
+        /// The file.
+        path: PathBuf,
+    },
     /// A result, summary or manifest of a batch that cannot be used (the message says
     /// why).
     #[error("{}: {message}", path.display())]
@@ -139,6 +145,29 @@ pub enum BatchError {
         /// The reader's complaint.
         message: String,
     },
+}
+
+/// Why one recording of a batch has no result (kept in its entry; the batch goes on).
+#[derive(Debug, thiserror::Error)]
+pub enum ItemError {
+    /// A recording diagnosed without a rig.
+    #[error("no rig for {0}: put NAME.rig.toml beside it, name it in the list, or give --rig")]
+    NoRig(String),
+    /// The rig does not load.
+    #[error(transparent)]
+    Rig(#[from] crate::rig::RigError),
+    /// The recording does not load.
+    #[error(transparent)]
+    Recording(#[from] crate::record::RecordingError),
+    /// The scene does not load.
+    #[error(transparent)]
+    Scene(#[from] crate::scene::SceneError),
+    /// The diagnosis failed.
+    #[error(transparent)]
+    Diagnose(#[from] crate::ident::IdentError),
+    /// The calibration failed.
+    #[error(transparent)]
+    Calibrate(#[from] crate::calibrate::CalibrateError),
 }
 
 fn io(path: &Path) -> impl Fn(std::io::Error) -> BatchError + '_ {
@@ -222,7 +251,8 @@ impl Job {
         };
         match report {
             Ok(text) => (entry, text),
-            Err(message) => {
+            Err(e) => {
+                let message = e.to_string();
                 entry.status = "error".into();
                 entry.error = Some(message.clone());
                 (entry, format!("error: {message}\n"))
@@ -235,21 +265,18 @@ fn diagnose_one(
     item: &Item,
     effects: &crate::ident::effects::Choice,
     e: &mut Entry,
-) -> Result<String, String> {
-    let rig_path = item.rig.as_deref().ok_or_else(|| {
-        format!(
-            "no rig for {}: put NAME.rig.toml beside it, name it in the list, or give --rig",
-            item.shown
-        )
-    })?;
-    let rig = crate::rig::Rig::load(rig_path).map_err(|x| x.to_string())?;
-    let rec = crate::record::Recording::load(&item.recording).map_err(|x| x.to_string())?;
+) -> Result<String, ItemError> {
+    let rig_path = item
+        .rig
+        .as_deref()
+        .ok_or_else(|| ItemError::NoRig(item.shown.clone()))?;
+    let rig = crate::rig::Rig::load(rig_path)?;
+    let rec = crate::record::Recording::load(&item.recording)?;
     let opts = crate::diagnose::DiagnoseOptions {
         effects: effects.clone(),
         ..Default::default()
     };
-    let d =
-        crate::diagnose::diagnose(&rig, rig_path, &rec, None, &opts).map_err(|x| x.to_string())?;
+    let d = crate::diagnose::diagnose(&rig, rig_path, &rec, None, &opts)?;
     e.fit_before_pct = Some(d.baseline_fit_pct);
     e.fit_after_pct = Some(d.final_fit_pct);
     e.effects = d
@@ -278,15 +305,14 @@ fn calibrate_one(
     scene_path: &Path,
     effects: &crate::ident::effects::Choice,
     e: &mut Entry,
-) -> Result<String, String> {
-    let scene = crate::scene::Scene::load(scene_path, &[]).map_err(|x| x.to_string())?;
-    let rec = crate::record::Recording::load(&item.recording).map_err(|x| x.to_string())?;
+) -> Result<String, ItemError> {
+    let scene = crate::scene::Scene::load(scene_path, &[])?;
+    let rec = crate::record::Recording::load(&item.recording)?;
     let request = crate::calibrate::Request {
         free: vec![],
         effects: effects.clone(),
     };
-    let c = crate::calibrate::calibrate_telling(&scene, &rec, &request, &|_| {})
-        .map_err(|x| x.to_string())?;
+    let c = crate::calibrate::calibrate_telling(&scene, &rec, &request, &|_| {})?;
     use crate::calibrate::write as cw;
     e.fit_before_pct = Some(cw::mean_fit(&c.before, &c.outputs));
     e.fit_after_pct = Some(cw::mean_fit(&c.after, &c.outputs));

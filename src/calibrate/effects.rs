@@ -174,10 +174,7 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
         scanned: true,
     };
     let home = |start: f64| home_or(false, start, start);
-    let stall_nm = {
-        let m = &scene.motor;
-        m.torque_constant_nm_a * scene.battery.drive_limit_v / m.resistance_ohm
-    };
+    let stall_nm = scene.motor.stall_torque_nm(scene.battery.drive_limit_v);
     Ok(match effect {
         Effect::Backlash => {
             let b = current(key);

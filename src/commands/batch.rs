@@ -4,35 +4,49 @@
 
 use std::path::PathBuf;
 
+use super::flags::{no_progress, Effects, Jobs};
 use super::{on_workers, stem, CommandError, Say};
 use crate::batch::{self, find_items, Job};
-use crate::ident::effects::Choice;
 use crate::shard::Shard;
 
-/// What `agvsim batch diagnose` or `calibrate` was asked.
-#[derive(Debug, Clone)]
+/// What `agvsim batch diagnose` or `calibrate` was asked: the flags both take (the rig or
+/// scene is each subcommand's own flag).
+#[derive(Debug, Clone, clap::Args)]
 pub struct BatchRequest {
-    /// A folder of recordings or a list file.
+    /// A folder of recordings (every *.csv), or a list file (one `recording.csv
+    /// [rig.toml]` per line, relative to the list; # comments).
+    #[arg(value_name = "FOLDER|LIST")]
     pub recordings: PathBuf,
     /// Diagnose: one rig for every recording (else each one's `NAME.rig.toml`).
+    #[arg(skip)]
     pub rig: Option<PathBuf>,
     /// Calibrate: the scene fitted to each recording (`None`: diagnose).
+    #[arg(skip)]
     pub scene: Option<PathBuf>,
-    /// Effect words (`all`, `none`, or names).
-    pub effects: Vec<String>,
-    /// `I/N` or `auto`.
+    /// The effects to try (`--effects`).
+    #[command(flatten)]
+    pub effects: Effects,
+    /// Only the I-th of N contiguous slices of the recordings (1-based), or `auto`: from
+    /// the scheduler's array variables (Slurm SLURM_ARRAY_TASK_ID/_MIN/_MAX/_COUNT,
+    /// Kubernetes JOB_COMPLETION_INDEX, AWS Batch AWS_BATCH_JOB_ARRAY_INDEX/_SIZE, or
+    /// AGVSIM_SHARD_INDEX from 0; the count from AGVSIM_SHARD_COUNT where the scheduler
+    /// does not give it).
+    #[arg(long, value_name = "I/N|auto")]
     pub shard: Option<String>,
-    /// Output folder (default `runs/batch_NAME`, with `_shard_I_of_N` when sharded).
+    /// Output folder [default: runs/batch_NAME, with _shard_I_of_N when sharded].
+    #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Worker threads (0: one per core).
-    pub jobs: usize,
+    /// Worker threads (`--jobs`).
+    #[command(flatten)]
+    pub jobs: Jobs,
     /// Told as each recording's result is written (or kept from an earlier run).
+    #[arg(skip = no_progress as fn(&str))]
     pub progress: fn(&str),
 }
 
 /// Runs the batch's shard and prints what it did and where the summary is.
 pub fn run(req: &BatchRequest, say: Say) -> Result<(), CommandError> {
-    let effects = Choice::parse(&req.effects)?;
+    let effects = req.effects.choice()?;
     let job = match &req.scene {
         Some(scene) => {
             // The scene once, up front: an error in it is one error, not one per recording.
@@ -40,12 +54,12 @@ pub fn run(req: &BatchRequest, say: Say) -> Result<(), CommandError> {
             Job::Calibrate {
                 scene: scene.clone(),
                 effects,
-                effect_words: req.effects.clone(),
+                effect_words: req.effects.effects.clone(),
             }
         }
         None => Job::Diagnose {
             effects,
-            effect_words: req.effects.clone(),
+            effect_words: req.effects.effects.clone(),
         },
     };
     let (shard, source) = match &req.shard {
@@ -99,7 +113,7 @@ pub fn run(req: &BatchRequest, say: Say) -> Result<(), CommandError> {
             }
         ))
     };
-    let outcome = on_workers(req.jobs, || {
+    let outcome = on_workers(req.jobs.count(), || {
         Ok(batch::run(&job, &items, shard, &out, &told)?)
     })?;
     say(&format!(

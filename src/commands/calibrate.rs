@@ -4,42 +4,65 @@
 
 use std::path::PathBuf;
 
+use super::flags::{no_progress, Effects, Jobs, Overrides};
 use super::{check_targets, io, on_workers, write_file, CommandError, Say};
 use crate::calibrate::{self, write as cw, Request};
-use crate::ident::effects::Choice;
 use crate::record::Recording;
 use crate::scene::Scene;
 
-/// What `agvsim calibrate` was asked.
-#[derive(Debug, Clone)]
+/// What `agvsim calibrate` was asked (its command line).
+#[derive(Debug, Clone, clap::Args)]
 pub struct CalibrateRequest {
-    /// The scene: its values are the beliefs.
+    /// Scene file (TOML): its values are the beliefs.
+    #[arg(long)]
     pub scene: PathBuf,
-    /// The recordings to fit (several: tests of one machine, each replayed from rest).
+    /// Recording (exchange format) to fit. Repeat it to fit several tests of one
+    /// machine together: each is replayed from rest, and all share the scene's keys.
+    #[arg(long, required = true, value_name = "NAME.csv")]
     pub recording: Vec<PathBuf>,
-    /// Scene keys to fit (empty: the recording kind's set).
+    /// Comma-separated scene keys to fit [default: the recording kind's set: motor
+    /// resistance, torque constant, rotor inertia, viscous friction for a lifted drive;
+    /// torque constant, resistance, chassis mass and yaw inertia for a vehicle; chassis mass, yaw inertia and the base's speed-loop gains for a vehicle driven by velocity commands].
+    /// `none`: fit only the effects' keys.
+    #[arg(long, value_delimiter = ',')]
     pub free: Vec<String>,
-    /// Effects to try: `all`, `none` or vocabulary names.
-    pub effects: Vec<String>,
-    /// Where to write the calibrated scene.
+    /// Effects to try, each switched on through its scene key.
+    #[command(flatten)]
+    pub effects: Effects,
+    /// Write the calibrated scene here (the original text with the fitted keys
+    /// replaced and commented).
+    #[arg(long, value_name = "CALIBRATED.toml")]
     pub write: Option<PathBuf>,
-    /// Recordings to compare the scenes on (none: no validation).
+    /// Another recording to compare the original and calibrated scenes on (repeat it
+    /// for several tests: compared together, each from rest).
+    #[arg(long, value_name = "OTHER.csv")]
     pub validate: Vec<PathBuf>,
-    /// Scene overrides before fitting, `KEY=VALUE`.
-    pub set: Vec<String>,
-    /// Where to write the result as JSON.
+    /// Scene overrides, applied before fitting.
+    #[command(flatten)]
+    pub set: Overrides,
+    /// Write the result (keys, fits) as JSON here.
+    #[arg(long, value_name = "OUT.json")]
     pub json: Option<PathBuf>,
-    /// Where to write a plot per fitted output.
+    /// Write a plot per fitted output (measured, original and calibrated replays) here.
+    #[arg(long, value_name = "DIR")]
     pub report: Option<PathBuf>,
-    /// Where to write the Rerun overlay.
+    /// Also write the measured outputs with the original and calibrated scenes' replays,
+    /// overlaid per output on one timeline, to this Rerun .rrd file.
+    #[arg(long, value_name = "FILE.rrd")]
     pub save: Option<PathBuf>,
-    /// Where to write the self-contained HTML report.
+    /// Write one self-contained HTML report here (the recording, the keys with their
+    /// standard deviations and verdicts, each effect tried with its evidence, the fits
+    /// before and after with the plots, the scene's changes, the command).
+    #[arg(long, value_name = "FILE.html")]
     pub html: Option<PathBuf>,
+    /// Worker threads (`--jobs`).
+    #[command(flatten)]
+    pub jobs: Jobs,
     /// The command line, for the HTML report.
+    #[arg(skip = super::command_line())]
     pub command: String,
-    /// Worker threads (0: one per core).
-    pub jobs: usize,
     /// Told each stage as it starts.
+    #[arg(skip = no_progress as fn(&str))]
     pub progress: fn(&str),
 }
 
@@ -49,7 +72,7 @@ pub fn run(req: &CalibrateRequest, say: Say) -> Result<(), CommandError> {
     let say = |s: &str| transcript.say(s);
     let request = Request {
         free: req.free.clone(),
-        effects: Choice::parse(&req.effects)?,
+        effects: req.effects.choice()?,
     };
     let text = crate::scene::read_scene_text(&req.scene)?;
     let checked = Scene::checked_from_toml(&text, &req.scene, &req.set)?;
@@ -82,7 +105,7 @@ pub fn run(req: &CalibrateRequest, say: Say) -> Result<(), CommandError> {
         recordings,
         scene.sim.fidelity.name()
     ));
-    let c = on_workers(req.jobs, || {
+    let c = on_workers(req.jobs.count(), || {
         Ok(calibrate::calibrate_telling(
             &scene,
             &rec,
@@ -98,7 +121,7 @@ pub fn run(req: &CalibrateRequest, say: Say) -> Result<(), CommandError> {
         c.iterations
     ));
     if let Some(o) = &other {
-        let (b, a) = on_workers(req.jobs, || {
+        let (b, a) = on_workers(req.jobs.count(), || {
             Ok((
                 crate::replay::replay(&scene, o)?,
                 crate::replay::replay(&c.scene, o)?,

@@ -3,11 +3,229 @@
 
 use std::path::{Path, PathBuf};
 
+use super::flags::{positive_number, DriveFlags};
 use super::{io, stem, write_file, CommandError, Say};
 use crate::import::wpilib::{self, wpilog, Assumptions};
 use crate::import::{csv_map, mat, ImportError};
 use crate::record::Recording;
 use crate::rig::Rig;
+
+/// `agvsim import`'s formats, each with its command line.
+#[derive(clap::Subcommand, Debug, Clone)]
+pub enum ImportFormat {
+    /// A ROS bag (a ROS 2 .mcap or .db3 file or rosbag2 folder with metadata.yaml, or a ROS 1
+    /// .bag file) of a robot driven by velocity commands: BAG.csv, a `vehicle` recording
+    /// with cmd_linear_m_s, cmd_angular_rad_s from the Twist topic, wheel speeds from
+    /// JointState (else from the Odometry twist and the track), yaw rate from Imu, odom_*
+    /// from Odometry (the robot's own odometry, not ground truth), x_m/y_m/heading_rad from
+    /// an independent pose (a /tf chain to the base, or a PoseStamped,
+    /// PoseWithCovarianceStamped or mocap Odometry topic), and how each was made in its
+    /// header; and BAG.scene.toml when the track and wheel radius are known (from
+    /// /robot_description, the flags or --controller-yaml).
+    #[command(alias = "ros1", alias = "ros")]
+    Ros2 {
+        /// The bag.
+        bag: PathBuf,
+        /// A topic map (TOML) choosing among several topics of a type: keys cmd_vel,
+        /// joint_states, imu, odom, battery, pose = "PARENT:CHILD" (frames on /tf) or
+        /// "/topic", left_wheel_joint, right_wheel_joint, time = "header" or "log".
+        #[arg(long, value_name = "MAP.toml")]
+        map: Option<PathBuf>,
+        /// Output folder [default: runs/import].
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Drive wheel radius, m [default: from /robot_description].
+        #[arg(long, value_parser = positive_number)]
+        wheel_radius_m: Option<f64>,
+        /// Track width, m [default: from /robot_description].
+        #[arg(long, value_parser = positive_number)]
+        track_m: Option<f64>,
+        /// Robot mass for the scene, kg [default: the thesis machine's 120, said as such].
+        #[arg(long, value_parser = positive_number)]
+        mass_kg: Option<f64>,
+        /// The robot's `diff_drive_controller` parameters (YAML, as ros2_control loads
+        /// them): its wheel_separation, wheel_radius and their multipliers become the
+        /// scene's configured odometry, its velocity and acceleration limits the base
+        /// controller's.
+        #[arg(long, value_name = "PARAMS.yaml")]
+        controller_yaml: Option<PathBuf>,
+        /// The battery, the motor and the gear [default: the battery topic's median
+        /// voltage; the thesis machine's motor and gear, said as assumed; no gear play].
+        #[command(flatten)]
+        drive: DriveFlags,
+    },
+    /// A MATLAB file (MAT level 5, as `save` writes by default) by a map file like the
+    /// CSV's, each `column` naming a variable (a vector).
+    ///
+    /// The map (TOML) names the rig, the time column and each contract column's source,
+    /// with a unit (ms, us, rpm, deg, deg_s, rev, mm, cm, mm_s, mV, mA, mNm) or a `scale`
+    /// (and an optional `offset`):
+    ///
+    ///     rig = "drive_axis"
+    ///     time = { column = "time_ms", unit = "ms" }
+    ///     [columns]
+    ///     voltage_V = { column = "volts" }
+    ///     motor_speed_rad_s = { column = "vel_rpm", unit = "rpm" }
+    ///     current_A = { column = "amps_x10", scale = 0.1 }
+    ///
+    /// docs/commands.md (import csv) and docs/matlab.md have more.
+    #[command(verbatim_doc_comment)]
+    Mat {
+        /// The MAT-file.
+        file: PathBuf,
+        /// The map file (TOML).
+        #[arg(long, value_name = "MAP.toml")]
+        map: PathBuf,
+        /// Output folder [default: runs/import]; the recording is FILE_STEM.csv there.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Any CSV whose columns have other names or units, by a map file: the time and each
+    /// contract column with its source column and unit or scale.
+    ///
+    /// The map (TOML) names the rig, the time column and each contract column's source,
+    /// with a unit (ms, us, rpm, deg, deg_s, rev, mm, cm, mm_s, mV, mA, mNm) or a `scale`
+    /// (and an optional `offset`):
+    ///
+    ///     rig = "drive_axis"
+    ///     time = { column = "time_ms", unit = "ms" }
+    ///     [columns]
+    ///     voltage_V = { column = "volts" }
+    ///     motor_speed_rad_s = { column = "vel_rpm", unit = "rpm" }
+    ///     current_A = { column = "amps_x10", scale = 0.1 }
+    ///
+    /// docs/commands.md (import csv) and docs/matlab.md have more.
+    #[command(verbatim_doc_comment)]
+    Csv {
+        /// The CSV file (a header row, then data).
+        file: PathBuf,
+        /// The map file (TOML).
+        #[arg(long, value_name = "MAP.toml")]
+        map: PathBuf,
+        /// Output folder [default: runs/import]; the recording is FILE_STEM.csv there.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// A WPILib SysId log (SysId's JSON data file, or a DataLog .wpilog written by
+    /// SysIdRoutineLog): one recording per test (FILE_STEM_TEST.csv; rig `vehicle` for a
+    /// drivetrain, `drive_axis` for one mechanism), the nominal rig of the linear machine
+    /// SysId's kV and kA describe (FILE_STEM.rig.toml), and SysId's kS, kV, kA (kG).
+    Wpilib {
+        /// The log (.json or .wpilog).
+        file: PathBuf,
+        /// Output folder [default: runs/import].
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// DataLog only: the routine (the LOG of `sysid-test-state-LOG`) when there are several.
+        #[arg(long)]
+        routine: Option<String>,
+        /// DataLog only: the motor of a single mechanism, or LEFT,RIGHT of a drivetrain
+        /// [default: the routine's one motor, or its motors named left and right].
+        #[arg(long, value_delimiter = ',')]
+        motors: Vec<String>,
+        /// DataLog only: drivetrain, drivetrain-angular, simple, elevator or arm
+        /// [default: a drivetrain for two motors (angular when driven in opposition), else simple].
+        #[arg(long, value_parser = |s: &str| s.parse::<wpilib::Mechanism>())]
+        mechanism: Option<wpilib::Mechanism>,
+        /// Drive wheel (or a linear mechanism's drum) radius, m: needed for a drivetrain
+        /// logged in rotations; the vehicle rig's wheel [default 0.0762].
+        #[arg(long, value_parser = positive_number)]
+        wheel_radius_m: Option<f64>,
+        /// Motor resistance per side, ohm [default: from the logged current, else 0.05, said as assumed].
+        #[arg(long, value_parser = positive_number)]
+        resistance_ohm: Option<f64>,
+        /// Track width, m [default: from a turning test's gyro, else 0.6, said as assumed]
+        /// (`--track-width-m` is an older name for it).
+        #[arg(long = "track-m", alias = "track-width-m", value_parser = positive_number)]
+        track_width_m: Option<f64>,
+        /// Battery voltage, V [default: none stated; the logged voltages are the applied ones]
+        /// (`--supply-v` is an older name for it).
+        #[arg(long = "battery-V", alias = "supply-v", value_parser = positive_number)]
+        supply_v: Option<f64>,
+    },
+}
+
+impl ImportFormat {
+    /// Converts the file the command line names.
+    pub fn run(self, say: Say) -> Result<(), CommandError> {
+        match self {
+            ImportFormat::Ros2 {
+                bag,
+                map,
+                out,
+                wheel_radius_m,
+                track_m,
+                mass_kg,
+                controller_yaml,
+                drive,
+            } => ros2(
+                &Ros2Import {
+                    bag,
+                    map,
+                    geometry: crate::import::ros2::Geometry {
+                        wheel_radius_m,
+                        track_m,
+                    },
+                    mass_kg,
+                    motor: drive.motor()?,
+                    battery_v: drive.battery_v,
+                    gear_ratio: drive.gear_ratio,
+                    backlash_rad: drive.backlash_rad,
+                    controller_yaml,
+                    out,
+                    command: std::env::args().collect::<Vec<_>>().join(" "),
+                },
+                say,
+            ),
+            ImportFormat::Csv { file, map, out } => mapped(
+                &MappedImport {
+                    file,
+                    map,
+                    out,
+                    mat: false,
+                },
+                say,
+            ),
+            ImportFormat::Mat { file, map, out } => mapped(
+                &MappedImport {
+                    file,
+                    map,
+                    out,
+                    mat: true,
+                },
+                say,
+            ),
+            ImportFormat::Wpilib {
+                file,
+                out,
+                routine,
+                motors,
+                mechanism,
+                wheel_radius_m,
+                resistance_ohm,
+                track_width_m,
+                supply_v,
+            } => wpilib(
+                &WpilibImport {
+                    file,
+                    choice: wpilog::Choice {
+                        routine,
+                        motors,
+                        mechanism,
+                    },
+                    assumed: Assumptions {
+                        wheel_radius_m,
+                        resistance_ohm,
+                        track_width_m,
+                        supply_v,
+                    },
+                    out,
+                },
+                say,
+            ),
+        }
+    }
+}
 
 /// What `agvsim import csv` or `import mat` was asked.
 #[derive(Debug, Clone)]

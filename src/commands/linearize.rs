@@ -7,14 +7,17 @@ use super::{check_targets, write_file, CommandError, Say};
 use crate::scene::Scene;
 use crate::sim::linearize::{self, export, Linearisation};
 
-/// What `agvsim linearize` was asked.
-#[derive(Debug, Clone)]
+/// What `agvsim linearize` was asked (its command line).
+#[derive(Debug, Clone, clap::Args)]
 pub struct LinearizeRequest {
-    /// The scene file.
+    /// Scene file (TOML), e.g. scenes/lab_offset_120mm.toml.
     pub scene: PathBuf,
-    /// Scene overrides, `KEY=VALUE`.
-    pub set: Vec<String>,
-    /// Where to write A, B, C, D (`.mat` or `.json`).
+    /// Scene overrides (`--set`).
+    #[command(flatten)]
+    pub set: super::flags::Overrides,
+    /// Also write A, B, C, D (discrete-time, with Ts and the named states, inputs and
+    /// outputs and their units) to FILE.mat (MATLAB `load`, SciPy `loadmat`) or FILE.json.
+    #[arg(long, value_name = "FILE.mat|FILE.json")]
     pub export: Option<PathBuf>,
 }
 

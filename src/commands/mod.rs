@@ -12,6 +12,7 @@ pub mod batch;
 pub mod calibrate;
 pub mod diagnose;
 pub mod experiment;
+pub mod flags;
 pub mod identify;
 pub mod import;
 pub mod linearize;
@@ -65,6 +66,16 @@ impl<'a> Transcript<'a> {
     pub(crate) fn text(&self) -> String {
         self.kept.borrow().clone()
     }
+}
+
+/// The command line as typed (`agvsim` and its arguments; a word with a space quoted), for
+/// the headers and reports that say what made them.
+pub fn command_line() -> String {
+    std::iter::once("agvsim".to_string())
+        .chain(std::env::args().skip(1))
+        .map(|w| if w.contains(' ') { format!("{w:?}") } else { w })
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 /// Why a command stopped. Input a user must mend (a scene, rig, recording, map, log or
@@ -227,10 +238,10 @@ pub(crate) fn stem(path: &Path, fallback: &str) -> String {
 pub(crate) fn check_targets(targets: &[(&str, Option<&Path>, bool)]) -> Result<(), CommandError> {
     for (option, path, folder) in targets {
         if let Some(p) = path {
-            crate::output::check_target(p, *folder).map_err(|message| CommandError::Option {
+            crate::output::check_target(p, *folder).map_err(|e| CommandError::Option {
                 option: option.to_string(),
                 value: p.display().to_string(),
-                message,
+                message: e.to_string(),
             })?;
         }
     }
@@ -252,10 +263,10 @@ pub(crate) fn lock_out(
     dir: &Path,
 ) -> Result<crate::output::FolderLock, CommandError> {
     check_targets(&[(option, Some(dir), true)])?;
-    crate::output::FolderLock::acquire(dir).map_err(|message| CommandError::Option {
+    crate::output::FolderLock::acquire(dir).map_err(|e| CommandError::Option {
         option: option.to_string(),
         value: dir.display().to_string(),
-        message,
+        message: e.to_string(),
     })
 }
 

@@ -3,6 +3,7 @@
 
 use std::path::PathBuf;
 
+use super::flags::{positive_number, yes_no, DriveFlags, Overrides};
 use super::{CommandError, Say};
 use crate::scene::robot::{new_scene, MotorDatasheet, RobotSpec};
 use crate::scene::{keys, plausibility::sig, Scene};
@@ -42,6 +43,91 @@ pub fn motor_datasheet(m: &MotorFlags) -> Result<Option<MotorDatasheet>, Command
             value: String::new(),
             message: "a motor needs --motor-no-load-rpm and --motor-rated-V (or --battery-V), with --motor-stall-current-A or --motor-stall-torque-Nm".into(),
         }),
+    }
+}
+
+/// `agvsim new`'s command line: the robot's numbers, each in its unit; without --from the
+/// first eight are needed.
+#[derive(clap::Args, Debug, Clone)]
+pub struct NewArgs {
+    /// The scene file to write (refused if it exists, unless --force).
+    #[arg(value_name = "NAME.toml")]
+    pub out: PathBuf,
+    /// Start from this scene: its values stand where no number is given, and only values
+    /// derived from the numbers given are derived again.
+    #[arg(long, value_name = "SCENE.toml")]
+    pub from: Option<PathBuf>,
+    /// Mass with batteries, kg.
+    #[arg(long, value_parser = positive_number)]
+    pub mass_kg: Option<f64>,
+    /// Distance between the drive wheels' contact patches, m.
+    #[arg(long, value_parser = positive_number)]
+    pub track_m: Option<f64>,
+    /// Drive wheel radius, m.
+    #[arg(long, value_parser = positive_number)]
+    pub wheel_radius_m: Option<f64>,
+    /// The battery, the motor and the gear.
+    #[command(flatten)]
+    pub drive: DriveFlags,
+    /// Tyre compound: hard_polyurethane, soft_rubber or high_grip (`agvsim presets`)
+    /// [default: hard_polyurethane].
+    #[arg(long)]
+    pub tyre: Option<String>,
+    /// Castors: yes (four, carrying 40 % of the load) or no (every load on the drive
+    /// wheels) [default: yes].
+    #[arg(long, value_parser = yes_no)]
+    pub castors: Option<bool>,
+    /// Guidance: `wire` (the thesis's guide wire and P-D firmware), `none` (a
+    /// velocity-commanded base, as a ROS robot: `run` drives its [manoeuvre], a square,
+    /// `replay` a recording's cmd_vel) or `open-loop` (constant demands) [default: none].
+    #[arg(long, value_parser = ["wire", "none", "open-loop"])]
+    pub guidance: Option<String>,
+    /// Body length, m [default: twice the track].
+    #[arg(long, value_parser = positive_number)]
+    pub length_m: Option<f64>,
+    /// Body width, m [default: the track plus 0.12 m].
+    #[arg(long, value_parser = positive_number)]
+    pub width_m: Option<f64>,
+    /// The scene's description.
+    #[arg(long)]
+    pub description: Option<String>,
+    /// Replace NAME.toml if it exists.
+    #[arg(long)]
+    pub force: bool,
+}
+
+impl NewArgs {
+    /// The request the flags make: the robot's numbers as a [`RobotSpec`].
+    pub fn request(self) -> Result<NewRequest, CommandError> {
+        use crate::scene::robot::Guidance;
+        let motor = self.drive.motor()?;
+        Ok(NewRequest {
+            out: self.out,
+            from: self.from,
+            force: self.force,
+            command: super::command_line(),
+            spec: RobotSpec {
+                mass_kg: self.mass_kg,
+                track_m: self.track_m,
+                wheel_radius_m: self.wheel_radius_m,
+                battery_v: self.drive.battery_v,
+                motor,
+                gear_ratio: self.drive.gear_ratio,
+                backlash_rad: self.drive.backlash_rad,
+                tyre: self.tyre,
+                castors: self.castors,
+                guidance: self.guidance.map(|g| match g.as_str() {
+                    "wire" => Guidance::Wire,
+                    "open-loop" => Guidance::OpenLoop,
+                    _ => Guidance::None,
+                }),
+                length_m: self.length_m,
+                width_m: self.width_m,
+                description: self.description,
+                configured_geometry: false,
+                origins: vec![],
+            },
+        })
     }
 }
 
@@ -117,20 +203,20 @@ pub fn run(req: &NewRequest, say: Say) -> Result<(), CommandError> {
 }
 
 /// What `agvsim check` was asked.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, clap::Args)]
 pub struct CheckRequest {
-    /// The scene file.
+    /// Scene file (TOML).
     pub scene: PathBuf,
-    /// Scene overrides, `KEY=VALUE`.
-    pub set: Vec<String>,
+    /// Scene overrides (`--set`).
+    #[command(flatten)]
+    pub set: Overrides,
 }
 
 /// Loads the scene (every error as `run` gives it) and prints its plausibility warnings.
 pub fn check(req: &CheckRequest, say: Say) -> Result<(), CommandError> {
     let checked = Scene::load_checked(&req.scene, &req.set)?;
     let s = &checked.scene;
-    let top_speed_m_s =
-        s.battery.drive_limit_v / s.motor.torque_constant_nm_a / s.gearbox.ratio * s.wheel.radius_m;
+    let top_speed_m_s = s.top_speed_m_s(s.battery.drive_limit_v);
     let mut report = format!(
         "{}: loads; {} kg, track {} m, {} m wheels, {} V; top speed {} m/s at the drive limit\n",
         req.scene.display(),

@@ -9,18 +9,23 @@ use crate::record::Recording;
 use crate::replay::{self, report};
 use crate::scene::Scene;
 
-/// What `agvsim replay` was asked.
-#[derive(Debug, Clone)]
+/// What `agvsim replay` was asked (its command line).
+#[derive(Debug, Clone, clap::Args)]
 pub struct ReplayRequest {
-    /// The scene: the machine to replay on.
+    /// Scene file (TOML): the machine to replay on.
+    #[arg(long)]
     pub scene: PathBuf,
-    /// The recording whose inputs drive it.
+    /// Recording (exchange format) whose inputs drive the simulator.
+    #[arg(long, value_name = "NAME.csv")]
     pub recording: PathBuf,
-    /// Output folder (default `runs/replay_RECORDING_NAME`).
+    /// Output folder [default: runs/replay_RECORDING_NAME].
+    #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Scene overrides, `KEY=VALUE`.
-    pub set: Vec<String>,
-    /// Where to write a Rerun overlay.
+    /// Scene overrides (`--set`).
+    #[command(flatten)]
+    pub set: super::flags::Overrides,
+    /// Also write the measured and simulated outputs to this Rerun .rrd file.
+    #[arg(long, value_name = "FILE.rrd")]
     pub save: Option<PathBuf>,
 }
 

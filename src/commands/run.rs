@@ -3,28 +3,35 @@
 
 use std::path::PathBuf;
 
+use super::flags::{positive_seconds, Overrides, RerunFlags};
 use super::{overrides, stem, CommandError, Say};
 use crate::run::{render_expectations, render_summary, run_scene, RunOptions, Watcher};
 use crate::scene::Scene;
 use crate::sim::SimParams;
 use crate::viz::{RerunRecorder, RerunTarget};
 
-/// What `agvsim run` was asked.
-#[derive(Debug, Clone)]
+/// What `agvsim run` was asked (its command line).
+#[derive(Debug, Clone, clap::Args)]
 pub struct RunRequest {
-    /// The scene file.
+    /// Scene file (TOML), e.g. scenes/lab_offset_120mm.toml.
     pub scene: PathBuf,
-    /// Output folder (default `runs/SCENE_NAME`).
+    /// Output folder [default: runs/SCENE_NAME].
+    #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Scene overrides, `KEY=VALUE`.
-    pub set: Vec<String>,
-    /// Simulated time, s (overrides `sim.duration_s`).
+    /// Scene overrides (`--set`).
+    #[command(flatten)]
+    pub set: Overrides,
+    /// Simulated time, s (overrides sim.duration_s).
+    #[arg(long = "duration", value_name = "DURATION", value_parser = positive_seconds)]
     pub duration_s: Option<f64>,
-    /// Noise seed (overrides `sim.seed`).
+    /// Seed of the sensor noise (overrides sim.seed).
+    #[arg(long)]
     pub seed: Option<u64>,
     /// Where the run goes in Rerun, if anywhere.
-    pub rerun: Option<RerunTarget>,
+    #[command(flatten)]
+    pub rerun: RerunFlags,
     /// Interval between Rerun frames, s.
+    #[arg(long = "rerun-interval", value_name = "RERUN_INTERVAL", default_value_t = 0.02, value_parser = positive_seconds)]
     pub rerun_interval_s: f64,
 }
 
@@ -70,7 +77,7 @@ pub fn run(req: &RunRequest, say: Say) -> Result<(), CommandError> {
         .map_err(|e| super::name_own_options(e, &req.set, req.duration_s, req.seed))?;
     say(&checked.render_warnings());
     let scene = checked.scene;
-    for arg in &req.set {
+    for arg in req.set.iter() {
         let key = arg.split('=').next().unwrap_or("").trim();
         if let Some(why) = crate::scene::inert::inert_reason(&scene, key) {
             say(&format!(
@@ -92,7 +99,8 @@ pub fn run(req: &RunRequest, say: Say) -> Result<(), CommandError> {
     let earlier = opts.out_dir.join(format!("{name}.csv")).exists();
     // The Rerun target first: a file that cannot be written (or a viewer that cannot be
     // reached) stops the run before any output is left behind.
-    let mut recorder = match &req.rerun {
+    let rerun = req.rerun.target();
+    let mut recorder = match &rerun {
         Some(t) => Some(RerunRecorder::new(
             t,
             &name,
@@ -120,7 +128,7 @@ pub fn run(req: &RunRequest, say: Say) -> Result<(), CommandError> {
             ""
         }
     ));
-    if let Some(RerunTarget::Save(p)) = &req.rerun {
+    if let Some(RerunTarget::Save(p)) = &rerun {
         say(&format!("rerun      {}\n", p.display()));
     }
     Ok(())

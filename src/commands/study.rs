@@ -6,19 +6,32 @@ use std::path::PathBuf;
 use super::{CommandError, Say};
 use crate::study::{run_study, StudyKind, StudyOptions};
 
-/// What `agvsim study` was asked.
-#[derive(Debug, Clone)]
+/// What `agvsim study` was asked (its command line).
+#[derive(Debug, Clone, clap::Args)]
+#[command(after_help = StudyKind::listing())]
 pub struct StudyRequest {
-    /// Which study.
+    /// The study: one of the names listed below.
+    #[arg(value_name = "NAME", value_parser = |s: &str| s.parse::<StudyKind>())]
     pub kind: StudyKind,
-    /// Output folder (default `runs/study_NAME`).
+    /// Output folder [default: runs/study_NAME].
+    #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Parallel runs (0: one per core).
-    pub jobs: usize,
-    /// The coarser grid.
+    /// Worker threads (`--jobs`).
+    #[command(flatten)]
+    pub jobs: super::flags::Jobs,
+    /// A coarser grid: the same analysis on fewer runs.
+    #[arg(long)]
     pub quick: bool,
     /// Told each sweep's progress (runs done, runs in all).
+    #[arg(skip = sweeps_done as fn(usize, usize))]
     pub progress: fn(usize, usize),
+}
+
+/// Says on standard error when each of a study's sweeps is done.
+pub fn sweeps_done(done: usize, total: usize) {
+    if done == total {
+        eprintln!("study: a sweep of {total} runs done");
+    }
 }
 
 /// Runs the study and prints its summary and files.
@@ -28,7 +41,7 @@ pub fn run(req: &StudyRequest, say: Say) -> Result<(), CommandError> {
             .out
             .clone()
             .unwrap_or_else(|| PathBuf::from("runs").join(format!("study_{}", req.kind.name()))),
-        jobs: req.jobs,
+        jobs: req.jobs.count(),
         quick: req.quick,
     };
     let o = run_study(req.kind, &opts, &req.progress)?;

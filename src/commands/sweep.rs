@@ -8,30 +8,55 @@ use super::{CommandError, Say};
 use crate::scene::Scene;
 use crate::sweep::{self, Shard, SweepOptions};
 
-/// What `agvsim sweep` was asked.
-pub struct SweepRequest<'a> {
-    /// The scene file.
-    pub scene: PathBuf,
-    /// `KEY=VALUES` arguments, the first the slowest in run order.
+/// `agvsim sweep`'s command line (without `sweep merge`).
+#[derive(Debug, Clone, clap::Args)]
+pub struct SweepFlags {
+    /// Scene file (TOML), e.g. scenes/high_gain_slip.toml.
+    #[arg(required = true)]
+    pub scene: Option<PathBuf>,
+    /// A scene key and its values: a list (tyre.compound=hard_polyurethane,soft_rubber), a
+    /// linear range LO..HI:N (controller.gain_scale=0.1..6:25) or a log range
+    /// log:LO..HI:N. Repeat for a full grid; the first is the slowest in run order.
+    #[arg(long = "vary", value_name = "KEY=VALUES", required = true)]
     pub vary: Vec<String>,
-    /// Runs per grid point (noise seeds).
-    pub repeat: usize,
-    /// Parallel runs (0: one per core).
-    pub jobs: usize,
-    /// `I/N`: run only the I-th of N slices.
+    /// Runs per grid point, with noise seeds sim.seed, sim.seed+1, ...
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=10000))]
+    pub repeat: u32,
+    /// Worker threads (`--jobs`).
+    #[command(flatten)]
+    pub jobs: super::flags::Jobs,
+    /// Run only the I-th of N contiguous slices of the runs (e.g. a cluster job array);
+    /// join the slices' folders with `agvsim sweep merge`.
+    /// `auto`: from the scheduler's array variables (see `agvsim batch diagnose --help`).
+    #[arg(long, value_name = "I/N|auto")]
     pub shard: Option<String>,
-    /// Output folder (default `runs/sweep_SCENE_NAME`, with `_shard_I_of_N` when sharded).
+    /// Output folder [default: runs/sweep_SCENE_NAME, with _shard_I_of_N when sharded].
+    #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Overrides for every run, `KEY=VALUE`.
-    pub set: Vec<String>,
-    /// Simulated time of each run, s (overrides `sim.duration_s`).
+    /// Scene overrides, for every run.
+    #[command(flatten)]
+    pub set: super::flags::Overrides,
+    /// Simulated time of each run, s (overrides sim.duration_s).
+    #[arg(long = "duration", value_name = "DURATION", value_parser = super::flags::positive_seconds)]
     pub duration_s: Option<f64>,
-    /// Also write every run's trace.
+    /// Also write every run's path and lateral error (traces/run_NNNNN.csv).
+    #[arg(long)]
     pub traces: bool,
-    /// Refuse grids of more runs than this.
+    /// Refuse grids of more runs than this (a guard against a typo that asks for a
+    /// million runs).
+    #[arg(long, default_value_t = crate::sweep::DEFAULT_MAX_RUNS)]
     pub max_runs: usize,
-    /// Continue an interrupted sweep in its folder.
+    /// Continue an interrupted sweep in its --out folder (same arguments): its finished
+    /// runs are kept and only the rest are run.
+    #[arg(long)]
     pub resume: bool,
+}
+
+/// What `agvsim sweep` was asked: the command line, and where progress and a stop come
+/// from.
+pub struct SweepRequest<'a> {
+    /// The command line.
+    pub flags: SweepFlags,
     /// Told as runs finish (runs done, runs in all).
     pub progress: &'a (dyn Fn(usize, usize) + Sync),
     /// Set when the sweep should stop (a signal): the runs in progress finish and are kept.
@@ -39,13 +64,15 @@ pub struct SweepRequest<'a> {
 }
 
 /// The sweep's options from the request: grid, shard, overrides and output folder.
-fn options(req: &SweepRequest) -> Result<SweepOptions, CommandError> {
+fn options(request: &SweepRequest) -> Result<SweepOptions, CommandError> {
+    let req = &request.flags;
+    let scene = req.scene.clone().unwrap_or_default();
     let varies = req
         .vary
         .iter()
         .map(|v| sweep::parse_vary(v))
         .collect::<Result<Vec<_>, _>>()?;
-    sweep::check_size(&varies, req.repeat, req.max_runs)?;
+    sweep::check_size(&varies, req.repeat as usize, req.max_runs)?;
     let (shard, shard_source) = match &req.shard {
         Some(s) => {
             let r = sweep::parse_shard(s)?;
@@ -55,17 +82,24 @@ fn options(req: &SweepRequest) -> Result<SweepOptions, CommandError> {
     };
     let set = super::overrides(&req.set, req.duration_s, None);
     let out = req.out.clone().unwrap_or_else(|| {
-        let mut n = format!("sweep_{}", super::stem(&req.scene, "scene"));
+        let mut n = format!("sweep_{}", super::stem(&scene, "scene"));
         if shard != Shard::WHOLE {
             n.push_str(&format!("_shard_{}_of_{}", shard.index, shard.count));
         }
         PathBuf::from("runs").join(n)
     });
     let mut opts = SweepOptions::new(
-        &req.scene, set, varies, req.repeat, shard, req.jobs, req.traces, out,
+        &scene,
+        set,
+        varies,
+        req.repeat as usize,
+        shard,
+        req.jobs.count(),
+        req.traces,
+        out,
     )?;
     opts.resume = req.resume;
-    opts.stop = req.stop;
+    opts.stop = request.stop;
     opts.shard_source = shard_source;
     Ok(opts)
 }
@@ -93,7 +127,7 @@ pub fn run(req: &SweepRequest, say: Say) -> Result<(), CommandError> {
     }
     say(&format!(
         "sweep      {}: {} runs{} on {} jobs\n",
-        req.scene.display(),
+        opts.scene_path.display(),
         range.len(),
         if opts.shard == Shard::WHOLE {
             String::new()

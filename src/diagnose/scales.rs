@@ -54,7 +54,7 @@ pub(crate) fn scales(structure: &Structure, p: &[f64], data: &Dataset, speed: &[
                 v_max,
                 speed_max,
                 dt,
-                effort: a.motor.torque_constant_nm_a * v_max / a.motor.resistance_ohm,
+                effort: a.motor.stall_torque_nm(v_max),
                 tau: m.mechanical_time_constant_s(&a),
                 weight_n: 0.0,
             }
@@ -90,7 +90,7 @@ pub(crate) fn scales(structure: &Structure, p: &[f64], data: &Dataset, speed: &[
                 v_max,
                 speed_max,
                 dt,
-                effort: a.motor.torque_constant_nm_a * v_max / a.motor.resistance_ohm,
+                effort: a.motor.stall_torque_nm(v_max),
                 tau: m.mechanical_time_constant_s(&a),
                 weight_n: a.chassis.mass_kg * crate::model::GRAVITY_M_S2,
             }

@@ -548,7 +548,7 @@ fn coast_down(
     // Run up until the speed has settled (five mechanical time constants, at least 2 s).
     let m = scene.motor;
     let j = m.rotor_inertia_kg_m2 + scene.wheel.inertia_kg_m2 / scene.gearbox.ratio.powi(2);
-    let tau = j / (m.viscous_nm_s_rad + m.torque_constant_nm_a.powi(2) / m.resistance_ohm);
+    let tau = m.mechanical_time_constant_s(j);
     sim.run_for((5.0 * tau).max(2.0), |_| {})?;
     sim.set_actuation(Actuation::Open);
     let mut csv = header(

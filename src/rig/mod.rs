@@ -74,6 +74,16 @@ pub enum RigError {
     },
 }
 
+impl RigError {
+    /// The file breaks the format: `message` says where and how.
+    fn invalid(file: &Path, message: String) -> RigError {
+        RigError::Invalid {
+            file: file.to_owned(),
+            message,
+        }
+    }
+}
+
 impl Rig {
     /// A rig of a kind stating nothing yet.
     pub fn new(kind: RigKind) -> Rig {
@@ -126,11 +136,11 @@ impl Rig {
                     )))
                 }
                 (UNCERTAINTY_SECTION, toml::Value::Table(entries)) => {
-                    rig.read_uncertainties(text, "", entries).map_err(invalid)?;
+                    rig.read_uncertainties(path, text, "", entries)?;
                 }
                 (section, toml::Value::Table(entries)) => {
                     for (key, v) in entries {
-                        rig.read_value(text, section, key, v).map_err(invalid)?;
+                        rig.read_value(path, text, section, key, v)?;
                     }
                 }
                 (other, _) => {
@@ -156,7 +166,7 @@ impl Rig {
                 ))
             })?,
         };
-        rig.check().map_err(invalid)?;
+        rig.check(path)?;
         Ok(rig)
     }
 
@@ -164,16 +174,18 @@ impl Rig {
     /// have or a value of the wrong type, with its line.
     fn read_value(
         &mut self,
+        file: &Path,
         text: &str,
         section: &str,
         key: &str,
         v: &toml::Value,
-    ) -> Result<(), String> {
+    ) -> Result<(), RigError> {
+        let invalid = |message: String| RigError::invalid(file, message);
         let dotted = format!("{section}.{key}");
         let line = at_line(text, Some(section), key);
         let Some(k) = keys::find(&dotted) else {
             let known = keys::in_section(section);
-            return Err(if known.is_empty() {
+            return Err(invalid(if known.is_empty() {
                 format!(
                     "{line}unknown section `[{section}]`: a rig has {}",
                     keys::sections().join(", ")
@@ -183,23 +195,23 @@ impl Rig {
                     "{line}unknown key `{dotted}`: [{section}] takes {}",
                     known.join(", ")
                 )
-            });
+            }));
         };
         let stated = match (k.takes.allowed(), v) {
             (Some(_), toml::Value::Float(x)) => Stated::Number(*x),
             (Some(_), toml::Value::Integer(i)) => Stated::Number(*i as f64),
             (None, toml::Value::String(t)) => Stated::Text(t.clone()),
             (Some(_), other) => {
-                return Err(format!(
+                return Err(invalid(format!(
                     "{line}`{dotted}` = {other}: expected a number{}",
                     in_unit(k.unit)
-                ))
+                )))
             }
             (None, other) => {
-                return Err(format!(
+                return Err(invalid(format!(
                     "{line}`{dotted}` = {other}: expected a quoted name ({})",
                     k.takes.text()
-                ))
+                )))
             }
         };
         self.state(k, stated);
@@ -211,10 +223,12 @@ impl Rig {
     /// a percentage greater than zero.
     fn read_uncertainties(
         &mut self,
+        file: &Path,
         text: &str,
         prefix: &str,
         entries: &toml::Table,
-    ) -> Result<(), String> {
+    ) -> Result<(), RigError> {
+        let invalid = |message: String| RigError::invalid(file, message);
         for (name, v) in entries {
             let dotted = if prefix.is_empty() {
                 name.clone()
@@ -224,28 +238,28 @@ impl Rig {
             let line = at_line(text, Some(UNCERTAINTY_SECTION), name);
             let pct = match v {
                 toml::Value::Table(inner) => {
-                    self.read_uncertainties(text, &dotted, inner)?;
+                    self.read_uncertainties(file, text, &dotted, inner)?;
                     continue;
                 }
                 toml::Value::Float(x) => *x,
                 toml::Value::Integer(i) => *i as f64,
                 other => {
-                    return Err(format!(
+                    return Err(invalid(format!(
                         "{line}`{UNCERTAINTY_SECTION}.\"{dotted}\"` = {other}: expected a number, one standard deviation in percent of the belief"
-                    ))
+                    )))
                 }
             };
             let k = keys::find(&dotted)
                 .filter(|k| k.takes.allowed().is_some())
                 .ok_or_else(|| {
-                    format!(
+                    invalid(format!(
                         "{line}[{UNCERTAINTY_SECTION}] `{dotted}`: not a numeric rig key; it takes the keys of the rig's values, e.g. \"chassis.mass_kg\" = 50"
-                    )
+                    ))
                 })?;
             if !(pct.is_finite() && pct > 0.0) {
-                return Err(format!(
+                return Err(invalid(format!(
                     "{line}[{UNCERTAINTY_SECTION}] `{dotted}` = {pct}: expected a percentage greater than zero"
-                ));
+                )));
             }
             self.state_uncertainty(k.order, pct);
         }
@@ -282,24 +296,25 @@ impl Rig {
     }
 
     /// Checks the motion and every stated number against its key's rule.
-    fn check(&self) -> Result<(), String> {
+    fn check(&self, file: &Path) -> Result<(), RigError> {
+        let invalid = |message: String| RigError::invalid(file, message);
         match self.motion.as_deref() {
             None | Some("rotary") | Some("linear") => {}
             Some(m) => {
-                return Err(format!(
+                return Err(invalid(format!(
                     "motion = \"{m}\": expected \"rotary\" or \"linear\""
-                ))
+                )))
             }
         }
         for (k, v) in self.stated() {
             if let (Stated::Number(x), Some(rule)) = (v, k.takes.allowed()) {
                 if !rule.admits(*x) {
-                    return Err(format!(
+                    return Err(invalid(format!(
                         "`{}` = {x}: expected {}{}",
                         k.key,
                         rule.expected(),
                         in_unit(k.unit)
-                    ));
+                    )));
                 }
             }
         }

@@ -160,6 +160,13 @@ pub fn read_scene_text(path: &Path) -> Result<String, SceneError> {
 }
 
 impl Scene {
+    /// Top speed on the drive wheels at a supply voltage, m/s: the motors' no-load speed
+    /// there ([`crate::model::motor::MotorParams::no_load_speed_rad_s`]) through the gear
+    /// to the wheel radius (no slip, no load).
+    pub fn top_speed_m_s(&self, supply_v: f64) -> f64 {
+        self.motor.no_load_speed_rad_s(supply_v) / self.gearbox.ratio * self.wheel.radius_m
+    }
+
     /// Reads, overrides (`key=value` pairs, TOML values; bare words are strings) and
     /// validates a scene file.
     pub fn load(path: &Path, overrides: &[String]) -> Result<Scene, SceneError> {

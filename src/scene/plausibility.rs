@@ -99,13 +99,12 @@ fn sizes(scene: &Scene, w: &mut Vec<Warning>) {
             });
         }
     }
-    let top_m_s = scene
-        .battery
-        .drive_limit_v
-        .min(scene.battery.open_circuit_v)
-        / scene.motor.torque_constant_nm_a
-        / scene.gearbox.ratio
-        * scene.wheel.radius_m;
+    let top_m_s = scene.top_speed_m_s(
+        scene
+            .battery
+            .drive_limit_v
+            .min(scene.battery.open_circuit_v),
+    );
     // Too slow or too fast: one warning, the band and the likeliest slip differing.
     let band = if top_m_s.is_finite() && top_m_s > 0.0 && top_m_s < TOP_SPEED_MIN_M_S {
         Some((

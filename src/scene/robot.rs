@@ -734,9 +734,7 @@ pub fn new_scene(
     if let Some(t) = &spec.tyre {
         scene.tyre.compound = t.clone();
     }
-    let top_speed_m_s =
-        scene.battery.drive_limit_v / scene.motor.torque_constant_nm_a / scene.gearbox.ratio
-            * scene.wheel.radius_m;
+    let top_speed_m_s = scene.top_speed_m_s(scene.battery.drive_limit_v);
     match spec.guidance {
         Some(Guidance::Wire) => scene.controller.kind = ControllerKind::Pd,
         Some(Guidance::OpenLoop) => {
@@ -866,9 +864,7 @@ pub fn new_scene(
         },
         _ => RobotError::Scene(e),
     })?;
-    let top_speed_m_s =
-        scene.battery.drive_limit_v / scene.motor.torque_constant_nm_a / scene.gearbox.ratio
-            * scene.wheel.radius_m;
+    let top_speed_m_s = scene.top_speed_m_s(scene.battery.drive_limit_v);
     Ok(NewScene {
         text,
         scene,

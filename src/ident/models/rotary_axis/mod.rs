@@ -492,7 +492,7 @@ impl RotaryAxis {
         // Behind a torque amplifier the back-EMF does not damp the motor.
         let electrical = match self.input {
             AxisInput::Torque(_) => 0.0,
-            _ => m.torque_constant_nm_a * m.torque_constant_nm_a / m.resistance_ohm,
+            _ => m.electrical_damping_nm_s_rad(),
         };
         self.inertia_at_motor(a) / (m.viscous_nm_s_rad + electrical)
     }
