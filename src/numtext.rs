@@ -93,27 +93,6 @@ pub fn change_pct(v: f64) -> String {
     format!("{v:+.1} %")
 }
 
-/// The unit of a parameter: its declaration's if a rig or scene declares the key, else
-/// the one its name ends in.
-pub fn unit_key_or_name(key: &str) -> &'static str {
-    match unit_of_key(key) {
-        "" => unit_of_name(key),
-        u => u,
-    }
-}
-
-/// The unit of a dotted key as its declaration states it: a rig's key, else a scene's;
-/// `""` for a key neither declares (a model's own parameter) or one without a unit.
-pub fn unit_of_key(key: &str) -> &'static str {
-    if let Some(k) = crate::rig::keys::find(key) {
-        return k.unit;
-    }
-    crate::scene::keys::table()
-        .find(key)
-        .map(|k| k.unit)
-        .unwrap_or("")
-}
-
 /// The unit a column's or parameter's name ends in (`speed_m_s` -> `m/s`,
 /// `coulomb_torque_Nm` -> `N m`); `""` when its suffix names none.
 pub fn unit_of_name(name: &str) -> &'static str {
@@ -200,7 +179,6 @@ mod tests {
         assert_eq!(unit_of_name("peak_mu"), "");
         assert_eq!(unit_of_name("a_left_1_s"), "1/s");
         assert_eq!(unit_of_name("b_left_fwd_rad_s2_pct"), "rad/s^2 per pct");
-        assert_eq!(unit_key_or_name("motor.rotor_inertia_kg_m2"), "kg m^2");
     }
 
     #[test]

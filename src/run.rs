@@ -18,7 +18,7 @@ pub enum RunError {
     Sim(#[from] SimError),
     /// The watcher could not take a snapshot (its message names its file or viewer).
     #[error("{0}")]
-    Watcher(String),
+    Watcher(WatchError),
     /// An output could not be written.
     #[error("{}: {source}", path.display())]
     Io {
@@ -47,9 +47,13 @@ pub struct RunOptions {
 pub trait Watcher {
     /// Whether this step's snapshot is wanted (called once per physics step).
     fn due(&mut self) -> bool;
-    /// Takes a snapshot; an error (a message naming the file or viewer) stops the run.
-    fn observe(&mut self, s: &Snapshot, params: &SimParams) -> Result<(), String>;
+    /// Takes a snapshot; an error (naming the file or viewer) stops the run.
+    fn observe(&mut self, s: &Snapshot, params: &SimParams) -> Result<(), WatchError>;
 }
+
+/// Why a watcher could not take a snapshot: its own error (the Rerun recorder's names the
+/// file or viewer), kept whole.
+pub type WatchError = Box<dyn std::error::Error + Send + Sync>;
 
 /// What a run produced.
 #[derive(Debug, Clone)]

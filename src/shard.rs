@@ -61,9 +61,9 @@ pub struct Resolved {
 /// `I/N`, or `auto` read from `var` (the environment, or a test's table).
 pub fn parse(arg: &str, var: &dyn Fn(&str) -> Option<String>) -> Result<Resolved, ShardError> {
     if arg.trim() == "auto" {
-        return from_scheduler(var).map_err(|message| ShardError {
+        return from_scheduler(var).map_err(|e| ShardError {
             arg: arg.into(),
-            message,
+            message: e.to_string(),
         });
     }
     let err = || {
@@ -89,8 +89,88 @@ pub fn parse_env(arg: &str) -> Result<Resolved, ShardError> {
     parse(arg, &|name| std::env::var(name).ok())
 }
 
+/// Why the scheduler's array variables name no shard.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SchedulerError {
+    /// A variable that is not a whole number (its name and value).
+    #[error("{0}={1:?} is not a whole number")]
+    NotWhole(String, String),
+    /// An index outside its count.
+    #[error("{names}: index {index} of {count} is outside 0..{count} (0-based)")]
+    Outside {
+        /// The variables.
+        names: String,
+        /// The 0-based index.
+        index: i64,
+        /// The count.
+        count: i64,
+    },
+    /// Slurm's task id without the array's first id.
+    #[error("SLURM_ARRAY_TASK_ID is set without SLURM_ARRAY_TASK_MIN: is this an array task?")]
+    SlurmNoMin,
+    /// A Slurm task id off the array's steps.
+    #[error(
+        "SLURM_ARRAY_TASK_ID={id} is not on the array's steps from _MIN={min} by _STEP={step}"
+    )]
+    SlurmOffStep {
+        /// The task id.
+        id: i64,
+        /// The first id.
+        min: i64,
+        /// The step.
+        step: i64,
+    },
+    /// A Slurm array whose count disagrees with its range.
+    #[error("SLURM_ARRAY_TASK_COUNT={count} but _MIN={min}.._MAX={max} by {step} holds {range} tasks: an array with gaps (1,3,7) or a %-limit cannot be sliced; use an array of consecutive indices")]
+    SlurmGaps {
+        /// The stated count.
+        count: i64,
+        /// The first id.
+        min: i64,
+        /// The last id.
+        max: i64,
+        /// The step.
+        step: i64,
+        /// The tasks the range holds.
+        range: i64,
+    },
+    /// A Slurm task id without the array's size.
+    #[error("SLURM_ARRAY_TASK_ID is set without SLURM_ARRAY_TASK_COUNT or _MAX")]
+    SlurmNoCount,
+    /// An index without the number of shards.
+    #[error("{index_name}={index} is set but not the number of shards: set {count_names} (the {scheduler} job's task count)")]
+    NoCount {
+        /// The index variable.
+        index_name: String,
+        /// Its value.
+        index: i64,
+        /// The variables that could give the count.
+        count_names: String,
+        /// The scheduler.
+        scheduler: String,
+    },
+    /// Two count variables that disagree.
+    #[error("{0}={1} but {2}={3}")]
+    CountsDisagree(String, i64, String, i64),
+    /// No scheduler's variables at all.
+    #[error("no scheduler's array variables are set (SLURM_ARRAY_TASK_ID, JOB_COMPLETION_INDEX, AWS_BATCH_JOB_ARRAY_INDEX, or AGVSIM_SHARD_INDEX with AGVSIM_SHARD_COUNT); give I/N instead")]
+    None,
+    /// Two schedulers naming different shards.
+    #[error("the schedulers' variables disagree: {first} gives shard {first_shard}, {other} gives {other_shard}")]
+    Disagree {
+        /// Where the first came from.
+        first: String,
+        /// Its shard.
+        first_shard: Shard,
+        /// Where the other came from.
+        other: String,
+        /// Its shard.
+        other_shard: Shard,
+    },
+}
+
 /// A variable as a whole number, naming it when it is not one.
-fn whole(var: &dyn Fn(&str) -> Option<String>, name: &str) -> Result<Option<i64>, String> {
+fn whole(var: &dyn Fn(&str) -> Option<String>, name: &str) -> Result<Option<i64>, SchedulerError> {
     match var(name) {
         None => Ok(None),
         Some(v) if v.trim().is_empty() => Ok(None),
@@ -98,16 +178,18 @@ fn whole(var: &dyn Fn(&str) -> Option<String>, name: &str) -> Result<Option<i64>
             .trim()
             .parse::<i64>()
             .map(Some)
-            .map_err(|_| format!("{name}={v:?} is not a whole number")),
+            .map_err(|_| SchedulerError::NotWhole(name.to_string(), v)),
     }
 }
 
 /// A 0-based index and a count as a shard, naming the variables when they do not fit.
-fn zero_based(index: i64, count: i64, names: &str) -> Result<Shard, String> {
+fn zero_based(index: i64, count: i64, names: &str) -> Result<Shard, SchedulerError> {
     if count < 1 || index < 0 || index >= count {
-        return Err(format!(
-            "{names}: index {index} of {count} is outside 0..{count} (0-based)"
-        ));
+        return Err(SchedulerError::Outside {
+            names: names.to_string(),
+            index,
+            count,
+        });
     }
     Ok(Shard {
         index: index as usize + 1,
@@ -115,7 +197,7 @@ fn zero_based(index: i64, count: i64, names: &str) -> Result<Shard, String> {
     })
 }
 
-fn slurm(var: &dyn Fn(&str) -> Option<String>) -> Result<Option<Resolved>, String> {
+fn slurm(var: &dyn Fn(&str) -> Option<String>) -> Result<Option<Resolved>, SchedulerError> {
     let Some(id) = whole(var, "SLURM_ARRAY_TASK_ID")? else {
         return Ok(None);
     };
@@ -124,29 +206,25 @@ fn slurm(var: &dyn Fn(&str) -> Option<String>) -> Result<Option<Resolved>, Strin
     let step = whole(var, "SLURM_ARRAY_TASK_STEP")?.unwrap_or(1);
     let count = whole(var, "SLURM_ARRAY_TASK_COUNT")?;
     let Some(min) = min else {
-        return Err(
-            "SLURM_ARRAY_TASK_ID is set without SLURM_ARRAY_TASK_MIN: is this an array task?"
-                .into(),
-        );
+        return Err(SchedulerError::SlurmNoMin);
     };
     if step < 1 || (id - min) % step != 0 {
-        return Err(format!(
-            "SLURM_ARRAY_TASK_ID={id} is not on the array's steps from _MIN={min} by _STEP={step}"
-        ));
+        return Err(SchedulerError::SlurmOffStep { id, min, step });
     }
     let from_range = max.map(|max| (max - min) / step + 1);
     let count = match (count, from_range) {
         (Some(c), Some(r)) if c != r => {
-            return Err(format!(
-                "SLURM_ARRAY_TASK_COUNT={c} but _MIN={min}.._MAX={} by {step} holds {r} tasks: an array with gaps (1,3,7) or a %-limit cannot be sliced; use an array of consecutive indices",
-                max.unwrap_or_default()
-            ))
+            return Err(SchedulerError::SlurmGaps {
+                count: c,
+                min,
+                max: max.unwrap_or_default(),
+                step,
+                range: r,
+            })
         }
         (Some(c), _) => c,
         (None, Some(r)) => r,
-        (None, None) => {
-            return Err("SLURM_ARRAY_TASK_ID is set without SLURM_ARRAY_TASK_COUNT or _MAX".into())
-        }
+        (None, None) => return Err(SchedulerError::SlurmNoCount),
     };
     let shard = zero_based((id - min) / step, count, "SLURM_ARRAY_TASK_ID")?;
     Ok(Some(Resolved {
@@ -160,7 +238,7 @@ fn indexed(
     scheduler: &str,
     index_name: &str,
     count_names: &[&str],
-) -> Result<Option<Resolved>, String> {
+) -> Result<Option<Resolved>, SchedulerError> {
     let Some(index) = whole(var, index_name)? else {
         return Ok(None);
     };
@@ -171,13 +249,20 @@ fn indexed(
         }
     }
     let Some(&(count_name, count)) = counts.first() else {
-        return Err(format!(
-            "{index_name}={index} is set but not the number of shards: set {} (the {scheduler} job's task count)",
-            count_names.join(" or ")
-        ));
+        return Err(SchedulerError::NoCount {
+            index_name: index_name.to_string(),
+            index,
+            count_names: count_names.join(" or "),
+            scheduler: scheduler.to_string(),
+        });
     };
     if let Some((other, c)) = counts.iter().find(|(_, c)| *c != count) {
-        return Err(format!("{count_name}={count} but {other}={c}"));
+        return Err(SchedulerError::CountsDisagree(
+            count_name.to_string(),
+            count,
+            other.to_string(),
+            *c,
+        ));
     }
     let shard = zero_based(index, count, index_name)?;
     Ok(Some(Resolved {
@@ -188,7 +273,7 @@ fn indexed(
 
 /// The shard the scheduler's variables name; an error where none is set or they
 /// disagree.
-pub fn from_scheduler(var: &dyn Fn(&str) -> Option<String>) -> Result<Resolved, String> {
+pub fn from_scheduler(var: &dyn Fn(&str) -> Option<String>) -> Result<Resolved, SchedulerError> {
     let found: Vec<Resolved> = [
         slurm(var)?,
         indexed(
@@ -209,13 +294,15 @@ pub fn from_scheduler(var: &dyn Fn(&str) -> Option<String>) -> Result<Resolved, 
     .flatten()
     .collect();
     match found.as_slice() {
-        [] => Err("no scheduler's array variables are set (SLURM_ARRAY_TASK_ID, JOB_COMPLETION_INDEX, AWS_BATCH_JOB_ARRAY_INDEX, or AGVSIM_SHARD_INDEX with AGVSIM_SHARD_COUNT); give I/N instead".into()),
+        [] => Err(SchedulerError::None),
         [one] => Ok(one.clone()),
         [first, rest @ ..] => match rest.iter().find(|r| r.shard != first.shard) {
-            Some(other) => Err(format!(
-                "the schedulers' variables disagree: {} gives shard {}, {} gives {}",
-                first.source, first.shard, other.source, other.shard
-            )),
+            Some(other) => Err(SchedulerError::Disagree {
+                first: first.source.clone(),
+                first_shard: first.shard,
+                other: other.source.clone(),
+                other_shard: other.shard,
+            }),
             None => Ok(first.clone()),
         },
     }

@@ -1085,7 +1085,7 @@ impl agvsim::run::Watcher for EveryTwentieth {
         &mut self,
         s: &agvsim::sim::Snapshot,
         _p: &agvsim::sim::SimParams,
-    ) -> Result<(), String> {
+    ) -> Result<(), agvsim::run::WatchError> {
         self.seen_t_s.push(s.t_s);
         Ok(())
     }

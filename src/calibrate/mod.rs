@@ -5,6 +5,7 @@
 //! was fitted goes back into the file the user runs, and the fit is shown before and after
 //! in the simulation itself.
 
+pub mod diagnosis;
 pub mod effects;
 pub mod keys;
 pub mod odometry;

@@ -222,7 +222,7 @@ fn forward(
             "effects, round {round}: {} accepted ({} = {}, AIC gain {:.0})",
             t.effect.name(),
             t.key,
-            crate::numtext::quantity(t.value, 4, crate::numtext::unit_key_or_name(&t.key)),
+            crate::numtext::quantity(t.value, 4, crate::rig::keys::unit_key_or_name(&t.key)),
             t.delta_aic
         ));
         r.switches.extend(home.switches.iter().map(|s| Switch {
@@ -318,7 +318,7 @@ fn backward(
             "the model's effects: {} removed ({} = {} is not supported by the recording; AIC gain {:.0} against its absence)",
             home.effect.name(),
             home.key,
-            crate::numtext::quantity(was, 4, crate::numtext::unit_key_or_name(home.key)),
+            crate::numtext::quantity(was, 4, crate::rig::keys::unit_key_or_name(home.key)),
             w.gain.delta_aic
         ));
         // Taken out of the user's scene where it had the effect; an effect only this

@@ -3,7 +3,8 @@
 //! standard deviation. Everything else (comments, order, other keys) is left as written.
 
 use super::{CalibrateError, Calibration};
-use crate::numtext::{change_pct, estimate, quantity, sig, unit_of_key};
+use crate::numtext::{change_pct, estimate, quantity, sig};
+use crate::rig::keys::unit_of_key;
 
 /// Six significant digits, for the comments: more than any fit determines. The keys
 /// themselves are written in full, so that the written scene replays exactly as the

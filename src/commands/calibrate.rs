@@ -87,7 +87,7 @@ pub fn run(req: &CalibrateRequest, say: Say) -> Result<(), CommandError> {
         crate::replay::check_validation(&rec, o).map_err(|message| CommandError::Option {
             option: "--validate".into(),
             value: super::joined_names(&req.validate),
-            message,
+            message: message.to_string(),
         })?;
     }
     let recordings = super::joined_names(&req.recording);

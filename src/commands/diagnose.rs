@@ -254,15 +254,13 @@ fn through_simulator(
     say(&crate::calibrate::write::render(&c));
     // The baseline as `diagnose --rig` has it: the model without effects, its keys fitted.
     let baseline = crate::replay::replay(&c.baseline, &rec)?;
-    say(&crate::diagnose::through_simulator::findings_text(
-        &c, &baseline,
-    ));
+    say(&crate::calibrate::diagnosis::findings_text(&c, &baseline));
     if let Some(p) = &req.json {
         let name = rec
             .path
             .file_name()
             .map_or(String::new(), |n| n.to_string_lossy().into_owned());
-        let v = crate::diagnose::through_simulator::contract_json(
+        let v = crate::calibrate::diagnosis::contract_json(
             &name,
             &scene_path.display().to_string(),
             &c,

@@ -355,7 +355,7 @@ pub fn wpilib(req: &WpilibImport, say: Say) -> Result<(), CommandError> {
             "shaft"
         }
     ));
-    say(&crate::ident::feedforward::render(
+    say(&crate::import::wpilib::feedforward::render(
         &imported.feedforward,
         imported.speed_unit,
     ));

@@ -275,10 +275,10 @@ pub(crate) fn on_workers<R: Send>(
     jobs: usize,
     work: impl FnOnce() -> Result<R, CommandError> + Send,
 ) -> Result<R, CommandError> {
-    crate::jobs::with_jobs(jobs, work).map_err(|message| CommandError::Option {
+    crate::jobs::with_jobs(jobs, work).map_err(|e| CommandError::Option {
         option: "--jobs".into(),
         value: jobs.to_string(),
-        message,
+        message: e.to_string(),
     })?
 }
 

@@ -22,7 +22,6 @@ pub mod regimes;
 pub mod report;
 mod scales;
 mod search;
-pub mod through_simulator;
 
 pub use evidence::relative_errors;
 
@@ -170,7 +169,7 @@ pub struct Diagnosis {
     pub validation: Option<(Evaluation, Evaluation)>,
     /// SysId's kS, kV, kA of the same record, beside what diagnosis finds (voltage-driven
     /// records; kS as a motor torque with the baseline's torque constant and resistance).
-    pub feedforward: Option<crate::ident::feedforward::Report>,
+    pub feedforward: Option<crate::import::wpilib::feedforward::Report>,
     /// SysId's terms the diagnosed model implies, with their standard deviations, in the
     /// regression's unit of speed (voltage-driven DC drives).
     pub sysid_terms: Option<crate::ident::sysid_terms::FittedTerms>,
@@ -569,7 +568,7 @@ pub fn diagnose(
     // SysId's kS beside the diagnosed model: both as a torque at the motor shaft, with
     // the diagnosed model's own torque constant and resistance (the baseline's absorbed
     // the missing friction).
-    let feedforward = crate::ident::feedforward::of_recording(
+    let feedforward = crate::import::wpilib::feedforward::of_recording(
         rec,
         final_params.get("motor.torque_constant_Nm_A").copied(),
         final_params.get("motor.resistance_ohm").copied(),

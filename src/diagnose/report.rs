@@ -6,7 +6,8 @@ use std::fmt::Write as _;
 use super::{Candidate, Diagnosis, ROUNDS};
 use crate::ident::effects::Effect;
 use crate::ident::ParamReport;
-use crate::numtext::{change_pct, estimate, quantity, sig, unit_key_or_name};
+use crate::numtext::{change_pct, estimate, quantity, sig};
+use crate::rig::keys::unit_key_or_name;
 
 /// The unit of a candidate's parameter, from its effect (rotary or linear by the
 /// parameter's name).
@@ -118,7 +119,7 @@ pub fn render(d: &Diagnosis) -> String {
     }
     uncertainty_line(&mut s, d);
     if let Some(ff) = &d.feedforward {
-        s.push_str(&crate::ident::feedforward::render_report(ff));
+        s.push_str(&crate::import::wpilib::feedforward::render_report(ff));
         if let Some(t) = &d.sysid_terms {
             let speed = &t.speed_unit;
             let _ = writeln!(

@@ -7,8 +7,9 @@ use super::{Cell, Document};
 use crate::calibrate::Calibration;
 use crate::diagnose::Diagnosis;
 use crate::ident::Identification;
-use crate::numtext::{estimate, quantity, sig, unit_of_key};
+use crate::numtext::{estimate, quantity, sig};
 use crate::record::Recording;
+use crate::rig::keys::unit_of_key;
 
 /// A percentage to one decimal, as the reports print fits.
 fn pct(v: f64) -> Cell {

@@ -7,11 +7,11 @@ pub mod activity;
 pub mod data;
 pub mod effects;
 pub mod evaluate;
-pub mod feedforward;
 pub mod fit;
 pub mod model;
 pub mod models;
 pub mod plots;
+pub mod sysid_law;
 pub mod sysid_terms;
 pub mod weighting;
 
@@ -28,6 +28,7 @@ use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};
 use serde::Serialize;
 
+use crate::import::wpilib::feedforward;
 use crate::record::{Recording, RecordingError};
 use crate::rig::{Rig, RigError, RigKind};
 use data::Dataset;

@@ -237,12 +237,8 @@ pub trait GreyBox: Predictor + SimulateRecord {
     }
     /// SysId's terms (kS, kV, kA) the parameters `p` imply, per `speed_unit` (`m/s`: a
     /// wheel's rim speed, `rad/s`: the motor's), where the model is a voltage-driven DC
-    /// drive ([`crate::ident::sysid_terms`]); `None` by default.
-    fn sysid_terms(
-        &self,
-        _p: &[f64],
-        _speed_unit: &str,
-    ) -> Option<crate::ident::sysid_terms::Terms> {
+    /// drive ([`crate::ident::sysid_law`]); `None` by default.
+    fn sysid_terms(&self, _p: &[f64], _speed_unit: &str) -> Option<crate::ident::sysid_law::Terms> {
         None
     }
     /// Outputs of a record that its inputs do not excite, each with why (a gyro on a

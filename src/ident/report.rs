@@ -3,7 +3,8 @@
 use std::fmt::Write;
 
 use super::{Evaluation, Identification, StateSpaceReport};
-use crate::numtext::{estimate, quantity, sig, unit_key_or_name, unit_of_name};
+use crate::numtext::{estimate, quantity, sig, unit_of_name};
+use crate::rig::keys::unit_key_or_name;
 
 fn pm(v: f64, s: Option<f64>) -> String {
     match s {
@@ -143,7 +144,7 @@ pub fn render(id: &Identification) -> String {
     }
     if let Some(ff) = &id.feedforward {
         let _ = writeln!(out);
-        out.push_str(&super::feedforward::render_report(ff));
+        out.push_str(&crate::import::wpilib::feedforward::render_report(ff));
     }
     let _ = writeln!(
         out,

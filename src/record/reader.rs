@@ -232,7 +232,7 @@ impl Recording {
         }
         check_sample_time(&meta, &t_s).map_err(|message| RecordingError::File {
             file: file(),
-            message,
+            message: message.to_string(),
         })?;
         Ok(Recording {
             path: path.to_owned(),
@@ -291,13 +291,10 @@ pub const MIN_SAMPLE_TIME_S: f64 = 1e-6;
 /// Unstated, the column's own interval must be one a logger keeps: rows nanoseconds
 /// apart are a time column in ns (or µs) read as seconds, which a replay would step
 /// through a million rows to a physics step.
-fn check_sample_time(meta: &BTreeMap<String, String>, t_s: &[f64]) -> Result<(), String> {
+fn check_sample_time(meta: &BTreeMap<String, String>, t_s: &[f64]) -> Result<(), SampleTime> {
     let Some(raw) = meta.get("sample_time_s") else {
         return match median_interval_s(t_s) {
-            Some(median) if median < MIN_SAMPLE_TIME_S => Err(format!(
-                "the time column's median interval is {} s, shorter than any logger's ({MIN_SAMPLE_TIME_S} s): a time column in ns or µs? (`t_s` is in seconds; say `# sample_time_s:` in the header if the interval is meant)",
-                crate::scene::plausibility::sig(median)
-            )),
+            Some(median) if median < MIN_SAMPLE_TIME_S => Err(SampleTime::TooShort(median)),
             _ => Ok(()),
         };
     };
@@ -305,21 +302,39 @@ fn check_sample_time(meta: &BTreeMap<String, String>, t_s: &[f64]) -> Result<(),
         .parse()
         .ok()
         .filter(|v: &f64| v.is_finite() && *v > 0.0)
-        .ok_or_else(|| {
-            format!("metadata `sample_time_s: {raw}`: expected a positive number of seconds")
-        })?;
+        .ok_or_else(|| SampleTime::NotSeconds(raw.clone()))?;
     let Some(median) = median_interval_s(t_s) else {
         return Ok(());
     };
     // Loggers jitter and their clocks drift by a few percent; a unit slip is a factor of
     // ten or more and a decimated log a factor of two, so a quarter separates them.
     if (median / stated - 1.0).abs() > 0.25 {
-        return Err(format!(
-            "metadata `sample_time_s: {raw}` but the time column's median interval is {} s: which is right? (a time column in ms, or a header copied from another recording?)",
-            crate::scene::plausibility::sig(median)
-        ));
+        return Err(SampleTime::Disagrees {
+            stated: raw.clone(),
+            median,
+        });
     }
     Ok(())
+}
+
+/// A time column whose interval no logger keeps, or that its header's `sample_time_s`
+/// contradicts.
+#[derive(Debug, thiserror::Error)]
+enum SampleTime {
+    /// Rows closer than [`MIN_SAMPLE_TIME_S`], unstated (the median interval, s).
+    #[error("the time column's median interval is {} s, shorter than any logger's ({MIN_SAMPLE_TIME_S} s): a time column in ns or µs? (`t_s` is in seconds; say `# sample_time_s:` in the header if the interval is meant)", crate::scene::plausibility::sig(*.0))]
+    TooShort(f64),
+    /// A stated interval that is no positive number (as written).
+    #[error("metadata `sample_time_s: {0}`: expected a positive number of seconds")]
+    NotSeconds(String),
+    /// A stated interval a quarter or more off the column's median.
+    #[error("metadata `sample_time_s: {stated}` but the time column's median interval is {} s: which is right? (a time column in ms, or a header copied from another recording?)", crate::scene::plausibility::sig(*median))]
+    Disagrees {
+        /// As written.
+        stated: String,
+        /// The column's median interval, s.
+        median: f64,
+    },
 }
 
 #[cfg(test)]

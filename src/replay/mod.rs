@@ -254,23 +254,19 @@ fn choose_drive(rec: &Recording) -> Result<Drive, ReplayError> {
 /// Whether `other` can validate what is fitted on `rec`: a recording of the same rig,
 /// driven by the same inputs, measuring at least one output `rec` measures; the message
 /// says what differs (a recording of another rig or robot would print fits of nothing).
-pub fn check_validation(rec: &Recording, other: &Recording) -> Result<(), String> {
+pub fn check_validation(rec: &Recording, other: &Recording) -> Result<(), NotAValidation> {
     if other.rig != rec.rig {
-        return Err(format!(
-            "a `{}` recording, where the recording fitted is `{}`: validate on a recording of the same rig",
-            other.rig, rec.rig
-        ));
+        return Err(NotAValidation::OtherRig {
+            other: other.rig,
+            fitted: rec.rig,
+        });
     }
-    let (a, b) = (
-        choose_drive(rec).map_err(|e| e.to_string())?,
-        choose_drive(other).map_err(|e| e.to_string())?,
-    );
+    let (a, b) = (choose_drive(rec)?, choose_drive(other)?);
     if a != b {
-        return Err(format!(
-            "driven by {}, where the recording fitted is driven by {}: validate on a recording of the same inputs",
-            b.columns().join(" and "),
-            a.columns().join(" and ")
-        ));
+        return Err(NotAValidation::OtherDrive {
+            other: b.columns().join(" and "),
+            fitted: a.columns().join(" and "),
+        });
     }
     let (mine, _) = channels(rec, a);
     let (theirs, _) = channels(other, b);
@@ -279,15 +275,41 @@ pub fn check_validation(rec: &Recording, other: &Recording) -> Result<(), String
         .filter(|c| theirs.iter().any(|t| t.name == c.name))
         .count();
     if common == 0 {
-        return Err(format!(
-            "measures none of the outputs the recording fitted measures ({})",
+        return Err(NotAValidation::NoCommonOutput(
             mine.iter()
                 .map(|c| c.name.as_str())
                 .collect::<Vec<_>>()
-                .join(", ")
+                .join(", "),
         ));
     }
     Ok(())
+}
+
+/// Why a recording cannot validate what was fitted on another.
+#[derive(Debug, thiserror::Error)]
+pub enum NotAValidation {
+    /// A recording of another rig kind.
+    #[error("a `{other}` recording, where the recording fitted is `{fitted}`: validate on a recording of the same rig")]
+    OtherRig {
+        /// The validation recording's kind.
+        other: RigKind,
+        /// The fitted recording's kind.
+        fitted: RigKind,
+    },
+    /// A recording no replay can drive.
+    #[error(transparent)]
+    Undriven(#[from] ReplayError),
+    /// A recording driven by other inputs.
+    #[error("driven by {other}, where the recording fitted is driven by {fitted}: validate on a recording of the same inputs")]
+    OtherDrive {
+        /// The validation recording's input columns.
+        other: String,
+        /// The fitted recording's.
+        fitted: String,
+    },
+    /// A recording measuring none of the fitted outputs (named).
+    #[error("measures none of the outputs the recording fitted measures ({0})")]
+    NoCommonOutput(String),
 }
 
 /// A note when the recording also holds velocity commands that a voltage or demand drive

@@ -138,9 +138,40 @@ pub fn in_section(section: &str) -> Vec<String> {
         .collect()
 }
 
+/// The unit of a parameter: its declaration's if a rig or scene declares the key, else
+/// the one its name ends in.
+pub fn unit_key_or_name(key: &str) -> &'static str {
+    match unit_of_key(key) {
+        "" => crate::numtext::unit_of_name(key),
+        u => u,
+    }
+}
+
+/// The unit of a dotted key as its declaration states it: a rig's key, else a scene's;
+/// `""` for a key neither declares (a model's own parameter) or one without a unit.
+pub fn unit_of_key(key: &str) -> &'static str {
+    if let Some(k) = find(key) {
+        return k.unit;
+    }
+    crate::scene::keys::table()
+        .find(key)
+        .map(|k| k.unit)
+        .unwrap_or("")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_key_has_its_declared_unit_else_the_one_its_name_ends_in() {
+        // A rig key, a key only scenes have, and a model's own parameter.
+        assert_eq!(unit_key_or_name("motor.rotor_inertia_kg_m2"), "kg m^2");
+        assert_eq!(unit_of_key("tyre.peak_mu"), "");
+        assert_eq!(unit_of_key("gearbox.backlash_rad"), "rad");
+        assert_eq!(unit_key_or_name("delay_s"), "s");
+        assert_eq!(unit_of_key("delay_s"), "");
+    }
 
     #[test]
     fn every_contract_key_is_in_the_table_and_scene_keys_resolve() {

@@ -3,6 +3,7 @@
 //! was expected.
 
 mod expect;
+mod features;
 pub mod inert;
 pub mod keys;
 pub mod origin;
@@ -13,10 +14,22 @@ mod schema;
 mod validate;
 
 pub use expect::ExpectSpec;
+pub use features::Features;
 pub use origin::Origin;
 pub use schema::*;
 
 use std::path::{Path, PathBuf};
+
+/// A scene table (the file with its overrides) that is no scene.
+#[derive(Debug, thiserror::Error)]
+enum TableError {
+    /// The table could not be written back as text.
+    #[error("{0}")]
+    Write(toml::ser::Error),
+    /// The text is no scene (the message without the regenerated text's position).
+    #[error("{}", .0.message())]
+    Read(toml::de::Error),
+}
 
 /// Something wrong with a scene.
 #[derive(Debug, thiserror::Error)]
@@ -223,7 +236,7 @@ impl Scene {
             for arg in overrides {
                 apply_override(&mut table, arg)?;
             }
-            scene = Scene::deserialize_table(table).map_err(|message| {
+            scene = Scene::deserialize_table(table).map_err(|e| {
                 // Name the override at fault: the first that fails on the file alone.
                 let culprit = overrides.iter().find(|arg| {
                     let mut t = base.clone();
@@ -231,7 +244,7 @@ impl Scene {
                 });
                 SceneError::Override {
                     arg: culprit.cloned().unwrap_or_else(|| overrides.join(" ")),
-                    message,
+                    message: e.to_string(),
                 }
             })?;
         }
@@ -244,9 +257,9 @@ impl Scene {
         Ok(scene)
     }
 
-    fn deserialize_table(table: toml::Table) -> Result<Scene, String> {
-        let text = toml::to_string(&table).map_err(|e| e.to_string())?;
-        toml::from_str(&text).map_err(|e: toml::de::Error| e.message().to_string())
+    fn deserialize_table(table: toml::Table) -> Result<Scene, TableError> {
+        let text = toml::to_string(&table).map_err(TableError::Write)?;
+        toml::from_str(&text).map_err(TableError::Read)
     }
 
     /// The scene as TOML text (what a run actually used, overrides included).

@@ -211,7 +211,7 @@ fn supply(scene: &Scene, w: &mut Vec<Warning>) {
     let most_a = scene.dcmc.current_limit_a.min(stall_a);
     let sag_v = 2.0 * most_a * b.internal_resistance_ohm;
     let lowest_v = b.open_circuit_v - sag_v;
-    let faults = crate::sim::Features::of(scene.sim.fidelity).dcmc_faults;
+    let faults = crate::scene::Features::of(scene.sim.fidelity).dcmc_faults;
     if faults && b.low_voltage_fault_v > lowest_v && b.low_voltage_fault_v < b.open_circuit_v {
         w.push(Warning {
             key: "battery.low_voltage_fault_V",

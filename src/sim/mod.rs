@@ -11,7 +11,8 @@ mod params;
 mod snapshot;
 mod step;
 
-pub use params::{Features, SimParams, MAX_SUBSTEPS};
+pub use crate::scene::Features;
+pub use params::{SimParams, MAX_SUBSTEPS};
 pub use snapshot::{CastorSnapshot, SideSnapshot, Snapshot};
 
 use rand::SeedableRng;

@@ -532,7 +532,7 @@ impl crate::run::Watcher for RerunRecorder {
         RerunRecorder::due(self)
     }
 
-    fn observe(&mut self, s: &Snapshot, params: &SimParams) -> Result<(), String> {
-        RerunRecorder::observe(self, s, params).map_err(|e| e.to_string())
+    fn observe(&mut self, s: &Snapshot, params: &SimParams) -> Result<(), crate::run::WatchError> {
+        RerunRecorder::observe(self, s, params).map_err(Into::into)
     }
 }

@@ -46,30 +46,46 @@ pub fn load(path: &Path) -> Result<DiffDriveParams, ControllerFileError> {
     };
     let text = crate::output::read_text_bounded(path, crate::output::MAX_CONFIG_BYTES)
         .map_err(|e| err(format!("cannot read: {e}")))?;
-    parse(&text).map_err(err)
+    parse(&text).map_err(|e| err(e.to_string()))
+}
+
+/// Why a parameter file's text gives no diff-drive controller.
+#[derive(Debug, thiserror::Error)]
+pub enum ParamsFault {
+    /// Not YAML.
+    #[error("not YAML: {0}")]
+    NotYaml(#[from] serde_yaml::Error),
+    /// No diff_drive_controller's parameters.
+    #[error("no controller's ros__parameters with wheel_separation (a diff_drive_controller's)")]
+    NoController,
+    /// A parameter that is no finite number (its key and value as read).
+    #[error("`{0}`: expected a number, found {1}")]
+    NotNumber(String, String),
+    /// A size that is not positive.
+    #[error("`{0}` = {1}: expected a positive number")]
+    NotPositive(String, f64),
+    /// A limit that is neither a number nor `.nan`.
+    #[error("`{0}`: expected a number or .nan, found {1}")]
+    NotLimit(String, String),
 }
 
 /// Parses a parameter file's text.
-pub fn parse(text: &str) -> Result<DiffDriveParams, String> {
-    let doc: serde_yaml::Value =
-        serde_yaml::from_str(text).map_err(|e| format!("not YAML: {e}"))?;
-    let params = find_params(&doc).ok_or(
-        "no controller's ros__parameters with wheel_separation (a diff_drive_controller's)"
-            .to_string(),
-    )?;
-    let get = |dotted: &str| -> Result<Option<f64>, String> {
+pub fn parse(text: &str) -> Result<DiffDriveParams, ParamsFault> {
+    let doc: serde_yaml::Value = serde_yaml::from_str(text)?;
+    let params = find_params(&doc).ok_or(ParamsFault::NoController)?;
+    let get = |dotted: &str| -> Result<Option<f64>, ParamsFault> {
         let v = lookup(params, dotted);
         match v {
             None => Ok(None),
             Some(v) => match v.as_f64() {
                 Some(x) if x.is_finite() => Ok(Some(x)),
-                _ => Err(format!("`{dotted}`: expected a number, found {v:?}")),
+                _ => Err(ParamsFault::NotNumber(dotted.into(), format!("{v:?}"))),
             },
         }
     };
-    let positive = |dotted: &str| -> Result<Option<f64>, String> {
+    let positive = |dotted: &str| -> Result<Option<f64>, ParamsFault> {
         match get(dotted)? {
-            Some(x) if x <= 0.0 => Err(format!("`{dotted}` = {x}: expected a positive number")),
+            Some(x) if x <= 0.0 => Err(ParamsFault::NotPositive(dotted.into(), x)),
             other => Ok(other),
         }
     };
@@ -79,14 +95,12 @@ pub fn parse(text: &str) -> Result<DiffDriveParams, String> {
     let left = positive("left_wheel_radius_multiplier")?.unwrap_or(1.0);
     let right = positive("right_wheel_radius_multiplier")?.unwrap_or(1.0);
     // A limit ROS leaves at 0 or NaN is none (the scene's 0).
-    let limit = |dotted: &str| -> Result<Option<f64>, String> {
+    let limit = |dotted: &str| -> Result<Option<f64>, ParamsFault> {
         match lookup(params, dotted).map(|v| (v, v.as_f64())) {
             None => Ok(None),
             Some((_, Some(x))) if x.is_nan() || x <= 0.0 => Ok(None),
             Some((_, Some(x))) if x.is_finite() => Ok(Some(x)),
-            Some((v, _)) => Err(format!(
-                "`{dotted}`: expected a number or .nan, found {v:?}"
-            )),
+            Some((v, _)) => Err(ParamsFault::NotLimit(dotted.into(), format!("{v:?}"))),
         }
     };
     Ok(DiffDriveParams {
@@ -142,9 +156,11 @@ mod tests {
         assert_eq!(p.wheel_radius_m, None);
         assert_eq!(p.max_linear_m_s, None, "NaN is no limit");
         assert_eq!(p.max_angular_accel_rad_s2, Some(3.0));
-        let e = parse("a: 1").unwrap_err();
+        let e = parse("a: 1").unwrap_err().to_string();
         assert!(e.contains("wheel_separation"), "{e}");
-        let e = parse("c:\n  ros__parameters:\n    wheel_separation: -1\n").unwrap_err();
+        let e = parse("c:\n  ros__parameters:\n    wheel_separation: -1\n")
+            .unwrap_err()
+            .to_string();
         assert!(
             e.contains("wheel_separation") && e.contains("positive"),
             "{e}"

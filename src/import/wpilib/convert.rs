@@ -4,7 +4,7 @@
 use std::fmt::Write as _;
 
 use super::{Mechanism, SysIdLog, Test};
-use crate::ident::feedforward::{self, Feedforward, Gravity, Series};
+use crate::import::wpilib::feedforward::{self, Feedforward, Gravity, Series};
 use crate::rig::{Rig, RigKind};
 
 /// What the log cannot say and the user may: each `None` takes the stated default.
@@ -384,7 +384,7 @@ pub(crate) fn nominal_rig(
 const ASSUMED_UNCERTAINTY_PCT: f64 = 100.0;
 
 /// A gain's standard deviation, % of its value.
-fn relative_pct(g: crate::ident::feedforward::Gain) -> f64 {
+fn relative_pct(g: crate::import::wpilib::feedforward::Gain) -> f64 {
     100.0 * g.std / g.value.abs().max(1e-300)
 }
 

@@ -7,6 +7,7 @@
 //! writes the rig a linear fit (SysId's kV and kA) gives.
 
 pub mod datalog;
+pub mod feedforward;
 pub mod json;
 pub mod wpilog;
 
@@ -307,7 +308,7 @@ pub struct Imported {
     /// The nominal rig's text.
     pub rig: String,
     /// SysId's gains from its own regression.
-    pub feedforward: crate::ident::feedforward::Feedforward,
+    pub feedforward: crate::import::wpilib::feedforward::Feedforward,
     /// The speed unit the gains are per (`m/s` or `rad/s`).
     pub speed_unit: &'static str,
 }

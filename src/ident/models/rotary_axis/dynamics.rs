@@ -183,14 +183,14 @@ impl GreyBox for RotaryAxis {
         &mut self.specs
     }
 
-    fn sysid_terms(&self, p: &[f64], speed_unit: &str) -> Option<crate::ident::sysid_terms::Terms> {
+    fn sysid_terms(&self, p: &[f64], speed_unit: &str) -> Option<crate::ident::sysid_law::Terms> {
         // SysId regresses the motor's speed on its terminal voltage.
         if self.input != AxisInput::Voltage || speed_unit != "rad/s" {
             return None;
         }
         let a = self.declared(p);
         Some(
-            crate::ident::sysid_terms::DcDrive {
+            crate::ident::sysid_law::DcDrive {
                 resistance_ohm: a.motor.resistance_ohm,
                 torque_constant_nm_a: a.motor.torque_constant_nm_a,
                 coulomb_nm: a.motor.coulomb_nm,

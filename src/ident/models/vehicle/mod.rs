@@ -509,7 +509,7 @@ impl GreyBox for Vehicle {
         }
     }
 
-    fn sysid_terms(&self, p: &[f64], speed_unit: &str) -> Option<crate::ident::sysid_terms::Terms> {
+    fn sysid_terms(&self, p: &[f64], speed_unit: &str) -> Option<crate::ident::sysid_law::Terms> {
         let a = self.declared(p);
         let (r, n) = (a.wheel.radius_m, self.ratio);
         let motor_rad_per_unit = match speed_unit {
@@ -521,7 +521,7 @@ impl GreyBox for Vehicle {
         let inertia =
             self.drivetrain_inertia_at_motor(&a) + 0.5 * a.chassis.mass_kg * r * r / (n * n);
         Some(
-            crate::ident::sysid_terms::DcDrive {
+            crate::ident::sysid_law::DcDrive {
                 resistance_ohm: a.motor.resistance_ohm,
                 torque_constant_nm_a: a.motor.torque_constant_nm_a,
                 coulomb_nm: a.motor.coulomb_nm,

@@ -4,7 +4,7 @@
 //! through its scene key and kept where the recording gives evidence for it. The result
 //! in the contract's diagnosis JSON.
 
-use crate::calibrate::{Calibration, EffectTrial};
+use super::{Calibration, EffectTrial};
 use crate::ident::effects::Effect;
 use crate::model::GRAVITY_M_S2;
 use crate::replay::Replay;
@@ -53,7 +53,7 @@ pub fn findings_text(c: &Calibration, baseline: &Replay) -> String {
             s,
             "Found: {} — {} ({param} = {})",
             t.effect.name(),
-            super::evidence::describe(t.effect, value, false),
+            crate::diagnose::evidence::describe(t.effect, value, false),
             estimate(value, std, unit)
         );
     }
@@ -80,7 +80,7 @@ pub fn contract_json(
         .iter()
         .filter(|k| !c.effects.iter().any(|e| e.key == k.key))
         .map(|k| {
-            let v = crate::calibrate::keys::get(&c.baseline, &k.key).unwrap_or(k.before);
+            let v = super::keys::get(&c.baseline, &k.key).unwrap_or(k.before);
             (k.key.clone(), serde_json::json!(v))
         })
         .collect();
