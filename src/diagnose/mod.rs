@@ -20,6 +20,7 @@ pub mod plots;
 pub mod prove;
 pub mod regimes;
 pub mod report;
+mod round;
 mod scales;
 mod search;
 
@@ -28,7 +29,6 @@ pub use evidence::relative_errors;
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::ident::data::Dataset;
@@ -39,7 +39,7 @@ use crate::ident::{
 };
 use crate::record::Recording;
 use crate::rig::Rig;
-use evidence::{describe, effective_n, evidence, Gain};
+use evidence::effective_n;
 use regimes::RegimeShare;
 use scales::{scales, Scales};
 
@@ -308,7 +308,8 @@ struct Stage {
     fit: Fit,
 }
 
-/// Diagnoses a recording against its rig.
+/// Diagnoses a recording against its rig: the baseline fitted, then up to [`ROUNDS`]
+/// rounds of candidate effects ([`round`]), then the diagnosis reported.
 pub fn diagnose(
     rig: &Rig,
     rig_path: &Path,
@@ -316,31 +317,8 @@ pub fn diagnose(
     validation: Option<&Recording>,
     opts: &DiagnoseOptions,
 ) -> Result<Diagnosis, IdentError> {
-    let structure = build_structure(rig, rig_path, rec, opts.ident.model)?;
-    if !matches!(
-        structure,
-        Structure::Rotary(_) | Structure::Linear(_) | Structure::Vehicle(_)
-    ) {
-        return Err(IdentError::NotDiagnosable {
-            file: rec.path.clone(),
-            model: structure.model().name(),
-        });
-    }
+    let structure = diagnosable_structure(rig, rig_path, rec, opts)?;
     let model = structure.model();
-    let applicable = structure.applicable();
-    if let Choice::Named(asked) = &opts.effects {
-        if let Some(e) = asked.iter().find(|e| !applicable.contains(e)) {
-            return Err(IdentError::EffectNotApplicable {
-                effect: e.name().into(),
-                model: model.name(),
-                applicable: applicable
-                    .iter()
-                    .map(|e| e.name())
-                    .collect::<Vec<_>>()
-                    .join(", "),
-            });
-        }
-    }
     let (data, left_out) = crate::ident::dataset_for(model, rec)?;
     check_decidable(&data, rec)?;
     let free = model.default_free_for(&data);
@@ -348,18 +326,12 @@ pub fn diagnose(
     let base_fit = fit_structure(model, &data, &free, &opts.ident, &model.nominal())
         .map_err(|e| crate::ident::diverging_start(rec, &data, e))?;
     let weights = base_fit.weighting.clone();
-    let n_eff_outputs = effective_n(&data, &base_fit.predicted);
-    let n_eff: f64 = n_eff_outputs.iter().sum();
     let speed = regimes::measured_speed(&data);
     let regs = regimes::regimes(&data, &speed);
     let base_energy = regimes::energy_per_sample(&data, &base_fit.predicted, &weights.outputs);
     let scales = scales(&structure, &base_fit.params, &data, &speed);
     let baseline_eval = evaluate(&data, base_fit.predicted.clone(), opts.ident.max_lag);
     crate::ident::finite_loss(rec, &data, &baseline_eval)?;
-    let mut stage = Stage {
-        structure: structure.clone(),
-        fit: base_fit.clone(),
-    };
     let tell = |msg: String| {
         if let Some(p) = opts.progress {
             p(&msg);
@@ -369,32 +341,36 @@ pub fn diagnose(
         "baseline fitted ({} iterations); trying the candidate effects",
         base_fit.iterations
     ));
-    let mut findings = Vec::new();
+    let rounds_of = round::Rounds {
+        data: &data,
+        regimes: &regs,
+        base_energy: &base_energy,
+        linear: matches!(structure, Structure::Linear(_)),
+        tell: &tell,
+    };
+    let explore = data.prefix(candidate::exploration_rows(data.len()));
+    let beliefs = model.nominal();
+    let mut stage = Stage {
+        structure: structure.clone(),
+        fit: base_fit.clone(),
+    };
+    let mut findings: Vec<Finding> = Vec::new();
     // The regimes the findings' evidence named, with their effects: the next names another.
     let mut named: Vec<(String, &str)> = Vec::new();
     let mut rounds = Vec::new();
-    let linear = matches!(structure, Structure::Linear(_));
-    let free_nominal = free.clone();
-    let explore = data.prefix(candidate::exploration_rows(data.len()));
-    let beliefs = model.nominal();
     for round_no in 1..=ROUNDS {
         let stage_n = effective_n(&data, &stage.fit.predicted);
-        let tried: Vec<Effect> = findings.iter().map(|f: &Finding| f.effect).collect();
-        let candidates: Vec<Effect> = applicable
+        let candidates: Vec<Effect> = structure
+            .applicable()
             .iter()
             .copied()
-            .filter(|e| !tried.contains(e))
+            .filter(|e| !findings.iter().any(|f| f.effect == *e))
             .filter(|e| opts.effects.admits(*e))
             .collect();
-        tell(format!(
-            "round {round_no}: {} candidate effects, fitted in parallel",
-            candidates.len()
-        ));
-        let finished = std::sync::atomic::AtomicUsize::new(0);
         let context = candidate::Context {
             structure: &stage.structure,
             fit: &stage.fit,
-            free_nominal: &free_nominal,
+            free_nominal: &free,
             beliefs: &beliefs,
             data: &data,
             explore: &explore,
@@ -408,128 +384,143 @@ pub fn diagnose(
             scales: &scales,
             max_iterations: opts.ident.max_iterations,
         };
-        let results: Vec<(Effect, candidate::Fitted)> = candidates
-            .par_iter()
-            .map(|&e| {
-                let fitted = context.fit(e);
-                let k = finished.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-                let how = if fitted.screened_only {
-                    " (screened: too little gain for the full search)"
-                } else {
-                    ""
-                };
-                tell(format!(
-                    "round {round_no}: {} fitted ({k} of {}){how}",
-                    e.name(),
-                    candidates.len()
-                ));
-                (e, fitted)
-            })
-            .collect();
         let mut round = Vec::new();
-        let mut significants: Vec<(f64, Effect, Structure, Fit)> = Vec::new();
-        for (e, fitted) in results {
-            let candidate::Fitted {
-                structure: cand,
-                fit: f,
-                screened_only,
-            } = fitted;
-            let Some(f) = f else { continue };
-            let gain = Gain::of(&data, &stage.fit, &stage_n, &f);
-            // An effect whose own parameter sits at the bound where the effect vanishes
-            // (a play of 0.1 mrad) did not earn the gain: its block's other physics did.
-            let lo = cand.model().params()[f.params.len() - 1].lo;
-            let hi = cand.model().params()[f.params.len() - 1].hi;
-            let value = f.params[f.params.len() - 1];
-            let at_null_bound = match e {
-                Effect::VoltageSaturation | Effect::FrictionAsymmetry | Effect::Offset => false,
-                // Grip vanishes as a limit when the friction coefficient grows without bound.
-                Effect::WheelSlip => value > hi / 1.5,
-                _ => lo > 0.0 && value < 1.5 * lo,
-            };
-            let idx = f.params.len() - 1;
-            let slot = f.free.len() - 1;
-            // An effect whose parameter ends on either bound of its search (a peak friction
-            // coefficient of 0.05, a 500 ms delay) or that the record does not determine
-            // is no finding, whatever its gain: the gain is the search's, not the physics'.
-            let at_bound = crate::ident::bound_reached(value, lo, hi);
-            let undetermined = f.std[slot].is_none();
-            let significant =
-                gain.passes() && !at_null_bound && at_bound.is_none() && !undetermined;
-            let eval = crate::ident::fit_pct_mean(&data, &f.predicted);
-            round.push(Candidate {
-                name: e.name().into(),
-                param: e.param_name(linear).into(),
-                value: f.params[idx],
-                std: f.std[slot],
-                fit_pct: eval,
-                rss_reduction_pct: 100.0 * gain.reduction,
-                delta_aic: gain.delta_aic,
-                significant,
-                screened_only,
-                reached_without_it: false,
-                at_bound,
-                undetermined,
-            });
-            if significant {
-                significants.push((gain.delta_aic, e, cand, f));
+        let mut significants: Vec<round::Significant> = Vec::new();
+        for (e, fitted) in rounds_of.fit_all(&context, round_no, &candidates) {
+            if let Some((row, significant)) = rounds_of.judge(&stage, &stage_n, e, fitted) {
+                round.push(row);
+                significants.extend(significant);
             }
         }
         let best =
             candidate::earned_beyond_the_stage(&context, &data, &mut significants, &mut round);
         round.sort_by(|a, b| b.delta_aic.total_cmp(&a.delta_aic));
-        rounds.push(round);
-        let Some((best_aic, e, cand, f)) = best else {
+        let Some(best) = best else {
+            rounds.push(round);
             break;
         };
-        let alternatives: Vec<Alternative> = rounds
-            .last()
-            .into_iter()
-            .flatten()
-            .filter(|c| c.name != e.name() && c.significant)
-            .filter(|c| best_aic - c.delta_aic < MIN_DELTA_AIC)
-            .filter_map(|c| {
-                let other = Effect::from_name(&c.name)?;
-                Some(Alternative {
-                    name: c.name.clone(),
-                    param: c.param.clone(),
-                    value: c.value,
-                    delta_aic_behind: best_aic - c.delta_aic,
-                    separated_by: evidence::what_separates(e, other),
-                })
-            })
-            .collect();
-        let after = regimes::energy_per_sample(&data, &f.predicted, &weights.outputs);
-        let removed: Vec<f64> = base_energy
-            .iter()
-            .zip(&after)
-            .map(|(a, b)| (a - b).max(0.0))
-            .collect();
-        let (evidence, regime) = evidence(
-            &regimes::shares(&regs, &removed, removed.iter().sum()),
-            100.0 * (1.0 - f.rss() / stage.fit.rss()),
-            &named,
-        );
-        named.extend(regime.map(|r| (r, e.name())));
-        let idx = f.params.len() - 1;
-        findings.push(Finding {
-            effect: e,
-            param: e.param_name(linear).into(),
-            value: f.params[idx],
-            std: f.std[f.free.len() - 1],
-            fit_pct: crate::ident::fit_pct_mean(&data, &f.predicted),
-            evidence,
-            description: describe(e, f.params[idx], linear),
-            alternatives,
-        });
+        findings.push(rounds_of.finding(&stage, &best, &round, &weights.outputs, &mut named));
+        rounds.push(round);
+        let (_, _, cand, f) = best;
         stage = Stage {
             structure: cand,
             fit: f,
         };
     }
-    let final_energy = regimes::energy_per_sample(&data, &stage.fit.predicted, &weights.outputs);
-    let base_total_energy: f64 = base_energy.iter().sum();
-    let diagnosed_eval = evaluate(&data, stage.fit.predicted.clone(), opts.ident.max_lag);
+    let validation = validation
+        .map(|v| validate(&structure, &base_fit, &stage, v, opts.ident.max_lag))
+        .transpose()?;
+    Ok(report_of(
+        rec,
+        &data,
+        Baseline {
+            structure: &structure,
+            fit: &base_fit,
+            eval: baseline_eval,
+            energy: &base_energy,
+        },
+        stage,
+        Found {
+            regimes: &regs,
+            rounds,
+            findings,
+            left_out,
+            validation,
+            max_lag: opts.ident.max_lag,
+        },
+    ))
+}
+
+/// The rig's structure for this recording, if a diagnosis can take it and every effect
+/// named applies to it.
+fn diagnosable_structure(
+    rig: &Rig,
+    rig_path: &Path,
+    rec: &Recording,
+    opts: &DiagnoseOptions,
+) -> Result<Structure, IdentError> {
+    let structure = build_structure(rig, rig_path, rec, opts.ident.model)?;
+    if !matches!(
+        structure,
+        Structure::Rotary(_) | Structure::Linear(_) | Structure::Vehicle(_)
+    ) {
+        return Err(IdentError::NotDiagnosable {
+            file: rec.path.clone(),
+            model: structure.model().name(),
+        });
+    }
+    let applicable = structure.applicable();
+    if let Choice::Named(asked) = &opts.effects {
+        if let Some(e) = asked.iter().find(|e| !applicable.contains(e)) {
+            return Err(IdentError::EffectNotApplicable {
+                effect: e.name().into(),
+                model: structure.model().name(),
+                applicable: applicable
+                    .iter()
+                    .map(|e| e.name())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            });
+        }
+    }
+    Ok(structure)
+}
+
+/// The baseline's and the diagnosed model's evaluations on a validation recording.
+fn validate(
+    structure: &Structure,
+    base_fit: &Fit,
+    stage: &Stage,
+    v: &Recording,
+    max_lag: usize,
+) -> Result<(Evaluation, Evaluation), IdentError> {
+    let (vd, _) = crate::ident::dataset_for(structure.model(), v)?;
+    let sim = |s: &Structure, p: &[f64]| {
+        s.model()
+            .simulate_record(p, &vd)
+            .map_err(|d| IdentError::Mismatch {
+                file: v.path.clone(),
+                message: format!("the model {d} on the validation recording"),
+            })
+    };
+    let b = evaluate(&vd, sim(structure, &base_fit.params)?, max_lag);
+    let d = evaluate(&vd, sim(&stage.structure, &stage.fit.params)?, max_lag);
+    Ok((b, d))
+}
+
+/// The nominal model as first fitted.
+struct Baseline<'a> {
+    structure: &'a Structure,
+    fit: &'a Fit,
+    eval: Evaluation,
+    /// Its residual energy per sample.
+    energy: &'a [f64],
+}
+
+/// What the rounds found, and what the report needs beside it.
+struct Found<'a> {
+    regimes: &'a [regimes::Regime],
+    rounds: Vec<Vec<Candidate>>,
+    findings: Vec<Finding>,
+    left_out: Vec<crate::ident::LeftOut>,
+    validation: Option<(Evaluation, Evaluation)>,
+    max_lag: usize,
+}
+
+/// The diagnosis as reported: the baseline beside the diagnosed model (`stage`), where
+/// their residuals lie, SysId's view of the same record.
+fn report_of(
+    rec: &Recording,
+    data: &Dataset,
+    base: Baseline,
+    stage: Stage,
+    found: Found,
+) -> Diagnosis {
+    let (structure, base_fit) = (base.structure, base.fit);
+    let final_energy =
+        regimes::energy_per_sample(data, &stage.fit.predicted, &base_fit.weighting.outputs);
+    let base_total_energy: f64 = base.energy.iter().sum();
+    let diagnosed_eval = evaluate(data, stage.fit.predicted.clone(), found.max_lag);
     let params_of = |s: &Structure, p: &[f64]| -> BTreeMap<String, f64> {
         let m = s.model();
         m.params()
@@ -540,30 +531,7 @@ pub fn diagnose(
             .map(|(_, (s, v))| (s.name.clone(), *v))
             .collect()
     };
-    let validation = match validation {
-        Some(v) => {
-            let (vd, _) = crate::ident::dataset_for(model, v)?;
-            let sim = |s: &Structure, p: &[f64]| {
-                s.model()
-                    .simulate_record(p, &vd)
-                    .map_err(|d| IdentError::Mismatch {
-                        file: v.path.clone(),
-                        message: format!("the model {d} on the validation recording"),
-                    })
-            };
-            let b = evaluate(&vd, sim(&structure, &base_fit.params)?, opts.ident.max_lag);
-            let d = evaluate(
-                &vd,
-                sim(&stage.structure, &stage.fit.params)?,
-                opts.ident.max_lag,
-            );
-            Some((b, d))
-        }
-        None => None,
-    };
-    let relative_error_before_pct = relative_errors(&data, &base_fit.predicted);
-    let relative_error_after_pct = relative_errors(&data, &stage.fit.predicted);
-    let baseline_params = params_of(&structure, &base_fit.params);
+    let baseline_params = params_of(structure, &base_fit.params);
     let final_params = params_of(&stage.structure, &stage.fit.params);
     // SysId's kS beside the diagnosed model: both as a torque at the motor shaft, with
     // the diagnosed model's own torque constant and resistance (the baseline's absorbed
@@ -586,36 +554,36 @@ pub fn diagnose(
         dts.sort_by(f64::total_cmp);
         dts.get(dts.len() / 2).copied().unwrap_or(0.0)
     };
-    Ok(Diagnosis {
+    Diagnosis {
         sysid_terms,
-        baseline_estimates: crate::ident::param_reports(structure.model(), &base_fit),
+        baseline_estimates: crate::ident::param_reports(structure.model(), base_fit),
         final_estimates: crate::ident::param_reports(stage.structure.model(), &stage.fit),
         correlation_s: stage.fit.correlation_rows as f64 * dt,
         correlation_rows: stage.fit.correlation_rows,
         feedforward,
-        relative_error_before_pct,
-        relative_error_after_pct,
+        relative_error_before_pct: relative_errors(data, &base_fit.predicted),
+        relative_error_after_pct: relative_errors(data, &stage.fit.predicted),
         recording: data.name.clone(),
-        model: model.name(),
-        baseline_fit_pct: baseline_eval.fit_pct_mean,
+        model: structure.model().name(),
+        baseline_fit_pct: base.eval.fit_pct_mean,
         baseline_params,
-        baseline_at_bound: at_bound_of(&structure, &base_fit),
-        left_out,
+        baseline_at_bound: at_bound_of(structure, base_fit),
+        left_out: found.left_out,
         ignored_inputs: crate::ident::ignored_inputs(
             rec,
             &crate::ident::model_columns(structure.model()),
         ),
-        where_before: regimes::shares(&regs, &base_energy, base_total_energy),
-        where_after: regimes::shares(&regs, &final_energy, base_total_energy),
-        rounds,
+        where_before: regimes::shares(found.regimes, base.energy, base_total_energy),
+        where_after: regimes::shares(found.regimes, &final_energy, base_total_energy),
+        rounds: found.rounds,
         final_fit_pct: diagnosed_eval.fit_pct_mean,
         final_params,
-        findings,
-        effective_n: n_eff,
-        baseline: baseline_eval,
+        findings: found.findings,
+        effective_n: effective_n(data, &base_fit.predicted).iter().sum(),
+        baseline: base.eval,
         diagnosed: diagnosed_eval,
-        validation,
-    })
+        validation: found.validation,
+    }
 }
 
 /// Refuses records that cannot support a decision. An input is excited when it takes at

@@ -5,8 +5,8 @@ use std::path::PathBuf;
 
 use super::align::{held, median_interval_ns, nearest, seconds_of_ns, Series};
 use super::bag::{Bag, Storage, Topic};
-use super::cdr::{self, CdrError, Header};
-use super::{clock, joints, urdf};
+use super::cdr::{CdrError, Header};
+use super::{clock, streams};
 use super::{Geometry, Ros2Error, TimeSource, TopicMap};
 
 /// How one column was made, for the recording's header.
@@ -47,13 +47,14 @@ pub struct Ros2Recording {
     pub notes: Vec<String>,
 }
 
-const COMMAND_TYPES: &[&str] = &["geometry_msgs/msg/Twist", "geometry_msgs/msg/TwistStamped"];
+pub(super) const COMMAND_TYPES: &[&str] =
+    &["geometry_msgs/msg/Twist", "geometry_msgs/msg/TwistStamped"];
 const JOINT_STATE: &str = "sensor_msgs/msg/JointState";
 const IMU: &str = "sensor_msgs/msg/Imu";
 pub(super) const ODOMETRY: &str = "nav_msgs/msg/Odometry";
 const BATTERY: &str = "sensor_msgs/msg/BatteryState";
 pub(super) const TF: &str = "tf2_msgs/msg/TFMessage";
-const STRING: &str = "std_msgs/msg/String";
+pub(super) const STRING: &str = "std_msgs/msg/String";
 pub(super) const POSE_STAMPED: &str = "geometry_msgs/msg/PoseStamped";
 pub(super) const POSE_COV_STAMPED: &str = "geometry_msgs/msg/PoseWithCovarianceStamped";
 
@@ -88,7 +89,7 @@ impl<'a> Converter<'a> {
     }
 
     /// The topic playing `role`: the map's choice, else the one topic of its types.
-    fn pick(
+    pub(super) fn pick(
         &self,
         role: &str,
         key: &str,
@@ -190,7 +191,7 @@ impl<'a> Converter<'a> {
         at
     }
 
-    fn time_words(&self) -> &'static str {
+    pub(super) fn time_words(&self) -> &'static str {
         match self.time {
             TimeSource::Header => "header stamp (log time where unstamped)",
             TimeSource::Log => "log time",
@@ -250,237 +251,32 @@ fn convert_timed(
         time,
         placed: Default::default(),
     };
-    let mut conversions = vec![];
     let mut notes = vec![];
-
-    // Geometry: flags first, then the robot description.
-    let description = bag
-        .topics
-        .iter()
-        .find(|t| t.msg_type == STRING && t.name.ends_with("robot_description"));
-    let described = match description.and_then(|t| t.messages.last()) {
-        Some(m) => {
-            let xml = cdr::decode_string(&m.data).map_err(|e| {
-                c.err(format!(
-                    "topic `{}`: {e}",
-                    description.map_or("", |t| &t.name)
-                ))
-            })?;
-            match urdf::drive_geometry(
-                &xml,
-                map.left_wheel_joint.as_deref(),
-                map.right_wheel_joint.as_deref(),
-            ) {
-                Ok(g) => Some(g),
-                Err(why) => {
-                    notes.push(format!(
-                        "topic `{}` not used for the drive's geometry: {why}",
-                        description.map_or("", |t| &t.name)
-                    ));
-                    None
-                }
-            }
-        }
-        None => None,
+    let size = streams::drive_size(&c, geometry, &mut notes)?;
+    let cmd = streams::commands(&c)?;
+    let topics = Outputs {
+        joints: c.pick(
+            "wheel joint state",
+            "joint_states",
+            &[JOINT_STATE],
+            map.joint_states.as_ref(),
+            false,
+        )?,
+        imu: c.pick("IMU", "imu", &[IMU], map.imu.as_ref(), false)?,
+        odom: c.pick("odometry", "odom", &[ODOMETRY], map.odom.as_ref(), false)?,
+        battery: c.pick(
+            "battery",
+            "battery",
+            &[BATTERY],
+            map.battery.as_ref(),
+            false,
+        )?,
     };
-    let radius = geometry
-        .wheel_radius_m
-        .map(|r| (r, "--wheel-radius-m".to_string()))
-        .or_else(|| {
-            described.as_ref().map(|d| {
-                (
-                    d.wheel_radius_m,
-                    format!(
-                        "/robot_description: joint `{}`'s wheel cylinder",
-                        d.joints[0]
-                    ),
-                )
-            })
-        });
-    let track = geometry
-        .track_m
-        .map(|t| (t, "--track-m".to_string()))
-        .or_else(|| {
-            described.as_ref().map(|d| {
-                (
-                    d.track_m,
-                    format!(
-                        "/robot_description: lateral distance of joints `{}` and `{}`",
-                        d.joints[0], d.joints[1]
-                    ),
-                )
-            })
-        });
-
-    // A radius or track that is not a length (an infinite cylinder in the URDF) is named
-    // with where it came from before any column is made of it.
-    for (what, v) in [("wheel radius", &radius), ("track", &track)] {
-        if let Some((v, from)) = v {
-            if !(v.is_finite() && *v > 0.0) {
-                return Err(c.err(format!(
-                    "{what} {} from {from}: expected a finite length greater than zero, m",
-                    crate::param::plain_number(*v)
-                )));
-            }
-        }
-    }
-
-    // Commands.
-    let cmd_topic = c
-        .pick(
-            "velocity command",
-            "cmd_vel",
-            COMMAND_TYPES,
-            map.cmd_vel.as_ref(),
-            true,
-        )?
-        .ok_or_else(|| c.err("no velocity command topic".into()))?;
-    let mut commands = Series::default();
-    if cmd_topic.msg_type.ends_with("TwistStamped") {
-        for (log, (h, tw)) in c.decode(cmd_topic, cdr::decode_twist_stamped)? {
-            commands.push(
-                c.at(&cmd_topic.name, &h, log),
-                vec![tw.linear_x_m_s, tw.angular_z_rad_s],
-            );
-        }
-    } else {
-        let unstamped = Header::default();
-        for (log, tw) in c.decode(cmd_topic, cdr::decode_twist)? {
-            commands.push(
-                c.at(&cmd_topic.name, &unstamped, log),
-                vec![tw.linear_x_m_s, tw.angular_z_rad_s],
-            );
-        }
-    }
-    let commands = commands.sorted();
-    let cmd_time = if cmd_topic.msg_type.ends_with("TwistStamped") {
-        c.time_words()
-    } else {
-        "log time (a Twist has no stamp)"
-    };
-    let cmd_how = |field: &str| {
-        format!(
-            "{} ({}) {field}, base frame, at its {cmd_time}, held until the next (zero-order hold, as a base controller acts on it)",
-            cmd_topic.name, cmd_topic.msg_type
-        )
-    };
-
-    // Outputs, each stream decoded.
-    let joints = c.pick(
-        "wheel joint state",
-        "joint_states",
-        &[JOINT_STATE],
-        map.joint_states.as_ref(),
-        false,
-    )?;
-    let imu = c.pick("IMU", "imu", &[IMU], map.imu.as_ref(), false)?;
-    let odom = c.pick("odometry", "odom", &[ODOMETRY], map.odom.as_ref(), false)?;
-    let battery = c.pick(
-        "battery",
-        "battery",
-        &[BATTERY],
-        map.battery.as_ref(),
-        false,
-    )?;
-
-    let mut wheel = Series::default();
-    let mut wheel_names: Option<[String; 2]> = None;
-    if let Some(t) = joints {
-        let msgs = c.decode(t, cdr::decode_joint_state)?;
-        let chosen = |side: &str, explicit: &Option<String>| -> Option<String> {
-            explicit
-                .clone()
-                .or_else(|| {
-                    described
-                        .as_ref()
-                        .map(|d| d.joints[usize::from(side == "right")].clone())
-                })
-                .or_else(|| {
-                    msgs.iter()
-                        .flat_map(|(_, m)| m.name.iter())
-                        .find(|n| n.contains(side) && n.contains("wheel"))
-                        .cloned()
-                })
-        };
-        let (Some(l), Some(r)) = (
-            chosen("left", &map.left_wheel_joint),
-            chosen("right", &map.right_wheel_joint),
-        ) else {
-            return Err(c.err(format!(
-                "topic `{}`: no joints named as the left and right wheels (names with `left`/`right` and `wheel`); name them with --map left_wheel_joint, right_wheel_joint",
-                t.name
-            )));
-        };
-        let named_by = |side: &str, explicit: &Option<String>| match (explicit, &described) {
-            (Some(_), _) => format!("--map {side}_wheel_joint"),
-            (None, Some(_)) => "/robot_description's wheel joint".to_string(),
-            (None, None) => format!("the joint whose name holds `{side}` and `wheel`"),
-        };
-        let all: Vec<&cdr::JointState> = msgs.iter().map(|(_, m)| m).collect();
-        for (side, joint, explicit) in [
-            ("left", &l, &map.left_wheel_joint),
-            ("right", &r, &map.right_wheel_joint),
-        ] {
-            let note = joints::check(&t.name, &all, side, joint, &named_by(side, explicit))
-                .map_err(|m| c.err(m))?;
-            notes.extend(note);
-        }
-        for (log, m) in &msgs {
-            let pick = |v: &[f64], name: &str| {
-                m.name
-                    .iter()
-                    .position(|n| n == name)
-                    .and_then(|i| v.get(i).copied())
-                    .unwrap_or(f64::NAN)
-            };
-            wheel.push(
-                c.at(&t.name, &m.header, *log),
-                vec![
-                    pick(&m.velocity, &l),
-                    pick(&m.velocity, &r),
-                    pick(&m.position, &l),
-                    pick(&m.position, &r),
-                    pick(&m.effort, &l),
-                    pick(&m.effort, &r),
-                ],
-            );
-        }
-        wheel_names = Some([l, r]);
-    }
-    let wheel = wheel.sorted();
-
-    let mut gyro = Series::default();
-    if let Some(t) = imu {
-        for (log, m) in c.decode(t, cdr::decode_imu)? {
-            gyro.push(c.at(&t.name, &m.header, log), vec![m.yaw_rate_rad_s]);
-        }
-    }
-    let gyro = gyro.sorted();
-    let mut odometry = Series::default();
-    let mut odom_frames = None;
-    if let Some(t) = odom {
-        for (log, m) in c.decode(t, cdr::decode_odometry)? {
-            odom_frames.get_or_insert((m.header.frame_id.clone(), m.child_frame_id.clone()));
-            odometry.push(
-                c.at(&t.name, &m.header, log),
-                vec![
-                    m.pose[0],
-                    m.pose[1],
-                    m.pose[2],
-                    m.twist.linear_x_m_s,
-                    m.twist.angular_z_rad_s,
-                ],
-            );
-        }
-    }
-    let odometry = odometry.sorted().with_continuous(2);
-    let mut volts = Series::default();
-    if let Some(t) = battery {
-        for (log, m) in c.decode(t, cdr::decode_battery_state)? {
-            volts.push(c.at(&t.name, &m.header, log), vec![m.voltage_v]);
-        }
-    }
-    let volts = volts.sorted();
+    let (wheel, wheel_names) =
+        streams::wheels(&c, topics.joints, size.described.as_ref(), &mut notes)?;
+    let gyro = streams::gyro(&c, topics.imu)?;
+    let (odometry, odom_frames) = streams::odometry(&c, topics.odom)?;
+    let volts = streams::battery(&c, topics.battery)?;
     let (pose, pose_frames) = super::pose::tracked_pose(&c, &mut notes)?;
     if time == TimeSource::Header {
         if let Some(why) = clock::disagreement(&c.placed.borrow()) {
@@ -491,17 +287,117 @@ fn convert_timed(
     // The time base: the wheels' stamps, else the gyro's, else the odometry's, else the
     // pose's.
     let pose_source = pose_frames.as_ref().map(|(_, topic)| topic.clone());
-    let (base, base_name) = [(&wheel, joints), (&gyro, imu), (&odometry, odom)]
-        .into_iter()
-        .find_map(|(s, t)| t.map(|t| (s, t.name.clone())))
-        .or_else(|| pose_source.map(|name| (&pose, name)))
-        .ok_or_else(|| {
-            c.err(format!(
-                "no output to compare: expected a {JOINT_STATE}, {IMU} or {ODOMETRY} topic, or a pose (/tf to the base, {POSE_STAMPED}, {POSE_COV_STAMPED}); the bag has {}",
-                c.listing()
-            ))
-        })?;
-    let first_cmd = commands.t_ns[0];
+    let (base, base_name) = [
+        (&wheel, topics.joints),
+        (&gyro, topics.imu),
+        (&odometry, topics.odom),
+    ]
+    .into_iter()
+    .find_map(|(s, t)| t.map(|t| (s, t.name.clone())))
+    .or_else(|| pose_source.map(|name| (&pose, name)))
+    .ok_or_else(|| {
+        c.err(format!(
+            "no output to compare: expected a {JOINT_STATE}, {IMU} or {ODOMETRY} topic, or a pose (/tf to the base, {POSE_STAMPED}, {POSE_COV_STAMPED}); the bag has {}",
+            c.listing()
+        ))
+    })?;
+    let first_cmd = cmd.series.t_ns[0];
+    let rows = rows_from_first_command(&c, base, &base_name, &cmd, &mut notes)?;
+    let mut table = Table::new(&rows, &base_name);
+    table.add_commands(&cmd);
+    if let (Some(t), Some(names)) = (topics.joints, &wheel_names) {
+        table.add_wheels(&c, t, &wheel, names, &size.radius)?;
+    }
+    if let Some(t) = topics.imu {
+        let placing = table.placing(&t.name);
+        table.add(
+            "yaw_rate_rad_s",
+            table.align(&gyro, 0, &t.name),
+            format!("{} ({IMU}) angular_velocity.z, in the IMU's frame taken as level and aligned with the base; {placing}", t.name),
+        );
+    }
+    // Without joint states, the odometry's twist is what the wheels measured.
+    if let (None, Some(t), Some(track)) = (topics.joints, topics.odom, &size.track) {
+        table.add_odometry_wheels(t, &odometry, track);
+    }
+    if let Some(t) = topics.odom {
+        table.add_odometry(t, &odometry, odom_frames.clone().unwrap_or_default());
+    }
+    if let Some((frames, topic)) = &pose_frames {
+        table.add_pose(&pose, frames, topic);
+    }
+    if let Some(t) = topics.battery {
+        table.add(
+            "battery_voltage_V",
+            held(&rows, &volts, 0),
+            format!(
+                "{} ({BATTERY}) voltage, held from each message to the next",
+                t.name
+            ),
+        );
+    }
+    notes.extend(unused_topics(bag, &topics, cmd.topic, &pose_frames));
+    let t0 = rows[0];
+    let timing = vec![
+        (
+            "time".to_string(),
+            format!("each message at its {}", c.time_words()),
+        ),
+        (
+            "rows".to_string(),
+            format!(
+                "one per {base_name} message from the first command on ({} at {:.6} s)",
+                cmd.topic.name,
+                s_of(first_cmd)
+            ),
+        ),
+        ("time_zero_ns".to_string(), t0.to_string()),
+    ];
+    let Table {
+        names,
+        columns,
+        conversions,
+        ..
+    } = table;
+    Ok(Timed::Done(Box::new(Ros2Recording {
+        bag: bag.path.clone(),
+        storage: bag.storage,
+        time_zero_ns: t0,
+        t_s: rows.iter().map(|t| s_of(t - t0)).collect(),
+        t_ns: rows.iter().map(|t| t - t0).collect(),
+        names,
+        columns,
+        conversions,
+        timing,
+        geometry: match (size.track, size.radius) {
+            (Some((t, tf)), Some((r, rf))) => {
+                Some((t, r, format!("track from {tf}; wheel radius from {rf}")))
+            }
+            _ => None,
+        },
+        battery_v: streams::median_voltage(&volts),
+        notes,
+    })))
+}
+
+/// The output topics a bag's conversion reads, each if the bag has one.
+struct Outputs<'a> {
+    joints: Option<&'a Topic>,
+    imu: Option<&'a Topic>,
+    odom: Option<&'a Topic>,
+    battery: Option<&'a Topic>,
+}
+
+/// The rows' times: the time base's messages from the first command on, strictly
+/// increasing (what is left out is counted in a note); fewer than two is refused.
+fn rows_from_first_command(
+    c: &Converter,
+    base: &Series,
+    base_name: &str,
+    cmd: &streams::Commands,
+    notes: &mut Vec<String>,
+) -> Result<Vec<i64>, Ros2Error> {
+    let first_cmd = cmd.series.t_ns[0];
     let mut rows: Vec<i64> = Vec::with_capacity(base.t_ns.len());
     for &t in &base.t_ns {
         if t >= first_cmd && rows.last().is_none_or(|&p| t > p) {
@@ -519,114 +415,156 @@ fn convert_timed(
     if rows.len() < 2 {
         return Err(c.err(format!(
             "fewer than two {base_name} messages after the first command on {} (at {:.6} s): nothing to compare",
-            cmd_topic.name,
+            cmd.topic.name,
             s_of(first_cmd)
         )));
     }
-    let half = median_interval_ns(&rows).unwrap_or(1) / 2;
-    let mut names = vec![];
-    let mut columns = vec![];
-    let mut add =
-        |name: &str, col: Vec<Option<f64>>, how: String, conversions: &mut Vec<Conversion>| {
-            if col.iter().any(Option::is_some) {
-                names.push(name.to_string());
-                columns.push(col);
-                conversions.push(Conversion {
-                    column: name.into(),
-                    how,
-                });
-            }
-        };
-    let align = |s: &Series, j: usize, is_base: bool| {
-        if is_base {
-            nearest(&rows, s, j, 0)
-        } else {
-            nearest(&rows, s, j, half)
+    Ok(rows)
+}
+
+/// The recording's columns as they are made, each with how it was made, on the rows'
+/// times: the time base's own stream one row per message, every other stream by the
+/// nearest message within half a row interval.
+struct Table<'r> {
+    rows: &'r [i64],
+    base_name: &'r str,
+    half: i64,
+    names: Vec<String>,
+    columns: Vec<Vec<Option<f64>>>,
+    conversions: Vec<Conversion>,
+}
+
+impl<'r> Table<'r> {
+    fn new(rows: &'r [i64], base_name: &'r str) -> Self {
+        Table {
+            rows,
+            base_name,
+            half: median_interval_ns(rows).unwrap_or(1) / 2,
+            names: vec![],
+            columns: vec![],
+            conversions: vec![],
         }
-    };
-    let placing = |is_base: bool| {
-        if is_base {
+    }
+
+    /// Adds a column that holds at least one value.
+    fn add(&mut self, name: &str, col: Vec<Option<f64>>, how: String) {
+        if col.iter().any(Option::is_some) {
+            self.names.push(name.to_string());
+            self.columns.push(col);
+            self.conversions.push(Conversion {
+                column: name.into(),
+                how,
+            });
+        }
+    }
+
+    /// Value `j` of `s` on the rows (`topic` the stream's).
+    fn align(&self, s: &Series, j: usize, topic: &str) -> Vec<Option<f64>> {
+        if topic == self.base_name {
+            nearest(self.rows, s, j, 0)
+        } else {
+            nearest(self.rows, s, j, self.half)
+        }
+    }
+
+    /// How `topic`'s messages are placed on the rows, for the column's conversion note.
+    fn placing(&self, topic: &str) -> String {
+        if topic == self.base_name {
             "one row per message (the time base)".to_string()
         } else {
             "each row takes the nearest message within half a row interval, else the cell is empty"
                 .to_string()
         }
-    };
-    add(
-        "cmd_linear_m_s",
-        held(&rows, &commands, 0),
-        cmd_how("linear.x"),
-        &mut conversions,
-    );
-    add(
-        "cmd_angular_rad_s",
-        held(&rows, &commands, 1),
-        cmd_how("angular.z"),
-        &mut conversions,
-    );
-    if let (Some(t), Some([l, r])) = (joints, &wheel_names) {
-        let is_base = base_name == t.name;
-        let Some((radius_m, radius_from)) = &radius else {
+    }
+
+    /// The commands, each held until the next (zero-order hold, as a base controller acts
+    /// on it).
+    fn add_commands(&mut self, cmd: &streams::Commands) {
+        let how = |field: &str| {
+            format!(
+                "{} ({}) {field}, base frame, at its {}, held until the next (zero-order hold, as a base controller acts on it)",
+                cmd.topic.name, cmd.topic.msg_type, cmd.time_words
+            )
+        };
+        let rows = self.rows;
+        self.add(
+            "cmd_linear_m_s",
+            held(rows, &cmd.series, 0),
+            how("linear.x"),
+        );
+        self.add(
+            "cmd_angular_rad_s",
+            held(rows, &cmd.series, 1),
+            how("angular.z"),
+        );
+    }
+
+    /// Each wheel's rim speed (its joint's speed times the wheel radius, which must then
+    /// be known), angle and effort.
+    fn add_wheels(
+        &mut self,
+        c: &Converter,
+        t: &Topic,
+        wheel: &Series,
+        [l, r]: &[String; 2],
+        radius: &streams::Sourced,
+    ) -> Result<(), Ros2Error> {
+        let Some((radius_m, radius_from)) = radius else {
             return Err(c.err(format!(
                 "topic `{}` gives wheel speeds in rad/s and the contract's are rim speeds in m/s: give --wheel-radius-m (the bag has no /robot_description with the wheels)",
                 t.name
             )));
         };
+        let placing = self.placing(&t.name);
         for (j, side, joint) in [(0, "left", l), (1, "right", r)] {
-            let rad_s = align(&wheel, j, is_base);
-            add(
+            let rad_s = self.align(wheel, j, &t.name);
+            self.add(
                 &format!("{side}_wheel_speed_m_s"),
                 rad_s.iter().map(|v| v.map(|w| w * radius_m)).collect(),
-                format!("{} ({JOINT_STATE}) velocity of joint `{joint}`, rad/s, times the wheel radius {radius_m} m ({radius_from}); {}", t.name, placing(is_base)),
-                &mut conversions,
+                format!("{} ({JOINT_STATE}) velocity of joint `{joint}`, rad/s, times the wheel radius {radius_m} m ({radius_from}); {placing}", t.name),
             );
-            add(
+            self.add(
                 &format!("{side}_wheel_angle_rad"),
-                align(&wheel, j + 2, is_base),
-                format!(
-                    "{} position of joint `{joint}`, rad; {}",
-                    t.name,
-                    placing(is_base)
-                ),
-                &mut conversions,
+                self.align(wheel, j + 2, &t.name),
+                format!("{} position of joint `{joint}`, rad; {placing}", t.name),
             );
-            add(
+            self.add(
                 &format!("{side}_wheel_effort_Nm"),
-                align(&wheel, j + 4, is_base),
-                format!("{} effort of joint `{joint}`, as the driver reports it (N m for a revolute joint, by the message's convention); {}", t.name, placing(is_base)),
-                &mut conversions,
+                self.align(wheel, j + 4, &t.name),
+                format!("{} effort of joint `{joint}`, as the driver reports it (N m for a revolute joint, by the message's convention); {placing}", t.name),
             );
         }
+        Ok(())
     }
-    if let Some(t) = imu {
-        let is_base = base_name == t.name;
-        add(
-            "yaw_rate_rad_s",
-            align(&gyro, 0, is_base),
-            format!("{} ({IMU}) angular_velocity.z, in the IMU's frame taken as level and aligned with the base; {}", t.name, placing(is_base)),
-            &mut conversions,
+
+    /// Each wheel's rim speed from the body's twist through the configured track (a bag
+    /// without joint states).
+    fn add_odometry_wheels(
+        &mut self,
+        t: &Topic,
+        odometry: &Series,
+        (track_m, track_from): &(f64, String),
+    ) {
+        let placing = self.placing(&t.name);
+        let (v, w) = (
+            self.align(odometry, 3, &t.name),
+            self.align(odometry, 4, &t.name),
         );
-    }
-    // Without joint states, the odometry's twist is what the wheels measured: each wheel's
-    // rim speed from the body's through the configured track.
-    if let (None, Some(t), Some((track_m, track_from))) = (joints, odom, &track) {
-        let is_base = base_name == t.name;
-        let (v, w) = (align(&odometry, 3, is_base), align(&odometry, 4, is_base));
         for (side, sign) in [("left", -1.0), ("right", 1.0)] {
-            add(
+            self.add(
                 &format!("{side}_wheel_speed_m_s"),
                 v.iter()
                     .zip(&w)
                     .map(|(v, w)| Some(v.as_ref()? + sign * 0.5 * track_m * w.as_ref()?))
                     .collect(),
-                format!("{} ({ODOMETRY}) twist.linear.x {} half the track {track_m} m ({track_from}) times twist.angular.z: the wheels' rim speeds as the odometry measured them (the bag has no {JOINT_STATE}); {}", t.name, if sign < 0.0 { "less" } else { "plus" }, placing(is_base)),
-                &mut conversions,
+                format!("{} ({ODOMETRY}) twist.linear.x {} half the track {track_m} m ({track_from}) times twist.angular.z: the wheels' rim speeds as the odometry measured them (the bag has no {JOINT_STATE}); {placing}", t.name, if sign < 0.0 { "less" } else { "plus" }),
             );
         }
     }
-    if let Some(t) = odom {
-        let is_base = base_name == t.name;
-        let (frame, child) = odom_frames.clone().unwrap_or_default();
+
+    /// The robot's own odometry (pose and twist), not the contract's pose.
+    fn add_odometry(&mut self, t: &Topic, odometry: &Series, (frame, child): (String, String)) {
+        let placing = self.placing(&t.name);
         for (j, col, field) in [
             (0, "odom_x_m", "pose.position.x"),
             (1, "odom_y_m", "pose.position.y"),
@@ -634,16 +572,17 @@ fn convert_timed(
             (3, "odom_linear_m_s", "twist.linear.x"),
             (4, "odom_angular_rad_s", "twist.angular.z"),
         ] {
-            add(
+            self.add(
                 col,
-                align(&odometry, j, is_base),
-                format!("{} ({ODOMETRY}) {field}, frame `{frame}` (twist in `{child}`): the robot's own odometry, not ground truth, so not the contract's pose; {}", t.name, placing(is_base)),
-                &mut conversions,
+                self.align(odometry, j, &t.name),
+                format!("{} ({ODOMETRY}) {field}, frame `{frame}` (twist in `{child}`): the robot's own odometry, not ground truth, so not the contract's pose; {placing}", t.name),
             );
         }
     }
-    if let Some((frames, topic)) = &pose_frames {
-        let is_base = base_name == *topic;
+
+    /// The independent pose (the contract's x, y and heading).
+    fn add_pose(&mut self, pose: &Series, frames: &str, topic: &str) {
+        let placing = self.placing(topic);
         for (j, col, field) in [
             (0, "x_m", "x"),
             (1, "y_m", "y"),
@@ -654,84 +593,43 @@ fn convert_timed(
             } else {
                 format!("{topic} ({frames})")
             };
-            add(
+            self.add(
                 col,
-                if is_base { nearest(&rows, &pose, j, 0) } else { nearest(&rows, &pose, j, half) },
-                format!("{where_}, {field}: an independent pose (the base frame taken at the drive-axle midpoint); {}", placing(is_base)),
-                &mut conversions,
+                self.align(pose, j, topic),
+                format!("{where_}, {field}: an independent pose (the base frame taken at the drive-axle midpoint); {placing}"),
             );
         }
     }
-    if let Some(t) = battery {
-        add(
-            "battery_voltage_V",
-            held(&rows, &volts, 0),
-            format!(
-                "{} ({BATTERY}) voltage, held from each message to the next",
-                t.name
-            ),
-            &mut conversions,
-        );
-    }
-    let battery_v = {
-        let mut v: Vec<f64> = volts
-            .values
-            .iter()
-            .map(|v| v[0])
-            .filter(|v| v.is_finite() && *v > 0.0)
-            .collect();
-        v.sort_by(f64::total_cmp);
-        v.get(v.len() / 2).copied()
-    };
-    for t in &bag.topics {
-        let used = [Some(cmd_topic), joints, imu, odom, battery]
-            .iter()
-            .flatten()
-            .any(|u| u.name == t.name)
-            || t.msg_type == TF
-            || pose_frames
-                .as_ref()
-                .is_some_and(|(_, topic)| *topic == t.name)
-            || (t.msg_type == STRING && t.name.ends_with("robot_description"));
-        if !used {
-            notes.push(format!("topic `{}` ({}) not used", t.name, t.msg_type));
-        }
-    }
-    let t0 = rows[0];
-    let timing = vec![
-        (
-            "time".to_string(),
-            format!("each message at its {}", c.time_words()),
-        ),
-        (
-            "rows".to_string(),
-            format!(
-                "one per {base_name} message from the first command on ({} at {:.6} s)",
-                cmd_topic.name,
-                s_of(first_cmd)
-            ),
-        ),
-        ("time_zero_ns".to_string(), t0.to_string()),
+}
+
+/// A note per topic the conversion did not read (the transforms and the robot
+/// description count as read).
+fn unused_topics(
+    bag: &Bag,
+    topics: &Outputs,
+    cmd_topic: &Topic,
+    pose_frames: &Option<(String, String)>,
+) -> Vec<String> {
+    let read = [
+        Some(cmd_topic),
+        topics.joints,
+        topics.imu,
+        topics.odom,
+        topics.battery,
     ];
-    Ok(Timed::Done(Box::new(Ros2Recording {
-        bag: bag.path.clone(),
-        storage: bag.storage,
-        time_zero_ns: t0,
-        t_s: rows.iter().map(|t| s_of(t - t0)).collect(),
-        t_ns: rows.iter().map(|t| t - t0).collect(),
-        names,
-        columns,
-        conversions,
-        timing,
-        geometry: match (track, radius) {
-            (Some((t, tf)), Some((r, rf))) => {
-                Some((t, r, format!("track from {tf}; wheel radius from {rf}")))
-            }
-            _ => None,
-        },
-        battery_v,
-        notes,
-    })))
+    bag.topics
+        .iter()
+        .filter(|t| {
+            let used = read.iter().flatten().any(|u| u.name == t.name)
+                || t.msg_type == TF
+                || pose_frames
+                    .as_ref()
+                    .is_some_and(|(_, topic)| *topic == t.name)
+                || (t.msg_type == STRING && t.name.ends_with("robot_description"));
+            !used
+        })
+        .map(|t| format!("topic `{}` ({}) not used", t.name, t.msg_type))
+        .collect()
 }
 
 impl Ros2Recording {

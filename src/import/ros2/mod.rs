@@ -21,6 +21,7 @@ mod mcap;
 mod pose;
 mod rosbag1;
 mod sqlite;
+mod streams;
 mod urdf;
 
 use std::path::{Path, PathBuf};

@@ -1,0 +1,169 @@
+//! One round of the diagnosis: every candidate effect not yet found is fitted from the
+//! stage in parallel, each is judged (its gain, whether its own parameter ends on a bound
+//! of its search or where the effect vanishes, whether the record determines it), and the
+//! best significant one that earned its gain beyond the stage becomes the round's finding,
+//! with the regime its evidence lies in and the rivals it barely beat.
+
+use rayon::prelude::*;
+
+use super::evidence::{self, describe, Gain};
+use super::{candidate, regimes, Alternative, Candidate, Finding, Stage, MIN_DELTA_AIC};
+use crate::ident::data::Dataset;
+use crate::ident::effects::Effect;
+use crate::ident::fit::Fit;
+use crate::ident::Structure;
+
+/// A significant candidate: its AIC gain, the effect, and the structure and fit with it.
+pub(super) type Significant = (f64, Effect, Structure, Fit);
+
+/// What every round of one diagnosis shares: the record, the baseline's residual energy
+/// by regime, and how progress is told.
+pub(super) struct Rounds<'a> {
+    pub data: &'a Dataset,
+    pub regimes: &'a [regimes::Regime],
+    /// The baseline's residual energy per sample.
+    pub base_energy: &'a [f64],
+    /// Whether the model is a linear axis (its parameters are named in N, not N m).
+    pub linear: bool,
+    pub tell: &'a (dyn Fn(String) + Sync),
+}
+
+impl Rounds<'_> {
+    /// Fits every candidate in parallel from the stage `context` holds, telling each as it
+    /// finishes; in the candidates' order.
+    pub fn fit_all(
+        &self,
+        context: &candidate::Context,
+        round_no: usize,
+        candidates: &[Effect],
+    ) -> Vec<(Effect, candidate::Fitted)> {
+        (self.tell)(format!(
+            "round {round_no}: {} candidate effects, fitted in parallel",
+            candidates.len()
+        ));
+        let finished = std::sync::atomic::AtomicUsize::new(0);
+        candidates
+            .par_iter()
+            .map(|&e| {
+                let fitted = context.fit(e);
+                let k = finished.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                let how = if fitted.screened_only {
+                    " (screened: too little gain for the full search)"
+                } else {
+                    ""
+                };
+                (self.tell)(format!(
+                    "round {round_no}: {} fitted ({k} of {}){how}",
+                    e.name(),
+                    candidates.len()
+                ));
+                (e, fitted)
+            })
+            .collect()
+    }
+
+    /// A fitted candidate's row of the round's table, and the candidate itself if it is
+    /// significant; `None` where no start of it simulated.
+    pub fn judge(
+        &self,
+        stage: &Stage,
+        stage_n: &[f64],
+        e: Effect,
+        fitted: candidate::Fitted,
+    ) -> Option<(Candidate, Option<Significant>)> {
+        let candidate::Fitted {
+            structure: cand,
+            fit: f,
+            screened_only,
+        } = fitted;
+        let f = f?;
+        let gain = Gain::of(self.data, &stage.fit, stage_n, &f);
+        // An effect whose own parameter sits at the bound where the effect vanishes
+        // (a play of 0.1 mrad) did not earn the gain: its block's other physics did.
+        let idx = f.params.len() - 1;
+        let lo = cand.model().params()[idx].lo;
+        let hi = cand.model().params()[idx].hi;
+        let value = f.params[idx];
+        let at_null_bound = match e {
+            Effect::VoltageSaturation | Effect::FrictionAsymmetry | Effect::Offset => false,
+            // Grip vanishes as a limit when the friction coefficient grows without bound.
+            Effect::WheelSlip => value > hi / 1.5,
+            _ => lo > 0.0 && value < 1.5 * lo,
+        };
+        let slot = f.free.len() - 1;
+        // An effect whose parameter ends on either bound of its search (a peak friction
+        // coefficient of 0.05, a 500 ms delay) or that the record does not determine
+        // is no finding, whatever its gain: the gain is the search's, not the physics'.
+        let at_bound = crate::ident::bound_reached(value, lo, hi);
+        let undetermined = f.std[slot].is_none();
+        let significant = gain.passes() && !at_null_bound && at_bound.is_none() && !undetermined;
+        let row = Candidate {
+            name: e.name().into(),
+            param: e.param_name(self.linear).into(),
+            value,
+            std: f.std[slot],
+            fit_pct: crate::ident::fit_pct_mean(self.data, &f.predicted),
+            rss_reduction_pct: 100.0 * gain.reduction,
+            delta_aic: gain.delta_aic,
+            significant,
+            screened_only,
+            reached_without_it: false,
+            at_bound,
+            undetermined,
+        };
+        Some((row, significant.then_some((gain.delta_aic, e, cand, f))))
+    }
+
+    /// The round's best candidate as a finding: its value, the regime its evidence lies in
+    /// (`named` holds the regimes earlier findings named; this one's is added) and the
+    /// significant rivals within [`MIN_DELTA_AIC`] of it in `round`.
+    pub fn finding(
+        &self,
+        stage: &Stage,
+        best: &Significant,
+        round: &[Candidate],
+        weights_outputs: &[f64],
+        named: &mut Vec<(String, &'static str)>,
+    ) -> Finding {
+        let (best_aic, e, _, f) = best;
+        let alternatives: Vec<Alternative> = round
+            .iter()
+            .filter(|c| c.name != e.name() && c.significant)
+            .filter(|c| best_aic - c.delta_aic < MIN_DELTA_AIC)
+            .filter_map(|c| {
+                let other = Effect::from_name(&c.name)?;
+                Some(Alternative {
+                    name: c.name.clone(),
+                    param: c.param.clone(),
+                    value: c.value,
+                    delta_aic_behind: best_aic - c.delta_aic,
+                    separated_by: evidence::what_separates(*e, other),
+                })
+            })
+            .collect();
+        let after = regimes::energy_per_sample(self.data, &f.predicted, weights_outputs);
+        let removed: Vec<f64> = self
+            .base_energy
+            .iter()
+            .zip(&after)
+            .map(|(a, b)| (a - b).max(0.0))
+            .collect();
+        let (evidence, regime) = evidence::evidence(
+            &regimes::shares(self.regimes, &removed, removed.iter().sum()),
+            100.0 * (1.0 - f.rss() / stage.fit.rss()),
+            named,
+        );
+        named.extend(regime.map(|r| (r, e.name())));
+        let idx = f.params.len() - 1;
+        Finding {
+            effect: *e,
+            param: e.param_name(self.linear).into(),
+            value: f.params[idx],
+            std: f.std[f.free.len() - 1],
+            fit_pct: crate::ident::fit_pct_mean(self.data, &f.predicted),
+            evidence,
+            description: describe(*e, f.params[idx], self.linear),
+            alternatives,
+        }
+    }
+}
