@@ -541,92 +541,14 @@ pub fn calibrate_telling(
     request: &Request,
     progress: &dyn Fn(&str),
 ) -> Result<Calibration, CalibrateError> {
-    let free: Vec<String> = if request.free.is_empty() {
-        default_free_of(rec).iter().map(|s| s.to_string()).collect()
-    } else if request.free == ["none"] {
-        // The scene's keys as they are: only the effects' are fitted.
-        vec![]
-    } else {
-        request.free.clone()
-    };
-    // Only the machine's physics is fitted: not the simulator's own settings.
-    if let Some(k) = free.iter().find(|k| k.starts_with("sim.")) {
-        return Err(CalibrateError::Key(format!(
-            "--free {k}: a setting of the simulation, not of the machine; only physical keys can be fitted"
-        )));
-    }
+    let free = free_keys(request, rec)?;
     progress("replaying the recording on the scene as written");
     let before = replay(scene, rec)?;
-    let outputs: Vec<String> = contract_outputs(rec.rig)
-        .iter()
-        .filter(|n| before.output(n).is_some())
-        .map(|n| n.to_string())
-        .collect();
-    if outputs.is_empty() {
-        return Err(CalibrateError::Recording {
-            file: rec.path.clone(),
-            message: format!(
-                "none of the rig's outputs to fit ({})",
-                contract_outputs(rec.rig).join(", ")
-            ),
-        });
-    }
-    let inputs: Vec<String> = before
-        .drive
-        .columns()
-        .iter()
-        .map(|s| s.to_string())
-        .collect();
-    let driven = effects::Driven {
-        drive: before.drive,
-        on_floor: rec.rig == RigKind::Vehicle,
-        max_command_v: Some(max_command_v(&before)),
-        tracked_pose: ["x_m", "y_m", "heading_rad"].iter().all(|c| {
-            before
-                .output(c)
-                .is_some_and(|o| o.measured.iter().flatten().count() >= 2)
-        }),
-    };
+    let outputs = fitted_outputs(&before, rec)?;
+    let driven = driven_by(&before, rec);
     // Every effect's home is checked before any fit's work.
     let tried = effects::chosen(&request.effects, scene, driven)?;
-    // The dataset's error names the recording already.
-    let data = Dataset::from_recording(rec, &inputs, &outputs)
-        .map_err(|e| CalibrateError::Data(e.to_string()))?;
-    let left_out = unexcited_outputs(&data, before.drive);
-    let (data, outputs) = if left_out.is_empty() {
-        (data, outputs)
-    } else {
-        let names: Vec<String> = left_out.iter().map(|l| l.output.clone()).collect();
-        let kept: Vec<String> = outputs.into_iter().filter(|o| !names.contains(o)).collect();
-        if kept.is_empty() {
-            return Err(CalibrateError::Data(format!(
-                "{}: no output left to fit: {}",
-                rec.path.display(),
-                left_out
-                    .iter()
-                    .map(|l| format!("{} ({})", l.output, l.why))
-                    .collect::<Vec<_>>()
-                    .join("; ")
-            )));
-        }
-        (data.without_outputs(&names), kept)
-    };
-    if outputs.is_empty() {
-        return Err(CalibrateError::Recording {
-            file: rec.path.clone(),
-            message: "no output the recording excites: nothing to fit".into(),
-        });
-    }
-    if data.len() < crate::diagnose::MIN_SAMPLES {
-        return Err(CalibrateError::Recording {
-            file: rec.path.clone(),
-            message: format!(
-                "{} rows: too short to calibrate on (at least {} are needed, as for diagnose)",
-                data.len(),
-                crate::diagnose::MIN_SAMPLES
-            ),
-        });
-    }
+    let (data, outputs, left_out) = excited_data(rec, &before, outputs)?;
     let signed: Vec<(String, f64)> = tried
         .iter()
         .filter_map(|&e| {
@@ -667,6 +589,144 @@ pub fn calibrate_telling(
     let baseline = stage.scene.clone();
     let rounds = rounds::effect_rounds(&problem, stage, &tried, driven, progress)?;
     let iterations = rounds.iterations;
+    let (keys, final_scene, trials) = settled(scene, &problem, &free, &rounds)?;
+    progress(&format!(
+        "fitted in {iterations} iterations in all stages; replaying the recording on the calibrated scene"
+    ));
+    let after = replay(&final_scene, rec)?;
+    Ok(Calibration {
+        keys,
+        effects: trials,
+        switches: rounds.switches,
+        removed: rounds.removed,
+        outputs,
+        left_out,
+        before,
+        after,
+        scene: final_scene,
+        baseline,
+        iterations,
+    })
+}
+
+/// The keys to fit: the request's, the recording kind's by default, none for `none`;
+/// a simulator setting is refused.
+fn free_keys(request: &Request, rec: &Recording) -> Result<Vec<String>, CalibrateError> {
+    let free: Vec<String> = if request.free.is_empty() {
+        default_free_of(rec).iter().map(|s| s.to_string()).collect()
+    } else if request.free == ["none"] {
+        // The scene's keys as they are: only the effects' are fitted.
+        vec![]
+    } else {
+        request.free.clone()
+    };
+    // Only the machine's physics is fitted: not the simulator's own settings.
+    if let Some(k) = free.iter().find(|k| k.starts_with("sim.")) {
+        return Err(CalibrateError::Key(format!(
+            "--free {k}: a setting of the simulation, not of the machine; only physical keys can be fitted"
+        )));
+    }
+    Ok(free)
+}
+
+/// The contract's outputs the replay has of the recording (none is an error).
+fn fitted_outputs(before: &Replay, rec: &Recording) -> Result<Vec<String>, CalibrateError> {
+    let outputs: Vec<String> = contract_outputs(rec.rig)
+        .iter()
+        .filter(|n| before.output(n).is_some())
+        .map(|n| n.to_string())
+        .collect();
+    if outputs.is_empty() {
+        return Err(CalibrateError::Recording {
+            file: rec.path.clone(),
+            message: format!(
+                "none of the rig's outputs to fit ({})",
+                contract_outputs(rec.rig).join(", ")
+            ),
+        });
+    }
+    Ok(outputs)
+}
+
+/// How the recording drives the machine, for the effects' homes.
+fn driven_by(before: &Replay, rec: &Recording) -> effects::Driven {
+    effects::Driven {
+        drive: before.drive,
+        on_floor: rec.rig == RigKind::Vehicle,
+        max_command_v: Some(max_command_v(before)),
+        tracked_pose: ["x_m", "y_m", "heading_rad"].iter().all(|c| {
+            before
+                .output(c)
+                .is_some_and(|o| o.measured.iter().flatten().count() >= 2)
+        }),
+    }
+}
+
+/// The recording as the fit's dataset, without the outputs it does not excite (each said
+/// with why); refused when nothing is left to fit or it is too short.
+fn excited_data(
+    rec: &Recording,
+    before: &Replay,
+    outputs: Vec<String>,
+) -> Result<(Dataset, Vec<String>, Vec<crate::ident::LeftOut>), CalibrateError> {
+    let inputs: Vec<String> = before
+        .drive
+        .columns()
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    // The dataset's error names the recording already.
+    let data = Dataset::from_recording(rec, &inputs, &outputs)
+        .map_err(|e| CalibrateError::Data(e.to_string()))?;
+    let left_out = unexcited_outputs(&data, before.drive);
+    let (data, outputs) = if left_out.is_empty() {
+        (data, outputs)
+    } else {
+        let names: Vec<String> = left_out.iter().map(|l| l.output.clone()).collect();
+        let kept: Vec<String> = outputs.into_iter().filter(|o| !names.contains(o)).collect();
+        if kept.is_empty() {
+            return Err(CalibrateError::Data(format!(
+                "{}: no output left to fit: {}",
+                rec.path.display(),
+                left_out
+                    .iter()
+                    .map(|l| format!("{} ({})", l.output, l.why))
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            )));
+        }
+        (data.without_outputs(&names), kept)
+    };
+    if outputs.is_empty() {
+        return Err(CalibrateError::Recording {
+            file: rec.path.clone(),
+            message: "no output the recording excites: nothing to fit".into(),
+        });
+    }
+    if data.len() < crate::diagnose::MIN_SAMPLES {
+        return Err(CalibrateError::Recording {
+            file: rec.path.clone(),
+            message: format!(
+                "{} rows: too short to calibrate on (at least {} are needed, as for diagnose)",
+                data.len(),
+                crate::diagnose::MIN_SAMPLES
+            ),
+        });
+    }
+    Ok((data, outputs, left_out))
+}
+
+/// The keys as reported after the rounds, in the order asked for (the effects' after
+/// them; the wheel odometry's geometry where it was accepted; the keys the recording
+/// could not tell apart, held), the calibrated scene (what is no estimate kept as the
+/// user's scene had it), and the effects tried with the accepted ones at their final
+/// values.
+fn settled(
+    scene: &Scene,
+    problem: &Problem,
+    free: &[String],
+    rounds: &rounds::Rounds,
+) -> Result<(Vec<KeyFit>, Scene, Vec<EffectTrial>), CalibrateError> {
     let mut keys = key_fits(scene, &rounds.stage, &rounds.starts);
     // The wheel geometry from the wheels' odometry, where it was accepted and stays.
     if let Some(geometry) = &rounds.geometry {
@@ -708,30 +768,14 @@ pub fn calibrate_telling(
         }
     }
     // An accepted effect is reported at its final value (the rounds after it refit it).
-    let mut trials = rounds.trials;
+    let mut trials = rounds.trials.clone();
     for t in trials.iter_mut().filter(|t| t.accepted) {
         if let Some(k) = keys.iter().find(|k| k.key == t.key) {
             t.value = k.after;
             t.std = k.std;
         }
     }
-    progress(&format!(
-        "fitted in {iterations} iterations in all stages; replaying the recording on the calibrated scene"
-    ));
-    let after = replay(&final_scene, rec)?;
-    Ok(Calibration {
-        keys,
-        effects: trials,
-        switches: rounds.switches,
-        removed: rounds.removed,
-        outputs,
-        left_out,
-        before,
-        after,
-        scene: final_scene,
-        baseline,
-        iterations,
-    })
+    Ok((keys, final_scene, trials))
 }
 
 /// The outputs a recording does not excite, each with why: a vehicle driven on its two

@@ -42,10 +42,26 @@ impl Sim {
         if let Some(d) = &mut self.command_delay {
             self.actuation = d.acting(self.t_s, dt);
         }
+        // 1. Sensors.
+        let sensed = self.sense();
+        // 2. Controller.
+        let duty = self.controller_duty(&sensed);
+        // 3. PWM filter and DCMC (or the base's drivers, or the given voltages).
+        let drive = self.motor_terminals(duty, dt);
+        // 4-6. Drivetrain and tyres, forces into rapier, rapier step.
+        let tyre = self.advance_drivetrains_and_body(drive.terminals, dt);
+        self.keep_last(&sensed, drive, tyre);
+        self.t_s = (self.steps + 1) as f64 * dt;
+        self.steps += 1;
+        // 7. Finiteness check.
+        self.check_finite()
+    }
+
+    /// Step 1: the coil pairs (with their noise, in this order: front, then rear), the
+    /// bumper, the pair the controller steers on and the ideal feedback's difference.
+    fn sense(&mut self) -> Sensed {
         let body_pose = self.pose();
         let pose = body_pose.frame();
-
-        // 1. Sensors.
         let (sensors, rear) = if self.coils_read {
             (
                 self.read_coils(&pose, self.params.coils_m()),
@@ -79,21 +95,34 @@ impl Sim {
             self.params.ideal_slope_counts_per_m
                 * self.params.wire.offset(pose.to_world(mid)).lateral_m
         });
+        Sensed {
+            sensors,
+            rear,
+            bumper,
+            steer_on,
+            ideal,
+        }
+    }
 
-        // 2. Controller.
+    /// Step 2: the firmware's PWM duties from what it senses and the wheels' odometry.
+    fn controller_duty(&mut self, sensed: &Sensed) -> [i32; 2] {
         let odometry = self.rim_speeds_m_s();
-        let duty = self.params.firmware.step(
+        self.params.firmware.step(
             &mut self.firmware,
             &FirmwareInput {
                 t_s: self.t_s,
-                sensors_adc: steer_on,
-                ideal_difference: ideal,
-                bumper,
+                sensors_adc: sensed.steer_on,
+                ideal_difference: sensed.ideal,
+                bumper: sensed.bumper,
                 wheel_speed_m_s: odometry,
             },
-        );
+        )
+    }
 
-        // 3. PWM filter and DCMC.
+    /// Step 3: the duties through the PWM filter into demands, the DCMC's voltages from
+    /// them (or the recording's demands), and the motor terminals by the actuation: the
+    /// DCMC's, the base controller's, given voltages through the bridges, or open.
+    fn motor_terminals(&mut self, duty: [i32; 2], dt: f64) -> Drive {
         for (f, d) in self.pwm_filtered.iter_mut().zip(duty) {
             *f = if self.params.features.pwm_filter {
                 self.params.pwm.step(*f, d as f64, dt)
@@ -159,36 +188,37 @@ impl Sim {
             }
             Actuation::Open => [Terminal::Open; 2],
         };
+        Drive {
+            demand,
+            dcmc,
+            terminals,
+            battery_v,
+        }
+    }
 
-        // 4-6. Drivetrain and tyres, forces into rapier, rapier step.
-        let tyre = self.advance_drivetrains_and_body(terminals, dt);
-
-        // Battery current for the next step's terminal voltage (ideal bridges).
+    /// What the step leaves for the snapshot and the next step: the readings, demands,
+    /// voltages, tyre outputs, and the battery current of the power the motors drew
+    /// (ideal bridges), for the next step's terminal voltage.
+    fn keep_last(&mut self, sensed: &Sensed, drive: Drive, tyre: [TyreOutput; 2]) {
         let power: f64 = (0..2)
-            .map(|i| match terminals[i] {
+            .map(|i| match drive.terminals[i] {
                 Terminal::Voltage(v) => v * self.drive[i].motor.current_a,
                 Terminal::Open => 0.0,
             })
             .sum();
-        let current = battery.current_for_power_a(power);
-
-        self.last.sensors_adc = sensors;
-        self.last.rear_sensors_adc = rear.unwrap_or([0.0; 2]);
-        self.last.demand_pct = demand;
-        self.last.dcmc = dcmc;
-        self.last.motor_v = terminals.map(|t| match t {
+        let current = self.params.battery.current_for_power_a(power);
+        self.last.sensors_adc = sensed.sensors;
+        self.last.rear_sensors_adc = sensed.rear.unwrap_or([0.0; 2]);
+        self.last.demand_pct = drive.demand;
+        self.last.dcmc = drive.dcmc;
+        self.last.motor_v = drive.terminals.map(|t| match t {
             Terminal::Voltage(v) => v,
             Terminal::Open => 0.0,
         });
-        self.last.battery_v = battery_v;
+        self.last.battery_v = drive.battery_v;
         self.last.battery_current_a = current;
         self.last.tyre = tyre;
-        self.last.bumper = bumper;
-        self.t_s = (self.steps + 1) as f64 * dt;
-        self.steps += 1;
-
-        // 7. Finiteness check.
-        self.check_finite()
+        self.last.bumper = sensed.bumper;
     }
 
     /// Readings of a coil pair (left, right) at a pose: field, noise, ADC.
@@ -425,4 +455,30 @@ impl Sim {
             * p.rolling_radii_m[0].max(p.rolling_radii_m[1]);
         3.0 * no_load_m_s + 1.0
     }
+}
+
+/// What step 1 sensed.
+struct Sensed {
+    /// The front coil pair, ADC counts (zeros where the coils are not read).
+    sensors: [f64; 2],
+    /// The rear pair, if the vehicle has one.
+    rear: Option<[f64; 2]>,
+    /// Whether the bumper touches an obstacle.
+    bumper: bool,
+    /// The pair the controller steers on (the rear when reversing with one).
+    steer_on: [f64; 2],
+    /// The ideal feedback's difference, counts (the linear level's).
+    ideal: Option<f64>,
+}
+
+/// What step 3 drives the motors with.
+struct Drive {
+    /// The demands the DCMC was given, pct.
+    demand: [f64; 2],
+    /// The DCMC's output.
+    dcmc: crate::model::dcmc::DcmcOutput,
+    /// The motors' terminals.
+    terminals: [Terminal; 2],
+    /// The battery's terminal voltage this step, V.
+    battery_v: f64,
 }
