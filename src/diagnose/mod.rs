@@ -348,65 +348,15 @@ pub fn diagnose(
         linear: matches!(structure, Structure::Linear(_)),
         tell: &tell,
     };
-    let explore = data.prefix(candidate::exploration_rows(data.len()));
-    let beliefs = model.nominal();
-    let mut stage = Stage {
-        structure: structure.clone(),
-        fit: base_fit.clone(),
-    };
-    let mut findings: Vec<Finding> = Vec::new();
-    // The regimes the findings' evidence named, with their effects: the next names another.
-    let mut named: Vec<(String, &str)> = Vec::new();
-    let mut rounds = Vec::new();
-    for round_no in 1..=ROUNDS {
-        let stage_n = effective_n(&data, &stage.fit.predicted);
-        let candidates: Vec<Effect> = structure
-            .applicable()
-            .iter()
-            .copied()
-            .filter(|e| !findings.iter().any(|f| f.effect == *e))
-            .filter(|e| opts.effects.admits(*e))
-            .collect();
-        let context = candidate::Context {
-            structure: &stage.structure,
-            fit: &stage.fit,
-            free_nominal: &free,
-            beliefs: &beliefs,
-            data: &data,
-            explore: &explore,
-            explore_stage_cost: crate::ident::fit::cost_at(
-                stage.structure.model(),
-                &stage.fit.params,
-                &explore,
-                &weights,
-            ),
-            weights: &weights,
-            scales: &scales,
-            max_iterations: opts.ident.max_iterations,
-        };
-        let mut round = Vec::new();
-        let mut significants: Vec<round::Significant> = Vec::new();
-        for (e, fitted) in rounds_of.fit_all(&context, round_no, &candidates) {
-            if let Some((row, significant)) = rounds_of.judge(&stage, &stage_n, e, fitted) {
-                round.push(row);
-                significants.extend(significant);
-            }
-        }
-        let best =
-            candidate::earned_beyond_the_stage(&context, &data, &mut significants, &mut round);
-        round.sort_by(|a, b| b.delta_aic.total_cmp(&a.delta_aic));
-        let Some(best) = best else {
-            rounds.push(round);
-            break;
-        };
-        findings.push(rounds_of.finding(&stage, &best, &round, &weights.outputs, &mut named));
-        rounds.push(round);
-        let (_, _, cand, f) = best;
-        stage = Stage {
-            structure: cand,
-            fit: f,
-        };
-    }
+    let (stage, rounds, findings) = rounds_of.run(
+        Stage {
+            structure: structure.clone(),
+            fit: base_fit.clone(),
+        },
+        &free,
+        &scales,
+        opts,
+    );
     let validation = validation
         .map(|v| validate(&structure, &base_fit, &stage, v, opts.ident.max_lag))
         .transpose()?;

@@ -6,8 +6,11 @@
 
 use rayon::prelude::*;
 
-use super::evidence::{self, describe, Gain};
-use super::{candidate, regimes, Alternative, Candidate, Finding, Stage, MIN_DELTA_AIC};
+use super::evidence::{self, describe, effective_n, Gain};
+use super::scales::Scales;
+use super::{
+    candidate, regimes, Alternative, Candidate, DiagnoseOptions, Finding, Stage, MIN_DELTA_AIC,
+};
 use crate::ident::data::Dataset;
 use crate::ident::effects::Effect;
 use crate::ident::fit::Fit;
@@ -29,6 +32,76 @@ pub(super) struct Rounds<'a> {
 }
 
 impl Rounds<'_> {
+    /// Up to [`super::ROUNDS`] rounds from the baseline `stage`: each fits the candidates
+    /// not yet found, and the best that earned its gain is the next stage. The last stage,
+    /// every round's table, and the findings in the order accepted.
+    pub fn run(
+        &self,
+        mut stage: Stage,
+        free: &[usize],
+        scales: &Scales,
+        opts: &DiagnoseOptions,
+    ) -> (Stage, Vec<Vec<Candidate>>, Vec<Finding>) {
+        let data = self.data;
+        let explore = data.prefix(candidate::exploration_rows(data.len()));
+        let beliefs = stage.structure.model().nominal();
+        let weights = stage.fit.weighting.clone();
+        let applicable = stage.structure.applicable();
+        let mut findings: Vec<Finding> = Vec::new();
+        // The regimes the findings' evidence named, with their effects: the next names
+        // another.
+        let mut named: Vec<(String, &str)> = Vec::new();
+        let mut rounds = Vec::new();
+        for round_no in 1..=super::ROUNDS {
+            let stage_n = effective_n(data, &stage.fit.predicted);
+            let candidates: Vec<Effect> = applicable
+                .iter()
+                .copied()
+                .filter(|e| !findings.iter().any(|f| f.effect == *e))
+                .filter(|e| opts.effects.admits(*e))
+                .collect();
+            let context = candidate::Context {
+                structure: &stage.structure,
+                fit: &stage.fit,
+                free_nominal: free,
+                beliefs: &beliefs,
+                data,
+                explore: &explore,
+                explore_stage_cost: crate::ident::fit::cost_at(
+                    stage.structure.model(),
+                    &stage.fit.params,
+                    &explore,
+                    &weights,
+                ),
+                weights: &weights,
+                scales,
+                max_iterations: opts.ident.max_iterations,
+            };
+            let mut round = Vec::new();
+            let mut significants: Vec<Significant> = Vec::new();
+            for (e, fitted) in self.fit_all(&context, round_no, &candidates) {
+                if let Some((row, significant)) = self.judge(&stage, &stage_n, e, fitted) {
+                    round.push(row);
+                    significants.extend(significant);
+                }
+            }
+            let best =
+                candidate::earned_beyond_the_stage(&context, data, &mut significants, &mut round);
+            round.sort_by(|a, b| b.delta_aic.total_cmp(&a.delta_aic));
+            let Some(best) = best else {
+                rounds.push(round);
+                break;
+            };
+            findings.push(self.finding(&stage, &best, &round, &weights.outputs, &mut named));
+            rounds.push(round);
+            let (_, _, cand, f) = best;
+            stage = Stage {
+                structure: cand,
+                fit: f,
+            };
+        }
+        (stage, rounds, findings)
+    }
     /// Fits every candidate in parallel from the stage `context` holds, telling each as it
     /// finishes; in the candidates' order.
     pub fn fit_all(

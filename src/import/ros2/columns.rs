@@ -254,24 +254,7 @@ fn convert_timed(
     let mut notes = vec![];
     let size = streams::drive_size(&c, geometry, &mut notes)?;
     let cmd = streams::commands(&c)?;
-    let topics = Outputs {
-        joints: c.pick(
-            "wheel joint state",
-            "joint_states",
-            &[JOINT_STATE],
-            map.joint_states.as_ref(),
-            false,
-        )?,
-        imu: c.pick("IMU", "imu", &[IMU], map.imu.as_ref(), false)?,
-        odom: c.pick("odometry", "odom", &[ODOMETRY], map.odom.as_ref(), false)?,
-        battery: c.pick(
-            "battery",
-            "battery",
-            &[BATTERY],
-            map.battery.as_ref(),
-            false,
-        )?,
-    };
+    let topics = Outputs::picked(&c)?;
     let (wheel, wheel_names) =
         streams::wheels(&c, topics.joints, size.described.as_ref(), &mut notes)?;
     let gyro = streams::gyro(&c, topics.imu)?;
@@ -286,22 +269,20 @@ fn convert_timed(
 
     // The time base: the wheels' stamps, else the gyro's, else the odometry's, else the
     // pose's.
-    let pose_source = pose_frames.as_ref().map(|(_, topic)| topic.clone());
     let (base, base_name) = [
-        (&wheel, topics.joints),
-        (&gyro, topics.imu),
-        (&odometry, topics.odom),
+        (&wheel, topics.joints.map(|t| t.name.clone())),
+        (&gyro, topics.imu.map(|t| t.name.clone())),
+        (&odometry, topics.odom.map(|t| t.name.clone())),
+        (&pose, pose_frames.as_ref().map(|(_, topic)| topic.clone())),
     ]
     .into_iter()
-    .find_map(|(s, t)| t.map(|t| (s, t.name.clone())))
-    .or_else(|| pose_source.map(|name| (&pose, name)))
+    .find_map(|(s, name)| name.map(|n| (s, n)))
     .ok_or_else(|| {
         c.err(format!(
             "no output to compare: expected a {JOINT_STATE}, {IMU} or {ODOMETRY} topic, or a pose (/tf to the base, {POSE_STAMPED}, {POSE_COV_STAMPED}); the bag has {}",
             c.listing()
         ))
     })?;
-    let first_cmd = cmd.series.t_ns[0];
     let rows = rows_from_first_command(&c, base, &base_name, &cmd, &mut notes)?;
     let mut table = Table::new(&rows, &base_name);
     table.add_commands(&cmd);
@@ -337,37 +318,16 @@ fn convert_timed(
         );
     }
     notes.extend(unused_topics(bag, &topics, cmd.topic, &pose_frames));
-    let t0 = rows[0];
-    let timing = vec![
-        (
-            "time".to_string(),
-            format!("each message at its {}", c.time_words()),
-        ),
-        (
-            "rows".to_string(),
-            format!(
-                "one per {base_name} message from the first command on ({} at {:.6} s)",
-                cmd.topic.name,
-                s_of(first_cmd)
-            ),
-        ),
-        ("time_zero_ns".to_string(), t0.to_string()),
-    ];
-    let Table {
-        names,
-        columns,
-        conversions,
-        ..
-    } = table;
+    let timing = timing(&c, &rows, &base_name, &cmd);
     Ok(Timed::Done(Box::new(Ros2Recording {
         bag: bag.path.clone(),
         storage: bag.storage,
-        time_zero_ns: t0,
-        t_s: rows.iter().map(|t| s_of(t - t0)).collect(),
-        t_ns: rows.iter().map(|t| t - t0).collect(),
-        names,
-        columns,
-        conversions,
+        time_zero_ns: rows[0],
+        t_s: rows.iter().map(|t| s_of(t - rows[0])).collect(),
+        t_ns: rows.iter().map(|t| t - rows[0]).collect(),
+        names: table.names,
+        columns: table.columns,
+        conversions: table.conversions,
         timing,
         geometry: match (size.track, size.radius) {
             (Some((t, tf)), Some((r, rf))) => {
@@ -380,12 +340,60 @@ fn convert_timed(
     })))
 }
 
+/// How the rows were timed: the clock, the time base from the first command, the zero.
+fn timing(
+    c: &Converter,
+    rows: &[i64],
+    base_name: &str,
+    cmd: &streams::Commands,
+) -> Vec<(String, String)> {
+    vec![
+        (
+            "time".to_string(),
+            format!("each message at its {}", c.time_words()),
+        ),
+        (
+            "rows".to_string(),
+            format!(
+                "one per {base_name} message from the first command on ({} at {:.6} s)",
+                cmd.topic.name,
+                s_of(cmd.series.t_ns[0])
+            ),
+        ),
+        ("time_zero_ns".to_string(), rows[0].to_string()),
+    ]
+}
+
 /// The output topics a bag's conversion reads, each if the bag has one.
 struct Outputs<'a> {
     joints: Option<&'a Topic>,
     imu: Option<&'a Topic>,
     odom: Option<&'a Topic>,
     battery: Option<&'a Topic>,
+}
+
+impl<'a> Outputs<'a> {
+    /// The output topics: each the map's choice, else the bag's one topic of its type.
+    fn picked(c: &Converter<'a>) -> Result<Self, Ros2Error> {
+        Ok(Outputs {
+            joints: c.pick(
+                "wheel joint state",
+                "joint_states",
+                &[JOINT_STATE],
+                c.map.joint_states.as_ref(),
+                false,
+            )?,
+            imu: c.pick("IMU", "imu", &[IMU], c.map.imu.as_ref(), false)?,
+            odom: c.pick("odometry", "odom", &[ODOMETRY], c.map.odom.as_ref(), false)?,
+            battery: c.pick(
+                "battery",
+                "battery",
+                &[BATTERY],
+                c.map.battery.as_ref(),
+                false,
+            )?,
+        })
+    }
 }
 
 /// The rows' times: the time base's messages from the first command on, strictly
