@@ -8,7 +8,7 @@ use std::path::PathBuf;
 
 use super::{md_table, opt, study_sweep, value_of, write_summary, StudyOptions, StudyOutput};
 use crate::plot::{Plot, Series, COLOURS};
-use crate::sweep::SweepError;
+use crate::sweep::{RunResult, SweepError, SweepOptions};
 
 /// The scene the study sweeps.
 pub const SCENE: &str = include_str!("../../scenes/studies/tyre_compounds.toml");
@@ -59,7 +59,30 @@ pub fn run(
     opts: &StudyOptions,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<(Vec<TyreGroup>, StudyOutput), SweepError> {
-    let varies: Vec<String> = if opts.quick {
+    let varies = grid(opts.quick);
+    let (o, results) = study_sweep(
+        opts,
+        "sweep",
+        SCENE_LABEL,
+        SCENE,
+        &[],
+        &varies,
+        false,
+        progress,
+    )?;
+    let groups = groups_of(&o, &results);
+    let held = gains_every_group_held(&groups);
+    let mut summary = summary_table(&o, &results, &groups, &held);
+    let (plot, plot_says) = onset_plot(opts, &groups)?;
+    let mut files = vec![plot];
+    summary.push_str(&format!("\nPlots: `slip_cycle_onset.svg` ({plot_says}); `sweep/plots/` (every metric against gain, one line per compound, floor and payload; a cross marks a gain where a run lost the wire).\n"));
+    files.push(write_summary(&opts.out_dir, &summary)?);
+    Ok((groups, StudyOutput { summary, files }))
+}
+
+/// The sweep's grid: gain, compound, floor and payload (fewer of each when quick).
+fn grid(quick: bool) -> Vec<String> {
+    if quick {
         // The gain first: the sweep's plots put the first numeric key along x.
         vec![
             "controller.gain_scale=1..3:9".into(),
@@ -74,26 +97,20 @@ pub fn run(
             "floor.surface=painted_concrete,bare_concrete".into(),
             "payload.mass_kg=0,100,200".into(),
         ]
-    };
-    let (o, results) = study_sweep(
-        opts,
-        "sweep",
-        SCENE_LABEL,
-        SCENE,
-        &[],
-        &varies,
-        false,
-        progress,
-    )?;
+    }
+}
+
+/// The runs grouped by compound, floor and payload, each with its onsets.
+fn groups_of(o: &SweepOptions, results: &[RunResult]) -> Vec<TyreGroup> {
     let mut groups: BTreeMap<(String, String, String), TyreGroup> = BTreeMap::new();
-    for r in &results {
+    for r in results {
         let Ok(s) = &r.outcome else { continue };
         let key = (
-            value_of(&o, r, "tyre.compound").to_string(),
-            value_of(&o, r, "floor.surface").to_string(),
-            value_of(&o, r, "payload.mass_kg").to_string(),
+            value_of(o, r, "tyre.compound").to_string(),
+            value_of(o, r, "floor.surface").to_string(),
+            value_of(o, r, "payload.mass_kg").to_string(),
         );
-        let gain: f64 = value_of(&o, r, "controller.gain_scale")
+        let gain: f64 = value_of(o, r, "controller.gain_scale")
             .parse()
             .unwrap_or(f64::NAN);
         let g = groups.entry(key.clone()).or_insert_with(|| TyreGroup {
@@ -123,8 +140,12 @@ pub fn run(
             .map(|r| r.0);
         g.wire_lost_gains = g.runs.iter().filter(|r| r.3).map(|r| r.0).collect();
     }
-    // Gains at which every group kept the wire: slip compared like for like.
-    let held: Vec<f64> = groups
+    groups
+}
+
+/// Gains at which every group kept the wire: slip compared like for like.
+fn gains_every_group_held(groups: &[TyreGroup]) -> Vec<f64> {
+    groups
         .first()
         .map(|g| g.runs.iter().map(|r| r.0).collect::<Vec<_>>())
         .unwrap_or_default()
@@ -134,7 +155,16 @@ pub fn run(
                 .iter()
                 .all(|g| g.runs.iter().any(|r| (r.0 - gain).abs() < 1e-9 && !r.3))
         })
-        .collect();
+        .collect()
+}
+
+/// The summary's text and its table of groups.
+fn summary_table(
+    o: &SweepOptions,
+    results: &[RunResult],
+    groups: &[TyreGroup],
+    held: &[f64],
+) -> String {
     let rows: Vec<Vec<String>> = groups
         .iter()
         .map(|g| {
@@ -153,7 +183,7 @@ pub fn run(
                         .collect::<Vec<_>>()
                         .join(", ")
                 },
-                format!("{:.1}", 100.0 * g.mean_sliding_over(&held)),
+                format!("{:.1}", 100.0 * g.mean_sliding_over(held)),
             ]
         })
         .collect();
@@ -185,10 +215,18 @@ pub fn run(
         ],
         &rows,
     ));
-    let mut files = vec![];
+    summary
+}
+
+/// The onset of slip-driven cycles against payload, one line per compound and floor (bars
+/// for one payload), written; the file and what it shows.
+fn onset_plot(
+    opts: &StudyOptions,
+    groups: &[TyreGroup],
+) -> Result<(PathBuf, &'static str), SweepError> {
     // Onset of slip-driven cycles against payload, one line per compound and floor.
     let mut lines: BTreeMap<(String, String), (Vec<f64>, Vec<f64>)> = BTreeMap::new();
-    for g in &groups {
+    for g in groups {
         let e = lines
             .entry((g.compound.clone(), g.surface.clone()))
             .or_default();
@@ -244,8 +282,5 @@ pub fn run(
         )
     };
     crate::output::write_atomically(&plot, svg).map_err(crate::sweep::io_err(&plot))?;
-    files.push(plot);
-    summary.push_str(&format!("\nPlots: `slip_cycle_onset.svg` ({plot_says}); `sweep/plots/` (every metric against gain, one line per compound, floor and payload; a cross marks a gain where a run lost the wire).\n"));
-    files.push(write_summary(&opts.out_dir, &summary)?);
-    Ok((groups, StudyOutput { summary, files }))
+    Ok((plot, plot_says))
 }

@@ -8,12 +8,26 @@ use crate::scene::Scene;
 use crate::study::{md_table, opt};
 
 pub(super) fn summary(r: &ThesisDcmcResult, scene: &Scene) -> String {
-    let t = CASE1;
     let mut s =
         String::from("# The thesis's DCMC (section 5.2.1, case 1) and agvsim's machine\n\n");
     s.push_str("Reference (`case1_reference.csv`): the thesis's case-1 model (agvsim's signs) driven by random demand levels (up to 90 % forward, 45 % turn, held 0.5-1.5 s), encoder speeds every 25 ms, white noise at the thesis's loss.\n\n");
     s.push_str("## Each form of the DCMC's slow response, fitted to the reference through the lifted-wheel simulator\n\n");
     s.push_str("Then, with the fitted keys: the machine's own thesis-like lifted-wheel run identified with case 1 (`--model gain`), the firmware's P-D loop at the thesis's gain linearised (`agvsim linearize`), and the lab floor run (120 mm start, gain 1, complex level, 12 s).\n\n");
+    forms_table(&mut s, r);
+    s.push_str("\nThe case-1 structure has one time constant per side for both demands, so a fit to the reference puts the forward lag on the turn demand too, and then the firmware cannot hold the wire; with the turn demand at once the fit must shrink the turn gain to mimic the lag, and the machine no longer identifies as the thesis's.\n\n");
+    s.push_str("## The shipped machine: matched so that it identifies as the thesis's\n\n");
+    matched(&mut s, r);
+    turn_lag(&mut s, r);
+    s.push_str(
+        "## Case-1 A and B: thesis, the reference identified, the shipped machine identified\n\n",
+    );
+    case1_table(&mut s, r, scene);
+    s
+}
+
+/// Each form of the slow response as fitted, beside the thesis.
+fn forms_table(s: &mut String, r: &ThesisDcmcResult) {
+    let t = CASE1;
     let (tt, ct) = (t.time_constants_s(), t.column_ratios());
     let mut rows = Vec::new();
     for f in &r.forms {
@@ -79,8 +93,10 @@ pub(super) fn summary(r: &ThesisDcmcResult, scene: &Scene) -> String {
         ],
         &rows,
     ));
-    s.push_str("\nThe case-1 structure has one time constant per side for both demands, so a fit to the reference puts the forward lag on the turn demand too, and then the firmware cannot hold the wire; with the turn demand at once the fit must shrink the turn gain to mimic the lag, and the machine no longer identifies as the thesis's.\n\n");
-    s.push_str("## The shipped machine: matched so that it identifies as the thesis's\n\n");
+}
+
+/// The shipped machine's indirect fit.
+fn matched(s: &mut String, r: &ThesisDcmcResult) {
     let m = &r.matched;
     let _ = writeln!(
         s,
@@ -91,6 +107,10 @@ pub(super) fn summary(r: &ThesisDcmcResult, scene: &Scene) -> String {
         m.values[2],
         m.z.iter().map(|z| format!("{z:+.1}")).collect::<Vec<_>>().join(", ")
     );
+}
+
+/// The matched machine with a lag on the turn demand.
+fn turn_lag(s: &mut String, r: &ThesisDcmcResult) {
     s.push_str("### How slow may the turn demand be? The matched machine with a lag on it\n\n");
     let rows: Vec<Vec<String>> = r
         .turn_lag_probe
@@ -122,9 +142,12 @@ pub(super) fn summary(r: &ThesisDcmcResult, scene: &Scene) -> String {
         &rows,
     ));
     s.push_str("\nThe floor runs bound the turn demand's lag; the shipped machine takes none (*assumed*).\n\n");
-    s.push_str(
-        "## Case-1 A and B: thesis, the reference identified, the shipped machine identified\n\n",
-    );
+}
+
+/// Case 1's A and B: the thesis's, the reference's and the shipped machine's identified.
+fn case1_table(s: &mut String, r: &ThesisDcmcResult, scene: &Scene) {
+    let t = CASE1;
+    let (tt, ct) = (t.time_constants_s(), t.column_ratios());
     let b = t.b_agvsim();
     let cell = |v: f64| format!("{v:.4}");
     let mut rows = Vec::new();
@@ -187,5 +210,4 @@ pub(super) fn summary(r: &ThesisDcmcResult, scene: &Scene) -> String {
         scene.dcmc.response_time_right_s,
         scene.dcmc.turn_response_time_s
     );
-    s
 }
