@@ -28,6 +28,137 @@ pub struct Recording {
     pub segment_starts: Vec<usize>,
 }
 
+/// The `# key: value` lines before the header, and the header's line number and text (the
+/// first line that is neither metadata nor blank).
+fn metadata_and_header<'t>(
+    lines: &mut impl Iterator<Item = (usize, &'t str)>,
+) -> (BTreeMap<String, String>, Option<(usize, &'t str)>) {
+    let mut meta = BTreeMap::new();
+    for (n, l) in lines {
+        if let Some(rest) = l.strip_prefix('#') {
+            if let Some((k, v)) = rest.split_once(':') {
+                meta.insert(k.trim().to_string(), v.trim().to_string());
+            }
+            continue;
+        }
+        if l.trim().is_empty() {
+            continue;
+        }
+        return (meta, Some((n, l)));
+    }
+    (meta, None)
+}
+
+/// The format version (it must be 1) and the rig kind the metadata states.
+fn version_and_rig(
+    meta: &BTreeMap<String, String>,
+    path: &Path,
+) -> Result<RigKind, RecordingError> {
+    let file = |message: String| RecordingError::File {
+        file: path.to_owned(),
+        message,
+    };
+    match meta.get("agvsim-recording").map(String::as_str) {
+        Some("1") => {}
+        Some(v) => {
+            return Err(RecordingError::Line {
+                file: path.to_owned(),
+                line: 1,
+                message: format!("format version `{v}`: expected `# agvsim-recording: 1`"),
+            })
+        }
+        None => {
+            return Err(file(
+                "missing metadata `# agvsim-recording: 1` before the header".into(),
+            ))
+        }
+    }
+    let rig = meta
+        .get("rig")
+        .ok_or_else(|| file("missing metadata `# rig: drive_axis` or `# rig: vehicle`".into()))?;
+    RigKind::from_name(rig)
+        .ok_or_else(|| file(format!("rig `{rig}`: expected one of {}", RigKind::names())))
+}
+
+/// The header's column names: `t_s` first, each named once.
+fn header_columns(header: &str, hline: usize, path: &Path) -> Result<Vec<String>, RecordingError> {
+    let at = |message: String| RecordingError::Line {
+        file: path.to_owned(),
+        line: hline,
+        message,
+    };
+    let cols: Vec<String> = header.split(',').map(|c| c.trim().to_string()).collect();
+    if cols.first().map(String::as_str) != Some("t_s") {
+        return Err(at(format!("first column is `{}`: expected `t_s`", cols[0])));
+    }
+    for (i, c) in cols.iter().enumerate() {
+        if c.is_empty() {
+            return Err(at(format!("column {} has no name", i + 1)));
+        }
+        if cols[..i].contains(c) {
+            return Err(at(format!("column `{c}` appears twice")));
+        }
+    }
+    Ok(cols)
+}
+
+/// The samples read so far.
+struct Rows {
+    t_s: Vec<f64>,
+    columns: Vec<Vec<Option<f64>>>,
+}
+
+impl Rows {
+    /// Takes one data line: a time after the last and a number or nothing per column;
+    /// `at` makes the error of a message (adding the file and line).
+    fn push(
+        &mut self,
+        l: &str,
+        names: &[String],
+        at: &dyn Fn(String) -> RecordingError,
+    ) -> Result<(), RecordingError> {
+        let cells: Vec<&str> = l.split(',').collect();
+        if cells.len() != names.len() + 1 {
+            return Err(at(format!(
+                "{} cells: expected {} (one per header column)",
+                cells.len(),
+                names.len() + 1
+            )));
+        }
+        let t = cells[0].trim();
+        let t: f64 = t
+            .parse()
+            .map_err(|_| at(format!("column `t_s`: `{t}` is not a number")))?;
+        if !t.is_finite() {
+            return Err(at(format!("column `t_s`: {t} is not finite")));
+        }
+        if let Some(&prev) = self.t_s.last() {
+            if t <= prev {
+                return Err(at(format!(
+                    "column `t_s`: time {t} does not increase (previous row {prev})"
+                )));
+            }
+        }
+        self.t_s.push(t);
+        for (k, cell) in cells[1..].iter().enumerate() {
+            let cell = cell.trim();
+            let v = if cell.is_empty() {
+                None
+            } else {
+                let v: f64 = cell
+                    .parse()
+                    .map_err(|_| at(format!("column `{}`: `{cell}` is not a number", names[k])))?;
+                if !v.is_finite() {
+                    return Err(at(format!("column `{}`: {cell} is not finite (leave the cell empty for a missing value)", names[k])));
+                }
+                Some(v)
+            };
+            self.columns[k].push(v);
+        }
+        Ok(())
+    }
+}
+
 /// Largest recording file read, bytes (100 MB: some hours of a vehicle's 27 columns at
 /// 100 Hz; the thesis's and SysId's tests are a few MB).
 pub const MAX_RECORDING_BYTES: u64 = 100 << 20;
@@ -99,138 +230,39 @@ impl Recording {
     pub fn parse(text: &str, path: &Path) -> Result<Recording, RecordingError> {
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let file = || path.to_owned();
-        let at = |line: usize, message: String| RecordingError::Line {
-            file: file(),
-            line,
-            message,
-        };
-        let mut meta = BTreeMap::new();
         let mut lines = text
             .lines()
             .enumerate()
             .map(|(i, l)| (i + 1, l.trim_end_matches('\r')));
-        let mut header = None;
-        for (n, l) in lines.by_ref() {
-            if let Some(rest) = l.strip_prefix('#') {
-                if let Some((k, v)) = rest.split_once(':') {
-                    meta.insert(k.trim().to_string(), v.trim().to_string());
-                }
-                continue;
-            }
-            if l.trim().is_empty() {
-                continue;
-            }
-            header = Some((n, l));
-            break;
-        }
+        let (meta, header) = metadata_and_header(&mut lines);
         let (hline, header) = header.ok_or_else(|| RecordingError::File {
             file: file(),
             message: "empty recording: no header line and no samples".into(),
         })?;
-        match meta.get("agvsim-recording").map(String::as_str) {
-            Some("1") => {}
-            Some(v) => {
-                return Err(at(
-                    1,
-                    format!("format version `{v}`: expected `# agvsim-recording: 1`"),
-                ))
-            }
-            None => {
-                return Err(RecordingError::File {
-                    file: file(),
-                    message: "missing metadata `# agvsim-recording: 1` before the header".into(),
-                })
-            }
-        }
-        let rig = meta
-            .get("rig")
-            .cloned()
-            .ok_or_else(|| RecordingError::File {
-                file: file(),
-                message: "missing metadata `# rig: drive_axis` or `# rig: vehicle`".into(),
-            })?;
-        let rig = RigKind::from_name(&rig).ok_or_else(|| RecordingError::File {
-            file: file(),
-            message: format!("rig `{rig}`: expected one of {}", RigKind::names()),
-        })?;
-        let cols: Vec<String> = header.split(',').map(|c| c.trim().to_string()).collect();
-        if cols.first().map(String::as_str) != Some("t_s") {
-            return Err(at(
-                hline,
-                format!("first column is `{}`: expected `t_s`", cols[0]),
-            ));
-        }
-        for (i, c) in cols.iter().enumerate() {
-            if c.is_empty() {
-                return Err(at(hline, format!("column {} has no name", i + 1)));
-            }
-            if cols[..i].contains(c) {
-                return Err(at(hline, format!("column `{c}` appears twice")));
-            }
-        }
+        let rig = version_and_rig(&meta, path)?;
+        let cols = header_columns(header, hline, path)?;
         let names: Vec<String> = cols[1..].to_vec();
-        let mut t_s = Vec::new();
-        let mut columns: Vec<Vec<Option<f64>>> = vec![Vec::new(); names.len()];
+        let mut rows = Rows {
+            t_s: Vec::new(),
+            columns: vec![Vec::new(); names.len()],
+        };
         for (n, l) in lines {
             if l.trim().is_empty() || l.starts_with('#') {
                 continue;
             }
-            let cells: Vec<&str> = l.split(',').collect();
-            if cells.len() != cols.len() {
-                return Err(at(
-                    n,
-                    format!(
-                        "{} cells: expected {} (one per header column)",
-                        cells.len(),
-                        cols.len()
-                    ),
-                ));
-            }
-            let t = cells[0].trim();
-            let t: f64 = t
-                .parse()
-                .map_err(|_| at(n, format!("column `t_s`: `{t}` is not a number")))?;
-            if !t.is_finite() {
-                return Err(at(n, format!("column `t_s`: {t} is not finite")));
-            }
-            if let Some(&prev) = t_s.last() {
-                if t <= prev {
-                    return Err(at(
-                        n,
-                        format!("column `t_s`: time {t} does not increase (previous row {prev})"),
-                    ));
-                }
-            }
-            t_s.push(t);
-            for (k, cell) in cells[1..].iter().enumerate() {
-                let cell = cell.trim();
-                let v = if cell.is_empty() {
-                    None
-                } else {
-                    let v: f64 = cell.parse().map_err(|_| {
-                        at(
-                            n,
-                            format!("column `{}`: `{cell}` is not a number", names[k]),
-                        )
-                    })?;
-                    if !v.is_finite() {
-                        return Err(at(
-                            n,
-                            format!("column `{}`: {cell} is not finite (leave the cell empty for a missing value)", names[k]),
-                        ));
-                    }
-                    Some(v)
-                };
-                columns[k].push(v);
-            }
+            rows.push(l, &names, &|message| RecordingError::Line {
+                file: file(),
+                line: n,
+                message,
+            })?;
         }
-        if t_s.is_empty() {
+        if rows.t_s.is_empty() {
             return Err(RecordingError::File {
                 file: file(),
                 message: "no samples after the header".into(),
             });
         }
-        check_sample_time(&meta, &t_s).map_err(|message| RecordingError::File {
+        check_sample_time(&meta, &rows.t_s).map_err(|message| RecordingError::File {
             file: file(),
             message: message.to_string(),
         })?;
@@ -238,9 +270,9 @@ impl Recording {
             path: path.to_owned(),
             meta,
             rig,
-            t_s,
+            t_s: rows.t_s,
             names,
-            columns,
+            columns: rows.columns,
             segment_starts: vec![0],
         })
     }
