@@ -734,17 +734,7 @@ pub fn new_scene(
     if let Some(t) = &spec.tyre {
         scene.tyre.compound = t.clone();
     }
-    let top_speed_m_s = scene.top_speed_m_s(scene.battery.drive_limit_v);
-    match spec.guidance {
-        Some(Guidance::Wire) => scene.controller.kind = ControllerKind::Pd,
-        Some(Guidance::OpenLoop) => {
-            scene.controller.kind = ControllerKind::OpenLoop;
-            scene.controller.open_loop_forward_pct = thesis::OPEN_LOOP_DEMAND_PCT;
-        }
-        Some(Guidance::None) => velocity_base(&mut scene, top_speed_m_s),
-        None if from.is_none() => velocity_base(&mut scene, top_speed_m_s),
-        None => {}
-    }
+    guide(&mut scene, spec.guidance, from.is_none());
     if spec.configured_geometry {
         scene.base.wheel_radius_m = Some(scene.wheel.radius_m);
         scene.base.wheel_separation_m = Some(scene.chassis.track_width_m);
@@ -759,6 +749,43 @@ pub fn new_scene(
             round4(n.battery_v)
         )
     });
+    let notes_by_key = notes_by_key(spec, &scene, from.is_none());
+    let text = render(
+        &scene,
+        &derived,
+        &notes_by_key,
+        from.map(|(p, _)| p),
+        command,
+    );
+    let scene = checked(spec, &text, &derived)?;
+    let top_speed_m_s = scene.top_speed_m_s(scene.battery.drive_limit_v);
+    Ok(NewScene {
+        text,
+        scene,
+        derived,
+        top_speed_m_s,
+        notes,
+    })
+}
+
+/// Sets the scene's guidance: the wire's P-D firmware, open-loop demands, or a
+/// velocity-commanded base (also where a new scene says none).
+fn guide(scene: &mut Scene, guidance: Option<Guidance>, new: bool) {
+    let top_speed_m_s = scene.top_speed_m_s(scene.battery.drive_limit_v);
+    match guidance {
+        Some(Guidance::Wire) => scene.controller.kind = ControllerKind::Pd,
+        Some(Guidance::OpenLoop) => {
+            scene.controller.kind = ControllerKind::OpenLoop;
+            scene.controller.open_loop_forward_pct = thesis::OPEN_LOOP_DEMAND_PCT;
+        }
+        Some(Guidance::None) => velocity_base(scene, top_speed_m_s),
+        None if new => velocity_base(scene, top_speed_m_s),
+        None => {}
+    }
+}
+
+/// Where each key that is no derived number came from, for the scene's comments.
+fn notes_by_key(spec: &RobotSpec, scene: &Scene, new: bool) -> Vec<(&'static str, String)> {
     let mut notes_by_key: Vec<(&'static str, String)> = vec![(
         "description",
         if spec.description.is_some() {
@@ -773,7 +800,7 @@ pub fn new_scene(
             "tyre.compound",
             "given (`agvsim presets` lists its friction on each floor)".into(),
         ));
-    } else if from.is_none() {
+    } else if new {
         notes_by_key.push((
             "tyre.compound",
             "not given: the thesis machine's (`agvsim presets`)".into(),
@@ -784,7 +811,7 @@ pub fn new_scene(
         notes_by_key.push(("base.wheel_radius_m", how.into()));
         notes_by_key.push(("base.wheel_separation_m", how.into()));
     }
-    if spec.guidance.is_some() || from.is_none() {
+    if spec.guidance.is_some() || new {
         let how = match scene.controller.kind {
             ControllerKind::Pd => "guidance: the guide wire, the thesis's P-D firmware and gains",
             ControllerKind::Velocity => "guidance: none, a velocity-commanded base: its base controller and speed loops ([base]) drive the manoeuvre ([manoeuvre]) in `run`, a recording's cmd_vel in `replay`",
@@ -829,15 +856,14 @@ pub fn new_scene(
             ));
         }
     }
-    let text = render(
-        &scene,
-        &derived,
-        &notes_by_key,
-        from.map(|(p, _)| p),
-        command,
-    );
+    notes_by_key
+}
+
+/// The written text loaded back as a scene; a value that breaks its key's rule is named
+/// with the options it was derived from.
+fn checked(spec: &RobotSpec, text: &str, derived: &[Derived]) -> Result<Scene, RobotError> {
     let path = Path::new("(new scene)");
-    let scene = Scene::from_toml(&text, path, &[]).map_err(|e| match &e {
+    Scene::from_toml(text, path, &[]).map_err(|e| match &e {
         SceneError::Invalid {
             key,
             value,
@@ -863,14 +889,6 @@ pub fn new_scene(
             },
         },
         _ => RobotError::Scene(e),
-    })?;
-    let top_speed_m_s = scene.top_speed_m_s(scene.battery.drive_limit_v);
-    Ok(NewScene {
-        text,
-        scene,
-        derived,
-        top_speed_m_s,
-        notes,
     })
 }
 
