@@ -173,6 +173,46 @@ impl Linearisation {
 /// firmware drives (reversing if `controller.reverse`). The `full` level (rapier chassis)
 /// is linearised as its no-slip counterpart `complex` (tyres that do not slip).
 pub fn linearise(scene: &Scene) -> Result<Linearisation, LinearizeError> {
+    let (params, level) = on_the_wire(scene)?;
+    let reverse = params.firmware.controller.reverse;
+    let dt = params.sim.dt_s;
+    let v0 = forward_voltage(&params, scene)?;
+    // Straight running at that voltage, to steady state (teeth in contact).
+    let mut sim = Sim::from_params(params.clone())?;
+    sim.set_actuation(Actuation::Voltage([v0, v0]));
+    for _ in 0..(4.0 / dt).round() as usize {
+        sim.step().map_err(|e| e.naming_suspects(scene))?;
+    }
+    let x0 = sim.plant_vector();
+    let coils = match (reverse, params.rear_coils_m()) {
+        (true, Some(r)) => r,
+        _ => params.coils_m(),
+    };
+    let sensors = if reverse && params.rear_coils_m().is_some() {
+        "rear"
+    } else {
+        "front"
+    };
+    let (a, b, c) = jacobians(&mut sim, &x0, v0, coils);
+    all_finite(scene, &a, &b, &c, v0)?;
+    let controller = closed_loop::loop_gains(&params, &sim);
+    finite_gains(controller.as_ref())?;
+    Ok(Linearisation {
+        level,
+        speed_m_s: x0[3],
+        voltage_v: v0,
+        sensors,
+        dt_s: dt,
+        a,
+        b,
+        c,
+        controller,
+    })
+}
+
+/// The run's parameters at the operating point: the full level as its no-slip
+/// counterpart, the start on the wire heading along it, no sensor noise.
+fn on_the_wire(scene: &Scene) -> Result<(SimParams, Fidelity), LinearizeError> {
     let mut params = SimParams::from_scene(scene)?;
     let level = match params.sim.fidelity {
         Fidelity::Full => {
@@ -190,15 +230,18 @@ pub fn linearise(scene: &Scene) -> Result<Linearisation, LinearizeError> {
     }
     // On the wire: the start projected onto the wire, heading along it.
     let near = params.wire.offset([params.start.x_m, params.start.y_m]);
-    let reverse = params.firmware.controller.reverse;
     params.start = Pose {
         x_m: near.nearest_m[0],
         y_m: near.nearest_m[1],
         heading_rad: near.direction_rad,
     };
     params.sensors.noise_adc = 0.0;
-    // The firmware's forward voltage: mean terminal voltage over the last second of a
-    // 4 s run on the wire.
+    Ok((params, level))
+}
+
+/// The firmware's forward voltage: the mean terminal voltage over the last second of a
+/// 4 s run on the wire (none is refused: no operating point).
+fn forward_voltage(params: &SimParams, scene: &Scene) -> Result<f64, LinearizeError> {
     let mut sim = Sim::from_params(params.clone())?;
     let dt = params.sim.dt_s;
     let steps = (4.0 / dt).round() as usize;
@@ -218,22 +261,19 @@ pub fn linearise(scene: &Scene) -> Result<Linearisation, LinearizeError> {
                 .into(),
         ));
     }
-    // Straight running at that voltage, to steady state (teeth in contact).
-    let mut sim = Sim::from_params(params.clone())?;
-    sim.set_actuation(Actuation::Voltage([v0, v0]));
-    for _ in 0..(4.0 / dt).round() as usize {
-        sim.step().map_err(|e| e.naming_suspects(scene))?;
-    }
-    let x0 = sim.plant_vector();
-    let coils = match (reverse, params.rear_coils_m()) {
-        (true, Some(r)) => r,
-        _ => params.coils_m(),
-    };
-    let sensors = if reverse && params.rear_coils_m().is_some() {
-        "rear"
-    } else {
-        "front"
-    };
+    Ok(v0)
+}
+
+/// A, B and C by central differences about the state `x0` at the voltage `v0`: one
+/// physics step from each perturbed state or voltage, the coils' analogue readings of
+/// each perturbed state.
+fn jacobians(
+    sim: &mut Sim,
+    x0: &DVector<f64>,
+    v0: f64,
+    coils: [[f64; 2]; 2],
+) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
+    let dt = sim.params().sim.dt_s;
     let step_from = |sim: &mut Sim, x: &DVector<f64>, u: [f64; 2]| -> DVector<f64> {
         sim.set_plant_vector(x);
         sim.advance_drivetrains_and_body([Terminal::Voltage(u[0]), Terminal::Voltage(u[1])], dt);
@@ -248,8 +288,8 @@ pub fn linearise(scene: &Scene) -> Result<Linearisation, LinearizeError> {
         xp[j] += d;
         let mut xm = x0.clone();
         xm[j] -= d;
-        let fp = step_from(&mut sim, &xp, [v0, v0]);
-        let fm = step_from(&mut sim, &xm, [v0, v0]);
+        let fp = step_from(sim, &xp, [v0, v0]);
+        let fm = step_from(sim, &xm, [v0, v0]);
         a.set_column(j, &((fp - fm) / (2.0 * d)));
         sim.set_plant_vector(&xp);
         let yp = sim.coil_analogue(coils);
@@ -263,10 +303,22 @@ pub fn linearise(scene: &Scene) -> Result<Linearisation, LinearizeError> {
         let (mut up, mut um) = ([v0, v0], [v0, v0]);
         up[k] += d;
         um[k] -= d;
-        let fp = step_from(&mut sim, &x0, up);
-        let fm = step_from(&mut sim, &x0, um);
+        let fp = step_from(sim, x0, up);
+        let fm = step_from(sim, x0, um);
         b.set_column(k, &((fp - fm) / (2.0 * d)));
     }
+    (a, b, c)
+}
+
+/// A runaway operating point or a derivative that overflowed is refused: the eigenvalue
+/// analysis of a non-finite matrix would never end.
+fn all_finite(
+    scene: &Scene,
+    a: &DMatrix<f64>,
+    b: &DMatrix<f64>,
+    c: &DMatrix<f64>,
+    v0: f64,
+) -> Result<(), LinearizeError> {
     if !(a
         .iter()
         .chain(b.iter())
@@ -289,8 +341,12 @@ pub fn linearise(scene: &Scene) -> Result<Linearisation, LinearizeError> {
             }
         )));
     }
-    let controller = closed_loop::loop_gains(&params, &sim);
-    if let Some(g) = &controller {
+    Ok(())
+}
+
+/// The loop's gains must be numbers.
+fn finite_gains(controller: Option<&closed_loop::LoopGains>) -> Result<(), LinearizeError> {
+    if let Some(g) = controller {
         let gains = [
             g.kp,
             g.kd,
@@ -307,17 +363,7 @@ pub fn linearise(scene: &Scene) -> Result<Linearisation, LinearizeError> {
             )));
         }
     }
-    Ok(Linearisation {
-        level,
-        speed_m_s: x0[3],
-        voltage_v: v0,
-        sensors,
-        dt_s: dt,
-        a,
-        b,
-        c,
-        controller,
-    })
+    Ok(())
 }
 
 /// The report `agvsim linearize` prints.
