@@ -26,30 +26,50 @@ pub struct RigKey {
     pub order: usize,
 }
 
-/// The rig keys that are scene keys, in the contract's order: (rig key, scene key). Most
-/// have the scene's name; the contract calls the supply and the DCMC otherwise.
-const FROM_SCENE: [(&str, &str); 20] = [
-    ("motor.resistance_ohm", "motor.resistance_ohm"),
-    ("motor.inductance_H", "motor.inductance_H"),
-    ("motor.torque_constant_Nm_A", "motor.torque_constant_Nm_A"),
-    ("motor.rotor_inertia_kg_m2", "motor.rotor_inertia_kg_m2"),
-    ("motor.viscous_Nm_s_rad", "motor.viscous_Nm_s_rad"),
-    ("motor.coulomb_Nm", "motor.coulomb_Nm"),
-    ("gearbox.ratio", "gearbox.ratio"),
-    ("wheel.radius_m", "wheel.radius_m"),
-    ("wheel.inertia_kg_m2", "wheel.inertia_kg_m2"),
-    ("supply.voltage_V", "battery.open_circuit_V"),
-    ("controller.kind", "dcmc.kind"),
-    ("controller.gain_V_pct", "dcmc.forward_gain_V_pct"),
-    ("controller.turn_gain_V_pct", "dcmc.turn_gain_V_pct"),
-    ("controller.speed_per_pct_rad_s", "dcmc.speed_per_pct_rad_s"),
-    ("controller.kp_V_s_rad", "dcmc.kp_V_s_rad"),
-    ("controller.ki_V_rad", "dcmc.ki_V_rad"),
-    ("chassis.mass_kg", "chassis.mass_kg"),
-    ("chassis.yaw_inertia_kg_m2", "chassis.yaw_inertia_kg_m2"),
-    ("chassis.track_width_m", "chassis.track_width_m"),
-    ("chassis.drive_load_fraction", "chassis.drive_load_fraction"),
+/// The rig keys that are scene keys, in the contract's order (a rig is written in it):
+/// each the scene's own key, or a rename where the contract calls a scene key otherwise
+/// (the supply is the battery, the controller the DCMC).
+const FROM_SCENE: [SceneKey; 20] = [
+    SceneKey::Same("motor.resistance_ohm"),
+    SceneKey::Same("motor.inductance_H"),
+    SceneKey::Same("motor.torque_constant_Nm_A"),
+    SceneKey::Same("motor.rotor_inertia_kg_m2"),
+    SceneKey::Same("motor.viscous_Nm_s_rad"),
+    SceneKey::Same("motor.coulomb_Nm"),
+    SceneKey::Same("gearbox.ratio"),
+    SceneKey::Same("wheel.radius_m"),
+    SceneKey::Same("wheel.inertia_kg_m2"),
+    SceneKey::Renamed("supply.voltage_V", "battery.open_circuit_V"),
+    SceneKey::Renamed("controller.kind", "dcmc.kind"),
+    SceneKey::Renamed("controller.gain_V_pct", "dcmc.forward_gain_V_pct"),
+    SceneKey::Renamed("controller.turn_gain_V_pct", "dcmc.turn_gain_V_pct"),
+    SceneKey::Renamed("controller.speed_per_pct_rad_s", "dcmc.speed_per_pct_rad_s"),
+    SceneKey::Renamed("controller.kp_V_s_rad", "dcmc.kp_V_s_rad"),
+    SceneKey::Renamed("controller.ki_V_rad", "dcmc.ki_V_rad"),
+    SceneKey::Same("chassis.mass_kg"),
+    SceneKey::Same("chassis.yaw_inertia_kg_m2"),
+    SceneKey::Same("chassis.track_width_m"),
+    SceneKey::Same("chassis.drive_load_fraction"),
 ];
+
+/// A scene key a rig states.
+#[derive(Clone, Copy)]
+enum SceneKey {
+    /// Under the scene's own name.
+    Same(&'static str),
+    /// Under the contract's name (rig key, scene key).
+    Renamed(&'static str, &'static str),
+}
+
+impl SceneKey {
+    /// (the rig's name, the scene's).
+    fn names(self) -> (&'static str, &'static str) {
+        match self {
+            SceneKey::Same(k) => (k, k),
+            SceneKey::Renamed(rig, scene) => (rig, scene),
+        }
+    }
+}
 
 /// Where a rig allows what the scene does not: a zero that means "lumped" or "negligible"
 /// (each model accepts it or refuses it with its reason), and a drivetrain whose wheels
@@ -72,7 +92,7 @@ pub fn table() -> &'static [RigKey] {
 fn build() -> Vec<RigKey> {
     let scene = crate::scene::keys::table();
     let mut out: Vec<RigKey> = Vec::new();
-    for (key, scene_key) in FROM_SCENE {
+    for (key, scene_key) in FROM_SCENE.map(SceneKey::names) {
         let Some(k) = scene.find(scene_key) else {
             continue;
         };
