@@ -103,6 +103,7 @@ impl<'a> Series<'a> {
 
 /// Points drawn as crosses along the top edge, outside the scale, with one legend entry
 /// (for example the grid points where every run lost the wire).
+#[derive(Clone, Copy)]
 pub struct Flags<'a> {
     /// Legend text.
     pub label: &'a str,

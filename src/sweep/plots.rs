@@ -44,11 +44,85 @@ pub fn x_key(grid: &Grid) -> usize {
 pub fn write(dir: &Path, grid: &Grid, table: &Table) -> Result<Vec<PathBuf>, SweepError> {
     let pdir = dir.join("plots");
     std::fs::create_dir_all(&pdir).map_err(io_err(&pdir))?;
-    let xi = x_key(grid);
-    let xv = &grid.varies[xi];
-    let numeric_x = xv.values.iter().all(|x| x.parse::<f64>().is_ok());
-    let x_of = |s: &str| -> f64 {
-        if numeric_x {
+    let axis = Axis::of(grid, table);
+    let mut files = vec![];
+    for (metric, meaning) in METRICS.iter().filter(|(m, _)| !TEXT_METRICS.contains(m)) {
+        let Some(mc) = table.column(metric) else {
+            continue;
+        };
+        let tracking = TRACKING_METRICS.contains(metric);
+        let (lines, flagged) = axis.lines(table, mc, tracking);
+        if lines.is_empty() && flagged.is_empty() {
+            continue;
+        }
+        let data: Vec<(String, Vec<f64>, Vec<f64>)> = lines
+            .into_values()
+            .map(|(label, pts)| {
+                let (xs, ys) = pts.values().map(|(x, s, n)| (*x, s / *n as f64)).unzip();
+                (
+                    if label.is_empty() {
+                        "mean over repeats".into()
+                    } else {
+                        label
+                    },
+                    xs,
+                    ys,
+                )
+            })
+            .collect();
+        let flags = (!flagged.is_empty()).then_some(Flags {
+            label: if tracking {
+                "a run here lost the wire or failed (left out)"
+            } else {
+                "a run here lost the wire (kept) or failed (left out)"
+            },
+            x: &flagged,
+            colour: "#c00000",
+        });
+        files.extend(write_parts(
+            &pdir,
+            metric,
+            meaning,
+            &data,
+            &axis.label(),
+            flags,
+        )?);
+    }
+    Ok(files)
+}
+
+/// The plots' x axis: the first numeric key of the grid (else its first key, its values
+/// as places), and the column each key is in.
+struct Axis<'g> {
+    grid: &'g Grid,
+    /// The key along x.
+    xi: usize,
+    numeric: bool,
+    key_cols: Vec<Option<usize>>,
+    outcome: Option<usize>,
+    lost: Option<usize>,
+}
+
+impl<'g> Axis<'g> {
+    fn of(grid: &'g Grid, table: &Table) -> Self {
+        let xi = x_key(grid);
+        Axis {
+            grid,
+            xi,
+            numeric: grid.varies[xi]
+                .values
+                .iter()
+                .all(|x| x.parse::<f64>().is_ok()),
+            key_cols: grid.varies.iter().map(|v| table.column(&v.key)).collect(),
+            outcome: table.column("outcome"),
+            lost: table.column("lost_wire"),
+        }
+    }
+
+    /// A value of the x key as a place on the axis.
+    fn x_of(&self, s: &str) -> f64 {
+        let xv = &self.grid.varies[self.xi];
+        if self.numeric {
             s.parse().unwrap_or(f64::NAN)
         } else {
             xv.values
@@ -57,29 +131,38 @@ pub fn write(dir: &Path, grid: &Grid, table: &Table) -> Result<Vec<PathBuf>, Swe
                 .map(|i| i as f64)
                 .unwrap_or(f64::NAN)
         }
-    };
-    let outcome = table.column("outcome");
-    let lost = table.column("lost_wire");
-    let key_cols: Vec<Option<usize>> = grid.varies.iter().map(|v| table.column(&v.key)).collect();
-    let mut files = vec![];
-    for (metric, meaning) in METRICS.iter().filter(|(m, _)| !TEXT_METRICS.contains(m)) {
-        let Some(mc) = table.column(metric) else {
-            continue;
-        };
+    }
+
+    /// The axis's label (a text key's values listed in their places).
+    fn label(&self) -> String {
+        let xv = &self.grid.varies[self.xi];
+        if self.numeric {
+            xv.key.clone()
+        } else {
+            format!("{} ({})", xv.key, xv.values.join(", "))
+        }
+    }
+
+    /// A metric's lines (one per combination of the other keys, in grid order, each the
+    /// mean at each x) and the x of runs that failed or lost the wire. A failed run has no
+    /// value; a lost run's tracking figures measure distance from the wire, so both are
+    /// left out of the lines; its other figures (slip until the wire was lost, energy,
+    /// distance) stay in.
+    fn lines(
+        &self,
+        table: &Table,
+        mc: usize,
+        tracking: bool,
+    ) -> (BTreeMap<Vec<usize>, (String, Bins)>, Vec<f64>) {
         // series label -> x -> (sum, count)
         let mut lines: BTreeMap<Vec<usize>, (String, Bins)> = BTreeMap::new();
-        let tracking = TRACKING_METRICS.contains(metric);
-        // Grid x of runs that failed or lost the wire: marked on every metric. A failed
-        // run has no value; a lost run's tracking figures measure distance from the wire,
-        // so both are left out of the lines; its other figures (slip until the wire was
-        // lost, energy, distance) stay in.
         let mut flagged: Vec<f64> = vec![];
         for (_, _, cells) in &table.rows {
-            let failed = outcome.map(|c| cells[c] != "ok").unwrap_or(false);
-            let was_lost = lost.is_some_and(|c| cells[c] == "1");
+            let failed = self.outcome.map(|c| cells[c] != "ok").unwrap_or(false);
+            let was_lost = self.lost.is_some_and(|c| cells[c] == "1");
             if failed || was_lost {
-                if let Some(Some(col)) = key_cols.get(xi) {
-                    let x = x_of(&cells[*col]);
+                if let Some(Some(col)) = self.key_cols.get(self.xi) {
+                    let x = self.x_of(&cells[*col]);
                     if x.is_finite() && !flagged.contains(&x) {
                         flagged.push(x);
                     }
@@ -94,11 +177,11 @@ pub fn write(dir: &Path, grid: &Grid, table: &Table) -> Result<Vec<PathBuf>, Swe
             let mut order = vec![];
             let mut label = vec![];
             let mut x = f64::NAN;
-            for (k, (v, col)) in grid.varies.iter().zip(&key_cols).enumerate() {
+            for (k, (v, col)) in self.grid.varies.iter().zip(&self.key_cols).enumerate() {
                 let Some(col) = col else { continue };
                 let val = &cells[*col];
-                if k == xi {
-                    x = x_of(val);
+                if k == self.xi {
+                    x = self.x_of(val);
                 } else {
                     order.push(v.values.iter().position(|w| w == val).unwrap_or(usize::MAX));
                     label.push(format!("{}={val}", short_key(&v.key)));
@@ -118,75 +201,55 @@ pub fn write(dir: &Path, grid: &Grid, table: &Table) -> Result<Vec<PathBuf>, Swe
             p.1 += y;
             p.2 += 1;
         }
-        if lines.is_empty() && flagged.is_empty() {
-            continue;
-        }
-        let data: Vec<(String, Vec<f64>, Vec<f64>)> = lines
-            .into_values()
-            .map(|(label, pts)| {
-                let (xs, ys) = pts.values().map(|(x, s, n)| (*x, s / *n as f64)).unzip();
-                (
-                    if label.is_empty() {
-                        "mean over repeats".into()
-                    } else {
-                        label
-                    },
-                    xs,
-                    ys,
-                )
-            })
+        (lines, flagged)
+    }
+}
+
+/// A metric's plot, its lines split over several files when there are more than one plot
+/// can show (each saying which lines it holds: no combination is left out); the files.
+fn write_parts(
+    pdir: &Path,
+    metric: &str,
+    meaning: &str,
+    data: &[(String, Vec<f64>, Vec<f64>)],
+    x_label: &str,
+    flags: Option<Flags>,
+) -> Result<Vec<PathBuf>, SweepError> {
+    let mut files = vec![];
+    let parts = data.len().div_ceil(MAX_SERIES).max(1);
+    for part in 0..parts {
+        let lo = part * MAX_SERIES;
+        let chunk = &data[lo.min(data.len())..(lo + MAX_SERIES).min(data.len())];
+        let series: Vec<Series> = chunk
+            .iter()
+            .enumerate()
+            .map(|(i, (label, xs, ys))| Series::line(label, xs, ys, COLOURS[i % COLOURS.len()]))
             .collect();
-        let x_label = if numeric_x {
-            xv.key.clone()
+        // The parts are files side by side (METRIC.svg, METRIC_part2.svg, ...).
+        let title = if parts > 1 {
+            format!(
+                "{meaning}: part {}/{parts}, lines {}-{} of {}",
+                part + 1,
+                lo + 1,
+                lo + chunk.len(),
+                data.len()
+            )
         } else {
-            format!("{} ({})", xv.key, xv.values.join(", "))
+            meaning.to_string()
         };
-        let flag_label = if tracking {
-            "a run here lost the wire or failed (left out)"
-        } else {
-            "a run here lost the wire (kept) or failed (left out)"
-        };
-        // More lines than one plot can show are split over several files, each saying
-        // which lines it holds: no combination is left out.
-        let parts = data.len().div_ceil(MAX_SERIES).max(1);
-        for part in 0..parts {
-            let lo = part * MAX_SERIES;
-            let chunk = &data[lo.min(data.len())..(lo + MAX_SERIES).min(data.len())];
-            let series: Vec<Series> = chunk
-                .iter()
-                .enumerate()
-                .map(|(i, (label, xs, ys))| Series::line(label, xs, ys, COLOURS[i % COLOURS.len()]))
-                .collect();
-            // The parts are files side by side (METRIC.svg, METRIC_part2.svg, ...).
-            let title = if parts > 1 {
-                format!(
-                    "{meaning}: part {}/{parts}, lines {}-{} of {}",
-                    part + 1,
-                    lo + 1,
-                    lo + chunk.len(),
-                    data.len()
-                )
-            } else {
-                meaning.to_string()
-            };
-            let text = Plot {
-                title: &title,
-                x_label: &x_label,
-                y_label: metric,
-                series: &series,
-                band: None,
-                flags: (!flagged.is_empty()).then_some(Flags {
-                    label: flag_label,
-                    x: &flagged,
-                    colour: "#c00000",
-                }),
-                empty_note: "no run gave a value",
-            }
-            .render();
-            let path = pdir.join(part_file(metric, part));
-            crate::output::write_atomically(&path, text).map_err(io_err(&path))?;
-            files.push(path);
+        let text = Plot {
+            title: &title,
+            x_label,
+            y_label: metric,
+            series: &series,
+            band: None,
+            flags,
+            empty_note: "no run gave a value",
         }
+        .render();
+        let path = pdir.join(part_file(metric, part));
+        crate::output::write_atomically(&path, text).map_err(io_err(&path))?;
+        files.push(path);
     }
     Ok(files)
 }
