@@ -7,6 +7,9 @@ use std::path::{Path, PathBuf};
 /// A series' points binned by x (scaled to an integer): the sums of x and y, and the count.
 type Bins = BTreeMap<i64, (f64, f64, usize)>;
 
+/// A metric's lines by the other keys' value places: each its label and its bins.
+type Lines = BTreeMap<Vec<usize>, (String, Bins)>;
+
 use super::grid::Grid;
 use super::results::{Table, METRICS};
 use super::{io_err, SweepError};
@@ -148,14 +151,9 @@ impl<'g> Axis<'g> {
     /// value; a lost run's tracking figures measure distance from the wire, so both are
     /// left out of the lines; its other figures (slip until the wire was lost, energy,
     /// distance) stay in.
-    fn lines(
-        &self,
-        table: &Table,
-        mc: usize,
-        tracking: bool,
-    ) -> (BTreeMap<Vec<usize>, (String, Bins)>, Vec<f64>) {
+    fn lines(&self, table: &Table, mc: usize, tracking: bool) -> (Lines, Vec<f64>) {
         // series label -> x -> (sum, count)
-        let mut lines: BTreeMap<Vec<usize>, (String, Bins)> = BTreeMap::new();
+        let mut lines: Lines = BTreeMap::new();
         let mut flagged: Vec<f64> = vec![];
         for (_, _, cells) in &table.rows {
             let failed = self.outcome.map(|c| cells[c] != "ok").unwrap_or(false);
