@@ -21,6 +21,17 @@ fn unit_of(effect: &str, param: &str) -> &'static str {
 /// The diagnosis in plain words.
 pub fn render(d: &Diagnosis) -> String {
     let mut s = String::new();
+    baseline_lines(&mut s, d);
+    candidate_lines(&mut s, d);
+    stop_line(&mut s, d);
+    finding_lines(&mut s, d);
+    uncertainty_line(&mut s, d);
+    sysid_and_error_lines(&mut s, d);
+    s
+}
+
+/// The recording, the baseline's fit and where its residual lives.
+fn baseline_lines(s: &mut String, d: &Diagnosis) {
     let _ = writeln!(s, "Recording: {}   model: {}", d.recording, d.model);
     if !d.ignored_inputs.is_empty() {
         let _ = writeln!(
@@ -38,7 +49,7 @@ pub fn render(d: &Diagnosis) -> String {
         d.baseline_fit_pct,
         per_output(&d.baseline.fit_pct)
     );
-    held_lines(&mut s, &d.baseline_estimates, "the baseline");
+    held_lines(s, &d.baseline_estimates, "the baseline");
     for (name, bound) in &d.baseline_at_bound {
         let _ = writeln!(
             s,
@@ -57,6 +68,10 @@ pub fn render(d: &Diagnosis) -> String {
             r.energy_pct, r.samples_pct, r.regime
         );
     }
+}
+
+/// Each round's candidates with their gains and verdicts.
+fn candidate_lines(s: &mut String, d: &Diagnosis) {
     for (i, round) in d.rounds.iter().enumerate() {
         let _ = writeln!(
             s,
@@ -81,7 +96,10 @@ pub fn render(d: &Diagnosis) -> String {
             );
         }
     }
-    stop_line(&mut s, d);
+}
+
+/// The effects found (or that nothing is missing) and the diagnosed model's fit.
+fn finding_lines(s: &mut String, d: &Diagnosis) {
     if d.findings.is_empty() {
         let _ = writeln!(s, "Verdict: nothing is missing; no effect explains enough of the residual to be told from noise.");
     }
@@ -115,9 +133,13 @@ pub fn render(d: &Diagnosis) -> String {
             d.final_fit_pct,
             per_output(&d.diagnosed.fit_pct)
         );
-        held_lines(&mut s, &d.final_estimates, "the diagnosed model");
+        held_lines(s, &d.final_estimates, "the diagnosed model");
     }
-    uncertainty_line(&mut s, d);
+}
+
+/// SysId's regression beside the diagnosed model's terms, the relative errors and the
+/// validation.
+fn sysid_and_error_lines(s: &mut String, d: &Diagnosis) {
     if let Some(ff) = &d.feedforward {
         s.push_str(&crate::import::wpilib::feedforward::render_report(ff));
         if let Some(t) = &d.sysid_terms {
@@ -152,7 +174,6 @@ pub fn render(d: &Diagnosis) -> String {
             per_output(&a.fit_pct)
         );
     }
-    s
 }
 
 /// Why a candidate was or was not taken, in words; `taken` is the effect its round found.
