@@ -44,6 +44,34 @@ pub fn calibration(
     d.heading("The recording");
     d.recording(recording_names, rec);
     d.heading("Fitted keys");
+    key_table(&mut d, c);
+    if !c.effects.is_empty() {
+        effect_table(&mut d, c);
+    }
+    d.heading("Replay fit per output");
+    let rows = c
+        .outputs
+        .iter()
+        .filter_map(|name| {
+            let (b, a) = (c.before.output(name)?, c.after.output(name)?);
+            Some(vec![name.as_str().into(), pct(b.fit_pct), pct(a.fit_pct)])
+        })
+        .collect();
+    d.table(&["output", "scene as written", "calibrated"], rows);
+    for l in &c.left_out {
+        d.paragraph(&format!("Left out: {} ({})", l.output, l.why), "note");
+    }
+    d.figures(&crate::calibrate::write::figures(c, recording_names));
+    d.heading("What the calibrated scene changes");
+    changes_table(&mut d, c);
+    d.heading("The report as printed");
+    d.pre(text_report);
+    d.command(command);
+    d.finish()
+}
+
+/// Each key before and after, with its verdict.
+fn key_table(d: &mut Document, c: &Calibration) {
     let rows = c
         .keys
         .iter()
@@ -63,52 +91,43 @@ pub fn calibration(
         &["key", "unit", "scene", "calibrated ± 1 std", "verdict"],
         rows,
     );
-    if !c.effects.is_empty() {
-        d.heading("Effects tried");
-        d.paragraph("Each effect's evidence: the Akaike information criterion's gain and the change of the weighted residual with the effect against without it.", "note");
-        let rows = c
-            .effects
-            .iter()
-            .map(|t| {
-                let unit = unit_of_key(&t.key);
-                vec![
-                    t.effect.name().into(),
-                    t.key.as_str().into(),
-                    Cell::Num(if t.accepted {
-                        estimate(t.value, t.std, unit)
-                    } else {
-                        quantity(t.value, 4, unit)
-                    }),
-                    Cell::Num(if t.delta_aic.is_finite() {
-                        format!("{:.1}", t.delta_aic)
-                    } else {
-                        "-".into()
-                    }),
-                    Cell::Num(crate::numtext::change_pct(-t.rss_reduction_pct)),
-                    crate::calibrate::write::verdict(t, unit).into(),
-                ]
-            })
-            .collect();
-        d.table(
-            &["effect", "key", "value", "AIC gain", "residual", "verdict"],
-            rows,
-        );
-    }
-    d.heading("Replay fit per output");
+}
+
+/// Each effect tried with its evidence.
+fn effect_table(d: &mut Document, c: &Calibration) {
+    d.heading("Effects tried");
+    d.paragraph("Each effect's evidence: the Akaike information criterion's gain and the change of the weighted residual with the effect against without it.", "note");
     let rows = c
-        .outputs
+        .effects
         .iter()
-        .filter_map(|name| {
-            let (b, a) = (c.before.output(name)?, c.after.output(name)?);
-            Some(vec![name.as_str().into(), pct(b.fit_pct), pct(a.fit_pct)])
+        .map(|t| {
+            let unit = unit_of_key(&t.key);
+            vec![
+                t.effect.name().into(),
+                t.key.as_str().into(),
+                Cell::Num(if t.accepted {
+                    estimate(t.value, t.std, unit)
+                } else {
+                    quantity(t.value, 4, unit)
+                }),
+                Cell::Num(if t.delta_aic.is_finite() {
+                    format!("{:.1}", t.delta_aic)
+                } else {
+                    "-".into()
+                }),
+                Cell::Num(crate::numtext::change_pct(-t.rss_reduction_pct)),
+                crate::calibrate::write::verdict(t, unit).into(),
+            ]
         })
         .collect();
-    d.table(&["output", "scene as written", "calibrated"], rows);
-    for l in &c.left_out {
-        d.paragraph(&format!("Left out: {} ({})", l.output, l.why), "note");
-    }
-    d.figures(&crate::calibrate::write::figures(c, recording_names));
-    d.heading("What the calibrated scene changes");
+    d.table(
+        &["effect", "key", "value", "AIC gain", "residual", "verdict"],
+        rows,
+    );
+}
+
+/// What the calibrated scene changes: keys fitted, effects removed, switches set.
+fn changes_table(d: &mut Document, c: &Calibration) {
     let mut rows: Vec<Vec<Cell>> = c
         .keys
         .iter()
@@ -148,10 +167,6 @@ pub fn calibration(
     } else {
         d.table(&["key", "scene", "calibrated scene", "why"], rows);
     }
-    d.heading("The report as printed");
-    d.pre(text_report);
-    d.command(command);
-    d.finish()
 }
 
 /// The diagnosis report.
