@@ -544,71 +544,106 @@ pub fn ros2(req: &Ros2Import, say: Say) -> Result<(), CommandError> {
         ))
     });
     let mut warnings: Vec<String> = vec![];
-    if let Some((track_m, radius_m, from)) = &geometry {
-        let battery_v = req.battery_v.or(rec.battery_v);
-        let spec = crate::scene::robot::RobotSpec {
-            mass_kg: req.mass_kg,
-            track_m: Some(*track_m),
-            wheel_radius_m: Some(*radius_m),
-            battery_v,
-            motor: req.motor,
-            gear_ratio: req.gear_ratio,
-            // No play unless the user says: a robot is not the thesis machine.
-            backlash_rad: Some(req.backlash_rad.unwrap_or(0.0)),
-            guidance: Some(crate::scene::robot::Guidance::None),
-            configured_geometry: true,
-            origins: geometry_origins(&rec, &geometry, req.battery_v.is_none()),
-            description: Some(format!(
-                "The robot of ROS 2 bag {stem}: {from}{}; {} until calibrated",
-                battery_v.map_or(String::new(), |v| format!(
-                    "; battery {} V{}",
-                    crate::scene::plausibility::sig(v),
-                    if req.battery_v.is_some() {
-                        ""
-                    } else {
-                        ", the median of its battery topic"
-                    }
-                )),
-                if req.motor.is_some() {
-                    "the rest derived from the numbers given"
-                } else {
-                    "the motor and gear the thesis machine's (assumed: give --motor-* and --gear-ratio)"
-                }
-            )),
-            ..Default::default()
-        };
-        let base = crate::scene::Scene::default();
-        let new = crate::scene::robot::new_scene(
-            &spec,
-            Some((Path::new("the thesis machine (agvsim's defaults)"), &base)),
-            &req.command,
-        )?;
-        let mut text = new.text;
-        if let Some(p) = &params {
-            text = with_controller_params(&text, p, req.controller_yaml.as_deref())?;
-        }
-        if let Ok(checked) = crate::scene::Scene::checked_from_toml(&text, &scene_path, &[]) {
-            // Each warning names where its number came from: an option, the bag's
-            // description, its battery topic.
-            for (origin, w) in &checked.warnings {
-                warnings.push(match spec.options_setting(w.key) {
-                    Some(from) => format!("warning: {from} ({origin}): {w}\n"),
-                    None => format!("warning: {origin}: {w}\n"),
-                });
-            }
-        }
-        crate::scene::Scene::from_toml(&text, &scene_path, &[]).map_err(|e| {
-            CommandError::Contract {
-                what: "the robot's scene".into(),
-                message: e.to_string(),
-            }
-        })?;
+    if let Some(g) = &geometry {
+        let (text, said) = robot_scene(req, &rec, g, params.as_ref(), &stem, &scene_path)?;
+        warnings = said;
         files.push((scene_path.clone(), text));
     }
     std::fs::create_dir_all(&dir).map_err(io(&dir))?;
     for (path, text) in &files {
         write_file(path, text)?;
     }
+    say(&ros2_report(
+        req,
+        &rec,
+        &warnings,
+        &csv_path,
+        (files.len() > 1).then_some(&scene_path),
+    ));
+    Ok(())
+}
+
+/// The robot's scene from the bag's geometry and the flags (`new`'s derivations, the
+/// controller's parameters written in), and its plausibility warnings, each naming
+/// where its number came from.
+fn robot_scene(
+    req: &Ros2Import,
+    rec: &crate::import::ros2::Ros2Recording,
+    geometry: &(f64, f64, String),
+    params: Option<&crate::import::ros2::controller::DiffDriveParams>,
+    stem: &str,
+    scene_path: &Path,
+) -> Result<(String, Vec<String>), CommandError> {
+    let (track_m, radius_m, from) = geometry;
+    let mut warnings = vec![];
+    let battery_v = req.battery_v.or(rec.battery_v);
+    let spec = crate::scene::robot::RobotSpec {
+        mass_kg: req.mass_kg,
+        track_m: Some(*track_m),
+        wheel_radius_m: Some(*radius_m),
+        battery_v,
+        motor: req.motor,
+        gear_ratio: req.gear_ratio,
+        // No play unless the user says: a robot is not the thesis machine.
+        backlash_rad: Some(req.backlash_rad.unwrap_or(0.0)),
+        guidance: Some(crate::scene::robot::Guidance::None),
+        configured_geometry: true,
+        origins: geometry_origins(rec, &Some(geometry.clone()), req.battery_v.is_none()),
+        description: Some(format!(
+            "The robot of ROS 2 bag {stem}: {from}{}; {} until calibrated",
+            battery_v.map_or(String::new(), |v| format!(
+                "; battery {} V{}",
+                crate::scene::plausibility::sig(v),
+                if req.battery_v.is_some() {
+                    ""
+                } else {
+                    ", the median of its battery topic"
+                }
+            )),
+            if req.motor.is_some() {
+                "the rest derived from the numbers given"
+            } else {
+                "the motor and gear the thesis machine's (assumed: give --motor-* and --gear-ratio)"
+            }
+        )),
+        ..Default::default()
+    };
+    let base = crate::scene::Scene::default();
+    let new = crate::scene::robot::new_scene(
+        &spec,
+        Some((Path::new("the thesis machine (agvsim's defaults)"), &base)),
+        &req.command,
+    )?;
+    let mut text = new.text;
+    if let Some(p) = &params {
+        text = with_controller_params(&text, p, req.controller_yaml.as_deref())?;
+    }
+    if let Ok(checked) = crate::scene::Scene::checked_from_toml(&text, scene_path, &[]) {
+        // Each warning names where its number came from: an option, the bag's
+        // description, its battery topic.
+        for (origin, w) in &checked.warnings {
+            warnings.push(match spec.options_setting(w.key) {
+                Some(from) => format!("warning: {from} ({origin}): {w}\n"),
+                None => format!("warning: {origin}: {w}\n"),
+            });
+        }
+    }
+    crate::scene::Scene::from_toml(&text, scene_path, &[]).map_err(|e| CommandError::Contract {
+        what: "the robot's scene".into(),
+        message: e.to_string(),
+    })?;
+    Ok((text, warnings))
+}
+
+/// What `import ros2` prints: the bag, how each column was made, notes and warnings,
+/// the files written (`scene`: the scene's, if one was).
+fn ros2_report(
+    req: &Ros2Import,
+    rec: &crate::import::ros2::Ros2Recording,
+    warnings: &[String],
+    csv_path: &Path,
+    scene: Option<&PathBuf>,
+) -> String {
     let mut report = format!(
         "bag        {} ({} storage), {} rows over {} s\n",
         req.bag.display(),
@@ -625,15 +660,14 @@ pub fn ros2(req: &Ros2Import, say: Say) -> Result<(), CommandError> {
     for n in &rec.notes {
         report.push_str(&format!("note: {n}\n"));
     }
-    for w in &warnings {
+    for w in warnings {
         report.push_str(w);
     }
     report.push_str(&format!("recording  {}\n", csv_path.display()));
-    if files.len() > 1 {
+    if let Some(scene_path) = scene {
         report.push_str(&format!("scene      {}\n", scene_path.display()));
     } else {
         report.push_str("scene      not written: the bag has no /robot_description with the drive wheels; give --track-m and --wheel-radius-m\n");
     }
-    say(&report);
-    Ok(())
+    report
 }
