@@ -134,6 +134,20 @@ pub fn run(req: &CalibrateRequest, say: Say) -> Result<(), CommandError> {
             cw::mean_fit(&a, &c.outputs)
         ));
     }
+    write_outputs(req, &c, &text, &rec, &transcript)
+}
+
+/// Writes what the request asks for beside the report (JSON, plots, the calibrated scene,
+/// a Rerun overlay, the HTML report), saying each file as it is written.
+fn write_outputs(
+    req: &CalibrateRequest,
+    c: &calibrate::Calibration,
+    text: &str,
+    rec: &Recording,
+    transcript: &super::Transcript,
+) -> Result<(), CommandError> {
+    let say = |s: &str| transcript.say(s);
+    let recordings = super::joined_names(&req.recording);
     let source_name = req
         .recording
         .iter()
@@ -146,31 +160,31 @@ pub fn run(req: &CalibrateRequest, say: Say) -> Result<(), CommandError> {
         .collect::<Vec<String>>()
         .join(" + ");
     if let Some(p) = &req.json {
-        let v = cw::json(&c, &req.scene.display().to_string(), &recordings);
+        let v = cw::json(c, &req.scene.display().to_string(), &recordings);
         write_file(p, serde_json::to_string_pretty(&v).unwrap_or_default())?;
         say(&format!("json       {}\n", p.display()));
     }
     if let Some(dir) = &req.report {
-        cw::write_plots(dir, &c, &source_name).map_err(io(dir))?;
+        cw::write_plots(dir, c, &source_name).map_err(io(dir))?;
         say(&format!("plots      {}\n", dir.display()));
     }
     if let Some(w) = &req.write {
-        let out = cw::calibrated_text(&text, &c, &source_name, &req.set)?;
+        let out = cw::calibrated_text(text, c, &source_name, &req.set)?;
         // The written scene must load on its own: it carries the --set values too.
         Scene::from_toml(&out, w, &[]).map_err(|e| CommandError::WrittenScene(e.to_string()))?;
         write_file(w, &out)?;
         say(&format!("scene      {}\n", w.display()));
     }
     if let Some(p) = &req.save {
-        crate::viz::save_calibration(p, &source_name, &c)?;
+        crate::viz::save_calibration(p, &source_name, c)?;
         say(&format!("rerun      {}\n", p.display()));
     }
     if let Some(p) = &req.html {
         let html = crate::html::reports::calibration(
-            &c,
+            c,
             &req.scene.display().to_string(),
             &recordings,
-            &rec,
+            rec,
             &transcript.text(),
             &req.command,
         );
