@@ -87,12 +87,7 @@ pub fn run_scene(
     // A rerun replaces both files: the old pair goes first, and the new scene takes its
     // name only after the new recording, so that an interrupted rerun never leaves a
     // new scene beside the old recording (nor the old scene beside a new one).
-    for old in [&recording, &scene_used] {
-        match std::fs::remove_file(old) {
-            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(io(old)(e)),
-            _ => {}
-        }
-    }
+    remove_earlier(&[&recording, &scene_used])?;
     let scene_partial = crate::output::partial_name(&scene_used);
     std::fs::write(&scene_partial, scene.to_toml()).map_err(io(&scene_partial))?;
     // The recording streams into `NAME.csv.partial` and takes its name only when the run
@@ -100,30 +95,7 @@ pub fn run_scene(
     // finished, shorter run.
     let partial = crate::output::partial_name(&recording);
     let file = File::create(&partial).map_err(io(&partial))?;
-    let meta = [
-        (
-            "description",
-            if scene.description.is_empty() {
-                opts.name.clone()
-            } else {
-                scene.description.clone()
-            },
-        ),
-        ("sample_time_s", format!("{}", scene.sim.record_interval_s)),
-        (
-            "source",
-            format!(
-                "agvsim {} simulation, fidelity {}",
-                env!("CARGO_PKG_VERSION"),
-                params.sim.fidelity.name()
-            ),
-        ),
-        ("seed", format!("{}", params.sim.seed)),
-        (
-            "heading",
-            "rad, counter-clockwise from world x, unwrapped".to_string(),
-        ),
-    ];
+    let meta = recording_meta(scene, opts, &params);
     let mut writer = RecordingWriter::new(
         BufWriter::new(file),
         crate::rig::RigKind::Vehicle,
@@ -201,6 +173,49 @@ pub fn run_scene(
         recording,
         scene_used,
     })
+}
+
+/// Removes an earlier run's files (none there is no error).
+fn remove_earlier(files: &[&PathBuf]) -> Result<(), RunError> {
+    for old in files {
+        match std::fs::remove_file(old) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(io(old)(e)),
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+/// The recording's metadata: what it is, its interval, what made it, its seed.
+fn recording_meta(
+    scene: &Scene,
+    opts: &RunOptions,
+    params: &SimParams,
+) -> [(&'static str, String); 5] {
+    [
+        (
+            "description",
+            if scene.description.is_empty() {
+                opts.name.clone()
+            } else {
+                scene.description.clone()
+            },
+        ),
+        ("sample_time_s", format!("{}", scene.sim.record_interval_s)),
+        (
+            "source",
+            format!(
+                "agvsim {} simulation, fidelity {}",
+                env!("CARGO_PKG_VERSION"),
+                params.sim.fidelity.name()
+            ),
+        ),
+        ("seed", format!("{}", params.sim.seed)),
+        (
+            "heading",
+            "rad, counter-clockwise from world x, unwrapped".to_string(),
+        ),
+    ]
 }
 
 /// What the summary says of a window with no limit cycle: its swing, and why it is not a
