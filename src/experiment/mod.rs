@@ -266,41 +266,7 @@ pub fn run_experiment(
     scene: &Scene,
     opts: &ExperimentOptions,
 ) -> Result<ExperimentOutput, ExperimentError> {
-    let interval = opts.interval_s.unwrap_or(kind.default_interval_s());
-    if !(interval > 0.0 && interval.is_finite()) {
-        return Err(ExperimentError::Setup(format!(
-            "--interval {}: expected a positive number of seconds",
-            crate::param::plain_number(interval)
-        )));
-    }
-    if !(0.0..1.0).contains(&opts.rig_error) {
-        return Err(ExperimentError::Setup(format!(
-            "--rig-error {}: expected a fraction from 0 up to (not including) 1; beliefs off by 100 % or more can turn a resistance, an inertia or a gain negative",
-            crate::param::plain_number(opts.rig_error)
-        )));
-    }
-    // An encoder's noise is a fraction of the speeds it reads; beyond the simulator's own
-    // speed limit it is no encoder (and 1e308 would write infinite cells).
-    if !(0.0..=MAX_SPEED_NOISE_RAD_S).contains(&opts.speed_noise_rad_s) {
-        return Err(ExperimentError::Setup(format!(
-            "--speed-noise {}: expected an RMS noise from 0 to {MAX_SPEED_NOISE_RAD_S} rad/s",
-            crate::param::plain_number(opts.speed_noise_rad_s)
-        )));
-    }
-    {
-        let d = opts.duration_s;
-        // The budget up front, as `run` checks it: a typo of days never starts.
-        let steps = d / scene.sim.dt_s;
-        if !(d.is_finite() && d > 0.0 && steps <= scene.sim.max_steps as f64) {
-            return Err(ExperimentError::Setup(format!(
-                "--duration {}: expected a positive length of at most sim.max_steps = {} physics steps of sim.dt_s = {} s ({} s); raise sim.max_steps in the scene if it is meant",
-                crate::param::plain_number(d),
-                scene.sim.max_steps,
-                scene.sim.dt_s,
-                crate::param::plain_number(scene.sim.max_steps as f64 * scene.sim.dt_s)
-            )));
-        }
-    }
+    let interval = checked_settings(kind, scene, opts)?;
     let mut scene = scene.clone();
     if let Some(seed) = opts.seed {
         scene.sim.seed = seed;
@@ -373,6 +339,51 @@ pub fn run_experiment(
         extra,
         samples,
     })
+}
+
+/// The settings checked before any work (the interval, the rig error, the encoder noise,
+/// the duration against the step budget); the sample interval, s.
+fn checked_settings(
+    kind: ExperimentKind,
+    scene: &Scene,
+    opts: &ExperimentOptions,
+) -> Result<f64, ExperimentError> {
+    let interval = opts.interval_s.unwrap_or(kind.default_interval_s());
+    if !(interval > 0.0 && interval.is_finite()) {
+        return Err(ExperimentError::Setup(format!(
+            "--interval {}: expected a positive number of seconds",
+            crate::param::plain_number(interval)
+        )));
+    }
+    if !(0.0..1.0).contains(&opts.rig_error) {
+        return Err(ExperimentError::Setup(format!(
+            "--rig-error {}: expected a fraction from 0 up to (not including) 1; beliefs off by 100 % or more can turn a resistance, an inertia or a gain negative",
+            crate::param::plain_number(opts.rig_error)
+        )));
+    }
+    // An encoder's noise is a fraction of the speeds it reads; beyond the simulator's own
+    // speed limit it is no encoder (and 1e308 would write infinite cells).
+    if !(0.0..=MAX_SPEED_NOISE_RAD_S).contains(&opts.speed_noise_rad_s) {
+        return Err(ExperimentError::Setup(format!(
+            "--speed-noise {}: expected an RMS noise from 0 to {MAX_SPEED_NOISE_RAD_S} rad/s",
+            crate::param::plain_number(opts.speed_noise_rad_s)
+        )));
+    }
+    {
+        let d = opts.duration_s;
+        // The budget up front, as `run` checks it: a typo of days never starts.
+        let steps = d / scene.sim.dt_s;
+        if !(d.is_finite() && d > 0.0 && steps <= scene.sim.max_steps as f64) {
+            return Err(ExperimentError::Setup(format!(
+                "--duration {}: expected a positive length of at most sim.max_steps = {} physics steps of sim.dt_s = {} s ({} s); raise sim.max_steps in the scene if it is meant",
+                crate::param::plain_number(d),
+                scene.sim.max_steps,
+                scene.sim.dt_s,
+                crate::param::plain_number(scene.sim.max_steps as f64 * scene.sim.dt_s)
+            )));
+        }
+    }
+    Ok(interval)
 }
 
 fn lifted_scene(scene: &Scene) -> Scene {
