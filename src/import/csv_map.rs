@@ -164,6 +164,42 @@ pub fn convert(
         .iter()
         .map(String::from)
         .collect();
+    let plan = plan_of(&header, map, map_file, data_file)?;
+    let meta = meta_of(&header, &plan, map, map_file, data_file);
+    let names: Vec<&str> = plan.iter().map(|p| p.0.as_str()).collect();
+    let mut out = crate::record::header(map.kind(map_file)?, &meta, &names);
+    let mut last_t: Option<f64> = None;
+    for rec in reader.records() {
+        let rec = rec.map_err(|e| ImportError::Data {
+            file: data_file.to_owned(),
+            line: e.position().map_or(0, |p| p.line() as usize),
+            message: e.to_string(),
+        })?;
+        let line = rec.position().map_or(0, |p| p.line() as usize);
+        let cells = converted_row(&rec, &plan, &header, &mut last_t, (data_file, line))?;
+        let _ = writeln!(out, "{}", cells.join(","));
+    }
+    if last_t.is_none() {
+        return Err(ImportError::Data {
+            file: data_file.to_owned(),
+            line: 2,
+            message: "no data rows".into(),
+        });
+    }
+    Ok(out)
+}
+
+/// One converted column: its contract name, its source column's place, the factor and
+/// how it converts, the offset.
+type Planned = (String, usize, (f64, String), f64);
+
+/// Each contract column's source column, factor and offset, time first.
+fn plan_of(
+    header: &[String],
+    map: &CsvMap,
+    map_file: &Path,
+    data_file: &Path,
+) -> Result<Vec<Planned>, ImportError> {
     let index = |m: &ColumnMap| {
         header
             .iter()
@@ -192,6 +228,17 @@ pub fn convert(
             m.offset,
         ));
     }
+    Ok(plan)
+}
+
+/// The recording's metadata: the description, the source and each column's conversion.
+fn meta_of(
+    header: &[String],
+    plan: &[Planned],
+    map: &CsvMap,
+    map_file: &Path,
+    data_file: &Path,
+) -> Vec<(&'static str, String)> {
     let mut meta = Vec::new();
     if !map.description.is_empty() {
         meta.push(("description", map.description.clone()));
@@ -204,7 +251,7 @@ pub fn convert(
             map_file.display()
         ),
     ));
-    for (target, col, (_, how), offset) in &plan {
+    for (target, col, (_, how), offset) in plan {
         let off = if *offset != 0.0 {
             format!(" + {offset}")
         } else {
@@ -215,58 +262,50 @@ pub fn convert(
             format!("{target} = {} {how}{off}", header[*col]),
         ));
     }
-    let names: Vec<&str> = plan.iter().map(|p| p.0.as_str()).collect();
-    let mut out = crate::record::header(map.kind(map_file)?, &meta, &names);
-    let mut last_t: Option<f64> = None;
-    for rec in reader.records() {
-        let rec = rec.map_err(|e| ImportError::Data {
-            file: data_file.to_owned(),
-            line: e.position().map_or(0, |p| p.line() as usize),
-            message: e.to_string(),
-        })?;
-        let line = rec.position().map_or(0, |p| p.line() as usize);
-        let mut cells = Vec::with_capacity(plan.len());
-        for (target, col, (f, _), offset) in &plan {
-            let raw = rec.get(*col).unwrap_or("");
-            if raw.is_empty() {
-                if target == "t_s" {
-                    return Err(ImportError::Data {
-                        file: data_file.to_owned(),
-                        line,
-                        message: format!("column `{}` (time) is empty", header[*col]),
-                    });
-                }
-                cells.push(String::new());
-                continue;
-            }
-            let v: f64 = raw.parse().ok().filter(|v: &f64| v.is_finite()).ok_or_else(|| ImportError::Data {
-                file: data_file.to_owned(),
-                line,
-                message: format!("column `{}`: `{raw}` is not a finite number (an empty cell marks a missing sample)", header[*col]),
-            })?;
-            let x = v * f + offset;
+    meta
+}
+
+/// A data row's cells converted (empty where the source is); the time must rise.
+fn converted_row(
+    rec: &csv::StringRecord,
+    plan: &[Planned],
+    header: &[String],
+    last_t: &mut Option<f64>,
+    (data_file, line): (&Path, usize),
+) -> Result<Vec<String>, ImportError> {
+    let mut cells = Vec::with_capacity(plan.len());
+    for (target, col, (f, _), offset) in plan {
+        let raw = rec.get(*col).unwrap_or("");
+        if raw.is_empty() {
             if target == "t_s" {
-                if let Some(prev) = last_t.filter(|p| x <= *p) {
-                    return Err(ImportError::Data {
-                        file: data_file.to_owned(),
-                        line,
-                        message: format!(
-                            "time {x} s is not after the previous row's {prev} s (repeated or backwards time stamps are reported, not fixed)"
-                        ),
-                    });
-                }
-                last_t = Some(x);
+                return Err(ImportError::Data {
+                    file: data_file.to_owned(),
+                    line,
+                    message: format!("column `{}` (time) is empty", header[*col]),
+                });
             }
-            cells.push(format!("{x}"));
+            cells.push(String::new());
+            continue;
         }
-        let _ = writeln!(out, "{}", cells.join(","));
-    }
-    if last_t.is_none() {
-        return Err(ImportError::Data {
+        let v: f64 = raw.parse().ok().filter(|v: &f64| v.is_finite()).ok_or_else(|| ImportError::Data {
             file: data_file.to_owned(),
-            line: 2,
-            message: "no data rows".into(),
-        });
+            line,
+            message: format!("column `{}`: `{raw}` is not a finite number (an empty cell marks a missing sample)", header[*col]),
+        })?;
+        let x = v * f + offset;
+        if target == "t_s" {
+            if let Some(prev) = last_t.filter(|p| x <= *p) {
+                return Err(ImportError::Data {
+                    file: data_file.to_owned(),
+                    line,
+                    message: format!(
+                        "time {x} s is not after the previous row's {prev} s (repeated or backwards time stamps are reported, not fixed)"
+                    ),
+                });
+            }
+            *last_t = Some(x);
+        }
+        cells.push(format!("{x}"));
     }
-    Ok(out)
+    Ok(cells)
 }
