@@ -323,6 +323,40 @@ impl MetricsObserver {
         self.bumper |= s.bumper;
     }
 
+    /// Where the run settled (the first sample of its last stay in the band), if it did:
+    /// never once the wire was lost or ended, and only if it then stays in the band for a
+    /// real stretch (a cycle that leaves the band once a period would otherwise "settle"
+    /// after its last swing).
+    fn settled_at(&self, event_t: f64) -> Option<usize> {
+        let settle_idx = self
+            .samples
+            .iter()
+            .rposition(|s| s.lateral_error_m.abs() > SETTLED_BAND_M)
+            .map(|i| i + 1)
+            .unwrap_or(0);
+        let settled = event_t.is_infinite()
+            && settle_idx < self.samples.len()
+            && self.samples.len() - settle_idx >= 2
+            && self.last_t - self.samples[settle_idx].t_s >= SETTLED_MIN_SHARE * self.last_t;
+        settled.then_some(settle_idx)
+    }
+
+    /// RMS swivel rate of the castors over the run's second half, rad/s.
+    fn castor_shimmy_rad_s(&self) -> f64 {
+        let half = 0.5 * self.last_t;
+        let shimmy: Vec<f64> = self
+            .swivel_rate_sq
+            .iter()
+            .filter(|(t, _)| *t >= half)
+            .map(|(_, v)| *v)
+            .collect();
+        if shimmy.is_empty() {
+            0.0
+        } else {
+            (shimmy.iter().sum::<f64>() / shimmy.len() as f64).sqrt()
+        }
+    }
+
     /// The measures so far.
     pub fn summary(&self) -> RunSummary {
         let motion = self.motion;
@@ -339,20 +373,9 @@ impl MetricsObserver {
             .then(|| self.wire_lost.is_some_and(|e| e.t_s <= event_t));
         let on_wire_n = self.samples.partition_point(|s| s.t_s < event_t);
         let on_wire = &self.samples[..on_wire_n];
-        let settle_idx = self
-            .samples
-            .iter()
-            .rposition(|s| s.lateral_error_m.abs() > SETTLED_BAND_M)
-            .map(|i| i + 1)
-            .unwrap_or(0);
-        // Settled only if it then stays in the band for a real stretch: a cycle that
-        // leaves the band once a period would otherwise "settle" after its last swing.
-        let settled = event_t.is_infinite()
-            && settle_idx < self.samples.len()
-            && self.samples.len() - settle_idx >= 2
-            && self.last_t - self.samples[settle_idx].t_s >= SETTLED_MIN_SHARE * self.last_t;
-        let (window, error_window) = if settled {
-            (&self.samples[settle_idx..], ErrorWindow::AfterSettling)
+        let settled_at = self.settled_at(event_t);
+        let (window, error_window) = if let Some(i) = settled_at {
+            (&self.samples[i..], ErrorWindow::AfterSettling)
         } else if let Some(lost_first) = lost_first {
             let w = if lost_first {
                 ErrorWindow::UntilWireLost
@@ -374,13 +397,6 @@ impl MetricsObserver {
             .iter()
             .map(|s| s.lateral_error_m.abs())
             .fold(0.0, f64::max);
-        let half = 0.5 * self.last_t;
-        let shimmy: Vec<f64> = self
-            .swivel_rate_sq
-            .iter()
-            .filter(|(t, _)| *t >= half)
-            .map(|(_, v)| *v)
-            .collect();
         let slip_window = match lost_first {
             None => SlipWindow::SecondHalf,
             Some(true) => SlipWindow::SecondHalfUntilWireLost,
@@ -406,12 +422,8 @@ impl MetricsObserver {
             motion,
             duration_s: self.last_t,
             distance_m: self.distance_m,
-            settling_distance_m: settled.then(|| {
-                self.samples
-                    .get(settle_idx)
-                    .map(|s| s.distance_m)
-                    .unwrap_or(0.0)
-            }),
+            settling_distance_m: settled_at
+                .map(|i| self.samples.get(i).map(|s| s.distance_m).unwrap_or(0.0)),
             rms_lateral_error_m: rms,
             peak_lateral_error_m: peak,
             error_window,
@@ -422,11 +434,7 @@ impl MetricsObserver {
             sliding_fraction: late_slip.iter().filter(|x| x.3).count() as f64 / late_n,
             slip_window,
             battery_energy_j: self.energy_j,
-            castor_shimmy_rad_s: if shimmy.is_empty() {
-                0.0
-            } else {
-                (shimmy.iter().sum::<f64>() / shimmy.len() as f64).sqrt()
-            },
+            castor_shimmy_rad_s: self.castor_shimmy_rad_s(),
             final_lateral_error_m: self
                 .samples
                 .last()
