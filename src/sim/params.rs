@@ -98,37 +98,9 @@ impl SimParams {
     /// The run parameters of a (validated) scene.
     pub fn from_scene(scene: &Scene) -> Result<SimParams, SimError> {
         let features = Features::of(scene.sim.fidelity);
-        let (cg, mass, inertia) = LoadedChassis::with_payload(
-            scene.chassis.mass_kg,
-            scene.chassis.yaw_inertia_kg_m2,
-            [scene.chassis.cg_x_m, scene.chassis.cg_y_m],
-            scene.payload.mass_kg,
-            scene.payload.yaw_inertia_kg_m2,
-            [scene.payload.cg_x_m, scene.payload.cg_y_m],
-        );
-        let chassis = LoadedChassis {
-            mass_kg: mass,
-            yaw_inertia_kg_m2: inertia,
-            cg_m: cg,
-            track_width_m: scene.chassis.track_width_m,
-            drive_load_fraction: scene.chassis.drive_load_fraction,
-            castor_front_x_m: scene.castors.front_x_m,
-            castor_rear_x_m: scene.castors.rear_x_m,
-            castor_half_spacing_m: scene.castors.half_spacing_m,
-        };
+        let chassis = loaded_chassis(scene);
         let loads = chassis.normal_loads();
-        let drivetrain = DrivetrainParams {
-            motor: scene.motor,
-            gearbox: GearboxParams {
-                backlash_rad: if features.backlash {
-                    scene.gearbox.backlash_rad
-                } else {
-                    0.0
-                },
-                ..scene.gearbox
-            },
-            wheel: scene.wheel,
-        };
+        let drivetrain = drivetrain_of(scene, features);
         let noslip = NoSlipParams {
             chassis,
             wheel_radii_m: scene.wheel.rolling_radii_m(),
@@ -136,14 +108,7 @@ impl SimParams {
             linear_drag_n_s_m: scene.castors.lumped_linear_drag_n_s_m,
             angular_drag_nm_s_rad: scene.castors.lumped_angular_drag_nm_s_rad,
         };
-        let drive_compound =
-            presets::compound(&scene.tyre.compound).ok_or_else(|| SimError::Setup {
-                message: format!("unknown tyre compound {:?}", scene.tyre.compound),
-            })?;
-        let castor_compound =
-            presets::compound(&scene.castors.compound).ok_or_else(|| SimError::Setup {
-                message: format!("unknown castor compound {:?}", scene.castors.compound),
-            })?;
+        let (drive_compound, castor_compound) = compounds(scene)?;
         let dcmc = Dcmc {
             params: scene.dcmc,
             armature_resistance_ohm: scene.motor.resistance_ohm,
@@ -151,21 +116,7 @@ impl SimParams {
             faults: features.dcmc_faults,
         };
         let coil = scene.sensors.coil();
-        let firmware = Firmware {
-            controller: scene.controller,
-            period_s: features
-                .sample_and_hold
-                .then_some(scene.controller.period_s),
-            compute_delay_s: if features.sample_and_hold {
-                scene.controller.compute_delay_s
-            } else {
-                0.0
-            },
-            integer_math: features.quantisation,
-            lost_threshold_adc: scene.sensors.lost_threshold_adc,
-            swing_away: (scene.controller.kind == ControllerKind::SwingAway)
-                .then(|| swing_away(scene, &dcmc, coil)),
-        };
+        let firmware = firmware_of(scene, features, &dcmc, coil);
         let mut params = SimParams {
             sim: scene.sim.clone(),
             features,
@@ -377,5 +328,75 @@ fn swing_away(scene: &Scene, dcmc: &Dcmc, coil: CoilParams) -> SwingAwayParams {
         track_width_m: scene.chassis.track_width_m,
         yaw_rate_per_turn_count: rim_difference_m_s / scene.chassis.track_width_m,
         design: scene.controller.swing_away,
+    }
+}
+
+/// The chassis with its payload.
+fn loaded_chassis(scene: &Scene) -> LoadedChassis {
+    let (cg, mass, inertia) = LoadedChassis::with_payload(
+        scene.chassis.mass_kg,
+        scene.chassis.yaw_inertia_kg_m2,
+        [scene.chassis.cg_x_m, scene.chassis.cg_y_m],
+        scene.payload.mass_kg,
+        scene.payload.yaw_inertia_kg_m2,
+        [scene.payload.cg_x_m, scene.payload.cg_y_m],
+    );
+    LoadedChassis {
+        mass_kg: mass,
+        yaw_inertia_kg_m2: inertia,
+        cg_m: cg,
+        track_width_m: scene.chassis.track_width_m,
+        drive_load_fraction: scene.chassis.drive_load_fraction,
+        castor_front_x_m: scene.castors.front_x_m,
+        castor_rear_x_m: scene.castors.rear_x_m,
+        castor_half_spacing_m: scene.castors.half_spacing_m,
+    }
+}
+
+/// Each side's motor, gear (its play only where the level has backlash) and wheel.
+fn drivetrain_of(scene: &Scene, features: Features) -> DrivetrainParams {
+    DrivetrainParams {
+        motor: scene.motor,
+        gearbox: GearboxParams {
+            backlash_rad: if features.backlash {
+                scene.gearbox.backlash_rad
+            } else {
+                0.0
+            },
+            ..scene.gearbox
+        },
+        wheel: scene.wheel,
+    }
+}
+
+/// The drive tyres' and the castors' compounds (an unknown one is refused).
+fn compounds(scene: &Scene) -> Result<(&'static Compound, &'static Compound), SimError> {
+    let drive_compound =
+        presets::compound(&scene.tyre.compound).ok_or_else(|| SimError::Setup {
+            message: format!("unknown tyre compound {:?}", scene.tyre.compound),
+        })?;
+    let castor_compound =
+        presets::compound(&scene.castors.compound).ok_or_else(|| SimError::Setup {
+            message: format!("unknown castor compound {:?}", scene.castors.compound),
+        })?;
+    Ok((drive_compound, castor_compound))
+}
+
+/// The firmware as the level runs it (sampled, delayed and quantised where it says).
+fn firmware_of(scene: &Scene, features: Features, dcmc: &Dcmc, coil: CoilParams) -> Firmware {
+    Firmware {
+        controller: scene.controller,
+        period_s: features
+            .sample_and_hold
+            .then_some(scene.controller.period_s),
+        compute_delay_s: if features.sample_and_hold {
+            scene.controller.compute_delay_s
+        } else {
+            0.0
+        },
+        integer_math: features.quantisation,
+        lost_threshold_adc: scene.sensors.lost_threshold_adc,
+        swing_away: (scene.controller.kind == ControllerKind::SwingAway)
+            .then(|| swing_away(scene, dcmc, coil)),
     }
 }
