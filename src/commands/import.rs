@@ -10,6 +10,28 @@ use crate::import::{csv_map, mat, ImportError};
 use crate::record::Recording;
 use crate::rig::Rig;
 
+/// What a map file holds, with an example, as `import csv --help` and `import mat --help`
+/// print it (a string, not a doc comment: its indented example is TOML, not a doctest).
+macro_rules! map_help {
+    () => {
+        "The map (TOML) names the rig, the time column and each contract column's source,
+with a unit (ms, us, rpm, deg, deg_s, rev, mm, cm, mm_s, mV, mA, mNm) or a `scale`
+(and an optional `offset`):
+
+    rig = \"drive_axis\"
+    time = { column = \"time_ms\", unit = \"ms\" }
+    [columns]
+    voltage_V = { column = \"volts\" }
+    motor_speed_rad_s = { column = \"vel_rpm\", unit = \"rpm\" }
+    current_A = { column = \"amps_x10\", scale = 0.1 }
+
+docs/commands.md (import csv) and docs/matlab.md have more."
+    };
+}
+
+/// The map file's help ([`map_help`]), for reference.
+pub const MAP_HELP: &str = map_help!();
+
 /// `agvsim import`'s formats, each with its command line.
 #[derive(clap::Subcommand, Debug, Clone)]
 pub enum ImportFormat {
@@ -54,22 +76,14 @@ pub enum ImportFormat {
         #[command(flatten)]
         drive: DriveFlags,
     },
-    /// A MATLAB file (MAT level 5, as `save` writes by default) by a map file like the
-    /// CSV's, each `column` naming a variable (a vector).
-    ///
-    /// The map (TOML) names the rig, the time column and each contract column's source,
-    /// with a unit (ms, us, rpm, deg, deg_s, rev, mm, cm, mm_s, mV, mA, mNm) or a `scale`
-    /// (and an optional `offset`):
-    ///
-    ///     rig = "drive_axis"
-    ///     time = { column = "time_ms", unit = "ms" }
-    ///     [columns]
-    ///     voltage_V = { column = "volts" }
-    ///     motor_speed_rad_s = { column = "vel_rpm", unit = "rpm" }
-    ///     current_A = { column = "amps_x10", scale = 0.1 }
-    ///
-    /// docs/commands.md (import csv) and docs/matlab.md have more.
-    #[command(verbatim_doc_comment)]
+    /// A MATLAB file (MAT level 5) by a map file ([`MAP_HELP`] is its help's example).
+    #[command(
+        about = "A MATLAB file (MAT level 5, as `save` writes by default) by a map file like the\nCSV's, each `column` naming a variable (a vector).",
+        long_about = concat!(
+            "A MATLAB file (MAT level 5, as `save` writes by default) by a map file like the\nCSV's, each `column` naming a variable (a vector).\n\n",
+            map_help!()
+        )
+    )]
     Mat {
         /// The MAT-file.
         file: PathBuf,
@@ -80,22 +94,14 @@ pub enum ImportFormat {
         #[arg(long)]
         out: Option<PathBuf>,
     },
-    /// Any CSV whose columns have other names or units, by a map file: the time and each
-    /// contract column with its source column and unit or scale.
-    ///
-    /// The map (TOML) names the rig, the time column and each contract column's source,
-    /// with a unit (ms, us, rpm, deg, deg_s, rev, mm, cm, mm_s, mV, mA, mNm) or a `scale`
-    /// (and an optional `offset`):
-    ///
-    ///     rig = "drive_axis"
-    ///     time = { column = "time_ms", unit = "ms" }
-    ///     [columns]
-    ///     voltage_V = { column = "volts" }
-    ///     motor_speed_rad_s = { column = "vel_rpm", unit = "rpm" }
-    ///     current_A = { column = "amps_x10", scale = 0.1 }
-    ///
-    /// docs/commands.md (import csv) and docs/matlab.md have more.
-    #[command(verbatim_doc_comment)]
+    /// Any CSV by a map file ([`MAP_HELP`] is its help's example).
+    #[command(
+        about = "Any CSV whose columns have other names or units, by a map file: the time and each\ncontract column with its source column and unit or scale.",
+        long_about = concat!(
+            "Any CSV whose columns have other names or units, by a map file: the time and each\ncontract column with its source column and unit or scale.\n\n",
+            map_help!()
+        )
+    )]
     Csv {
         /// The CSV file (a header row, then data).
         file: PathBuf,
