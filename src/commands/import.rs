@@ -475,23 +475,21 @@ pub struct Ros2Import {
 /// from an option: the bag's description (or the controller's file) and battery topic.
 fn geometry_origins(
     rec: &crate::import::ros2::Ros2Recording,
-    geometry: &Option<(f64, f64, String)>,
+    (_, _, from): &(f64, f64, String),
     battery_from_topic: bool,
 ) -> Vec<(&'static str, String)> {
     let mut origins = vec![];
-    if let Some((_, _, from)) = geometry {
-        for (key, part) in [
-            ("chassis.track_width_m", "track"),
-            ("wheel.radius_m", "wheel radius"),
-        ] {
-            // `from` reads "track from X; wheel radius from Y" (or one source for both).
-            let said = from
-                .split("; ")
-                .find_map(|p| p.strip_prefix(&format!("{part} from ")))
-                .unwrap_or(from);
-            if !said.starts_with("--") {
-                origins.push((key, said.to_string()));
-            }
+    for (key, part) in [
+        ("chassis.track_width_m", "track"),
+        ("wheel.radius_m", "wheel radius"),
+    ] {
+        // `from` reads "track from X; wheel radius from Y" (or one source for both).
+        let said = from
+            .split("; ")
+            .find_map(|p| p.strip_prefix(&format!("{part} from ")))
+            .unwrap_or(from);
+        if !said.starts_with("--") {
+            origins.push((key, said.to_string()));
         }
     }
     if battery_from_topic {
@@ -594,7 +592,7 @@ fn robot_scene(
         backlash_rad: Some(req.backlash_rad.unwrap_or(0.0)),
         guidance: Some(crate::scene::robot::Guidance::None),
         configured_geometry: true,
-        origins: geometry_origins(rec, &Some(geometry.clone()), req.battery_v.is_none()),
+        origins: geometry_origins(rec, geometry, req.battery_v.is_none()),
         description: Some(format!(
             "The robot of ROS 2 bag {stem}: {from}{}; {} until calibrated",
             battery_v.map_or(String::new(), |v| format!(
