@@ -256,6 +256,70 @@ pub struct Param<B: 'static> {
 pub trait Block: Default + 'static {
     /// Every parameter in declaration order.
     const PARAMS: &'static [Param<Self>];
+    /// The section the block sits in wherever it is composed (`motor`), if it has one
+    /// (a block composed once per side has none).
+    const SECTION: Option<&'static str>;
+}
+
+/// A typed handle on one declared parameter: its dotted key (`motor.resistance_ohm`) and
+/// unit. [`declare_params!`](crate::declare_params) writes one per parameter of a block
+/// with a section, as an associated constant named after the field
+/// (`MotorParams::resistance_ohm`), so code names a parameter by its declaration and a
+/// misspelt key does not compile. The dotted text is for files, messages and the CLI.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct ParamKey {
+    key: &'static str,
+    unit: &'static str,
+}
+
+impl ParamKey {
+    /// A handle on `key` (dotted), in `unit`. Only the declarations and the contract's
+    /// renames of scene keys (`supply.voltage_V`) make one.
+    pub const fn new(key: &'static str, unit: &'static str) -> Self {
+        ParamKey { key, unit }
+    }
+
+    /// The dotted key (`motor.resistance_ohm`).
+    pub const fn key(self) -> &'static str {
+        self.key
+    }
+
+    /// The unit, as declared (`ohm`); empty for a ratio, a count or a choice.
+    pub const fn unit(self) -> &'static str {
+        self.unit
+    }
+}
+
+impl std::fmt::Display for ParamKey {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.key)
+    }
+}
+
+/// A handle reads as its dotted key wherever text is taken (`rig.get(&K)`).
+impl std::ops::Deref for ParamKey {
+    type Target = str;
+    fn deref(&self) -> &str {
+        self.key
+    }
+}
+
+impl AsRef<str> for ParamKey {
+    fn as_ref(&self) -> &str {
+        self.key
+    }
+}
+
+impl PartialEq<str> for ParamKey {
+    fn eq(&self, other: &str) -> bool {
+        self.key == other
+    }
+}
+
+impl PartialEq<&str> for ParamKey {
+    fn eq(&self, other: &&str) -> bool {
+        self.key == *other
+    }
 }
 
 /// How a field's value reads and takes a number, for the key tables.
@@ -319,12 +383,16 @@ impl<T> Value for Vec<T> {}
 /// `as "key"` is needed where the key is not the field's name (mixed-case units);
 /// `takes` is an [`Allowed`] rule for numbers, or `other(fn)` with a function describing
 /// what the key takes. A field may carry `#[serde(...)]` attributes after its doc.
+///
+/// A block that always sits in one section says so after its name
+/// (`pub struct MotorParams in "motor"`); each of its parameters then has a typed handle,
+/// [`ParamKey`], named after its field (`MotorParams::resistance_ohm`).
 #[macro_export]
 macro_rules! declare_params {
     (
         $(#[doc = $sdoc:literal])*
         #[derive($($derive:path),*)]
-        pub struct $name:ident {
+        pub struct $name:ident $(in $section:literal)? {
             $(
                 $(#[doc = $doc:literal])+
                 $(#[serde($($serde:tt)*)])*
@@ -371,6 +439,25 @@ macro_rules! declare_params {
                     },
                 )*
             ];
+            const SECTION: Option<&'static str> = $crate::declare_params!(@section $($section)?);
+        }
+
+        $crate::declare_params!(@handles $name [$($section)?] $( ($field $(, $key)?) $unit; )*);
+    };
+    (@section) => { None };
+    (@section $section:literal) => { Some($section) };
+    (@handles $name:ident [] $($rest:tt)*) => {};
+    (@handles $name:ident [$section:literal] $( ($field:ident $(, $key:literal)?) $unit:literal; )*) => {
+        /// Typed handles on the block's parameters ([`ParamKey`](crate::param::ParamKey)).
+        #[allow(non_upper_case_globals)]
+        impl $name {
+            $(
+                #[doc = concat!("Handle on `", $section, ".", $crate::declare_params!(@key $field $(, $key)?), "`.")]
+                pub const $field: $crate::param::ParamKey = $crate::param::ParamKey::new(
+                    concat!($section, ".", $crate::declare_params!(@key $field $(, $key)?)),
+                    $unit,
+                );
+            )*
         }
     };
     (@key $field:ident) => { stringify!($field) };
@@ -482,6 +569,16 @@ impl<T: 'static> KeyTable<T> {
         self
     }
 
+    /// Adds a block's keys under the section it declares (see [`Block::SECTION`]), so its
+    /// handles name them.
+    ///
+    /// # Panics
+    /// If the block declares no section: a programming error the key tables' tests meet.
+    pub fn block<B: Block>(self, get: fn(&T) -> &B, get_mut: fn(&mut T) -> &mut B) -> Self {
+        let section = B::SECTION.expect("a block composed by its section declares one");
+        self.section(section, get, get_mut)
+    }
+
     /// Adds a key that is not a block's parameter (a scene's description, a list of
     /// tables), described.
     pub fn other(mut self, key: &str, takes: fn() -> String, meaning: &'static str) -> Self {
@@ -520,7 +617,7 @@ mod tests {
     crate::declare_params! {
         /// A block for the test.
         #[derive(Debug, Clone, PartialEq)]
-        pub struct Thing {
+        pub struct Thing in "thing" {
             /// Its mass.
             mass_kg: f64 = 2.0, "kg", Positive;
             /// Its stiffness.
@@ -555,6 +652,32 @@ mod tests {
         assert_eq!((Thing::PARAMS[4].get)(&t), None);
         assert_eq!(Thing::PARAMS[1].meaning.trim(), "Its stiffness.");
         assert!(!Thing::PARAMS[1].takes.allowed().unwrap().admits(101.0));
+    }
+
+    #[test]
+    fn a_block_with_a_section_has_a_handle_per_parameter_naming_its_key_in_a_table() {
+        assert_eq!(Thing::SECTION, Some("thing"));
+        assert_eq!(Thing::stiffness.key(), "thing.stiffness_N_m");
+        assert_eq!(Thing::stiffness.unit(), "N/m");
+        assert_eq!(Thing::bias.to_string(), "thing.bias_N");
+        let table = KeyTable::<Thing>::new().block(|t| t, |t| t);
+        let mut t = Thing::default();
+        table
+            .find(Thing::stiffness.key())
+            .unwrap()
+            .set(&mut t, 42.0);
+        assert_eq!(t.stiffness, 42.0);
+        // Every parameter's handle is a key of the table the block composes.
+        let keys: Vec<&str> = table.keys().iter().map(|k| k.key.as_str()).collect();
+        for h in [
+            Thing::mass_kg,
+            Thing::stiffness,
+            Thing::teeth,
+            Thing::bias,
+            Thing::colour,
+        ] {
+            assert!(keys.contains(&h.key()), "{h}");
+        }
     }
 
     #[test]

@@ -6,6 +6,9 @@
 use super::{keys, CalibrateError};
 pub use crate::ident::effects::Choice;
 use crate::ident::effects::Effect;
+use crate::model::battery::BatteryParams;
+use crate::model::dcmc::DcmcParams;
+use crate::model::wheel::WheelParams;
 use crate::replay::Drive;
 use crate::scene::Scene;
 use crate::sim::SimParams;
@@ -193,26 +196,7 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
                 _ => home(0.9 * limit),
             }
         }
-        Effect::BatterySag => {
-            let b = &scene.battery;
-            let r = b.internal_resistance_ohm;
-            let mut h = home_or(r >= 0.01, r, 0.05);
-            // Without a bridge rating the scene's sag never reached the drive.
-            h.in_scene &= b.bridge_rated_v > 0.0;
-            if !matches!(drive, Drive::Voltages | Drive::AxisVoltage) {
-                return Err(homeless(
-                    effect,
-                    "the recording drives the DCMC by demand; the simulator's DCMC regulates its voltage against the battery, so its sag shows only as saturation (use voltage_saturation)",
-                ));
-            }
-            if b.bridge_rated_v <= 0.0 {
-                h.switches.push(SwitchOn {
-                    key: "battery.bridge_rated_V",
-                    value: Setting::Number(b.open_circuit_v),
-                });
-            }
-            h
-        }
+        Effect::BatterySag => battery_sag_home(scene, drive, home_or)?,
         Effect::SpeedFeedback => {
             if !matches!(drive, Drive::Demands | Drive::AxisDemand) {
                 return Err(homeless(
@@ -257,6 +241,34 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
     })
 }
 
+/// The battery sag's home: the scene's internal resistance where it is felt, else a
+/// start; only a recording driven by voltages shows it (the DCMC regulates against the
+/// battery), and a scene without a bridge rating gets one at its open-circuit voltage.
+fn battery_sag_home(
+    scene: &Scene,
+    drive: Drive,
+    home_or: impl Fn(bool, f64, f64) -> Home,
+) -> Result<Home, CalibrateError> {
+    let b = &scene.battery;
+    let r = b.internal_resistance_ohm;
+    let mut h = home_or(r >= 0.01, r, 0.05);
+    // Without a bridge rating the scene's sag never reached the drive.
+    h.in_scene &= b.bridge_rated_v > 0.0;
+    if !matches!(drive, Drive::Voltages | Drive::AxisVoltage) {
+        return Err(homeless(
+            Effect::BatterySag,
+            "the recording drives the DCMC by demand; the simulator's DCMC regulates its voltage against the battery, so its sag shows only as saturation (use voltage_saturation)",
+        ));
+    }
+    if b.bridge_rated_v <= 0.0 {
+        h.switches.push(SwitchOn {
+            key: BatteryParams::bridge_rated_v.key(),
+            value: Setting::Number(b.open_circuit_v),
+        });
+    }
+    Ok(h)
+}
+
 /// The wheel geometry's home: the track (the strength key) and the two wheels' rolling
 /// radii, fitted together from the scene's, each off where it equals what the odometry
 /// and the base controller are configured with. Only a pose measured apart from the
@@ -297,12 +309,12 @@ fn geometry_home(scene: &Scene, driven: Driven) -> Result<Home, CalibrateError> 
         off: Some(configured_track),
         also: vec![
             Companion {
-                key: "wheel.left_rolling_radius_m",
+                key: WheelParams::left_rolling_radius_m.key(),
                 start: left,
                 off: configured_radius,
             },
             Companion {
-                key: "wheel.right_rolling_radius_m",
+                key: WheelParams::right_rolling_radius_m.key(),
                 start: right,
                 off: configured_radius,
             },
@@ -354,7 +366,7 @@ fn speed_loop_home(scene: &Scene, mut h: Home) -> Home {
         DcmcKind::P | DcmcKind::Pi => DcmcKind::Pi,
     };
     h.switches.push(SwitchOn {
-        key: "dcmc.kind",
+        key: DcmcParams::kind.key(),
         value: Setting::DcmcKind(kind),
     });
     h

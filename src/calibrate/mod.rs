@@ -15,6 +15,11 @@ mod rounds;
 mod search;
 pub mod write;
 
+use crate::model::base_controller::BaseParams;
+use crate::model::chassis::ChassisParams;
+use crate::model::motor::MotorParams;
+use crate::model::wheel::WheelParams;
+use crate::param::ParamKey;
 use std::path::PathBuf;
 
 use crate::ident::data::Dataset;
@@ -91,19 +96,19 @@ pub fn contract_outputs(rig: RigKind) -> &'static [&'static str] {
 ///   its time constant and its current;
 /// - a `vehicle`: the torque constant and resistance (the drive's gain) and the chassis
 ///   mass and yaw inertia (how fast it answers in speed and in turn).
-pub fn default_free(rig: RigKind) -> &'static [&'static str] {
+pub fn default_free(rig: RigKind) -> &'static [ParamKey] {
     match rig {
         RigKind::Vehicle => &[
-            "motor.torque_constant_Nm_A",
-            "motor.resistance_ohm",
-            "chassis.mass_kg",
-            "chassis.yaw_inertia_kg_m2",
+            MotorParams::torque_constant_nm_a,
+            MotorParams::resistance_ohm,
+            ChassisParams::mass_kg,
+            ChassisParams::yaw_inertia_kg_m2,
         ],
         _ => &[
-            "motor.resistance_ohm",
-            "motor.torque_constant_Nm_A",
-            "motor.rotor_inertia_kg_m2",
-            "motor.viscous_Nm_s_rad",
+            MotorParams::resistance_ohm,
+            MotorParams::torque_constant_nm_a,
+            MotorParams::rotor_inertia_kg_m2,
+            MotorParams::viscous_nm_s_rad,
         ],
     }
 }
@@ -111,17 +116,17 @@ pub fn default_free(rig: RigKind) -> &'static [&'static str] {
 /// The keys a recording fits by default: [`default_free`], but for a vehicle driven by
 /// velocity commands the chassis mass and yaw inertia and its drivers' speed-loop gains
 /// (the loops hide the motor's torque constant and resistance behind their set-points).
-pub fn default_free_of(rec: &Recording) -> &'static [&'static str] {
+pub fn default_free_of(rec: &Recording) -> &'static [ParamKey] {
     let velocity = crate::replay::Drive::Velocity
         .columns()
         .iter()
         .all(|c| rec.column(c).is_some());
     if rec.rig == RigKind::Vehicle && velocity {
         &[
-            "chassis.mass_kg",
-            "chassis.yaw_inertia_kg_m2",
-            "base.speed_kp_V_s_rad",
-            "base.speed_ki_V_rad",
+            ChassisParams::mass_kg,
+            ChassisParams::yaw_inertia_kg_m2,
+            BaseParams::speed_kp_v_s_rad,
+            BaseParams::speed_ki_v_rad,
         ]
     } else {
         default_free(rec.rig)
@@ -477,9 +482,9 @@ impl Calibration {
     pub fn wheel_geometry(&self) -> Option<WheelGeometry> {
         let fit = |key: &str| self.keys.iter().find(|k| k.key == key && k.calibrated());
         let (l, r, t) = (
-            fit("wheel.left_rolling_radius_m")?,
-            fit("wheel.right_rolling_radius_m")?,
-            fit("chassis.track_width_m")?,
+            fit(WheelParams::left_rolling_radius_m.key())?,
+            fit(WheelParams::right_rolling_radius_m.key())?,
+            fit(ChassisParams::track_width_m.key())?,
         );
         let s = &self.scene;
         Some(WheelGeometry {

@@ -16,13 +16,15 @@
 use crate::ident::data::Dataset;
 use crate::ident::model::{Diverged, ParamSpec, Predictor};
 use crate::model::chassis::rolling_motion;
+use crate::model::chassis::ChassisParams;
+use crate::model::wheel::WheelParams;
 use crate::record::Recording;
 
 /// The keys the model fits, in its parameter order.
 pub const KEYS: [&str; 3] = [
-    "wheel.left_rolling_radius_m",
-    "wheel.right_rolling_radius_m",
-    "chassis.track_width_m",
+    WheelParams::left_rolling_radius_m.key(),
+    WheelParams::right_rolling_radius_m.key(),
+    ChassisParams::track_width_m.key(),
 ];
 
 /// The wheels' turns over each interval (left, right), rad, from the recording.

@@ -12,6 +12,7 @@
 //! Every fitted key's 1-sigma interval is checked against the machine's value too: over
 //! many round trips about two thirds should cover it ([`coverage`]).
 
+use crate::param::ParamKey;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -618,12 +619,12 @@ pub fn record_text(
 
 /// The scene a case is calibrated from: the clean machine with its fitted keys each off by
 /// a seeded 5-20 % either way (the concealed effect stays off).
-pub fn belief(clean: &Scene, free: &[&str], seed: u64) -> Result<Scene, CalibrateError> {
+pub fn belief(clean: &Scene, free: &[ParamKey], seed: u64) -> Result<Scene, CalibrateError> {
     let mut rng = Pcg64::seed_from_u64(seed ^ 0x9e37_79b9_7f4a_7c15);
     let pairs: Vec<(String, f64)> = free
         .iter()
         .map(|k| {
-            let v = keys::get(clean, k)?;
+            let v = keys::get(clean, k.key())?;
             let sign = if rng.random::<bool>() { 1.0 } else { -1.0 };
             Ok((
                 k.to_string(),

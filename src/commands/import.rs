@@ -1,6 +1,9 @@
 //! `agvsim import csv|mat|wpilib|ros2`: a recording kept in another format converted into the
 //! exchange format, checked to read back as the contract's, and written whole.
 
+use crate::model::battery::BatteryParams;
+use crate::model::chassis::ChassisParams;
+use crate::model::wheel::WheelParams;
 use std::path::{Path, PathBuf};
 
 use super::flags::{positive_number, DriveFlags};
@@ -480,8 +483,8 @@ fn geometry_origins(
 ) -> Vec<(&'static str, String)> {
     let mut origins = vec![];
     for (key, part) in [
-        ("chassis.track_width_m", "track"),
-        ("wheel.radius_m", "wheel radius"),
+        (ChassisParams::track_width_m.key(), "track"),
+        (WheelParams::radius_m.key(), "wheel radius"),
     ] {
         // `from` reads "track from X; wheel radius from Y" (or one source for both).
         let said = from
@@ -500,7 +503,7 @@ fn geometry_origins(
         {
             let topic = c.how.split(' ').next().unwrap_or("the battery topic");
             origins.push((
-                "battery.open_circuit_V",
+                BatteryParams::open_circuit_v.key(),
                 format!("the median voltage of {topic}"),
             ));
         }

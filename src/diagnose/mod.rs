@@ -24,6 +24,7 @@ mod round;
 mod scales;
 mod search;
 
+use crate::model::motor::MotorParams;
 pub use evidence::relative_errors;
 
 use std::collections::BTreeMap;
@@ -194,8 +195,10 @@ impl Diagnosis {
             .iter()
             .find(|f| f.effect == Effect::CoulombFriction)?
             .value;
-        let k = self.final_params.get("motor.torque_constant_Nm_A")?;
-        let r = self.final_params.get("motor.resistance_ohm")?;
+        let k = self
+            .final_params
+            .get(MotorParams::torque_constant_nm_a.key())?;
+        let r = self.final_params.get(MotorParams::resistance_ohm.key())?;
         (*k > 0.0).then(|| tc * r / k)
     }
 
@@ -488,8 +491,10 @@ fn report_of(
     // the missing friction).
     let feedforward = crate::import::wpilib::feedforward::of_recording(
         rec,
-        final_params.get("motor.torque_constant_Nm_A").copied(),
-        final_params.get("motor.resistance_ohm").copied(),
+        final_params
+            .get(MotorParams::torque_constant_nm_a.key())
+            .copied(),
+        final_params.get(MotorParams::resistance_ohm.key()).copied(),
     );
     let sysid_terms = feedforward.as_ref().and_then(|ff| {
         let unit = match ff.speed_unit.as_str() {

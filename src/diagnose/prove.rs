@@ -11,6 +11,12 @@
 //! `speed_feedback`) act on other inputs (duty-setting bridges, demands) than this proof's
 //! voltages; their round trips are the calibration tests'.
 
+use crate::model::chassis::ChassisParams;
+use crate::model::gearbox::GearboxParams;
+use crate::model::motor::MotorParams;
+use crate::model::wheel::WheelParams;
+use crate::rig::blocks::Instruments;
+use crate::rig::keys::alias;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -250,17 +256,29 @@ fn nominal_rig(scene: &Scene, rng: &mut Pcg64) -> Rig {
     let m = &scene.motor;
     let mut rig = Rig::new(crate::rig::RigKind::DriveAxis);
     // In this order: each belief draws its error in turn.
-    rig.set("motor.resistance_ohm", off(m.resistance_ohm));
-    rig.set("motor.inductance_H", off(m.inductance_h));
-    rig.set("motor.torque_constant_Nm_A", off(m.torque_constant_nm_a));
-    rig.set("motor.rotor_inertia_kg_m2", off(m.rotor_inertia_kg_m2));
-    rig.set("motor.viscous_Nm_s_rad", off(m.viscous_nm_s_rad));
-    rig.set("gearbox.ratio", scene.gearbox.ratio);
-    rig.set("wheel.radius_m", scene.wheel.radius_m);
-    rig.set("wheel.inertia_kg_m2", off(scene.wheel.inertia_kg_m2));
-    rig.set("supply.voltage_V", scene.battery.open_circuit_v);
-    rig.set("sensors.motor_encoder_counts_per_rev", ENCODER_COUNTS);
-    rig.set("sensors.current_noise_A", 0.2);
+    rig.set(MotorParams::resistance_ohm.key(), off(m.resistance_ohm));
+    rig.set(MotorParams::inductance_h.key(), off(m.inductance_h));
+    rig.set(
+        MotorParams::torque_constant_nm_a.key(),
+        off(m.torque_constant_nm_a),
+    );
+    rig.set(
+        MotorParams::rotor_inertia_kg_m2.key(),
+        off(m.rotor_inertia_kg_m2),
+    );
+    rig.set(MotorParams::viscous_nm_s_rad.key(), off(m.viscous_nm_s_rad));
+    rig.set(GearboxParams::ratio.key(), scene.gearbox.ratio);
+    rig.set(WheelParams::radius_m.key(), scene.wheel.radius_m);
+    rig.set(
+        WheelParams::inertia_kg_m2.key(),
+        off(scene.wheel.inertia_kg_m2),
+    );
+    rig.set(alias::SUPPLY_VOLTAGE_V.key(), scene.battery.open_circuit_v);
+    rig.set(
+        Instruments::motor_encoder_counts_per_rev.key(),
+        ENCODER_COUNTS,
+    );
+    rig.set(Instruments::current_noise_a.key(), 0.2);
     rig
 }
 
@@ -531,18 +549,24 @@ fn nominal_vehicle_rig(scene: &Scene, rng: &mut Pcg64) -> Result<Rig, ProveError
     rig.rig = crate::rig::RigKind::Vehicle;
     let c = &params.chassis;
     let load_fraction = params.loads.drive_n.iter().sum::<f64>() / params.weight_n();
-    rig.set("chassis.mass_kg", off(c.mass_kg, 0.05, 0.25));
+    rig.set(ChassisParams::mass_kg.key(), off(c.mass_kg, 0.05, 0.25));
     rig.set(
-        "chassis.yaw_inertia_kg_m2",
+        ChassisParams::yaw_inertia_kg_m2.key(),
         off(c.yaw_inertia_kg_m2, 0.05, 0.25),
     );
-    rig.set("chassis.track_width_m", off(c.track_width_m, 0.01, 0.03));
-    rig.set("chassis.drive_load_fraction", load_fraction);
-    rig.set("wheel.radius_m", off(scene.wheel.radius_m, 0.01, 0.03));
-    rig.set("sensors.current_noise_A", 0.2);
-    rig.set("sensors.tracker_position_noise_m", 0.002);
-    rig.set("sensors.tracker_heading_noise_rad", 0.005);
-    rig.set("sensors.tracker_rate_hz", rate_hz_of_tracker());
+    rig.set(
+        ChassisParams::track_width_m.key(),
+        off(c.track_width_m, 0.01, 0.03),
+    );
+    rig.set(ChassisParams::drive_load_fraction.key(), load_fraction);
+    rig.set(
+        WheelParams::radius_m.key(),
+        off(scene.wheel.radius_m, 0.01, 0.03),
+    );
+    rig.set(Instruments::current_noise_a.key(), 0.2);
+    rig.set(Instruments::tracker_position_noise_m.key(), 0.002);
+    rig.set(Instruments::tracker_heading_noise_rad.key(), 0.005);
+    rig.set(Instruments::tracker_rate_hz.key(), rate_hz_of_tracker());
     Ok(rig)
 }
 

@@ -2,6 +2,13 @@
 //! optionally off by a seeded random error. Each rig key is read from the scene key it
 //! names ([`crate::rig::keys`]).
 
+use crate::model::chassis::ChassisParams;
+use crate::model::gearbox::GearboxParams;
+use crate::model::motor::MotorParams;
+use crate::model::wheel::WheelParams;
+use crate::rig::blocks::FallingWeight;
+use crate::rig::blocks::Instruments;
+use crate::rig::keys::alias;
 use rand::Rng;
 use rand_pcg::Pcg64;
 
@@ -12,12 +19,12 @@ use crate::scene::Scene;
 
 /// The motor's rig keys.
 const MOTOR: [&str; 6] = [
-    "motor.resistance_ohm",
-    "motor.inductance_H",
-    "motor.torque_constant_Nm_A",
-    "motor.rotor_inertia_kg_m2",
-    "motor.viscous_Nm_s_rad",
-    "motor.coulomb_Nm",
+    MotorParams::resistance_ohm.key(),
+    MotorParams::inductance_h.key(),
+    MotorParams::torque_constant_nm_a.key(),
+    MotorParams::rotor_inertia_kg_m2.key(),
+    MotorParams::viscous_nm_s_rad.key(),
+    MotorParams::coulomb_nm.key(),
 ];
 
 /// A rig of `kind` stating the scene's value of each rig key in `keys`.
@@ -40,16 +47,19 @@ fn from_scene(kind: RigKind, scene: &Scene, keys: &[&str]) -> Rig {
 pub(super) fn axis_rig(scene: &Scene) -> Rig {
     let mut keys = MOTOR.to_vec();
     keys.extend([
-        "gearbox.ratio",
-        "wheel.radius_m",
-        "wheel.inertia_kg_m2",
-        "supply.voltage_V",
+        GearboxParams::ratio.key(),
+        WheelParams::radius_m.key(),
+        WheelParams::inertia_kg_m2.key(),
+        alias::SUPPLY_VOLTAGE_V.key(),
     ]);
     with_encoder(from_scene(RigKind::DriveAxis, scene, &keys))
 }
 
 fn with_encoder(mut rig: Rig) -> Rig {
-    rig.set("sensors.motor_encoder_counts_per_rev", ENCODER_COUNTS);
+    rig.set(
+        Instruments::motor_encoder_counts_per_rev.key(),
+        ENCODER_COUNTS,
+    );
     rig
 }
 
@@ -63,15 +73,18 @@ fn with_controller(mut rig: Rig, scene: &Scene) -> Rig {
         DcmcKind::P => "p",
         DcmcKind::Pi => "pi",
     };
-    rig.set_text("controller.kind", kind);
-    rig.set("controller.gain_V_pct", d.forward_gain_v_pct);
-    rig.set("controller.turn_gain_V_pct", d.turn_gain_v_pct);
+    rig.set_text(alias::CONTROLLER_KIND.key(), kind);
+    rig.set(alias::CONTROLLER_GAIN_V_PCT.key(), d.forward_gain_v_pct);
+    rig.set(alias::CONTROLLER_TURN_GAIN_V_PCT.key(), d.turn_gain_v_pct);
     if matches!(d.kind, DcmcKind::P | DcmcKind::Pi) {
-        rig.set("controller.speed_per_pct_rad_s", d.speed_per_pct_rad_s);
-        rig.set("controller.kp_V_s_rad", d.kp_v_s_rad);
+        rig.set(
+            alias::CONTROLLER_SPEED_PER_PCT_RAD_S.key(),
+            d.speed_per_pct_rad_s,
+        );
+        rig.set(alias::CONTROLLER_KP_V_S_RAD.key(), d.kp_v_s_rad);
     }
     if d.kind == DcmcKind::Pi {
-        rig.set("controller.ki_V_rad", d.ki_v_rad);
+        rig.set(alias::CONTROLLER_KI_V_RAD.key(), d.ki_v_rad);
     }
     rig
 }
@@ -86,9 +99,9 @@ pub(super) fn pair_rig(scene: &Scene) -> Rig {
 /// The motor off the vehicle under a falling weight.
 pub(super) fn falling_weight_rig(scene: &Scene, opts: &ExperimentOptions) -> Rig {
     let mut rig = with_encoder(from_scene(RigKind::DriveAxis, scene, &MOTOR));
-    rig.set("falling_weight.mass_kg", opts.weight_mass_kg);
-    rig.set("falling_weight.pulley_radius_m", opts.pulley_radius_m);
-    rig.set("falling_weight.drop_m", opts.drop_m);
+    rig.set(FallingWeight::mass_kg.key(), opts.weight_mass_kg);
+    rig.set(FallingWeight::pulley_radius_m.key(), opts.pulley_radius_m);
+    rig.set(FallingWeight::drop_m.key(), opts.drop_m);
     rig
 }
 
@@ -97,24 +110,32 @@ pub(super) fn vehicle_rig(scene: &Scene) -> Rig {
     let mut rig = with_controller(axis_rig(scene), scene);
     rig.rig = RigKind::Vehicle;
     let c = &scene.chassis;
-    rig.set("chassis.mass_kg", c.mass_kg + scene.payload.mass_kg);
-    rig.set("chassis.yaw_inertia_kg_m2", c.yaw_inertia_kg_m2);
-    rig.set("chassis.track_width_m", c.track_width_m);
-    rig.set("chassis.drive_load_fraction", c.drive_load_fraction);
+    rig.set(
+        ChassisParams::mass_kg.key(),
+        c.mass_kg + scene.payload.mass_kg,
+    );
+    rig.set(ChassisParams::yaw_inertia_kg_m2.key(), c.yaw_inertia_kg_m2);
+    rig.set(ChassisParams::track_width_m.key(), c.track_width_m);
+    rig.set(
+        ChassisParams::drive_load_fraction.key(),
+        c.drive_load_fraction,
+    );
     rig
 }
 
 /// Keys that are measured, not believed: gear ratio, wheel radius, track, the supply and
 /// the test set-up (weight, pulley, drop, encoder).
 fn measured(key: &str) -> bool {
-    matches!(
-        key,
-        "gearbox.ratio"
-            | "wheel.radius_m"
-            | "supply.voltage_V"
-            | "chassis.track_width_m"
-            | "chassis.drive_load_fraction"
-    ) || key.starts_with("falling_weight.")
+    [
+        GearboxParams::ratio,
+        WheelParams::radius_m,
+        alias::SUPPLY_VOLTAGE_V,
+        ChassisParams::track_width_m,
+        ChassisParams::drive_load_fraction,
+    ]
+    .iter()
+    .any(|k| k.key() == key)
+        || key.starts_with("falling_weight.")
         || key.starts_with("sensors.")
 }
 

@@ -49,7 +49,7 @@ crate::declare_params! {
     /// The 80C552 firmware: fixed-point P-D law, timer period, PWM outputs and filter
     /// (scene section `[controller]`).
     #[derive(Debug, Clone, Copy, PartialEq)]
-    pub struct ControllerParams {
+    pub struct ControllerParams in "controller" {
         /// What the firmware does: `pd` (the lab runs), `open_day` (PLAYTIME.C),
         /// `open_loop` (constant demands) or `swing_away` (reversing).
         kind: ControllerKind = ControllerKind::Pd, "", other(controller_kinds);

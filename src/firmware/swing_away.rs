@@ -73,7 +73,7 @@ crate::declare_params! {
     /// The defaults are ours (*assumed*): a heading loop several times faster than the
     /// axle loop.
     #[derive(Debug, Clone, Copy, PartialEq)]
-    pub struct SwingAwayDesign {
+    pub struct SwingAwayDesign in "controller.swing_away" {
         /// Rate at which the axle closes on the assumed line.
         axle_gain_per_s: f64 = 0.5, "1/s", Positive;
         /// Yaw-rate demand per rad of heading error.

@@ -3,7 +3,15 @@
 //! needed, its own state; the physical laws are the simulator's own (`crate::model`).
 
 use crate::ident::model::ParamSpec;
+use crate::ident::models::linear_axis::LinearEffects;
+use crate::ident::models::vehicle::blocks::CastorDrag;
+use crate::ident::models::vehicle::blocks::CreepTyre;
 use crate::model::battery::BatteryParams;
+use crate::model::castor::CastorParams;
+use crate::model::chassis::ChassisParams;
+use crate::model::dcmc::DcmcParams;
+use crate::model::gearbox::GearboxParams;
+use crate::model::motor::MotorParams;
 
 /// One effect of the vocabulary.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -108,21 +116,21 @@ impl Effect {
     /// the linear axis's effect block otherwise.
     pub fn key(self, linear: bool) -> &'static str {
         match self {
-            Effect::Backlash => "gearbox.backlash_rad",
-            Effect::CoulombFriction if linear => "effect.coulomb_force_N",
-            Effect::CoulombFriction => "motor.coulomb_Nm",
-            Effect::FrictionAsymmetry if linear => "effect.viscous_ratio",
-            Effect::FrictionAsymmetry => "motor.viscous_ratio",
-            Effect::Offset if linear => "effect.offset_N",
-            Effect::Offset => "motor.offset_Nm",
-            Effect::WheelSlip => "tyre.peak_mu",
-            Effect::VoltageSaturation => "battery.drive_limit_V",
-            Effect::BatterySag => "battery.internal_resistance_ohm",
-            Effect::TransportDelay if linear => "effect.delay_s",
-            Effect::TransportDelay => "dcmc.command_delay_s",
-            Effect::SpeedFeedback => "dcmc.ki_V_rad",
-            Effect::CastorDrag => "castor_drag.drag_N",
-            Effect::WheelGeometry => "chassis.track_width_m",
+            Effect::Backlash => GearboxParams::backlash_rad.key(),
+            Effect::CoulombFriction if linear => LinearEffects::coulomb_force_n.key(),
+            Effect::CoulombFriction => MotorParams::coulomb_nm.key(),
+            Effect::FrictionAsymmetry if linear => LinearEffects::viscous_ratio.key(),
+            Effect::FrictionAsymmetry => MotorParams::viscous_ratio.key(),
+            Effect::Offset if linear => LinearEffects::offset_n.key(),
+            Effect::Offset => MotorParams::offset_nm.key(),
+            Effect::WheelSlip => CreepTyre::peak_mu.key(),
+            Effect::VoltageSaturation => BatteryParams::drive_limit_v.key(),
+            Effect::BatterySag => BatteryParams::internal_resistance_ohm.key(),
+            Effect::TransportDelay if linear => LinearEffects::delay_s.key(),
+            Effect::TransportDelay => DcmcParams::command_delay_s.key(),
+            Effect::SpeedFeedback => DcmcParams::ki_v_rad.key(),
+            Effect::CastorDrag => CastorDrag::drag_n.key(),
+            Effect::WheelGeometry => ChassisParams::track_width_m.key(),
         }
     }
 
@@ -131,7 +139,7 @@ impl Effect {
     /// drag, which the scene sets as the castors' rolling resistance.
     pub fn scene_key(self) -> &'static str {
         match self {
-            Effect::CastorDrag => "castors.rolling_resistance",
+            Effect::CastorDrag => CastorParams::rolling_resistance.key(),
             other => other.key(false),
         }
     }

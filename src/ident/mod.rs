@@ -17,6 +17,8 @@ pub mod weighting;
 
 pub mod report;
 
+use crate::model::motor::MotorParams;
+use crate::rig::keys::alias;
 pub use data::{ignored_inputs, CONTRACT_INPUTS};
 pub use fit::{bound_reached, AT_BOUND_REL};
 pub mod resid;
@@ -278,7 +280,7 @@ fn structure_of(
             Some("falling-weight") => ModelChoice::FallingWeight,
             Some("coast-down") => ModelChoice::CoastDown,
             _ => match rig.rig {
-                RigKind::DrivePair => match rig.text("controller.kind") {
+                RigKind::DrivePair => match rig.text(alias::CONTROLLER_KIND.key()) {
                     Some("p") => ModelChoice::P,
                     Some("pi") => ModelChoice::Pi,
                     _ => ModelChoice::Gain,
@@ -700,8 +702,8 @@ pub fn identify(
     id.left_out = left_out;
     id.feedforward = feedforward::of_recording(
         rec,
-        id.value("motor.torque_constant_Nm_A"),
-        id.value("motor.resistance_ohm"),
+        id.value(MotorParams::torque_constant_nm_a.key()),
+        id.value(MotorParams::resistance_ohm.key()),
     );
     Ok(id)
 }

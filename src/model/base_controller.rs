@@ -22,7 +22,7 @@ crate::declare_params! {
     /// controller and its motor drivers' speed loops. Used when a run is driven by
     /// `cmd_linear_m_s` and `cmd_angular_rad_s` (a ROS robot's `/cmd_vel`).
     #[derive(Debug, Clone, Copy, PartialEq)]
-    pub struct BaseParams {
+    pub struct BaseParams in "base" {
         /// Largest forward speed the base controller passes, either way (0: no limit;
         /// diff_drive_controller's `linear.x.max_velocity`).
         max_linear_m_s: f64 = 0.0, "m/s", NonNegative;

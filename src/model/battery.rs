@@ -7,7 +7,7 @@ crate::declare_params! {
     /// The battery and the H-bridges' limits (scene section `[battery]`): two 12 V
     /// lead-acid batteries in series on the thesis machine.
     #[derive(Debug, Clone, Copy, PartialEq)]
-    pub struct BatteryParams {
+    pub struct BatteryParams in "battery" {
         /// Open-circuit voltage.
         open_circuit_v as "open_circuit_V": f64 = 24.0, "V", Positive;
         /// Internal resistance (*assumed*).

@@ -13,7 +13,7 @@ fn compound_choice() -> String {
 crate::declare_params! {
     /// The four castor idlers at the corners (scene section `[castors]`).
     #[derive(Debug, Clone, PartialEq)]
-    pub struct CastorParams {
+    pub struct CastorParams in "castors" {
         /// Swivel axes of the front castors ahead of the drive axle (*assumed*).
         front_x_m: f64 = 0.40, "m", Positive;
         /// Swivel axes of the rear castors (negative: behind the axle; *assumed*).

@@ -9,7 +9,7 @@ crate::declare_params! {
     /// The bare vehicle with its batteries (scene section `[chassis]`). The body frame
     /// has its origin at the midpoint of the drive axle, x forward, y to the left.
     #[derive(Debug, Clone, Copy, PartialEq)]
-    pub struct ChassisParams {
+    pub struct ChassisParams in "chassis" {
         /// Mass with batteries ("a 120 kg Logo turtle").
         mass_kg: f64 = 120.0, "kg", Positive;
         /// Yaw inertia about the centre of gravity (*assumed*: from CAD, not given).
@@ -37,7 +37,7 @@ crate::declare_params! {
     /// Load on the scissor-lift platform (scene section `[payload]`): adds mass and
     /// inertia and may shift the centre of gravity.
     #[derive(Debug, Clone, Copy, PartialEq)]
-    pub struct PayloadParams {
+    pub struct PayloadParams in "payload" {
         /// Payload mass (design payload 200 kg).
         mass_kg: f64 = 0.0, "kg", NonNegative;
         /// Payload centre of gravity ahead of the drive axle.
@@ -166,7 +166,7 @@ crate::declare_params! {
     /// Pose of the drive-axle midpoint, world frame (a scene's start is one: section
     /// `[start]`).
     #[derive(Debug, Clone, Copy, PartialEq)]
-    pub struct Pose {
+    pub struct Pose in "start" {
         /// Position along the world's x axis.
         x_m: f64 = 0.0, "m", Finite;
         /// Position along the world's y axis.

@@ -59,7 +59,7 @@ fn dcmc_kinds() -> String {
 crate::declare_params! {
     /// The wheelchair motor controller (Dynamic Controls DCMC; scene section `[dcmc]`).
     #[derive(Debug, Clone, Copy, PartialEq)]
-    pub struct DcmcParams {
+    pub struct DcmcParams in "dcmc" {
         /// How demand becomes motor voltage: a gain matrix (`gain`), a proportional
         /// (`p`) or proportional-integral (`pi`) speed loop, or the gain's voltage with
         /// integral action on the speed error (`gain_pi`).

@@ -6,7 +6,7 @@ crate::declare_params! {
     /// band between the gear output and the wheel, the teeth a damped spring once the
     /// play is taken up. Angles and torques are referred to the wheel side.
     #[derive(Debug, Clone, Copy, PartialEq)]
-    pub struct GearboxParams {
+    pub struct GearboxParams in "gearbox" {
         /// Motor turns per wheel turn.
         ratio: f64 = 23.41, "", Positive;
         /// Total play at the wheel (about 10 degrees on the thesis AGV).

@@ -20,7 +20,7 @@ fn commands_file() -> String {
 crate::declare_params! {
     /// The manoeuvre of a velocity-commanded base (scene section `[manoeuvre]`).
     #[derive(Debug, Clone, PartialEq)]
-    pub struct ManoeuvreParams {
+    pub struct ManoeuvreParams in "manoeuvre" {
         /// `square` (UMBmark's: each side straight, then a quarter turn on the spot),
         /// `circle`, or `commands` (a commands CSV).
         kind: String = "square".into(), "", other(manoeuvre_kinds);

@@ -7,7 +7,7 @@ crate::declare_params! {
     /// Permanent-magnet DC motor, one per side, at the motor shaft (scene section
     /// `[motor]`).
     #[derive(Debug, Clone, Copy, PartialEq)]
-    pub struct MotorParams {
+    pub struct MotorParams in "motor" {
         /// Armature resistance (*assumed* 0.35 ohm for the thesis machine).
         resistance_ohm: f64 = 0.35, "ohm", Positive;
         /// Armature inductance (*assumed* 0.8 mH).

@@ -26,7 +26,7 @@ crate::declare_params! {
     /// floor surface come from the presets (`agvsim presets`), and any value overriding
     /// the preset.
     #[derive(Debug, Clone, PartialEq)]
-    pub struct TyreChoice {
+    pub struct TyreChoice in "tyre" {
         /// The tread compound: `hard_polyurethane`, `soft_rubber` or `high_grip` (an
         /// idealised no-slip tyre); see `agvsim presets`.
         compound: String = "hard_polyurethane".into(), "", other(compound_choice);

@@ -3,7 +3,7 @@
 crate::declare_params! {
     /// The drive wheel, one per side (scene section `[wheel]`).
     #[derive(Debug, Clone, Copy, PartialEq)]
-    pub struct WheelParams {
+    pub struct WheelParams in "wheel" {
         /// Drive wheel radius (*assumed* 0.075 m).
         radius_m: f64 = 0.075, "m", Positive;
         /// Wheel plus output gear inertia about the axle (*assumed*).

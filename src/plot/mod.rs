@@ -291,23 +291,7 @@ impl Plot<'_> {
         let ((x0, x1), (y0, y1)) = self.ranges();
         let px = |x: f64| MARGIN_L + (x - x0) / (x1 - x0) * (W - MARGIN_L - MARGIN_R);
         let py = |y: f64| MARGIN_T + (y1 - y) / (y1 - y0) * PLOT_H;
-        // A series with nothing to draw says so in the legend rather than vanishing.
-        let owned: Vec<String> = self
-            .series
-            .iter()
-            .map(|ser| {
-                let any = ser
-                    .x
-                    .iter()
-                    .zip(ser.y)
-                    .any(|(x, y)| x.is_finite() && y.is_finite());
-                if any {
-                    ser.label.to_string()
-                } else {
-                    format!("{} (no values)", ser.label)
-                }
-            })
-            .collect();
+        let owned = self.legend_labels();
         let mut labels: Vec<&str> = owned.iter().map(String::as_str).collect();
         if let Some(f) = &self.flags {
             labels.push(f.label);
@@ -359,6 +343,33 @@ impl Plot<'_> {
                 cross(&mut s, px(*x), MARGIN_T + 8.0, f.colour);
             }
         }
+        self.draw_legend(&mut s, &legend, &labels);
+        s.push_str("</svg>\n");
+        s
+    }
+
+    /// Each series' legend label; a series with nothing to draw says so in the legend
+    /// rather than vanishing.
+    fn legend_labels(&self) -> Vec<String> {
+        self.series
+            .iter()
+            .map(|ser| {
+                let any = ser
+                    .x
+                    .iter()
+                    .zip(ser.y)
+                    .any(|(x, y)| x.is_finite() && y.is_finite());
+                if any {
+                    ser.label.to_string()
+                } else {
+                    format!("{} (no values)", ser.label)
+                }
+            })
+            .collect()
+    }
+
+    /// The legend below the axes: each series' key and label, then the flags'.
+    fn draw_legend(&self, s: &mut String, legend: &[(f64, usize)], labels: &[&str]) {
         let top = MARGIN_T + PLOT_H + AXIS_H;
         for (k, (x, row)) in legend.iter().enumerate() {
             let y = top + *row as f64 * LEGEND_ROW_H;
@@ -370,15 +381,7 @@ impl Plot<'_> {
                     true,
                 ),
             };
-            legend_key(
-                &mut s,
-                *x,
-                y,
-                colour,
-                style,
-                in_scale,
-                k >= self.series.len(),
-            );
+            legend_key(s, *x, y, colour, style, in_scale, k >= self.series.len());
             let _ = writeln!(
                 s,
                 r#"<text x="{:.1}" y="{:.1}">{}</text>"#,
@@ -387,8 +390,6 @@ impl Plot<'_> {
                 escape(labels[k])
             );
         }
-        s.push_str("</svg>\n");
-        s
     }
 
     fn axes(

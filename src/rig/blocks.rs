@@ -11,7 +11,7 @@ fn feedback_kinds() -> String {
 crate::declare_params! {
     /// A linear axis's load (rig section `[load]`).
     #[derive(Debug, Clone, Copy, PartialEq)]
-    pub struct LinearLoad {
+    pub struct LinearLoad in "load" {
         /// Moving mass.
         mass_kg: f64 = 1.0, "kg", Positive;
         /// Viscous friction of the axis (0: none believed).
@@ -22,7 +22,7 @@ crate::declare_params! {
 crate::declare_params! {
     /// A current amplifier: force (or torque) = gain x command (rig section `[drive]`).
     #[derive(Debug, Clone, Copy, PartialEq)]
-    pub struct CurrentAmplifier {
+    pub struct CurrentAmplifier in "drive" {
         /// Force per volt of command, linear axis.
         force_per_volt_n_v as "force_per_volt_N_V": f64 = 1.0, "N/V", Positive;
         /// Motor torque per volt of command, rotary axis.
@@ -35,7 +35,7 @@ crate::declare_params! {
 crate::declare_params! {
     /// The position loop that produced a closed-loop command (rig section `[feedback]`).
     #[derive(Debug, Clone, PartialEq)]
-    pub struct PositionLoop {
+    pub struct PositionLoop in "feedback" {
         /// The loop's structure.
         kind: String = "position_velocity_cascade".into(), "", other(feedback_kinds);
         /// Position gain.
@@ -51,7 +51,7 @@ crate::declare_params! {
 crate::declare_params! {
     /// The instruments a recording was made with (rig section `[sensors]`).
     #[derive(Debug, Clone, Copy, PartialEq)]
-    pub struct Instruments {
+    pub struct Instruments in "sensors" {
         /// Motor encoder resolution: speeds are count differences over the sample
         /// interval.
         motor_encoder_counts_per_rev: f64 = 1024.0, "counts", Positive;
@@ -71,7 +71,7 @@ crate::declare_params! {
     /// motor off the vehicle, a mass on a pulley on its shaft, dropping from rest until it
     /// lands.
     #[derive(Debug, Clone, Copy, PartialEq)]
-    pub struct FallingWeight {
+    pub struct FallingWeight in "falling_weight" {
         /// The falling mass.
         mass_kg: f64 = 0.5, "kg", Positive;
         /// Radius of the pulley on the motor shaft.

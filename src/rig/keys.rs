@@ -5,7 +5,13 @@
 use std::sync::OnceLock;
 
 use super::blocks::{CurrentAmplifier, FallingWeight, Instruments, LinearLoad, PositionLoop};
-use crate::param::{open_closed, Allowed, Block, Takes};
+use crate::model::battery::BatteryParams;
+use crate::model::chassis::ChassisParams;
+use crate::model::dcmc::DcmcParams;
+use crate::model::gearbox::GearboxParams;
+use crate::model::motor::MotorParams;
+use crate::model::wheel::WheelParams;
+use crate::param::{open_closed, Allowed, Block, ParamKey, Takes};
 
 /// One key a rig may hold.
 #[derive(Debug)]
@@ -26,47 +32,87 @@ pub struct RigKey {
     pub order: usize,
 }
 
+/// The contract's names for scene keys it calls otherwise (the supply is the battery, the
+/// controller the DCMC): each in its scene key's unit.
+pub mod alias {
+    use crate::model::battery::BatteryParams;
+    use crate::model::dcmc::DcmcParams;
+    use crate::param::ParamKey;
+
+    /// `supply.voltage_V`: the battery's open-circuit voltage.
+    pub const SUPPLY_VOLTAGE_V: ParamKey =
+        ParamKey::new("supply.voltage_V", BatteryParams::open_circuit_v.unit());
+    /// `controller.kind`: the DCMC's kind.
+    pub const CONTROLLER_KIND: ParamKey = ParamKey::new("controller.kind", DcmcParams::kind.unit());
+    /// `controller.gain_V_pct`: the DCMC's forward gain.
+    pub const CONTROLLER_GAIN_V_PCT: ParamKey = ParamKey::new(
+        "controller.gain_V_pct",
+        DcmcParams::forward_gain_v_pct.unit(),
+    );
+    /// `controller.turn_gain_V_pct`: the DCMC's turn gain.
+    pub const CONTROLLER_TURN_GAIN_V_PCT: ParamKey = ParamKey::new(
+        "controller.turn_gain_V_pct",
+        DcmcParams::turn_gain_v_pct.unit(),
+    );
+    /// `controller.speed_per_pct_rad_s`: the DCMC's speed set-point per percent.
+    pub const CONTROLLER_SPEED_PER_PCT_RAD_S: ParamKey = ParamKey::new(
+        "controller.speed_per_pct_rad_s",
+        DcmcParams::speed_per_pct_rad_s.unit(),
+    );
+    /// `controller.kp_V_s_rad`: the DCMC's speed loop's proportional gain.
+    pub const CONTROLLER_KP_V_S_RAD: ParamKey =
+        ParamKey::new("controller.kp_V_s_rad", DcmcParams::kp_v_s_rad.unit());
+    /// `controller.ki_V_rad`: the DCMC's speed loop's integral gain.
+    pub const CONTROLLER_KI_V_RAD: ParamKey =
+        ParamKey::new("controller.ki_V_rad", DcmcParams::ki_v_rad.unit());
+}
+
 /// The rig keys that are scene keys, in the contract's order (a rig is written in it):
-/// each the scene's own key, or a rename where the contract calls a scene key otherwise
-/// (the supply is the battery, the controller the DCMC).
+/// each the scene's own key, or the contract's [`alias`] of one.
 const FROM_SCENE: [SceneKey; 20] = [
-    SceneKey::Same("motor.resistance_ohm"),
-    SceneKey::Same("motor.inductance_H"),
-    SceneKey::Same("motor.torque_constant_Nm_A"),
-    SceneKey::Same("motor.rotor_inertia_kg_m2"),
-    SceneKey::Same("motor.viscous_Nm_s_rad"),
-    SceneKey::Same("motor.coulomb_Nm"),
-    SceneKey::Same("gearbox.ratio"),
-    SceneKey::Same("wheel.radius_m"),
-    SceneKey::Same("wheel.inertia_kg_m2"),
-    SceneKey::Renamed("supply.voltage_V", "battery.open_circuit_V"),
-    SceneKey::Renamed("controller.kind", "dcmc.kind"),
-    SceneKey::Renamed("controller.gain_V_pct", "dcmc.forward_gain_V_pct"),
-    SceneKey::Renamed("controller.turn_gain_V_pct", "dcmc.turn_gain_V_pct"),
-    SceneKey::Renamed("controller.speed_per_pct_rad_s", "dcmc.speed_per_pct_rad_s"),
-    SceneKey::Renamed("controller.kp_V_s_rad", "dcmc.kp_V_s_rad"),
-    SceneKey::Renamed("controller.ki_V_rad", "dcmc.ki_V_rad"),
-    SceneKey::Same("chassis.mass_kg"),
-    SceneKey::Same("chassis.yaw_inertia_kg_m2"),
-    SceneKey::Same("chassis.track_width_m"),
-    SceneKey::Same("chassis.drive_load_fraction"),
+    SceneKey::Same(MotorParams::resistance_ohm),
+    SceneKey::Same(MotorParams::inductance_h),
+    SceneKey::Same(MotorParams::torque_constant_nm_a),
+    SceneKey::Same(MotorParams::rotor_inertia_kg_m2),
+    SceneKey::Same(MotorParams::viscous_nm_s_rad),
+    SceneKey::Same(MotorParams::coulomb_nm),
+    SceneKey::Same(GearboxParams::ratio),
+    SceneKey::Same(WheelParams::radius_m),
+    SceneKey::Same(WheelParams::inertia_kg_m2),
+    SceneKey::Renamed(alias::SUPPLY_VOLTAGE_V, BatteryParams::open_circuit_v),
+    SceneKey::Renamed(alias::CONTROLLER_KIND, DcmcParams::kind),
+    SceneKey::Renamed(alias::CONTROLLER_GAIN_V_PCT, DcmcParams::forward_gain_v_pct),
+    SceneKey::Renamed(
+        alias::CONTROLLER_TURN_GAIN_V_PCT,
+        DcmcParams::turn_gain_v_pct,
+    ),
+    SceneKey::Renamed(
+        alias::CONTROLLER_SPEED_PER_PCT_RAD_S,
+        DcmcParams::speed_per_pct_rad_s,
+    ),
+    SceneKey::Renamed(alias::CONTROLLER_KP_V_S_RAD, DcmcParams::kp_v_s_rad),
+    SceneKey::Renamed(alias::CONTROLLER_KI_V_RAD, DcmcParams::ki_v_rad),
+    SceneKey::Same(ChassisParams::mass_kg),
+    SceneKey::Same(ChassisParams::yaw_inertia_kg_m2),
+    SceneKey::Same(ChassisParams::track_width_m),
+    SceneKey::Same(ChassisParams::drive_load_fraction),
 ];
 
 /// A scene key a rig states.
 #[derive(Clone, Copy)]
 enum SceneKey {
     /// Under the scene's own name.
-    Same(&'static str),
+    Same(ParamKey),
     /// Under the contract's name (rig key, scene key).
-    Renamed(&'static str, &'static str),
+    Renamed(ParamKey, ParamKey),
 }
 
 impl SceneKey {
     /// (the rig's name, the scene's).
     fn names(self) -> (&'static str, &'static str) {
         match self {
-            SceneKey::Same(k) => (k, k),
-            SceneKey::Renamed(rig, scene) => (rig, scene),
+            SceneKey::Same(k) => (k.key(), k.key()),
+            SceneKey::Renamed(rig, scene) => (rig.key(), scene.key()),
         }
     }
 }
@@ -75,11 +121,13 @@ impl SceneKey {
 /// (each model accepts it or refuses it with its reason), and a drivetrain whose wheels
 /// carry all the weight.
 fn rig_rule(key: &str) -> Option<Allowed> {
-    match key {
-        "motor.inductance_H" | "wheel.inertia_kg_m2" => Some(Allowed::NonNegative),
-        "chassis.drive_load_fraction" => Some(open_closed(0.0, 1.0)),
+    if key == MotorParams::inductance_h.key() || key == WheelParams::inertia_kg_m2.key() {
+        Some(Allowed::NonNegative)
+    } else if key == ChassisParams::drive_load_fraction.key() {
+        Some(open_closed(0.0, 1.0))
+    } else {
         // A rig may state a name for what the model then checks (`gain`, `p`, `pi`).
-        _ => None,
+        None
     }
 }
 
@@ -111,16 +159,17 @@ fn build() -> Vec<RigKey> {
             order: out.len(),
         });
     }
-    block::<LinearLoad>(&mut out, "load");
-    block::<CurrentAmplifier>(&mut out, "drive");
-    block::<PositionLoop>(&mut out, "feedback");
-    block::<Instruments>(&mut out, "sensors");
-    block::<FallingWeight>(&mut out, "falling_weight");
+    block::<LinearLoad>(&mut out);
+    block::<CurrentAmplifier>(&mut out);
+    block::<PositionLoop>(&mut out);
+    block::<Instruments>(&mut out);
+    block::<FallingWeight>(&mut out);
     out
 }
 
-/// A rig-only block's keys under its section.
-fn block<B: Block>(out: &mut Vec<RigKey>, section: &str) {
+/// A rig-only block's keys under its declared section.
+fn block<B: Block>(out: &mut Vec<RigKey>) {
+    let section = B::SECTION.expect("a rig's block declares its section");
     for p in B::PARAMS {
         out.push(RigKey {
             key: format!("{section}.{}", p.key),

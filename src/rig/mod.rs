@@ -23,6 +23,10 @@ pub mod blocks;
 pub mod keys;
 pub mod kind;
 
+use crate::model::chassis::ChassisParams;
+use crate::model::gearbox::GearboxParams;
+use crate::model::motor::MotorParams;
+use crate::model::wheel::WheelParams;
 use std::path::{Path, PathBuf};
 
 use keys::RigKey;
@@ -400,13 +404,16 @@ impl Rig {
     /// wheel-side value (which the motor sees through the gear); a rig of the motor alone
     /// (a linear axis, a motor on a bench) is taken as direct drive, 1.
     pub fn gear_ratio(&self, path: &Path) -> Result<f64, RigError> {
-        if let Some(n) = self.get("gearbox.ratio") {
+        if let Some(n) = self.get(GearboxParams::ratio.key()) {
             return Ok(n);
         }
-        let wheel: Vec<&str> = ["wheel.inertia_kg_m2", "wheel.radius_m"]
-            .into_iter()
-            .filter(|k| self.get(k).is_some())
-            .collect();
+        let wheel: Vec<&str> = [
+            WheelParams::inertia_kg_m2.key(),
+            WheelParams::radius_m.key(),
+        ]
+        .into_iter()
+        .filter(|k| self.get(k).is_some())
+        .collect();
         if wheel.is_empty() {
             return Ok(1.0);
         }
@@ -481,15 +488,15 @@ impl Rig {
             }
             doc[section][name] = v;
         };
-        put("motor.coulomb_Nm", toml_edit::value(0.0));
-        put("gearbox.backlash_rad", toml_edit::value(0.0));
+        put(MotorParams::coulomb_nm.key(), toml_edit::value(0.0));
+        put(GearboxParams::backlash_rad.key(), toml_edit::value(0.0));
         for (k, v) in self.stated() {
             if let (Some(scene_key), Stated::Number(x)) = (k.scene_key, v) {
                 put(scene_key, toml_edit::value(*x));
             }
         }
-        if self.get("chassis.drive_load_fraction") == Some(1.0) {
-            put("chassis.cg_x_m", toml_edit::value(0.0));
+        if self.get(ChassisParams::drive_load_fraction.key()) == Some(1.0) {
+            put(ChassisParams::cg_x_m.key(), toml_edit::value(0.0));
         }
         if !self.uncertainty_pct.is_empty() {
             let table = keys::table();
@@ -548,8 +555,8 @@ pub fn zero_refused(path: &Path, key: &str, why: &str) -> RigError {
 /// own braking), if the rig gives both.
 pub fn electrical_damping(rig: &Rig) -> Option<f64> {
     match (
-        rig.get("motor.torque_constant_Nm_A"),
-        rig.get("motor.resistance_ohm"),
+        rig.get(MotorParams::torque_constant_nm_a.key()),
+        rig.get(MotorParams::resistance_ohm.key()),
     ) {
         (Some(k), Some(r)) if r > 0.0 => {
             Some(crate::model::motor::electrical_damping_nm_s_rad(k, r))

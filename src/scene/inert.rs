@@ -5,17 +5,18 @@
 
 use super::Scene;
 use crate::firmware::ControllerKind;
+use crate::model::base_controller::BaseParams;
 
 /// `[base]` keys only the velocity-commanded base reads (`base.wheel_radius_m` is the
 /// odometry's radius for every scene, so it is not among them).
 const BASE_LOOP_KEYS: &[&str] = &[
-    "base.max_linear_m_s",
-    "base.max_linear_accel_m_s2",
-    "base.max_angular_rad_s",
-    "base.max_angular_accel_rad_s2",
-    "base.speed_kp_V_s_rad",
-    "base.speed_ki_V_rad",
-    "base.wheel_separation_m",
+    BaseParams::max_linear_m_s.key(),
+    BaseParams::max_linear_accel_m_s2.key(),
+    BaseParams::max_angular_rad_s.key(),
+    BaseParams::max_angular_accel_rad_s2.key(),
+    BaseParams::speed_kp_v_s_rad.key(),
+    BaseParams::speed_ki_v_rad.key(),
+    BaseParams::wheel_separation_m.key(),
 ];
 
 /// Why `key` has no effect on a run of `scene`, or `None` when the run reads it.

@@ -17,28 +17,27 @@ pub fn table() -> &'static KeyTable<Scene> {
                 || "text".into(),
                 "Free text shown in summaries.",
             )
-            .section("sim", |s| &s.sim, |s| &mut s.sim)
-            .section("chassis", |s| &s.chassis, |s| &mut s.chassis)
-            .section("payload", |s| &s.payload, |s| &mut s.payload)
-            .section("castors", |s| &s.castors, |s| &mut s.castors)
-            .section("motor", |s| &s.motor, |s| &mut s.motor)
-            .section("gearbox", |s| &s.gearbox, |s| &mut s.gearbox)
-            .section("wheel", |s| &s.wheel, |s| &mut s.wheel)
-            .section("tyre", |s| &s.tyre, |s| &mut s.tyre)
-            .section("floor", |s| &s.floor, |s| &mut s.floor)
-            .section("battery", |s| &s.battery, |s| &mut s.battery)
-            .section("dcmc", |s| &s.dcmc, |s| &mut s.dcmc)
-            .section("base", |s| &s.base, |s| &mut s.base)
-            .section("sensors", |s| &s.sensors, |s| &mut s.sensors)
-            .section("controller", |s| &s.controller, |s| &mut s.controller)
-            .section("manoeuvre", |s| &s.manoeuvre, |s| &mut s.manoeuvre)
-            .section(
-                "controller.swing_away",
+            .block(|s| &s.sim, |s| &mut s.sim)
+            .block(|s| &s.chassis, |s| &mut s.chassis)
+            .block(|s| &s.payload, |s| &mut s.payload)
+            .block(|s| &s.castors, |s| &mut s.castors)
+            .block(|s| &s.motor, |s| &mut s.motor)
+            .block(|s| &s.gearbox, |s| &mut s.gearbox)
+            .block(|s| &s.wheel, |s| &mut s.wheel)
+            .block(|s| &s.tyre, |s| &mut s.tyre)
+            .block(|s| &s.floor, |s| &mut s.floor)
+            .block(|s| &s.battery, |s| &mut s.battery)
+            .block(|s| &s.dcmc, |s| &mut s.dcmc)
+            .block(|s| &s.base, |s| &mut s.base)
+            .block(|s| &s.sensors, |s| &mut s.sensors)
+            .block(|s| &s.controller, |s| &mut s.controller)
+            .block(|s| &s.manoeuvre, |s| &mut s.manoeuvre)
+            .block(
                 |s| &s.controller.swing_away,
                 |s| &mut s.controller.swing_away,
             )
-            .section("wire", |s| &s.wire, |s| &mut s.wire)
-            .section("start", |s| &s.start, |s| &mut s.start)
+            .block(|s| &s.wire, |s| &mut s.wire)
+            .block(|s| &s.start, |s| &mut s.start)
             .other(
                 "obstacles",
                 crate::sensing::bumper::obstacle_tables,

@@ -4,7 +4,14 @@
 //! key, its value, what the rest of the scene would lead one to expect, and why.
 
 use super::Scene;
+use crate::model::battery::BatteryParams;
+use crate::model::chassis::ChassisParams;
 use crate::model::dcmc::DcmcKind;
+use crate::model::dcmc::DcmcParams;
+use crate::model::gearbox::GearboxParams;
+use crate::model::motor::MotorParams;
+use crate::model::tyre::TyreChoice;
+use crate::model::wheel::WheelParams;
 use crate::param::plain_number as num;
 
 /// One value that does not fit the rest of the scene.
@@ -48,12 +55,24 @@ const TYRE_MU_SPAN: (f64, f64) = (0.1, 1.3);
 /// value is most likely in another unit (millimetres, grams, millivolts typed as metres,
 /// kilograms, volts). (key, unit, lowest, highest, the unit it looks typed in).
 const VEHICLE_SIZES: [(&str, &str, f64, f64, &str); 5] = [
-    ("chassis.mass_kg", "kg", 0.2, 30_000.0, "grams"),
-    ("chassis.track_width_m", "m", 0.03, 5.0, "millimetres"),
-    ("wheel.radius_m", "m", 0.005, 1.0, "millimetres"),
-    ("battery.open_circuit_V", "V", 1.0, 1_000.0, "millivolts"),
+    (ChassisParams::mass_kg.key(), "kg", 0.2, 30_000.0, "grams"),
     (
-        "gearbox.ratio",
+        ChassisParams::track_width_m.key(),
+        "m",
+        0.03,
+        5.0,
+        "millimetres",
+    ),
+    (WheelParams::radius_m.key(), "m", 0.005, 1.0, "millimetres"),
+    (
+        BatteryParams::open_circuit_v.key(),
+        "V",
+        1.0,
+        1_000.0,
+        "millivolts",
+    ),
+    (
+        GearboxParams::ratio.key(),
         "motor turns per wheel turn",
         0.1,
         1_000.0,
@@ -121,7 +140,7 @@ fn sizes(scene: &Scene, w: &mut Vec<Warning>) {
     };
     if let Some((expected, slip)) = band {
         w.push(Warning {
-            key: "motor.torque_constant_Nm_A",
+            key: MotorParams::torque_constant_nm_a.key(),
             value: format!("{} N m/A", sig(scene.motor.torque_constant_nm_a)),
             expected,
             why: format!(
@@ -143,7 +162,7 @@ fn yaw_inertia(scene: &Scene, w: &mut Vec<Warning>) {
     let (lo, hi) = (YAW_INERTIA_SPAN.0 * slab, YAW_INERTIA_SPAN.1 * slab);
     if !(lo..=hi).contains(&c.yaw_inertia_kg_m2) {
         w.push(Warning {
-            key: "chassis.yaw_inertia_kg_m2",
+            key: ChassisParams::yaw_inertia_kg_m2.key(),
             value: format!("{} kg m^2", num(c.yaw_inertia_kg_m2)),
             expected: format!("about {} kg m^2 ({} to {})", sig(slab), sig(lo), sig(hi)),
             why: format!(
@@ -162,7 +181,7 @@ fn geometry(scene: &Scene, w: &mut Vec<Warning>) {
     let c = &scene.chassis;
     if c.track_width_m > c.width_m {
         w.push(Warning {
-            key: "chassis.track_width_m",
+            key: ChassisParams::track_width_m.key(),
             value: format!("{} m", num(c.track_width_m)),
             expected: format!(
                 "at most the body's width, chassis.width_m = {} m",
@@ -175,7 +194,7 @@ fn geometry(scene: &Scene, w: &mut Vec<Warning>) {
     let r = scene.wheel.radius_m;
     if 2.0 * r > length_m.min(c.width_m) {
         w.push(Warning {
-            key: "wheel.radius_m",
+            key: WheelParams::radius_m.key(),
             value: format!("{} m", num(r)),
             expected: format!(
                 "a wheel smaller than the body (diameter below {} m)",
@@ -195,7 +214,7 @@ fn supply(scene: &Scene, w: &mut Vec<Warning>) {
     let b = &scene.battery;
     if b.drive_limit_v > b.open_circuit_v {
         w.push(Warning {
-            key: "battery.drive_limit_V",
+            key: BatteryParams::drive_limit_v.key(),
             value: format!("{} V", num(b.drive_limit_v)),
             expected: format!(
                 "at most battery.open_circuit_V = {} V (the thesis's bridges deliver 23.5 of 24 V: here about {} V)",
@@ -214,7 +233,7 @@ fn supply(scene: &Scene, w: &mut Vec<Warning>) {
     let faults = crate::scene::Features::of(scene.sim.fidelity).dcmc_faults;
     if faults && b.low_voltage_fault_v > lowest_v && b.low_voltage_fault_v < b.open_circuit_v {
         w.push(Warning {
-            key: "battery.low_voltage_fault_V",
+            key: BatteryParams::low_voltage_fault_v.key(),
             value: format!("{} V", num(b.low_voltage_fault_v)),
             expected: format!("below {} V", sig(lowest_v)),
             why: format!(
@@ -239,7 +258,7 @@ fn dcmc_gains(scene: &Scene, w: &mut Vec<Warning>) {
             let full_v = d.forward_gain_v_pct.abs() * 100.0;
             if full_v > 1.05 * drive_v {
                 w.push(Warning {
-                    key: "dcmc.forward_gain_V_pct",
+                    key: DcmcParams::forward_gain_v_pct.key(),
                     value: format!("{} V/pct", num(d.forward_gain_v_pct)),
                     expected: format!("at most {} V/pct", sig(drive_v / 100.0)),
                     why: format!(
@@ -256,7 +275,7 @@ fn dcmc_gains(scene: &Scene, w: &mut Vec<Warning>) {
             let full_rad_s = d.speed_per_pct_rad_s * 100.0;
             if full_rad_s > 1.05 * no_load_rad_s {
                 w.push(Warning {
-                    key: "dcmc.speed_per_pct_rad_s",
+                    key: DcmcParams::speed_per_pct_rad_s.key(),
                     value: format!("{} rad/s per pct", num(d.speed_per_pct_rad_s)),
                     expected: format!("at most {} rad/s per pct", sig(no_load_rad_s / 100.0)),
                     why: format!(
@@ -275,7 +294,7 @@ fn tyre_friction(scene: &Scene, w: &mut Vec<Warning>) {
     if let Some(mu) = scene.tyre.peak_mu {
         if !(TYRE_MU_SPAN.0..=TYRE_MU_SPAN.1).contains(&mu) {
             w.push(Warning {
-                key: "tyre.peak_mu",
+                key: TyreChoice::peak_mu.key(),
                 value: num(mu),
                 expected: format!("{} to {}", TYRE_MU_SPAN.0, TYRE_MU_SPAN.1),
                 why: "rubber and polyurethane drive tyres reach about that from wet epoxy to dry concrete; for a tyre that never slips use tyre.compound = \"high_grip\" (an idealised no-slip tyre)".into(),

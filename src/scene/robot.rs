@@ -5,6 +5,19 @@
 //! thesis machine's own numbers give back its shipped scene (see
 //! [`THESIS_DIFFERENCES`]).
 
+use crate::firmware::ControllerParams;
+use crate::model::base_controller::BaseParams;
+use crate::model::battery::BatteryParams;
+use crate::model::castor::CastorParams;
+use crate::model::chassis::ChassisParams;
+use crate::model::dcmc::DcmcParams;
+use crate::model::gearbox::GearboxParams;
+use crate::model::manoeuvre::ManoeuvreParams;
+use crate::model::tyre::TyreChoice;
+use crate::model::wheel::WheelParams;
+use crate::rig::keys::alias;
+use crate::scene::schema::SimSettings;
+use crate::sensing::coil::SensorParams;
 use std::collections::BTreeSet;
 use std::path::Path;
 
@@ -185,15 +198,15 @@ mod thesis {
 /// shipped scene, and why (the regeneration test holds the rest equal).
 pub const THESIS_DIFFERENCES: &[(&str, &str)] = &[
     (
-        "chassis.yaw_inertia_kg_m2",
+        ChassisParams::yaw_inertia_kg_m2.key(),
         "13.84 from the uniform slab of its 1.0 x 0.62 m footprint; the thesis machine's 14 is a CAD value",
     ),
     (
-        "dcmc.forward_gain_V_pct",
+        DcmcParams::forward_gain_v_pct.key(),
         "0.235: full demand asks the drive limit; the thesis's unit is identified at 0.1623 (full demand 16.2 V)",
     ),
     (
-        "dcmc.turn_gain_V_pct",
+        DcmcParams::turn_gain_v_pct.key(),
         "0.1477: the identified turn/forward ratio 0.628 of the forward gain above",
     ),
 ];
@@ -259,11 +272,19 @@ impl RobotSpec {
     /// there.
     fn check(&self, has_base: bool) -> Result<(), RobotError> {
         for (key, option, v) in [
-            ("chassis.mass_kg", "mass-kg", self.mass_kg),
-            ("chassis.track_width_m", "track-m", self.track_m),
-            ("wheel.radius_m", "wheel-radius-m", self.wheel_radius_m),
-            ("battery.open_circuit_V", "battery-V", self.battery_v),
-            ("gearbox.ratio", "gear-ratio", self.gear_ratio),
+            (ChassisParams::mass_kg.key(), "mass-kg", self.mass_kg),
+            (ChassisParams::track_width_m.key(), "track-m", self.track_m),
+            (
+                WheelParams::radius_m.key(),
+                "wheel-radius-m",
+                self.wheel_radius_m,
+            ),
+            (
+                BatteryParams::open_circuit_v.key(),
+                "battery-V",
+                self.battery_v,
+            ),
+            (GearboxParams::ratio.key(), "gear-ratio", self.gear_ratio),
         ] {
             positive(option, v).map_err(|e| match (self.origin(key), e) {
                 (
@@ -389,16 +410,20 @@ impl RobotSpec {
         let m = self.motor.as_ref();
         let motor = |f: &dyn Fn(&MotorDatasheet) -> Option<String>| m.and_then(f);
         let flags = match key {
-            "chassis.mass_kg" => vec![one("--mass-kg", self.mass_kg)],
-            "chassis.track_width_m" => vec![one("--track-m", self.track_m)],
-            "wheel.radius_m" => vec![one("--wheel-radius-m", self.wheel_radius_m)],
-            "battery.open_circuit_V" => vec![one("--battery-V", self.battery_v)],
-            "gearbox.ratio" => vec![one("--gear-ratio", self.gear_ratio)],
-            "motor.torque_constant_Nm_A" => vec![
+            k if k == ChassisParams::mass_kg.key() => vec![one("--mass-kg", self.mass_kg)],
+            k if k == ChassisParams::track_width_m.key() => vec![one("--track-m", self.track_m)],
+            k if k == WheelParams::radius_m.key() => {
+                vec![one("--wheel-radius-m", self.wheel_radius_m)]
+            }
+            k if k == BatteryParams::open_circuit_v.key() => {
+                vec![one("--battery-V", self.battery_v)]
+            }
+            k if k == GearboxParams::ratio.key() => vec![one("--gear-ratio", self.gear_ratio)],
+            k if k == MotorParams::torque_constant_nm_a.key() => vec![
                 motor(&|m| Some(format!("--motor-rated-V {}", n(m.rated_v)))),
                 motor(&|m| Some(format!("--motor-no-load-rpm {}", n(m.no_load_rpm)))),
             ],
-            "motor.resistance_ohm" => vec![
+            k if k == MotorParams::resistance_ohm.key() => vec![
                 motor(&|m| Some(format!("--motor-rated-V {}", n(m.rated_v)))),
                 motor(&|m| {
                     m.stall_current_a
@@ -423,12 +448,15 @@ impl RobotSpec {
         let mut out: Vec<String> = vec![];
         for i in inputs {
             let keys: &[&str] = match i {
-                Mass => &["chassis.mass_kg"],
-                Track | Footprint => &["chassis.track_width_m"],
-                Wheel => &["wheel.radius_m"],
-                Battery => &["battery.open_circuit_V"],
-                Motor => &["motor.torque_constant_Nm_A", "motor.resistance_ohm"],
-                Ratio => &["gearbox.ratio"],
+                Mass => &[ChassisParams::mass_kg.key()],
+                Track | Footprint => &[ChassisParams::track_width_m.key()],
+                Wheel => &[WheelParams::radius_m.key()],
+                Battery => &[BatteryParams::open_circuit_v.key()],
+                Motor => &[
+                    MotorParams::torque_constant_nm_a.key(),
+                    MotorParams::resistance_ohm.key(),
+                ],
+                Ratio => &[GearboxParams::ratio.key()],
                 Backlash | Castors => &[],
             };
             for flag in keys.iter().flat_map(|k| self.flags_setting(k)) {
@@ -536,12 +564,22 @@ fn derive(n: &Numbers) -> Vec<Derived> {
 fn given_values(n: &Numbers) -> Vec<Derived> {
     use Input::*;
     vec![
-        d("chassis.mass_kg", n.mass_kg, &[Mass], "given"),
-        d("chassis.track_width_m", n.track_m, &[Track], "given"),
-        d("wheel.radius_m", n.wheel_radius_m, &[Wheel], "given"),
-        d("gearbox.ratio", n.ratio, &[Ratio], "given"),
+        d(ChassisParams::mass_kg.key(), n.mass_kg, &[Mass], "given"),
         d(
-            "gearbox.backlash_rad",
+            ChassisParams::track_width_m.key(),
+            n.track_m,
+            &[Track],
+            "given",
+        ),
+        d(
+            WheelParams::radius_m.key(),
+            n.wheel_radius_m,
+            &[Wheel],
+            "given",
+        ),
+        d(GearboxParams::ratio.key(), n.ratio, &[Ratio], "given"),
+        d(
+            GearboxParams::backlash_rad.key(),
             n.backlash_rad,
             &[Backlash, Ratio],
             if n.backlash_rad > 0.0 {
@@ -551,7 +589,12 @@ fn given_values(n: &Numbers) -> Vec<Derived> {
                     .into()
             },
         ),
-        d("battery.open_circuit_V", n.battery_v, &[Battery], "given"),
+        d(
+            BatteryParams::open_circuit_v.key(),
+            n.battery_v,
+            &[Battery],
+            "given",
+        ),
     ]
 }
 
@@ -559,17 +602,17 @@ fn body(n: &Numbers) -> Vec<Derived> {
     use Input::*;
     let (l, w) = (n.length_m, n.width_m);
     vec![
-        d("chassis.front_m", thesis::FRONT_SHARE * l, &[Footprint],
+        d(ChassisParams::front_m.key(), thesis::FRONT_SHARE * l, &[Footprint],
           format!("{:.0} % of the body length {} m ahead of the axle, as the thesis machine", 100.0 * thesis::FRONT_SHARE, round4(l))),
-        d("chassis.rear_m", (1.0 - thesis::FRONT_SHARE) * l, &[Footprint], "the rest of the body length behind the axle"),
-        d("chassis.width_m", w, &[Footprint, Track], format!("body width (given, or the track plus {} m as the thesis machine)", thesis::WIDTH_OVER_TRACK_M)),
-        d("chassis.yaw_inertia_kg_m2", slab_yaw_inertia_kg_m2(n.mass_kg, l, w), &[Mass, Footprint],
+        d(ChassisParams::rear_m.key(), (1.0 - thesis::FRONT_SHARE) * l, &[Footprint], "the rest of the body length behind the axle"),
+        d(ChassisParams::width_m.key(), w, &[Footprint, Track], format!("body width (given, or the track plus {} m as the thesis machine)", thesis::WIDTH_OVER_TRACK_M)),
+        d(ChassisParams::yaw_inertia_kg_m2.key(), slab_yaw_inertia_kg_m2(n.mass_kg, l, w), &[Mass, Footprint],
           format!("a uniform slab of the footprint: mass (L^2 + W^2) / 12 with L = {}, W = {} m; measure or calibrate it for a real body", round4(l), round4(w))),
-        d("chassis.cg_x_m", if n.castors { thesis::CG_X_SHARE * l } else { 0.0 }, &[Footprint, Castors],
+        d(ChassisParams::cg_x_m.key(), if n.castors { thesis::CG_X_SHARE * l } else { 0.0 }, &[Footprint, Castors],
           if n.castors { "5 % of the length ahead of the axle, as the thesis machine" } else { "over the drive axle: no castors carry any load" }),
-        d("chassis.drive_load_fraction", if n.castors { 0.6 } else { 1.0 }, &[Castors],
+        d(ChassisParams::drive_load_fraction.key(), if n.castors { 0.6 } else { 1.0 }, &[Castors],
           if n.castors { "60 % on the drive wheels, as the thesis machine" } else { "every load on the drive wheels: no castors" }),
-        d("sensors.x_m", (thesis::FRONT_SHARE - thesis::SENSOR_BEHIND_FRONT_SHARE) * l, &[Footprint],
+        d(SensorParams::x_m.key(), (thesis::FRONT_SHARE - thesis::SENSOR_BEHIND_FRONT_SHARE) * l, &[Footprint],
           "the coil pair 10 % of the body length inside its front edge, as the thesis machine"),
     ]
 }
@@ -580,49 +623,49 @@ fn castors(n: &Numbers) -> Vec<Derived> {
     let scaled = "scaled from the thesis machine's";
     vec![
         d(
-            "castors.front_x_m",
+            CastorParams::front_x_m.key(),
             thesis::CASTOR_FRONT_SHARE * l,
             &[Footprint],
             "40 % of the body length ahead of the axle, as the thesis machine",
         ),
         d(
-            "castors.rear_x_m",
+            CastorParams::rear_x_m.key(),
             thesis::CASTOR_REAR_SHARE * l,
             &[Footprint],
             "35 % of the body length behind the axle, as the thesis machine",
         ),
         d(
-            "castors.half_spacing_m",
+            CastorParams::half_spacing_m.key(),
             thesis::CASTOR_HALF_SPACING_SHARE * w,
             &[Footprint, Track],
             "39 % of the body width each side, as the thesis machine",
         ),
         d(
-            "castors.trail_m",
+            CastorParams::trail_m.key(),
             thesis::TRAIL_SHARE * l,
             &[Footprint],
             "4 % of the body length, as the thesis machine",
         ),
         d(
-            "castors.mass_kg",
+            CastorParams::mass_kg.key(),
             thesis::CASTOR_MASS_SHARE * m,
             &[Mass],
             "1 % of the vehicle's mass, as the thesis machine",
         ),
         d(
-            "castors.swivel_friction_Nm",
+            CastorParams::swivel_friction_nm.key(),
             thesis::SWIVEL_NM_PER_KG_M * m * l,
             &[Mass, Footprint],
             format!("{scaled} 0.3 N m with load and size"),
         ),
         d(
-            "castors.lumped_linear_drag_N_s_m",
+            CastorParams::lumped_linear_drag_n_s_m.key(),
             thesis::LINEAR_DRAG_PER_KG * m,
             &[Mass],
             format!("{scaled} 10 N s/m with mass"),
         ),
         d(
-            "castors.lumped_angular_drag_Nm_s_rad",
+            CastorParams::lumped_angular_drag_nm_s_rad.key(),
             thesis::ANGULAR_DRAG_PER_KG_M2 * m * l * l,
             &[Mass, Footprint],
             format!("{scaled} 2 N m s/rad with mass and length squared"),
@@ -641,12 +684,12 @@ fn motor(n: &Numbers) -> Vec<Derived> {
     let stall_nm = datasheet.stall_torque_nm(n.rated_v);
     let emf_damping = datasheet.electrical_damping_nm_s_rad();
     vec![
-        d("motor.torque_constant_Nm_A", k, &[Motor], format!("rated {} V over the no-load speed in rad/s (the back-EMF constant; no-load current neglected)", n.rated_v)),
-        d("motor.resistance_ohm", r, &[Motor], "rated voltage over stall current"),
-        d("motor.inductance_H", r * thesis::ELECTRICAL_TAU_S, &[Motor], format!("assumed: an electrical time constant L/R of {:.2} ms, the thesis machine's", 1e3 * thesis::ELECTRICAL_TAU_S)),
-        d("motor.rotor_inertia_kg_m2", thesis::MECHANICAL_TAU_S * emf_damping, &[Motor], format!("assumed: a mechanical time constant J R / K^2 of {:.1} ms, the thesis machine's", 1e3 * thesis::MECHANICAL_TAU_S)),
-        d("motor.coulomb_Nm", thesis::COULOMB_SHARE_OF_STALL * stall_nm, &[Motor], format!("assumed: {:.2} % of the stall torque ({} N m), the thesis machine's share", 100.0 * thesis::COULOMB_SHARE_OF_STALL, round4(stall_nm))),
-        d("motor.viscous_Nm_s_rad", thesis::VISCOUS_SHARE_OF_EMF_DAMPING * emf_damping, &[Motor], format!("assumed: {:.2} % of the back-EMF damping K^2/R, the thesis machine's share", 100.0 * thesis::VISCOUS_SHARE_OF_EMF_DAMPING)),
+        d(MotorParams::torque_constant_nm_a.key(), k, &[Motor], format!("rated {} V over the no-load speed in rad/s (the back-EMF constant; no-load current neglected)", n.rated_v)),
+        d(MotorParams::resistance_ohm.key(), r, &[Motor], "rated voltage over stall current"),
+        d(MotorParams::inductance_h.key(), r * thesis::ELECTRICAL_TAU_S, &[Motor], format!("assumed: an electrical time constant L/R of {:.2} ms, the thesis machine's", 1e3 * thesis::ELECTRICAL_TAU_S)),
+        d(MotorParams::rotor_inertia_kg_m2.key(), thesis::MECHANICAL_TAU_S * emf_damping, &[Motor], format!("assumed: a mechanical time constant J R / K^2 of {:.1} ms, the thesis machine's", 1e3 * thesis::MECHANICAL_TAU_S)),
+        d(MotorParams::coulomb_nm.key(), thesis::COULOMB_SHARE_OF_STALL * stall_nm, &[Motor], format!("assumed: {:.2} % of the stall torque ({} N m), the thesis machine's share", 100.0 * thesis::COULOMB_SHARE_OF_STALL, round4(stall_nm))),
+        d(MotorParams::viscous_nm_s_rad.key(), thesis::VISCOUS_SHARE_OF_EMF_DAMPING * emf_damping, &[Motor], format!("assumed: {:.2} % of the back-EMF damping K^2/R, the thesis machine's share", 100.0 * thesis::VISCOUS_SHARE_OF_EMF_DAMPING)),
     ]
 }
 
@@ -666,10 +709,10 @@ fn drivetrain(n: &Numbers) -> Vec<Derived> {
         thesis::TOOTH_DAMPING / (2.0 * (thesis::TOOTH_STIFFNESS * thesis_reflected_kg_m2()).sqrt());
     let k_mesh = reflected * omega2;
     vec![
-        d("wheel.inertia_kg_m2", wheel_kg_m2, &[Mass, Wheel], "scaled from the thesis machine's 0.02 kg m^2 with mass and radius squared"),
-        d("gearbox.tooth_stiffness_Nm_rad", k_mesh, &[Mass, Wheel, Motor, Ratio],
+        d(WheelParams::inertia_kg_m2.key(), wheel_kg_m2, &[Mass, Wheel], "scaled from the thesis machine's 0.02 kg m^2 with mass and radius squared"),
+        d(GearboxParams::tooth_stiffness_nm_rad.key(), k_mesh, &[Mass, Wheel, Motor, Ratio],
           format!("the thesis machine's mesh resonance ({:.1} Hz) against the reflected inertia wheel + rotor x ratio^2 = {} kg m^2", omega2.sqrt() / std::f64::consts::TAU, round4(reflected))),
-        d("gearbox.tooth_damping_Nm_s_rad", 2.0 * zeta * (k_mesh * reflected).sqrt(), &[Mass, Wheel, Motor, Ratio],
+        d(GearboxParams::tooth_damping_nm_s_rad.key(), 2.0 * zeta * (k_mesh * reflected).sqrt(), &[Mass, Wheel, Motor, Ratio],
           format!("the thesis machine's mesh damping ratio {zeta:.3}")),
     ]
 }
@@ -682,20 +725,20 @@ fn supply_and_drive(n: &Numbers) -> Vec<Derived> {
     let limit_a = round4(thesis::CURRENT_LIMIT_SHARE * stall_a);
     let forward = round4(drive_v / 100.0);
     vec![
-        d("battery.drive_limit_V", drive_v, &[Battery], "the bridges deliver 23.5 of 24 V on the thesis machine (97.9 %)"),
-        d("battery.low_voltage_fault_V", thesis::FAULT_SHARE * n.battery_v, &[Battery], "faults at 22 of 24 V on the thesis machine (91.7 %)"),
-        d("battery.internal_resistance_ohm", thesis::SAG_SHARE * n.battery_v / (2.0 * limit_a), &[Battery, Motor],
+        d(BatteryParams::drive_limit_v.key(), drive_v, &[Battery], "the bridges deliver 23.5 of 24 V on the thesis machine (97.9 %)"),
+        d(BatteryParams::low_voltage_fault_v.key(), thesis::FAULT_SHARE * n.battery_v, &[Battery], "faults at 22 of 24 V on the thesis machine (91.7 %)"),
+        d(BatteryParams::internal_resistance_ohm.key(), thesis::SAG_SHARE * n.battery_v / (2.0 * limit_a), &[Battery, Motor],
           format!("assumed: both motors at the current limit sag the battery by {:.1} % (the thesis machine's share), above the fault threshold", 100.0 * thesis::SAG_SHARE)),
-        d("dcmc.current_limit_A", limit_a, &[Motor], format!("{:.0} % of the stall current {} A, the thesis machine's share", 100.0 * thesis::CURRENT_LIMIT_SHARE, round4(stall_a))),
-        d("dcmc.forward_gain_V_pct", forward, &[Battery], "full forward demand (100 %) asks the drive limit"),
-        d("dcmc.turn_gain_V_pct", thesis::TURN_OVER_FORWARD * forward, &[Battery], "the thesis unit's identified turn/forward ratio 0.628"),
-        d("dcmc.speed_per_pct_rad_s", thesis::SPEED_SHARE_OF_NO_LOAD * drive_v / k / 100.0, &[Battery, Motor],
+        d(DcmcParams::current_limit_a.key(), limit_a, &[Motor], format!("{:.0} % of the stall current {} A, the thesis machine's share", 100.0 * thesis::CURRENT_LIMIT_SHARE, round4(stall_a))),
+        d(DcmcParams::forward_gain_v_pct.key(), forward, &[Battery], "full forward demand (100 %) asks the drive limit"),
+        d(DcmcParams::turn_gain_v_pct.key(), thesis::TURN_OVER_FORWARD * forward, &[Battery], "the thesis unit's identified turn/forward ratio 0.628"),
+        d(DcmcParams::speed_per_pct_rad_s.key(), thesis::SPEED_SHARE_OF_NO_LOAD * drive_v / k / 100.0, &[Battery, Motor],
           format!("speed loops (dcmc.kind p, pi): full demand asks {:.1} % of the no-load speed at the drive limit, as the thesis machine", 100.0 * thesis::SPEED_SHARE_OF_NO_LOAD)),
-        d("dcmc.kp_V_s_rad", thesis::KP_PER_K * k, &[Motor], "speed loops: the thesis machine's gain in proportion to the torque constant"),
-        d("dcmc.ki_V_rad", thesis::KI_PER_K * k, &[Motor], "speed loops: the thesis machine's gain in proportion to the torque constant"),
-        d("dcmc.brake_gain_V_s_rad", thesis::BRAKE_PER_K * k, &[Motor], "the thesis machine's braking gain in proportion to the torque constant"),
-        d("base.speed_kp_V_s_rad", thesis::KP_PER_K * k, &[Motor], "velocity-commanded drivers' speed loops: the thesis unit's gain in proportion to the torque constant"),
-        d("base.speed_ki_V_rad", thesis::KI_PER_K * k, &[Motor], "velocity-commanded drivers' speed loops: the thesis unit's gain in proportion to the torque constant"),
+        d(DcmcParams::kp_v_s_rad.key(), thesis::KP_PER_K * k, &[Motor], "speed loops: the thesis machine's gain in proportion to the torque constant"),
+        d(DcmcParams::ki_v_rad.key(), thesis::KI_PER_K * k, &[Motor], "speed loops: the thesis machine's gain in proportion to the torque constant"),
+        d(DcmcParams::brake_gain_v_s_rad.key(), thesis::BRAKE_PER_K * k, &[Motor], "the thesis machine's braking gain in proportion to the torque constant"),
+        d(BaseParams::speed_kp_v_s_rad.key(), thesis::KP_PER_K * k, &[Motor], "velocity-commanded drivers' speed loops: the thesis unit's gain in proportion to the torque constant"),
+        d(BaseParams::speed_ki_v_rad.key(), thesis::KI_PER_K * k, &[Motor], "velocity-commanded drivers' speed loops: the thesis unit's gain in proportion to the torque constant"),
     ]
 }
 
@@ -797,19 +840,19 @@ fn notes_by_key(spec: &RobotSpec, scene: &Scene, new: bool) -> Vec<(&'static str
     )];
     if spec.tyre.is_some() {
         notes_by_key.push((
-            "tyre.compound",
+            TyreChoice::compound.key(),
             "given (`agvsim presets` lists its friction on each floor)".into(),
         ));
     } else if new {
         notes_by_key.push((
-            "tyre.compound",
+            TyreChoice::compound.key(),
             "not given: the thesis machine's (`agvsim presets`)".into(),
         ));
     }
     if spec.configured_geometry {
         let how = "the odometry's and the base controller's configured value: the drawing's; the wheels roll on their effective radii and track (`calibrate --effects wheel_geometry` finds them)";
-        notes_by_key.push(("base.wheel_radius_m", how.into()));
-        notes_by_key.push(("base.wheel_separation_m", how.into()));
+        notes_by_key.push((BaseParams::wheel_radius_m.key(), how.into()));
+        notes_by_key.push((BaseParams::wheel_separation_m.key(), how.into()));
     }
     if spec.guidance.is_some() || new {
         let how = match scene.controller.kind {
@@ -817,32 +860,32 @@ fn notes_by_key(spec: &RobotSpec, scene: &Scene, new: bool) -> Vec<(&'static str
             ControllerKind::Velocity => "guidance: none, a velocity-commanded base: its base controller and speed loops ([base]) drive the manoeuvre ([manoeuvre]) in `run`, a recording's cmd_vel in `replay`",
             _ => "guidance: open loop, so constant demands (replay drives it with a recording's commands instead)",
         };
-        notes_by_key.push(("controller.kind", how.into()));
+        notes_by_key.push((alias::CONTROLLER_KIND.key(), how.into()));
         if scene.controller.kind == ControllerKind::Velocity {
             notes_by_key.push((
-                "manoeuvre.speed_m_s",
+                ManoeuvreParams::speed_m_s.key(),
                 "half the top speed (at most 0.5 m/s): UMBmark's square of 1 m sides, a quarter turn on the spot at each corner".into(),
             ));
             notes_by_key.push((
-                "sim.duration_s",
+                SimSettings::duration_s.key(),
                 "the manoeuvre's length with a second's rest either side".into(),
             ));
             for (key, how) in [
                 (
-                    "manoeuvre.kind",
+                    ManoeuvreParams::kind.key(),
                     "UMBmark's square (`circle`, or `commands` with a commands CSV)",
                 ),
                 (
-                    "manoeuvre.turn_rate_rad_s",
+                    ManoeuvreParams::turn_rate_rad_s.key(),
                     "a quarter turn on the spot at each corner at this rate",
                 ),
-                ("manoeuvre.side_m", "the square's side"),
-                ("manoeuvre.radius_m", "a circle's radius"),
-                ("manoeuvre.laps", "once round"),
-                ("manoeuvre.clockwise", "counter-clockwise"),
-                ("manoeuvre.rest_s", "at rest before and after"),
+                (ManoeuvreParams::side_m.key(), "the square's side"),
+                (ManoeuvreParams::radius_m.key(), "a circle's radius"),
+                (ManoeuvreParams::laps.key(), "once round"),
+                (ManoeuvreParams::clockwise.key(), "counter-clockwise"),
+                (ManoeuvreParams::rest_s.key(), "at rest before and after"),
                 (
-                    "manoeuvre.commands",
+                    ManoeuvreParams::commands.key(),
                     "the commands CSV of `kind = \"commands\"`",
                 ),
             ] {
@@ -851,7 +894,7 @@ fn notes_by_key(spec: &RobotSpec, scene: &Scene, new: bool) -> Vec<(&'static str
         }
         if scene.controller.kind == ControllerKind::OpenLoop {
             notes_by_key.push((
-                "controller.open_loop_forward_pct",
+                ControllerParams::open_loop_forward_pct.key(),
                 "half of full demand, straight ahead".into(),
             ));
         }

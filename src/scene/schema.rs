@@ -127,7 +127,7 @@ pub const DEFAULT_MAX_STEPS: u64 = 10_000_000;
 crate::declare_params! {
     /// How a run is simulated and recorded (scene section `[sim]`).
     #[derive(Debug, Clone)]
-    pub struct SimSettings {
+    pub struct SimSettings in "sim" {
         /// Which parts of the model are switched on: the thesis's `linear`, `nonlinear`
         /// and `complex` levels, or `full` (rapier chassis, tyres and castors).
         fidelity: Fidelity = Fidelity::Full, "", other(fidelity_levels);

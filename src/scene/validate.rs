@@ -4,8 +4,17 @@
 
 use super::{Invalid, Scene};
 use crate::firmware::ControllerKind;
+use crate::firmware::ControllerParams;
+use crate::model::battery::BatteryParams;
+use crate::model::castor::CastorParams;
+use crate::model::manoeuvre::ManoeuvreParams;
+use crate::model::tyre::TyreChoice;
 use crate::model::tyre_presets as presets;
+use crate::rig::keys::alias;
+use crate::scene::schema::SimSettings;
+use crate::sensing::wire::WireParams;
 use crate::sensing::wire::MAX_FLOOR_M;
+use crate::world::FloorParams;
 
 fn bad(key: &str, value: impl std::fmt::Display, expected: &str) -> Invalid {
     Invalid {
@@ -79,7 +88,7 @@ impl Scene {
         let steps = s.duration_s / s.dt_s;
         if steps > s.max_steps as f64 {
             return Err(bad(
-                "sim.duration_s",
+                SimSettings::duration_s.key(),
                 format!("{} s", s.duration_s),
                 &format!(
                     "a run of at most sim.max_steps = {} physics steps; at sim.dt_s = {} s this one would take {steps:.3e}: shorten it, or raise sim.max_steps (e.g. --set sim.max_steps={:.0}) if it is meant",
@@ -92,7 +101,7 @@ impl Scene {
         if s.duration_s < s.record_interval_s {
             // A run shorter than one recorded interval writes one row: nothing to see.
             return Err(bad(
-                "sim.duration_s",
+                SimSettings::duration_s.key(),
                 format!("{} s", s.duration_s),
                 &format!(
                     "a run at least one recording interval long (sim.record_interval_s = {} s)",
@@ -102,7 +111,7 @@ impl Scene {
         }
         if s.record_interval_s < s.dt_s {
             return Err(bad(
-                "sim.record_interval_s",
+                SimSettings::record_interval_s.key(),
                 s.record_interval_s,
                 "an interval no shorter than sim.dt_s",
             ));
@@ -110,7 +119,7 @@ impl Scene {
         let b = &self.battery;
         if b.low_voltage_fault_v >= b.open_circuit_v {
             return Err(bad(
-                "battery.low_voltage_fault_V",
+                BatteryParams::low_voltage_fault_v.key(),
                 format!("{} V", b.low_voltage_fault_v),
                 &format!(
                     "a fault threshold below battery.open_circuit_V = {} V, or the unit faults \
@@ -171,8 +180,8 @@ impl Scene {
 
     fn check_choices(&self) -> Result<(), Invalid> {
         for (key, name) in [
-            ("castors.compound", &self.castors.compound),
-            ("tyre.compound", &self.tyre.compound),
+            (CastorParams::compound.key(), &self.castors.compound),
+            (TyreChoice::compound.key(), &self.tyre.compound),
         ] {
             if presets::compound(name).is_none() {
                 return Err(bad(
@@ -185,14 +194,14 @@ impl Scene {
         let m = &self.manoeuvre;
         if !["square", "circle", "commands"].contains(&m.kind.as_str()) {
             return Err(bad(
-                "manoeuvre.kind",
+                ManoeuvreParams::kind.key(),
                 format!("{:?}", m.kind),
                 "one of \"square\", \"circle\", \"commands\"",
             ));
         }
         if m.kind == "commands" && m.commands.trim().is_empty() {
             return Err(bad(
-                "manoeuvre.commands",
+                ManoeuvreParams::commands.key(),
                 "\"\"",
                 "the commands CSV's path (t_s, cmd_linear_m_s, cmd_angular_rad_s) for manoeuvre.kind = \"commands\"",
             ));
@@ -203,7 +212,7 @@ impl Scene {
     fn check_floor(&self) -> Result<(), Invalid> {
         if presets::surface(&self.floor.surface).is_none() {
             return Err(bad(
-                "floor.surface",
+                FloorParams::surface.key(),
                 format!("{:?}", self.floor.surface),
                 &format!("one of {}", presets::surface_names()),
             ));
@@ -247,14 +256,14 @@ impl Scene {
         let k = &self.controller;
         if k.compute_delay_s >= k.period_s {
             return Err(bad(
-                "controller.compute_delay_s",
+                ControllerParams::compute_delay_s.key(),
                 k.compute_delay_s,
                 "a delay shorter than controller.period_s",
             ));
         }
         if k.kind == ControllerKind::SwingAway && !k.reverse {
             return Err(bad(
-                "controller.kind",
+                alias::CONTROLLER_KIND.key(),
                 "swing_away",
                 "a reversing run: swing_away is a reversing strategy, so set controller.reverse = true",
             ));
@@ -266,14 +275,14 @@ impl Scene {
         let w = &self.wire;
         if w.points_m.len() < 2 {
             return Err(bad(
-                "wire.points_m",
+                WireParams::points_m.key(),
                 format!("{} point(s)", w.points_m.len()),
                 "at least 2 [x, y] points (3 for a closed loop)",
             ));
         }
         if w.closed && w.points_m.len() < 3 {
             return Err(bad(
-                "wire.points_m",
+                WireParams::points_m.key(),
                 "2 points",
                 "at least 3 points for a closed loop",
             ));

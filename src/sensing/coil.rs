@@ -33,7 +33,7 @@ crate::declare_params! {
     /// The two guide-wire pick-up coils and their ADC, body frame (scene section
     /// `[sensors]`).
     #[derive(Debug, Clone, Copy, PartialEq)]
-    pub struct SensorParams {
+    pub struct SensorParams in "sensors" {
         /// Coil pair ahead of the drive axle (*assumed*).
         x_m: f64 = 0.45, "m", Finite;
         /// Half the spacing between the coils (37 mm: where the thesis's calibration

@@ -21,7 +21,7 @@ crate::declare_params! {
     /// The buried guide wire: a polyline or a closed loop, world frame (scene section
     /// `[wire]`).
     #[derive(Debug, Clone, PartialEq)]
-    pub struct WireParams {
+    pub struct WireParams in "wire" {
         /// Vertices, world frame.
         #[serde(deserialize_with = "crate::param::points_2d")]
         points_m: Vec<[f64; 2]> = vec![[-2.0, 0.0], [40.0, 0.0]], "m", other(wire_points);

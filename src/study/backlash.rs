@@ -2,6 +2,8 @@
 //! the lab run at the full level; which play keeps the cycle inside the settled band.
 
 use super::{md_table, opt, study_sweep, value_of, write_summary, StudyOptions, StudyOutput};
+use crate::firmware::ControllerParams;
+use crate::model::gearbox::GearboxParams;
 use crate::sim::metrics::SETTLED_BAND_M;
 use crate::sweep::SweepError;
 
@@ -56,10 +58,10 @@ pub fn run(
     for r in &results {
         let Ok(s) = &r.outcome else { continue };
         runs.push(BacklashRun {
-            play_rad: value_of(&o, r, "gearbox.backlash_rad")
+            play_rad: value_of(&o, r, GearboxParams::backlash_rad.key())
                 .parse()
                 .unwrap_or(f64::NAN),
-            gain: value_of(&o, r, "controller.gain_scale")
+            gain: value_of(&o, r, ControllerParams::gain_scale.key())
                 .parse()
                 .unwrap_or(f64::NAN),
             limit_cycle_m: s.limit_cycle.map_or(0.0, |c| c.amplitude_m),

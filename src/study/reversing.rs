@@ -4,6 +4,7 @@
 //! from several start offsets, on a straight wire and on one that bends.
 
 use super::{md_table, study_sweep, value_of, write_summary, StudyOptions, StudyOutput};
+use crate::model::chassis::Pose;
 use crate::sweep::SweepError;
 
 /// The scene reversing with the P-D law on the front pair.
@@ -131,7 +132,7 @@ pub fn run(
                 runs.push(ReversingRun {
                     configuration: c.name,
                     wire,
-                    start_offset_m: value_of(&o, r, "start.y_m").parse().unwrap_or(f64::NAN),
+                    start_offset_m: value_of(&o, r, Pose::y_m.key()).parse().unwrap_or(f64::NAN),
                     lost_wire: s.lost_wire,
                     late_rms_m: (late.iter().map(|e| e * e).sum::<f64>()
                         / late.len().max(1) as f64)

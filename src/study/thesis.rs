@@ -3,6 +3,9 @@
 //! error against distance, and the `full` level beside them showing what slip adds.
 
 use super::{md_table, study_sweep, value_of, write_summary, StudyOptions, StudyOutput};
+use crate::firmware::ControllerParams;
+use crate::model::gearbox::GearboxParams;
+use crate::model::tyre::TyreChoice;
 use crate::plot::{svg, Series, COLOURS};
 use crate::sweep::SweepError;
 
@@ -85,7 +88,7 @@ pub fn run(
         let mut runs = vec![];
         let mut paths = vec![];
         for r in &results {
-            let gain: f64 = value_of(&o, r, "controller.gain_scale")
+            let gain: f64 = value_of(&o, r, ControllerParams::gain_scale.key())
                 .parse()
                 .unwrap_or(f64::NAN);
             let (Ok(s), Some(t)) = (&r.outcome, &r.trace) else {
@@ -229,9 +232,9 @@ fn what_slip_adds(
     for r in &results {
         let Ok(m) = &r.outcome else { continue };
         let num = |k: &str| value_of(&o, r, k).parse::<f64>().unwrap_or(f64::NAN);
-        let drop = num("tyre.sliding_ratio") < 1.0;
-        let has_play = num("gearbox.backlash_rad") > 0.0;
-        let gain = num("controller.gain_scale");
+        let drop = num(TyreChoice::sliding_ratio.key()) < 1.0;
+        let has_play = num(GearboxParams::backlash_rad.key()) > 0.0;
+        let gain = num(ControllerParams::gain_scale.key());
         rows.push(vec![
             if drop { "yes" } else { "no" }.into(),
             if has_play { "yes" } else { "no" }.into(),

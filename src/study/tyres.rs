@@ -3,6 +3,10 @@
 //! start to slide and where slip-driven limit cycles start (the thesis's recommendation of
 //! a softer compound, quantified).
 
+use crate::firmware::ControllerParams;
+use crate::model::chassis::PayloadParams;
+use crate::model::tyre::TyreChoice;
+use crate::world::FloorParams;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
@@ -106,11 +110,11 @@ fn groups_of(o: &SweepOptions, results: &[RunResult]) -> Vec<TyreGroup> {
     for r in results {
         let Ok(s) = &r.outcome else { continue };
         let key = (
-            value_of(o, r, "tyre.compound").to_string(),
-            value_of(o, r, "floor.surface").to_string(),
-            value_of(o, r, "payload.mass_kg").to_string(),
+            value_of(o, r, TyreChoice::compound.key()).to_string(),
+            value_of(o, r, FloorParams::surface.key()).to_string(),
+            value_of(o, r, PayloadParams::mass_kg.key()).to_string(),
         );
-        let gain: f64 = value_of(o, r, "controller.gain_scale")
+        let gain: f64 = value_of(o, r, ControllerParams::gain_scale.key())
             .parse()
             .unwrap_or(f64::NAN);
         let g = groups.entry(key.clone()).or_insert_with(|| TyreGroup {

@@ -1,6 +1,7 @@
 //! One run of a sweep: what to sweep (the options every run reads), a grid point's run to
 //! the end of the scene's duration, and its outcome (metrics, trace).
 
+use crate::sensing::coil::SensorParams;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
@@ -136,7 +137,7 @@ impl SweepOptions {
 }
 
 /// Scene keys whose values make runs differ from seed to seed: the random inputs.
-pub const NOISE_KEYS: [&str; 1] = ["sensors.noise_adc"];
+pub const NOISE_KEYS: [&str; 1] = [SensorParams::noise_adc.key()];
 
 /// Repeats differ only through the seeded noise: with every noise source at zero (and
 /// none varied) `--repeat N` would write N identical rows, so it is refused, naming the

@@ -23,7 +23,7 @@ crate::declare_params! {
     /// The floor (scene section `[floor]`): a default surface and optional regions of
     /// other surfaces.
     #[derive(Debug, Clone, PartialEq)]
-    pub struct FloorParams {
+    pub struct FloorParams in "floor" {
         /// The default surface: `painted_concrete`, `bare_concrete` or `epoxy_wet` (see
         /// `agvsim presets`).
         surface: String = "painted_concrete".into(), "", other(surface_choice);

@@ -2,6 +2,7 @@
 //! the recording starts at the cut. With the total inertia known (rig), the decay gives the
 //! viscous damping and the Coulomb friction: `J dw/dt = -b w - Tc sign(w)`.
 
+use crate::rig::blocks::Instruments;
 use std::path::Path;
 
 use std::sync::OnceLock;
@@ -16,16 +17,16 @@ use crate::rig::{Rig, RigError};
 use super::falling_weight::rotor_acceleration;
 
 /// The drive train's viscous friction at the motor.
-const VISCOUS: &str = "motor.viscous_Nm_s_rad";
+const VISCOUS: &str = MotorParams::viscous_nm_s_rad.key();
 /// Its Coulomb friction at the motor.
-const COULOMB: &str = "motor.coulomb_Nm";
+const COULOMB: &str = MotorParams::coulomb_nm.key();
 /// The speed at the cut.
 const INITIAL_SPEED: &str = "initial_speed_rad_s";
 
 crate::declare_params! {
     /// Where the record starts (section `coast`).
     #[derive(Debug, Clone, Copy, PartialEq)]
-    pub struct CoastStart {
+    pub struct CoastStart in "coast" {
         /// Motor speed when the power is cut.
         initial_speed_rad_s: f64 = 0.0, "rad/s", Finite;
     }
@@ -46,9 +47,9 @@ fn coast_keys() -> &'static KeyTable<CoastParams> {
     static TABLE: OnceLock<KeyTable<CoastParams>> = OnceLock::new();
     TABLE.get_or_init(|| {
         KeyTable::<CoastParams>::new()
-            .section("motor", |c| &c.motor, |c| &mut c.motor)
-            .section("wheel", |c| &c.wheel, |c| &mut c.wheel)
-            .section("coast", |c| &c.start, |c| &mut c.start)
+            .block(|c| &c.motor, |c| &mut c.motor)
+            .block(|c| &c.wheel, |c| &mut c.wheel)
+            .block(|c| &c.start, |c| &mut c.start)
     })
 }
 
@@ -72,29 +73,36 @@ impl CoastDown {
             ParamSpec::friction(
                 VISCOUS,
                 need(VISCOUS)?,
-                crate::rig::electrical_damping(rig)
-                    .unwrap_or(rig.get("motor.rotor_inertia_kg_m2").unwrap_or(1e-4) / 0.01),
+                crate::rig::electrical_damping(rig).unwrap_or(
+                    rig.get(MotorParams::rotor_inertia_kg_m2.key())
+                        .unwrap_or(1e-4)
+                        / 0.01,
+                ),
             ),
             ParamSpec::positive(
                 COULOMB,
                 rig.get(COULOMB).filter(|v| *v > 0.0).unwrap_or(0.01),
             ),
             ParamSpec::positive(INITIAL_SPEED, initial_speed.abs().max(1e-3))
-                .setting("coast.initial_speed_rad_s"),
+                .setting(CoastStart::initial_speed_rad_s.key()),
             ParamSpec::positive(
-                "motor.rotor_inertia_kg_m2",
-                need("motor.rotor_inertia_kg_m2")?,
+                MotorParams::rotor_inertia_kg_m2.key(),
+                need(MotorParams::rotor_inertia_kg_m2.key())?,
             ),
             ParamSpec::positive(
-                "wheel.inertia_kg_m2",
-                rig.get("wheel.inertia_kg_m2").unwrap_or(0.0).max(1e-12),
+                WheelParams::inertia_kg_m2.key(),
+                rig.get(WheelParams::inertia_kg_m2.key())
+                    .unwrap_or(0.0)
+                    .max(1e-12),
             ),
         ];
         Ok(CoastDown {
             binding: Binding::new(coast_keys(), &specs),
             specs,
             ratio: rig.gear_ratio(path)?,
-            encoder: rig.get("sensors.motor_encoder_counts_per_rev").is_some(),
+            encoder: rig
+                .get(Instruments::motor_encoder_counts_per_rev.key())
+                .is_some(),
         })
     }
 

@@ -10,6 +10,10 @@
 //! - Case 2-II (`pi`): a PI speed loop adds an integrator per side:
 //!   `dw_i/dt = a_i w_i + sum_j b_ij d_j + e_i z_i`, `dz_i/dt = sum_j s_ij d_j - w_i`.
 
+use crate::model::motor::MotorParams;
+use crate::model::wheel::WheelParams;
+use crate::rig::blocks::Instruments;
+use crate::rig::keys::alias;
 use std::path::Path;
 use std::sync::OnceLock;
 
@@ -119,47 +123,52 @@ impl DcmcPair {
         let why = "the DCMC pair model takes its starting values from the motor";
         let need = |k: &str| rig.require(k, path, why);
         let (r, k) = (
-            need("motor.resistance_ohm")?,
-            need("motor.torque_constant_Nm_A")?,
+            need(MotorParams::resistance_ohm.key())?,
+            need(MotorParams::torque_constant_nm_a.key())?,
         );
         let n = rig.gear_ratio(path)?;
-        let j = need("motor.rotor_inertia_kg_m2")?
-            + rig.get("wheel.inertia_kg_m2").unwrap_or(0.0) / (n * n);
-        let b = rig.get("motor.viscous_Nm_s_rad").unwrap_or(0.0);
+        let j = need(MotorParams::rotor_inertia_kg_m2.key())?
+            + rig.get(WheelParams::inertia_kg_m2.key()).unwrap_or(0.0) / (n * n);
+        let b = rig.get(MotorParams::viscous_nm_s_rad.key()).unwrap_or(0.0);
         let m = MotorLag {
             alpha: (b + electrical_damping_nm_s_rad(k, r)) / j,
             beta: k / (r * j),
         };
-        let gf = rig.get("controller.gain_V_pct").unwrap_or(0.24);
-        let gt = rig.get("controller.turn_gain_V_pct").unwrap_or(gf);
+        let gf = rig.get(alias::CONTROLLER_GAIN_V_PCT.key()).unwrap_or(0.24);
+        let gt = rig
+            .get(alias::CONTROLLER_TURN_GAIN_V_PCT.key())
+            .unwrap_or(gf);
         // Left = forward - turn, right = forward + turn (the DCMC's mix).
         let mix = [[1.0, -1.0], [1.0, 1.0]];
-        let (a_nom, b_nom, e_nom, s_nom) = match rig.text("controller.kind").unwrap_or("gain") {
-            "gain" => {
-                let bm = |i: usize, jj: usize| m.beta * [gf, gt][jj] * mix[i][jj];
-                let a = -m.alpha;
-                let bb = [[bm(0, 0), bm(0, 1)], [bm(1, 0), bm(1, 1)]];
-                let s = bb.map(|row| row.map(|v| v / m.alpha));
-                (a, bb, 1e-3 * m.alpha * m.alpha, s)
-            }
-            "p" | "pi" => {
-                let sp = rig.get("controller.speed_per_pct_rad_s").unwrap_or(3.5);
-                let kp = rig.get("controller.kp_V_s_rad").unwrap_or(0.5);
-                let ki = rig.get("controller.ki_V_rad").unwrap_or(0.0);
-                let s = [0, 1].map(|i| [0, 1].map(|jj| sp * [1.0, gt / gf][jj] * mix[i][jj]));
-                let a = -(m.alpha + m.beta * kp);
-                let bb = s.map(|row| row.map(|v| m.beta * kp * v));
-                (a, bb, (m.beta * ki).max(1e-3 * m.alpha * m.alpha), s)
-            }
-            other => {
-                return Err(RigError::Invalid {
-                    file: path.to_owned(),
-                    message: format!(
-                        "controller.kind = \"{other}\": expected \"gain\", \"p\" or \"pi\""
-                    ),
-                })
-            }
-        };
+        let (a_nom, b_nom, e_nom, s_nom) =
+            match rig.text(alias::CONTROLLER_KIND.key()).unwrap_or("gain") {
+                "gain" => {
+                    let bm = |i: usize, jj: usize| m.beta * [gf, gt][jj] * mix[i][jj];
+                    let a = -m.alpha;
+                    let bb = [[bm(0, 0), bm(0, 1)], [bm(1, 0), bm(1, 1)]];
+                    let s = bb.map(|row| row.map(|v| v / m.alpha));
+                    (a, bb, 1e-3 * m.alpha * m.alpha, s)
+                }
+                "p" | "pi" => {
+                    let sp = rig
+                        .get(alias::CONTROLLER_SPEED_PER_PCT_RAD_S.key())
+                        .unwrap_or(3.5);
+                    let kp = rig.get(alias::CONTROLLER_KP_V_S_RAD.key()).unwrap_or(0.5);
+                    let ki = rig.get(alias::CONTROLLER_KI_V_RAD.key()).unwrap_or(0.0);
+                    let s = [0, 1].map(|i| [0, 1].map(|jj| sp * [1.0, gt / gf][jj] * mix[i][jj]));
+                    let a = -(m.alpha + m.beta * kp);
+                    let bb = s.map(|row| row.map(|v| m.beta * kp * v));
+                    (a, bb, (m.beta * ki).max(1e-3 * m.alpha * m.alpha), s)
+                }
+                other => {
+                    return Err(RigError::Invalid {
+                        file: path.to_owned(),
+                        message: format!(
+                            "controller.kind = \"{other}\": expected \"gain\", \"p\" or \"pi\""
+                        ),
+                    })
+                }
+            };
         // The thesis's names (`b_left_fwd_rad_s2_pct`), each setting its side's key
         // (`left.b_fwd_rad_s2_pct`).
         let key = |name: &str, side: &str| {
@@ -226,7 +235,9 @@ impl DcmcPair {
             case,
             binding: Binding::new(pair_keys(), &specs),
             specs,
-            encoder: rig.get("sensors.motor_encoder_counts_per_rev").is_some(),
+            encoder: rig
+                .get(Instruments::motor_encoder_counts_per_rev.key())
+                .is_some(),
         })
     }
 

@@ -4,6 +4,8 @@
 //! known weight torque, the coast gives J against the friction, and the open-circuit
 //! terminal voltage gives the back-EMF constant.
 
+use crate::rig::blocks::FallingWeight as Test;
+use crate::rig::blocks::Instruments;
 use std::path::Path;
 
 use std::sync::OnceLock;
@@ -16,18 +18,18 @@ use crate::param::KeyTable;
 use crate::rig::{Rig, RigError};
 
 /// The rotor's inertia.
-const INERTIA: &str = "motor.rotor_inertia_kg_m2";
+const INERTIA: &str = MotorParams::rotor_inertia_kg_m2.key();
 /// Its Coulomb friction.
-const COULOMB: &str = "motor.coulomb_Nm";
+const COULOMB: &str = MotorParams::coulomb_nm.key();
 /// Its back-EMF constant.
-const BACK_EMF: &str = "motor.torque_constant_Nm_A";
+const BACK_EMF: &str = MotorParams::torque_constant_nm_a.key();
 /// Its viscous friction.
-const VISCOUS: &str = "motor.viscous_Nm_s_rad";
+const VISCOUS: &str = MotorParams::viscous_nm_s_rad.key();
 
 /// The motor's keys (its block is all the test's parameters set).
 fn motor_keys() -> &'static KeyTable<MotorParams> {
     static TABLE: OnceLock<KeyTable<MotorParams>> = OnceLock::new();
-    TABLE.get_or_init(|| KeyTable::<MotorParams>::new().section("motor", |m| m, |m| m))
+    TABLE.get_or_init(|| KeyTable::<MotorParams>::new().block(|m| m, |m| m))
 }
 
 /// The falling-weight test's model: the motor, a mass on a pulley.
@@ -67,10 +69,12 @@ impl FallingWeight {
         Ok(FallingWeight {
             binding: Binding::new(motor_keys(), &specs),
             specs,
-            mass_kg: need("falling_weight.mass_kg")?,
-            pulley_radius_m: need("falling_weight.pulley_radius_m")?,
-            drop_m: need("falling_weight.drop_m")?,
-            encoder: rig.get("sensors.motor_encoder_counts_per_rev").is_some(),
+            mass_kg: need(Test::mass_kg.key())?,
+            pulley_radius_m: need(Test::pulley_radius_m.key())?,
+            drop_m: need(Test::drop_m.key())?,
+            encoder: rig
+                .get(Instruments::motor_encoder_counts_per_rev.key())
+                .is_some(),
         })
     }
 

@@ -5,6 +5,8 @@
 //! output to compare with.
 
 use crate::model::Bounded;
+use crate::rig::blocks::CurrentAmplifier;
+use crate::rig::blocks::PositionLoop;
 use std::path::Path;
 
 use std::sync::OnceLock;
@@ -17,15 +19,15 @@ use crate::rig::blocks::LinearLoad;
 use crate::rig::{Rig, RigError};
 
 /// The moving mass.
-pub const MASS: &str = "load.mass_kg";
+pub const MASS: &str = LinearLoad::mass_kg.key();
 /// The axis's viscous friction.
-pub const VISCOUS: &str = "load.viscous_N_s_m";
+pub const VISCOUS: &str = LinearLoad::viscous_n_s_m.key();
 
 crate::declare_params! {
     /// The linear axis's effects (section `effect`): the vocabulary's physics a linear
     /// axis can show, each off at its default.
     #[derive(Debug, Clone, Copy, PartialEq)]
-    pub struct LinearEffects {
+    pub struct LinearEffects in "effect" {
         /// Coulomb friction force.
         coulomb_force_n as "coulomb_force_N": f64 = 0.0, "N", NonNegative;
         /// Positive-direction over negative-direction viscous coefficient.
@@ -50,8 +52,8 @@ fn linear_keys() -> &'static KeyTable<LinearParams> {
     static TABLE: OnceLock<KeyTable<LinearParams>> = OnceLock::new();
     TABLE.get_or_init(|| {
         KeyTable::<LinearParams>::new()
-            .section("load", |a| &a.load, |a| &mut a.load)
-            .section("effect", |a| &a.effect, |a| &mut a.effect)
+            .block(|a| &a.load, |a| &mut a.load)
+            .block(|a| &a.effect, |a| &mut a.effect)
     })
 }
 
@@ -96,10 +98,10 @@ impl LinearAxis {
     /// (`force_N`), so the amplifier's gain and limit do not enter.
     pub fn from_rig(rig: &Rig, path: &Path, force_input: bool) -> Result<LinearAxis, RigError> {
         let need = |k: &str, why: &str| rig.require(k, path, why);
-        if rig.get("load.viscous_N_s_m") == Some(0.0) {
+        if rig.get(LinearLoad::viscous_n_s_m.key()) == Some(0.0) {
             return Err(crate::rig::zero_refused(
                 path,
-                "load.viscous_N_s_m",
+                LinearLoad::viscous_n_s_m.key(),
                 "the linear-axis model searches its friction on a log scale around the belief, and a moving load always has some: give a rough positive value (for example the mass over a time constant of a few seconds)",
             ));
         }
@@ -110,11 +112,11 @@ impl LinearAxis {
                 need(VISCOUS, "the linear axis's viscous friction")?,
             ),
         ];
-        let feedback = match rig.text("feedback.kind") {
+        let feedback = match rig.text(PositionLoop::kind.key()) {
             None => Loop::Open,
             Some("position_velocity_cascade") => Loop::PositionVelocityCascade {
-                kp_1_s: need("feedback.kp_1_s", "the position loop gain")?,
-                kv_v_s_m: need("feedback.kv_V_s_m", "the velocity loop gain")?,
+                kp_1_s: need(PositionLoop::kp_1_s.key(), "the position loop gain")?,
+                kv_v_s_m: need(PositionLoop::kv_v_s_m.key(), "the velocity loop gain")?,
             },
             Some(other) => {
                 return Err(RigError::Invalid {
@@ -129,8 +131,12 @@ impl LinearAxis {
             (1.0, f64::INFINITY)
         } else {
             (
-                need("drive.force_per_volt_N_V", "force = gain x command_V")?,
-                rig.get("drive.limit_V").unwrap_or(f64::INFINITY),
+                need(
+                    CurrentAmplifier::force_per_volt_n_v.key(),
+                    "force = gain x command_V",
+                )?,
+                rig.get(CurrentAmplifier::limit_v.key())
+                    .unwrap_or(f64::INFINITY),
             )
         };
         Ok(LinearAxis {

@@ -1,6 +1,11 @@
 //! A SysId log's tests as contract recordings, the speeds the feedforward regression
 //! reads, and the nominal rig a linear fit gives.
 
+use crate::model::chassis::ChassisParams;
+use crate::model::gearbox::GearboxParams;
+use crate::model::motor::MotorParams;
+use crate::model::wheel::WheelParams;
+use crate::rig::keys::alias;
 use std::fmt::Write as _;
 
 use super::{Mechanism, SysIdLog, Test};
@@ -302,16 +307,16 @@ pub(crate) fn nominal_rig(
     };
     notes.push(format!("resistance {r_ohm:.5} ohm {r_note}; inductance = resistance x {ELECTRICAL_TIME_S} s (assumed)"));
     let mut rig = Rig::new(RigKind::DriveAxis);
-    rig.set("motor.resistance_ohm", r_ohm);
-    rig.set("motor.inductance_H", r_ohm * ELECTRICAL_TIME_S);
-    rig.set("motor.viscous_Nm_s_rad", 0.0);
-    rig.set("gearbox.ratio", 1.0);
+    rig.set(MotorParams::resistance_ohm.key(), r_ohm);
+    rig.set(MotorParams::inductance_h.key(), r_ohm * ELECTRICAL_TIME_S);
+    rig.set(MotorParams::viscous_nm_s_rad.key(), 0.0);
+    rig.set(GearboxParams::ratio.key(), 1.0);
     // SysId logs the voltage each controller applied (its output times the bus voltage it
     // measured): the battery's sag and limit are already in it. A supply is stated only
     // when given, for a simulation that needs one.
     match a.supply_v {
         Some(v) => {
-            rig.set("supply.voltage_V", v);
+            rig.set(alias::SUPPLY_VOLTAGE_V.key(), v);
         }
         None => notes.push("no [supply]: the logged voltages are what the controllers applied, the battery's sag and limit already in them (give --supply-v to state one)".into()),
     }
@@ -336,26 +341,26 @@ pub(crate) fn nominal_rig(
         if !(mass > 0.0) {
             return Err(format!("kA = {ka} with kV = {kv} and resistance {r_ohm} ohm gives no positive chassis inertia: SysId's kA must be positive"));
         }
-        rig.set("motor.torque_constant_Nm_A", k);
-        rig.set("motor.rotor_inertia_kg_m2", 0.5 * j);
+        rig.set(MotorParams::torque_constant_nm_a.key(), k);
+        rig.set(MotorParams::rotor_inertia_kg_m2.key(), 0.5 * j);
         rig.rig = RigKind::Vehicle;
-        rig.set("wheel.radius_m", r);
-        rig.set("wheel.inertia_kg_m2", 0.5 * j);
-        rig.set("chassis.mass_kg", mass);
-        rig.set("chassis.yaw_inertia_kg_m2", yaw);
-        rig.set("chassis.track_width_m", w);
-        rig.set("chassis.drive_load_fraction", 1.0);
+        rig.set(WheelParams::radius_m.key(), r);
+        rig.set(WheelParams::inertia_kg_m2.key(), 0.5 * j);
+        rig.set(ChassisParams::mass_kg.key(), mass);
+        rig.set(ChassisParams::yaw_inertia_kg_m2.key(), yaw);
+        rig.set(ChassisParams::track_width_m.key(), w);
+        rig.set(ChassisParams::drive_load_fraction.key(), 1.0);
         notes.push(format!("gearbox ratio 1 and wheel radius {r} m ({}): the torque constant is kV x radius, referred to the wheel; rotor and wheel inertia {:.4} kg m^2 each: {:.0} % of kA's inertia turns with the wheels (assumed)", if a.wheel_radius_m.is_some() { "given" } else { "ASSUMED, give --wheel-radius-m" }, 0.5 * j, 100.0 * DRIVE_ROTATING_SHARE));
         notes.push(format!("track width {w} m ({}); {}", if a.track_width_m.is_some() { "given" } else if track_width(log).is_some() { "from the gyro" } else { "ASSUMED, give --track-width-m" }, if log.mechanism == Mechanism::DrivetrainAngular { "yaw inertia from kA, mass from it as a uniform square of side track width (assumed)" } else { "mass from kA, yaw inertia as a uniform square of side track width (assumed)" }));
     } else {
-        rig.set("motor.torque_constant_Nm_A", kv);
-        rig.set("motor.rotor_inertia_kg_m2", ka * kv / r_ohm);
+        rig.set(MotorParams::torque_constant_nm_a.key(), kv);
+        rig.set(MotorParams::rotor_inertia_kg_m2.key(), ka * kv / r_ohm);
         rig.rig = RigKind::DriveAxis;
         rig.set(
-            "wheel.radius_m",
+            WheelParams::radius_m.key(),
             a.wheel_radius_m.unwrap_or(DEFAULT_WHEEL_RADIUS_M),
         );
-        rig.set("wheel.inertia_kg_m2", 0.0);
+        rig.set(WheelParams::inertia_kg_m2.key(), 0.0);
         notes.push("gearbox ratio 1: the measured shaft is the motor shaft; its whole inertia is the rotor's (kA x kV / resistance)".into());
     }
     let inertia_key = state_uncertainties(
@@ -402,24 +407,27 @@ fn state_uncertainties(
     m: Mechanism,
 ) -> &'static str {
     rig.set_uncertainty_pct(
-        "motor.torque_constant_Nm_A",
+        MotorParams::torque_constant_nm_a.key(),
         relative_pct(ff.kv_v_s_per_unit),
     );
     let inertia_key = match m {
-        Mechanism::DrivetrainAngular => "chassis.yaw_inertia_kg_m2",
-        m if m.is_drivetrain() => "chassis.mass_kg",
-        _ => "motor.rotor_inertia_kg_m2",
+        Mechanism::DrivetrainAngular => ChassisParams::yaw_inertia_kg_m2.key(),
+        m if m.is_drivetrain() => ChassisParams::mass_kg.key(),
+        _ => MotorParams::rotor_inertia_kg_m2.key(),
     };
     rig.set_uncertainty_pct(inertia_key, relative_pct(ff.ka_v_s2_per_unit));
-    let mut assumed = vec!["motor.inductance_H"];
+    let mut assumed = vec![MotorParams::inductance_h.key()];
     if resistance_assumed {
-        assumed.push("motor.resistance_ohm");
+        assumed.push(MotorParams::resistance_ohm.key());
     }
     if m.is_drivetrain() {
-        assumed.extend(["motor.rotor_inertia_kg_m2", "wheel.inertia_kg_m2"]);
+        assumed.extend([
+            MotorParams::rotor_inertia_kg_m2.key(),
+            WheelParams::inertia_kg_m2.key(),
+        ]);
         // A straight run's kA is the mass's: the yaw inertia is the assumed square's.
-        if inertia_key != "chassis.yaw_inertia_kg_m2" {
-            assumed.push("chassis.yaw_inertia_kg_m2");
+        if inertia_key != ChassisParams::yaw_inertia_kg_m2.key() {
+            assumed.push(ChassisParams::yaw_inertia_kg_m2.key());
         }
     }
     for key in assumed {

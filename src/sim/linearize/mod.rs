@@ -432,6 +432,14 @@ pub fn render(l: &Linearisation, r: &Reach) -> String {
         "                 continuous time: the discrete model's zero-order-hold equivalent over {} ms (MATLAB's d2c), ln(z)/Ts of each discrete pole z",
         1000.0 * l.dt_s
     );
+    closed_loop_lines(&mut s, l);
+    s
+}
+
+/// The report's closed-loop lines: the P-D law's poles and stability, or why the loop
+/// is not analysed.
+fn closed_loop_lines(s: &mut String, l: &Linearisation) {
+    use std::fmt::Write;
     match (&l.controller, close_loop(l)) {
         (Some(g), Some(cl)) => {
             let _ = writeln!(
@@ -467,7 +475,6 @@ pub fn render(l: &Linearisation, r: &Reach) -> String {
             );
         }
     }
-    s
 }
 
 /// Poles sorted by real part, as text.

@@ -2,6 +2,7 @@
 //! and the indirect fit that chooses the DCMC keys so that they give the thesis's A and B.
 
 use super::ThesisDcmcError;
+use crate::model::dcmc::DcmcParams;
 use nalgebra::Matrix2;
 
 use super::reference::{column_ratios, CASE1, THESIS_LIKE_HOLD, THESIS_LIKE_PEAK_PCT};
@@ -87,9 +88,9 @@ pub fn identify_lifted(
 /// `dcmc.response_time_left_s` and `dcmc.response_time_right_s` alike); the turn demand
 /// passes at once.
 pub const MATCHED_KEYS: [&str; 3] = [
-    "dcmc.forward_gain_V_pct",
-    "dcmc.turn_gain_V_pct",
-    "dcmc.response_time_left_s",
+    DcmcParams::forward_gain_v_pct.key(),
+    DcmcParams::turn_gain_v_pct.key(),
+    DcmcParams::response_time_left_s.key(),
 ];
 
 /// An indirect fit: the scene's DCMC keys chosen so that the machine's own thesis-like

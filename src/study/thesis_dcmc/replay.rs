@@ -5,6 +5,8 @@ use super::ThesisDcmcError;
 use crate::ident::data::Dataset;
 use crate::ident::fit::{fit_predictor, Fit, FitSettings};
 use crate::ident::model::{Diverged, ParamSpec, Predictor};
+use crate::model::dcmc::DcmcParams;
+use crate::param::ParamKey;
 use crate::scene::Scene;
 use crate::sim::{Actuation, Sim};
 
@@ -32,33 +34,33 @@ impl ResponseForm {
     ];
 
     /// The scene keys a fit of this form sets, in parameter order.
-    pub fn keys(self) -> &'static [&'static str] {
+    pub fn keys(self) -> &'static [ParamKey] {
         match self {
             ResponseForm::ForwardLag => &[
-                "dcmc.forward_gain_V_pct",
-                "dcmc.turn_gain_V_pct",
-                "dcmc.response_time_left_s",
-                "dcmc.response_time_right_s",
+                DcmcParams::forward_gain_v_pct,
+                DcmcParams::turn_gain_v_pct,
+                DcmcParams::response_time_left_s,
+                DcmcParams::response_time_right_s,
             ],
             ResponseForm::ForwardAndTurnLag => &[
-                "dcmc.forward_gain_V_pct",
-                "dcmc.turn_gain_V_pct",
-                "dcmc.response_time_left_s",
-                "dcmc.response_time_right_s",
-                "dcmc.turn_response_time_s",
+                DcmcParams::forward_gain_v_pct,
+                DcmcParams::turn_gain_v_pct,
+                DcmcParams::response_time_left_s,
+                DcmcParams::response_time_right_s,
+                DcmcParams::turn_response_time_s,
             ],
             ResponseForm::Ramp => &[
-                "dcmc.forward_gain_V_pct",
-                "dcmc.turn_gain_V_pct",
-                "dcmc.ramp_left_pct_s",
-                "dcmc.ramp_right_pct_s",
+                DcmcParams::forward_gain_v_pct,
+                DcmcParams::turn_gain_v_pct,
+                DcmcParams::ramp_left_pct_s,
+                DcmcParams::ramp_right_pct_s,
             ],
             ResponseForm::ForwardLagTurnRamp => &[
-                "dcmc.forward_gain_V_pct",
-                "dcmc.turn_gain_V_pct",
-                "dcmc.response_time_left_s",
-                "dcmc.response_time_right_s",
-                "dcmc.turn_ramp_pct_s",
+                DcmcParams::forward_gain_v_pct,
+                DcmcParams::turn_gain_v_pct,
+                DcmcParams::response_time_left_s,
+                DcmcParams::response_time_right_s,
+                DcmcParams::turn_ramp_pct_s,
             ],
         }
     }
@@ -76,19 +78,19 @@ impl ResponseForm {
     /// The scene with only this form's response: the others' keys at zero.
     pub(super) fn isolate(self, scene: &mut Scene) {
         for key in RESPONSE_KEYS.iter().filter(|k| !self.keys().contains(k)) {
-            crate::scene::keys::set_number(scene, key, 0.0);
+            crate::scene::keys::set_number(scene, key.key(), 0.0);
         }
     }
 }
 
 /// Every key of the DCMC's slow response (a lag or a rate limit), whichever form uses it.
-const RESPONSE_KEYS: [&str; 6] = [
-    "dcmc.response_time_left_s",
-    "dcmc.response_time_right_s",
-    "dcmc.turn_response_time_s",
-    "dcmc.ramp_left_pct_s",
-    "dcmc.ramp_right_pct_s",
-    "dcmc.turn_ramp_pct_s",
+const RESPONSE_KEYS: [ParamKey; 6] = [
+    DcmcParams::response_time_left_s,
+    DcmcParams::response_time_right_s,
+    DcmcParams::turn_response_time_s,
+    DcmcParams::ramp_left_pct_s,
+    DcmcParams::ramp_right_pct_s,
+    DcmcParams::turn_ramp_pct_s,
 ];
 
 /// A key's value in a scene, where a fit starts: the scene's, or for a response that is

@@ -7,6 +7,10 @@
 
 mod dynamics;
 
+use crate::rig::blocks::CurrentAmplifier;
+use crate::rig::blocks::Instruments;
+use crate::rig::blocks::PositionLoop;
+use crate::rig::keys::alias;
 pub use dynamics::AxisBlocks;
 pub(crate) use dynamics::{drivetrain_blocks, drivetrain_state};
 
@@ -89,11 +93,11 @@ impl TorqueCommand {
             "command_V drives a current amplifier"
         };
         let feedback = if closed {
-            match rig.text("feedback.kind") {
+            match rig.text(PositionLoop::kind.key()) {
                 Some("position_velocity_cascade") => Some(WheelCascade {
-                    kp_1_s: need("feedback.kp_1_s", "the position loop gain")?,
+                    kp_1_s: need(PositionLoop::kp_1_s.key(), "the position loop gain")?,
                     kv_v_s_rad: need(
-                        "feedback.kv_V_s_rad",
+                        PositionLoop::kv_v_s_rad.key(),
                         "the velocity loop gain of a rotary axis, V per rad/s of the wheel",
                     )?,
                 }),
@@ -111,8 +115,10 @@ impl TorqueCommand {
             None
         };
         Ok(Some(TorqueCommand {
-            per_volt_nm_v: need("drive.torque_per_volt_Nm_V", why)?,
-            limit: rig.get("drive.limit_V").unwrap_or(f64::INFINITY),
+            per_volt_nm_v: need(CurrentAmplifier::torque_per_volt_nm_v.key(), why)?,
+            limit: rig
+                .get(CurrentAmplifier::limit_v.key())
+                .unwrap_or(f64::INFINITY),
             column: "command_V",
             feedback,
         }))
@@ -120,24 +126,24 @@ impl TorqueCommand {
 }
 
 /// The drive train's keys a fit may move, as the rig and the scene name them.
-pub const RESISTANCE: &str = "motor.resistance_ohm";
+pub const RESISTANCE: &str = MotorParams::resistance_ohm.key();
 /// Armature inductance.
-pub const INDUCTANCE: &str = "motor.inductance_H";
+pub const INDUCTANCE: &str = MotorParams::inductance_h.key();
 /// Torque (back-EMF) constant.
-pub const TORQUE_CONSTANT: &str = "motor.torque_constant_Nm_A";
+pub const TORQUE_CONSTANT: &str = MotorParams::torque_constant_nm_a.key();
 /// Rotor inertia.
-pub const ROTOR_INERTIA: &str = "motor.rotor_inertia_kg_m2";
+pub const ROTOR_INERTIA: &str = MotorParams::rotor_inertia_kg_m2.key();
 /// Wheel (and output gear) inertia.
-pub const WHEEL_INERTIA: &str = "wheel.inertia_kg_m2";
+pub const WHEEL_INERTIA: &str = WheelParams::inertia_kg_m2.key();
 /// All viscous friction, referred to the motor shaft.
-pub const VISCOUS: &str = "motor.viscous_Nm_s_rad";
+pub const VISCOUS: &str = MotorParams::viscous_nm_s_rad.key();
 /// The DCMC's volts per percent of demand (the rig's name).
-pub const DEMAND_GAIN: &str = "controller.gain_V_pct";
+pub const DEMAND_GAIN: &str = alias::CONTROLLER_GAIN_V_PCT.key();
 
 crate::declare_params! {
     /// The backlash block's own parameter (section `backlash`).
     #[derive(Debug, Clone, Copy, PartialEq)]
-    pub struct PlayShare {
+    pub struct PlayShare in "backlash" {
         /// Share of the viscous friction on the wheel's side of the play, in its bearings
         /// (the rig gives only the total).
         wheel_viscous_share: f64 = WHEEL_SIDE_VISCOUS_SHARE, "", closed(0.0, 0.95);
@@ -169,12 +175,12 @@ pub fn axis_keys() -> &'static KeyTable<AxisParams> {
     static TABLE: OnceLock<KeyTable<AxisParams>> = OnceLock::new();
     TABLE.get_or_init(|| {
         KeyTable::<AxisParams>::new()
-            .section("motor", |a| &a.motor, |a| &mut a.motor)
-            .section("gearbox", |a| &a.gearbox, |a| &mut a.gearbox)
-            .section("wheel", |a| &a.wheel, |a| &mut a.wheel)
-            .section("dcmc", |a| &a.dcmc, |a| &mut a.dcmc)
-            .section("battery", |a| &a.battery, |a| &mut a.battery)
-            .section("backlash", |a| &a.play, |a| &mut a.play)
+            .block(|a| &a.motor, |a| &mut a.motor)
+            .block(|a| &a.gearbox, |a| &mut a.gearbox)
+            .block(|a| &a.wheel, |a| &mut a.wheel)
+            .block(|a| &a.dcmc, |a| &mut a.dcmc)
+            .block(|a| &a.battery, |a| &mut a.battery)
+            .block(|a| &a.play, |a| &mut a.play)
     })
 }
 
@@ -230,13 +236,16 @@ pub const WHEEL_SIDE_VISCOUS_SHARE: f64 = 0.3;
 /// Finite-difference step (search coordinate) of every parameter once a play is modelled.
 pub const BACKLASH_FD_STEP: f64 = 1e-3;
 /// Name of the backlash block's nuisance parameter.
-pub const WHEEL_SHARE_PARAM: &str = "backlash.wheel_viscous_share";
+pub const WHEEL_SHARE_PARAM: &str = PlayShare::wheel_viscous_share.key();
 
 /// Ceiling of the search of a viscous friction believed zero, N m s/rad: the motor's own
 /// electrical damping K^2/R; behind a torque amplifier (no back-EMF braking) the rotor
 /// inertia over 10 ms, a mechanical time constant no drive train is shorter than.
 fn viscous_ceiling(rig: &Rig, torque_driven: bool) -> f64 {
-    let inertial = rig.get("motor.rotor_inertia_kg_m2").unwrap_or(1e-4) / 0.01;
+    let inertial = rig
+        .get(MotorParams::rotor_inertia_kg_m2.key())
+        .unwrap_or(1e-4)
+        / 0.01;
     match crate::rig::electrical_damping(rig) {
         Some(d) if !torque_driven => d,
         _ => inertial,
@@ -275,16 +284,19 @@ impl RotaryAxis {
             (false, None) => rig.require(k, path, "the rotary drive-axis model needs it"),
         };
         let mut specs = vec![
-            ParamSpec::positive("motor.resistance_ohm", need("motor.resistance_ohm")?),
+            ParamSpec::positive(
+                MotorParams::resistance_ohm.key(),
+                need(MotorParams::resistance_ohm.key())?,
+            ),
             // The inductance is weakly seen at sample rates far below R/L; a fit left free
             // would chase it towards zero, and the integration with it. Beliefs are tens of
             // percent off, so a factor of 3 is a generous physical bound.
             {
-                let l = need("motor.inductance_H")?;
+                let l = need(MotorParams::inductance_h.key())?;
                 if l == 0.0 && !torque_driven {
                     return Err(crate::rig::zero_refused(
                         path,
-                        "motor.inductance_H",
+                        MotorParams::inductance_h.key(),
                         "the model integrates the armature current, so it needs the inductance; if it is negligible, give a value well below the resistance times the sample interval (e.g. 1e-5 H)",
                     ));
                 }
@@ -293,29 +305,31 @@ impl RotaryAxis {
                 } else {
                     l
                 };
-                ParamSpec::new("motor.inductance_H", l, l / 3.0, 3.0 * l)
+                ParamSpec::new(MotorParams::inductance_h.key(), l, l / 3.0, 3.0 * l)
                     .believed(crate::ident::model::DEFAULT_BELIEF_SD_REL)
             },
             ParamSpec::positive(
-                "motor.torque_constant_Nm_A",
-                need("motor.torque_constant_Nm_A")?,
+                MotorParams::torque_constant_nm_a.key(),
+                need(MotorParams::torque_constant_nm_a.key())?,
             ),
             ParamSpec::positive(
-                "motor.rotor_inertia_kg_m2",
+                MotorParams::rotor_inertia_kg_m2.key(),
                 rig.require(
-                    "motor.rotor_inertia_kg_m2",
+                    MotorParams::rotor_inertia_kg_m2.key(),
                     path,
                     "the rotary drive-axis model needs it",
                 )?,
             ),
             ParamSpec::positive(
-                "wheel.inertia_kg_m2",
-                rig.get("wheel.inertia_kg_m2").unwrap_or(0.0).max(1e-12),
+                WheelParams::inertia_kg_m2.key(),
+                rig.get(WheelParams::inertia_kg_m2.key())
+                    .unwrap_or(0.0)
+                    .max(1e-12),
             ),
             ParamSpec::friction(
-                "motor.viscous_Nm_s_rad",
+                MotorParams::viscous_nm_s_rad.key(),
                 rig.require(
-                    "motor.viscous_Nm_s_rad",
+                    MotorParams::viscous_nm_s_rad.key(),
                     path,
                     "the rotary drive-axis model needs it",
                 )?,
@@ -328,7 +342,7 @@ impl RotaryAxis {
                     DEMAND_GAIN,
                     rig.require(DEMAND_GAIN, path, "demand_pct is the input")?,
                 )
-                .setting("dcmc.forward_gain_V_pct"),
+                .setting(DcmcParams::forward_gain_v_pct.key()),
             );
         }
         Ok(RotaryAxis {
@@ -336,8 +350,10 @@ impl RotaryAxis {
             specs,
             input,
             ratio: rig.gear_ratio(path)?,
-            encoder: rig.get("sensors.motor_encoder_counts_per_rev").is_some(),
-            supply_v: rig.get("supply.voltage_V").unwrap_or(24.0),
+            encoder: rig
+                .get(Instruments::motor_encoder_counts_per_rev.key())
+                .is_some(),
+            supply_v: rig.get(alias::SUPPLY_VOLTAGE_V.key()).unwrap_or(24.0),
             effects: effects::EffectSlots::default(),
             coulomb_eps_rad_s: 1.0,
         })

@@ -22,7 +22,7 @@ crate::declare_params! {
     /// The castor-drag block (section `castor_drag`): the idlers' rolling drag, lumped
     /// at a distance from the axle.
     #[derive(Debug, Clone, Copy, PartialEq)]
-    pub struct CastorDrag {
+    pub struct CastorDrag in "castor_drag" {
         /// The castors' distance from the drive-axle midpoint (not in the rig: it sets
         /// how much they resist turning).
         lever_m: f64 = 0.25, "m", NonNegative;
@@ -35,11 +35,11 @@ crate::declare_params! {
     /// The drive tyres as the fitting vehicle sees them (section `tyre`): their creep
     /// below the friction limit, and the limit (the wheel-slip block).
     #[derive(Debug, Clone, Copy, PartialEq)]
-    pub struct CreepTyre {
+    pub struct CreepTyre in "tyre" {
         /// Longitudinal slip stiffness per newton of load (per unit slip ratio).
-        longitudinal_stiffness_per_n as "longitudinal_stiffness_per_N": f64 = DEFAULT_LONG_STIFFNESS_PER_N, "1/N per unit slip", Positive;
+        long_stiffness_per_n as "long_stiffness_per_N": f64 = DEFAULT_LONG_STIFFNESS_PER_N, "1/N per unit slip", Positive;
         /// Cornering stiffness per newton of load (per rad of slip angle).
-        lateral_stiffness_per_n as "lateral_stiffness_per_N": f64 = DEFAULT_LAT_STIFFNESS_PER_N, "1/rad", Positive;
+        lat_stiffness_per_n as "lat_stiffness_per_N": f64 = DEFAULT_LAT_STIFFNESS_PER_N, "1/rad", Positive;
         /// Peak friction coefficient (the wheel-slip block's strength).
         peak_mu: f64 = 1.0, "", Positive;
     }
@@ -74,15 +74,15 @@ pub fn vehicle_keys() -> &'static KeyTable<VehicleParams> {
     static TABLE: OnceLock<KeyTable<VehicleParams>> = OnceLock::new();
     TABLE.get_or_init(|| {
         KeyTable::<VehicleParams>::new()
-            .section("motor", |a| &a.motor, |a| &mut a.motor)
-            .section("gearbox", |a| &a.gearbox, |a| &mut a.gearbox)
-            .section("wheel", |a| &a.wheel, |a| &mut a.wheel)
-            .section("chassis", |a| &a.chassis, |a| &mut a.chassis)
-            .section("tyre", |a| &a.tyre, |a| &mut a.tyre)
-            .section("battery", |a| &a.battery, |a| &mut a.battery)
-            .section("dcmc", |a| &a.dcmc, |a| &mut a.dcmc)
-            .section("backlash", |a| &a.play, |a| &mut a.play)
-            .section("castor_drag", |a| &a.castor_drag, |a| &mut a.castor_drag)
+            .block(|a| &a.motor, |a| &mut a.motor)
+            .block(|a| &a.gearbox, |a| &mut a.gearbox)
+            .block(|a| &a.wheel, |a| &mut a.wheel)
+            .block(|a| &a.chassis, |a| &mut a.chassis)
+            .block(|a| &a.tyre, |a| &mut a.tyre)
+            .block(|a| &a.battery, |a| &mut a.battery)
+            .block(|a| &a.dcmc, |a| &mut a.dcmc)
+            .block(|a| &a.play, |a| &mut a.play)
+            .block(|a| &a.castor_drag, |a| &mut a.castor_drag)
     })
 }
 
@@ -171,10 +171,7 @@ impl Vehicle {
                 wheel_inertia_kg_m2: wheel_side_kg_m2,
             },
             drive_wheel_load_n: c.drive_load_fraction * c.mass_kg * GRAVITY_M_S2 / 2.0,
-            tyre_stiffness_per_n: [
-                a.tyre.longitudinal_stiffness_per_n,
-                a.tyre.lateral_stiffness_per_n,
-            ],
+            tyre_stiffness_per_n: [a.tyre.long_stiffness_per_n, a.tyre.lat_stiffness_per_n],
             peak_mu: on(Effect::WheelSlip).then_some(a.tyre.peak_mu),
             castors: on(Effect::CastorDrag).then_some(a.castor_drag),
             supply: SupplyBlocks::of(

@@ -15,7 +15,13 @@
 //! The physical laws are the simulator's own (`crate::model`: armature law, gear tooth
 //! contact, no-slip body, tyre slip force).
 
+use crate::model::chassis::ChassisParams;
+use crate::model::gearbox::GearboxParams;
+use crate::model::motor::MotorParams;
+use crate::model::wheel::WheelParams;
 use crate::model::Bounded;
+use crate::rig::blocks::Instruments;
+use crate::rig::keys::alias;
 use std::path::Path;
 
 use crate::ident::data::Dataset;
@@ -30,21 +36,21 @@ use crate::ident::models::rotary_axis::{
     WHEEL_SHARE_PARAM,
 };
 
-mod blocks;
+pub(crate) mod blocks;
 mod motion;
 
 pub use blocks::{vehicle_keys, CastorDrag, CreepTyre, VehicleBlocks, VehicleParams};
 
 /// The chassis's mass.
-pub const MASS: &str = "chassis.mass_kg";
+pub const MASS: &str = ChassisParams::mass_kg.key();
 /// The chassis's yaw inertia.
-pub const YAW_INERTIA: &str = "chassis.yaw_inertia_kg_m2";
+pub const YAW_INERTIA: &str = ChassisParams::yaw_inertia_kg_m2.key();
 /// The drive wheels' radius.
-pub const WHEEL_RADIUS: &str = "wheel.radius_m";
+pub const WHEEL_RADIUS: &str = WheelParams::radius_m.key();
 /// The distance between the drive wheels.
-pub const TRACK: &str = "chassis.track_width_m";
+pub const TRACK: &str = ChassisParams::track_width_m.key();
 /// The share of the weight on the drive wheels.
-pub const LOAD_FRACTION: &str = "chassis.drive_load_fraction";
+pub const LOAD_FRACTION: &str = ChassisParams::drive_load_fraction.key();
 
 /// Tyre slip stiffnesses per newton of load assumed when the rig does not say (the
 /// simulator's hard-compound preset): they only set the small creep of a tyre below its
@@ -188,7 +194,7 @@ fn heading_excursion(data: &Dataset) -> Option<f64> {
 
 /// Name of the castor-drag block's nuisance parameter: the castors' distance from the
 /// drive-axle midpoint, m.
-pub const CASTOR_LEVER_PARAM: &str = "castor_drag.lever_m";
+pub const CASTOR_LEVER_PARAM: &str = CastorDrag::lever_m.key();
 
 /// States per side: current, motor speed, motor angle, wheel speed, wheel angle.
 const SIDE: usize = 5;
@@ -231,78 +237,95 @@ impl Vehicle {
     /// The vehicle a rig describes.
     pub fn from_rig(rig: &Rig, path: &Path) -> Result<Vehicle, RigError> {
         let need = |k: &str| rig.require(k, path, "the whole-vehicle model needs it");
-        let l = need("motor.inductance_H")?;
+        let l = need(MotorParams::inductance_h.key())?;
         if l == 0.0 {
             return Err(crate::rig::zero_refused(
                 path,
-                "motor.inductance_H",
+                MotorParams::inductance_h.key(),
                 "the model integrates the armature current, so it needs the inductance; if it is negligible, give a value well below the resistance times the sample interval (e.g. 1e-5 H)",
             ));
         }
         let specs = vec![
-            ParamSpec::positive("motor.resistance_ohm", need("motor.resistance_ohm")?),
-            ParamSpec::new("motor.inductance_H", l, l / 3.0, 3.0 * l)
+            ParamSpec::positive(
+                MotorParams::resistance_ohm.key(),
+                need(MotorParams::resistance_ohm.key())?,
+            ),
+            ParamSpec::new(MotorParams::inductance_h.key(), l, l / 3.0, 3.0 * l)
                 .believed(DEFAULT_BELIEF_SD_REL),
             ParamSpec::positive(
-                "motor.torque_constant_Nm_A",
-                need("motor.torque_constant_Nm_A")?,
+                MotorParams::torque_constant_nm_a.key(),
+                need(MotorParams::torque_constant_nm_a.key())?,
             ),
             ParamSpec::positive(
-                "motor.rotor_inertia_kg_m2",
-                need("motor.rotor_inertia_kg_m2")?,
+                MotorParams::rotor_inertia_kg_m2.key(),
+                need(MotorParams::rotor_inertia_kg_m2.key())?,
             ),
             // Zero: lumped into the rotor's (the two are seen only as their sum without
             // gear play).
             ParamSpec::positive(
-                "wheel.inertia_kg_m2",
-                need("wheel.inertia_kg_m2")?.max(1e-12),
+                WheelParams::inertia_kg_m2.key(),
+                need(WheelParams::inertia_kg_m2.key())?.max(1e-12),
             ),
             ParamSpec::friction(
-                "motor.viscous_Nm_s_rad",
-                need("motor.viscous_Nm_s_rad")?,
+                MotorParams::viscous_nm_s_rad.key(),
+                need(MotorParams::viscous_nm_s_rad.key())?,
                 crate::rig::electrical_damping(rig).unwrap_or(1.0),
             ),
-            ParamSpec::positive("chassis.mass_kg", need("chassis.mass_kg")?),
             ParamSpec::positive(
-                "chassis.yaw_inertia_kg_m2",
-                need("chassis.yaw_inertia_kg_m2")?,
+                ChassisParams::mass_kg.key(),
+                need(ChassisParams::mass_kg.key())?,
+            ),
+            ParamSpec::positive(
+                ChassisParams::yaw_inertia_kg_m2.key(),
+                need(ChassisParams::yaw_inertia_kg_m2.key())?,
             ),
             {
                 // Measured with a ruler: a few percent is a generous bound.
-                let r = need("wheel.radius_m")?;
-                ParamSpec::new("wheel.radius_m", r, 0.8 * r, 1.25 * r)
+                let r = need(WheelParams::radius_m.key())?;
+                ParamSpec::new(WheelParams::radius_m.key(), r, 0.8 * r, 1.25 * r)
                     .believed(DEFAULT_BELIEF_SD_REL)
             },
             {
-                let t = need("chassis.track_width_m")?;
-                ParamSpec::new("chassis.track_width_m", t, 0.8 * t, 1.25 * t)
+                let t = need(ChassisParams::track_width_m.key())?;
+                ParamSpec::new(ChassisParams::track_width_m.key(), t, 0.8 * t, 1.25 * t)
                     .believed(DEFAULT_BELIEF_SD_REL)
             },
             ParamSpec::new(
-                "chassis.drive_load_fraction",
-                rig.get("chassis.drive_load_fraction")
+                ChassisParams::drive_load_fraction.key(),
+                rig.get(ChassisParams::drive_load_fraction.key())
                     .unwrap_or(DEFAULT_DRIVE_LOAD_FRACTION),
                 0.05,
                 1.0,
             ),
             ParamSpec::positive(
-                "tyre.longitudinal_stiffness_per_N",
+                CreepTyre::long_stiffness_per_n.key(),
                 DEFAULT_LONG_STIFFNESS_PER_N,
             ),
-            ParamSpec::positive("tyre.lateral_stiffness_per_N", DEFAULT_LAT_STIFFNESS_PER_N),
+            ParamSpec::positive(
+                CreepTyre::lat_stiffness_per_n.key(),
+                DEFAULT_LAT_STIFFNESS_PER_N,
+            ),
         ];
         Ok(Vehicle {
             binding: Binding::new(vehicle_keys(), &specs),
             specs,
-            ratio: rig.require("gearbox.ratio", path, "the whole-vehicle model needs it")?,
-            encoder: rig.get("sensors.motor_encoder_counts_per_rev").is_some(),
-            supply_v: rig.get("supply.voltage_V"),
+            ratio: rig.require(
+                GearboxParams::ratio.key(),
+                path,
+                "the whole-vehicle model needs it",
+            )?,
+            encoder: rig
+                .get(Instruments::motor_encoder_counts_per_rev.key())
+                .is_some(),
+            supply_v: rig.get(alias::SUPPLY_VOLTAGE_V.key()),
             effects: effects::EffectSlots::default(),
             coulomb_eps_rad_s: 1.0,
             drag_eps_m_s: 0.01,
-            tracker_position_noise_m: rig.get("sensors.tracker_position_noise_m").unwrap_or(0.002),
+            tracker_position_noise_m: rig
+                .get(Instruments::tracker_position_noise_m.key())
+                .unwrap_or(0.002),
             tracker_heading_noise_rad: rig
-                .get("sensors.tracker_heading_noise_rad")
+                .get(Instruments::tracker_heading_noise_rad.key())
                 .unwrap_or(0.005),
             creeping_tyres: true,
         })

@@ -3,6 +3,7 @@
 
 use super::*;
 use crate::ident::model::simulate;
+use crate::model::chassis::ChassisParams;
 use crate::model::GRAVITY_M_S2;
 
 fn rig() -> Rig {
@@ -60,7 +61,7 @@ fn castor_drag_is_looked_for_only_where_castors_carry_weight() {
     let with_castors = Vehicle::from_rig(&rig(), path).unwrap();
     assert!(with_castors.applicable().contains(&Effect::CastorDrag));
     let mut all_on_drive = rig();
-    all_on_drive.set("chassis.drive_load_fraction", 1.0);
+    all_on_drive.set(ChassisParams::drive_load_fraction.key(), 1.0);
     let tank = Vehicle::from_rig(&all_on_drive, path).unwrap();
     assert!(!tank.applicable().contains(&Effect::CastorDrag));
     assert!(tank.applicable().contains(&Effect::CoulombFriction));
