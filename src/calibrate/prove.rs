@@ -423,29 +423,7 @@ fn excitation_rows(
         peak * sum / 2.8
     };
     match (kind, excitation) {
-        (Kind::AxisVoltage, Excitation::SysId) => {
-            // Quasistatic 1.2 V/s each way for 5 s, then a 12 V step each way for 2 s, a
-            // second at rest before each.
-            let dt = 0.005;
-            let mut rows = vec![];
-            let mut t = 0.0;
-            let mut push = |len: f64, f: &dyn Fn(f64) -> f64| {
-                let n = (len / dt).round() as usize;
-                for k in 0..n {
-                    rows.push(vec![f(k as f64 * dt)]);
-                }
-                t += len;
-            };
-            push(1.0, &|_| 0.0);
-            push(5.0, &|s| 1.2 * s);
-            push(1.0, &|_| 0.0);
-            push(5.0, &|s| -1.2 * s);
-            push(1.0, &|_| 0.0);
-            push(2.0, &|_| 12.0);
-            push(1.0, &|_| 0.0);
-            push(2.0, &|_| -12.0);
-            (vec!["voltage_V"], dt, rows)
-        }
+        (Kind::AxisVoltage, Excitation::SysId) => (vec!["voltage_V"], SYSID_DT_S, sysid_voltages()),
         (Kind::AxisVoltage, _) => (
             vec!["voltage_V"],
             0.005,
@@ -513,6 +491,31 @@ fn excitation_rows(
             (vec!["cmd_linear_m_s", "cmd_angular_rad_s"], 0.01, rows)
         }
     }
+}
+
+/// The SysId test's sample interval, s.
+const SYSID_DT_S: f64 = 0.005;
+
+/// SysId's voltages: quasistatic 1.2 V/s each way for 5 s, then a 12 V step each way for
+/// 2 s, a second at rest before each.
+fn sysid_voltages() -> Vec<Vec<f64>> {
+    let dt = SYSID_DT_S;
+    let mut rows = vec![];
+    let mut push = |len: f64, f: &dyn Fn(f64) -> f64| {
+        let n = (len / dt).round() as usize;
+        for k in 0..n {
+            rows.push(vec![f(k as f64 * dt)]);
+        }
+    };
+    push(1.0, &|_| 0.0);
+    push(5.0, &|s| 1.2 * s);
+    push(1.0, &|_| 0.0);
+    push(5.0, &|s| -1.2 * s);
+    push(1.0, &|_| 0.0);
+    push(2.0, &|_| 12.0);
+    push(1.0, &|_| 0.0);
+    push(2.0, &|_| -12.0);
+    rows
 }
 
 /// The outputs a kind's rig measures.

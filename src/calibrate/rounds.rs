@@ -19,7 +19,7 @@
 
 use rayon::prelude::*;
 
-use super::search::{Problem, Stage};
+use super::search::{Presence, Problem, Stage};
 use super::{effects, CalibrateError, EffectTrial, Removal, Switch};
 use crate::diagnose::evidence::Gain;
 use crate::diagnose::{MIN_DELTA_AIC, MIN_RSS_REDUCTION};
@@ -290,22 +290,7 @@ fn backward(
             });
         let Some(weakest) = weakest else {
             // Every one left is supported.
-            for (w, h) in weighed.iter().zip(&homes) {
-                let scene_value = (h.in_scene && scenes_own.contains(&h.effect)).then_some(h.start);
-                if let Some(t) = r.trials.iter_mut().find(|t| t.effect == h.effect) {
-                    t.kept = !t.accepted;
-                    t.against_absence = Some(w.gain.delta_aic);
-                    t.scene_value = t.scene_value.or(scene_value);
-                    if t.kept {
-                        // Reported as weighed: the scene's strength against none.
-                        t.value = h.start;
-                        t.std = None;
-                        t.at_bound = None;
-                        t.delta_aic = w.gain.delta_aic;
-                        t.rss_reduction_pct = 100.0 * w.gain.reduction;
-                    }
-                }
-            }
+            record_kept(r, &weighed, &homes, scenes_own);
             break;
         };
         let home = &homes[weakest];
@@ -321,38 +306,7 @@ fn backward(
             crate::numtext::quantity(was, 4, crate::rig::keys::unit_key_or_name(home.key)),
             w.gain.delta_aic
         ));
-        // Taken out of the user's scene where it had the effect; an effect only this
-        // calibration added is simply not added.
-        if scenes_own.contains(&home.effect) {
-            for (key, off) in home.off_values().expect("weighed effects can be taken out") {
-                let was = crate::calibrate::keys::get(&r.stage.scene, &key)?;
-                r.removed.push(Removal {
-                    effect: home.effect,
-                    was: problem_scene_value(problem, &key).unwrap_or(was),
-                    key,
-                    off,
-                });
-            }
-        }
-        // An effect accepted earlier and now taken out leaves its switches and start.
-        r.switches.retain(|s| s.effect != home.effect);
-        let keys = home.keys();
-        r.starts.retain(|(k, _)| !keys.contains(&k.as_str()));
-        let mut trial = r
-            .trial(home.effect)
-            .cloned()
-            .unwrap_or_else(|| EffectTrial::of(home, was, None, None, &w.gain));
-        trial.accepted = false;
-        trial.removed = true;
-        trial.kept = false;
-        trial.against_absence = Some(w.gain.delta_aic);
-        // Reported as weighed: the model's strength against none.
-        trial.value = was;
-        trial.std = None;
-        trial.at_bound = None;
-        trial.delta_aic = w.gain.delta_aic;
-        trial.rss_reduction_pct = 100.0 * w.gain.reduction;
-        r.record(trial);
+        take_out(problem, r, home, was, &w.gain, scenes_own)?;
         removed.push(home.effect);
         undecided.retain(|&e| e != home.effect);
         r.stage = problem.polished(w.off)?;
@@ -360,6 +314,80 @@ fn backward(
         undecided.retain(|&e| !clearly_supported(r, e, driven));
     }
     Ok(removed)
+}
+
+/// Records the effects the backward pass keeps, each supported against its absence:
+/// one the scene had and this calibration did not accept is reported as weighed, the
+/// scene's strength against none.
+fn record_kept(
+    r: &mut Rounds,
+    weighed: &[Presence],
+    homes: &[effects::Home],
+    scenes_own: &[Effect],
+) {
+    for (w, h) in weighed.iter().zip(homes) {
+        let scene_value = (h.in_scene && scenes_own.contains(&h.effect)).then_some(h.start);
+        if let Some(t) = r.trials.iter_mut().find(|t| t.effect == h.effect) {
+            t.kept = !t.accepted;
+            t.against_absence = Some(w.gain.delta_aic);
+            t.scene_value = t.scene_value.or(scene_value);
+            if t.kept {
+                // Reported as weighed: the scene's strength against none.
+                t.value = h.start;
+                t.std = None;
+                t.at_bound = None;
+                t.delta_aic = w.gain.delta_aic;
+                t.rss_reduction_pct = 100.0 * w.gain.reduction;
+            }
+        }
+    }
+}
+
+/// Takes a weighed effect out: out of the user's scene where it had the effect (an
+/// effect only this calibration added is simply not added), its switches and start
+/// forgotten, its trial recorded as removed with the model's strength (`was`) against
+/// none.
+fn take_out(
+    problem: &Problem,
+    r: &mut Rounds,
+    home: &effects::Home,
+    was: f64,
+    gain: &Gain,
+    scenes_own: &[Effect],
+) -> Result<(), CalibrateError> {
+    // Taken out of the user's scene where it had the effect; an effect only this
+    // calibration added is simply not added.
+    if scenes_own.contains(&home.effect) {
+        for (key, off) in home.off_values().expect("weighed effects can be taken out") {
+            let was = crate::calibrate::keys::get(&r.stage.scene, &key)?;
+            r.removed.push(Removal {
+                effect: home.effect,
+                was: problem_scene_value(problem, &key).unwrap_or(was),
+                key,
+                off,
+            });
+        }
+    }
+    // An effect accepted earlier and now taken out leaves its switches and start.
+    r.switches.retain(|s| s.effect != home.effect);
+    let keys = home.keys();
+    r.starts.retain(|(k, _)| !keys.contains(&k.as_str()));
+    let mut trial = r
+        .trial(home.effect)
+        .cloned()
+        .unwrap_or_else(|| EffectTrial::of(home, was, None, None, gain));
+    trial.accepted = false;
+    trial.removed = true;
+    trial.kept = false;
+    trial.against_absence = Some(gain.delta_aic);
+    // Reported as weighed: the model's strength against none.
+    trial.value = was;
+    trial.std = None;
+    trial.at_bound = None;
+    trial.delta_aic = gain.delta_aic;
+    trial.rss_reduction_pct = 100.0 * gain.reduction;
+    r.record(trial);
+    Ok(())
 }
 
 /// Whether the recording supports an effect the model has, by its gain over the model

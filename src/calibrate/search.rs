@@ -574,18 +574,7 @@ impl Problem<'_> {
             odometry: Odometry::new(turns, configured),
             windows,
         };
-        // Each pose output weighed by a tracker's noise (a motion-capture or map pose:
-        // 2 mm, 5 mrad, as the fitting vehicle assumes where a rig does not say): the
-        // odometry's residual is that noise and the encoders' counts, not the outputs'
-        // spread, which turning on the spot gives the heading alone.
-        let weights: Vec<f64> = pose
-            .output_names
-            .iter()
-            .map(|n| match n.as_str() {
-                "heading_rad" => 1.0 / TRACKER_HEADING_NOISE_RAD,
-                _ => 1.0 / TRACKER_POSITION_NOISE_M,
-            })
-            .collect();
+        let weights = tracker_weights(&pose);
         let settings = |free: Vec<usize>| FitSettings {
             free,
             weighting: Weighting::outputs_only(weights.clone()),
@@ -611,21 +600,8 @@ impl Problem<'_> {
         let confirmed = with.fit.rss() < stage.fit.rss();
         let distinct =
             (0..3).any(|i| on.std[i].is_some_and(|s| (on.params[i] - configured[i]).abs() > s));
-        // The evidence: the geometry's distance from the configured one in its own
-        // covariance (the Wald statistic, the likelihood ratio's measure where the
-        // odometry's residual is as correlated as a pose over a window is), against what
-        // the rule asks of three keys. The effective-sample likelihood gain counts a
-        // window's drift as one sample and asks far more.
-        let deviation =
-            nalgebra::DVector::from_iterator(3, (0..3).map(|i| on.params[i] - configured[i]));
-        let wald = on
-            .covariance
-            .clone()
-            .pseudo_inverse(1e-30)
-            .map(|inv| (deviation.transpose() * inv * &deviation)[(0, 0)])
-            .unwrap_or(0.0);
         let gain = Gain {
-            delta_aic: wald - 2.0 * 3.0,
+            delta_aic: wald_delta_aic(&on, &configured),
             reduction: gain.reduction,
         };
         let specs = model.odometry.param_specs();
@@ -720,4 +696,35 @@ impl Predictor for WindowedOdometry {
 /// The values of `free` keys in `scene`.
 fn values(scene: &Scene, free: &[String]) -> Result<Vec<f64>, CalibrateError> {
     free.iter().map(|k| keys::get(scene, k)).collect()
+}
+
+/// The evidence for a fitted geometry: its distance from the configured one in its own
+/// covariance (the Wald statistic, the likelihood ratio's measure where the odometry's
+/// residual is as correlated as a pose over a window is), less what the rule asks of
+/// three keys, as an AIC gain. The effective-sample likelihood gain counts a window's
+/// drift as one sample and asks far more.
+fn wald_delta_aic(on: &Fit, configured: &[f64; 3]) -> f64 {
+    let deviation =
+        nalgebra::DVector::from_iterator(3, (0..3).map(|i| on.params[i] - configured[i]));
+    let wald = on
+        .covariance
+        .clone()
+        .pseudo_inverse(1e-30)
+        .map(|inv| (deviation.transpose() * inv * &deviation)[(0, 0)])
+        .unwrap_or(0.0);
+    wald - 2.0 * 3.0
+}
+
+/// Each pose output's weight: one over a tracker's noise (a motion-capture or map pose:
+/// 2 mm, 5 mrad, as the fitting vehicle assumes where a rig does not say). The odometry's
+/// residual is that noise and the encoders' counts, not the outputs' spread, which
+/// turning on the spot gives the heading alone.
+fn tracker_weights(pose: &Dataset) -> Vec<f64> {
+    pose.output_names
+        .iter()
+        .map(|n| match n.as_str() {
+            "heading_rad" => 1.0 / TRACKER_HEADING_NOISE_RAD,
+            _ => 1.0 / TRACKER_POSITION_NOISE_M,
+        })
+        .collect()
 }

@@ -267,6 +267,39 @@ pub fn build_structure(
     Ok(s)
 }
 
+/// The model a recording is fitted with when none is named: its experiment's, else its
+/// rig's (a drive pair's by its controller's kind).
+fn default_choice(rig: &Rig, rec: &Recording) -> ModelChoice {
+    match rec.meta.get("experiment").map(String::as_str) {
+        Some("falling-weight") => ModelChoice::FallingWeight,
+        Some("coast-down") => ModelChoice::CoastDown,
+        _ => match rig.rig {
+            RigKind::DrivePair => match rig.text(alias::CONTROLLER_KIND.key()) {
+                Some("p") => ModelChoice::P,
+                Some("pi") => ModelChoice::Pi,
+                _ => ModelChoice::Gain,
+            },
+            _ => ModelChoice::DriveAxis,
+        },
+    }
+}
+
+/// The whole-vehicle model of a recording driven by motor voltages; its tyres creep
+/// where the recording has a pose.
+fn vehicle_structure(rig: &Rig, rig_path: &Path, rec: &Recording) -> Result<Vehicle, IdentError> {
+    if rec.column("left_voltage_V").is_none() || rec.column("right_voltage_V").is_none() {
+        return Err(IdentError::Mismatch {
+            file: rec.path.clone(),
+            message: "the whole-vehicle model is driven by `left_voltage_V` and `right_voltage_V`; recordings driven through the motor controller (`demand_fwd_pct`, `demand_turn_pct`) or by velocity commands (`cmd_linear_m_s`, `cmd_angular_rad_s`) are not supported yet; `agvsim calibrate --scene SCENE --recording REC --effects all` fits them through the simulator and finds missing physics there".into(),
+        });
+    }
+    let mut m = Vehicle::from_rig(rig, rig_path)?;
+    m.creeping_tyres = ["x_m", "y_m", "heading_rad"]
+        .iter()
+        .any(|c| rec.column(c).is_some());
+    Ok(m)
+}
+
 /// The model structure for a rig and a recording.
 fn structure_of(
     rig: &Rig,
@@ -274,21 +307,7 @@ fn structure_of(
     rec: &Recording,
     choice: Option<ModelChoice>,
 ) -> Result<Structure, IdentError> {
-    let choice = match choice {
-        Some(c) => c,
-        None => match rec.meta.get("experiment").map(String::as_str) {
-            Some("falling-weight") => ModelChoice::FallingWeight,
-            Some("coast-down") => ModelChoice::CoastDown,
-            _ => match rig.rig {
-                RigKind::DrivePair => match rig.text(alias::CONTROLLER_KIND.key()) {
-                    Some("p") => ModelChoice::P,
-                    Some("pi") => ModelChoice::Pi,
-                    _ => ModelChoice::Gain,
-                },
-                _ => ModelChoice::DriveAxis,
-            },
-        },
-    };
+    let choice = choice.unwrap_or_else(|| default_choice(rig, rec));
     if rec.rig != rig.rig {
         return Err(IdentError::Mismatch {
             file: rec.path.clone(),
@@ -309,18 +328,7 @@ fn structure_of(
     Ok(match choice {
         ModelChoice::DriveAxis => {
             if rig.rig == RigKind::Vehicle {
-                if rec.column("left_voltage_V").is_none() || rec.column("right_voltage_V").is_none()
-                {
-                    return Err(IdentError::Mismatch {
-                        file: rec.path.clone(),
-                        message: "the whole-vehicle model is driven by `left_voltage_V` and `right_voltage_V`; recordings driven through the motor controller (`demand_fwd_pct`, `demand_turn_pct`) or by velocity commands (`cmd_linear_m_s`, `cmd_angular_rad_s`) are not supported yet; `agvsim calibrate --scene SCENE --recording REC --effects all` fits them through the simulator and finds missing physics there".into(),
-                    });
-                }
-                let mut m = Vehicle::from_rig(rig, rig_path)?;
-                m.creeping_tyres = ["x_m", "y_m", "heading_rad"]
-                    .iter()
-                    .any(|c| rec.column(c).is_some());
-                return Ok(Structure::Vehicle(m));
+                return Ok(Structure::Vehicle(vehicle_structure(rig, rig_path, rec)?));
             }
             if rig.rig != RigKind::DriveAxis {
                 return Err(wrong_rig(RigKind::DriveAxis));

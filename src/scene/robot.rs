@@ -15,7 +15,6 @@ use crate::model::gearbox::GearboxParams;
 use crate::model::manoeuvre::ManoeuvreParams;
 use crate::model::tyre::TyreChoice;
 use crate::model::wheel::WheelParams;
-use crate::rig::keys::alias;
 use crate::scene::schema::SimSettings;
 use crate::sensing::coil::SensorParams;
 use std::collections::BTreeSet;
@@ -860,7 +859,7 @@ fn notes_by_key(spec: &RobotSpec, scene: &Scene, new: bool) -> Vec<(&'static str
             ControllerKind::Velocity => "guidance: none, a velocity-commanded base: its base controller and speed loops ([base]) drive the manoeuvre ([manoeuvre]) in `run`, a recording's cmd_vel in `replay`",
             _ => "guidance: open loop, so constant demands (replay drives it with a recording's commands instead)",
         };
-        notes_by_key.push((alias::CONTROLLER_KIND.key(), how.into()));
+        notes_by_key.push((ControllerParams::kind.key(), how.into()));
         if scene.controller.kind == ControllerKind::Velocity {
             notes_by_key.push((
                 ManoeuvreParams::speed_m_s.key(),

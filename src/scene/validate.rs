@@ -10,7 +10,6 @@ use crate::model::castor::CastorParams;
 use crate::model::manoeuvre::ManoeuvreParams;
 use crate::model::tyre::TyreChoice;
 use crate::model::tyre_presets as presets;
-use crate::rig::keys::alias;
 use crate::scene::schema::SimSettings;
 use crate::sensing::wire::WireParams;
 use crate::sensing::wire::MAX_FLOOR_M;
@@ -263,7 +262,7 @@ impl Scene {
         }
         if k.kind == ControllerKind::SwingAway && !k.reverse {
             return Err(bad(
-                alias::CONTROLLER_KIND.key(),
+                ControllerParams::kind.key(),
                 "swing_away",
                 "a reversing run: swing_away is a reversing strategy, so set controller.reverse = true",
             ));

@@ -12,6 +12,31 @@ use super::{io_err, SweepError};
 /// run exactly once, writes their rows in run order (as the shards wrote them), the
 /// manifest, traces and plots. Returns the merged `results.csv` path.
 pub fn merge(shards: &[PathBuf], out: &Path) -> Result<(PathBuf, Vec<PathBuf>), SweepError> {
+    let manifests = slices_of_one_sweep(shards, out)?;
+    let first = &manifests[0];
+    let (header, rows) = rows_in_run_order(shards, &first.grid())?;
+    every_run_once(&rows, first.total_runs)?;
+    std::fs::create_dir_all(out).map_err(io_err(out))?;
+    let csv = csv_text(&header, rows.into_values());
+    let path = out.join(RESULTS_FILE);
+    crate::output::write_atomically(&path, &csv).map_err(io_err(&path))?;
+    let merged = Manifest {
+        shard: Shard::WHOLE.to_string(),
+        runs: [0, first.total_runs],
+        ..first.clone()
+    };
+    merged.write(out)?;
+    if first.traces {
+        copy_traces(&manifests, shards, out)?;
+    }
+    let table = Table::parse(&csv, &path)?;
+    let plots = super::plots::write(out, &merged.grid(), &table)?;
+    Ok((path, plots))
+}
+
+/// The shards' manifests, checked to be slices of one sweep, with `out` none of their
+/// folders.
+fn slices_of_one_sweep(shards: &[PathBuf], out: &Path) -> Result<Vec<Manifest>, SweepError> {
     if shards.is_empty() {
         return Err(SweepError::Merge("no shard folders given".into()));
     }
@@ -40,8 +65,19 @@ pub fn merge(shards: &[PathBuf], out: &Path) -> Result<(PathBuf, Vec<PathBuf>), 
             )));
         }
     }
-    let grid = first.grid();
-    let mut rows: BTreeMap<usize, Vec<String>> = BTreeMap::new();
+    Ok(manifests)
+}
+
+/// A sweep's rows by run: each row's cells.
+type Rows = BTreeMap<usize, Vec<String>>;
+
+/// The header and every shard's rows by run, each checked on the grid, its metrics
+/// finite and its run given once; an interrupted shard is refused.
+fn rows_in_run_order(
+    shards: &[PathBuf],
+    grid: &super::grid::Grid,
+) -> Result<(Vec<String>, Rows), SweepError> {
+    let mut rows: Rows = BTreeMap::new();
     let mut header: Option<Vec<String>> = None;
     for d in shards {
         let path = d.join(RESULTS_FILE);
@@ -70,7 +106,7 @@ pub fn merge(shards: &[PathBuf], out: &Path) -> Result<(PathBuf, Vec<PathBuf>), 
             _ => {}
         }
         for (run, line, cells) in &table.rows {
-            table.check_on_grid(&grid, &path, *line, cells)?;
+            table.check_on_grid(grid, &path, *line, cells)?;
             finite_metrics(&table.header, &path, *line, cells)?;
             if rows.insert(*run, cells.clone()).is_some() {
                 return Err(SweepError::Merge(format!(
@@ -80,43 +116,37 @@ pub fn merge(shards: &[PathBuf], out: &Path) -> Result<(PathBuf, Vec<PathBuf>), 
             }
         }
     }
-    let missing: Vec<usize> = (0..first.total_runs)
-        .filter(|i| !rows.contains_key(i))
-        .collect();
-    if !missing.is_empty() || rows.len() != first.total_runs {
+    Ok((header.unwrap_or_default(), rows))
+}
+
+/// Every run of the sweep is among the rows.
+fn every_run_once(rows: &Rows, total_runs: usize) -> Result<(), SweepError> {
+    let missing: Vec<usize> = (0..total_runs).filter(|i| !rows.contains_key(i)).collect();
+    if !missing.is_empty() || rows.len() != total_runs {
         let shown: Vec<String> = missing.iter().take(10).map(|i| i.to_string()).collect();
         return Err(SweepError::Merge(format!(
             "{} of {} runs are missing (runs {}{}); is a shard folder left out or unfinished?",
             missing.len(),
-            first.total_runs,
+            total_runs,
             shown.join(", "),
             if missing.len() > 10 { ", ..." } else { "" }
         )));
     }
-    std::fs::create_dir_all(out).map_err(io_err(out))?;
-    let csv = csv_text(&header.unwrap_or_default(), rows.into_values());
-    let path = out.join(RESULTS_FILE);
-    crate::output::write_atomically(&path, &csv).map_err(io_err(&path))?;
-    let merged = Manifest {
-        shard: Shard::WHOLE.to_string(),
-        runs: [0, first.total_runs],
-        ..first.clone()
-    };
-    merged.write(out)?;
-    if first.traces {
-        let tdir = out.join(TRACES_DIR);
-        std::fs::create_dir_all(&tdir).map_err(io_err(&tdir))?;
-        for (m, d) in manifests.iter().zip(shards) {
-            for i in m.runs[0]..m.runs[1] {
-                let from = d.join(TRACES_DIR).join(trace_name(i));
-                let to = tdir.join(trace_name(i));
-                std::fs::copy(&from, &to).map_err(io_err(&from))?;
-            }
+    Ok(())
+}
+
+/// Each shard's traces into the merged folder's.
+fn copy_traces(manifests: &[Manifest], shards: &[PathBuf], out: &Path) -> Result<(), SweepError> {
+    let tdir = out.join(TRACES_DIR);
+    std::fs::create_dir_all(&tdir).map_err(io_err(&tdir))?;
+    for (m, d) in manifests.iter().zip(shards) {
+        for i in m.runs[0]..m.runs[1] {
+            let from = d.join(TRACES_DIR).join(trace_name(i));
+            let to = tdir.join(trace_name(i));
+            std::fs::copy(&from, &to).map_err(io_err(&from))?;
         }
     }
-    let table = Table::parse(&csv, &path)?;
-    let plots = super::plots::write(out, &merged.grid(), &table)?;
-    Ok((path, plots))
+    Ok(())
 }
 
 /// Every number after a row's `outcome` is finite: a run writes no NaN or infinite

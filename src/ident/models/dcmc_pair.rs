@@ -117,9 +117,9 @@ struct MotorLag {
     beta: f64,
 }
 
-impl DcmcPair {
-    /// The structure a rig describes, starting from the motor's first-order lag.
-    pub fn from_rig(rig: &Rig, path: &Path, case: Case) -> Result<DcmcPair, RigError> {
+impl MotorLag {
+    /// The lag of a rig's motor with its wheel's inertia behind the gears.
+    fn from_rig(rig: &Rig, path: &Path) -> Result<MotorLag, RigError> {
         let why = "the DCMC pair model takes its starting values from the motor";
         let need = |k: &str| rig.require(k, path, why);
         let (r, k) = (
@@ -130,45 +130,64 @@ impl DcmcPair {
         let j = need(MotorParams::rotor_inertia_kg_m2.key())?
             + rig.get(WheelParams::inertia_kg_m2.key()).unwrap_or(0.0) / (n * n);
         let b = rig.get(MotorParams::viscous_nm_s_rad.key()).unwrap_or(0.0);
-        let m = MotorLag {
+        Ok(MotorLag {
             alpha: (b + electrical_damping_nm_s_rad(k, r)) / j,
             beta: k / (r * j),
-        };
+        })
+    }
+}
+
+/// The structures' starting values from the rig's controller and motor: the speed's
+/// rate, the demands' gains, the integrator's gain and the set-points per percent.
+struct Nominal {
+    a: f64,
+    b: [[f64; 2]; 2],
+    e: f64,
+    s: [[f64; 2]; 2],
+}
+
+impl Nominal {
+    fn of(rig: &Rig, path: &Path, m: &MotorLag) -> Result<Nominal, RigError> {
         let gf = rig.get(alias::CONTROLLER_GAIN_V_PCT.key()).unwrap_or(0.24);
         let gt = rig
             .get(alias::CONTROLLER_TURN_GAIN_V_PCT.key())
             .unwrap_or(gf);
         // Left = forward - turn, right = forward + turn (the DCMC's mix).
         let mix = [[1.0, -1.0], [1.0, 1.0]];
-        let (a_nom, b_nom, e_nom, s_nom) =
-            match rig.text(alias::CONTROLLER_KIND.key()).unwrap_or("gain") {
-                "gain" => {
-                    let bm = |i: usize, jj: usize| m.beta * [gf, gt][jj] * mix[i][jj];
-                    let a = -m.alpha;
-                    let bb = [[bm(0, 0), bm(0, 1)], [bm(1, 0), bm(1, 1)]];
-                    let s = bb.map(|row| row.map(|v| v / m.alpha));
-                    (a, bb, 1e-3 * m.alpha * m.alpha, s)
-                }
-                "p" | "pi" => {
-                    let sp = rig
-                        .get(alias::CONTROLLER_SPEED_PER_PCT_RAD_S.key())
-                        .unwrap_or(3.5);
-                    let kp = rig.get(alias::CONTROLLER_KP_V_S_RAD.key()).unwrap_or(0.5);
-                    let ki = rig.get(alias::CONTROLLER_KI_V_RAD.key()).unwrap_or(0.0);
-                    let s = [0, 1].map(|i| [0, 1].map(|jj| sp * [1.0, gt / gf][jj] * mix[i][jj]));
-                    let a = -(m.alpha + m.beta * kp);
-                    let bb = s.map(|row| row.map(|v| m.beta * kp * v));
-                    (a, bb, (m.beta * ki).max(1e-3 * m.alpha * m.alpha), s)
-                }
-                other => {
-                    return Err(RigError::Invalid {
-                        file: path.to_owned(),
-                        message: format!(
-                            "controller.kind = \"{other}\": expected \"gain\", \"p\" or \"pi\""
-                        ),
-                    })
-                }
-            };
+        let (a, b, e, s) = match rig.text(alias::CONTROLLER_KIND.key()).unwrap_or("gain") {
+            "gain" => {
+                let bm = |i: usize, jj: usize| m.beta * [gf, gt][jj] * mix[i][jj];
+                let a = -m.alpha;
+                let bb = [[bm(0, 0), bm(0, 1)], [bm(1, 0), bm(1, 1)]];
+                let s = bb.map(|row| row.map(|v| v / m.alpha));
+                (a, bb, 1e-3 * m.alpha * m.alpha, s)
+            }
+            "p" | "pi" => {
+                let sp = rig
+                    .get(alias::CONTROLLER_SPEED_PER_PCT_RAD_S.key())
+                    .unwrap_or(3.5);
+                let kp = rig.get(alias::CONTROLLER_KP_V_S_RAD.key()).unwrap_or(0.5);
+                let ki = rig.get(alias::CONTROLLER_KI_V_RAD.key()).unwrap_or(0.0);
+                let s = [0, 1].map(|i| [0, 1].map(|jj| sp * [1.0, gt / gf][jj] * mix[i][jj]));
+                let a = -(m.alpha + m.beta * kp);
+                let bb = s.map(|row| row.map(|v| m.beta * kp * v));
+                (a, bb, (m.beta * ki).max(1e-3 * m.alpha * m.alpha), s)
+            }
+            other => {
+                return Err(RigError::Invalid {
+                    file: path.to_owned(),
+                    message: format!(
+                        "controller.kind = \"{other}\": expected \"gain\", \"p\" or \"pi\""
+                    ),
+                })
+            }
+        };
+        Ok(Nominal { a, b, e, s })
+    }
+
+    /// The structure's parameters, named as the thesis names them.
+    fn specs(&self, case: Case) -> Vec<ParamSpec> {
+        let (a_nom, b_nom, e_nom, s_nom) = (self.a, self.b, self.e, self.s);
         // The thesis's names (`b_left_fwd_rad_s2_pct`), each setting its side's key
         // (`left.b_fwd_rad_s2_pct`).
         let key = |name: &str, side: &str| {
@@ -231,6 +250,15 @@ impl DcmcPair {
                 }
             }
         }
+        specs
+    }
+}
+
+impl DcmcPair {
+    /// The structure a rig describes, starting from the motor's first-order lag.
+    pub fn from_rig(rig: &Rig, path: &Path, case: Case) -> Result<DcmcPair, RigError> {
+        let motor = MotorLag::from_rig(rig, path)?;
+        let specs = Nominal::of(rig, path, &motor)?.specs(case);
         Ok(DcmcPair {
             case,
             binding: Binding::new(pair_keys(), &specs),

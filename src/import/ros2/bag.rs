@@ -254,30 +254,7 @@ fn folder_info(dir: &Path) -> Result<FolderInfo, BagError> {
     if files.is_empty() {
         return Err(bad(&file, "`relative_file_paths` lists no storage file"));
     }
-    // Only plain names of regular files inside the folder: a metadata.yaml naming
-    // `/dev/zero`, `../other.mcap` or `/etc/passwd` must not have them read.
-    for f in &files {
-        let plain = std::path::Path::new(f)
-            .components()
-            .all(|c| matches!(c, std::path::Component::Normal(_)));
-        if !plain || f.is_empty() {
-            return Err(bad(
-                &file,
-                format!("relative_file_paths: `{f}`: expected the name of a file inside the bag's folder (no absolute path, no `..`)"),
-            ));
-        }
-        let path = dir.join(f);
-        match std::fs::symlink_metadata(&path) {
-            Ok(m) if m.is_file() => {}
-            Ok(_) => {
-                return Err(bad(
-                    &file,
-                    format!("relative_file_paths: `{f}` is not a regular file in the bag's folder"),
-                ))
-            }
-            Err(_) => {} // missing: said where the storage file is opened
-        }
-    }
+    storage_files_inside(dir, &file, &files)?;
     if !info["compression_mode"].as_str().unwrap_or("").is_empty() {
         return Err(bad(
             &file,
@@ -307,6 +284,36 @@ fn folder_info(dir: &Path) -> Result<FolderInfo, BagError> {
         files,
         topics,
     })
+}
+
+/// Each storage file `metadata.yaml` (at `file`) names is a plain name of a regular file
+/// inside the bag's folder `dir`, or missing (said where it is opened).
+fn storage_files_inside(dir: &Path, file: &Path, files: &[String]) -> Result<(), BagError> {
+    // Only plain names of regular files inside the folder: a metadata.yaml naming
+    // `/dev/zero`, `../other.mcap` or `/etc/passwd` must not have them read.
+    for f in files {
+        let plain = std::path::Path::new(f)
+            .components()
+            .all(|c| matches!(c, std::path::Component::Normal(_)));
+        if !plain || f.is_empty() {
+            return Err(bad(
+                file,
+                format!("relative_file_paths: `{f}`: expected the name of a file inside the bag's folder (no absolute path, no `..`)"),
+            ));
+        }
+        let path = dir.join(f);
+        match std::fs::symlink_metadata(&path) {
+            Ok(m) if m.is_file() => {}
+            Ok(_) => {
+                return Err(bad(
+                    file,
+                    format!("relative_file_paths: `{f}` is not a regular file in the bag's folder"),
+                ))
+            }
+            Err(_) => {} // missing: said where the storage file is opened
+        }
+    }
+    Ok(())
 }
 
 fn read_file(

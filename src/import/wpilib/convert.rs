@@ -8,7 +8,7 @@ use crate::model::wheel::WheelParams;
 use crate::rig::keys::alias;
 use std::fmt::Write as _;
 
-use super::{Mechanism, SysIdLog, Test};
+use super::{Mechanism, Sample, SysIdLog, Test};
 use crate::import::wpilib::feedforward::{self, Feedforward, Gravity, Series};
 use crate::rig::{Rig, RigKind};
 
@@ -159,30 +159,7 @@ pub(crate) fn convert(
         };
         let mut s = crate::record::header(rig, &meta, &header);
         for x in &test.samples {
-            let mut row = vec![format!("{}", x.t_s - t0)];
-            if let (true, Some(r)) = (drive, x.right) {
-                row.extend(
-                    [
-                        x.left.voltage_v,
-                        r.voltage_v,
-                        x.left.velocity * f,
-                        r.velocity * f,
-                    ]
-                    .map(|v| format!("{v}")),
-                );
-                if gyro {
-                    row.push(x.gyro_rate_rad_s.map_or(String::new(), |v| format!("{v}")));
-                }
-            } else {
-                row.extend(
-                    [x.left.voltage_v, x.left.position * f, x.left.velocity * f]
-                        .map(|v| format!("{v}")),
-                );
-                if current {
-                    row.push(x.left.current_a.map_or(String::new(), |v| format!("{v}")));
-                }
-            }
-            let _ = writeln!(s, "{}", row.join(","));
+            let _ = writeln!(s, "{}", sample_row(x, t0, f, drive, gyro, current));
         }
         out.push(Converted {
             test: test.name.clone(),
@@ -190,6 +167,35 @@ pub(crate) fn convert(
         });
     }
     Ok(out)
+}
+
+/// One sample as a recording's row: time from the test's start `t0`, the voltages, and
+/// the speeds (and positions) times `f`; a drivetrain's wheels and gyro (`gyro`), else the
+/// shaft and its current (`current`).
+fn sample_row(x: &Sample, t0: f64, f: f64, drive: bool, gyro: bool, current: bool) -> String {
+    let mut row = vec![format!("{}", x.t_s - t0)];
+    if let (true, Some(r)) = (drive, x.right) {
+        row.extend(
+            [
+                x.left.voltage_v,
+                r.voltage_v,
+                x.left.velocity * f,
+                r.velocity * f,
+            ]
+            .map(|v| format!("{v}")),
+        );
+        if gyro {
+            row.push(x.gyro_rate_rad_s.map_or(String::new(), |v| format!("{v}")));
+        }
+    } else {
+        row.extend(
+            [x.left.voltage_v, x.left.position * f, x.left.velocity * f].map(|v| format!("{v}")),
+        );
+        if current {
+            row.push(x.left.current_a.map_or(String::new(), |v| format!("{v}")));
+        }
+    }
+    row.join(",")
 }
 
 fn median_period(test: &Test) -> f64 {

@@ -122,17 +122,13 @@ fn regressors(s: &Series, k: usize, gravity: Gravity) -> Vec<f64> {
     x
 }
 
-/// Fits the gains to the tests together (they share the machine).
-pub fn fit(
+/// Every step of the tests that starts moving faster than `threshold`: its regressors,
+/// the speed after it, and the steps' summed duration (s).
+fn moving_steps(
     tests: &[Series],
     gravity: Gravity,
     threshold: f64,
-) -> Result<Feedforward, FeedforwardError> {
-    let unknowns = match gravity {
-        Gravity::None => 3,
-        Gravity::Constant => 4,
-        Gravity::Arm => 5,
-    };
+) -> (Vec<Vec<f64>>, Vec<f64>, f64) {
     let mut rows: Vec<Vec<f64>> = Vec::new();
     let mut next = Vec::new();
     let mut dt_sum = 0.0;
@@ -146,6 +142,21 @@ pub fn fit(
             dt_sum += s.t_s[k + 1] - s.t_s[k];
         }
     }
+    (rows, next, dt_sum)
+}
+
+/// Fits the gains to the tests together (they share the machine).
+pub fn fit(
+    tests: &[Series],
+    gravity: Gravity,
+    threshold: f64,
+) -> Result<Feedforward, FeedforwardError> {
+    let unknowns = match gravity {
+        Gravity::None => 3,
+        Gravity::Constant => 4,
+        Gravity::Arm => 5,
+    };
+    let (rows, next, dt_sum) = moving_steps(tests, gravity, threshold);
     let n = rows.len();
     if n < 3 * unknowns {
         return Err(FeedforwardError::TooFew {
