@@ -194,7 +194,6 @@ fn library_errors_are_typed() {
         "src/commands/flags.rs",
         "src/sweep/run.rs",
         "src/import/ros2/joints.rs",
-        "src/import/ros2/rosbag1.rs",
         "src/import/ros2/urdf.rs",
         "src/import/wpilib/convert.rs",
         "src/import/wpilib/datalog.rs",

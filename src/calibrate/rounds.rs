@@ -53,6 +53,18 @@ pub(super) struct Rounds {
 }
 
 impl Rounds {
+    /// Keeps an accepted effect's switches and its keys' starts for the rounds after.
+    fn switch_on(&mut self, home: &effects::Home) {
+        self.switches.extend(home.switches.iter().map(|s| Switch {
+            effect: home.effect,
+            key: s.key.to_string(),
+            value: s.value_text(),
+        }));
+        self.starts.push((home.key.to_string(), home.start));
+        self.starts
+            .extend(home.also.iter().map(|c| (c.key.to_string(), c.start)));
+    }
+
     /// Records a trial, replacing the effect's earlier one.
     fn record(&mut self, t: EffectTrial) {
         self.trials.retain(|old| old.effect != t.effect);
@@ -119,6 +131,26 @@ pub(super) fn effect_rounds(
     Ok(r)
 }
 
+/// The wheel geometry found on the wheels' odometry and accepted there, taken out of
+/// `homes` with its home; `None` where the recording has no wheel turns or they do not
+/// establish it (it is then raced through the simulator as every other effect).
+fn geometry_by_odometry(
+    problem: &Problem,
+    r: &Rounds,
+    homes: &mut Vec<effects::Home>,
+) -> Result<Option<(OdometryGeometry, effects::Home)>, CalibrateError> {
+    let Some(i) = homes.iter().position(|h| h.effect == Effect::WheelGeometry) else {
+        return Ok(None);
+    };
+    Ok(match problem.geometry_by_odometry(&r.stage, &homes[i])? {
+        Some(found) if found.0.accepted => Some((found, homes.remove(i))),
+        _ => None,
+    })
+}
+
+/// A geometry fitted on the wheels' odometry: its trial, the stage with it, its keys' fits.
+type OdometryGeometry = (EffectTrial, Stage, Vec<super::KeyFit>);
+
 /// The forward rounds: effects raced, the most promising tried in full, the best
 /// supported accepted, round after round.
 fn forward(
@@ -139,56 +171,8 @@ fn forward(
         // where that does not establish it (a robot whose tyres creep under hard
         // acceleration rolls on other radii than its odometry assumes), through the
         // simulator as every other effect.
-        let mut by_odometry = None;
-        if let Some(i) = homes.iter().position(|h| h.effect == Effect::WheelGeometry) {
-            if let Some(found) = problem.geometry_by_odometry(&r.stage, &homes[i])? {
-                if found.0.accepted {
-                    by_odometry = Some((found, homes.remove(i)));
-                }
-            }
-        }
-        let names: Vec<&str> = homes.iter().map(|h| h.effect.name()).collect();
-        if !names.is_empty() {
-            progress(&format!(
-                "effects, round {round}: racing {} (each key scanned, then fitted with the others for a few iterations)",
-                names.join(", ")
-            ));
-        }
-        // Raced on the recording's first part, against the stage there.
-        let explore = problem.explore();
-        let stage_rss = explore.rss_of(&r.stage.scene, &r.stage.free)?;
-        let raced = homes
-            .par_iter()
-            .map(|h| explore.race(&r.stage, h))
-            .collect::<Result<Vec<_>, _>>()?;
-        let gains: Vec<f64> = raced
-            .iter()
-            .map(|s| 1.0 - s.fit.rss() / stage_rss)
-            .collect();
-        for s in &raced {
-            r.iterations += s.fit.iterations;
-        }
-        let full = most_promising(&gains);
-        let tried_names: Vec<&str> = full.iter().map(|&i| homes[i].effect.name()).collect();
-        if !tried_names.is_empty() {
-            progress(&format!(
-                "effects, round {round}: fitting {} with the keys",
-                tried_names.join(", ")
-            ));
-        }
-        let tried = full
-            .par_iter()
-            .map(|&i| problem.try_effect(&r.stage, &homes[i], &raced[i]))
-            .collect::<Result<Vec<_>, _>>()?;
-        for (i, ((h, s), g)) in homes.iter().zip(&raced).zip(&gains).enumerate() {
-            if !full.contains(&i) {
-                r.record(raced_trial(h, s, *g));
-            }
-        }
-        for (t, next) in &tried {
-            r.iterations += next.fit.iterations;
-            r.record(t.clone());
-        }
+        let by_odometry = geometry_by_odometry(problem, r, &mut homes)?;
+        let (full, tried) = race_then_try(problem, r, &homes, round, progress)?;
         let mut candidates: Vec<((EffectTrial, Stage), &effects::Home)> = tried
             .into_iter()
             .zip(full.iter().map(|&i| &homes[i]))
@@ -225,14 +209,7 @@ fn forward(
             crate::numtext::quantity(t.value, 4, crate::rig::keys::unit_key_or_name(&t.key)),
             t.delta_aic
         ));
-        r.switches.extend(home.switches.iter().map(|s| Switch {
-            effect: home.effect,
-            key: s.key.to_string(),
-            value: s.value_text(),
-        }));
-        r.starts.push((home.key.to_string(), home.start));
-        r.starts
-            .extend(home.also.iter().map(|c| (c.key.to_string(), c.start)));
+        r.switch_on(home);
         remaining.retain(|&e| e != t.effect);
         // An effect that removed next to nothing of the residual (a tenth of what
         // acceptance asks) shows no sign in this recording: it is not tried again, as the
@@ -248,6 +225,65 @@ fn forward(
         r.iterations += r.stage.fit.iterations;
     }
     Ok(())
+}
+
+/// An effect tried in full: its trial and the stage it reaches.
+type Tried = (EffectTrial, Stage);
+
+/// One round's race: every effect raced on the recording's first part (each key
+/// scanned, then fitted with the others for a few iterations), the most promising then
+/// fitted in full. Records the trials; returns which homes were tried in full and their
+/// trials with the stages they reach.
+fn race_then_try(
+    problem: &Problem,
+    r: &mut Rounds,
+    homes: &[effects::Home],
+    round: usize,
+    progress: &dyn Fn(&str),
+) -> Result<(Vec<usize>, Vec<Tried>), CalibrateError> {
+    let names: Vec<&str> = homes.iter().map(|h| h.effect.name()).collect();
+    if !names.is_empty() {
+        progress(&format!(
+            "effects, round {round}: racing {} (each key scanned, then fitted with the others for a few iterations)",
+            names.join(", ")
+        ));
+    }
+    // Raced on the recording's first part, against the stage there.
+    let explore = problem.explore();
+    let stage_rss = explore.rss_of(&r.stage.scene, &r.stage.free)?;
+    let raced = homes
+        .par_iter()
+        .map(|h| explore.race(&r.stage, h))
+        .collect::<Result<Vec<_>, _>>()?;
+    let gains: Vec<f64> = raced
+        .iter()
+        .map(|s| 1.0 - s.fit.rss() / stage_rss)
+        .collect();
+    for s in &raced {
+        r.iterations += s.fit.iterations;
+    }
+    let full = most_promising(&gains);
+    let tried_names: Vec<&str> = full.iter().map(|&i| homes[i].effect.name()).collect();
+    if !tried_names.is_empty() {
+        progress(&format!(
+            "effects, round {round}: fitting {} with the keys",
+            tried_names.join(", ")
+        ));
+    }
+    let tried = full
+        .par_iter()
+        .map(|&i| problem.try_effect(&r.stage, &homes[i], &raced[i]))
+        .collect::<Result<Vec<_>, _>>()?;
+    for (i, ((h, s), g)) in homes.iter().zip(&raced).zip(&gains).enumerate() {
+        if !full.contains(&i) {
+            r.record(raced_trial(h, s, *g));
+        }
+    }
+    for (t, next) in &tried {
+        r.iterations += next.fit.iterations;
+        r.record(t.clone());
+    }
+    Ok((full, tried))
 }
 
 /// The backward pass: each effect the model has weighed against its absence, the least

@@ -620,21 +620,89 @@ fn coord_of(spec: &ParamSpec) -> Coord {
     }
 }
 
+/// The residuals and outputs at the start `z` (parameters `start_p`); an error saying
+/// when the simulation diverges where it does not run.
+fn start(pb: &Problem, z: &[f64], start_p: &[f64]) -> Result<(Vec<f64>, Vec<Vec<f64>>), FitError> {
+    pb.simulated(z).ok_or_else(|| {
+        let t_s = pb
+            .model
+            .predict(start_p, pb.data)
+            .err()
+            .map(|d| d.t_s)
+            .unwrap_or(f64::NAN);
+        FitError::DivergesAtStart { t_s }
+    })
+}
+
+/// The damped Gauss-Newton step `dz = -(J'J + lambda diag(J'J))^-1 J'r` for the damped
+/// matrix `a` and gradient `g`, with parameters at a bound (`zlo`, `zhi`) that the step
+/// would push through held there (an active set): a clamped component would otherwise
+/// bend every other component of the step. `None` where the system has no solution.
+fn bounded_step(
+    a: &DMatrix<f64>,
+    g: &DVector<f64>,
+    z: &[f64],
+    zlo: &[f64],
+    zhi: &[f64],
+) -> Option<DVector<f64>> {
+    let n = z.len();
+    let mut held = vec![false; n];
+    loop {
+        let mut a = a.clone();
+        let mut g = g.clone();
+        for i in (0..n).filter(|&i| held[i]) {
+            for j in 0..n {
+                a[(i, j)] = 0.0;
+                a[(j, i)] = 0.0;
+            }
+            a[(i, i)] = 1.0;
+            g[i] = 0.0;
+        }
+        let Some(step) = (match a.clone().cholesky() {
+            Some(c) => Some(c.solve(&g)),
+            None => a.lu().solve(&g),
+        }) else {
+            break None;
+        };
+        let tol = 1e-9;
+        let pushed: Vec<usize> = (0..n)
+            .filter(|&i| {
+                !held[i]
+                    && ((z[i] <= zlo[i] + tol && step[i] > 0.0)
+                        || (z[i] >= zhi[i] - tol && step[i] < 0.0))
+            })
+            .collect();
+        if pushed.is_empty() {
+            break Some(step);
+        }
+        for i in pushed {
+            held[i] = true;
+        }
+    }
+}
+
+/// Levenberg-Marquardt's damped normal matrix: `J'J + lambda diag(J'J)`, each diagonal
+/// term at least 1e-12 so that a parameter the data do not touch still takes a step.
+fn damped(h: &DMatrix<f64>, lambda: f64) -> DMatrix<f64> {
+    let mut a = h.clone();
+    for i in 0..a.nrows() {
+        a[(i, i)] += lambda * h[(i, i)].max(1e-12);
+    }
+    a
+}
+
+/// The largest change of any coordinate between two points.
+fn largest_move(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max)
+}
+
 fn run_lm(pb: &Problem, max_iterations: usize, uncertainty: bool) -> Result<Fit, FitError> {
     let start_p = pb.to_p(&pb.to_z(&pb.base));
     let mut z = pb.to_z(&start_p);
-    let (mut r, mut predicted) = match pb.simulated(&z) {
-        Some(ry) => ry,
-        None => {
-            let t_s = pb
-                .model
-                .predict(&start_p, pb.data)
-                .err()
-                .map(|d| d.t_s)
-                .unwrap_or(f64::NAN);
-            return Err(FitError::DivergesAtStart { t_s });
-        }
-    };
+    let (mut r, mut predicted) = start(pb, &z, &start_p)?;
     let mut cost = sum_sq(&r);
     let mut lambda = 1e-3;
     let mut evaluations = 1;
@@ -651,47 +719,9 @@ fn run_lm(pb: &Problem, max_iterations: usize, uncertainty: bool) -> Result<Fit,
         let g = jac.transpose() * DVector::from_vec(r.clone());
         let mut improved = false;
         for _ in 0..12 {
-            let mut a = h.clone();
-            for i in 0..n {
-                a[(i, i)] += lambda * h[(i, i)].max(1e-12);
-            }
-            // Damped Gauss-Newton: dz = -(J'J + lambda diag(J'J))^-1 J'r, with parameters
-            // at a bound that the step would push through held there (an active set): a
-            // clamped component would otherwise bend every other component of the step.
+            let a = damped(&h, lambda);
             let (zlo, zhi) = pb.z_bounds();
-            let mut held = vec![false; n];
-            let step = loop {
-                let mut a = a.clone();
-                let mut g = g.clone();
-                for i in (0..n).filter(|&i| held[i]) {
-                    for j in 0..n {
-                        a[(i, j)] = 0.0;
-                        a[(j, i)] = 0.0;
-                    }
-                    a[(i, i)] = 1.0;
-                    g[i] = 0.0;
-                }
-                let Some(step) = (match a.clone().cholesky() {
-                    Some(c) => Some(c.solve(&g)),
-                    None => a.lu().solve(&g),
-                }) else {
-                    break None;
-                };
-                let tol = 1e-9;
-                let pushed: Vec<usize> = (0..n)
-                    .filter(|&i| {
-                        !held[i]
-                            && ((z[i] <= zlo[i] + tol && step[i] > 0.0)
-                                || (z[i] >= zhi[i] - tol && step[i] < 0.0))
-                    })
-                    .collect();
-                if pushed.is_empty() {
-                    break Some(step);
-                }
-                for i in pushed {
-                    held[i] = true;
-                }
-            };
+            let step = bounded_step(&a, &g, &z, &zlo, &zhi);
             let Some(step) = step else {
                 lambda *= 10.0;
                 continue;
@@ -704,11 +734,7 @@ fn run_lm(pb: &Problem, max_iterations: usize, uncertainty: bool) -> Result<Fit,
                 let c_new = sum_sq(&r_new);
                 if c_new < cost {
                     let rel = (cost - c_new) / cost.max(1e-300);
-                    let moved = z_new
-                        .iter()
-                        .zip(&z)
-                        .map(|(a, b)| (a - b).abs())
-                        .fold(0.0, f64::max);
+                    let moved = largest_move(&z_new, &z);
                     z = z_new;
                     r = r_new;
                     predicted = y_new;

@@ -2,7 +2,7 @@
 
 use rand_distr::{Distribution, StandardNormal};
 
-use super::{Actuation, Body, Sim, SimError};
+use super::{Actuation, Body, Sim, SimError, SimParams};
 use crate::firmware::pwm::duty_to_pct;
 use crate::firmware::FirmwareInput;
 use crate::model::base_controller::BaseInput;
@@ -10,8 +10,9 @@ use crate::model::castor::rolling_drag_n;
 use crate::model::chassis::PoseFrame;
 use crate::model::dcmc::DcmcInput;
 use crate::model::motor::Terminal;
-use crate::model::tyre::{slip_measures, ContactKinematics, TyreOutput};
+use crate::model::tyre::{slip_measures, ContactKinematics, TyreOutput, TyreState};
 use crate::sensing::coil::{adc_counts, adc_unquantised};
+use crate::world::engine::CastorMotion;
 
 /// Speeds beyond this are not physical for this machine: a diverging run, rad/s.
 const MAX_SPEED_RAD_S: f64 = 1.0e4;
@@ -334,28 +335,7 @@ impl Sim {
                     (wheels[1], pose.rotate(mean[1].force_n)),
                 ];
                 let motion = engine.castor_motion();
-                let mut castor_forces = [[0.0; 2]; 4];
-                for (k, m) in motion.iter().enumerate() {
-                    let load = p.loads.castor_n[k];
-                    let tp = p.castor_tyre(p.floor.surface_at(m.patch_m));
-                    let roll = m.velocity_m_s[0];
-                    // A free-rolling wheel: rim speed equals forward speed, only lateral slip.
-                    let out = tp.step_force(
-                        &mut self.castor_tyres[k],
-                        ContactKinematics {
-                            forward_m_s: roll,
-                            lateral_m_s: m.velocity_m_s[1],
-                            rim_m_s: roll,
-                        },
-                        load,
-                        dt,
-                    );
-                    // Rolling resistance, smoothed through zero speed over 5 mm/s.
-                    let [rr] = rolling_drag_n(p.castors.rolling_resistance * load, [roll], 0.005);
-                    let local = [rr, out.force_n[1]];
-                    let (s, c) = m.heading_rad.sin_cos();
-                    castor_forces[k] = [c * local[0] - s * local[1], s * local[0] + c * local[1]];
-                }
+                let castor_forces = castor_forces_n(p, &motion, &mut self.castor_tyres, dt);
                 self.last.castor_force_n = castor_forces;
                 engine.step(&wheel_forces, &castor_forces, &motion);
             }
@@ -481,4 +461,38 @@ struct Drive {
     terminals: [Terminal; 2],
     /// The battery's terminal voltage this step, V.
     battery_v: f64,
+}
+
+/// The castors' forces on the chassis, world frame, N: each castor wheel rolls freely
+/// (its rim speed its forward speed, so it slips only sideways) on the floor under its
+/// patch, over the whole step `dt` (s), against its rolling resistance.
+fn castor_forces_n(
+    p: &SimParams,
+    motion: &[CastorMotion; 4],
+    tyres: &mut [TyreState; 4],
+    dt: f64,
+) -> [[f64; 2]; 4] {
+    let mut castor_forces = [[0.0; 2]; 4];
+    for (k, m) in motion.iter().enumerate() {
+        let load = p.loads.castor_n[k];
+        let tp = p.castor_tyre(p.floor.surface_at(m.patch_m));
+        let roll = m.velocity_m_s[0];
+        // A free-rolling wheel: rim speed equals forward speed, only lateral slip.
+        let out = tp.step_force(
+            &mut tyres[k],
+            ContactKinematics {
+                forward_m_s: roll,
+                lateral_m_s: m.velocity_m_s[1],
+                rim_m_s: roll,
+            },
+            load,
+            dt,
+        );
+        // Rolling resistance, smoothed through zero speed over 5 mm/s.
+        let [rr] = rolling_drag_n(p.castors.rolling_resistance * load, [roll], 0.005);
+        let local = [rr, out.force_n[1]];
+        let (s, c) = m.heading_rad.sin_cos();
+        castor_forces[k] = [c * local[0] - s * local[1], s * local[0] + c * local[1]];
+    }
+    castor_forces
 }

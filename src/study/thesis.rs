@@ -7,6 +7,7 @@ use crate::firmware::ControllerParams;
 use crate::model::gearbox::GearboxParams;
 use crate::model::tyre::TyreChoice;
 use crate::plot::{svg, Series, COLOURS};
+use crate::sim::metrics::RunSummary;
 use crate::sweep::SweepError;
 
 /// The lab scene every level runs.
@@ -110,47 +111,9 @@ pub fn run(
                 format!("gain {gain}")
             };
             paths.push((label, t.distance_m.clone(), y_mm, s.lost_wire));
-            rows.push(vec![
-                level.to_string(),
-                format!("{gain}"),
-                format!("{:.1}", 1000.0 * whole),
-                if s.limit_cycle.is_some() {
-                    format!(
-                        "{:.1}",
-                        1000.0 * s.limit_cycle.map_or(0.0, |c| c.amplitude_m)
-                    )
-                } else {
-                    "-".into()
-                },
-                format!("{:.1}", 100.0 * s.sliding_fraction),
-                if s.lost_wire { "yes" } else { "no" }.into(),
-            ]);
+            rows.push(table_row(level, gain, whole, s));
         }
-        let series: Vec<Series> = paths
-            .iter()
-            .enumerate()
-            .map(|(i, (label, x, y, lost))| {
-                let line = Series::line(label, x, y, COLOURS[i % COLOURS.len()]);
-                // A lost run's error runs off to metres and would flatten every cycle.
-                if *lost {
-                    line.out_of_scale()
-                } else {
-                    line
-                }
-            })
-            .collect();
-        let fig = opts.out_dir.join(format!("paths_{level}.svg"));
-        crate::output::write_atomically(
-            &fig,
-            svg(
-                &format!("{level} level: sensor-pair offset from the wire along the run"),
-                "distance travelled, m",
-                "lateral error, mm",
-                &series,
-                None,
-            ),
-        )
-        .map_err(crate::sweep::io_err(&fig))?;
+        let fig = paths_figure(opts, level, &paths)?;
         files.push(fig);
         levels.push(ThesisLevel {
             level: level.to_string(),
@@ -186,6 +149,61 @@ pub fn run(
     );
     files.push(write_summary(&opts.out_dir, &summary)?);
     Ok((levels, StudyOutput { summary, files }))
+}
+
+/// A level's runs as a figure, `paths_LEVEL.svg`: the sensor pair's offset from the wire
+/// along each run (label, distance m, offset mm, lost the wire).
+fn paths_figure(
+    opts: &StudyOptions,
+    level: &str,
+    paths: &[(String, Vec<f64>, Vec<f64>, bool)],
+) -> Result<std::path::PathBuf, SweepError> {
+    let series: Vec<Series> = paths
+        .iter()
+        .enumerate()
+        .map(|(i, (label, x, y, lost))| {
+            let line = Series::line(label, x, y, COLOURS[i % COLOURS.len()]);
+            // A lost run's error runs off to metres and would flatten every cycle.
+            if *lost {
+                line.out_of_scale()
+            } else {
+                line
+            }
+        })
+        .collect();
+    let fig = opts.out_dir.join(format!("paths_{level}.svg"));
+    crate::output::write_atomically(
+        &fig,
+        svg(
+            &format!("{level} level: sensor-pair offset from the wire along the run"),
+            "distance travelled, m",
+            "lateral error, mm",
+            &series,
+            None,
+        ),
+    )
+    .map_err(crate::sweep::io_err(&fig))?;
+    Ok(fig)
+}
+
+/// A run's row of the summary's table.
+fn table_row(level: &str, gain: f64, whole_run_rms_m: f64, s: &RunSummary) -> Vec<String> {
+    let whole = whole_run_rms_m;
+    vec![
+        level.to_string(),
+        format!("{gain}"),
+        format!("{:.1}", 1000.0 * whole),
+        if s.limit_cycle.is_some() {
+            format!(
+                "{:.1}",
+                1000.0 * s.limit_cycle.map_or(0.0, |c| c.amplitude_m)
+            )
+        } else {
+            "-".into()
+        },
+        format!("{:.1}", 100.0 * s.sliding_fraction),
+        if s.lost_wire { "yes" } else { "no" }.into(),
+    ]
 }
 
 /// One cell of the high-gain probe: the `full` level at a gain with or without the tyre's

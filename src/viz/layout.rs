@@ -211,6 +211,61 @@ pub(super) fn send_layout(
     Ok(())
 }
 
+/// Frames the overview on `region`: from above its centre, high enough that the view's
+/// field takes it in with a tenth to spare (at least a metre each way).
+fn overview_eye(bp: &RecordingStream, overview: &str, region: Region) -> Result<(), VizError> {
+    let (lo, hi) = region;
+    let centre = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
+    let half = (0.5 * (hi[1] - lo[1]))
+        .max(0.5 * (hi[0] - lo[0]) / OVERVIEW_ASPECT)
+        .max(1.0);
+    let height = (1.1 * half / HALF_FOV_RAD.tan()) as f32;
+    let c = [centre[0] as f32, centre[1] as f32];
+    eye(
+        bp,
+        overview,
+        [c[0], c[1], height],
+        [c[0], c[1], 0.0],
+        [0.0, 1.0, 0.0],
+    )
+}
+
+/// The plots' tabs (tracking, drive, wheels), each a column of time series.
+fn plot_tabs(bp: &RecordingStream) -> Result<Vec<String>, VizError> {
+    let mut tabs = vec![];
+    let groups: [(&str, &[usize]); 3] = [
+        ("Tracking", &[0, 1]),
+        ("Drive", &[2, 3, 4]),
+        ("Wheels", &[5, 6]),
+    ];
+    for (g, (name, plots)) in groups.iter().enumerate() {
+        let mut views = vec![];
+        for &k in plots.iter() {
+            let origin = format!("/{}", PLOTS[k].0);
+            let plot = view(
+                bp,
+                10 + k as u8,
+                "TimeSeries",
+                PLOTS[k].1,
+                &origin,
+                &["$origin/**"],
+            )?;
+            // The title names the colours: a legend sat on the data.
+            hide_legend(bp, &plot)?;
+            views.push(plot);
+        }
+        tabs.push(container(
+            bp,
+            30 + g as u8,
+            ContainerKind::Vertical,
+            Some(name),
+            &views,
+            None,
+        )?);
+    }
+    Ok(tabs)
+}
+
 /// The region of the floor the overview frames: (min, max) corners, world frame, m.
 pub type Region = ([f64; 2], [f64; 2]);
 
@@ -248,51 +303,8 @@ pub fn send_blueprint(rec: &RecordingStream, region: Region) -> Result<(), VizEr
                 "- /world/agv/coil_readings",
             ],
         )?;
-        let (lo, hi) = region;
-        let centre = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
-        let half = (0.5 * (hi[1] - lo[1]))
-            .max(0.5 * (hi[0] - lo[0]) / OVERVIEW_ASPECT)
-            .max(1.0);
-        let height = (1.1 * half / HALF_FOV_RAD.tan()) as f32;
-        let c = [centre[0] as f32, centre[1] as f32];
-        eye(
-            bp,
-            &overview,
-            [c[0], c[1], height],
-            [c[0], c[1], 0.0],
-            [0.0, 1.0, 0.0],
-        )?;
-        let mut tabs = vec![];
-        let groups: [(&str, &[usize]); 3] = [
-            ("Tracking", &[0, 1]),
-            ("Drive", &[2, 3, 4]),
-            ("Wheels", &[5, 6]),
-        ];
-        for (g, (name, plots)) in groups.iter().enumerate() {
-            let mut views = vec![];
-            for &k in plots.iter() {
-                let origin = format!("/{}", PLOTS[k].0);
-                let plot = view(
-                    bp,
-                    10 + k as u8,
-                    "TimeSeries",
-                    PLOTS[k].1,
-                    &origin,
-                    &["$origin/**"],
-                )?;
-                // The title names the colours: a legend sat on the data.
-                hide_legend(bp, &plot)?;
-                views.push(plot);
-            }
-            tabs.push(container(
-                bp,
-                30 + g as u8,
-                ContainerKind::Vertical,
-                Some(name),
-                &views,
-                None,
-            )?);
-        }
+        overview_eye(bp, &overview, region)?;
+        let tabs = plot_tabs(bp)?;
         let legend = view(
             bp,
             3,

@@ -167,6 +167,91 @@ pub(super) fn ros2_type(ros1: &str) -> String {
     }
 }
 
+/// What is wrong with a record of a bag.
+#[derive(Debug, thiserror::Error)]
+enum RecordFault {
+    /// A record without a field it needs.
+    #[error("a {record} record without `{field}`")]
+    Missing {
+        record: &'static str,
+        field: &'static str,
+    },
+    /// A connection record whose header cannot be read.
+    #[error("a connection record whose header is malformed")]
+    MalformedHeader,
+    /// A connection without a message type.
+    #[error("connection `{0}` has no `type`")]
+    NoType(String),
+    /// A message without its time.
+    #[error("a message record without an 8-byte `time`")]
+    NoTime,
+}
+
+/// A bag's connections (conn -> (topic, ROS 2 type)) and its messages by connection, kept
+/// until every connection is known.
+#[derive(Default)]
+struct Gathered {
+    conns: BTreeMap<u32, (String, String)>,
+    messages: Vec<(u32, RawMessage)>,
+}
+
+impl Gathered {
+    /// Takes one record: a connection's topic and type, or a message.
+    fn take(&mut self, rec: &Record) -> Result<(), RecordFault> {
+        match rec.op() {
+            Some(OP_CONNECTION) => self.connection(rec),
+            Some(OP_MESSAGE_DATA) => self.message(rec),
+            _ => Ok(()),
+        }
+    }
+
+    fn connection(&mut self, rec: &Record) -> Result<(), RecordFault> {
+        let missing = |field| RecordFault::Missing {
+            record: "connection",
+            field,
+        };
+        let conn = rec.u32_field("conn").ok_or(missing("conn"))?;
+        let h = fields(rec.data).ok_or(RecordFault::MalformedHeader)?;
+        let get = |n: &str| {
+            h.iter()
+                .find(|(k, _)| *k == n.as_bytes())
+                .map(|(_, v)| String::from_utf8_lossy(v).into_owned())
+        };
+        let topic = rec
+            .field("topic")
+            .map(|v| String::from_utf8_lossy(v).into_owned())
+            .or_else(|| get("topic"))
+            .ok_or(missing("topic"))?;
+        let ty = get("type").ok_or_else(|| RecordFault::NoType(topic.clone()))?;
+        self.conns.entry(conn).or_insert((topic, ros2_type(&ty)));
+        Ok(())
+    }
+
+    fn message(&mut self, rec: &Record) -> Result<(), RecordFault> {
+        let conn = rec.u32_field("conn").ok_or(RecordFault::Missing {
+            record: "message",
+            field: "conn",
+        })?;
+        let time = rec
+            .field("time")
+            .filter(|t| t.len() == 8)
+            .ok_or(RecordFault::NoTime)?;
+        let sec = le_u32(time, 0).expect("8 bytes") as i64;
+        let nsec = le_u32(time, 4).expect("8 bytes") as i64;
+        let mut data = Vec::with_capacity(rec.data.len() + ROS1_MARKER.len());
+        data.extend_from_slice(&ROS1_MARKER);
+        data.extend_from_slice(rec.data);
+        self.messages.push((
+            conn,
+            RawMessage {
+                log_time_ns: sec * 1_000_000_000 + nsec,
+                data,
+            },
+        ));
+        Ok(())
+    }
+}
+
 /// Reads a ROS 1 bag's topics into `topics`.
 pub fn read(
     path: &Path,
@@ -188,57 +273,7 @@ pub fn read(
         )
     };
     let top = records(body).map_err(|at| cut(at + MAGIC.len(), ""))?;
-    // conn -> (topic, type); messages by conn until every connection is known.
-    let mut conns: BTreeMap<u32, (String, String)> = BTreeMap::new();
-    let mut messages: Vec<(u32, RawMessage)> = vec![];
-    let mut take = |rec: &Record,
-                    conns: &mut BTreeMap<u32, (String, String)>|
-     -> Result<(), String> {
-        match rec.op() {
-            Some(OP_CONNECTION) => {
-                let conn = rec
-                    .u32_field("conn")
-                    .ok_or("a connection record without `conn`")?;
-                let h = fields(rec.data).ok_or("a connection record whose header is malformed")?;
-                let get = |n: &str| {
-                    h.iter()
-                        .find(|(k, _)| *k == n.as_bytes())
-                        .map(|(_, v)| String::from_utf8_lossy(v).into_owned())
-                };
-                let topic = rec
-                    .field("topic")
-                    .map(|v| String::from_utf8_lossy(v).into_owned())
-                    .or_else(|| get("topic"))
-                    .ok_or("a connection record without `topic`")?;
-                let ty =
-                    get("type").ok_or_else(|| format!("connection `{topic}` has no `type`"))?;
-                conns.entry(conn).or_insert((topic, ros2_type(&ty)));
-            }
-            Some(OP_MESSAGE_DATA) => {
-                let conn = rec
-                    .u32_field("conn")
-                    .ok_or("a message record without `conn`")?;
-                let time = rec
-                    .field("time")
-                    .filter(|t| t.len() == 8)
-                    .ok_or("a message record without an 8-byte `time`")?;
-                let sec = le_u32(time, 0).expect("8 bytes") as i64;
-                let nsec = le_u32(time, 4).expect("8 bytes") as i64;
-                let mut data = Vec::with_capacity(rec.data.len() + ROS1_MARKER.len());
-                data.extend_from_slice(&ROS1_MARKER);
-                data.extend_from_slice(rec.data);
-                messages.push((
-                    conn,
-                    RawMessage {
-                        log_time_ns: sec * 1_000_000_000 + nsec,
-                        data,
-                    },
-                ));
-            }
-            _ => {}
-        }
-        Ok(())
-    };
+    let mut gathered = Gathered::default();
     for (at, rec) in &top {
         let offset = at + MAGIC.len();
         if rec.op() == Some(OP_CHUNK) {
@@ -246,13 +281,17 @@ pub fn read(
             let inner = records(&bytes)
                 .map_err(|at| cut(at, &format!("in the chunk at byte {offset}, ")))?;
             for (_, r) in &inner {
-                take(r, &mut conns)
+                gathered
+                    .take(r)
                     .map_err(|m| bad(path, format!("in the chunk at byte {offset}: {m}")))?;
             }
         } else {
-            take(rec, &mut conns).map_err(|m| bad(path, format!("at byte {offset}: {m}")))?;
+            gathered
+                .take(rec)
+                .map_err(|m| bad(path, format!("at byte {offset}: {m}")))?;
         }
     }
+    let Gathered { conns, messages } = gathered;
     for (topic, ty) in conns.values() {
         topics.entry(topic.clone()).or_insert_with(|| Topic {
             name: topic.clone(),

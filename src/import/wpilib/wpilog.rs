@@ -284,15 +284,7 @@ pub(crate) fn extract(log: &DataLog, choice: &Choice) -> Result<SysIdLog, String
                 gyro_rate_rad_s: None,
             });
         }
-        let repeats = tests
-            .iter()
-            .filter(|t| t.name == name || t.name.starts_with(&format!("{name}-")))
-            .count();
-        let name = if repeats == 0 {
-            name
-        } else {
-            format!("{name}-{}", repeats + 1)
-        };
+        let name = unique_name(&tests, name);
         tests.push(Test { name, samples });
     }
     if tests.is_empty() {
@@ -301,7 +293,24 @@ pub(crate) fn extract(log: &DataLog, choice: &Choice) -> Result<SysIdLog, String
             state.name
         ));
     }
-    let mechanism = match (choice.mechanism, motors.len()) {
+    let mechanism = mechanism_of(choice, motors.len(), &tests)?;
+    let names: Vec<&str> = motors.iter().map(|m| m.name.as_str()).collect();
+    Ok(SysIdLog {
+        mechanism,
+        unit,
+        source: format!(
+            "WPILib DataLog, routine `{routine}`, motor(s) {}",
+            names.join(" and ")
+        ),
+        tests,
+    })
+}
+
+/// The mechanism the user named (checked against the motors' count), else the one the
+/// routine shows: one motor a simple mechanism, two a drivetrain, turning in place where
+/// its sides are mostly driven in opposition.
+fn mechanism_of(choice: &Choice, motors: usize, tests: &[Test]) -> Result<Mechanism, String> {
+    Ok(match (choice.mechanism, motors) {
         (Some(m), n) if m.is_drivetrain() != (n == 2) => {
             return Err(format!(
                 "--mechanism {}: needs {} motor(s), the routine gives {n}",
@@ -328,15 +337,18 @@ pub(crate) fn extract(log: &DataLog, choice: &Choice) -> Result<SysIdLog, String
                 Mechanism::Drivetrain
             }
         }
-    };
-    let names: Vec<&str> = motors.iter().map(|m| m.name.as_str()).collect();
-    Ok(SysIdLog {
-        mechanism,
-        unit,
-        source: format!(
-            "WPILib DataLog, routine `{routine}`, motor(s) {}",
-            names.join(" and ")
-        ),
-        tests,
     })
+}
+
+/// A test's name, numbered (`quasistatic-forward-2`) where an earlier one has it.
+fn unique_name(tests: &[Test], name: String) -> String {
+    let repeats = tests
+        .iter()
+        .filter(|t| t.name == name || t.name.starts_with(&format!("{name}-")))
+        .count();
+    if repeats == 0 {
+        name
+    } else {
+        format!("{name}-{}", repeats + 1)
+    }
 }
