@@ -215,3 +215,104 @@ fn library_errors_are_typed() {
     }
     assert!(found.is_empty(), "untyped errors:\n{}", found.join("\n"));
 }
+
+/// A line with its string and character literals emptied and its comment cut, so that
+/// only the code's own braces are left to count.
+fn braces_of(line: &str) -> String {
+    let mut out = String::new();
+    let mut chars = line.chars().peekable();
+    let mut in_string = false;
+    while let Some(c) = chars.next() {
+        match (in_string, c) {
+            (true, '\\') => {
+                chars.next();
+            }
+            (true, '"') => in_string = false,
+            (true, _) => {}
+            (false, '"') => in_string = true,
+            (false, '/') if chars.peek() == Some(&'/') => break,
+            // A character literal ('{'), not a lifetime ('a).
+            (false, '\'') => {
+                let rest: String = chars.clone().take(3).collect();
+                if rest.starts_with('\\') {
+                    while let Some(x) = chars.next() {
+                        if x == '\'' {
+                            break;
+                        }
+                    }
+                } else if rest.chars().nth(1) == Some('\'') {
+                    chars.next();
+                    chars.next();
+                }
+            }
+            (false, '{' | '}') => out.push(c),
+            _ => {}
+        }
+    }
+    out
+}
+
+/// Each function of a text over `limit` lines (its signature to its closing brace,
+/// comment lines left out): `(name, first line, lines)`.
+fn long_functions(code: &str, limit: usize) -> Vec<(String, usize, usize)> {
+    let lines: Vec<&str> = code.lines().collect();
+    let mut out = Vec::new();
+    for (i, line) in lines.iter().enumerate() {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let Some(at) = words.iter().position(|w| *w == "fn") else {
+            continue;
+        };
+        let before_ok = words[..at]
+            .iter()
+            .all(|w| w.starts_with("pub") || ["const", "async", "unsafe", "extern"].contains(w));
+        if !before_ok || at + 1 >= words.len() {
+            continue;
+        }
+        let name: String = words[at + 1]
+            .chars()
+            .take_while(|c| c.is_alphanumeric() || *c == '_')
+            .collect();
+        let (mut depth, mut opened) = (0i64, false);
+        for (j, l) in lines.iter().enumerate().skip(i) {
+            let b = braces_of(l);
+            if !opened && b.is_empty() && l.trim_end().ends_with(';') {
+                break; // a declaration without a body
+            }
+            for c in b.chars() {
+                depth += if c == '{' { 1 } else { -1 };
+                opened = true;
+            }
+            if opened && depth == 0 {
+                if j - i + 1 > limit {
+                    out.push((name.clone(), i + 1, j - i + 1));
+                }
+                break;
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn no_library_function_is_over_100_lines() {
+    // The counter finds a long function (a known-good check of itself).
+    let long = format!(
+        "pub(crate) fn f(x: u8) -> u8 {{\n{}    x\n}}\nfn g() {{ let s = \"}}\"; }}\n",
+        "    let _ = '{';\n".repeat(120)
+    );
+    assert_eq!(long_functions(&long, 100), [("f".to_string(), 1, 123)]);
+    let mut found = Vec::new();
+    for (path, _, code) in library_sources() {
+        for (name, line, n) in long_functions(&code, 100) {
+            found.push(format!(
+                "{}: `{name}` (line {line} without comments): {n} lines",
+                path.display()
+            ));
+        }
+    }
+    assert!(
+        found.is_empty(),
+        "functions a reader cannot take in at once; split each into its named steps:\n{}",
+        found.join("\n")
+    );
+}
