@@ -6,9 +6,12 @@ use std::path::{Path, PathBuf};
 use agvsim::study::{self, StudyOptions};
 use agvsim::sweep::{self, Shard, SweepOptions};
 
+mod common;
+
+/// A scratch folder's path, not yet made: a sweep or study makes its own.
 fn tmp(name: &str) -> PathBuf {
-    let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("studies-{name}"));
-    let _ = std::fs::remove_dir_all(&d);
+    let d = common::tmp(name);
+    std::fs::remove_dir(&d).unwrap();
     d
 }
 
