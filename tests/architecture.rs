@@ -193,8 +193,6 @@ fn library_errors_are_typed() {
     let text_allowed = [
         "src/commands/flags.rs",
         "src/sweep/run.rs",
-        "src/import/ros2/joints.rs",
-        "src/import/ros2/urdf.rs",
         "src/import/wpilib/convert.rs",
         "src/import/wpilib/datalog.rs",
         "src/import/wpilib/json.rs",

@@ -47,6 +47,46 @@ pub fn names_in(msgs: &[&JointState]) -> Vec<String> {
     names
 }
 
+/// Why a wheel's joint gives no speed in a joint-state stream.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum JointFault {
+    /// No message names the joint.
+    #[error("topic `{topic}`: no joint named `{joint}` (the {side} wheel, {named_by}); its joints are {}; name the wheels with --map left_wheel_joint = \"...\", right_wheel_joint = \"...\"", quoted(.joints))]
+    NotNamed {
+        /// The stream's topic.
+        topic: String,
+        /// The joint looked for.
+        joint: String,
+        /// Which wheel (`left`, `right`).
+        side: String,
+        /// Who named the joint (the URDF, `--map`, the default).
+        named_by: String,
+        /// The joints the stream does name.
+        joints: Vec<String>,
+    },
+    /// The joint is named but no message gives it a finite speed.
+    #[error("topic `{topic}`: joint `{joint}` (the {side} wheel) gives no speed: {why}; agvsim reads the wheels' speeds from `velocity`")]
+    NoSpeed {
+        /// The stream's topic.
+        topic: String,
+        /// The joint.
+        joint: String,
+        /// Which wheel.
+        side: String,
+        /// Why: no velocity array long enough, or only non-finite values.
+        why: &'static str,
+    },
+}
+
+/// Names as a list of quoted names (`` `wl`, `wr` ``).
+fn quoted(names: &[String]) -> String {
+    names
+        .iter()
+        .map(|n| format!("`{n}`"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 /// Why `joint` (the `side` wheel, named by `named_by`) gives no speed in `topic`'s
 /// `msgs`, or `Ok(note)`: `None` when every message gives one, else how many do not.
 pub fn check(
@@ -55,18 +95,17 @@ pub fn check(
     side: &str,
     joint: &str,
     named_by: &str,
-) -> Result<Option<String>, String> {
+) -> Result<Option<String>, JointFault> {
     let s = speeds_of(msgs, joint);
     let total = msgs.len();
     if s.named == 0 {
-        return Err(format!(
-            "topic `{topic}`: no joint named `{joint}` (the {side} wheel, {named_by}); its joints are {}; name the wheels with --map left_wheel_joint = \"...\", right_wheel_joint = \"...\"",
-            names_in(msgs)
-                .iter()
-                .map(|n| format!("`{n}`"))
-                .collect::<Vec<_>>()
-                .join(", ")
-        ));
+        return Err(JointFault::NotNamed {
+            topic: topic.into(),
+            joint: joint.into(),
+            side: side.into(),
+            named_by: named_by.into(),
+            joints: names_in(msgs),
+        });
     }
     if s.finite == 0 {
         let why = if s.with_velocity == 0 {
@@ -74,9 +113,12 @@ pub fn check(
         } else {
             "every velocity it carries is NaN or infinite"
         };
-        return Err(format!(
-            "topic `{topic}`: joint `{joint}` (the {side} wheel) gives no speed: {why}; agvsim reads the wheels' speeds from `velocity`"
-        ));
+        return Err(JointFault::NoSpeed {
+            topic: topic.into(),
+            joint: joint.into(),
+            side: side.into(),
+            why,
+        });
     }
     Ok((s.finite < total).then(|| {
         format!(
@@ -106,7 +148,9 @@ mod tests {
     #[test]
     fn a_joint_not_in_the_stream_is_named_with_the_joints_it_has() {
         let a = js(&["wl", "wr"], &[1.0, 2.0]);
-        let e = check("/js", &[&a], "left", "left_wheel_joint", "the URDF").unwrap_err();
+        let e = check("/js", &[&a], "left", "left_wheel_joint", "the URDF")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("no joint named `left_wheel_joint`"), "{e}");
         assert!(e.contains("`wl`, `wr`"), "{e}");
     }
@@ -115,10 +159,14 @@ mod tests {
     fn a_short_velocity_array_or_nan_speeds_give_no_speed() {
         let short = js(&["l", "r"], &[1.0]);
         assert_eq!(check("/js", &[&short], "left", "l", "x"), Ok(None));
-        let e = check("/js", &[&short], "right", "r", "x").unwrap_err();
+        let e = check("/js", &[&short], "right", "r", "x")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("shorter than `name`"), "{e}");
         let nan = js(&["l", "r"], &[f64::NAN, f64::NAN]);
-        let e = check("/js", &[&nan, &nan], "left", "l", "x").unwrap_err();
+        let e = check("/js", &[&nan, &nan], "left", "l", "x")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("NaN"), "{e}");
     }
 

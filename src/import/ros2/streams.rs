@@ -201,7 +201,7 @@ pub(super) fn wheels(
         ("right", &r, &map.right_wheel_joint),
     ] {
         let note = joints::check(&t.name, &all, side, joint, &named_by(side, explicit))
-            .map_err(|m| c.err(m))?;
+            .map_err(|m| c.err(m.to_string()))?;
         notes.extend(note);
     }
     for (log, m) in &msgs {

@@ -65,27 +65,59 @@ fn cylinder_radius_m(link: Node) -> Option<f64> {
         .find_map(|c| number(c, "radius"))
 }
 
+/// Why a robot description gives no drive geometry.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum UrdfFault {
+    /// The text is not XML.
+    #[error("not XML: {0}")]
+    NotXml(String),
+    /// The root element is not `<robot>`.
+    #[error("its root element is <{0}>, not <robot>")]
+    NotRobot(String),
+    /// The joint the user named is not there.
+    #[error("no joint named `{0}`")]
+    NoJointNamed(String),
+    /// No joint looks like a side's wheel.
+    #[error("no continuous or revolute joint whose name holds `{0}` and `wheel` (name them with --map left_wheel_joint, right_wheel_joint)")]
+    NoWheelJoint(&'static str),
+    /// A wheel joint without a child link.
+    #[error("joint `{0}` has no <child link=...>")]
+    NoChildLink(String),
+    /// A wheel joint's child link is not described.
+    #[error("no link `{link}` (the child of joint `{joint}`)")]
+    NoLink {
+        /// The link's name.
+        link: String,
+        /// The joint naming it.
+        joint: String,
+    },
+    /// A wheel link without a cylinder to take the radius from.
+    #[error("link `{0}` has no <cylinder radius=...>")]
+    NoCylinder(String),
+    /// A wheel joint's origin is not a point.
+    #[error("joint `{0}`: its origin's xyz is not three numbers")]
+    BadOrigin(String),
+    /// Both wheels at the same lateral offset.
+    #[error("joints `{0}` and `{1}` are at the same lateral offset: no track")]
+    NoTrack(String, String),
+}
+
 /// The drive's geometry, or why the description gives none (not XML, no wheel joints,
 /// no cylinder on the left wheel's link).
 pub fn drive_geometry(
     xml: &str,
     left: Option<&str>,
     right: Option<&str>,
-) -> Result<DriveGeometry, String> {
-    let doc = roxmltree::Document::parse(xml).map_err(|e| format!("not XML: {e}"))?;
+) -> Result<DriveGeometry, UrdfFault> {
+    let doc = roxmltree::Document::parse(xml).map_err(|e| UrdfFault::NotXml(e.to_string()))?;
     let robot = doc.root_element();
     if robot.tag_name().name() != "robot" {
-        return Err(format!(
-            "its root element is <{}>, not <robot>",
-            robot.tag_name().name()
-        ));
+        return Err(UrdfFault::NotRobot(robot.tag_name().name().to_string()));
     }
-    let joint = |side: &str, chosen: Option<&str>| {
+    let joint = |side: &'static str, chosen: Option<&str>| {
         wheel_joint(robot, side, chosen).ok_or_else(|| match chosen {
-            Some(c) => format!("no joint named `{c}`"),
-            None => format!(
-                "no continuous or revolute joint whose name holds `{side}` and `wheel` (name them with --map left_wheel_joint, right_wheel_joint)"
-            ),
+            Some(c) => UrdfFault::NoJointNamed(c.to_string()),
+            None => UrdfFault::NoWheelJoint(side),
         })
     };
     let (l, r) = (joint("left", left)?, joint("right", right)?);
@@ -93,23 +125,19 @@ pub fn drive_geometry(
     let link_name = children(l, "child")
         .next()
         .and_then(|c| c.attribute("link"))
-        .ok_or_else(|| format!("joint `{}` has no <child link=...>", name(l)))?;
+        .ok_or_else(|| UrdfFault::NoChildLink(name(l)))?;
     let link = children(robot, "link")
         .find(|k| k.attribute("name") == Some(link_name))
-        .ok_or_else(|| format!("no link `{link_name}` (the child of joint `{}`)", name(l)))?;
-    let radius = cylinder_radius_m(link)
-        .ok_or_else(|| format!("link `{link_name}` has no <cylinder radius=...>"))?;
-    let y = |j: Node| {
-        lateral_m(j)
-            .ok_or_else(|| format!("joint `{}`: its origin's xyz is not three numbers", name(j)))
-    };
+        .ok_or_else(|| UrdfFault::NoLink {
+            link: link_name.to_string(),
+            joint: name(l),
+        })?;
+    let radius =
+        cylinder_radius_m(link).ok_or_else(|| UrdfFault::NoCylinder(link_name.to_string()))?;
+    let y = |j: Node| lateral_m(j).ok_or_else(|| UrdfFault::BadOrigin(name(j)));
     let track = (y(l)? - y(r)?).abs();
     if track <= 0.0 {
-        return Err(format!(
-            "joints `{}` and `{}` are at the same lateral offset: no track",
-            name(l),
-            name(r)
-        ));
+        return Err(UrdfFault::NoTrack(name(l), name(r)));
     }
     Ok(DriveGeometry {
         track_m: track,
@@ -133,8 +161,13 @@ mod tests {
         let g = drive_geometry(xml, None, None).unwrap();
         assert!((g.track_m - 0.40).abs() < 1e-12);
         assert_eq!(g.wheel_radius_m, 0.08);
+        assert_eq!(
+            drive_geometry(xml, Some("nope"), None).unwrap_err(),
+            UrdfFault::NoJointNamed("nope".into())
+        );
         assert!(drive_geometry(xml, Some("nope"), None)
             .unwrap_err()
+            .to_string()
             .contains("no joint named `nope`"));
     }
 
@@ -154,9 +187,15 @@ mod tests {
     fn a_description_that_is_not_urdf_says_why() {
         assert!(drive_geometry("<robot", None, None)
             .unwrap_err()
+            .to_string()
             .starts_with("not XML"));
+        assert_eq!(
+            drive_geometry("<sdf/>", None, None).unwrap_err(),
+            UrdfFault::NotRobot("sdf".into())
+        );
         assert!(drive_geometry("<sdf/>", None, None)
             .unwrap_err()
+            .to_string()
             .contains("<sdf>"));
     }
 }
