@@ -178,6 +178,18 @@ pub struct Trace {
     pub lateral_error_m: Vec<f64>,
 }
 
+/// Why a run of a sweep stopped, as `results.csv` states it (its error kept as text: a
+/// run's result is cloned and written, its error only read).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RunFailure {
+    /// The grid point's values make no valid scene.
+    #[error("{0}")]
+    Scene(String),
+    /// The simulation stopped (it diverged, or could not be set up).
+    #[error("{0}")]
+    Simulation(String),
+}
+
 /// One run's outcome.
 #[derive(Debug, Clone)]
 pub struct RunResult {
@@ -185,7 +197,7 @@ pub struct RunResult {
     pub point: RunPoint,
     /// The metrics, or why the run stopped (a diverged simulation, a bad combination of
     /// values).
-    pub outcome: Result<RunSummary, String>,
+    pub outcome: Result<RunSummary, RunFailure>,
     /// Its trace, when asked for.
     pub trace: Option<Trace>,
 }
@@ -196,8 +208,10 @@ pub fn run_point(opts: &SweepOptions, point: &RunPoint) -> RunResult {
     overrides.extend(point.overrides(&opts.grid.varies));
     let mut trace = opts.traces.then(Trace::default);
     let outcome = Scene::from_toml(&opts.scene_text, &opts.scene_path, &overrides)
-        .map_err(|e| e.to_string())
-        .and_then(|scene| simulate(&scene, trace.as_mut()).map_err(|e| e.to_string()));
+        .map_err(|e| RunFailure::Scene(e.to_string()))
+        .and_then(|scene| {
+            simulate(&scene, trace.as_mut()).map_err(|e| RunFailure::Simulation(e.to_string()))
+        });
     RunResult {
         point: point.clone(),
         outcome,

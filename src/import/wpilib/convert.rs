@@ -8,6 +8,7 @@ use crate::model::wheel::WheelParams;
 use crate::rig::keys::alias;
 use std::fmt::Write as _;
 
+use super::fault::LogFault;
 use super::{Mechanism, Sample, SysIdLog, Test};
 use crate::import::wpilib::feedforward::{self, Feedforward, Gravity, Series};
 use crate::rig::{Rig, RigKind};
@@ -49,15 +50,13 @@ pub struct Converted {
 
 /// The factor from the log's speed unit to the recording's: m/s for a drivetrain's wheel,
 /// rad/s for a single mechanism's shaft. Also the conversion's wording.
-fn speed_factor(log: &SysIdLog, a: &Assumptions) -> Result<(f64, String), String> {
+fn speed_factor(log: &SysIdLog, a: &Assumptions) -> Result<(f64, String), LogFault> {
     let u = log.unit;
     if log.mechanism.is_drivetrain() {
         if u.linear {
             return Ok((u.to_si, format!("{}/s x {}", u.name, u.to_si)));
         }
-        let r = a.wheel_radius_m.ok_or_else(|| {
-            format!("the drivetrain's speeds are in {}/s; wheel speeds in m/s need the wheel radius: give --wheel-radius-m", u.name)
-        })?;
+        let r = a.wheel_radius_m.ok_or(LogFault::NeedsWheelRadius(u.name))?;
         return Ok((
             u.to_si * r,
             format!("{}/s x {} rad x {r} m wheel radius", u.name, u.to_si),
@@ -72,9 +71,7 @@ fn speed_factor(log: &SysIdLog, a: &Assumptions) -> Result<(f64, String), String
             ),
         ));
     }
-    let r = a.wheel_radius_m.ok_or_else(|| {
-        format!("the mechanism's speeds are in {}/s; a drive axis turns them into shaft speed by a drum radius: give --wheel-radius-m", u.name)
-    })?;
+    let r = a.wheel_radius_m.ok_or(LogFault::NeedsDrumRadius(u.name))?;
     Ok((
         u.to_si / r,
         format!("{}/s x {} / {r} m drum radius", u.name, u.to_si),
@@ -86,7 +83,7 @@ pub(crate) fn convert(
     log: &SysIdLog,
     source: &str,
     a: &Assumptions,
-) -> Result<Vec<Converted>, String> {
+) -> Result<Vec<Converted>, LogFault> {
     let (f, how) = speed_factor(log, a)?;
     let mut out = Vec::new();
     for test in &log.tests {
@@ -212,7 +209,7 @@ fn median_period(test: &Test) -> f64 {
 /// drivetrain, both sides together as SysId combines them; rad/s of shaft otherwise). A
 /// turning drivetrain is read as SysId reads it: the mean of the two sides' magnitudes,
 /// signed by the direction of turn.
-pub(crate) fn series(log: &SysIdLog, a: &Assumptions) -> Result<Vec<Series>, String> {
+pub(crate) fn series(log: &SysIdLog, a: &Assumptions) -> Result<Vec<Series>, LogFault> {
     let (f, _) = speed_factor(log, a)?;
     let mut out = Vec::new();
     for test in &log.tests {
@@ -265,14 +262,14 @@ pub fn gravity(m: Mechanism) -> Gravity {
 }
 
 /// The regression on the whole log.
-pub(crate) fn feedforward(log: &SysIdLog, a: &Assumptions) -> Result<Feedforward, String> {
+pub(crate) fn feedforward(log: &SysIdLog, a: &Assumptions) -> Result<Feedforward, LogFault> {
     let s = series(log, a)?;
     feedforward::fit(
         &s,
         gravity(log.mechanism),
         feedforward::default_threshold(&s),
     )
-    .map_err(|e| e.to_string())
+    .map_err(LogFault::from)
 }
 
 /// Resistance from the logged current, by least squares on `u - kV v = R i` (no Coulomb
@@ -294,12 +291,12 @@ pub(crate) fn nominal_rig(
     log: &SysIdLog,
     ff: &Feedforward,
     a: &Assumptions,
-) -> Result<String, String> {
+) -> Result<String, LogFault> {
     let (f, _) = speed_factor(log, a)?;
     let kv = ff.kv_v_s_per_unit.value;
     let ka = ff.ka_v_s2_per_unit.value;
     if !(kv > 0.0 && ka > 0.0) {
-        return Err(format!("SysId's gains kV = {kv}, kA = {ka} are not both positive: no linear machine has them; the rig is not written"));
+        return Err(LogFault::GainsNotPositive { kv, ka });
     }
     let mut notes = vec![format!("kV = {kv:.6}, kA = {ka:.6} from SysId's regression on every test (kS = {:.4} V left out: the rig is the linear machine; diagnosis looks for the friction)", ff.ks_v.value)];
     let (r_ohm, r_note) = match (a.resistance_ohm, resistance_from_current(log, kv, f)) {
@@ -345,7 +342,11 @@ pub(crate) fn nominal_rig(
             (mass, mass * w * w / 6.0)
         };
         if !(mass > 0.0) {
-            return Err(format!("kA = {ka} with kV = {kv} and resistance {r_ohm} ohm gives no positive chassis inertia: SysId's kA must be positive"));
+            return Err(LogFault::NoChassisInertia {
+                ka,
+                kv,
+                resistance_ohm: r_ohm,
+            });
         }
         rig.set(MotorParams::torque_constant_nm_a.key(), k);
         rig.set(MotorParams::rotor_inertia_kg_m2.key(), 0.5 * j);

@@ -164,9 +164,9 @@ fn record(
         });
     };
     let entry = &mut log.entries[index];
-    let value = decode(&entry.kind, payload).map_err(|message| FormatError {
+    let value = decode(&entry.kind, payload).map_err(|fault| FormatError {
         offset: start,
-        message: format!("entry `{}` ({}): {message}", entry.name, entry.kind),
+        message: format!("entry `{}` ({}): {fault}", entry.name, entry.kind),
     })?;
     entry.values.push((timestamp_us, value));
     Ok(())
@@ -227,14 +227,30 @@ fn control(
     Ok(())
 }
 
+/// Why a payload is not a value of its entry's type.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+enum PayloadFault {
+    /// A fixed-size type with another size.
+    #[error("a payload of {have} bytes; this type has {want}")]
+    Size {
+        /// The payload's bytes.
+        have: usize,
+        /// The type's.
+        want: usize,
+    },
+    /// Text that is not UTF-8.
+    #[error("a string that is not UTF-8")]
+    NotUtf8,
+}
+
 /// A payload of an entry's type as a value.
-fn decode(kind: &str, payload: &[u8]) -> Result<Value, String> {
-    let fixed = |n: usize| -> Result<[u8; 8], String> {
+fn decode(kind: &str, payload: &[u8]) -> Result<Value, PayloadFault> {
+    let fixed = |n: usize| -> Result<[u8; 8], PayloadFault> {
         if payload.len() != n {
-            return Err(format!(
-                "a payload of {} bytes; this type has {n}",
-                payload.len()
-            ));
+            return Err(PayloadFault::Size {
+                have: payload.len(),
+                want: n,
+            });
         }
         let mut b = [0u8; 8];
         b[..n].copy_from_slice(payload);
@@ -248,9 +264,9 @@ fn decode(kind: &str, payload: &[u8]) -> Result<Value, String> {
         }
         "int64" => Value::Number(i64::from_le_bytes(fixed(8)?) as f64),
         "boolean" => Value::Number(f64::from(fixed(1)?[0])),
-        "string" => Value::Text(
-            String::from_utf8(payload.to_vec()).map_err(|_| "a string that is not UTF-8")?,
-        ),
+        "string" => {
+            Value::Text(String::from_utf8(payload.to_vec()).map_err(|_| PayloadFault::NotUtf8)?)
+        }
         _ => Value::Other(payload.len()),
     })
 }

@@ -6,6 +6,7 @@
 //! `[time, l voltage, r voltage, l position, r position, l velocity, r velocity, angle, angular rate]`
 //! for a drivetrain (the gyro's angle in rad and rate in rad/s).
 
+use super::fault::LogFault;
 use serde_json::Value;
 
 use super::{unit, Mechanism, Sample, Side, SysIdLog, Test};
@@ -19,66 +20,59 @@ pub const TESTS: [&str; 4] = [
 ];
 
 /// Parses a SysId JSON file's text. Errors name the key, test and row.
-pub(crate) fn parse(text: &str) -> Result<SysIdLog, String> {
+pub(crate) fn parse(text: &str) -> Result<SysIdLog, LogFault> {
     let root: Value = serde_json::from_str(text.trim_start_matches('\u{feff}')).map_err(|e| {
-        format!(
-            "not valid JSON at line {}, column {}: {e} (NaN or Infinity are not JSON numbers)",
-            e.line(),
-            e.column()
-        )
+        LogFault::NotJson {
+            line: e.line(),
+            column: e.column(),
+            error: e.to_string(),
+        }
     })?;
-    let obj = root
-        .as_object()
-        .ok_or("expected a JSON object with SysId's keys (\"test\", \"units\", ...)")?;
+    let obj = root.as_object().ok_or(LogFault::NotAnObject)?;
     if obj.get("sysid").and_then(Value::as_bool) != Some(true) {
-        return Err("no `\"sysid\": true`: not a SysId data file (an frc-characterization file must be opened and saved by SysId first)".into());
+        return Err(LogFault::NotSysId);
     }
-    let text_key = |k: &str| -> Result<&str, String> {
+    let text_key = |k: &'static str| -> Result<&str, LogFault> {
         obj.get(k)
             .and_then(Value::as_str)
-            .ok_or_else(|| format!("`{k}`: missing or not a string"))
+            .ok_or(LogFault::TextKey(k))
     };
     let test = text_key("test")?;
-    let mechanism = Mechanism::from_name(test).ok_or_else(|| {
-        format!("`test` = \"{test}\": expected Drivetrain, Drivetrain (Angular), Simple, Elevator or Arm")
-    })?;
-    let units =
-        text_key("units").map_err(|e| format!("{e}; the file must declare its position unit"))?;
-    let unit = unit(units).ok_or_else(|| {
-        format!(
-            "`units` = \"{units}\": expected Meters, Feet, Inches, Rotations, Radians or Degrees"
-        )
-    })?;
+    let mechanism =
+        Mechanism::from_name(test).ok_or_else(|| LogFault::UnknownTest(test.to_string()))?;
+    let units = text_key("units").map_err(|_| LogFault::NoUnits)?;
+    let unit = unit(units).ok_or_else(|| LogFault::UnknownUnits(units.to_string()))?;
     let factor = obj
         .get("unitsPerRotation")
         .and_then(Value::as_f64)
         .filter(|f| f.is_finite() && *f > 0.0)
-        .ok_or("`unitsPerRotation`: missing, or not a positive number")?;
+        .ok_or(LogFault::UnitsPerRotation)?;
     let width = if mechanism.is_drivetrain() { 9 } else { 4 };
     let mut tests = Vec::new();
     for name in TESTS {
         let rows = obj
             .get(name)
-            .ok_or_else(|| {
-                format!(
-                    "`{name}`: missing (SysId's four tests are {})",
-                    TESTS.join(", ")
-                )
-            })?
+            .ok_or(LogFault::MissingTest(name))?
             .as_array()
-            .ok_or_else(|| format!("`{name}`: expected a list of rows"))?;
+            .ok_or(LogFault::NotRows(name))?;
         let mut samples = Vec::with_capacity(rows.len());
         for (i, row) in rows.iter().enumerate() {
-            let cells = row.as_array().filter(|c| c.len() == width).ok_or_else(|| {
-                format!(
-                    "`{name}`, row {i}: expected a list of {width} numbers for a {} test",
-                    mechanism.name()
-                )
-            })?;
+            let cells = row
+                .as_array()
+                .filter(|c| c.len() == width)
+                .ok_or(LogFault::RowWidth {
+                    test: name,
+                    row: i,
+                    width,
+                    mechanism: mechanism.name(),
+                })?;
             let mut v = Vec::with_capacity(width);
             for (j, c) in cells.iter().enumerate() {
-                v.push(c.as_f64().ok_or_else(|| {
-                    format!("`{name}`, row {i}, column {j}: `{c}` is not a number")
+                v.push(c.as_f64().ok_or_else(|| LogFault::NotANumber {
+                    test: name,
+                    row: i,
+                    column: j,
+                    cell: c.to_string(),
                 })?);
             }
             samples.push(sample(&v, factor));

@@ -12,8 +12,10 @@ pub mod json;
 pub mod wpilog;
 
 mod convert;
+pub mod fault;
 use convert::{convert, feedforward, nominal_rig};
 pub use convert::{gravity, Assumptions, Converted};
+use fault::LogFault;
 
 use std::f64::consts::TAU;
 
@@ -202,7 +204,7 @@ pub struct SysIdError {
 
 /// Checks a test's samples as the contract needs them: times strictly increasing, every
 /// value finite. Reported with the test and the row (from 0), never fixed.
-pub(crate) fn check_test(test: &Test) -> Result<(), String> {
+pub(crate) fn check_test(test: &Test) -> Result<(), LogFault> {
     let mut last: Option<f64> = None;
     for (i, s) in test.samples.iter().enumerate() {
         let mut values = vec![
@@ -221,10 +223,12 @@ pub(crate) fn check_test(test: &Test) -> Result<(), String> {
         values.extend(s.gyro_angle_rad.map(|v| ("gyro angle", v)));
         values.extend(s.gyro_rate_rad_s.map(|v| ("gyro rate", v)));
         if let Some((what, v)) = values.iter().find(|(_, v)| !v.is_finite()) {
-            return Err(format!(
-                "test `{}`, row {i}: {what} is {v}, not a finite number",
-                test.name
-            ));
+            return Err(LogFault::NotFinite {
+                test: test.name.clone(),
+                row: i,
+                what,
+                value: *v,
+            });
         }
         if let Some(prev) = last.filter(|p| s.t_s <= *p) {
             let how = if s.t_s == prev {
@@ -232,26 +236,28 @@ pub(crate) fn check_test(test: &Test) -> Result<(), String> {
             } else {
                 "goes back from"
             };
-            return Err(format!(
-                "test `{}`, row {i}: timestamp {} s {how} the previous row's {prev} s (reported, not fixed)",
-                test.name, s.t_s
-            ));
+            return Err(LogFault::TimeBack {
+                test: test.name.clone(),
+                row: i,
+                t_s: s.t_s,
+                how,
+                previous_s: prev,
+            });
         }
         last = Some(s.t_s);
     }
     if test.samples.len() < 2 {
-        return Err(format!(
-            "test `{}` has {} row(s); at least two are needed",
-            test.name,
-            test.samples.len()
-        ));
+        return Err(LogFault::TooFewRows {
+            test: test.name.clone(),
+            rows: test.samples.len(),
+        });
     }
     check_gaps(test)
 }
 
 /// A gap in a test's time stamps far beyond its sampling (a corrupt or mistyped stamp):
 /// fitted as it stands it makes the fits' time constants absurd, so it is reported.
-fn check_gaps(test: &Test) -> Result<(), String> {
+fn check_gaps(test: &Test) -> Result<(), LogFault> {
     let dts: Vec<f64> = test
         .samples
         .windows(2)
@@ -264,15 +270,14 @@ fn check_gaps(test: &Test) -> Result<(), String> {
     // or more is no pause of a SysId test.
     let limit = (1000.0 * median).max(1.0);
     if let Some((i, dt)) = dts.iter().enumerate().find(|(_, dt)| **dt > limit) {
-        return Err(format!(
-            "test `{}`, row {}: timestamp {} s is {} s after the previous row's, {:.0} times the test's median interval of {} s: a corrupt time stamp? (reported, not fixed)",
-            test.name,
-            i + 1,
-            crate::param::plain_number(test.samples[i + 1].t_s),
-            crate::param::plain_number(*dt),
-            dt / median,
-            crate::param::plain_number(median)
-        ));
+        return Err(LogFault::TimeGap {
+            test: test.name.clone(),
+            row: i + 1,
+            t_s: test.samples[i + 1].t_s,
+            gap_s: *dt,
+            times: dt / median,
+            median_s: median,
+        });
     }
     Ok(())
 }
@@ -287,14 +292,14 @@ pub fn load(path: &std::path::Path, choice: &wpilog::Choice) -> Result<SysIdLog,
         .map_err(|e| fail(format!("cannot read: {e}")))?;
     if bytes.starts_with(b"WPILOG") {
         let log = datalog::parse(&bytes).map_err(|e| fail(e.to_string()))?;
-        wpilog::extract(&log, choice).map_err(fail)
+        wpilog::extract(&log, choice).map_err(|e| fail(e.to_string()))
     } else {
         if !choice.motors.is_empty() || choice.routine.is_some() || choice.mechanism.is_some() {
             return Err(fail("--routine, --motors and --mechanism choose inside a DataLog (.wpilog); a JSON file says its own".into()));
         }
         let text = String::from_utf8(bytes)
             .map_err(|_| fail("neither a DataLog (no `WPILOG` mark) nor UTF-8 JSON text".into()))?;
-        json::parse(&text).map_err(fail)
+        json::parse(&text).map_err(|e| fail(e.to_string()))
     }
 }
 
@@ -320,9 +325,9 @@ pub fn import(
     assumptions: &Assumptions,
 ) -> Result<Imported, SysIdError> {
     let log = load(path, choice)?;
-    let fail = |message: String| SysIdError {
+    let fail = |fault: LogFault| SysIdError {
         file: path.to_owned(),
-        message,
+        message: fault.to_string(),
     };
     let recordings = convert(&log, &path.display().to_string(), assumptions).map_err(fail)?;
     let feedforward = feedforward(&log, assumptions).map_err(fail)?;

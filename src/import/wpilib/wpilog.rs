@@ -11,9 +11,10 @@
 //! microseconds apart in one robot loop land in one row.
 
 use super::datalog::{DataLog, Entry, Value};
+use super::fault::LogFault;
 use super::{unit, Mechanism, Sample, Side, SysIdLog, Test, Unit};
 
-const STATE_PREFIX: &str = "sysid-test-state-";
+pub(super) const STATE_PREFIX: &str = "sysid-test-state-";
 
 /// What the user says when the log alone does not decide.
 #[derive(Debug, Clone, Default)]
@@ -40,7 +41,7 @@ fn find<'a>(log: &'a DataLog, name: &str) -> Option<&'a Entry> {
 }
 
 /// The routine's name.
-fn routine(log: &DataLog, choice: &Choice) -> Result<String, String> {
+fn routine(log: &DataLog, choice: &Choice) -> Result<String, LogFault> {
     let names: Vec<&str> = log
         .entries
         .iter()
@@ -48,25 +49,27 @@ fn routine(log: &DataLog, choice: &Choice) -> Result<String, String> {
         .collect();
     match (&choice.routine, names.as_slice()) {
         (Some(r), _) if names.contains(&r.as_str()) => Ok(r.clone()),
-        (Some(r), _) => Err(format!(
-            "no entry `{STATE_PREFIX}{r}`; the log's routines: {}",
-            if names.is_empty() { "none".to_string() } else { names.join(", ") }
-        )),
+        (Some(r), _) => Err(LogFault::NoSuchRoutine {
+            routine: r.clone(),
+            routines: names.iter().map(|n| n.to_string()).collect(),
+        }),
         (None, [one]) => Ok(one.to_string()),
-        (None, []) => Err(format!(
-            "no `{STATE_PREFIX}...` entry: not a log of a WPILib SysIdRoutine ({} entries, e.g. {})",
-            log.entries.len(),
-            log.entries.iter().take(5).map(|e| format!("`{}`", e.name)).collect::<Vec<_>>().join(", ")
-        )),
-        (None, many) => Err(format!(
-            "the log holds several routines ({}); choose one with --routine",
-            many.join(", ")
+        (None, []) => Err(LogFault::NoRoutine {
+            entries: log.entries.len(),
+            examples: log.entries.iter().take(5).map(|e| e.name.clone()).collect(),
+        }),
+        (None, many) => Err(LogFault::SeveralRoutines(
+            many.iter().map(|n| n.to_string()).collect(),
         )),
     }
 }
 
 /// The motors of the routine, as chosen or as the names say (left and right).
-fn motors<'a>(log: &'a DataLog, routine: &str, choice: &Choice) -> Result<Vec<Motor<'a>>, String> {
+fn motors<'a>(
+    log: &'a DataLog,
+    routine: &str,
+    choice: &Choice,
+) -> Result<Vec<Motor<'a>>, LogFault> {
     let suffix = format!("-{routine}");
     let all: Vec<String> = log
         .entries
@@ -77,10 +80,11 @@ fn motors<'a>(log: &'a DataLog, routine: &str, choice: &Choice) -> Result<Vec<Mo
     let picked: Vec<String> = if !choice.motors.is_empty() {
         for m in &choice.motors {
             if !all.contains(m) {
-                return Err(format!(
-                    "no motor `{m}` in routine `{routine}`; its motors: {}",
-                    all.join(", ")
-                ));
+                return Err(LogFault::NoSuchMotor {
+                    motor: m.clone(),
+                    routine: routine.to_string(),
+                    motors: all,
+                });
             }
         }
         choice.motors.clone()
@@ -95,22 +99,24 @@ fn motors<'a>(log: &'a DataLog, routine: &str, choice: &Choice) -> Result<Vec<Mo
         match (all.len(), side("left"), side("right")) {
             (2, Some(l), Some(r)) => vec![l, r],
             _ => {
-                return Err(format!(
-                    "routine `{routine}` logs motors {}; name the one motor, or the left and right motors, with --motors",
-                    if all.is_empty() { "(none)".to_string() } else { all.join(", ") }
-                ))
+                return Err(LogFault::WhichMotors {
+                    routine: routine.to_string(),
+                    motors: all,
+                })
             }
         }
     };
     if picked.len() > 2 {
-        return Err("--motors takes one motor, or a left and a right motor".into());
+        return Err(LogFault::TooManyMotors);
     }
     picked
         .into_iter()
         .map(|name| {
             let entry = |what: &str| {
-                find(log, &format!("{what}-{name}{suffix}"))
-                    .ok_or_else(|| format!("motor `{name}` has no `{what}-{name}{suffix}` entry"))
+                find(log, &format!("{what}-{name}{suffix}")).ok_or_else(|| LogFault::NoMotorEntry {
+                    motor: name.clone(),
+                    entry: format!("{what}-{name}{suffix}"),
+                })
             };
             Ok(Motor {
                 voltage: entry("voltage")?,
@@ -124,21 +130,24 @@ fn motors<'a>(log: &'a DataLog, routine: &str, choice: &Choice) -> Result<Vec<Mo
 }
 
 /// The position unit the motor's entries declare (velocity must be the same per second).
-fn declared_unit(m: &Motor) -> Result<Unit, String> {
+fn declared_unit(m: &Motor) -> Result<Unit, LogFault> {
     let meta = |e: &Entry| e.metadata.trim().trim_matches('"').to_string();
     let volts = meta(m.voltage);
     if !matches!(volts.to_ascii_lowercase().as_str(), "volts" | "volt" | "v") {
-        return Err(format!(
-            "entry `{}` declares its unit as `{volts}`; expected Volts",
-            m.voltage.name
-        ));
+        return Err(LogFault::NotVolts {
+            entry: m.voltage.name.clone(),
+            unit: volts,
+        });
     }
     let p = meta(m.position);
     let u = unit(&p).ok_or_else(|| {
         if p.is_empty() {
-            format!("entry `{}` declares no unit (empty metadata); the log must say what its positions are in", m.position.name)
+            LogFault::NoPositionUnit(m.position.name.clone())
         } else {
-            format!("entry `{}`: unit `{p}` is not one SysId uses (Meters, Feet, Inches, Rotations, Radians, Degrees)", m.position.name)
+            LogFault::UnknownPositionUnit {
+                entry: m.position.name.clone(),
+                unit: p.clone(),
+            }
         }
     })?;
     let v = meta(m.velocity);
@@ -147,29 +156,32 @@ fn declared_unit(m: &Motor) -> Result<Unit, String> {
         .or_else(|| v.strip_suffix(" per second"))
         .and_then(unit);
     if per != Some(u) {
-        return Err(format!(
-            "entry `{}` declares `{v}`; expected {}PerSecond to match `{}`",
-            m.velocity.name, u.name, m.position.name
-        ));
+        return Err(LogFault::VelocityUnit {
+            entry: m.velocity.name.clone(),
+            unit: v,
+            expected: u.name,
+            position: m.position.name.clone(),
+        });
     }
     Ok(u)
 }
 
 /// The numbers of an entry, (time s, value), NaNs refused.
-fn numbers(e: &Entry) -> Result<Vec<(f64, f64)>, String> {
+fn numbers(e: &Entry) -> Result<Vec<(f64, f64)>, LogFault> {
     e.values
         .iter()
         .map(|(t, v)| match v {
             Value::Number(x) if x.is_finite() => Ok((*t as f64 * 1e-6, *x)),
-            Value::Number(x) => Err(format!(
-                "entry `{}` at t = {} s: value {x} is not finite",
-                e.name,
-                *t as f64 * 1e-6
-            )),
-            _ => Err(format!(
-                "entry `{}` has type `{}`; expected double",
-                e.name, e.kind
-            )),
+            Value::Number(x) => Err(LogFault::NotFiniteValue {
+                entry: e.name.clone(),
+                t_s: *t as f64 * 1e-6,
+                value: *x,
+            }),
+            _ => Err(LogFault::EntryType {
+                entry: e.name.clone(),
+                kind: e.kind.clone(),
+                expected: "double",
+            }),
         })
         .collect()
 }
@@ -187,16 +199,17 @@ fn nearest(series: &[(f64, f64)], t: f64, tol: f64) -> Option<f64> {
 }
 
 /// The test stretches: (state, start s, end s).
-fn stretches(state: &Entry) -> Result<Vec<(String, f64, f64)>, String> {
+fn stretches(state: &Entry) -> Result<Vec<(String, f64, f64)>, LogFault> {
     let mut marks: Vec<(i64, String)> = state
         .values
         .iter()
         .map(|(t, v)| match v {
             Value::Text(s) => Ok((*t, s.clone())),
-            _ => Err(format!(
-                "entry `{}` has type `{}`; expected string",
-                state.name, state.kind
-            )),
+            _ => Err(LogFault::EntryType {
+                entry: state.name.clone(),
+                kind: state.kind.clone(),
+                expected: "string",
+            }),
         })
         .collect::<Result<_, _>>()?;
     marks.sort_by_key(|m| m.0);
@@ -221,7 +234,7 @@ fn stretches(state: &Entry) -> Result<Vec<(String, f64, f64)>, String> {
 }
 
 /// Extracts the routine's tests from a parsed log.
-pub(crate) fn extract(log: &DataLog, choice: &Choice) -> Result<SysIdLog, String> {
+pub(crate) fn extract(log: &DataLog, choice: &Choice) -> Result<SysIdLog, LogFault> {
     let routine = routine(log, choice)?;
     let state = find(log, &format!("{STATE_PREFIX}{routine}")).expect("found by routine()");
     let motors = motors(log, &routine, choice)?;
@@ -229,13 +242,15 @@ pub(crate) fn extract(log: &DataLog, choice: &Choice) -> Result<SysIdLog, String
     if let Some(r) = motors.get(1) {
         let u = declared_unit(r)?;
         if u != unit {
-            return Err(format!(
-                "motor `{}` logs {} and motor `{}` {}: one unit is needed",
-                motors[0].name, unit.name, r.name, u.name
-            ));
+            return Err(LogFault::UnitsDiffer {
+                left: motors[0].name.clone(),
+                left_unit: unit.name,
+                right: r.name.clone(),
+                right_unit: u.name,
+            });
         }
     }
-    let chan = |m: &Motor| -> Result<[Vec<(f64, f64)>; 4], String> {
+    let chan = |m: &Motor| -> Result<[Vec<(f64, f64)>; 4], LogFault> {
         Ok([
             numbers(m.voltage)?,
             numbers(m.position)?,
@@ -254,14 +269,13 @@ pub(crate) fn extract(log: &DataLog, choice: &Choice) -> Result<SysIdLog, String
         let mut periods: Vec<f64> = clock.windows(2).map(|w| w[1] - w[0]).collect();
         periods.sort_by(f64::total_cmp);
         let tol = 0.5 * periods.get(periods.len() / 2).copied().unwrap_or(0.0);
-        let side = |c: &[Vec<(f64, f64)>; 4], m: &Motor, t: f64| -> Result<Side, String> {
+        let side = |c: &[Vec<(f64, f64)>; 4], m: &Motor, t: f64| -> Result<Side, LogFault> {
             let get = |k: usize, e: &Entry| {
-                nearest(&c[k], t, tol).ok_or_else(|| {
-                    format!(
-                        "test `{name}` at t = {t:.6} s: entry `{}` has no sample within {:.1} ms",
-                        e.name,
-                        tol * 1e3
-                    )
+                nearest(&c[k], t, tol).ok_or_else(|| LogFault::NoSample {
+                    test: name.clone(),
+                    t_s: t,
+                    entry: e.name.clone(),
+                    tolerance_ms: tol * 1e3,
                 })
             };
             Ok(Side {
@@ -288,10 +302,7 @@ pub(crate) fn extract(log: &DataLog, choice: &Choice) -> Result<SysIdLog, String
         tests.push(Test { name, samples });
     }
     if tests.is_empty() {
-        return Err(format!(
-            "entry `{}` never leaves `none`: the log holds no test",
-            state.name
-        ));
+        return Err(LogFault::NoTest(state.name.clone()));
     }
     let mechanism = mechanism_of(choice, motors.len(), &tests)?;
     let names: Vec<&str> = motors.iter().map(|m| m.name.as_str()).collect();
@@ -309,14 +320,14 @@ pub(crate) fn extract(log: &DataLog, choice: &Choice) -> Result<SysIdLog, String
 /// The mechanism the user named (checked against the motors' count), else the one the
 /// routine shows: one motor a simple mechanism, two a drivetrain, turning in place where
 /// its sides are mostly driven in opposition.
-fn mechanism_of(choice: &Choice, motors: usize, tests: &[Test]) -> Result<Mechanism, String> {
+fn mechanism_of(choice: &Choice, motors: usize, tests: &[Test]) -> Result<Mechanism, LogFault> {
     Ok(match (choice.mechanism, motors) {
         (Some(m), n) if m.is_drivetrain() != (n == 2) => {
-            return Err(format!(
-                "--mechanism {}: needs {} motor(s), the routine gives {n}",
-                m.name(),
-                if m.is_drivetrain() { 2 } else { 1 }
-            ))
+            return Err(LogFault::MechanismMotors {
+                mechanism: m.name(),
+                needs: if m.is_drivetrain() { 2 } else { 1 },
+                gives: n,
+            })
         }
         (Some(m), _) => m,
         (None, 1) => Mechanism::Simple,
