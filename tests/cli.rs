@@ -857,23 +857,12 @@ fn calibrate_writes_a_scene_a_json_and_a_rerun_overlay() {
     let bytes = std::fs::read(&rrd).unwrap();
     assert!(bytes.len() > 1000 && &bytes[..4] == b"RRF2");
     assert!(!dir.join("c.rrd.partial").exists());
-    let j: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-    let mut tried: Vec<(&str, bool)> = j["effects"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|e| {
-            (
-                e["name"].as_str().unwrap(),
-                e["accepted"].as_bool().unwrap(),
-            )
-        })
-        .collect();
-    tried.sort();
     assert_eq!(
-        tried,
-        [("coulomb_friction", true), ("voltage_saturation", false)]
+        effects_tried(&json),
+        [
+            ("coulomb_friction".to_string(), true),
+            ("voltage_saturation".to_string(), false)
+        ]
     );
     let written = agvsim::scene::Scene::load(&scene, &[]).unwrap();
     assert_eq!(written.gearbox.backlash_rad, 0.0);
@@ -901,6 +890,25 @@ fn calibrate_writes_a_scene_a_json_and_a_rerun_overlay() {
         mean(&again, "mean "),
         "{out}\n{again}"
     );
+}
+
+/// Each effect a calibration's JSON reports tried, with whether it was accepted, by name.
+fn effects_tried(json: &std::path::Path) -> Vec<(String, bool)> {
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(json).unwrap()).unwrap();
+    let mut tried: Vec<(String, bool)> = j["effects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| {
+            (
+                e["name"].as_str().unwrap().to_string(),
+                e["accepted"].as_bool().unwrap(),
+            )
+        })
+        .collect();
+    tried.sort();
+    tried
 }
 
 /// A recording too short to fit is refused, naming it, before any fit.

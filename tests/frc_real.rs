@@ -214,13 +214,7 @@ fn the_imported_scene_calibrates_on_the_slow_tests_and_improves_on_the_fast_ones
         / key("motor.torque_constant_Nm_A")["calibrated"]
             .as_f64()
             .unwrap();
-    // SysId's kS of this log, as the import printed it ("kS = 0.7065 +- 0.0196 V").
-    let sysid_ks_v: f64 = imported
-        .split("kS = ")
-        .nth(1)
-        .and_then(|r| r.split_whitespace().next())
-        .and_then(|v| v.parse().ok())
-        .unwrap_or_else(|| panic!("no kS in the import's output: {imported}"));
+    let sysid_ks_v = printed_ks_v(&imported);
     assert!(
         (ks / sysid_ks_v - 1.0).abs() < 0.05,
         "kS-equivalent {ks} V against SysId's {sysid_ks_v} V: {c:#}"
@@ -233,14 +227,29 @@ fn the_imported_scene_calibrates_on_the_slow_tests_and_improves_on_the_fast_ones
             .any(|l| l["output"] == "yaw_rate_rad_s"),
         "{c:#}"
     );
-    // The validation line: "validate   A + B: before % -> after %".
+    let (line, pcts) = validation_fits(&out);
+    assert!(pcts[1] > pcts[0] + 1.0, "{line}");
+}
+
+/// SysId's kS of the log, as the import printed it ("kS = 0.7065 +- 0.0196 V").
+fn printed_ks_v(imported: &str) -> f64 {
+    imported
+        .split("kS = ")
+        .nth(1)
+        .and_then(|r| r.split_whitespace().next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no kS in the import's output: {imported}"))
+}
+
+/// The validation line ("validate   A + B: before % -> after %") and its two fits, %.
+fn validation_fits(out: &str) -> (&str, Vec<f64>) {
     let line = out.lines().find(|l| l.starts_with("validate")).unwrap();
-    let pcts: Vec<f64> = line
+    let pcts = line
         .rsplit(':')
         .next()
         .unwrap()
         .split("->")
         .map(|p| p.trim().trim_end_matches('%').trim().parse().unwrap())
         .collect();
-    assert!(pcts[1] > pcts[0] + 1.0, "{line}");
+    (line, pcts)
 }

@@ -738,7 +738,13 @@ fn known_disturbance_forces_are_used_and_unusable_columns_are_named() {
     assert!(a.estimation.fit_pct_mean > 99.0);
     assert!(b.estimation.fit_pct_mean < a.estimation.fit_pct_mean - 5.0);
     assert!(a.ignored_inputs.is_empty());
-    // A rotary axis has no load-force input: the column is named as ignored.
+}
+
+/// A rotary axis has no load-force input: a `disturbance_force_N` column is named as
+/// ignored, in the identification and its report.
+#[test]
+fn a_rotary_axis_names_a_load_force_column_as_ignored() {
+    let dir = tmp("disturbance-rotary");
     let (rig2, rig2_path, rec2) = lifted(&dir, 4.0);
     let text = std::fs::read_to_string(&rec2).unwrap();
     let mut lines: Vec<String> = text.lines().map(String::from).collect();
