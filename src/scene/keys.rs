@@ -6,6 +6,7 @@ use std::sync::OnceLock;
 
 use super::{ExpectSpec, Invalid, Scene};
 use crate::param::KeyTable;
+use crate::sensing::wire::WireParams;
 
 /// The scene's keys, section by section in the scene's order.
 pub fn table() -> &'static KeyTable<Scene> {
@@ -187,7 +188,9 @@ fn other_default(tree: &toml::Value, key: &str) -> String {
             toml::Value::String(t) if t.is_empty() => "(empty)".into(),
             toml::Value::String(t) => format!("`{t}`"),
             toml::Value::Boolean(b) => b.to_string(),
-            toml::Value::Array(a) if key == "wire.points_m" => format!("{} points", a.len()),
+            toml::Value::Array(a) if key == WireParams::points_m.key() => {
+                format!("{} points", a.len())
+            }
             toml::Value::Array(a) if a.is_empty() => "none".into(),
             _ => String::new(),
         })

@@ -13,10 +13,12 @@ use crate::model::chassis::ChassisParams;
 use crate::model::dcmc::DcmcParams;
 use crate::model::gearbox::GearboxParams;
 use crate::model::manoeuvre::ManoeuvreParams;
+use crate::model::motor::electrical_damping_nm_s_rad;
 use crate::model::tyre::TyreChoice;
 use crate::model::wheel::WheelParams;
 use crate::scene::schema::SimSettings;
 use crate::sensing::coil::SensorParams;
+use crate::world::FloorParams;
 use std::collections::BTreeSet;
 use std::path::Path;
 
@@ -697,8 +699,11 @@ fn drivetrain(n: &Numbers) -> Vec<Derived> {
     let wheel_kg_m2 = thesis::WHEEL_INERTIA_KG_M2
         * (n.mass_kg / thesis::MASS_KG)
         * (n.wheel_radius_m / thesis::WHEEL_RADIUS_M).powi(2);
-    let rotor_kg_m2 =
-        round4(thesis::MECHANICAL_TAU_S * n.torque_constant_nm_a.powi(2) / n.resistance_ohm);
+    // The rotor inertia `motor` derives, as the scene is written (rounded).
+    let rotor_kg_m2 = round4(
+        thesis::MECHANICAL_TAU_S
+            * electrical_damping_nm_s_rad(n.torque_constant_nm_a, n.resistance_ohm),
+    );
     let reflected = round4(wheel_kg_m2) + rotor_kg_m2 * n.ratio * n.ratio;
     // The thesis's tooth spring and damper against its reflected inertia: keeping the mesh's
     // resonance and damping ratio keeps the drivetrain as stiff, relative to its inertia,
@@ -957,10 +962,14 @@ fn render(
     );
     let mut section = String::new();
     for k in keys::table().keys() {
-        if matches!(
-            k.key.as_str(),
-            "floor.regions" | "obstacles" | "expect" | "controller.swing_away"
-        ) {
+        // Tables, which a written scene leaves to the user.
+        let tables = [
+            FloorParams::regions.key(),
+            "obstacles",
+            "expect",
+            ControllerParams::swing_away.key(),
+        ];
+        if tables.contains(&k.key.as_str()) {
             continue;
         }
         let (sec, leaf) = k.key.rsplit_once('.').unwrap_or(("", k.key.as_str()));
