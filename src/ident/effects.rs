@@ -3,15 +3,13 @@
 //! needed, its own state; the physical laws are the simulator's own (`crate::model`).
 
 use crate::ident::model::ParamSpec;
-use crate::ident::models::linear_axis::LinearEffects;
-use crate::ident::models::vehicle::blocks::CastorDrag;
-use crate::ident::models::vehicle::blocks::CreepTyre;
 use crate::model::battery::BatteryParams;
 use crate::model::castor::CastorParams;
 use crate::model::chassis::ChassisParams;
 use crate::model::dcmc::DcmcParams;
 use crate::model::gearbox::GearboxParams;
 use crate::model::motor::MotorParams;
+use crate::model::tyre::TyreChoice;
 
 /// One effect of the vocabulary.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -113,23 +111,25 @@ impl Effect {
 
     /// The key of a fitting model's blocks that the effect's strength sets: the
     /// simulator's own key where the scene has the physics (a rotary axis, the vehicle),
-    /// the linear axis's effect block otherwise.
+    /// the linear axis's effect block otherwise. (The fitting models' own blocks are named
+    /// by text here, as the vocabulary sits below the models; a test holds each to its
+    /// handle.)
     pub fn key(self, linear: bool) -> &'static str {
         match self {
             Effect::Backlash => GearboxParams::backlash_rad.key(),
-            Effect::CoulombFriction if linear => LinearEffects::coulomb_force_n.key(),
+            Effect::CoulombFriction if linear => "effect.coulomb_force_N",
             Effect::CoulombFriction => MotorParams::coulomb_nm.key(),
-            Effect::FrictionAsymmetry if linear => LinearEffects::viscous_ratio.key(),
+            Effect::FrictionAsymmetry if linear => "effect.viscous_ratio",
             Effect::FrictionAsymmetry => MotorParams::viscous_ratio.key(),
-            Effect::Offset if linear => LinearEffects::offset_n.key(),
+            Effect::Offset if linear => "effect.offset_N",
             Effect::Offset => MotorParams::offset_nm.key(),
-            Effect::WheelSlip => CreepTyre::peak_mu.key(),
+            Effect::WheelSlip => TyreChoice::peak_mu.key(),
             Effect::VoltageSaturation => BatteryParams::drive_limit_v.key(),
             Effect::BatterySag => BatteryParams::internal_resistance_ohm.key(),
-            Effect::TransportDelay if linear => LinearEffects::delay_s.key(),
+            Effect::TransportDelay if linear => "effect.delay_s",
             Effect::TransportDelay => DcmcParams::command_delay_s.key(),
             Effect::SpeedFeedback => DcmcParams::ki_v_rad.key(),
-            Effect::CastorDrag => CastorDrag::drag_n.key(),
+            Effect::CastorDrag => "castor_drag.drag_N",
             Effect::WheelGeometry => ChassisParams::track_width_m.key(),
         }
     }
@@ -322,5 +322,29 @@ impl SupplyBlocks {
                 0.0
             },
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ident::models::linear_axis::LinearEffects;
+    use crate::ident::models::vehicle::blocks::{CastorDrag, CreepTyre};
+
+    #[test]
+    fn each_effects_key_is_its_fitting_blocks_declared_key() {
+        let linear = [
+            (Effect::CoulombFriction, LinearEffects::coulomb_force_n),
+            (Effect::FrictionAsymmetry, LinearEffects::viscous_ratio),
+            (Effect::Offset, LinearEffects::offset_n),
+            (Effect::TransportDelay, LinearEffects::delay_s),
+        ];
+        for (effect, handle) in linear {
+            assert_eq!(effect.key(true), handle.key(), "{effect:?}");
+        }
+        assert_eq!(Effect::CastorDrag.key(false), CastorDrag::drag_n.key());
+        // The fitting vehicle's tyre and the scene's share the key.
+        assert_eq!(Effect::WheelSlip.key(false), CreepTyre::peak_mu.key());
+        assert_eq!(Effect::WheelSlip.scene_key(), TyreChoice::peak_mu.key());
     }
 }
