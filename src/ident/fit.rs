@@ -699,6 +699,9 @@ fn largest_move(a: &[f64], b: &[f64]) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// Levenberg-Marquardt from the problem's start: damped Gauss-Newton steps kept inside
+/// the bounds, at most `max_iterations` of them, then the free parameters' covariance when
+/// `uncertainty` is asked.
 fn run_lm(pb: &Problem, max_iterations: usize, uncertainty: bool) -> Result<Fit, FitError> {
     let start_p = pb.to_p(&pb.to_z(&pb.base));
     let mut z = pb.to_z(&start_p);
@@ -1018,4 +1021,34 @@ pub fn bound_reached(value: f64, lo: f64, hi: f64) -> Option<f64> {
         .into_iter()
         .filter(|b| b.is_finite())
         .find(|b| (value - b).abs() <= AT_BOUND_REL * b.abs().max(1e-12))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_step_through_a_bound_holds_that_parameter_and_solves_for_the_others_without_it() {
+        // Coupled: the free step is (1/3, 1/3); with the first held at its lower bound
+        // (z - step would go below it) the second solves alone: 1/2, not 1/3.
+        let a = DMatrix::from_row_slice(2, 2, &[2.0, 1.0, 1.0, 2.0]);
+        let g = DVector::from_vec(vec![1.0, 1.0]);
+        let free = bounded_step(&a, &g, &[5.0, 5.0], &[0.0, 0.0], &[10.0, 10.0]).unwrap();
+        assert!((free[0] - 1.0 / 3.0).abs() < 1e-12 && (free[1] - 1.0 / 3.0).abs() < 1e-12);
+        let held = bounded_step(&a, &g, &[0.0, 5.0], &[0.0, 0.0], &[10.0, 10.0]).unwrap();
+        assert_eq!(held[0], 0.0);
+        assert!((held[1] - 0.5).abs() < 1e-12, "{held}");
+        // A step away from the bound it sits on is taken.
+        let away = bounded_step(&a, &(-g), &[0.0, 5.0], &[0.0, 0.0], &[10.0, 10.0]).unwrap();
+        assert!((away[0] + 1.0 / 3.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn damping_adds_lambda_times_the_diagonal_floored_at_1e_12() {
+        let h = DMatrix::from_row_slice(2, 2, &[4.0, 1.0, 1.0, 0.0]);
+        let a = damped(&h, 0.5);
+        assert_eq!(a[(0, 0)], 6.0);
+        assert_eq!(a[(0, 1)], 1.0);
+        assert_eq!(a[(1, 1)], 0.5e-12);
+    }
 }
