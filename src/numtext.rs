@@ -125,9 +125,24 @@ pub fn unit_of_name(name: &str) -> &'static str {
         .map_or("", |u| u.1)
 }
 
+/// Names as a message lists them: each in backticks, joined by commas (`` `a`, `b` ``).
+pub fn backticked(names: &[String]) -> String {
+    names
+        .iter()
+        .map(|n| format!("`{n}`"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn names_are_listed_in_backticks() {
+        assert_eq!(backticked(&["wl".into(), "wr".into()]), "`wl`, `wr`");
+        assert_eq!(backticked(&[]), "");
+    }
 
     #[test]
     fn significant_figures_print_in_plain_decimals() {

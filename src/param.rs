@@ -256,9 +256,13 @@ pub struct Param<B: 'static> {
 pub trait Block: Default + 'static {
     /// Every parameter in declaration order.
     const PARAMS: &'static [Param<Self>];
-    /// The section the block sits in wherever it is composed (`motor`), if it has one
-    /// (a block composed once per side has none).
-    const SECTION: Option<&'static str>;
+}
+
+/// A block that sits in one section wherever it is composed (`motor`); a block composed
+/// once per side has none and does not implement this. Its parameters have handles.
+pub trait Sectioned: Block {
+    /// The section.
+    const SECTION: &'static str;
 }
 
 /// A typed handle on one declared parameter: its dotted key (`motor.resistance_ohm`) and
@@ -293,32 +297,6 @@ impl ParamKey {
 impl std::fmt::Display for ParamKey {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.key)
-    }
-}
-
-/// A handle reads as its dotted key wherever text is taken (`rig.get(&K)`).
-impl std::ops::Deref for ParamKey {
-    type Target = str;
-    fn deref(&self) -> &str {
-        self.key
-    }
-}
-
-impl AsRef<str> for ParamKey {
-    fn as_ref(&self) -> &str {
-        self.key
-    }
-}
-
-impl PartialEq<str> for ParamKey {
-    fn eq(&self, other: &str) -> bool {
-        self.key == other
-    }
-}
-
-impl PartialEq<&str> for ParamKey {
-    fn eq(&self, other: &&str) -> bool {
-        self.key == *other
     }
 }
 
@@ -439,15 +417,16 @@ macro_rules! declare_params {
                     },
                 )*
             ];
-            const SECTION: Option<&'static str> = $crate::declare_params!(@section $($section)?);
         }
 
         $crate::declare_params!(@handles $name [$($section)?] $( ($field $(, $key)?) $unit; )*);
     };
-    (@section) => { None };
-    (@section $section:literal) => { Some($section) };
     (@handles $name:ident [] $($rest:tt)*) => {};
     (@handles $name:ident [$section:literal] $( ($field:ident $(, $key:literal)?) $unit:literal; )*) => {
+        impl $crate::param::Sectioned for $name {
+            const SECTION: &'static str = $section;
+        }
+
         /// Typed handles on the block's parameters ([`ParamKey`](crate::param::ParamKey)).
         #[allow(non_upper_case_globals)]
         impl $name {
@@ -569,14 +548,10 @@ impl<T: 'static> KeyTable<T> {
         self
     }
 
-    /// Adds a block's keys under the section it declares (see [`Block::SECTION`]), so its
-    /// handles name them.
-    ///
-    /// # Panics
-    /// If the block declares no section: a programming error the key tables' tests meet.
-    pub fn block<B: Block>(self, get: fn(&T) -> &B, get_mut: fn(&mut T) -> &mut B) -> Self {
-        let section = B::SECTION.expect("a block composed by its section declares one");
-        self.section(section, get, get_mut)
+    /// Adds a block's keys under the section it declares ([`Sectioned`]), so its handles
+    /// name them.
+    pub fn block<B: Sectioned>(self, get: fn(&T) -> &B, get_mut: fn(&mut T) -> &mut B) -> Self {
+        self.section(B::SECTION, get, get_mut)
     }
 
     /// Adds a key that is not a block's parameter (a scene's description, a list of
@@ -656,7 +631,7 @@ mod tests {
 
     #[test]
     fn a_block_with_a_section_has_a_handle_per_parameter_naming_its_key_in_a_table() {
-        assert_eq!(Thing::SECTION, Some("thing"));
+        assert_eq!(Thing::SECTION, "thing");
         assert_eq!(Thing::stiffness.key(), "thing.stiffness_N_m");
         assert_eq!(Thing::stiffness.unit(), "N/m");
         assert_eq!(Thing::bias.to_string(), "thing.bias_N");

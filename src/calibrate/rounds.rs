@@ -134,7 +134,7 @@ pub(super) fn effect_rounds(
 /// The wheel geometry found on the wheels' odometry and accepted there, taken out of
 /// `homes` with its home; `None` where the recording has no wheel turns or they do not
 /// establish it (it is then raced through the simulator as every other effect).
-fn geometry_by_odometry(
+fn accepted_odometry_geometry(
     problem: &Problem,
     r: &Rounds,
     homes: &mut Vec<effects::Home>,
@@ -171,7 +171,7 @@ fn forward(
         // where that does not establish it (a robot whose tyres creep under hard
         // acceleration rolls on other radii than its odometry assumes), through the
         // simulator as every other effect.
-        let by_odometry = geometry_by_odometry(problem, r, &mut homes)?;
+        let by_odometry = accepted_odometry_geometry(problem, r, &mut homes)?;
         let (full, tried) = race_then_try(problem, r, &homes, round, progress)?;
         let mut candidates: Vec<((EffectTrial, Stage), &effects::Home)> = tried
             .into_iter()

@@ -713,6 +713,8 @@ fn run_lm(pb: &Problem, max_iterations: usize, uncertainty: bool) -> Result<Fit,
     let mut converged = z.is_empty();
     let mut small_steps = 0;
     let n = z.len();
+    // The bounds in the search's coordinates: fixed for the whole search.
+    let (zlo, zhi) = pb.z_bounds();
     while iterations < max_iterations && !converged {
         iterations += 1;
         super::activity::count_iteration();
@@ -723,7 +725,6 @@ fn run_lm(pb: &Problem, max_iterations: usize, uncertainty: bool) -> Result<Fit,
         let mut improved = false;
         for _ in 0..12 {
             let a = damped(&h, lambda);
-            let (zlo, zhi) = pb.z_bounds();
             let step = bounded_step(&a, &g, &z, &zlo, &zhi);
             let Some(step) = step else {
                 lambda *= 10.0;

@@ -11,7 +11,7 @@ use crate::model::dcmc::DcmcParams;
 use crate::model::gearbox::GearboxParams;
 use crate::model::motor::MotorParams;
 use crate::model::wheel::WheelParams;
-use crate::param::{open_closed, Allowed, Block, ParamKey, Takes};
+use crate::param::{open_closed, Allowed, ParamKey, Sectioned, Takes};
 
 /// One key a rig may hold.
 #[derive(Debug)]
@@ -168,8 +168,8 @@ fn build() -> Vec<RigKey> {
 }
 
 /// A rig-only block's keys under its declared section.
-fn block<B: Block>(out: &mut Vec<RigKey>) {
-    let section = B::SECTION.expect("a rig's block declares its section");
+fn block<B: Sectioned>(out: &mut Vec<RigKey>) {
+    let section = B::SECTION;
     for p in B::PARAMS {
         out.push(RigKey {
             key: format!("{section}.{}", p.key),

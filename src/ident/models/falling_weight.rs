@@ -4,7 +4,7 @@
 //! known weight torque, the coast gives J against the friction, and the open-circuit
 //! terminal voltage gives the back-EMF constant.
 
-use crate::rig::blocks::FallingWeight as Test;
+use crate::rig::blocks::FallingWeight as TestSetup;
 use crate::rig::blocks::Instruments;
 use std::path::Path;
 
@@ -69,9 +69,9 @@ impl FallingWeight {
         Ok(FallingWeight {
             binding: Binding::new(motor_keys(), &specs),
             specs,
-            mass_kg: need(Test::mass_kg.key())?,
-            pulley_radius_m: need(Test::pulley_radius_m.key())?,
-            drop_m: need(Test::drop_m.key())?,
+            mass_kg: need(TestSetup::mass_kg.key())?,
+            pulley_radius_m: need(TestSetup::pulley_radius_m.key())?,
+            drop_m: need(TestSetup::drop_m.key())?,
             encoder: rig
                 .get(Instruments::motor_encoder_counts_per_rev.key())
                 .is_some(),

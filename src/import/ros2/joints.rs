@@ -51,7 +51,7 @@ pub fn names_in(msgs: &[&JointState]) -> Vec<String> {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum JointFault {
     /// No message names the joint.
-    #[error("topic `{topic}`: no joint named `{joint}` (the {side} wheel, {named_by}); its joints are {}; name the wheels with --map left_wheel_joint = \"...\", right_wheel_joint = \"...\"", quoted(.joints))]
+    #[error("topic `{topic}`: no joint named `{joint}` (the {side} wheel, {named_by}); its joints are {}; name the wheels with --map left_wheel_joint = \"...\", right_wheel_joint = \"...\"", crate::numtext::backticked(.joints))]
     NotNamed {
         /// The stream's topic.
         topic: String,
@@ -76,15 +76,6 @@ pub enum JointFault {
         /// Why: no velocity array long enough, or only non-finite values.
         why: &'static str,
     },
-}
-
-/// Names as a list of quoted names (`` `wl`, `wr` ``).
-fn quoted(names: &[String]) -> String {
-    names
-        .iter()
-        .map(|n| format!("`{n}`"))
-        .collect::<Vec<_>>()
-        .join(", ")
 }
 
 /// Why `joint` (the `side` wheel, named by `named_by`) gives no speed in `topic`'s

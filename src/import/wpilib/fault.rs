@@ -85,7 +85,7 @@ pub enum LogFault {
         routines: Vec<String>,
     },
     /// No routine at all.
-    #[error("no `{prefix}...` entry: not a log of a WPILib SysIdRoutine ({entries} entries, e.g. {})", quoted(.examples), prefix = STATE_PREFIX)]
+    #[error("no `{prefix}...` entry: not a log of a WPILib SysIdRoutine ({entries} entries, e.g. {})", crate::numtext::backticked(.examples), prefix = STATE_PREFIX)]
     NoRoutine {
         /// How many entries the log has.
         entries: usize,
@@ -313,13 +313,4 @@ fn list_or(names: &[String], empty: &str) -> String {
     } else {
         names.join(", ")
     }
-}
-
-/// Names quoted and joined by commas (`` `a`, `b` ``).
-fn quoted(names: &[String]) -> String {
-    names
-        .iter()
-        .map(|n| format!("`{n}`"))
-        .collect::<Vec<_>>()
-        .join(", ")
 }

@@ -136,8 +136,8 @@ impl LiftedDcmcReplay {
             .keys()
             .iter()
             .map(|k| {
-                let v = starting_value(&start, k);
-                ParamSpec::new(k, v, 1e-3 * v.abs(), 1e3 * v.abs()).with_fd_step(1e-3)
+                let v = starting_value(&start, k.key());
+                ParamSpec::new(k.key(), v, 1e-3 * v.abs(), 1e3 * v.abs()).with_fd_step(1e-3)
             })
             .collect();
         LiftedDcmcReplay { scene, specs }
