@@ -1,0 +1,267 @@
+//! What `agvsim new` derives from the builder's numbers: each key the thesis machine's
+//! proportions give, with how, kept in the machine's ratios (its shipped values).
+
+use super::*;
+
+/// The thesis machine's proportions the derivations keep (its shipped values).
+pub(super) mod thesis {
+    pub const LENGTH_PER_TRACK: f64 = 2.0; // 1.0 m body on a 0.5 m track
+    pub const WIDTH_OVER_TRACK_M: f64 = 0.12; // 0.62 m body on a 0.5 m track
+    pub const FRONT_SHARE: f64 = 0.55; // front 0.55 of 1.0 m
+    pub const CG_X_SHARE: f64 = 0.05;
+    pub const CASTOR_FRONT_SHARE: f64 = 0.4;
+    pub const CASTOR_REAR_SHARE: f64 = -0.35;
+    pub const CASTOR_HALF_SPACING_SHARE: f64 = 0.24 / 0.62;
+    pub const TRAIL_SHARE: f64 = 0.04;
+    pub const MASS_KG: f64 = 120.0;
+    pub const CASTOR_MASS_SHARE: f64 = 1.2 / 120.0;
+    pub const SWIVEL_NM_PER_KG_M: f64 = 0.3 / 120.0;
+    pub const LINEAR_DRAG_PER_KG: f64 = 10.0 / 120.0;
+    pub const ANGULAR_DRAG_PER_KG_M2: f64 = 2.0 / 120.0;
+    pub const R_OHM: f64 = 0.35;
+    pub const K_NM_A: f64 = 0.063;
+    pub const ELECTRICAL_TAU_S: f64 = 0.0008 / R_OHM;
+    pub const MECHANICAL_TAU_S: f64 = 2.0e-4 * R_OHM / (K_NM_A * K_NM_A);
+    pub const COULOMB_SHARE_OF_STALL: f64 = 0.02 / (K_NM_A * 24.0 / R_OHM);
+    pub const VISCOUS_SHARE_OF_EMF_DAMPING: f64 = 1.0e-4 / (K_NM_A * K_NM_A / R_OHM);
+    pub const WHEEL_INERTIA_KG_M2: f64 = 0.02;
+    pub const WHEEL_RADIUS_M: f64 = 0.075;
+    pub const RATIO: f64 = 23.41;
+    pub const ROTOR_KG_M2: f64 = 2.0e-4;
+    pub const TOOTH_STIFFNESS: f64 = 3000.0;
+    pub const TOOTH_DAMPING: f64 = 4.0;
+    pub const DRIVE_SHARE: f64 = 23.5 / 24.0;
+    pub const FAULT_SHARE: f64 = 22.0 / 24.0;
+    pub const SAG_SHARE: f64 = 2.0 * 40.0 * 0.02 / 24.0;
+    pub const CURRENT_LIMIT_SHARE: f64 = 40.0 / (24.0 / R_OHM);
+    pub const TURN_OVER_FORWARD: f64 = 0.102 / 0.1623;
+    pub const SPEED_SHARE_OF_NO_LOAD: f64 = 3.5 * 100.0 * K_NM_A / 23.5;
+    pub const KP_PER_K: f64 = 0.5 / K_NM_A;
+    pub const KI_PER_K: f64 = 4.0 / K_NM_A;
+    pub const BRAKE_PER_K: f64 = 0.3 / K_NM_A;
+    pub const SENSOR_BEHIND_FRONT_SHARE: f64 = 0.1;
+    pub const OPEN_LOOP_DEMAND_PCT: f64 = 50.0;
+}
+
+/// `v` to 4 significant figures.
+pub(super) fn round4(v: f64) -> f64 {
+    if v == 0.0 || !v.is_finite() {
+        return v;
+    }
+    let scale = 10f64.powi(3 - v.abs().log10().floor() as i32);
+    (v * scale).round() / scale
+}
+
+pub(super) fn d(
+    key: &'static str,
+    value: f64,
+    from: &'static [Input],
+    how: impl Into<String>,
+) -> Derived {
+    Derived {
+        key,
+        value: round4(value),
+        how: how.into(),
+        from,
+    }
+}
+
+/// The thesis machine's reflected drivetrain inertia at the wheel, kg m^2.
+pub(super) fn thesis_reflected_kg_m2() -> f64 {
+    thesis::WHEEL_INERTIA_KG_M2 + thesis::ROTOR_KG_M2 * thesis::RATIO * thesis::RATIO
+}
+
+/// Every derived value, from the numbers.
+pub(super) fn derive(n: &Numbers) -> Vec<Derived> {
+    let mut out = given_values(n);
+    out.extend(body(n));
+    out.extend(castors(n));
+    out.extend(motor(n));
+    out.extend(drivetrain(n));
+    out.extend(supply_and_drive(n));
+    out
+}
+
+pub(super) fn given_values(n: &Numbers) -> Vec<Derived> {
+    use Input::*;
+    vec![
+        d(ChassisParams::mass_kg.key(), n.mass_kg, &[Mass], "given"),
+        d(
+            ChassisParams::track_width_m.key(),
+            n.track_m,
+            &[Track],
+            "given",
+        ),
+        d(
+            WheelParams::radius_m.key(),
+            n.wheel_radius_m,
+            &[Wheel],
+            "given",
+        ),
+        d(GearboxParams::ratio.key(), n.ratio, &[Ratio], "given"),
+        d(
+            GearboxParams::backlash_rad.key(),
+            n.backlash_rad,
+            &[Backlash, Ratio],
+            if n.backlash_rad > 0.0 {
+                "given".to_string()
+            } else {
+                "not given, so none: `calibrate --effects backlash` finds a play a recording shows"
+                    .into()
+            },
+        ),
+        d(
+            BatteryParams::open_circuit_v.key(),
+            n.battery_v,
+            &[Battery],
+            "given",
+        ),
+    ]
+}
+
+pub(super) fn body(n: &Numbers) -> Vec<Derived> {
+    use Input::*;
+    let (l, w) = (n.length_m, n.width_m);
+    vec![
+        d(ChassisParams::front_m.key(), thesis::FRONT_SHARE * l, &[Footprint],
+          format!("{:.0} % of the body length {} m ahead of the axle, as the thesis machine", 100.0 * thesis::FRONT_SHARE, round4(l))),
+        d(ChassisParams::rear_m.key(), (1.0 - thesis::FRONT_SHARE) * l, &[Footprint], "the rest of the body length behind the axle"),
+        d(ChassisParams::width_m.key(), w, &[Footprint, Track], format!("body width (given, or the track plus {} m as the thesis machine)", thesis::WIDTH_OVER_TRACK_M)),
+        d(ChassisParams::yaw_inertia_kg_m2.key(), slab_yaw_inertia_kg_m2(n.mass_kg, l, w), &[Mass, Footprint],
+          format!("a uniform slab of the footprint: mass (L^2 + W^2) / 12 with L = {}, W = {} m; measure or calibrate it for a real body", round4(l), round4(w))),
+        d(ChassisParams::cg_x_m.key(), if n.castors { thesis::CG_X_SHARE * l } else { 0.0 }, &[Footprint, Castors],
+          if n.castors { "5 % of the length ahead of the axle, as the thesis machine" } else { "over the drive axle: no castors carry any load" }),
+        d(ChassisParams::drive_load_fraction.key(), if n.castors { 0.6 } else { 1.0 }, &[Castors],
+          if n.castors { "60 % on the drive wheels, as the thesis machine" } else { "every load on the drive wheels: no castors" }),
+        d(SensorParams::x_m.key(), (thesis::FRONT_SHARE - thesis::SENSOR_BEHIND_FRONT_SHARE) * l, &[Footprint],
+          "the coil pair 10 % of the body length inside its front edge, as the thesis machine"),
+    ]
+}
+
+pub(super) fn castors(n: &Numbers) -> Vec<Derived> {
+    use Input::*;
+    let (l, w, m) = (n.length_m, n.width_m, n.mass_kg);
+    let scaled = "scaled from the thesis machine's";
+    vec![
+        d(
+            CastorParams::front_x_m.key(),
+            thesis::CASTOR_FRONT_SHARE * l,
+            &[Footprint],
+            "40 % of the body length ahead of the axle, as the thesis machine",
+        ),
+        d(
+            CastorParams::rear_x_m.key(),
+            thesis::CASTOR_REAR_SHARE * l,
+            &[Footprint],
+            "35 % of the body length behind the axle, as the thesis machine",
+        ),
+        d(
+            CastorParams::half_spacing_m.key(),
+            thesis::CASTOR_HALF_SPACING_SHARE * w,
+            &[Footprint, Track],
+            "39 % of the body width each side, as the thesis machine",
+        ),
+        d(
+            CastorParams::trail_m.key(),
+            thesis::TRAIL_SHARE * l,
+            &[Footprint],
+            "4 % of the body length, as the thesis machine",
+        ),
+        d(
+            CastorParams::mass_kg.key(),
+            thesis::CASTOR_MASS_SHARE * m,
+            &[Mass],
+            "1 % of the vehicle's mass, as the thesis machine",
+        ),
+        d(
+            CastorParams::swivel_friction_nm.key(),
+            thesis::SWIVEL_NM_PER_KG_M * m * l,
+            &[Mass, Footprint],
+            format!("{scaled} 0.3 N m with load and size"),
+        ),
+        d(
+            CastorParams::lumped_linear_drag_n_s_m.key(),
+            thesis::LINEAR_DRAG_PER_KG * m,
+            &[Mass],
+            format!("{scaled} 10 N s/m with mass"),
+        ),
+        d(
+            CastorParams::lumped_angular_drag_nm_s_rad.key(),
+            thesis::ANGULAR_DRAG_PER_KG_M2 * m * l * l,
+            &[Mass, Footprint],
+            format!("{scaled} 2 N m s/rad with mass and length squared"),
+        ),
+    ]
+}
+
+pub(super) fn motor(n: &Numbers) -> Vec<Derived> {
+    use Input::*;
+    let (k, r) = (n.torque_constant_nm_a, n.resistance_ohm);
+    let datasheet = MotorParams {
+        torque_constant_nm_a: k,
+        resistance_ohm: r,
+        ..MotorParams::default()
+    };
+    let stall_nm = datasheet.stall_torque_nm(n.rated_v);
+    let emf_damping = datasheet.electrical_damping_nm_s_rad();
+    vec![
+        d(MotorParams::torque_constant_nm_a.key(), k, &[Motor], format!("rated {} V over the no-load speed in rad/s (the back-EMF constant; no-load current neglected)", n.rated_v)),
+        d(MotorParams::resistance_ohm.key(), r, &[Motor], "rated voltage over stall current"),
+        d(MotorParams::inductance_h.key(), r * thesis::ELECTRICAL_TAU_S, &[Motor], format!("assumed: an electrical time constant L/R of {:.2} ms, the thesis machine's", 1e3 * thesis::ELECTRICAL_TAU_S)),
+        d(MotorParams::rotor_inertia_kg_m2.key(), thesis::MECHANICAL_TAU_S * emf_damping, &[Motor], format!("assumed: a mechanical time constant J R / K^2 of {:.1} ms, the thesis machine's", 1e3 * thesis::MECHANICAL_TAU_S)),
+        d(MotorParams::coulomb_nm.key(), thesis::COULOMB_SHARE_OF_STALL * stall_nm, &[Motor], format!("assumed: {:.2} % of the stall torque ({} N m), the thesis machine's share", 100.0 * thesis::COULOMB_SHARE_OF_STALL, round4(stall_nm))),
+        d(MotorParams::viscous_nm_s_rad.key(), thesis::VISCOUS_SHARE_OF_EMF_DAMPING * emf_damping, &[Motor], format!("assumed: {:.2} % of the back-EMF damping K^2/R, the thesis machine's share", 100.0 * thesis::VISCOUS_SHARE_OF_EMF_DAMPING)),
+    ]
+}
+
+pub(super) fn drivetrain(n: &Numbers) -> Vec<Derived> {
+    use Input::*;
+    let wheel_kg_m2 = thesis::WHEEL_INERTIA_KG_M2
+        * (n.mass_kg / thesis::MASS_KG)
+        * (n.wheel_radius_m / thesis::WHEEL_RADIUS_M).powi(2);
+    // The rotor inertia `motor` derives, as the scene is written (rounded).
+    let rotor_kg_m2 = round4(
+        thesis::MECHANICAL_TAU_S
+            * electrical_damping_nm_s_rad(n.torque_constant_nm_a, n.resistance_ohm),
+    );
+    let reflected = round4(wheel_kg_m2) + rotor_kg_m2 * n.ratio * n.ratio;
+    // The thesis's tooth spring and damper against its reflected inertia: keeping the mesh's
+    // resonance and damping ratio keeps the drivetrain as stiff, relative to its inertia,
+    // as the tested machine (and the simulator's sub-steps as few).
+    let omega2 = thesis::TOOTH_STIFFNESS / thesis_reflected_kg_m2();
+    let zeta =
+        thesis::TOOTH_DAMPING / (2.0 * (thesis::TOOTH_STIFFNESS * thesis_reflected_kg_m2()).sqrt());
+    let k_mesh = reflected * omega2;
+    vec![
+        d(WheelParams::inertia_kg_m2.key(), wheel_kg_m2, &[Mass, Wheel], "scaled from the thesis machine's 0.02 kg m^2 with mass and radius squared"),
+        d(GearboxParams::tooth_stiffness_nm_rad.key(), k_mesh, &[Mass, Wheel, Motor, Ratio],
+          format!("the thesis machine's mesh resonance ({:.1} Hz) against the reflected inertia wheel + rotor x ratio^2 = {} kg m^2", omega2.sqrt() / std::f64::consts::TAU, round4(reflected))),
+        d(GearboxParams::tooth_damping_nm_s_rad.key(), 2.0 * zeta * (k_mesh * reflected).sqrt(), &[Mass, Wheel, Motor, Ratio],
+          format!("the thesis machine's mesh damping ratio {zeta:.3}")),
+    ]
+}
+
+pub(super) fn supply_and_drive(n: &Numbers) -> Vec<Derived> {
+    use Input::*;
+    let k = n.torque_constant_nm_a;
+    let drive_v = round4(thesis::DRIVE_SHARE * n.battery_v);
+    let stall_a = n.rated_v / n.resistance_ohm;
+    let limit_a = round4(thesis::CURRENT_LIMIT_SHARE * stall_a);
+    let forward = round4(drive_v / 100.0);
+    vec![
+        d(BatteryParams::drive_limit_v.key(), drive_v, &[Battery], "the bridges deliver 23.5 of 24 V on the thesis machine (97.9 %)"),
+        d(BatteryParams::low_voltage_fault_v.key(), thesis::FAULT_SHARE * n.battery_v, &[Battery], "faults at 22 of 24 V on the thesis machine (91.7 %)"),
+        d(BatteryParams::internal_resistance_ohm.key(), thesis::SAG_SHARE * n.battery_v / (2.0 * limit_a), &[Battery, Motor],
+          format!("assumed: both motors at the current limit sag the battery by {:.1} % (the thesis machine's share), above the fault threshold", 100.0 * thesis::SAG_SHARE)),
+        d(DcmcParams::current_limit_a.key(), limit_a, &[Motor], format!("{:.0} % of the stall current {} A, the thesis machine's share", 100.0 * thesis::CURRENT_LIMIT_SHARE, round4(stall_a))),
+        d(DcmcParams::forward_gain_v_pct.key(), forward, &[Battery], "full forward demand (100 %) asks the drive limit"),
+        d(DcmcParams::turn_gain_v_pct.key(), thesis::TURN_OVER_FORWARD * forward, &[Battery], "the thesis unit's identified turn/forward ratio 0.628"),
+        d(DcmcParams::speed_per_pct_rad_s.key(), thesis::SPEED_SHARE_OF_NO_LOAD * drive_v / k / 100.0, &[Battery, Motor],
+          format!("speed loops (dcmc.kind p, pi): full demand asks {:.1} % of the no-load speed at the drive limit, as the thesis machine", 100.0 * thesis::SPEED_SHARE_OF_NO_LOAD)),
+        d(DcmcParams::kp_v_s_rad.key(), thesis::KP_PER_K * k, &[Motor], "speed loops: the thesis machine's gain in proportion to the torque constant"),
+        d(DcmcParams::ki_v_rad.key(), thesis::KI_PER_K * k, &[Motor], "speed loops: the thesis machine's gain in proportion to the torque constant"),
+        d(DcmcParams::brake_gain_v_s_rad.key(), thesis::BRAKE_PER_K * k, &[Motor], "the thesis machine's braking gain in proportion to the torque constant"),
+        d(BaseParams::speed_kp_v_s_rad.key(), thesis::KP_PER_K * k, &[Motor], "velocity-commanded drivers' speed loops: the thesis unit's gain in proportion to the torque constant"),
+        d(BaseParams::speed_ki_v_rad.key(), thesis::KI_PER_K * k, &[Motor], "velocity-commanded drivers' speed loops: the thesis unit's gain in proportion to the torque constant"),
+    ]
+}
