@@ -12,6 +12,11 @@
 //!   100 s), imported and calibrated as docs/ros2.md says (goal: a 2-minute log in 60 s);
 //!   skipped where `../shared` is not beside the project.
 //!
+//!   Also asked the open question: every effect, the default keys, validated on the
+//!   other square run (goal: 60 s);
+//! - `replay_velocity_base_30s`: one fit evaluation on the 30 s base, through the
+//!   simulator and through the reduced base calibrate fits on (goal: 50x cheaper).
+//!
 //! Each prints what it found once, then is timed (criterion's ten samples: minutes each).
 
 use std::fmt::Write as _;
@@ -37,6 +42,7 @@ fn every_effect() -> Request {
     Request {
         free: vec![],
         effects: Choice::All,
+        validate: None,
     }
 }
 
@@ -193,9 +199,23 @@ fn bench_optiodom(c: &mut Criterion) {
     let request = || Request {
         free: vec!["none".into()],
         effects: Choice::Named(vec![agvsim::ident::effects::Effect::WheelGeometry]),
+        validate: None,
     };
     let once = calibrate_telling(&scene, &rec, &request(), &|_| {}).unwrap();
     println!("calibrate optiodom: geometry {:?}", once.wheel_geometry());
+    // The open question: every effect, the default keys, the other square run to
+    // validate each finding on.
+    let other = import_run(&out, "square_230620202042_run2");
+    let open = || Request {
+        validate: Some(other.clone()),
+        ..every_effect()
+    };
+    let once = calibrate_telling(&scene, &rec, &open(), &|_| {}).unwrap();
+    println!(
+        "calibrate optiodom, every effect: accepted {:?}, removed {:?}",
+        once.accepted_in_order(),
+        once.removed.iter().map(|r| r.effect).collect::<Vec<_>>()
+    );
     let mut g = c.benchmark_group("calibrate_optiodom_real_91s");
     g.sample_size(10);
     g.bench_function("wheel_geometry_recipe", |b| {
@@ -205,8 +225,65 @@ fn bench_optiodom(c: &mut Criterion) {
                 .iterations
         })
     });
+    g.bench_function("every_effect_validated", |b| {
+        b.iter(|| {
+            calibrate_telling(&scene, &rec, &open(), &|_| {})
+                .unwrap()
+                .iterations
+        })
+    });
     g.finish();
 }
 
-criterion_group!(benches, bench_lifted, bench_base, bench_optiodom);
+/// Another OptiOdom run imported beside the first (its recording only).
+fn import_run(out: &Path, run: &str) -> Recording {
+    let bag = Path::new("../shared/data/real/optiodom").join(run);
+    let status = std::process::Command::new(env!("CARGO_BIN_EXE_agvsim"))
+        .args(["import", "ros2", bag.to_str().unwrap(), "--out"])
+        .arg(out)
+        .args(["--mass-kg", "4", "--gear-ratio", "43.7"])
+        .output()
+        .unwrap();
+    assert!(
+        status.status.success(),
+        "{}",
+        String::from_utf8_lossy(&status.stderr)
+    );
+    Recording::load(&out.join(format!("{run}.csv"))).unwrap()
+}
+
+/// One evaluation of a fit on the 30 s base: the recording replayed through the simulator
+/// and through the reduced base calibrate's races and trials run on (issue 55's goal: at
+/// least 50x cheaper).
+fn bench_base_evaluation(c: &mut Criterion) {
+    use agvsim::replay::{replay_with, Engine};
+    let (scene, rec) = velocity_base_30s();
+    let mut g = c.benchmark_group("replay_velocity_base_30s");
+    g.sample_size(10);
+    g.bench_function("simulator", |b| {
+        b.iter(|| {
+            replay_with(&scene, &rec, Engine::Simulator)
+                .unwrap()
+                .t_s
+                .len()
+        })
+    });
+    g.bench_function("reduced_base", |b| {
+        b.iter(|| {
+            replay_with(&scene, &rec, Engine::ReducedBase)
+                .unwrap()
+                .t_s
+                .len()
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(
+    benches,
+    bench_base_evaluation,
+    bench_lifted,
+    bench_base,
+    bench_optiodom
+);
 criterion_main!(benches);

@@ -189,3 +189,76 @@ fn each_square_runs_uncertainty_covers_the_spread_between_runs() {
         );
     }
 }
+
+/// Asked the open question: a default `calibrate` (every effect, the default keys) of a
+/// square run, validated on the other square run. It names the wheel geometry within
+/// 0.6 % of the published values and the base's own limits (the turn rate the robot never
+/// exceeds while `/cmd_vel` asks four times as much), the calibrated scene replays both
+/// runs with a positive fit, and every effect it accepted improves the other run.
+///
+/// Ignored in the debug build the README's `cargo test` makes (it replays a 100 s run
+/// through the simulator a few hundred times); run it with
+/// `cargo test --release --test optiodom_real -- --ignored`.
+#[test]
+#[ignore]
+fn the_open_question_on_a_square_run_names_the_geometry_and_the_base_limits() {
+    let Some(bags) = data() else {
+        println!("skipped: ../shared/data/real/optiodom is not beside the project");
+        return;
+    };
+    let out = scratch("optiodom-open");
+    let (scene, rec) = import(&bags, "square_230620202042_run1", &out);
+    let (_, other) = import(&bags, "square_230620202042_run2", &out);
+    let json = out.join("open.json");
+    let o = agvsim(&[
+        "calibrate",
+        "--scene",
+        scene.to_str().unwrap(),
+        "--recording",
+        rec.to_str().unwrap(),
+        "--validate",
+        other.to_str().unwrap(),
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    let shown = text(&o);
+    println!("{shown}");
+    assert!(o.status.success(), "{shown}");
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let g = &j["wheel_geometry"];
+    let (right_d, left_d, track) = PUBLISHED_SQUARE;
+    let near = |v: f64, published: f64| (v / published - 1.0).abs() < 0.006;
+    let v = |k: &str| g[k].as_f64().unwrap_or(f64::NAN);
+    assert!(near(v("track_m"), track), "track {}\n{shown}", v("track_m"));
+    assert!(near(2.0 * v("left_radius_m"), left_d), "{shown}");
+    assert!(near(2.0 * v("right_radius_m"), right_d), "{shown}");
+    assert!(
+        shown
+            .lines()
+            .any(|l| l.starts_with("base_limits") && l.contains("accepted")),
+        "{shown}"
+    );
+    let mean = shown
+        .lines()
+        .find(|l| l.starts_with("mean"))
+        .unwrap_or_else(|| panic!("{shown}"));
+    let after: f64 = mean
+        .split("->")
+        .nth(1)
+        .and_then(|s| s.split_whitespace().next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("{mean}"));
+    assert!(after > 0.0, "{mean}");
+    let validated = shown
+        .lines()
+        .find(|l| l.starts_with("validate"))
+        .unwrap_or_else(|| panic!("{shown}"));
+    let after_other: f64 = validated
+        .split("->")
+        .nth(1)
+        .and_then(|s| s.split_whitespace().next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("{validated}"));
+    assert!(after_other > 0.0, "{validated}");
+}

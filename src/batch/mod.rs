@@ -311,6 +311,7 @@ fn calibrate_one(
     let request = crate::calibrate::Request {
         free: vec![],
         effects: effects.clone(),
+        validate: None,
     };
     let c = crate::calibrate::calibrate_telling(&scene, &rec, &request, &|_| {})?;
     use crate::calibrate::write as cw;

@@ -238,6 +238,7 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
             ..home_or(scene.motor.offset_nm != 0.0, scene.motor.offset_nm, 0.0)
         },
         Effect::WheelGeometry => geometry_home(scene, driven)?,
+        Effect::BaseLimits => limits_home(scene, driven)?,
     })
 }
 
@@ -319,6 +320,57 @@ fn geometry_home(scene: &Scene, driven: Driven) -> Result<Home, CalibrateError> 
                 off: configured_radius,
             },
         ],
+        scanned: false,
+    })
+}
+
+/// The base controller's limits as the scene has them: the limits it sets (a speed or an
+/// acceleration limit of the forward speed or the yaw rate), the yaw rate's first; all off
+/// at 0 (no limit, as in ROS). Only velocity commands pass the base controller. Where the
+/// scene sets none, the home names the yaw rate's limit at 0: the limits are not raced
+/// from a start but read off the recording first ([`super::base_limits`]).
+fn limits_home(scene: &Scene, driven: Driven) -> Result<Home, CalibrateError> {
+    use crate::model::base_controller::BaseParams;
+    let effect = Effect::BaseLimits;
+    if driven.drive != Drive::Velocity {
+        return Err(homeless(
+            effect,
+            "the base controller's limits act on velocity commands (cmd_linear_m_s, cmd_angular_rad_s), and the recording drives the motors otherwise",
+        ));
+    }
+    let b = &scene.base;
+    let all = [
+        (BaseParams::max_angular_rad_s, b.max_angular_rad_s),
+        (BaseParams::max_linear_m_s, b.max_linear_m_s),
+        (
+            BaseParams::max_angular_accel_rad_s2,
+            b.max_angular_accel_rad_s2,
+        ),
+        (BaseParams::max_linear_accel_m_s2, b.max_linear_accel_m_s2),
+    ];
+    let set: Vec<(&'static str, f64)> = all
+        .iter()
+        .filter(|(_, v)| *v > 0.0)
+        .map(|(k, v)| (k.key(), *v))
+        .collect();
+    let (key, start) = set.first().copied().unwrap_or((all[0].0.key(), 0.0));
+    Ok(Home {
+        effect,
+        key,
+        switches: vec![],
+        start,
+        in_scene: !set.is_empty(),
+        signed_range: None,
+        off: Some(0.0),
+        also: set
+            .iter()
+            .skip(1)
+            .map(|&(key, start)| Companion {
+                key,
+                start,
+                off: 0.0,
+            })
+            .collect(),
         scanned: false,
     })
 }
@@ -492,9 +544,15 @@ mod tests {
             drive: Drive::AxisDemand,
             ..axis
         };
+        // The base's limits only on a velocity-commanded base.
+        let velocity = Driven {
+            drive: Drive::Velocity,
+            ..floor
+        };
+        assert!(home(Effect::BaseLimits, &scene, floor).is_err());
         for e in Effect::ALL {
             assert!(
-                [axis, floor, demand]
+                [axis, floor, demand, velocity]
                     .iter()
                     .any(|d| home(e, &scene, *d).is_ok()),
                 "{e:?}"

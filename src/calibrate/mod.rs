@@ -5,14 +5,17 @@
 //! was fitted goes back into the file the user runs, and the fit is shown before and after
 //! in the simulation itself.
 
+pub mod base_limits;
 pub mod diagnosis;
 pub mod effects;
+mod first;
 pub mod keys;
 pub mod odometry;
 pub mod pose_windows;
 pub mod prove;
 mod rounds;
 mod search;
+pub mod validation;
 pub mod write;
 
 use crate::model::base_controller::BaseParams;
@@ -29,7 +32,7 @@ use crate::ident::fit::Weighting;
 use crate::ident::model::{Diverged, ParamSpec, Predictor};
 use crate::ident::weighting::spread_weights;
 use crate::record::Recording;
-use crate::replay::{replay, Drive, Replay, ReplayError};
+use crate::replay::{replay, replay_with, Drive, Engine, Replay, ReplayError};
 use crate::rig::RigKind;
 use crate::scene::Scene;
 use search::{Problem, Stage};
@@ -141,6 +144,8 @@ pub struct SceneReplay<'a> {
     specs: Vec<ParamSpec>,
     /// The pose compared over windows ([`pose_windows`]), where the data's pose is.
     windows: Option<pose_windows::PoseWindows>,
+    /// What each evaluation replays on: the simulator, or the reduced base.
+    engine: Engine,
 }
 
 impl<'a> SceneReplay<'a> {
@@ -186,7 +191,14 @@ impl<'a> SceneReplay<'a> {
             rec,
             specs,
             windows: None,
+            engine: Engine::Simulator,
         })
+    }
+
+    /// The same model replayed on `engine`.
+    pub fn on(mut self, engine: Engine) -> Self {
+        self.engine = engine;
+        self
     }
 
     /// The same model with its pose outputs as motions over `windows` (the dataset it is
@@ -268,7 +280,7 @@ impl Predictor for SceneReplay<'_> {
     fn predict(&self, p: &[f64], data: &Dataset) -> Result<Vec<Vec<f64>>, Diverged> {
         let fail = || Diverged { t_s: data.t_s[0] };
         let scene = self.scene_with(p).map_err(|_| fail())?;
-        let r = replay(&scene, self.rec).map_err(|e| match e {
+        let r = replay_with(&scene, self.rec, self.engine).map_err(|e| match e {
             ReplayError::Diverged { t_s, .. } => Diverged { t_s },
             _ => fail(),
         })?;
@@ -362,6 +374,10 @@ pub struct EffectTrial {
     /// fitted to convergence: the round's full trials went to effects whose races gained
     /// more.
     pub raced_only: bool,
+    /// Supported by the recording's fit but not confirmed (so not added): the simulator
+    /// replays the recording no better with it (found on the reduced base), or the
+    /// validation recordings replay no better with it.
+    pub unconfirmed: Option<Unconfirmed>,
     /// An effect the scene has, supported by the recording at the scene's strength (weighed
     /// against its absence) without being refined.
     pub kept: bool,
@@ -396,12 +412,22 @@ impl EffectTrial {
             accepted: false,
             removed: false,
             raced_only: false,
+            unconfirmed: None,
             kept: false,
             against_absence: None,
             accepted_as: None,
             scene_value: home.in_scene.then_some(home.start),
         }
     }
+}
+
+/// What did not confirm an effect the recording's fit supported.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Unconfirmed {
+    /// Found on the reduced base, the simulator replays the recording no better with it.
+    Simulator,
+    /// The validation recordings replay no better with it.
+    Validation,
 }
 
 /// A key set (not fitted) to switch an accepted effect's physics on.
@@ -422,6 +448,10 @@ pub struct Request {
     pub free: Vec<String>,
     /// Effects to try, each through its scene key ([`effects::home`]).
     pub effects: effects::Choice,
+    /// Other recordings of the machine (joined): an effect is added only where it also
+    /// improves their replay (a finding the other runs do not confirm is fitted noise or
+    /// the fitted run's own circumstance).
+    pub validate: Option<Recording>,
 }
 
 /// A calibration's result.
@@ -514,6 +544,7 @@ pub fn calibrate(
     let request = Request {
         free: free.to_vec(),
         effects: effects::Choice::None,
+        validate: None,
     };
     calibrate_telling(scene, rec, &request, &|_| {})
 }
@@ -547,13 +578,17 @@ pub fn calibrate_telling(
     progress: &dyn Fn(&str),
 ) -> Result<Calibration, CalibrateError> {
     let free = free_keys(request, rec)?;
-    progress("replaying the recording on the scene as written");
-    let before = replay(scene, rec)?;
-    let outputs = fitted_outputs(&before, rec)?;
-    let driven = driven_by(&before, rec);
+    let engine = engine_for(scene, rec);
+    progress(match engine {
+        Engine::Simulator => "replaying the recording on the scene as written",
+        Engine::ReducedBase => "replaying the recording on the scene as written (the reduced base; the simulator's replay at the end)",
+    });
+    let first_look = replay_with(scene, rec, engine)?;
+    let outputs = fitted_outputs(&first_look, rec)?;
+    let driven = driven_by(&first_look, rec);
     // Every effect's home is checked before any fit's work.
     let tried = effects::chosen(&request.effects, scene, driven)?;
-    let (data, outputs, left_out) = excited_data(rec, &before, outputs)?;
+    let (data, outputs, left_out) = excited_data(rec, &first_look, outputs)?;
     let signed: Vec<(String, f64)> = tried
         .iter()
         .filter_map(|&e| {
@@ -584,21 +619,46 @@ pub fn calibrate_telling(
             )
         }),
         windows,
+        engine,
+        validation: None,
+        simulator_judges: Default::default(),
+        simulated: Default::default(),
     };
+    if let Some(v) = &request.validate {
+        problem.validation =
+            validation::Validation::of(v, &problem.data.output_names, driven.drive)?
+                .map(std::sync::Arc::new);
+    }
     progress(&format!(
-        "fitting {} keys through the simulator ({} or more replays an iteration, at most 30 iterations in this stage)",
+        "fitting {} keys through {} ({} or more replays an iteration, at most 30 iterations in this stage)",
         free.len(),
+        match problem.engine {
+            Engine::Simulator => "the simulator",
+            Engine::ReducedBase => "the reduced base (each effect accepted confirmed through the simulator)",
+        },
         free.len() + 1,
     ));
-    let stage = problem.first_stage(scene, &free)?;
+    // What the recording shows without dynamics (a base's limits, its wheels' geometry)
+    // first: no mass or gain is to explain it.
+    let found = first::found_first(&problem, scene, &tried, driven, progress)?;
+    let mut fitted = free.clone();
+    fitted.extend(found.extra_free.iter().cloned());
+    let stage = faithful_first_stage(&mut problem, &found.scene, &fitted, progress)?;
     let baseline = stage.scene.clone();
-    let rounds = rounds::effect_rounds(&problem, stage, &tried, driven, progress)?;
+    if problem.rejudge(&stage)? {
+        progress(JUDGED_BY_THE_SIMULATOR);
+    }
+    let tried: Vec<Effect> = tried
+        .into_iter()
+        .filter(|e| !found.decided.contains(e))
+        .collect();
+    let rounds = rounds::effect_rounds(&problem, stage, &tried, driven, progress, found)?;
     let iterations = rounds.iterations;
     let (keys, final_scene, trials) = settled(scene, &problem, &free, &rounds)?;
     progress(&format!(
         "fitted in {iterations} iterations in all stages; replaying the recording on the calibrated scene"
     ));
-    let after = replay(&final_scene, rec)?;
+    let (before, after) = replays_before_after(engine, first_look, scene, &final_scene, rec)?;
     Ok(Calibration {
         keys,
         effects: trials,
@@ -612,6 +672,66 @@ pub fn calibrate_telling(
         baseline,
         iterations,
     })
+}
+
+/// The first stage on the fits' engine. Where that is the reduced base and the simulator
+/// does not see the improvement it claims ([`Problem::simulator_sees_gain`]: the castors'
+/// swing or the teeth's ringing made up for by a mass or a gain), the calibration runs on
+/// the simulator from then on, the first stage fitted again there.
+fn faithful_first_stage(
+    problem: &mut Problem,
+    scene: &Scene,
+    fitted: &[String],
+    progress: &dyn Fn(&str),
+) -> Result<Stage, CalibrateError> {
+    let stage = problem.first_stage(scene, fitted)?;
+    if problem.engine == Engine::Simulator || problem.simulator_sees_gain(scene, &stage)? {
+        return Ok(stage);
+    }
+    progress("the simulator does not see the reduced base's first fit: the keys bent to make up for what it leaves out; fitting through the simulator from here");
+    problem.engine = Engine::Simulator;
+    problem
+        .held
+        .lock()
+        .expect("no fit panics holding it")
+        .clear();
+    problem.first_stage(scene, fitted)
+}
+
+/// The simulator's replays of the scene as written and calibrated: the first look's where
+/// it was the simulator's, both together where the fits ran on the reduced base.
+fn replays_before_after(
+    engine: Engine,
+    first_look: Replay,
+    scene: &Scene,
+    calibrated: &Scene,
+    rec: &Recording,
+) -> Result<(Replay, Replay), CalibrateError> {
+    Ok(match engine {
+        Engine::Simulator => (first_look, replay(calibrated, rec)?),
+        Engine::ReducedBase => {
+            let (b, a) = rayon::join(|| replay(scene, rec), || replay(calibrated, rec));
+            (b?, a?)
+        }
+    })
+}
+
+/// Said when the simulator takes over judging the evidence ([`search::Problem::rejudge`]).
+pub(crate) const JUDGED_BY_THE_SIMULATOR: &str = "the reduced base and the simulator disagree here by more than a tenth of the residual: the evidence for each effect, and the keys at the end, from the simulator's replays";
+
+/// What the fits replay on: a vehicle driven by velocity commands on the reduced base
+/// ([`crate::sim::reduced`]: the same laws without rapier, the tooth mesh's sub-steps and
+/// the castors' bodies), where the scene allows it; everything else on the simulator.
+fn engine_for(scene: &Scene, rec: &Recording) -> Engine {
+    let velocity = crate::replay::drive_of(rec).is_ok_and(|d| d == Drive::Velocity);
+    let reducible = velocity
+        && rec.rig == RigKind::Vehicle
+        && crate::sim::reduced::ReducedBase::new(scene).is_ok();
+    if reducible {
+        Engine::ReducedBase
+    } else {
+        Engine::Simulator
+    }
 }
 
 /// The keys to fit: the request's, the recording kind's by default, none for `none`;

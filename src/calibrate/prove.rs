@@ -307,6 +307,8 @@ fn concealed(
     let stall = stall_nm(clean);
     let mut common = vec![];
     let (value, mut extra) = match effect {
+        // A yaw rate limit at a third of the largest the excitation commands.
+        Effect::BaseLimits => (0.33, vec![]),
         // A few degrees of play at the wheel.
         Effect::Backlash => (0.06, vec![]),
         // 1.2 % of the stall torque: the thesis motor's brushes and bearings.
@@ -658,6 +660,7 @@ pub fn run(case: &Case, seed: u64) -> Result<(Outcome, Calibration), CalibrateEr
     let request = Request {
         free: vec![],
         effects: Choice::All,
+        validate: None,
     };
     let c = calibrate_telling(&belief, &rec, &request, &|_| {})?;
     let accepted = c.accepted_in_order();

@@ -8,35 +8,27 @@
 //!    the one with the most evidence is accepted (added, or refined where the scene had
 //!    it), and the next round starts from that stage. They end when no effect is
 //!    supported.
-//! 2. **Backward**: every effect the model then has (the scene's own and those accepted)
-//!    is weighed against its absence on the final stage. A key fitted many standard
-//!    deviations from its off value is supported without more work; any other effect's
-//!    absence is fitted (the other keys refitted with it taken out), and the least
-//!    supported is removed, its key set to its off value (no play, no delay...), until
-//!    every one left is supported.
+//! 2. **Backward**: every effect the model then has (the scene's own, those accepted and
+//!    those refined in the rounds) is weighed against its absence on the final stage: its
+//!    key at its off value (no play, no delay...) and the other keys refitted. A key's
+//!    standard deviation does not stand in for that fit: a play refined to the edge of its
+//!    search window can look determined there while the model without it fits as well.
+//!    The least supported is removed until every one left is supported.
 //! 3. Where something was removed, the forward rounds run once more on what is left: an
 //!    effect the removed one had masked may now show.
 
 use rayon::prelude::*;
 
-use super::search::{Presence, Problem, Stage};
-use super::{effects, CalibrateError, EffectTrial, Removal, Switch};
+use super::search::{Added, Presence, Problem, Stage};
+use super::{effects, CalibrateError, EffectTrial, Removal, Switch, Unconfirmed};
 use crate::diagnose::evidence::Gain;
-use crate::diagnose::{MIN_DELTA_AIC, MIN_RSS_REDUCTION};
+use crate::diagnose::MIN_RSS_REDUCTION;
 use crate::ident::effects::Effect;
 
 /// Effects tried in full in a round at least: those whose race removed the most of the
 /// residual. A race is a few iterations from a start that a missing effect distorted, so
 /// it can rank the right effect below one that mimics it; the full trials decide.
 const FULL_TRIALS: usize = 3;
-
-/// Standard deviations between a fitted key and its off value beyond which its effect is
-/// supported without fitting its absence: the likelihood-ratio gain of a key `z` standard
-/// deviations from a value is about `z^2`, and the rule asks [`MIN_DELTA_AIC`] plus the
-/// key's own 2; twice that is kept as a margin for the rough costs of plays and limits.
-fn wald_margin() -> f64 {
-    2.0 * (MIN_DELTA_AIC + 2.0).sqrt()
-}
 
 /// What the effect rounds leave: the last stage, each effect as last tried, the switch
 /// keys and starts of the accepted ones, the effects removed, and the fit iterations spent.
@@ -83,41 +75,58 @@ pub(super) fn effect_rounds(
     effects: &[Effect],
     driven: effects::Driven,
     progress: &dyn Fn(&str),
+    first: super::first::First,
 ) -> Result<Rounds, CalibrateError> {
     let mut r = Rounds {
-        iterations: stage.fit.iterations,
+        iterations: stage.fit.iterations + first.iterations,
         stage,
-        trials: vec![],
+        trials: first.trials,
         switches: vec![],
-        starts: vec![],
+        starts: first.starts,
         removed: vec![],
-        geometry: None,
+        geometry: first.geometry,
     };
+    // Every effect offered, and those decided first.
+    let mut effects = effects.to_vec();
+    effects.extend(first.decided.iter().copied());
+    let effects = &effects[..];
     // The scene's own effects that can be taken out, as the user wrote them.
     let scenes_own: Vec<Effect> = effects
         .iter()
         .copied()
         .filter(|&e| {
-            effects::home(e, &r.stage.scene, driven).is_ok_and(|h| h.in_scene && h.off.is_some())
+            effects::home(e, problem.belief, driven).is_ok_and(|h| h.in_scene && h.off.is_some())
         })
         .collect();
-    forward(problem, &mut r, effects.to_vec(), driven, progress)?;
+    let raced: Vec<Effect> = effects
+        .iter()
+        .copied()
+        .filter(|e| !first.decided.contains(e))
+        .collect();
+    forward(problem, &mut r, raced, driven, progress)?;
     // The backward pass reads the keys' standard deviations.
+    if problem.rejudge(&r.stage)? {
+        progress(super::JUDGED_BY_THE_SIMULATOR);
+    }
     progress("settling the keys and their uncertainty");
-    r.stage = problem.settled(&r.stage)?;
+    r.stage = problem.settled(&r.stage, added_in_rounds(&r, &first.decided))?;
     r.iterations += r.stage.fit.iterations;
     let present: Vec<Effect> = effects
         .iter()
         .copied()
         .filter(|e| scenes_own.contains(e) || r.trial(*e).is_some_and(|t| t.accepted))
         .filter(|&e| effects::home(e, &r.stage.scene, driven).is_ok_and(|h| h.off.is_some()))
+        // A geometry found on the wheels' odometry stands on that evidence, which no other
+        // effect changes (the pose against the wheels' turns, no dynamics); the model's
+        // fit of a drifting pose is the weaker judge of it.
+        .filter(|&e| !(e == Effect::WheelGeometry && r.geometry.is_some()))
         .collect();
     let removed = backward(problem, &mut r, present, &scenes_own, driven, progress)?;
     if !removed.is_empty() {
         let again: Vec<Effect> = effects
             .iter()
             .copied()
-            .filter(|e| !removed.contains(e))
+            .filter(|e| !removed.contains(e) && !first.decided.contains(e))
             .filter(|&e| {
                 effects::home(e, &r.stage.scene, driven).is_ok_and(|h| !h.in_scene)
                     && !r.trial(e).is_some_and(|t| t.accepted)
@@ -125,10 +134,21 @@ pub(super) fn effect_rounds(
             .collect();
         forward(problem, &mut r, again, driven, progress)?;
         progress("settling the keys and their uncertainty");
-        r.stage = problem.settled(&r.stage)?;
+        r.stage = problem.settled(&r.stage, added_in_rounds(&r, &first.decided))?;
         r.iterations += r.stage.fit.iterations;
     }
     Ok(r)
+}
+
+/// Whether the rounds accepted an effect beyond those decided first: the effects whose
+/// laws the reduced base shares with the simulator (the wheels' geometry, the base's
+/// limits) are decided first; an effect the rounds add (a play, a dead time, castor drag)
+/// the reduced base models more simply, so where the simulator judges its keys, and those
+/// traded against them, are settled from the scene's values too ([`Problem::settled`]).
+fn added_in_rounds(r: &Rounds, decided: &[Effect]) -> bool {
+    r.trials
+        .iter()
+        .any(|t| t.accepted && !decided.contains(&t.effect))
 }
 
 /// The wheel geometry found on the wheels' odometry and accepted there, taken out of
@@ -163,6 +183,9 @@ fn forward(
     let mut round = 0;
     while !remaining.is_empty() {
         round += 1;
+        if problem.rejudge(&r.stage)? {
+            progress(super::JUDGED_BY_THE_SIMULATOR);
+        }
         let mut homes = remaining
             .iter()
             .map(|&e| effects::home(e, &r.stage.scene, driven))
@@ -184,10 +207,7 @@ fn forward(
             }
             candidates.push(((t.clone(), next.clone()), home));
         }
-        let best = candidates
-            .into_iter()
-            .filter(|((t, _), _)| t.accepted)
-            .max_by(|((a, _), _), ((b, _), _)| a.delta_aic.total_cmp(&b.delta_aic));
+        let best = confirmed_best(problem, r, candidates, progress)?;
         let Some(((mut t, next), home)) = best else {
             break;
         };
@@ -229,6 +249,78 @@ fn forward(
 
 /// An effect tried in full: its trial and the stage it reaches.
 type Tried = (EffectTrial, Stage);
+
+/// The accepted effect's strength where the simulator judges ([`Problem::simulator_judges`]): its keys
+/// refitted through the simulator from where the reduced base put them (the reduced base
+/// leaves out what the simulator's teeth and castors do, and a play or a dead time found
+/// on it is off by that); its trial's value is then the simulator's.
+fn simulators_strength(
+    problem: &Problem,
+    mut t: EffectTrial,
+    next: Stage,
+    home: &effects::Home,
+) -> Result<Tried, CalibrateError> {
+    if !problem.simulator_judges() {
+        return Ok((t, next));
+    }
+    let keys: Vec<String> = home.keys().iter().map(|k| k.to_string()).collect();
+    let refit = problem.through_simulator(&next.scene, &keys)?;
+    let i = keys.len() - 1;
+    if refit.at_bound(i).is_some() {
+        return Ok((t, next));
+    }
+    let pairs: Vec<(String, f64)> = keys
+        .iter()
+        .cloned()
+        .zip(refit.fit.params.iter().copied())
+        .collect();
+    t.value = refit.fit.params[i];
+    Ok((
+        t,
+        Stage {
+            reached: super::keys::set(&next.reached, &pairs)?,
+            scene: super::keys::set(&next.scene, &pairs)?,
+            ..next
+        },
+    ))
+}
+
+/// The accepted candidate with the most evidence; on the reduced base, the first in that
+/// order the simulator confirms (the recording replayed on it with the effect fits better
+/// than without). One not confirmed is recorded so and not accepted.
+fn confirmed_best<'h>(
+    problem: &Problem,
+    r: &mut Rounds,
+    candidates: Vec<(Tried, &'h effects::Home)>,
+    progress: &dyn Fn(&str),
+) -> Result<Option<(Tried, &'h effects::Home)>, CalibrateError> {
+    let mut accepted: Vec<(Tried, &effects::Home)> = candidates
+        .into_iter()
+        .filter(|((t, _), _)| t.accepted)
+        .collect();
+    accepted.sort_by(|((a, _), _), ((b, _), _)| b.delta_aic.total_cmp(&a.delta_aic));
+    for ((t, next), home) in accepted {
+        let added = next.free.len().saturating_sub(r.stage.free.len());
+        let Some(why) = problem.unconfirmed(&r.stage.scene, &next.scene, Added::Keys(added))?
+        else {
+            return Ok(Some((simulators_strength(problem, t, next, home)?, home)));
+        };
+        progress(&format!(
+            "effects: {} not confirmed: {}",
+            t.effect.name(),
+            match why {
+                Unconfirmed::Simulator => "the simulator replays the recording no better with it",
+                Unconfirmed::Validation => "the validation recordings replay no better with it",
+            }
+        ));
+        r.record(EffectTrial {
+            accepted: false,
+            unconfirmed: Some(why),
+            ..t
+        });
+    }
+    Ok(None)
+}
 
 /// One round's race: every effect raced on the recording's first part (each key
 /// scanned, then fitted with the others for a few iterations), the most promising then
@@ -297,8 +389,6 @@ fn backward(
     progress: &dyn Fn(&str),
 ) -> Result<Vec<Effect>, CalibrateError> {
     let mut removed = vec![];
-    // Supported outright: fitted far from their off value.
-    undecided.retain(|&e| !clearly_supported(r, e, driven));
     while !undecided.is_empty() {
         let names: Vec<&str> = undecided.iter().map(|e| e.name()).collect();
         progress(&format!(
@@ -347,7 +437,6 @@ fn backward(
         undecided.retain(|&e| e != home.effect);
         r.stage = problem.polished(w.off)?;
         r.iterations += r.stage.fit.iterations;
-        undecided.retain(|&e| !clearly_supported(r, e, driven));
     }
     Ok(removed)
 }
@@ -438,35 +527,6 @@ fn supports(gain: &Gain) -> bool {
 /// The user's scene's value of `key`.
 fn problem_scene_value(problem: &Problem, key: &str) -> Option<f64> {
     crate::calibrate::keys::get(problem.belief, key).ok()
-}
-
-/// Whether effect `e`'s key is fitted in the stage further than [`wald_margin`] standard
-/// deviations from its off value: supported without fitting its absence. Recorded as such.
-fn clearly_supported(r: &mut Rounds, e: Effect, driven: effects::Driven) -> bool {
-    let Ok(h) = effects::home(e, &r.stage.scene, driven) else {
-        return false;
-    };
-    let Some(offs) = h.off_values() else {
-        return false;
-    };
-    // Any of its keys fitted far from its off value, none at a bound.
-    let mut clear = false;
-    for (key, off) in offs {
-        let Some(i) = r.stage.free.iter().position(|k| *k == key) else {
-            return false;
-        };
-        if r.stage.at_bound(i).is_some() {
-            return false;
-        }
-        let (value, std) = (r.stage.fit.params[i], r.stage.fit.std[i]);
-        clear |= std.is_some_and(|s| (value - off).abs() > wald_margin() * s);
-    }
-    if clear {
-        if let Some(t) = r.trials.iter_mut().find(|t| t.effect == e) {
-            t.kept = !t.accepted;
-        }
-    }
-    clear
 }
 
 /// The races to try in full: the [`FULL_TRIALS`] whose races removed the most of the

@@ -9,7 +9,8 @@ use super::{effects, keys, CalibrateError, EffectTrial, SceneReplay};
 use crate::diagnose::evidence::{effective_n, Gain};
 use crate::ident::data::Dataset;
 use crate::ident::fit::{
-    fit_predictor, fit_predictor_quick, residuals, Fit, FitError, FitSettings, Weighting,
+    fit_predictor, fit_predictor_quick, fit_predictor_raced, residuals, Fit, FitError, FitSettings,
+    Weighting,
 };
 use crate::ident::model::{ParamSpec, Predictor};
 use crate::record::Recording;
@@ -63,7 +64,28 @@ pub(super) struct Problem<'a> {
     /// The wheels' measured turns, where the recording has them beside a tracked pose:
     /// the wheel geometry is searched on their odometry ([`super::odometry`]).
     pub wheel_turns: Option<super::odometry::WheelTurns>,
+    /// What the fits replay on: the reduced base for a velocity-commanded recording (each
+    /// round's winner confirmed through the simulator), else the simulator.
+    pub engine: crate::replay::Engine,
+    /// Other recordings of the machine each finding must also improve.
+    pub validation: Option<std::sync::Arc<super::validation::Validation>>,
+    /// Whether the simulator judges the evidence for an effect (its replays of where the
+    /// fits end), the reduced base having disagreed with it by more than [`JUDGE_SHARE`] of
+    /// a stage's residual ([`Problem::rejudge`]); else the fits' engine judges.
+    pub simulator_judges: std::sync::atomic::AtomicBool,
+    /// The simulator's replays of the scenes asked so far, by the scene's text
+    /// ([`Problem::simulator_prediction`]): a round's reference stage is asked for again
+    /// by each candidate's evidence, its confirmation and the judge.
+    pub simulated: std::sync::Mutex<std::collections::HashMap<String, Option<Outputs>>>,
 }
+
+/// Share of the first stage's improvement (as the reduced base claims it) the simulator
+/// must see for the reduced base to stay the fits' engine ([`Problem::simulator_sees_gain`]).
+pub const FAITHFUL_SHARE: f64 = 0.5;
+
+/// Share of a fit's weighted residual the reduced base's disagreement with the simulator
+/// may reach for its fits' evidence to stand for the simulator's.
+pub const JUDGE_SHARE: f64 = 0.1;
 
 /// The span from which a recording's effects are raced on its first part only, s, and
 /// the least span that part covers: a race only ranks effects for their full trials on the
@@ -103,9 +125,26 @@ const TRACKER_POSITION_NOISE_M: f64 = 0.002;
 /// See [`TRACKER_POSITION_NOISE_M`].
 const TRACKER_HEADING_NOISE_RAD: f64 = 0.005;
 
+/// Iterations of an effect's refit through the simulator ([`Problem::through_simulator`]).
+const SIMULATOR_ITERATIONS: usize = 8;
+
+/// Iterations of the final fit through the simulator where it judges
+/// ([`Problem::settled`]): every key moves there, from two starts raced.
+const SETTLING_ITERATIONS: usize = 12;
+
 /// Iterations of an effect's race ([`Problem::race`]): enough to leave the scan's grid
 /// and settle the other keys' first response to the effect.
 const RACE_ITERATIONS: usize = 3;
+
+/// What a step to be confirmed adds ([`Problem::confirmed`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Added {
+    /// Keys, fitted: the simulator's replays must show the gain the evidence rule asks.
+    Keys(usize),
+    /// The wheels' geometry, found on their odometry (its evidence): the simulator's
+    /// replay of the pose must only fit better with it.
+    Pose,
+}
 
 /// An effect the model has, weighed against its absence ([`Problem::weigh_present`]).
 pub(super) struct Presence {
@@ -132,6 +171,10 @@ impl Problem<'_> {
                 held: Default::default(),
                 windows: self.windows.clone(),
                 wheel_turns: self.wheel_turns.clone(),
+                engine: self.engine,
+                validation: None,
+                simulator_judges: std::sync::atomic::AtomicBool::new(self.simulator_judges()),
+                simulated: Default::default(),
             },
             None => Problem {
                 rec: self.rec,
@@ -144,6 +187,10 @@ impl Problem<'_> {
                 held: Default::default(),
                 windows: self.windows.clone(),
                 wheel_turns: self.wheel_turns.clone(),
+                engine: self.engine,
+                validation: None,
+                simulator_judges: std::sync::atomic::AtomicBool::new(self.simulator_judges()),
+                simulated: Default::default(),
             },
         }
     }
@@ -151,11 +198,187 @@ impl Problem<'_> {
     /// The weighted residual sum of squares of `scene` replayed on the problem's recording.
     pub fn rss_of(&self, scene: &Scene, free: &[String]) -> Result<f64, CalibrateError> {
         let model = SceneReplay::with_signed(scene, self.rec, free, &self.signed)?
+            .on(self.engine)
             .windowed(self.windows.clone());
         let p = values(scene, free)?;
         Ok(model
             .predict(&p, &self.data)
             .map_or(f64::INFINITY, |y| self.cost_of(&y)))
+    }
+
+    /// `scene` replayed on the simulator itself, whatever the problem's engine, as the fit
+    /// compares it (`None`: it diverged).
+    pub fn simulator_prediction(&self, scene: &Scene) -> Result<Option<Outputs>, CalibrateError> {
+        let text = scene.to_toml();
+        if let Some(known) = self
+            .simulated
+            .lock()
+            .expect("no replay panics holding it")
+            .get(&text)
+        {
+            return Ok(known.clone());
+        }
+        let model = SceneReplay::with_signed(scene, self.rec, &[], &[])?
+            .on(crate::replay::Engine::Simulator)
+            .windowed(self.windows.clone());
+        let predicted = model.predict(&[], &self.data).ok();
+        self.simulated
+            .lock()
+            .expect("no replay panics holding it")
+            .insert(text, predicted.clone());
+        Ok(predicted)
+    }
+
+    /// Whether the simulator confirms a step found on the reduced base, `added` keys
+    /// more: the recording replayed on `after` and on `before` (both replays run
+    /// together), the gain passing the evidence rule ([`Gain::passes`]) there too. The
+    /// reduced base leaves physics out (the castors' swing, the teeth's ringing): a step
+    /// that only bends a key to make up for that gains nothing in the simulator.
+    pub fn confirmed(
+        &self,
+        before: &Scene,
+        after: &Scene,
+        added: Added,
+    ) -> Result<bool, CalibrateError> {
+        let (b, a) = rayon::join(
+            || self.simulator_prediction(before),
+            || self.simulator_prediction(after),
+        );
+        Ok(match (b?, a?) {
+            (_, None) => false,
+            (None, Some(_)) => true,
+            (Some(b), Some(a)) => match added {
+                Added::Keys(n) => {
+                    Gain::of_predictions(&self.data, &b, &a, n, &self.weighting.outputs).passes()
+                }
+                Added::Pose => self.pose_cost(&a) < self.pose_cost(&b),
+            },
+        })
+    }
+
+    /// What does not confirm the step from `before` to `after` (an effect found, `added`
+    /// keys more): on the reduced base, the simulator's replay of the recording; then the
+    /// validation recordings' replays. `None`: confirmed.
+    pub fn unconfirmed(
+        &self,
+        before: &Scene,
+        after: &Scene,
+        added: Added,
+    ) -> Result<Option<super::Unconfirmed>, CalibrateError> {
+        // Judged by the simulator already, or confirmed by it here.
+        if self.engine == crate::replay::Engine::ReducedBase
+            && !self.simulator_judges()
+            && !self.confirmed(before, after, added)?
+        {
+            return Ok(Some(super::Unconfirmed::Simulator));
+        }
+        if let Some(v) = &self.validation {
+            if !v.improved(before, after, self.engine)? {
+                return Ok(Some(super::Unconfirmed::Validation));
+            }
+        }
+        Ok(None)
+    }
+
+    /// Whether the simulator judges ([`Problem::simulator_judges`]).
+    pub fn simulator_judges(&self) -> bool {
+        self.simulator_judges
+            .load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    /// Weighs again who judges the evidence from `stage` on: where the fits run on the
+    /// reduced base, the simulator replays the stage, and the reduced base's disagreement
+    /// with it (weighted as the residual) is set against the stage's residual; beyond
+    /// [`JUDGE_SHARE`] of it, the simulator judges from then on (as the model grows and its
+    /// residual shrinks to the noise, the reduced base's omissions weigh more). Returns
+    /// whether the simulator has just taken over.
+    pub fn rejudge(&self, stage: &Stage) -> Result<bool, CalibrateError> {
+        if self.engine == crate::replay::Engine::Simulator || self.simulator_judges() {
+            return Ok(false);
+        }
+        let takes_over = self.disagrees(stage)?;
+        if takes_over {
+            self.simulator_judges
+                .store(true, std::sync::atomic::Ordering::Relaxed);
+        }
+        Ok(takes_over)
+    }
+
+    /// Whether the simulator sees at least [`FAITHFUL_SHARE`] of the improvement the fits'
+    /// engine claims for `stage` over `scene` as written (each replayed where its fit
+    /// ended, weighted as the residual). Where it does not, the reduced base bent the keys
+    /// to make up for physics it leaves out, and is no model of this recording.
+    pub fn simulator_sees_gain(
+        &self,
+        scene: &Scene,
+        stage: &Stage,
+    ) -> Result<bool, CalibrateError> {
+        let w = &self.weighting.outputs;
+        let cost =
+            |p: &[Vec<f64>]| -> f64 { residuals(&self.data, p, w).iter().map(|r| r * r).sum() };
+        let before = self.fit_quick(scene, &[], vec![])?;
+        let claimed = cost(&before.fit.predicted) - cost(&stage.fit.predicted);
+        if !(claimed > 0.0) {
+            return Ok(true);
+        }
+        let (b, a) = rayon::join(
+            || self.simulator_prediction(scene),
+            || self.simulator_prediction(&stage.reached),
+        );
+        Ok(match (b?, a?) {
+            (Some(b), Some(a)) => cost(&b) - cost(&a) >= FAITHFUL_SHARE * claimed,
+            _ => false,
+        })
+    }
+
+    /// Whether the reduced base disagrees with the simulator on `stage` by more than
+    /// [`JUDGE_SHARE`] of its residual.
+    fn disagrees(&self, stage: &Stage) -> Result<bool, CalibrateError> {
+        let Some(sim) = self.simulator_prediction(&stage.reached)? else {
+            return Ok(true);
+        };
+        let w = &self.weighting.outputs;
+        let reduced = residuals(&self.data, &stage.fit.predicted, w);
+        let simulated = residuals(&self.data, &sim, w);
+        let disagreement: f64 = reduced
+            .iter()
+            .zip(&simulated)
+            .map(|(a, b)| (a - b) * (a - b))
+            .sum();
+        let residual: f64 = reduced.iter().map(|r| r * r).sum();
+        Ok(disagreement > JUDGE_SHARE * residual)
+    }
+
+    /// What `richer` gains over `reference` (whose effective residual counts are
+    /// `n_ref`): on the fits' own predictions, or, where the simulator judges
+    /// ([`Problem::simulator_judges`]), on its replays of where each fit ended.
+    fn gain(
+        &self,
+        reference: &Stage,
+        n_ref: &[f64],
+        richer: &Stage,
+    ) -> Result<Gain, CalibrateError> {
+        if !self.simulator_judges() {
+            return Ok(Gain::of(&self.data, &reference.fit, n_ref, &richer.fit));
+        }
+        let (a, b) = rayon::join(
+            || self.simulator_prediction(&reference.reached),
+            || self.simulator_prediction(&richer.reached),
+        );
+        let added = richer.free.len().saturating_sub(reference.free.len());
+        Ok(match (a?, b?) {
+            (Some(a), Some(b)) => {
+                Gain::of_predictions(&self.data, &a, &b, added, &self.weighting.outputs)
+            }
+            (_, None) => Gain {
+                delta_aic: f64::NEG_INFINITY,
+                reduction: f64::NEG_INFINITY,
+            },
+            (None, Some(_)) => Gain {
+                delta_aic: f64::INFINITY,
+                reduction: 1.0,
+            },
+        })
     }
 
     /// The first stage: the `free` keys of `scene` fitted from its values in the two
@@ -210,7 +433,7 @@ impl Problem<'_> {
         free: &[String],
         iterations: usize,
     ) -> Result<Stage, CalibrateError> {
-        self.stage_of(scene, free, true, |model, slots, start| {
+        self.stage_of(scene, free, true, self.engine, |model, slots, start| {
             let settings = FitSettings {
                 max_iterations: iterations,
                 ..self.settings(slots, vec![start])
@@ -219,15 +442,39 @@ impl Problem<'_> {
         })
     }
 
+    /// `free` keys of `scene` refitted through the simulator itself for at most
+    /// [`SIMULATOR_ITERATIONS`], without the covariance: an effect's strength found on the
+    /// reduced base where the simulator judges ([`Problem::simulator_judges`]), the few keys that
+    /// set it placed where the simulator has them.
+    pub fn through_simulator(
+        &self,
+        scene: &Scene,
+        free: &[String],
+    ) -> Result<Stage, CalibrateError> {
+        self.stage_of(
+            scene,
+            free,
+            true,
+            crate::replay::Engine::Simulator,
+            |model, slots, start| {
+                let settings = FitSettings {
+                    max_iterations: SIMULATOR_ITERATIONS,
+                    ..self.settings(slots, vec![start])
+                };
+                fit_predictor_quick(model, &self.data, &settings, false)
+            },
+        )
+    }
+
     /// [`Problem::fit_raced`] without the covariance: for a fit whose cost alone is read
     /// (an effect's absence, a null fit), its scene where it ended.
-    fn fit_quick(
+    pub(super) fn fit_quick(
         &self,
         scene: &Scene,
         free: &[String],
         others: Vec<Vec<f64>>,
     ) -> Result<Stage, CalibrateError> {
-        self.stage_of(scene, free, true, |model, slots, start| {
+        self.stage_of(scene, free, true, self.engine, |model, slots, start| {
             let mut starts = vec![start];
             starts.extend(others.iter().cloned());
             let race = starts.len() > 1;
@@ -244,7 +491,7 @@ impl Problem<'_> {
         free: &[String],
         fit: impl Fn(&SceneReplay, &[usize], Vec<f64>) -> Result<Fit, FitError>,
     ) -> Result<Stage, CalibrateError> {
-        self.stage_of(scene, free, false, fit)
+        self.stage_of(scene, free, false, self.engine, fit)
     }
 
     /// [`Problem::stage`]; `quick`: the fit has no covariance, and its scene is where it
@@ -254,9 +501,11 @@ impl Problem<'_> {
         scene: &Scene,
         free: &[String],
         quick: bool,
+        engine: crate::replay::Engine,
         fit: impl Fn(&SceneReplay, &[usize], Vec<f64>) -> Result<Fit, FitError>,
     ) -> Result<Stage, CalibrateError> {
         let model = SceneReplay::with_signed(scene, self.rec, free, &self.signed)?
+            .on(engine)
             .believing(self.belief, &self.free)?
             .anchored(self.belief, &self.free)?
             .windowed(self.windows.clone());
@@ -315,14 +564,61 @@ impl Problem<'_> {
 
     /// The final stage: its keys refitted from where the rounds left them, with their
     /// covariance (the rounds' own stages go without: nobody reads it), and those the
-    /// recording cannot tell apart held ([`Problem::determined`]).
-    pub fn settled(&self, stage: &Stage) -> Result<Stage, CalibrateError> {
+    /// recording cannot tell apart held ([`Problem::determined`]). Where the simulator
+    /// judges, the keys are refitted through it; where `refit` (the rounds added an effect
+    /// the reduced base models more simply than the simulator), from a second start too.
+    pub fn settled(&self, stage: &Stage, refit: bool) -> Result<Stage, CalibrateError> {
         let full = self.fit(&stage.reached, &stage.free)?;
-        self.determined(if full.fit.cost <= stage.fit.cost * (1.0 + 1e-9) {
+        let settled = if full.fit.cost <= stage.fit.cost * (1.0 + 1e-9) {
             full
         } else {
             stage.clone()
-        })
+        };
+        if !self.simulator_judges() {
+            return self.determined(settled);
+        }
+        // Where the simulator judges, it has the last word on the keys and their
+        // uncertainty too: refitted through it from where the reduced base left them,
+        // and from the scene's own values of the user's keys with the effects' keys
+        // where the reduced base put them. The reduced base leaves out what the
+        // simulator's teeth and castors do, and the keys it traded against that (a loop
+        // gain against a play) can start the simulator's fit in another valley.
+        let mut starts = vec![];
+        if refit {
+            starts.push(self.believed_start(&settled)?);
+        }
+        let sim = self.stage_of(
+            &settled.reached,
+            &settled.free,
+            false,
+            crate::replay::Engine::Simulator,
+            |model, slots, start| {
+                let mut all = vec![start];
+                all.extend(starts.iter().cloned());
+                let settings = FitSettings {
+                    max_iterations: SETTLING_ITERATIONS,
+                    ..self.settings(slots, all)
+                };
+                fit_predictor_raced(model, &self.data, &settings)
+            },
+        )?;
+        Ok(sim)
+    }
+
+    /// `stage`'s keys where it ended, the user's free keys at the scene's own values.
+    fn believed_start(&self, stage: &Stage) -> Result<Vec<f64>, CalibrateError> {
+        stage
+            .free
+            .iter()
+            .enumerate()
+            .map(|(i, k)| {
+                if self.free.contains(k) {
+                    super::keys::get(self.belief, k)
+                } else {
+                    Ok(stage.fit.params[i])
+                }
+            })
+            .collect()
     }
 
     /// The stage with the free keys the recording cannot tell apart held: while a
@@ -379,11 +675,30 @@ impl Problem<'_> {
     ) -> Result<Vec<(f64, Option<Outputs>)>, CalibrateError> {
         let model =
             SceneReplay::with_signed(scene, self.rec, &[home.key.to_string()], &self.signed)?
+                .on(self.engine)
                 .windowed(self.windows.clone());
         Ok(Self::scan_values(home)
             .par_iter()
             .map(|&v| (v, model.predict(&[v], &self.data).ok()))
             .collect())
+    }
+
+    /// The weighted residual sum of squares of `predicted` over the pose outputs alone.
+    fn pose_cost(&self, predicted: &[Vec<f64>]) -> f64 {
+        let r = residuals(&self.data, predicted, &self.weighting.outputs);
+        let mut k = 0;
+        let mut cost = 0.0;
+        for (j, col) in self.data.outputs.iter().enumerate() {
+            let pose = ["x_m", "y_m", "heading_rad"].contains(&self.data.output_names[j].as_str());
+            for cell in col.iter().flatten() {
+                let _ = cell;
+                if pose {
+                    cost += r[k] * r[k];
+                }
+                k += 1;
+            }
+        }
+        cost
     }
 
     /// The weighted residual sum of squares of `predicted`.
@@ -501,7 +816,7 @@ impl Problem<'_> {
             _ => stage,
         };
         let n_ref = reference.effective_n(&self.data);
-        Ok((self.trial(home, reference, &n_ref, &next), next))
+        Ok((self.trial(home, reference, &n_ref, &next)?, next))
     }
 
     /// An effect the model has, weighed against its absence: the stage's other keys fitted
@@ -526,8 +841,8 @@ impl Problem<'_> {
         let believed = keys::set(&self.with_beliefs(&stage.scene)?, &without)?;
         let off = self.fit_quick(&off_scene, &free, vec![values(&believed, &free)?])?;
         let n_off = off.effective_n(&self.data);
-        let gain = if free.len() < stage.free.len() {
-            Gain::of(&self.data, &off.fit, &n_off, &stage.fit)
+        let gain = if free.len() < stage.free.len() || self.simulator_judges() {
+            self.gain(&off, &n_off, stage)?
         } else {
             Gain::of_prediction(&self.data, &off.fit, &n_off, &stage.fit.predicted)
         };
@@ -597,7 +912,9 @@ impl Problem<'_> {
             .zip(on.params.iter().copied())
             .collect();
         let with = self.fit_quick(&keys::set(&stage.scene, &pairs)?, &stage.free, vec![])?;
-        let confirmed = with.fit.rss() < stage.fit.rss();
+        // Confirmed where the model's pose fits better with it: the wheels' speeds, read
+        // through the configured geometry, do not see it.
+        let confirmed = self.pose_cost(&with.fit.predicted) < self.pose_cost(&stage.fit.predicted);
         let distinct =
             (0..3).any(|i| on.std[i].is_some_and(|s| (on.params[i] - configured[i]).abs() > s));
         let gain = Gain {
@@ -633,14 +950,14 @@ impl Problem<'_> {
     /// key is an estimate: not at a bound, determined by the recording, and further from
     /// its off value than its standard deviation (a strength the recording cannot tell
     /// from none is no finding).
-    fn trial(
+    pub(super) fn trial(
         &self,
         home: &effects::Home,
         reference: &Stage,
         n_ref: &[f64],
         next: &Stage,
-    ) -> EffectTrial {
-        let gain = Gain::of(&self.data, &reference.fit, n_ref, &next.fit);
+    ) -> Result<EffectTrial, CalibrateError> {
+        let gain = self.gain(reference, n_ref, next)?;
         let i = next.free.len() - 1;
         let value = next.fit.params[i];
         let std = next.fit.std[i];
@@ -662,10 +979,10 @@ impl Problem<'_> {
             .zip(&offs)
             .any(|(j, off)| next.fit.std[j].is_some_and(|s| (next.fit.params[j] - off).abs() > s))
             && std.is_some();
-        EffectTrial {
+        Ok(EffectTrial {
             accepted: gain.passes() && at_bound.is_none() && distinct,
             ..EffectTrial::of(home, value, std, at_bound, &gain)
-        }
+        })
     }
 }
 

@@ -285,6 +285,14 @@ pub(crate) fn verdict(t: &super::EffectTrial, unit: &str) -> String {
             quantity(was, 4, unit)
         ),
         (true, None, _) => "accepted: added to the scene".to_string(),
+        _ if t.unconfirmed == Some(super::Unconfirmed::Simulator) => format!(
+            "not confirmed: the reduced base supported it, but the simulator replays the recording no better with it; {}",
+            kept(t.scene_value)
+        ),
+        _ if t.unconfirmed == Some(super::Unconfirmed::Validation) => format!(
+            "not confirmed: the recording supported it, but the validation recordings replay no better with it; {}",
+            kept(t.scene_value)
+        ),
         _ if t.raced_only => format!(
             "not tried in full: its race on the recording's first part gained less than others'; {}",
             kept(t.scene_value)
@@ -437,6 +445,10 @@ pub fn json(c: &Calibration, scene: &str, recording: &str) -> serde_json::Value 
                 "accepted": t.accepted,
                 "removed": t.removed,
                 "raced_only": t.raced_only,
+                "unconfirmed": t.unconfirmed.map(|u| match u {
+                    super::Unconfirmed::Simulator => "simulator",
+                    super::Unconfirmed::Validation => "validation",
+                }),
                 "scene_value": t.scene_value,
             })
         })

@@ -70,9 +70,10 @@ pub struct CalibrateRequest {
 pub fn run(req: &CalibrateRequest, say: Say) -> Result<(), CommandError> {
     let transcript = super::Transcript::new(say);
     let say = |s: &str| transcript.say(s);
-    let request = Request {
+    let mut request = Request {
         free: req.free.clone(),
         effects: req.effects.choice()?,
+        validate: None,
     };
     let text = crate::scene::read_scene_text(&req.scene)?;
     let checked = Scene::checked_from_toml(&text, &req.scene, &req.set)?;
@@ -90,6 +91,7 @@ pub fn run(req: &CalibrateRequest, say: Say) -> Result<(), CommandError> {
             message: message.to_string(),
         })?;
     }
+    request.validate = other.clone();
     let recordings = super::joined_names(&req.recording);
     // The output paths are checked before the fit's work.
     check_targets(&[
@@ -181,6 +183,7 @@ fn write_outputs(
     }
     if let Some(p) = &req.html {
         let html = crate::html::reports::calibration(
+            "Calibration",
             c,
             &req.scene.display().to_string(),
             &recordings,

@@ -2,7 +2,7 @@
 //! and write the contract JSON, a report folder (text and SVG plots) and a Rerun file when
 //! asked.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use super::flags::{Effects, Jobs};
 use super::{check_targets, on_workers, write_file, CommandError, Say};
@@ -83,7 +83,10 @@ pub fn run(req: &DiagnoseRequest, say: Say) -> Result<(), CommandError> {
         ("--html", req.html.as_deref(), false),
     ])?;
     let rig_path = match (&req.rig, &req.scene) {
-        (_, Some(scene)) => return through_simulator(req, scene, &transcript),
+        (_, Some(scene)) => {
+            let s = crate::scene::Scene::load(scene, &[])?;
+            return through_simulator(req, s, &scene.display().to_string(), &transcript);
+        }
         (Some(r), None) => r,
         (None, None) => {
             return Err(CommandError::Option {
@@ -95,6 +98,15 @@ pub fn run(req: &DiagnoseRequest, say: Say) -> Result<(), CommandError> {
     };
     let rig = Rig::load(rig_path)?;
     let rec = Recording::load_joined(&req.recordings)?;
+    // A base, or any vehicle driven by velocity commands: through its base controller and
+    // drivers' loops, which the fitting models do not have.
+    let velocity = crate::replay::drive_of(&rec).is_ok_and(|d| d == crate::replay::Drive::Velocity);
+    if rig.rig == crate::rig::RigKind::Base || (rig.rig == crate::rig::RigKind::Vehicle && velocity)
+    {
+        let scene = rig.base_scene(rig_path)?;
+        let name = format!("the base of {}", rig_path.display());
+        return through_simulator(req, scene, &name, &transcript);
+    }
     let val = req.validate.as_deref().map(Recording::load).transpose()?;
     let d = on_workers(req.jobs.count(), || {
         Ok(diagnose(&rig, rig_path, &rec, val.as_ref(), &options)?)
@@ -222,12 +234,12 @@ fn prove_calibration(req: &ProveRequest, say: Say) -> Result<(), CommandError> {
 /// calibrate prints them, the contract's JSON on request.
 fn through_simulator(
     req: &DiagnoseRequest,
-    scene_path: &Path,
+    scene: crate::scene::Scene,
+    scene_name: &str,
     transcript: &super::Transcript,
 ) -> Result<(), CommandError> {
     let say = |s: &str| transcript.say(s);
     for (option, given) in [
-        ("--validate", req.validate.is_some()),
         ("--report", req.report_dir.is_some()),
         ("--save", req.save_rrd.is_some()),
     ] {
@@ -235,15 +247,23 @@ fn through_simulator(
             return Err(CommandError::Option {
                 option: option.into(),
                 value: String::new(),
-                message: "is not available with --scene yet; `agvsim calibrate --validate/--report/--save` gives them through the simulator".into(),
+                message: "is not available with --scene yet; `agvsim calibrate --report/--save` gives them through the simulator".into(),
             });
         }
     }
-    let scene = crate::scene::Scene::load(scene_path, &[])?;
     let rec = Recording::load_joined(&req.recordings)?;
+    let validate = req.validate.as_deref().map(Recording::load).transpose()?;
+    if let Some(o) = &validate {
+        crate::replay::check_validation(&rec, o).map_err(|message| CommandError::Option {
+            option: "--validate".into(),
+            value: o.path.display().to_string(),
+            message: message.to_string(),
+        })?;
+    }
     let request = crate::calibrate::Request {
         free: vec![],
         effects: req.effects.choice()?,
+        validate,
     };
     let progress = req.progress.unwrap_or(|_| {});
     let c = on_workers(req.jobs.count(), || {
@@ -260,20 +280,16 @@ fn through_simulator(
             .path
             .file_name()
             .map_or(String::new(), |n| n.to_string_lossy().into_owned());
-        let v = crate::calibrate::diagnosis::contract_json(
-            &name,
-            &scene_path.display().to_string(),
-            &c,
-            &baseline,
-        );
+        let v = crate::calibrate::diagnosis::contract_json(&name, scene_name, &c, &baseline);
         write_file(p, serde_json::to_string_pretty(&v).unwrap_or_default())?;
         say(&format!("wrote      {}\n", p.display()));
     }
     if let Some(p) = &req.html {
         let names = super::joined_names(&req.recordings);
         let html = crate::html::reports::calibration(
+            "Diagnosis",
             &c,
-            &scene_path.display().to_string(),
+            scene_name,
             &names,
             &rec,
             &transcript.text(),

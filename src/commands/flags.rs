@@ -55,7 +55,8 @@ impl Jobs {
 pub struct Effects {
     /// Comma-separated effects of the contract's vocabulary to try (backlash,
     /// coulomb_friction, friction_asymmetry, offset, voltage_saturation, battery_sag,
-    /// transport_delay, speed_feedback, wheel_slip, castor_drag, wheel_geometry): each is
+    /// transport_delay, speed_feedback, wheel_slip, castor_drag, wheel_geometry,
+    /// base_limits): each is
     /// fitted with the machine's keys and kept only where the recording gives evidence for
     /// it. `all`: every effect the recording and the machine's model can show; `none`: no
     /// effect.

@@ -621,6 +621,7 @@ fn robot_scene(
         Some((Path::new("the thesis machine (agvsim's defaults)"), &base)),
         &req.command,
     )?;
+    warnings.extend(guesses(req, battery_v, &new.scene));
     let mut text = new.text;
     if let Some(p) = &params {
         text = with_controller_params(&text, p, req.controller_yaml.as_deref())?;
@@ -640,6 +641,41 @@ fn robot_scene(
         message: e.to_string(),
     })?;
     Ok((text, warnings))
+}
+
+/// The numbers the user did not give, said on the console (the scene's comments say them
+/// too): each taken from the thesis machine, with the option that gives it.
+fn guesses(req: &Ros2Import, battery_v: Option<f64>, scene: &crate::scene::Scene) -> Vec<String> {
+    let sig = crate::scene::plausibility::sig;
+    let mut said = vec![];
+    if req.mass_kg.is_none() {
+        said.push(format!(
+            "guessed    chassis mass {} kg, the thesis machine's: give --mass-kg\n",
+            sig(scene.chassis.mass_kg)
+        ));
+    }
+    if req.motor.is_none() {
+        let v = battery_v.unwrap_or(scene.battery.open_circuit_v);
+        said.push(format!(
+            "guessed    motor: the thesis machine's ({} rad/s no-load, {} N m stall at {} V): give --motor-no-load-rpm and --motor-stall-current-A\n",
+            sig(scene.motor.no_load_speed_rad_s(v)),
+            sig(scene.motor.stall_torque_nm(v)),
+            sig(v)
+        ));
+    }
+    if req.gear_ratio.is_none() {
+        said.push(format!(
+            "guessed    gear ratio {}, the thesis machine's: give --gear-ratio\n",
+            sig(scene.gearbox.ratio)
+        ));
+    }
+    if battery_v.is_none() {
+        said.push(format!(
+            "guessed    battery {} V, the thesis machine's: give --battery-V\n",
+            sig(scene.battery.open_circuit_v)
+        ));
+    }
+    said
 }
 
 /// What `import ros2` prints: the bag, how each column was made, notes and warnings,

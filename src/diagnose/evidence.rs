@@ -56,6 +56,10 @@ pub(crate) fn describe(e: Effect, v: f64, linear: bool) -> String {
             "wheel geometry other than configured: an effective track of {} (with the wheels' effective rolling radii)",
             crate::numtext::quantity(v, 5, "m")
         ),
+        Effect::BaseLimits => format!(
+            "the base controller's limits: commanded motion beyond them never reached the wheels (yaw rate within {})",
+            crate::numtext::quantity(v, 3, "rad/s")
+        ),
     }
 }
 
@@ -259,6 +263,29 @@ impl Gain {
         Gain {
             delta_aic: likelihood_gain(data, &reference.predicted, reference_n, predicted) - 2.0,
             reduction: 1.0 - rss / reference.rss(),
+        }
+    }
+
+    /// `after` against `before`, two predictions of the same data by models `added`
+    /// parameters apart (no fits: a step found on another model, replayed), residuals
+    /// weighted by `weights`, counted with `before`'s effective residual counts.
+    pub fn of_predictions(
+        data: &Dataset,
+        before: &[Vec<f64>],
+        after: &[Vec<f64>],
+        added: usize,
+        weights: &[f64],
+    ) -> Gain {
+        let rss = |p: &[Vec<f64>]| -> f64 {
+            crate::ident::fit::residuals(data, p, weights)
+                .iter()
+                .map(|r| r * r)
+                .sum()
+        };
+        let n_before = effective_n(data, before);
+        Gain {
+            delta_aic: likelihood_gain(data, before, &n_before, after) - 2.0 * added as f64,
+            reduction: 1.0 - rss(after) / rss(before),
         }
     }
 

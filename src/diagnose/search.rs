@@ -57,6 +57,9 @@ pub(super) fn effect_grid(e: Effect, s: &Scales) -> (Vec<f64>, f64, f64) {
         // Not a fitting model's effect (no model lists it as applicable): its keys are the
         // vehicle's nominal wheel radius and track; the calibration tries it.
         Effect::WheelGeometry => (lin(0.9, 1.1, 11), 0.5, 2.0),
+        // Not a fitting model's effect either: the calibration reads the base
+        // controller's limits off a velocity-commanded recording and fits them.
+        Effect::BaseLimits => (log(0.1, 10.0, 11), 1e-3, 100.0),
     }
 }
 

@@ -20,8 +20,10 @@ fn pct(v: f64) -> Cell {
     })
 }
 
-/// The calibration report.
+/// The calibration report, titled `what` ("Calibration", or "Diagnosis" where
+/// `diagnose --scene` asked the open question through calibrate).
 pub fn calibration(
+    what: &str,
     c: &Calibration,
     scene_path: &str,
     recording_names: &str,
@@ -29,9 +31,7 @@ pub fn calibration(
     text_report: &str,
     command: &str,
 ) -> String {
-    let mut d = Document::new(&format!(
-        "Calibration of {scene_path} against {recording_names}"
-    ));
+    let mut d = Document::new(&format!("{what} of {scene_path} against {recording_names}"));
     d.paragraph(
         &format!(
             "The scene's keys fitted to the recording through the simulator, and the effects the recording shows: mean replay fit {:.1} % with the scene as written, {:.1} % calibrated, over the fitted outputs ({} solver iterations in all stages).",

@@ -38,11 +38,15 @@ pub enum Effect {
     /// odometry and the base controller are configured with (UMBmark's systematic errors:
     /// unequal wheel diameters, an uncertain wheelbase).
     WheelGeometry,
+    /// A velocity-commanded base's controller passes commands within speed and
+    /// acceleration limits (`diff_drive_controller`'s `max_velocity`, `max_acceleration`):
+    /// commanded motion the wheels never reach.
+    BaseLimits,
 }
 
 impl Effect {
     /// The whole vocabulary.
-    pub const ALL: [Effect; 11] = [
+    pub const ALL: [Effect; 12] = [
         Effect::Backlash,
         Effect::CoulombFriction,
         Effect::FrictionAsymmetry,
@@ -54,6 +58,7 @@ impl Effect {
         Effect::SpeedFeedback,
         Effect::CastorDrag,
         Effect::WheelGeometry,
+        Effect::BaseLimits,
     ];
 
     /// The contract's name.
@@ -70,6 +75,7 @@ impl Effect {
             Effect::SpeedFeedback => "speed_feedback",
             Effect::CastorDrag => "castor_drag",
             Effect::WheelGeometry => "wheel_geometry",
+            Effect::BaseLimits => "base_limits",
         }
     }
 
@@ -89,6 +95,7 @@ impl Effect {
             Effect::SpeedFeedback => "integral_gain",
             Effect::CastorDrag => "drag_N",
             Effect::WheelGeometry => "track_m",
+            Effect::BaseLimits => "max_angular_rad_s",
         }
     }
 
@@ -106,6 +113,7 @@ impl Effect {
             Effect::SpeedFeedback => "V/rad",
             Effect::CastorDrag => "N",
             Effect::WheelGeometry => "m",
+            Effect::BaseLimits => "rad/s",
         }
     }
 
@@ -131,6 +139,9 @@ impl Effect {
             Effect::SpeedFeedback => DcmcParams::ki_v_rad.key(),
             Effect::CastorDrag => "castor_drag.drag_N",
             Effect::WheelGeometry => ChassisParams::track_width_m.key(),
+            Effect::BaseLimits => {
+                crate::model::base_controller::BaseParams::max_angular_rad_s.key()
+            }
         }
     }
 

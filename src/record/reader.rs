@@ -76,8 +76,16 @@ fn version_and_rig(
     let rig = meta
         .get("rig")
         .ok_or_else(|| file("missing metadata `# rig: drive_axis` or `# rig: vehicle`".into()))?;
-    RigKind::from_name(rig)
-        .ok_or_else(|| file(format!("rig `{rig}`: expected one of {}", RigKind::names())))
+    match RigKind::from_name(rig) {
+        // A base is a rig file's kind: what it records is a vehicle on the floor.
+        Some(RigKind::Base) => Err(file(format!(
+            "rig `{rig}`: a velocity-commanded base's recordings are `# rig: vehicle` (its rig file says `rig = \"base\"`)"
+        ))),
+        Some(kind) => Ok(kind),
+        None => Err(file(format!(
+            "rig `{rig}`: expected one of drive_axis, vehicle, drive_pair"
+        ))),
+    }
 }
 
 /// The header's column names: `t_s` first, each named once.

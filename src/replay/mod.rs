@@ -22,6 +22,7 @@ use crate::ident::evaluate::fit_pct;
 use crate::record::{vehicle_columns, Recording};
 use crate::rig::RigKind;
 use crate::scene::Scene;
+use crate::sim::reduced::{ReducedBase, ReducedError};
 use crate::sim::{Actuation, Sim, SimError, Snapshot};
 
 /// Most simulator steps a replay runs: 1e8 steps is a day of a recording at the 1 ms
@@ -43,6 +44,14 @@ pub enum ReplayError {
     /// The scene cannot be simulated.
     #[error(transparent)]
     Sim(#[from] SimError),
+    /// The reduced base cannot stand in for the scene or the recording.
+    #[error("{file}: {source}")]
+    Reduced {
+        /// The recording.
+        file: PathBuf,
+        /// Why.
+        source: ReducedError,
+    },
     /// The simulation diverged during the replay.
     #[error("{file}: the simulation diverged at t = {t_s} s of the recording: {source}")]
     Diverged {
@@ -212,11 +221,17 @@ fn recording_err(rec: &Recording, message: String) -> ReplayError {
     }
 }
 
+/// The drive the recording's columns give, voltages first (then demands, then velocity
+/// commands).
+pub fn drive_of(rec: &Recording) -> Result<Drive, ReplayError> {
+    choose_drive(rec)
+}
+
 /// The drive the recording's columns give, voltages first.
 fn choose_drive(rec: &Recording) -> Result<Drive, ReplayError> {
     let candidates: &[Drive] = match rec.rig {
         RigKind::DriveAxis => &[Drive::AxisVoltage, Drive::AxisDemand],
-        RigKind::Vehicle => &[Drive::Voltages, Drive::Demands, Drive::Velocity],
+        RigKind::Vehicle | RigKind::Base => &[Drive::Voltages, Drive::Demands, Drive::Velocity],
         RigKind::DrivePair => &[Drive::Voltages, Drive::Demands],
     };
     candidates
@@ -420,8 +435,85 @@ fn mean_heading(cells: &[Option<f64>]) -> Option<f64> {
     }
 }
 
+/// What a replay runs: the simulator, or the reduced base a fit of a velocity-commanded
+/// recording evaluates ([`crate::sim::reduced`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Engine {
+    /// The simulator at the scene's fidelity.
+    #[default]
+    Simulator,
+    /// The reduced velocity-commanded base: only for a vehicle on the floor driven by
+    /// velocity commands.
+    ReducedBase,
+}
+
+/// The machine a replay steps.
+enum Machine {
+    Full(Box<Sim>),
+    Reduced(Box<ReducedBase>),
+}
+
+impl Machine {
+    fn new(
+        scene: &Scene,
+        rec: &Recording,
+        engine: Engine,
+        coils: bool,
+    ) -> Result<Machine, ReplayError> {
+        Ok(match engine {
+            Engine::Simulator => {
+                let sim = Sim::new(scene)?;
+                // A replay's recorded inputs drive the motors: the wire matters only to coil
+                // readings compared with the recording's.
+                Machine::Full(Box::new(if coils { sim } else { sim.without_coils() }))
+            }
+            Engine::ReducedBase => {
+                Machine::Reduced(Box::new(ReducedBase::new(scene).map_err(|source| {
+                    ReplayError::Reduced {
+                        file: rec.path.clone(),
+                        source,
+                    }
+                })?))
+            }
+        })
+    }
+
+    fn dt_s(&self) -> f64 {
+        match self {
+            Machine::Full(s) => s.params().sim.dt_s,
+            Machine::Reduced(r) => r.dt_s(),
+        }
+    }
+
+    fn step(&mut self) -> Result<(), SimError> {
+        match self {
+            Machine::Full(s) => s.step(),
+            Machine::Reduced(r) => r.step(),
+        }
+    }
+
+    fn snapshot(&self) -> Snapshot {
+        match self {
+            Machine::Full(s) => s.snapshot(),
+            Machine::Reduced(r) => r.snapshot(),
+        }
+    }
+
+    fn set_actuation(&mut self, a: Actuation) {
+        match self {
+            Machine::Full(s) => s.set_actuation(a),
+            Machine::Reduced(r) => r.set_actuation(a),
+        }
+    }
+}
+
 /// Runs the scene's simulator on the recording's inputs and compares its outputs.
 pub fn replay(scene: &Scene, rec: &Recording) -> Result<Replay, ReplayError> {
+    replay_with(scene, rec, Engine::Simulator)
+}
+
+/// [`replay`] on `engine`: the reduced base takes only a vehicle's velocity commands.
+pub fn replay_with(scene: &Scene, rec: &Recording, engine: Engine) -> Result<Replay, ReplayError> {
     if rec.t_s.len() < 2 {
         return Err(recording_err(
             rec,
@@ -429,6 +521,12 @@ pub fn replay(scene: &Scene, rec: &Recording) -> Result<Replay, ReplayError> {
         ));
     }
     let drive = choose_drive(rec)?;
+    if engine == Engine::ReducedBase && drive != Drive::Velocity {
+        return Err(ReplayError::Reduced {
+            file: rec.path.clone(),
+            source: ReducedError::NotABase("the recording is not driven by velocity commands"),
+        });
+    }
     let inputs = held_inputs(rec, drive)?;
     let (chans, not_compared) = channels(rec, drive);
     if chans.is_empty() {
@@ -447,7 +545,7 @@ pub fn replay(scene: &Scene, rec: &Recording) -> Result<Replay, ReplayError> {
     let mut peak_terminal_v = 0.0_f64;
     // Joined tests each start from their own state of rest.
     for rows in rec.segments() {
-        let (part, fault, peak) = simulate_rows(&scene, rec, rows, drive, &inputs, &chans)?;
+        let (part, fault, peak) = simulate_rows(&scene, rec, rows, drive, &inputs, &chans, engine)?;
         peak_terminal_v = peak_terminal_v.max(peak);
         for (all, seg) in simulated.iter_mut().zip(part) {
             all.extend(seg);
@@ -557,6 +655,7 @@ fn simulate_rows(
     drive: Drive,
     inputs: &[Vec<f64>],
     chans: &[Channel],
+    engine: Engine,
 ) -> Result<Segment, ReplayError> {
     let mut scene = scene.clone();
     let seg_inputs: Vec<Vec<f64>> = inputs.iter().map(|c| c[rows.clone()].to_vec()).collect();
@@ -574,13 +673,9 @@ fn simulate_rows(
             scene.start.heading_rad = h;
         }
     }
-    let mut sim = Sim::new(&scene)?;
-    // A replay's recorded inputs drive the motors: the wire matters only to coil
-    // readings compared with the recording's.
-    if !chans.iter().any(|c| c.name.starts_with("sensor_")) {
-        sim = sim.without_coils();
-    }
-    let dt = sim.params().sim.dt_s;
+    let coils = chans.iter().any(|c| c.name.starts_with("sensor_"));
+    let mut sim = Machine::new(&scene, rec, engine, coils)?;
+    let dt = sim.dt_s();
     let t0 = rec.t_s[rows.start];
     let span_s = rec.t_s[rows.end - 1] - t0;
     if !(span_s / dt <= MAX_REPLAY_STEPS) {

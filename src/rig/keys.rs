@@ -5,6 +5,7 @@
 use std::sync::OnceLock;
 
 use super::blocks::{CurrentAmplifier, FallingWeight, Instruments, LinearLoad, PositionLoop};
+use crate::model::base_controller::BaseParams;
 use crate::model::battery::BatteryParams;
 use crate::model::chassis::ChassisParams;
 use crate::model::dcmc::DcmcParams;
@@ -69,7 +70,7 @@ pub mod alias {
 
 /// The rig keys that are scene keys, in the contract's order (a rig is written in it):
 /// each the scene's own key, or the contract's [`alias`] of one.
-const FROM_SCENE: [SceneKey; 20] = [
+const FROM_SCENE: [SceneKey; 28] = [
     SceneKey::Same(MotorParams::resistance_ohm),
     SceneKey::Same(MotorParams::inductance_h),
     SceneKey::Same(MotorParams::torque_constant_nm_a),
@@ -96,6 +97,16 @@ const FROM_SCENE: [SceneKey; 20] = [
     SceneKey::Same(ChassisParams::yaw_inertia_kg_m2),
     SceneKey::Same(ChassisParams::track_width_m),
     SceneKey::Same(ChassisParams::drive_load_fraction),
+    // A velocity-commanded base's (rig kind `base`): its base controller's limits and
+    // configured geometry, its drivers' speed loops.
+    SceneKey::Same(BaseParams::max_linear_m_s),
+    SceneKey::Same(BaseParams::max_linear_accel_m_s2),
+    SceneKey::Same(BaseParams::max_angular_rad_s),
+    SceneKey::Same(BaseParams::max_angular_accel_rad_s2),
+    SceneKey::Same(BaseParams::speed_kp_v_s_rad),
+    SceneKey::Same(BaseParams::speed_ki_v_rad),
+    SceneKey::Same(BaseParams::wheel_radius_m),
+    SceneKey::Same(BaseParams::wheel_separation_m),
 ];
 
 /// A scene key a rig states.

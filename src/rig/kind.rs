@@ -14,11 +14,20 @@ pub enum RigKind {
     /// Two lifted drive axes behind the DCMC, the thesis's random-demand runs
     /// (`drive_pair`, an addition of this project).
     DrivePair,
+    /// A velocity-commanded differential-drive base on the floor, a ROS robot: a vehicle
+    /// whose base controller and drivers' speed loops take `cmd_vel` (`base`, an addition
+    /// of this project; a rig kind only: its recordings are `vehicle` recordings).
+    Base,
 }
 
 impl RigKind {
     /// Every kind, in the order messages list them.
-    pub const ALL: [RigKind; 3] = [RigKind::DriveAxis, RigKind::Vehicle, RigKind::DrivePair];
+    pub const ALL: [RigKind; 4] = [
+        RigKind::DriveAxis,
+        RigKind::Vehicle,
+        RigKind::DrivePair,
+        RigKind::Base,
+    ];
 
     /// The name files use.
     pub fn as_str(self) -> &'static str {
@@ -26,6 +35,7 @@ impl RigKind {
             RigKind::DriveAxis => "drive_axis",
             RigKind::Vehicle => "vehicle",
             RigKind::DrivePair => "drive_pair",
+            RigKind::Base => "base",
         }
     }
 
@@ -56,6 +66,6 @@ mod tests {
             assert_eq!(RigKind::from_name(k.as_str()), Some(k));
         }
         assert_eq!(RigKind::from_name("Vehicle"), None);
-        assert_eq!(RigKind::names(), "drive_axis, vehicle, drive_pair");
+        assert_eq!(RigKind::names(), "drive_axis, vehicle, drive_pair, base");
     }
 }

@@ -8,6 +8,7 @@ pub mod expectation;
 pub mod linearize;
 pub mod metrics;
 mod params;
+pub mod reduced;
 mod snapshot;
 mod step;
 
