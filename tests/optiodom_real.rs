@@ -239,26 +239,18 @@ fn the_open_question_on_a_square_run_names_the_geometry_and_the_base_limits() {
             .any(|l| l.starts_with("base_limits") && l.contains("accepted")),
         "{shown}"
     );
-    let mean = shown
-        .lines()
-        .find(|l| l.starts_with("mean"))
-        .unwrap_or_else(|| panic!("{shown}"));
-    let after: f64 = mean
-        .split("->")
-        .nth(1)
-        .and_then(|s| s.split_whitespace().next())
-        .and_then(|s| s.parse().ok())
-        .unwrap_or_else(|| panic!("{mean}"));
-    assert!(after > 0.0, "{mean}");
-    let validated = shown
-        .lines()
-        .find(|l| l.starts_with("validate"))
-        .unwrap_or_else(|| panic!("{shown}"));
-    let after_other: f64 = validated
-        .split("->")
-        .nth(1)
-        .and_then(|s| s.split_whitespace().next())
-        .and_then(|s| s.parse().ok())
-        .unwrap_or_else(|| panic!("{validated}"));
-    assert!(after_other > 0.0, "{validated}");
+    // `mean  A % -> B % ...` and `validate  NAME: A % -> B %`: the calibrated fit, B.
+    let fit_after = |start: &str| -> f64 {
+        let line = shown
+            .lines()
+            .find(|l| l.starts_with(start))
+            .unwrap_or_else(|| panic!("no {start} line in {shown}"));
+        line.split("->")
+            .nth(1)
+            .and_then(|s| s.split_whitespace().next())
+            .and_then(|s| s.parse().ok())
+            .unwrap_or_else(|| panic!("{line}"))
+    };
+    assert!(fit_after("mean") > 0.0, "{shown}");
+    assert!(fit_after("validate") > 0.0, "{shown}");
 }
