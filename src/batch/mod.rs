@@ -288,6 +288,15 @@ fn diagnose_one(
             value: f.value,
             std: f.std,
         })
+        .chain(d.terms.iter().filter_map(|t| {
+            let (key, value) = t.row.params.first()?;
+            Some(FoundEffect {
+                name: t.row.name.clone(),
+                key: key.clone(),
+                value: value.as_f64()?,
+                std: t.row.std,
+            })
+        }))
         .collect();
     e.params = d.final_params.clone();
     for (k, b) in &d.baseline_at_bound {

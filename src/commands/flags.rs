@@ -58,8 +58,11 @@ pub struct Effects {
     /// transport_delay, speed_feedback, wheel_slip, castor_drag, wheel_geometry,
     /// base_limits): each is
     /// fitted with the machine's keys and kept only where the recording gives evidence for
-    /// it. `all`: every effect the recording and the machine's model can show; `none`: no
-    /// effect.
+    /// it. `all`: every effect the recording and the machine's model can show, and (for
+    /// `diagnose` of a rotary drive axis) the terms outside the vocabulary, searched after
+    /// them (speed_power, periodic_motor_angle, periodic_wheel_angle,
+    /// load_dependent_friction, thermal_drift, current_power, time_drift); named effects
+    /// leave the terms out; `none`: no effect.
     #[arg(
         long = "effects",
         value_delimiter = ',',

@@ -23,6 +23,7 @@ pub mod report;
 mod round;
 mod scales;
 mod search;
+pub mod terms;
 
 use crate::model::motor::MotorParams;
 pub use evidence::relative_errors;
@@ -108,6 +109,8 @@ pub struct Finding {
     /// Other effects this record cannot tell from it: they passed the same rule, and the
     /// evidence for this one is not [`MIN_DELTA_AIC`] stronger.
     pub alternatives: Vec<Alternative>,
+    /// The round (from 1) that accepted it.
+    pub round: usize,
 }
 
 /// An effect a record cannot tell from the one found.
@@ -151,6 +154,12 @@ pub struct Diagnosis {
     pub rounds: Vec<Vec<Candidate>>,
     /// The accepted effects, in the order accepted.
     pub findings: Vec<Finding>,
+    /// Terms outside the vocabulary accepted (each with its round).
+    pub terms: Vec<terms::TermFinding>,
+    /// Each round's search of the terms (`None` where none was run).
+    pub term_rounds: Vec<Option<terms::Search>>,
+    /// Structure the residual keeps that no effect and no term explains, if any.
+    pub unexplained: Option<Unexplained>,
     /// The diagnosed model's normalised fit, %, mean over outputs.
     pub final_fit_pct: f64,
     /// The diagnosed model's parameters by name.
@@ -187,6 +196,18 @@ pub struct Diagnosis {
 }
 
 impl Diagnosis {
+    /// The names of what was found, effects and terms, in the order accepted.
+    pub fn found_names(&self) -> Vec<String> {
+        let mut named: Vec<(usize, String)> = self
+            .findings
+            .iter()
+            .map(|f| (f.round, f.effect.name().to_string()))
+            .chain(self.terms.iter().map(|t| (t.round, t.row.name.clone())))
+            .collect();
+        named.sort_by_key(|(round, _)| *round);
+        named.into_iter().map(|(_, n)| n).collect()
+    }
+
     /// The Coulomb friction diagnosis found, in SysId's terms: the voltage that just
     /// overcomes it, `kS = Tc R / K`, V (with the diagnosed model's K and R).
     pub fn coulomb_as_ks_v(&self) -> Option<f64> {
@@ -204,21 +225,49 @@ impl Diagnosis {
 
     /// The contract's JSON object.
     pub fn contract_json(&self) -> serde_json::Value {
-        let effects: Vec<serde_json::Value> = self
+        let mut effects: Vec<(usize, serde_json::Value)> = self
             .findings
             .iter()
             .map(|f| {
-                serde_json::json!({
-                    "name": f.effect.name(),
-                    "params": { f.param.clone(): f.value },
-                    "std": { f.param.clone(): f.std },
-                    "fit_pct": f.fit_pct,
-                    "evidence": f.evidence,
-                    "description": f.description,
-                    "cannot_be_told_from": f.alternatives,
-                })
+                (
+                    f.round,
+                    serde_json::json!({
+                        "name": f.effect.name(),
+                        "params": { f.param.clone(): f.value },
+                        "std": { f.param.clone(): f.std },
+                        "fit_pct": f.fit_pct,
+                        "evidence": f.evidence,
+                        "description": f.description,
+                        "cannot_be_told_from": f.alternatives,
+                    }),
+                )
             })
             .collect();
+        effects.extend(self.terms.iter().map(|t| {
+            let params: serde_json::Map<String, serde_json::Value> =
+                t.row.params.iter().cloned().collect();
+            let main = t
+                .row
+                .params
+                .first()
+                .map_or(String::new(), |(n, _)| n.clone());
+            (
+                t.round,
+                serde_json::json!({
+                    "name": t.row.name,
+                    "outside_vocabulary": true,
+                    "params": params,
+                    "std": { main: t.row.std },
+                    "fit_pct": t.row.fit_pct,
+                    "evidence": t.evidence,
+                    "description": t.description,
+                    "delta_aic": t.row.delta_aic,
+                    "held_out_reduction_pct": t.row.held_out_reduction_pct,
+                }),
+            )
+        }));
+        effects.sort_by_key(|(round, _)| *round);
+        let effects: Vec<serde_json::Value> = effects.into_iter().map(|(_, e)| e).collect();
         let mut v = serde_json::json!({
             "recording": self.recording,
             "model": self.model,
@@ -242,9 +291,16 @@ impl Diagnosis {
             "where_before": self.where_before,
             "where_after": self.where_after,
             "candidates": self.rounds,
+            "term_candidates": self.term_rounds.iter().map(|r| r.as_ref().map(|s| serde_json::json!({
+                "screened": s.screened,
+                "fitted": s.fitted,
+            }))).collect::<Vec<_>>(),
             "effective_n": self.effective_n,
             "relative_error_pct": {"baseline": self.relative_error_before_pct, "final": self.relative_error_after_pct},
         });
+        if let Some(u) = &self.unexplained {
+            v["unexplained"] = serde_json::json!(u);
+        }
         if let Some(ff) = &self.feedforward {
             v["sysid_feedforward"] = serde_json::json!(ff);
             if let Some(ks) = self.coulomb_as_ks_v() {
@@ -324,6 +380,13 @@ pub fn diagnose(
     let model = structure.model();
     let (data, left_out) = crate::ident::dataset_for(model, rec)?;
     check_decidable(&data, rec)?;
+    // A rotary axis carries the measured angle's line beside its input, for a periodic
+    // term (fitted on the angle the encoder measured); the other models read their own
+    // inputs first and leave it.
+    let data = match &structure {
+        Structure::Rotary(_) => data.with_measured_angle().unwrap_or(data),
+        _ => data,
+    };
     let free = model.default_free_for(&data);
     crate::ident::enough_data(rec, &data, free.len())?;
     let base_fit = fit_structure(model, &data, &free, &opts.ident, &model.nominal())
@@ -351,7 +414,7 @@ pub fn diagnose(
         linear: matches!(structure, Structure::Linear(_)),
         tell: &tell,
     };
-    let (stage, rounds, findings) = rounds_of.run(
+    let mut outcome = rounds_of.run(
         Stage {
             structure: structure.clone(),
             fit: base_fit.clone(),
@@ -360,6 +423,7 @@ pub fn diagnose(
         &scales,
         opts,
     );
+    let stage = outcome.stage.take().expect("the rounds end on a stage");
     let validation = validation
         .map(|v| validate(&structure, &base_fit, &stage, v, opts.ident.max_lag))
         .transpose()?;
@@ -375,8 +439,10 @@ pub fn diagnose(
         stage,
         Found {
             regimes: &regs,
-            rounds,
-            findings,
+            rounds: outcome.rounds,
+            findings: outcome.findings,
+            terms: outcome.terms,
+            term_rounds: outcome.term_rounds,
             left_out,
             validation,
             max_lag: opts.ident.max_lag,
@@ -455,6 +521,8 @@ struct Found<'a> {
     regimes: &'a [regimes::Regime],
     rounds: Vec<Vec<Candidate>>,
     findings: Vec<Finding>,
+    terms: Vec<terms::TermFinding>,
+    term_rounds: Vec<Option<terms::Search>>,
     left_out: Vec<crate::ident::LeftOut>,
     validation: Option<(Evaluation, Evaluation)>,
     max_lag: usize,
@@ -474,6 +542,10 @@ fn report_of(
         regimes::energy_per_sample(data, &stage.fit.predicted, &base_fit.weighting.outputs);
     let base_total_energy: f64 = base.energy.iter().sum();
     let diagnosed_eval = evaluate(data, stage.fit.predicted.clone(), found.max_lag);
+    let unexplained = unexplained(
+        &found,
+        &regimes::shares(found.regimes, &final_energy, final_energy.iter().sum()),
+    );
     let params_of = |s: &Structure, p: &[f64]| -> BTreeMap<String, f64> {
         let m = s.model();
         m.params()
@@ -530,6 +602,9 @@ fn report_of(
         ),
         where_before: regimes::shares(found.regimes, base.energy, base_total_energy),
         where_after: regimes::shares(found.regimes, &final_energy, base_total_energy),
+        unexplained,
+        terms: found.terms,
+        term_rounds: found.term_rounds,
         rounds: found.rounds,
         final_fit_pct: diagnosed_eval.fit_pct_mean,
         final_params,
@@ -539,6 +614,54 @@ fn report_of(
         diagnosed: diagnosed_eval,
         validation: found.validation,
     }
+}
+
+/// Structure the residual keeps that no effect and no term explains.
+#[derive(Debug, Clone, Serialize)]
+pub struct Unexplained {
+    /// Share of the diagnosed model's residual that the best screened term, though it
+    /// failed the rules, removed on the held-out time blocks, %: what a model could still
+    /// gain.
+    pub fit_gap_pct: f64,
+    /// Where: the regime the residual concentrates in and the quantity it correlates with.
+    #[serde(rename = "where")]
+    pub where_: String,
+}
+
+/// Share of the held-out residual a screened term must remove, unaccepted, for the
+/// diagnosis to say structure remains unexplained.
+pub const UNEXPLAINED_HELD_OUT: f64 = 2.0 * MIN_RSS_REDUCTION;
+
+/// Structure left unexplained: the last round accepted nothing, and its term screen still
+/// found a quantity the residual follows on the held-out blocks.
+fn unexplained(found: &Found, final_shares: &[RegimeShare]) -> Option<Unexplained> {
+    let accepted = found.findings.len() + found.terms.len();
+    if accepted >= found.rounds.len() {
+        return None;
+    }
+    let search = found.term_rounds.last()?.as_ref()?;
+    let top = search.screened.first()?;
+    if top.held_out_reduction_pct < 100.0 * UNEXPLAINED_HELD_OUT {
+        return None;
+    }
+    let regime = final_shares
+        .iter()
+        .filter(|s| s.concentration() > 1.5)
+        .max_by(|a, b| a.concentration().total_cmp(&b.concentration()))
+        .map_or("spread over the record".to_string(), |s| {
+            format!(
+                "{:.0}% of it in the {:.0}% of samples {}",
+                s.energy_pct, s.samples_pct, s.regime
+            )
+        });
+    let quantity = crate::model::term::Family::from_name(top.family).map_or("", |f| f.quantity());
+    Some(Unexplained {
+        fit_gap_pct: top.held_out_reduction_pct,
+        where_: format!(
+            "the residual lies {regime}; it follows the {quantity} most ({} at order {}), which no family explains by the rules",
+            top.family, top.order
+        ),
+    })
 }
 
 /// Refuses records that cannot support a decision. An input is excited when it takes at

@@ -19,17 +19,11 @@ pub fn figures(d: &Diagnosis) -> std::io::Result<Vec<Figure>> {
         return Err(std::io::Error::other("the diagnosis holds no data to plot"));
     };
     let mut files = Vec::new();
-    let name_of_final = if d.findings.is_empty() {
+    let found = d.found_names();
+    let name_of_final = if found.is_empty() {
         "diagnosed (= baseline)".to_string()
     } else {
-        format!(
-            "diagnosed (+ {})",
-            d.findings
-                .iter()
-                .map(|f| f.effect.name())
-                .collect::<Vec<_>>()
-                .join(", ")
-        )
+        format!("diagnosed (+ {})", found.join(", "))
     };
     let breaks = data.segment_start_times();
     for (j, name) in data.output_names.iter().enumerate() {

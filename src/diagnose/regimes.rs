@@ -131,6 +131,9 @@ pub fn regimes(data: &Dataset, speed: &[f64]) -> Vec<Regime> {
         });
     }
     for (i, name) in data.input_names.iter().enumerate() {
+        if crate::ident::data::is_derived_input(name) {
+            continue;
+        }
         let u = &data.inputs[i];
         let umax = u.iter().map(|v| v.abs()).fold(0.0, f64::max);
         if umax == 0.0 {

@@ -23,6 +23,7 @@ pub fn render(d: &Diagnosis) -> String {
     let mut s = String::new();
     baseline_lines(&mut s, d);
     candidate_lines(&mut s, d);
+    term_lines(&mut s, d);
     stop_line(&mut s, d);
     finding_lines(&mut s, d);
     uncertainty_line(&mut s, d);
@@ -79,7 +80,11 @@ fn candidate_lines(s: &mut String, d: &Diagnosis) {
             i + 1,
             d.effective_n
         );
-        let taken = d.findings.get(i).map(|f| f.effect.name());
+        let taken = d
+            .findings
+            .iter()
+            .find(|f| f.round == i + 1)
+            .map(|f| f.effect.name());
         for c in round {
             let value = format!(
                 "{} = {}",
@@ -98,10 +103,87 @@ fn candidate_lines(s: &mut String, d: &Diagnosis) {
     }
 }
 
+/// Each round's terms outside the vocabulary: the best screens (held-out share removed)
+/// and the forms fitted, with their verdicts.
+fn term_lines(s: &mut String, d: &Diagnosis) {
+    for (i, search) in d.term_rounds.iter().enumerate() {
+        let Some(search) = search else { continue };
+        let _ = writeln!(
+            s,
+            "Terms outside the vocabulary, round {} ({} forms screened; share of the held-out blocks' residual each removes):",
+            i + 1,
+            search.screened.len()
+        );
+        for t in search.screened.iter().take(4) {
+            let order = if t.drifting.is_empty() {
+                format!("order {}", t.order)
+            } else {
+                t.drifting.to_string()
+            };
+            let _ = writeln!(
+                s,
+                "  {:<24} {order:<24} held out {:>6.1} %",
+                t.family, t.held_out_reduction_pct
+            );
+        }
+        for t in &search.fitted {
+            let verdict = if t.significant {
+                "passes"
+            } else if t.at_bound {
+                "a coefficient at a bound of its search: no estimate"
+            } else if t.undetermined {
+                "not determined by the record"
+            } else {
+                "below the rule"
+            };
+            let _ = writeln!(
+                s,
+                "  fitted {:<17} RSS {:>8}  dAIC {:9.1}  {verdict}",
+                t.name,
+                change_pct(-t.rss_reduction_pct),
+                t.delta_aic
+            );
+        }
+    }
+}
+
 /// The effects found (or that nothing is missing) and the diagnosed model's fit.
 fn finding_lines(s: &mut String, d: &Diagnosis) {
-    if d.findings.is_empty() {
+    if d.findings.is_empty() && d.terms.is_empty() {
         let _ = writeln!(s, "Verdict: nothing is missing; no effect explains enough of the residual to be told from noise.");
+    }
+    for t in &d.terms {
+        let (main, value) = t
+            .row
+            .params
+            .first()
+            .map_or((String::new(), f64::NAN), |(n, v)| {
+                (n.clone(), v.as_f64().unwrap_or(f64::NAN))
+            });
+        let sd = t
+            .row
+            .std
+            .map_or(String::new(), |sd| format!(" ± {}", sig(sd, 2)));
+        let _ = writeln!(
+            s,
+            "Found outside the vocabulary: {} — {} ({main} = {}{sd})",
+            t.row.name,
+            t.description,
+            sig(value, 4)
+        );
+        let _ = writeln!(s, "  evidence: {}", t.evidence);
+        let _ = writeln!(
+            s,
+            "  fit {:.2} % -> {:.2} %",
+            d.baseline_fit_pct, t.row.fit_pct
+        );
+    }
+    if let Some(u) = &d.unexplained {
+        let _ = writeln!(
+            s,
+            "Unexplained: structure remains that no effect and no family explains ({:.1} % of the held-out residual follows a quantity): {}",
+            u.fit_gap_pct, u.where_
+        );
     }
     for f in &d.findings {
         let _ = writeln!(
@@ -126,7 +208,7 @@ fn finding_lines(s: &mut String, d: &Diagnosis) {
         }
         let _ = writeln!(s, "  fit {:.2} % -> {:.2} %", d.baseline_fit_pct, f.fit_pct);
     }
-    if !d.findings.is_empty() {
+    if !d.findings.is_empty() || !d.terms.is_empty() {
         let _ = writeln!(
             s,
             "Diagnosed model: fit {:.2} %{}",
@@ -201,7 +283,11 @@ fn stop_line(s: &mut String, d: &Diagnosis) {
     if d.rounds.len() < ROUNDS {
         return;
     }
-    let taken = d.findings.get(ROUNDS - 1).map(|f| f.effect.name());
+    let taken = d
+        .findings
+        .iter()
+        .find(|f| f.round == ROUNDS)
+        .map(|f| f.effect.name());
     let left: Vec<&str> = d.rounds[ROUNDS - 1]
         .iter()
         .filter(|c| c.significant && Some(c.name.as_str()) != taken)

@@ -9,15 +9,28 @@ use rayon::prelude::*;
 use super::evidence::{self, describe, effective_n, Gain};
 use super::scales::Scales;
 use super::{
-    candidate, regimes, Alternative, Candidate, DiagnoseOptions, Finding, Stage, MIN_DELTA_AIC,
+    candidate, regimes, terms, Alternative, Candidate, DiagnoseOptions, Finding, Stage,
+    MIN_DELTA_AIC,
 };
 use crate::ident::data::Dataset;
+use crate::ident::effects::Choice;
 use crate::ident::effects::Effect;
 use crate::ident::fit::Fit;
 use crate::ident::Structure;
 
 /// A significant candidate: its AIC gain, the effect, and the structure and fit with it.
 pub(super) type Significant = (f64, Effect, Structure, Fit);
+
+/// What the rounds found: the last stage, every round's table of effects and of terms,
+/// the effects and the terms accepted (each with its round).
+#[derive(Default)]
+pub(super) struct Outcome {
+    pub stage: Option<Stage>,
+    pub rounds: Vec<Vec<Candidate>>,
+    pub term_rounds: Vec<Option<terms::Search>>,
+    pub findings: Vec<Finding>,
+    pub terms: Vec<terms::TermFinding>,
+}
 
 /// What every round of one diagnosis shares: the record, the baseline's residual energy
 /// by regime, and how progress is told.
@@ -41,23 +54,22 @@ impl Rounds<'_> {
         free: &[usize],
         scales: &Scales,
         opts: &DiagnoseOptions,
-    ) -> (Stage, Vec<Vec<Candidate>>, Vec<Finding>) {
+    ) -> Outcome {
         let data = self.data;
         let explore = data.prefix(candidate::exploration_rows(data.len()));
         let beliefs = stage.structure.model().nominal();
         let weights = stage.fit.weighting.clone();
         let applicable = stage.structure.applicable();
-        let mut findings: Vec<Finding> = Vec::new();
+        let mut out = Outcome::default();
         // The regimes the findings' evidence named, with their effects: the next names
         // another.
         let mut named: Vec<(String, &str)> = Vec::new();
-        let mut rounds = Vec::new();
         for round_no in 1..=super::ROUNDS {
             let stage_n = effective_n(data, &stage.fit.predicted);
             let candidates: Vec<Effect> = applicable
                 .iter()
                 .copied()
-                .filter(|e| !findings.iter().any(|f| f.effect == *e))
+                .filter(|e| !out.findings.iter().any(|f| f.effect == *e))
                 .filter(|e| opts.effects.admits(*e))
                 .collect();
             let context = candidate::Context {
@@ -88,20 +100,87 @@ impl Rounds<'_> {
             let best =
                 candidate::earned_beyond_the_stage(&context, data, &mut significants, &mut round);
             round.sort_by(|a, b| b.delta_aic.total_cmp(&a.delta_aic));
+            let search = (opts.effects == Choice::All)
+                .then(|| {
+                    let tell = |m: String| (self.tell)(format!("round {round_no}: terms: {m}"));
+                    terms::search(data, &stage, &stage_n, opts.ident.max_iterations, &tell)
+                })
+                .flatten();
+            let term = search.as_ref().and_then(|s| s.best.clone());
+            out.term_rounds.push(search);
+            // A vocabulary effect that explains the residual keeps its name: a term wins
+            // a round only by more evidence than the best effect's, by the rule's margin.
+            let term_wins = match (&term, &best) {
+                (Some(t), Some(b)) => t.gain.delta_aic > b.0 + MIN_DELTA_AIC,
+                (Some(_), None) => true,
+                (None, _) => false,
+            };
+            if let (true, Some(t)) = (term_wins, term) {
+                out.terms.push(self.term_finding(
+                    &stage,
+                    &t,
+                    round_no,
+                    &weights.outputs,
+                    &mut named,
+                ));
+                out.rounds.push(round);
+                stage = Stage {
+                    structure: t.structure,
+                    fit: t.fit,
+                };
+                continue;
+            }
             let Some(best) = best else {
-                rounds.push(round);
+                out.rounds.push(round);
                 break;
             };
-            findings.push(self.finding(&stage, &best, &round, &weights.outputs, &mut named));
-            rounds.push(round);
+            let mut finding = self.finding(&stage, &best, &round, &weights.outputs, &mut named);
+            finding.round = round_no;
+            out.findings.push(finding);
+            out.rounds.push(round);
             let (_, _, cand, f) = best;
             stage = Stage {
                 structure: cand,
                 fit: f,
             };
         }
-        (stage, rounds, findings)
+        out.stage = Some(stage);
+        out
     }
+
+    /// An accepted term as a finding: where the residual it removes lay.
+    fn term_finding(
+        &self,
+        stage: &Stage,
+        t: &terms::Fitted,
+        round: usize,
+        weights_outputs: &[f64],
+        named: &mut Vec<(String, &'static str)>,
+    ) -> terms::TermFinding {
+        let after = regimes::energy_per_sample(self.data, &t.fit.predicted, weights_outputs);
+        let removed: Vec<f64> = self
+            .base_energy
+            .iter()
+            .zip(&after)
+            .map(|(a, b)| (a - b).max(0.0))
+            .collect();
+        let (evidence, regime) = evidence::evidence(
+            &regimes::shares(self.regimes, &removed, removed.iter().sum()),
+            100.0 * (1.0 - t.fit.rss() / stage.fit.rss()),
+            named,
+        );
+        named.extend(regime.map(|r| (r, t.form.family.name())));
+        terms::TermFinding {
+            evidence: format!(
+                "{evidence}; on the held-out half of the record's time blocks it removed {:.0}% of the residual",
+                t.row.held_out_reduction_pct
+            ),
+            description: terms::describe(&t.row),
+            row: t.row.clone(),
+            round,
+        }
+    }
+
     /// Fits every candidate in parallel from the stage `context` holds, telling each as it
     /// finishes; in the candidates' order.
     pub fn fit_all(
@@ -237,6 +316,7 @@ impl Rounds<'_> {
             evidence,
             description: describe(*e, f.params[idx], self.linear),
             alternatives,
+            round: 0,
         }
     }
 }

@@ -169,6 +169,29 @@ fn changes_table(d: &mut Document, c: &Calibration) {
     }
 }
 
+/// The terms outside the vocabulary a diagnosis found, and what it left unexplained.
+fn terms_found(d: &mut Document, diag: &crate::diagnose::Diagnosis) {
+    for t in &diag.terms {
+        d.paragraph(
+            &format!(
+                "{} (outside the vocabulary) — {}",
+                t.row.name, t.description
+            ),
+            "bad",
+        );
+        d.paragraph(&format!("Evidence: {}", t.evidence), "");
+    }
+    if let Some(u) = &diag.unexplained {
+        d.paragraph(
+            &format!(
+                "Unexplained: structure remains that no effect and no family of terms explains ({:.1} % of the held-out residual): {}",
+                u.fit_gap_pct, u.where_
+            ),
+            "bad",
+        );
+    }
+}
+
 /// The diagnosis report.
 pub fn diagnosis(
     diag: &Diagnosis,
@@ -188,7 +211,8 @@ pub fn diagnosis(
     d.heading("The recording");
     d.recording(recording_names, rec);
     d.heading("Found");
-    if diag.findings.is_empty() {
+    terms_found(&mut d, diag);
+    if diag.findings.is_empty() && diag.terms.is_empty() {
         d.paragraph(
             "Nothing is missing: no effect explains enough of the residual to be told from noise.",
             "good",

@@ -85,7 +85,8 @@ impl Dataset {
         crate::record::segment_ranges(&self.segment_starts, self.len())
     }
 
-    /// Picks the model's inputs (all required, complete) and those of its outputs the
+    /// Picks the model's inputs (all required, complete; the measured angle's line,
+    /// [`MEASURED_ANGLE_INTERCEPT`] and [`MEASURED_ANGLE_RATE`], made from the record) and those of its outputs the
     /// recording has (at least one, with at least two measured cells).
     pub fn from_recording(
         rec: &Recording,
@@ -103,7 +104,10 @@ impl Dataset {
         }
         let input_cols = inputs
             .iter()
-            .map(|n| rec.require_complete(n))
+            .map(|n| match measured_angle_line(rec, n) {
+                Some(line) => line,
+                None => rec.require_complete(n),
+            })
             .collect::<Result<Vec<_>, _>>()?;
         let mut output_names = Vec::new();
         let mut output_cols = Vec::new();
@@ -228,4 +232,97 @@ pub fn ignored_inputs(rec: &Recording, used: &[String]) -> Vec<String> {
         .filter(|n| CONTRACT_INPUTS.contains(&n.as_str()) && !used.contains(n))
         .cloned()
         .collect()
+}
+
+/// Derived input: the intercept `a_k` of the measured motor angle's line over the interval
+/// from row k to the next, `theta(t) = a_k + b_k t` (rad; t the record's time in s). A
+/// term that depends on where the shaft is (a periodic torque) is fitted with the angle
+/// the encoder measured: a model's own angle drifts from it by its speed error, which over
+/// a thousand radians of travel scrambles any phase.
+pub const MEASURED_ANGLE_INTERCEPT: &str = "measured_motor_angle_intercept_rad";
+/// Derived input: the slope `b_k` of that line (rad/s).
+pub const MEASURED_ANGLE_RATE: &str = "measured_motor_angle_rate_rad_s";
+
+/// Whether an input is derived from the record's outputs (no command: no regime of its
+/// own, nothing to excite).
+pub fn is_derived_input(name: &str) -> bool {
+    name == MEASURED_ANGLE_INTERCEPT || name == MEASURED_ANGLE_RATE
+}
+
+/// The measured angle's line, if `name` is one of its derived inputs (see
+/// [`angle_line`]); an error where the record has neither an angle nor a speed.
+fn measured_angle_line(rec: &Recording, name: &str) -> Option<Result<Vec<f64>, RecordingError>> {
+    if name != MEASURED_ANGLE_INTERCEPT && name != MEASURED_ANGLE_RATE {
+        return None;
+    }
+    let angle = rec.require_complete("motor_angle_rad").ok();
+    let line = angle_line(&rec.t_s, angle.as_deref(), rec.column("motor_speed_rad_s"));
+    Some(match line {
+        Some((a, b)) => Ok(if name == MEASURED_ANGLE_RATE { b } else { a }),
+        None => Err(RecordingError::File {
+            file: rec.path.clone(),
+            message: format!(
+                "{name}: a term of the motor angle needs motor_angle_rad or motor_speed_rad_s"
+            ),
+        }),
+    })
+}
+
+/// The measured motor angle's line over each sample interval, `theta(t) = a_k + b_k t`
+/// (intercepts, slopes): from a recorded angle, or the motor speed integrated (an
+/// encoder's speed is the count difference over the interval ending at its row, so the
+/// integral is exact to a count), zero at the first row. `None` without either.
+pub fn angle_line(
+    t: &[f64],
+    angle: Option<&[f64]>,
+    speed: Option<&[Option<f64>]>,
+) -> Option<(Vec<f64>, Vec<f64>)> {
+    let n = t.len();
+    if n < 2 {
+        return None;
+    }
+    let angle: Vec<f64> = match (angle, speed) {
+        (Some(a), _) => a.to_vec(),
+        (None, Some(speed)) => {
+            let mut theta = vec![0.0; n];
+            let mut last = 0.0;
+            for k in 1..n {
+                last = speed[k].unwrap_or(last);
+                theta[k] = theta[k - 1] + last * (t[k] - t[k - 1]);
+            }
+            theta
+        }
+        (None, None) => return None,
+    };
+    let slope: Vec<f64> = (0..n)
+        .map(|k| {
+            let k = k.min(n - 2);
+            (angle[k + 1] - angle[k]) / (t[k + 1] - t[k])
+        })
+        .collect();
+    let intercept = (0..n).map(|k| angle[k] - slope[k] * t[k]).collect();
+    Some((intercept, slope))
+}
+
+impl Dataset {
+    /// This record with the measured angle's line as two more inputs
+    /// ([`MEASURED_ANGLE_INTERCEPT`], [`MEASURED_ANGLE_RATE`]), from its motor angle or
+    /// motor speed output; `None` where it has neither.
+    pub fn with_measured_angle(&self) -> Option<Dataset> {
+        let out = |name: &str| self.output_index(name).map(|j| &self.outputs[j]);
+        let angle: Option<Vec<f64>> =
+            out("motor_angle_rad").and_then(|c| c.iter().copied().collect());
+        let (a, b) = angle_line(
+            &self.t_s,
+            angle.as_deref(),
+            out("motor_speed_rad_s").map(|c| c.as_slice()),
+        )?;
+        let mut d = self.clone();
+        d.input_names.extend([
+            MEASURED_ANGLE_INTERCEPT.to_string(),
+            MEASURED_ANGLE_RATE.to_string(),
+        ]);
+        d.inputs.extend([a, b]);
+        Some(d)
+    }
 }

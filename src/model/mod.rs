@@ -13,6 +13,7 @@ pub mod gearbox;
 pub mod manoeuvre;
 pub mod motor;
 pub mod speed_loop;
+pub mod term;
 pub mod tyre;
 pub mod tyre_presets;
 pub mod wheel;

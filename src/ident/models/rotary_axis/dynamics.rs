@@ -9,6 +9,7 @@ use crate::model::drivetrain::{DrivetrainParams, DrivetrainState};
 use crate::model::gearbox::GearboxParams;
 use crate::model::motor::{MotorParams, MotorState};
 use crate::model::speed_loop::SpeedLoopGains;
+use crate::model::term::{self, TermParams};
 use crate::model::wheel::WheelParams;
 use crate::model::Bounded;
 
@@ -34,6 +35,9 @@ pub struct AxisBlocks {
     pub supply: SupplyBlocks,
     /// Mechanical time constant of the motor and wheel, s.
     pub mechanical_time_constant_s: f64,
+    /// The term outside the vocabulary, when one is on (its family's coefficients; the
+    /// others zero).
+    pub term: Option<TermParams>,
 }
 
 /// The states of the drive train, named: `[current, motor speed, motor angle, wheel speed,
@@ -91,6 +95,10 @@ pub(crate) fn drivetrain_blocks(
 
 /// Where the speed loop's integral is kept.
 const SPEED_LOOP_INTEGRAL: usize = 5;
+/// Where the thermal-drift term's heat (the squared current low-passed, A^2) is kept.
+const HEAT: usize = 6;
+/// Where the time since the record's start is kept (a time-drift term's clock), s.
+const CLOCK: usize = 7;
 
 impl RotaryAxis {
     /// The blocks of the declared parameters `a`.
@@ -123,6 +131,7 @@ impl RotaryAxis {
                 self.supply_v,
             ),
             mechanical_time_constant_s: self.mechanical_time_constant_s(a),
+            term: self.term.map(|_| a.term),
         }
     }
 
@@ -158,6 +167,36 @@ impl RotaryAxis {
             Some(_) => x[3],
             None => x[1] / self.ratio,
         }
+    }
+}
+
+impl RotaryAxis {
+    /// The drive's own input: the voltage, the demand or the torque command (or the
+    /// position loop's reference).
+    fn drive_input_names(&self) -> Vec<String> {
+        match self.input {
+            AxisInput::Voltage => vec!["voltage_V".into()],
+            AxisInput::Demand => vec!["demand_pct".into()],
+            AxisInput::Torque(TorqueCommand {
+                feedback: None,
+                column,
+                ..
+            }) => {
+                vec![column.into()]
+            }
+            AxisInput::Torque(_) => vec!["reference_rad".into()],
+        }
+    }
+
+    /// Whether a periodic term is on, fitted on the measured angle.
+    pub fn measured_angle(&self) -> bool {
+        self.term.is_some_and(|t| {
+            matches!(
+                t.family,
+                crate::model::term::Family::PeriodicMotorAngle
+                    | crate::model::term::Family::PeriodicWheelAngle
+            )
+        })
     }
 }
 
@@ -226,18 +265,14 @@ impl GreyBox for RotaryAxis {
     }
 
     fn input_names(&self) -> Vec<String> {
-        match self.input {
-            AxisInput::Voltage => vec!["voltage_V".into()],
-            AxisInput::Demand => vec!["demand_pct".into()],
-            AxisInput::Torque(TorqueCommand {
-                feedback: None,
-                column,
-                ..
-            }) => {
-                vec![column.into()]
-            }
-            AxisInput::Torque(_) => vec!["reference_rad".into()],
+        let mut names = self.drive_input_names();
+        if self.measured_angle() {
+            names.extend([
+                crate::ident::data::MEASURED_ANGLE_INTERCEPT.to_string(),
+                crate::ident::data::MEASURED_ANGLE_RATE.to_string(),
+            ]);
         }
+        names
     }
 
     fn output_names(&self) -> Vec<String> {
@@ -291,10 +326,11 @@ impl Dynamics for RotaryAxis {
         };
     }
 
-    /// Current, motor speed, motor angle, wheel speed and angle (backlash block), and the
-    /// speed-loop integral (speed-feedback block).
+    /// Current, motor speed, motor angle, wheel speed and angle (backlash block), the
+    /// speed-loop integral (speed-feedback block), the heat (thermal-drift term) and the
+    /// time since the record's start (time-drift term).
     fn n_states(&self) -> usize {
-        6
+        8
     }
 
     fn initial_state(&self, _b: &AxisBlocks, data: &Dataset) -> Vec<f64> {
@@ -305,7 +341,9 @@ impl Dynamics for RotaryAxis {
                     .map(|a| a * self.ratio)
             })
             .unwrap_or(0.0);
-        vec![0.0, 0.0, angle, 0.0, angle / self.ratio, 0.0]
+        // The clock reads the record's time (a time drift's, the measured angle's line's).
+        let t0 = data.t_s.first().copied().unwrap_or(0.0);
+        vec![0.0, 0.0, angle, 0.0, angle / self.ratio, 0.0, 0.0, t0]
     }
 
     fn max_step_s(&self, b: &AxisBlocks) -> f64 {
@@ -348,6 +386,20 @@ impl Dynamics for RotaryAxis {
         let s = drivetrain_state(x);
         let (v, integral_rate) = self.terminal_voltage(b, &s, x[SPEED_LOOP_INTEGRAL], u[0]);
         dx[SPEED_LOOP_INTEGRAL] = integral_rate;
+        dx[CLOCK] = 1.0;
+        // A term that changes the motor (heat, a drift, a falling torque constant) does so
+        // before the armature and the rotor are evaluated.
+        let motor = match &b.term {
+            Some(t) => {
+                dx[HEAT] =
+                    term::heat_rate_a2_s(x[HEAT], s.motor.current_a, t.thermal_time_constant_s);
+                t.motor_at(&d.motor, s.motor.current_a, x[HEAT], x[CLOCK])
+            }
+            None => {
+                dx[HEAT] = 0.0;
+                d.motor
+            }
+        };
         let w = s.motor.speed_rad_s;
         let motor_torque = match self.input {
             AxisInput::Torque(c) => {
@@ -356,26 +408,50 @@ impl Dynamics for RotaryAxis {
                 Self::commanded_torque(&c, command)
             }
             AxisInput::Voltage | AxisInput::Demand => {
-                dx[0] = d.motor.current_rate_a_s(v, s.motor.current_a, w);
-                d.motor.electromagnetic_torque_nm(s.motor.current_a)
+                dx[0] = motor.current_rate_a_s(v, s.motor.current_a, w);
+                motor.electromagnetic_torque_nm(s.motor.current_a)
             }
         };
         let eps = self.coulomb_eps_rad_s;
+        // The term's torques: motor-side (a periodic torque, friction as a share of the
+        // torque carried) and wheel-side (drag, a periodic torque), N m.
+        let (motor_side, wheel_side) = match &b.term {
+            Some(t) => {
+                // A periodic term is fitted on the angle the encoder measured (its line
+                // over the sample interval, inputs 1 and 2), the others on the model's own.
+                let (motor_angle, wheel_angle) = if self.measured_angle() {
+                    let a = u[1] + u[2] * x[CLOCK];
+                    (a, a / self.ratio)
+                } else {
+                    (s.motor.angle_rad, s.wheel_angle_rad)
+                };
+                (
+                    t.motor_side_torque_nm(motor_angle)
+                        + term::load_friction_torque_nm(
+                            t.load_friction_ratio,
+                            motor_torque,
+                            w,
+                            eps,
+                        ),
+                    t.wheel_side_torque_nm(wheel_angle, self.wheel_speed(x)),
+                )
+            }
+            None => (0.0, 0.0),
+        };
         if b.play {
             let n = d.gearbox.ratio;
             let tooth = d.tooth_torque_nm(&s);
-            let driving = d.motor.driving_torque_nm(motor_torque, tooth / n);
-            dx[1] = d
-                .motor
-                .rotor_acceleration_rad_s2(driving, w, eps, d.motor.rotor_inertia_kg_m2);
+            let driving = motor.driving_torque_nm(motor_torque + motor_side, tooth / n);
+            dx[1] = motor.rotor_acceleration_rad_s2(driving, w, eps, motor.rotor_inertia_kg_m2);
             let ww = s.wheel_speed_rad_s;
-            dx[3] = (tooth - d.wheel_bearing_torque_nm(ww)) / d.wheel.inertia_kg_m2;
+            dx[3] = (tooth - d.wheel_bearing_torque_nm(ww) + wheel_side) / d.wheel.inertia_kg_m2;
             dx[4] = ww;
         } else {
-            let driving = d.motor.driving_torque_nm(motor_torque, 0.0);
+            let driving =
+                motor.driving_torque_nm(motor_torque + motor_side + wheel_side / self.ratio, 0.0);
             let inertia =
-                d.motor.rotor_inertia_kg_m2 + d.wheel.inertia_kg_m2 / (self.ratio * self.ratio);
-            dx[1] = d.motor.rotor_acceleration_rad_s2(driving, w, eps, inertia);
+                motor.rotor_inertia_kg_m2 + d.wheel.inertia_kg_m2 / (self.ratio * self.ratio);
+            dx[1] = motor.rotor_acceleration_rad_s2(driving, w, eps, inertia);
             dx[3] = 0.0;
             dx[4] = w / self.ratio;
         }

@@ -24,6 +24,7 @@ use crate::model::battery::BatteryParams;
 use crate::model::dcmc::DcmcParams;
 use crate::model::gearbox::GearboxParams;
 use crate::model::motor::MotorParams;
+use crate::model::term::{Drifting, Family, TermParams};
 use crate::model::wheel::WheelParams;
 use crate::param::KeyTable;
 use crate::rig::{Rig, RigError};
@@ -168,6 +169,8 @@ pub struct AxisParams {
     pub battery: BatteryParams,
     /// The backlash block's share of the viscous friction at the wheel.
     pub play: PlayShare,
+    /// The terms outside the vocabulary (all off unless a diagnosis tries one).
+    pub term: TermParams,
 }
 
 /// The rotary axis's keys.
@@ -181,6 +184,7 @@ pub fn axis_keys() -> &'static KeyTable<AxisParams> {
             .block(|a| &a.dcmc, |a| &mut a.dcmc)
             .block(|a| &a.battery, |a| &mut a.battery)
             .block(|a| &a.play, |a| &mut a.play)
+            .block(|a| &a.term, |a| &mut a.term)
     })
 }
 
@@ -202,6 +206,7 @@ fn without_effects() -> AxisParams {
         dcmc: DcmcParams::default(),
         battery: BatteryParams::default(),
         play: PlayShare::default(),
+        term: TermParams::default(),
     }
 }
 
@@ -270,6 +275,139 @@ pub struct RotaryAxis {
     pub effects: effects::EffectSlots,
     /// Smoothing speed of Coulomb friction, rad/s.
     pub coulomb_eps_rad_s: f64,
+    /// The term outside the vocabulary switched on, if any, with its form.
+    pub term: Option<TermForm>,
+}
+
+/// A term's form: its family and what the search chose of it (the exponent, order or
+/// thermal time constant in `order`; the drifting parameter of a time drift).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TermForm {
+    /// The family.
+    pub family: Family,
+    /// Exponent (`speed_power`, `current_power`), periods per turn (the periodic
+    /// families) or the thermal time constant in s (`thermal_drift`); unused otherwise.
+    pub order: f64,
+    /// The parameter a `time_drift` lets drift.
+    pub drifting: Drifting,
+}
+
+/// One fitted coefficient of a term: its parameter's name (as the contract and the
+/// report name it), the key of [`TermParams`] it sets, its start and search bounds.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TermCoefficient {
+    /// The parameter's name.
+    pub name: &'static str,
+    /// The key it sets.
+    pub key: &'static str,
+    /// Start of its search.
+    pub start: f64,
+    /// Lower bound of its search.
+    pub lo: f64,
+    /// Upper bound of its search.
+    pub hi: f64,
+}
+
+impl TermForm {
+    /// The form's fitted coefficients, each at `start` within `[-limit, limit]` (or
+    /// `[0, limit]` where a negative value is no such physics), `limit` each coefficient's
+    /// physical ceiling, in the coefficient's own unit.
+    pub fn coefficients(&self, limits: &[f64]) -> Vec<TermCoefficient> {
+        let c = |name, key: crate::param::ParamKey, signed: bool, i: usize| TermCoefficient {
+            name,
+            key: key.key(),
+            start: 0.0,
+            lo: if signed { -limits[i] } else { 0.0 },
+            hi: limits[i],
+        };
+        match self.family {
+            Family::SpeedPower => vec![c(
+                "coefficient",
+                TermParams::speed_power_coefficient,
+                false,
+                0,
+            )],
+            Family::PeriodicMotorAngle => vec![
+                c(
+                    "sin_coefficient_Nm",
+                    TermParams::motor_periodic_sin_nm,
+                    true,
+                    0,
+                ),
+                c(
+                    "cos_coefficient_Nm",
+                    TermParams::motor_periodic_cos_nm,
+                    true,
+                    1,
+                ),
+            ],
+            Family::PeriodicWheelAngle => vec![
+                c(
+                    "sin_coefficient_Nm",
+                    TermParams::wheel_periodic_sin_nm,
+                    true,
+                    0,
+                ),
+                c(
+                    "cos_coefficient_Nm",
+                    TermParams::wheel_periodic_cos_nm,
+                    true,
+                    1,
+                ),
+            ],
+            Family::LoadDependentFriction => {
+                vec![c(
+                    "friction_ratio",
+                    TermParams::load_friction_ratio,
+                    false,
+                    0,
+                )]
+            }
+            Family::ThermalDrift => vec![c(
+                "heating_coefficient_1_A2",
+                TermParams::heating_coefficient_1_a2,
+                false,
+                0,
+            )],
+            Family::CurrentPower => vec![c(
+                "coefficient",
+                TermParams::current_power_coefficient,
+                false,
+                0,
+            )],
+            Family::TimeDrift => vec![match self.drifting {
+                Drifting::Resistance => c(
+                    "resistance_drift_1_s",
+                    TermParams::resistance_drift_1_s,
+                    true,
+                    0,
+                ),
+                Drifting::TorqueConstant => c(
+                    "torque_constant_drift_1_s",
+                    TermParams::torque_constant_drift_1_s,
+                    true,
+                    0,
+                ),
+                Drifting::Viscous => c("viscous_drift_1_s", TermParams::viscous_drift_1_s, true, 0),
+            }],
+        }
+    }
+
+    /// The form's fixed choice as a parameter held at its value: name, key and value.
+    pub fn fixed(&self) -> Option<(&'static str, &'static str, f64)> {
+        let f = |name, key: crate::param::ParamKey| Some((name, key.key(), self.order));
+        match self.family {
+            Family::SpeedPower => f("exponent", TermParams::speed_power_exponent),
+            Family::PeriodicMotorAngle => f("order", TermParams::motor_periodic_order),
+            Family::PeriodicWheelAngle => f("order", TermParams::wheel_periodic_order),
+            Family::ThermalDrift => f(
+                "thermal_time_constant_s",
+                TermParams::thermal_time_constant_s,
+            ),
+            Family::CurrentPower => f("exponent", TermParams::current_power_exponent),
+            Family::LoadDependentFriction | Family::TimeDrift => None,
+        }
+    }
 }
 
 impl RotaryAxis {
@@ -356,6 +494,7 @@ impl RotaryAxis {
             supply_v: rig.get(alias::SUPPLY_VOLTAGE_V.key()).unwrap_or(24.0),
             effects: effects::EffectSlots::default(),
             coulomb_eps_rad_s: 1.0,
+            term: None,
         })
     }
 
@@ -429,6 +568,36 @@ impl RotaryAxis {
         m.binding = Binding::new(axis_keys(), &m.specs);
         m.coulomb_eps_rad_s = (effects::COULOMB_SMOOTHING_FRACTION * max_speed).max(1e-3);
         m
+    }
+
+    /// This model with a term outside the vocabulary: its fixed choice held (`order`),
+    /// its coefficients appended (the last ones) as `coefficients` says. The indices of
+    /// the coefficients.
+    pub fn with_term(
+        &self,
+        form: TermForm,
+        coefficients: &[TermCoefficient],
+    ) -> (RotaryAxis, Vec<usize>) {
+        let mut m = self.clone();
+        if let Some((name, key, value)) = form.fixed() {
+            // A thermal time constant is refined by the fit (log scale, 1 s to 3 hours);
+            // orders and exponents stay where the search put them.
+            let (lo, hi) = match form.family {
+                Family::ThermalDrift => (1.0, 1e4),
+                _ => (value.min(0.0), value.max(1.0) * 2.0),
+            };
+            m.specs
+                .push(ParamSpec::new(name, value, lo, hi).setting(key));
+        }
+        let first = m.specs.len();
+        for c in coefficients {
+            m.specs
+                .push(ParamSpec::new(c.name, c.start, c.lo, c.hi).setting(c.key));
+        }
+        m.term = Some(form);
+        m.binding = Binding::new(axis_keys(), &m.specs);
+        let indices = (first..m.specs.len()).collect();
+        (m, indices)
     }
 
     /// Nominal parameters an effect's block makes identifiable beyond the default free set:

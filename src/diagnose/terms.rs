@@ -1,0 +1,746 @@
+//! Terms outside the vocabulary: when no effect explains what the residual still shows,
+//! the families of the contract's table ([`crate::model::term`]) are searched, each at
+//! every order or exponent it may take, and the best is fitted and judged.
+//!
+//! 1. **Screen** (every family at every order): the term's effect on the outputs is
+//!    linearised at the stage's fit (one simulation per coefficient, the coefficient a
+//!    thousandth of its physical ceiling), beside the stage's own free parameters (the
+//!    Jacobian, one simulation each), so that what a refit of the stage would absorb (a
+//!    drag growing with w|w| is mostly a viscous friction) is not credited to the term.
+//!    Each form's coefficients are fitted by least squares on half the record's time
+//!    blocks and judged on the other half: the share of the held-out residual removed.
+//! 2. **Fit**: the best-screened form is fitted to the whole record with the stage's free
+//!    parameters; where it fails the rules, the best of another family (at most
+//!    [`CONFIRMED`] fits).
+//! 3. **Judge**: the vocabulary's rules (the AIC gain with the effective residual count,
+//!    the share of the residual removed, a coefficient inside its bounds and determined
+//!    by the record) and the held-out share removed ([`MIN_HELD_OUT_REDUCTION`]).
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::evidence::Gain;
+use super::{Stage, MIN_RSS_REDUCTION};
+use crate::ident::data::Dataset;
+use crate::ident::fit::{self, Fit, FitSettings};
+use crate::ident::models::rotary_axis::{AxisInput, RotaryAxis, TermCoefficient, TermForm};
+use crate::ident::Structure;
+use crate::model::term::{amplitude_phase, Drifting, Family};
+
+/// Time blocks the record is cut into for the screen: fitted on the even ones, judged on
+/// the odd ones (interleaved, so that both halves see every regime of the record).
+pub const HELD_OUT_BLOCKS: usize = 10;
+/// Smallest share of the held-out blocks' residual a term's screen must remove.
+pub const MIN_HELD_OUT_REDUCTION: f64 = MIN_RSS_REDUCTION;
+/// Forms fitted to the whole record after the screen (the best of distinct families).
+pub const CONFIRMED: usize = 2;
+/// A coefficient's screen perturbation, as a share of its physical ceiling.
+const SCREEN_STEP: f64 = 1e-3;
+
+/// The forms a rotary axis driven by `input` is searched over: exponents of the speed
+/// from 0.5 to 4 (1 is the viscous friction the model has), 1-12 periods per motor turn,
+/// 1-6 per wheel turn, thermal time constants from 3 s to 300 s, the current's exponents
+/// 1-2, and a drift of each armature and friction parameter.
+pub fn forms(input: AxisInput) -> Vec<TermForm> {
+    let form = |family, order| TermForm {
+        family,
+        order,
+        drifting: Drifting::Resistance,
+    };
+    let mut out: Vec<TermForm> = [0.5, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0]
+        .map(|n| form(Family::SpeedPower, n))
+        .to_vec();
+    out.extend((1..=12).map(|n| form(Family::PeriodicMotorAngle, n as f64)));
+    out.extend((1..=6).map(|n| form(Family::PeriodicWheelAngle, n as f64)));
+    out.push(form(Family::LoadDependentFriction, 0.0));
+    if matches!(input, AxisInput::Torque(_)) {
+        // Behind a current amplifier the armature's laws do not act.
+        out.push(TermForm {
+            drifting: Drifting::Viscous,
+            ..form(Family::TimeDrift, 0.0)
+        });
+        return out;
+    }
+    out.extend([3.0, 10.0, 30.0, 100.0, 300.0].map(|tau| form(Family::ThermalDrift, tau)));
+    out.extend([1.0, 1.5, 2.0].map(|n| form(Family::CurrentPower, n)));
+    out.extend(
+        [
+            Drifting::Resistance,
+            Drifting::TorqueConstant,
+            Drifting::Viscous,
+        ]
+        .map(|d| TermForm {
+            drifting: d,
+            ..form(Family::TimeDrift, 0.0)
+        }),
+    );
+    out
+}
+
+/// One form as screened.
+#[derive(Debug, Clone, Serialize)]
+pub struct Screened {
+    /// The family's name.
+    pub family: &'static str,
+    /// Its order, exponent or time constant (0 where the family has none).
+    pub order: f64,
+    /// The drifting parameter of a time drift (empty otherwise).
+    pub drifting: &'static str,
+    /// Share of the held-out blocks' residual the linearised term removes, %.
+    pub held_out_reduction_pct: f64,
+    /// Share of the whole record's residual it removes, %.
+    pub reduction_pct: f64,
+    #[serde(skip)]
+    form: Option<TermForm>,
+    #[serde(skip)]
+    start: Vec<f64>,
+}
+
+/// A term fitted to the whole record, with its verdict.
+#[derive(Debug, Clone, Serialize)]
+pub struct TermRow {
+    /// The family's name.
+    pub name: String,
+    /// Its parameters as the contract names them (the main coefficient first).
+    pub params: Vec<(String, serde_json::Value)>,
+    /// The main coefficient's standard deviation, if the record determines it.
+    pub std: Option<f64>,
+    /// The normalised fit with the term, %, mean over outputs.
+    pub fit_pct: f64,
+    /// Share of the stage's residual removed, %.
+    pub rss_reduction_pct: f64,
+    /// Share of the held-out blocks' residual its screen removed, %.
+    pub held_out_reduction_pct: f64,
+    /// AIC gain with the effective number of residuals.
+    pub delta_aic: f64,
+    /// Whether it passed every rule.
+    pub significant: bool,
+    /// A coefficient ended on a bound of its search (no estimate then).
+    pub at_bound: bool,
+    /// The record does not determine a coefficient.
+    pub undetermined: bool,
+}
+
+/// A fitted term: its form, the structure and fit with it, its gain over the stage, and
+/// its row.
+#[derive(Debug, Clone)]
+pub(crate) struct Fitted {
+    pub form: TermForm,
+    pub structure: Structure,
+    pub fit: Fit,
+    pub gain: Gain,
+    pub row: TermRow,
+}
+
+/// What a round's term search found: every form's screen (best first), the forms fitted,
+/// and the best significant one.
+#[derive(Debug, Clone, Default)]
+pub struct Search {
+    /// Every form's screen, best first.
+    pub screened: Vec<Screened>,
+    /// The forms fitted to the whole record, in the order fitted.
+    pub fitted: Vec<TermRow>,
+    /// The best that passed the rules.
+    pub(crate) best: Option<Fitted>,
+}
+
+/// The record a form is fitted on: with the measured angle's line for a periodic term.
+fn on_data<'a>(
+    form: TermForm,
+    data: &'a Dataset,
+    with_angle: Option<&'a Dataset>,
+) -> Option<&'a Dataset> {
+    match form.family {
+        Family::PeriodicMotorAngle | Family::PeriodicWheelAngle => with_angle,
+        _ => Some(data),
+    }
+}
+
+/// The rotary axis of a structure, when terms can be searched on it.
+fn axis(s: &Structure) -> Option<&RotaryAxis> {
+    match s {
+        Structure::Rotary(m) if m.term.is_none() => Some(m),
+        _ => None,
+    }
+}
+
+/// Searches the families on the stage: `None` where the model takes no terms (not a
+/// rotary axis, or a term already on).
+pub(super) fn search(
+    data: &Dataset,
+    stage: &Stage,
+    stage_n: &[f64],
+    max_iterations: usize,
+    tell: &(dyn Fn(String) + Sync),
+) -> Option<Search> {
+    let m = axis(&stage.structure)?;
+    let ceilings = Ceilings::of(m, data, &stage.fit.params);
+    let lin = Linearised::at(data, stage)?;
+    let with_angle = if data
+        .input_names
+        .iter()
+        .any(|n| n == crate::ident::data::MEASURED_ANGLE_RATE)
+    {
+        Some(data.clone())
+    } else {
+        data.with_measured_angle()
+    };
+    let mut screened: Vec<Screened> = forms(m.input)
+        .into_par_iter()
+        .filter_map(|form| {
+            let d = on_data(form, data, with_angle.as_ref())?;
+            lin.screen(m, form, &ceilings.of_form(form), d)
+        })
+        .collect();
+    screened.sort_by(|a, b| {
+        b.held_out_reduction_pct
+            .total_cmp(&a.held_out_reduction_pct)
+    });
+    let mut chosen: Vec<&Screened> = Vec::new();
+    for s in &screened {
+        if chosen.len() < CONFIRMED
+            && s.held_out_reduction_pct >= 100.0 * MIN_HELD_OUT_REDUCTION
+            && !chosen.iter().any(|c| c.family == s.family)
+        {
+            chosen.push(s);
+        }
+    }
+    tell(format!(
+        "{} forms of {} families screened; to fit: {}",
+        screened.len(),
+        Family::ALL.len(),
+        if chosen.is_empty() {
+            "none (no form removes enough of the held-out residual)".to_string()
+        } else {
+            chosen
+                .iter()
+                .map(|s| format!("{} (order {})", s.family, s.order))
+                .collect::<Vec<_>>()
+                .join(", then where it fails ")
+        }
+    ));
+    // The best screen first; the next family only where it fails the rules (a screen
+    // ranks well, and each fit costs as much as a candidate effect's).
+    let mut fits: Vec<Fitted> = Vec::new();
+    for s in chosen {
+        let Some(d) = s.form.and_then(|f| on_data(f, data, with_angle.as_ref())) else {
+            continue;
+        };
+        let fitted = confirm(d, stage, stage_n, m, s, &ceilings, max_iterations);
+        let passed = fitted.as_ref().is_some_and(|f| f.row.significant);
+        fits.extend(fitted);
+        if passed {
+            break;
+        }
+    }
+    let best = fits
+        .iter()
+        .filter(|f| f.row.significant)
+        .max_by(|a, b| a.gain.delta_aic.total_cmp(&b.gain.delta_aic))
+        .cloned();
+    Some(Search {
+        fitted: fits.into_iter().map(|f| f.row).collect(),
+        screened,
+        best,
+    })
+}
+
+/// Each family's physical ceilings, from the record and the stage's motor: the torque of
+/// the peak drive (stall torque at the largest voltage, or the largest commanded torque)
+/// bounds every torque a term may add.
+struct Ceilings {
+    /// Peak motor torque, N m.
+    torque_nm: f64,
+    /// Peak current, A.
+    current_a: f64,
+    /// Mean square of the current (measured, or the peak's square), A^2: the heat a
+    /// thermal term's coefficient is bounded by (a doubling of the resistance there).
+    heat_a2: f64,
+    /// Largest wheel speed of the record, rad/s.
+    wheel_speed_rad_s: f64,
+    /// Gear ratio.
+    ratio: f64,
+    /// The record's duration, s.
+    duration_s: f64,
+}
+
+impl Ceilings {
+    fn of(m: &RotaryAxis, data: &Dataset, p: &[f64]) -> Ceilings {
+        let a = m.declared(p);
+        let peak_input = data.inputs[0].iter().fold(0.0f64, |x, u| x.max(u.abs()));
+        let (torque_nm, current_a) = match m.torque_command() {
+            Some(c) => (c.per_volt_nm_v * peak_input, 1.0),
+            None => {
+                let v = m.voltage(&a, peak_input);
+                let i = v.abs() / a.motor.resistance_ohm;
+                (a.motor.torque_constant_nm_a * i, i)
+            }
+        };
+        let speed = data
+            .output_index("motor_speed_rad_s")
+            .map(|j| {
+                data.outputs[j]
+                    .iter()
+                    .flatten()
+                    .fold(0.0f64, |x, v| x.max(v.abs()))
+            })
+            .unwrap_or(0.0);
+        let heat_a2 = data
+            .output_index("current_A")
+            .map(|j| {
+                let i: Vec<f64> = data.outputs[j].iter().flatten().map(|i| i * i).collect();
+                i.iter().sum::<f64>() / i.len().max(1) as f64
+            })
+            .unwrap_or(current_a * current_a);
+        Ceilings {
+            torque_nm: torque_nm.max(1e-9),
+            current_a: current_a.max(1e-9),
+            heat_a2: heat_a2.max(1e-9),
+            wheel_speed_rad_s: (speed / m.ratio).max(1e-9),
+            ratio: m.ratio,
+            duration_s: (data.t_s.last().unwrap_or(&1.0) - data.t_s[0]).max(1e-9),
+        }
+    }
+
+    /// A form's ceilings, one per coefficient in the form's order.
+    fn of_form(&self, form: TermForm) -> Vec<f64> {
+        match form.family {
+            Family::SpeedPower => {
+                vec![self.torque_nm * self.ratio / self.wheel_speed_rad_s.powf(form.order)]
+            }
+            Family::PeriodicMotorAngle => vec![self.torque_nm; 2],
+            Family::PeriodicWheelAngle => vec![self.torque_nm * self.ratio; 2],
+            Family::LoadDependentFriction => vec![0.9],
+            Family::ThermalDrift => vec![1.0 / self.heat_a2],
+            Family::CurrentPower => vec![0.9 / self.current_a.powf(form.order)],
+            Family::TimeDrift => vec![1.0 / self.duration_s],
+        }
+    }
+}
+
+/// The stage linearised: its weighted residual, which held-out block each residual lies
+/// in, and the derivatives of the residual in the stage's free parameters.
+struct Linearised<'a> {
+    stage: &'a Stage,
+    residual: Vec<f64>,
+    /// Whether each residual lies in a fitting (even) block.
+    fitting: Vec<bool>,
+    /// The residual's derivative in each free parameter of the stage.
+    jacobian: Vec<Vec<f64>>,
+}
+
+impl<'a> Linearised<'a> {
+    fn at(data: &'a Dataset, stage: &'a Stage) -> Option<Linearised<'a>> {
+        let w = &stage.fit.weighting.outputs;
+        let residual = fit::residuals(data, &stage.fit.predicted, w);
+        let rows = data.len().max(1);
+        let mut fitting = Vec::with_capacity(residual.len());
+        for col in &data.outputs {
+            for (k, y) in col.iter().enumerate() {
+                if y.is_some() {
+                    fitting.push((k * HELD_OUT_BLOCKS / rows).is_multiple_of(2));
+                }
+            }
+        }
+        let model = stage.structure.model();
+        let specs = model.params();
+        let p = &stage.fit.params;
+        let jacobian: Vec<Vec<f64>> = stage
+            .fit
+            .free
+            .par_iter()
+            .map(|&i| {
+                let s = &specs[i];
+                let scale = if p[i] != 0.0 {
+                    p[i].abs()
+                } else if s.hi.is_finite() && s.hi > 0.0 {
+                    s.hi
+                } else {
+                    1.0
+                };
+                let h = 1e-5 * scale;
+                let mut q = p.clone();
+                q[i] += h;
+                let y = model.predict(&q, data).ok()?;
+                Some(difference(&fit::residuals(data, &y, w), &residual, h))
+            })
+            .collect::<Option<_>>()?;
+        Some(Linearised {
+            stage,
+            residual,
+            fitting,
+            jacobian,
+        })
+    }
+
+    /// One form's screen: its coefficients' columns by simulation, fitted with the
+    /// stage's on the fitting blocks and judged on the held-out ones.
+    fn screen(
+        &self,
+        m: &RotaryAxis,
+        form: TermForm,
+        ceilings: &[f64],
+        data: &Dataset,
+    ) -> Option<Screened> {
+        let w = &self.stage.fit.weighting.outputs;
+        let coefficients = form.coefficients(ceilings);
+        let (with, indices) = m.with_term(form, &coefficients);
+        let base = start_vector(&self.stage.fit.params, form, &coefficients);
+        let mut columns: Vec<Vec<f64>> = Vec::new();
+        for (&i, c) in indices.iter().zip(&coefficients) {
+            let h = SCREEN_STEP * c.hi;
+            let mut q = base.clone();
+            q[i] = h;
+            use crate::ident::model::Predictor;
+            let y = with.predict(&q, data).ok()?;
+            columns.push(difference(&fit::residuals(data, &y, w), &self.residual, h));
+        }
+        let all: Vec<&[f64]> = self
+            .jacobian
+            .iter()
+            .chain(&columns)
+            .map(|c| c.as_slice())
+            .collect();
+        let nominal: Vec<&[f64]> = self.jacobian.iter().map(|c| c.as_slice()).collect();
+        let fit_rows: Vec<bool> = self.fitting.clone();
+        let held_rows: Vec<bool> = self.fitting.iter().map(|f| !f).collect();
+        let every: Vec<bool> = vec![true; self.residual.len()];
+        let with_term = least_squares(&all, &self.residual, &fit_rows)?;
+        let without = least_squares(&nominal, &self.residual, &fit_rows)?;
+        let held = |beta: &[f64], cols: &[&[f64]]| rss(cols, beta, &self.residual, &held_rows);
+        let held_out = 1.0 - held(&with_term, &all) / held(&without, &nominal).max(1e-300);
+        let whole = least_squares(&all, &self.residual, &every)?;
+        let whole_nominal = least_squares(&nominal, &self.residual, &every)?;
+        let reduction = 1.0
+            - rss(&all, &whole, &self.residual, &every)
+                / rss(&nominal, &whole_nominal, &self.residual, &every).max(1e-300);
+        let start = whole[nominal.len()..]
+            .iter()
+            .zip(&coefficients)
+            .map(|(b, c)| b.clamp(c.lo, c.hi))
+            .collect();
+        Some(Screened {
+            family: form.family.name(),
+            order: form.order,
+            drifting: if form.family == Family::TimeDrift {
+                drifting_key(form.drifting)
+            } else {
+                ""
+            },
+            held_out_reduction_pct: 100.0 * held_out,
+            reduction_pct: 100.0 * reduction,
+            form: Some(form),
+            start,
+        })
+    }
+}
+
+/// `(a - b) / h`, element by element.
+fn difference(a: &[f64], b: &[f64], h: f64) -> Vec<f64> {
+    a.iter().zip(b).map(|(a, b)| (a - b) / h).collect()
+}
+
+/// The coefficients `beta` minimising `|r + X beta|` over the rows `use_row`, the columns
+/// scaled to unit length first (the stage's parameters and a term's coefficients differ by
+/// orders of magnitude); `None` where the system has no solution.
+fn least_squares(columns: &[&[f64]], r: &[f64], use_row: &[bool]) -> Option<Vec<f64>> {
+    let n = columns.len();
+    if n == 0 {
+        return Some(vec![]);
+    }
+    let norms: Vec<f64> = columns
+        .iter()
+        .map(|c| {
+            c.iter()
+                .zip(use_row)
+                .filter(|(_, u)| **u)
+                .map(|(v, _)| v * v)
+                .sum::<f64>()
+                .sqrt()
+                .max(1e-300)
+        })
+        .collect();
+    let mut a = nalgebra::DMatrix::<f64>::zeros(n, n);
+    let mut g = nalgebra::DVector::<f64>::zeros(n);
+    for k in 0..r.len() {
+        if !use_row[k] {
+            continue;
+        }
+        for i in 0..n {
+            let xi = columns[i][k] / norms[i];
+            g[i] -= xi * r[k];
+            for j in i..n {
+                a[(i, j)] += xi * columns[j][k] / norms[j];
+            }
+        }
+    }
+    for i in 0..n {
+        for j in 0..i {
+            a[(i, j)] = a[(j, i)];
+        }
+        // A whisper of ridge: columns the record cannot tell apart get no wild values.
+        a[(i, i)] += 1e-10;
+    }
+    let beta = a.svd(true, true).solve(&g, 1e-12).ok()?;
+    Some((0..n).map(|i| beta[i] / norms[i]).collect())
+}
+
+/// `|r + X beta|^2` over the rows `use_row`.
+fn rss(columns: &[&[f64]], beta: &[f64], r: &[f64], use_row: &[bool]) -> f64 {
+    (0..r.len())
+        .filter(|&k| use_row[k])
+        .map(|k| {
+            let e = r[k] + columns.iter().zip(beta).map(|(c, b)| c[k] * b).sum::<f64>();
+            e * e
+        })
+        .sum()
+}
+
+/// The stage's parameters with a form's fixed choice and its coefficients (at zero).
+fn start_vector(stage: &[f64], form: TermForm, coefficients: &[TermCoefficient]) -> Vec<f64> {
+    let mut p = stage.to_vec();
+    if let Some((_, _, v)) = form.fixed() {
+        p.push(v);
+    }
+    p.extend(coefficients.iter().map(|c| c.start));
+    p
+}
+
+/// The name a time drift's parameter goes by.
+fn drifting_key(d: Drifting) -> &'static str {
+    use crate::model::motor::MotorParams;
+    match d {
+        Drifting::Resistance => MotorParams::resistance_ohm.key(),
+        Drifting::TorqueConstant => MotorParams::torque_constant_nm_a.key(),
+        Drifting::Viscous => MotorParams::viscous_nm_s_rad.key(),
+    }
+}
+
+/// A screened form fitted to the whole record with the stage's free parameters, from the
+/// screen's coefficients and from zero, and judged.
+fn confirm(
+    data: &Dataset,
+    stage: &Stage,
+    stage_n: &[f64],
+    m: &RotaryAxis,
+    s: &Screened,
+    ceilings: &Ceilings,
+    max_iterations: usize,
+) -> Option<Fitted> {
+    let form = s.form?;
+    let mut coefficients = form.coefficients(&ceilings.of_form(form));
+    for (c, start) in coefficients.iter_mut().zip(&s.start) {
+        c.start = *start;
+    }
+    let (with, indices) = m.with_term(form, &coefficients);
+    let structure = Structure::Rotary(with);
+    let mut free = stage.fit.free.clone();
+    let refined = (form.family == Family::ThermalDrift).then(|| indices[0] - 1);
+    free.extend(refined);
+    free.extend(&indices);
+    let from_screen = start_vector(&stage.fit.params, form, &coefficients);
+    let settings = FitSettings {
+        free,
+        weighting: stage.fit.weighting.clone(),
+        max_iterations,
+        starts: vec![from_screen],
+    };
+    let f = fit::fit(structure.model(), data, &settings).ok()?;
+    let gain = Gain::of(data, &stage.fit, stage_n, &f);
+    // The coefficients' slots among the free parameters (the last ones).
+    let slots: Vec<usize> = (f.free.len() - indices.len()..f.free.len()).collect();
+    let at_bound = indices.iter().zip(&coefficients).any(|(&i, c)| {
+        // A coefficient whose search starts at zero may rest there: that is the term
+        // absent, judged by its gain; a bound away from zero is a bound.
+        let v = f.params[i];
+        (c.lo != 0.0 && crate::ident::bound_reached(v, c.lo, c.hi) == Some(c.lo))
+            || crate::ident::bound_reached(v, c.lo, c.hi) == Some(c.hi)
+    });
+    // A refined time constant on a bound is a heating the record cannot place in time.
+    let at_bound = at_bound
+        || refined.is_some_and(|i| {
+            let spec = &structure.model().params()[i];
+            crate::ident::bound_reached(f.params[i], spec.lo, spec.hi).is_some()
+        });
+    let form = TermForm {
+        order: refined.map_or(form.order, |i| f.params[i]),
+        ..form
+    };
+    let undetermined = slots.iter().any(|&k| f.std[k].is_none());
+    // The coefficients together must stand clear of zero: two standard deviations.
+    let z_sq: f64 = slots
+        .iter()
+        .zip(&indices)
+        .map(|(&k, &i)| f.std[k].map_or(0.0, |sd| (f.params[i] / sd).powi(2)))
+        .sum();
+    let significant = gain.passes()
+        && s.held_out_reduction_pct >= 100.0 * MIN_HELD_OUT_REDUCTION
+        && !at_bound
+        && !undetermined
+        && z_sq > 4.0;
+    let values: Vec<f64> = indices.iter().map(|&i| f.params[i]).collect();
+    let stds: Vec<Option<f64>> = slots.iter().map(|&k| f.std[k]).collect();
+    let row = TermRow {
+        name: form.family.name().into(),
+        params: contract_params(form, &values, data, &stage.fit, ceilings),
+        std: main_std(form, &values, &stds)
+            .map(|sd| sd * main_scale(form, data, &stage.fit, ceilings)),
+        fit_pct: crate::ident::fit_pct_mean(data, &f.predicted),
+        rss_reduction_pct: 100.0 * gain.reduction,
+        held_out_reduction_pct: s.held_out_reduction_pct,
+        delta_aic: gain.delta_aic,
+        significant,
+        at_bound,
+        undetermined,
+    };
+    Some(Fitted {
+        form,
+        structure,
+        fit: f,
+        gain,
+        row,
+    })
+}
+
+/// The contract's parameters of a fitted form (the main coefficient first).
+fn contract_params(
+    form: TermForm,
+    v: &[f64],
+    data: &Dataset,
+    stage: &Fit,
+    ceilings: &Ceilings,
+) -> Vec<(String, serde_json::Value)> {
+    let p = |name: &str, x: f64| (name.to_string(), serde_json::json!(x));
+    match form.family {
+        Family::SpeedPower => vec![p("coefficient", v[0]), p("exponent", form.order)],
+        Family::PeriodicMotorAngle | Family::PeriodicWheelAngle => {
+            let (amplitude, phase) = amplitude_phase(v[0], v[1]);
+            vec![
+                p("amplitude_Nm", amplitude),
+                p("phase_rad", phase),
+                p("order", form.order),
+                p("sin_coefficient_Nm", v[0]),
+                p("cos_coefficient_Nm", v[1]),
+            ]
+        }
+        Family::LoadDependentFriction => vec![p("friction_ratio", v[0])],
+        Family::ThermalDrift => {
+            let heat = final_heat_a2(data, stage, form.order);
+            vec![
+                p("resistance_rise_pct", 100.0 * v[0] * heat),
+                p("thermal_time_constant_s", form.order),
+                p("heating_coefficient_1_A2", v[0]),
+            ]
+        }
+        Family::CurrentPower => vec![p("coefficient", v[0]), p("exponent", form.order)],
+        Family::TimeDrift => vec![
+            p("change_pct", 100.0 * v[0] * ceilings.duration_s),
+            ("key".into(), serde_json::json!(drifting_key(form.drifting))),
+        ],
+    }
+}
+
+/// The heat state at the record's end (A^2): the measured current squared, low-passed
+/// over the time constant (the predicted current where none is measured).
+fn final_heat_a2(data: &Dataset, stage: &Fit, tau_s: f64) -> f64 {
+    let j = match data.output_index("current_A") {
+        Some(j) => j,
+        None => return 0.0,
+    };
+    let mut q = 0.0;
+    for k in 1..data.len() {
+        let dt = data.t_s[k] - data.t_s[k - 1];
+        let i = data.outputs[j][k].unwrap_or(stage.predicted[j][k]);
+        q += (1.0 - (-dt / tau_s).exp()) * (i * i - q);
+    }
+    q
+}
+
+/// What the main contract parameter is per unit of the fitted coefficient: a time drift's
+/// change in % over the record, a thermal term's rise in % at its end; 1 otherwise.
+fn main_scale(form: TermForm, data: &Dataset, stage: &Fit, ceilings: &Ceilings) -> f64 {
+    match form.family {
+        Family::TimeDrift => 100.0 * ceilings.duration_s,
+        Family::ThermalDrift => 100.0 * final_heat_a2(data, stage, form.order),
+        _ => 1.0,
+    }
+}
+
+/// The main coefficient's standard deviation: the coefficient's own, or a periodic
+/// term's amplitude's (the larger of its parts').
+fn main_std(form: TermForm, _v: &[f64], stds: &[Option<f64>]) -> Option<f64> {
+    match form.family {
+        Family::PeriodicMotorAngle | Family::PeriodicWheelAngle => Some(stds[0]?.max(stds[1]?)),
+        _ => stds[0],
+    }
+}
+
+/// An accepted term: its row, the round that accepted it, where its evidence lies and
+/// what it is in words.
+#[derive(Debug, Clone)]
+pub struct TermFinding {
+    /// The fitted term as judged.
+    pub row: TermRow,
+    /// The round (from 1) that accepted it.
+    pub round: usize,
+    /// Where the residual it removes lay, and what the held-out blocks said.
+    pub evidence: String,
+    /// The physics in words.
+    pub description: String,
+}
+
+/// A parameter of a row by name, as a number.
+pub fn param(row: &TermRow, name: &str) -> Option<f64> {
+    row.params
+        .iter()
+        .find(|(n, _)| n == name)
+        .and_then(|(_, v)| v.as_f64())
+}
+
+/// What a fitted term is, in words a user understands, with its numbers.
+pub fn describe(row: &TermRow) -> String {
+    let get = |n: &str| param(row, n).unwrap_or(f64::NAN);
+    let q = crate::numtext::quantity;
+    match Family::from_name(&row.name) {
+        Some(Family::SpeedPower) => format!(
+            "a wheel-side torque of {} (s/rad)^n growing with the wheel speed to the power n = {}: fluid or air drag (n = 2), a seal or churning oil",
+            q(get("coefficient"), 3, "N m"),
+            get("exponent")
+        ),
+        Some(Family::PeriodicMotorAngle) => format!(
+            "{} periods per motor turn of {} amplitude at the motor shaft: cogging, a commutator or a motor-side gear defect",
+            get("order"),
+            q(get("amplitude_Nm"), 3, "N m")
+        ),
+        Some(Family::PeriodicWheelAngle) => format!(
+            "{} periods per wheel turn of {} amplitude at the wheel: 1 per turn is an eccentric or out-of-round wheel or a bent axle, 2 an oval wheel",
+            get("order"),
+            q(get("amplitude_Nm"), 3, "N m")
+        ),
+        Some(Family::LoadDependentFriction) => format!(
+            "friction proportional to the torque the gears carry ({:.1} % of it): a gear efficiency of about {:.0} %",
+            100.0 * get("friction_ratio"),
+            100.0 * (1.0 - get("friction_ratio"))
+        ),
+        Some(Family::ThermalDrift) => format!(
+            "the windings heat up: their resistance rose by {:.1} % over the recording (thermal time constant {})",
+            get("resistance_rise_pct"),
+            q(get("thermal_time_constant_s"), 2, "s")
+        ),
+        Some(Family::CurrentPower) => format!(
+            "the torque per ampere falls at high current as 1 - k |i|^n (k = {:.3e}, n = {}): magnetic saturation",
+            get("coefficient"),
+            get("exponent")
+        ),
+        Some(Family::TimeDrift) => format!(
+            "{} changed by {:.1} % over the recording",
+            row.params
+                .iter()
+                .find(|(n, _)| n == "key")
+                .and_then(|(_, v)| v.as_str())
+                .unwrap_or("a parameter"),
+            get("change_pct")
+        ),
+        None => row.name.clone(),
+    }
+}
