@@ -619,29 +619,35 @@ fn report_of(
 /// Structure the residual keeps that no effect and no term explains.
 #[derive(Debug, Clone, Serialize)]
 pub struct Unexplained {
-    /// Share of the diagnosed model's residual that the best screened term, though it
-    /// failed the rules, removed on the held-out time blocks, %: what a model could still
-    /// gain.
+    /// Share of the diagnosed model's residual that the best fitted term, though it
+    /// failed the rules, removed, %: what a model could still gain.
     pub fit_gap_pct: f64,
     /// Where: the regime the residual concentrates in and the quantity it correlates with.
     #[serde(rename = "where")]
     pub where_: String,
 }
 
-/// Share of the held-out residual a screened term must remove, unaccepted, for the
+/// Share of the residual a fitted term must remove, though it failed the rules, for the
 /// diagnosis to say structure remains unexplained.
-pub const UNEXPLAINED_HELD_OUT: f64 = 2.0 * MIN_RSS_REDUCTION;
+pub const UNEXPLAINED_REDUCTION: f64 = 2.0 * MIN_RSS_REDUCTION;
 
-/// Structure left unexplained: the last round accepted nothing, and its term screen still
-/// found a quantity the residual follows on the held-out blocks.
+/// Structure left unexplained: the last round accepted nothing, and a term fitted there
+/// removed at least [`UNEXPLAINED_REDUCTION`] of the residual yet failed the rules (its
+/// coefficient on a bound, undetermined, or not clear of zero; or too little evidence
+/// counted with the effective residual count). A screen alone claims nothing: its
+/// linearisation fails where the model is rough (a gear play).
 fn unexplained(found: &Found, final_shares: &[RegimeShare]) -> Option<Unexplained> {
     let accepted = found.findings.len() + found.terms.len();
     if accepted >= found.rounds.len() {
         return None;
     }
     let search = found.term_rounds.last()?.as_ref()?;
-    let top = search.screened.first()?;
-    if top.held_out_reduction_pct < 100.0 * UNEXPLAINED_HELD_OUT {
+    let top = search
+        .fitted
+        .iter()
+        .filter(|t| !t.significant)
+        .max_by(|a, b| a.rss_reduction_pct.total_cmp(&b.rss_reduction_pct))?;
+    if top.rss_reduction_pct < 100.0 * UNEXPLAINED_REDUCTION {
         return None;
     }
     let regime = final_shares
@@ -654,12 +660,12 @@ fn unexplained(found: &Found, final_shares: &[RegimeShare]) -> Option<Unexplaine
                 s.energy_pct, s.samples_pct, s.regime
             )
         });
-    let quantity = crate::model::term::Family::from_name(top.family).map_or("", |f| f.quantity());
+    let quantity = crate::model::term::Family::from_name(&top.name).map_or("", |f| f.quantity());
     Some(Unexplained {
-        fit_gap_pct: top.held_out_reduction_pct,
+        fit_gap_pct: top.rss_reduction_pct,
         where_: format!(
-            "the residual lies {regime}; it follows the {quantity} most ({} at order {}), which no family explains by the rules",
-            top.family, top.order
+            "the residual lies {regime}; it follows the {quantity} most ({} removes {:.1} % of it but fails the rules)",
+            top.name, top.rss_reduction_pct
         ),
     })
 }

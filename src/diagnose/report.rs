@@ -181,7 +181,7 @@ fn finding_lines(s: &mut String, d: &Diagnosis) {
     if let Some(u) = &d.unexplained {
         let _ = writeln!(
             s,
-            "Unexplained: structure remains that no effect and no family explains ({:.1} % of the held-out residual follows a quantity): {}",
+            "Unexplained: structure remains that no effect and no family explains ({:.1} % of the residual follows a quantity): {}",
             u.fit_gap_pct, u.where_
         );
     }

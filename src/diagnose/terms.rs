@@ -358,7 +358,9 @@ impl<'a> Linearised<'a> {
                 } else {
                     1.0
                 };
-                let h = 1e-5 * scale;
+                // The model's own difference step where it is wider (a play makes the
+                // outputs rough on the scale of an integration step).
+                let h = s.fd_step.max(1e-5) * scale;
                 let mut q = p.clone();
                 q[i] += h;
                 let y = model.predict(&q, data).ok()?;

@@ -184,7 +184,7 @@ fn terms_found(d: &mut Document, diag: &crate::diagnose::Diagnosis) {
     if let Some(u) = &diag.unexplained {
         d.paragraph(
             &format!(
-                "Unexplained: structure remains that no effect and no family of terms explains ({:.1} % of the held-out residual): {}",
+                "Unexplained: structure remains that no effect and no family of terms explains ({:.1} % of the residual): {}",
                 u.fit_gap_pct, u.where_
             ),
             "bad",
