@@ -11,7 +11,9 @@
 //!    blocks and judged on the other half: the share of the held-out residual removed.
 //! 2. **Fit**: the best-screened form is fitted to the whole record with the stage's free
 //!    parameters; where it fails the rules, the best of another family (at most
-//!    [`CONFIRMED`] fits).
+//!    [`CONFIRMED`] families). The family that passes has its next orders fitted too
+//!    where they screened nearly as well ([`ORDER_RIVALS`], [`RIVAL_SHARE`]): the whole
+//!    record's fit chooses the order.
 //! 3. **Judge**: the vocabulary's rules (the AIC gain with the effective residual count,
 //!    the share of the residual removed, a coefficient inside its bounds and determined
 //!    by the record) and the held-out share removed ([`MIN_HELD_OUT_REDUCTION`]).
@@ -34,6 +36,11 @@ pub const HELD_OUT_BLOCKS: usize = 10;
 pub const MIN_HELD_OUT_REDUCTION: f64 = MIN_RSS_REDUCTION;
 /// Forms fitted to the whole record after the screen (the best of distinct families).
 pub const CONFIRMED: usize = 2;
+/// Other orders of a passing family fitted to the whole record beside its first.
+pub const ORDER_RIVALS: usize = 2;
+/// Share of the family's best held-out reduction a rival order must screen at to be
+/// fitted.
+pub const RIVAL_SHARE: f64 = 0.9;
 /// A coefficient's screen perturbation, as a share of its physical ceiling.
 const SCREEN_STEP: f64 = 1e-3;
 
@@ -232,6 +239,30 @@ pub(super) fn search(
         if passed {
             break;
         }
+    }
+    // The order a passing family's screen ranked first may have near ties (speed powers
+    // of 2 and 2.5 screen within a few percent of each other): its rivals of the same
+    // family are fitted too, and the whole record's fit decides.
+    if let Some(winner) = fits.iter().find(|f| f.row.significant).map(|f| f.form) {
+        let lead = screened
+            .iter()
+            .find(|s| s.form.is_some_and(|f| f.family == winner.family))
+            .map_or(0.0, |s| s.held_out_reduction_pct);
+        let rivals: Vec<&Screened> = screened
+            .iter()
+            .filter(|s| s.form.is_some_and(|f| f.family == winner.family))
+            .skip(1)
+            .take(ORDER_RIVALS)
+            .filter(|s| s.held_out_reduction_pct >= RIVAL_SHARE * lead)
+            .collect();
+        let rival_fits: Vec<Fitted> = rivals
+            .par_iter()
+            .filter_map(|s| {
+                let d = on_data(s.form?, data, with_angle.as_ref())?;
+                confirm(d, stage, stage_n, m, s, &ceilings, max_iterations)
+            })
+            .collect();
+        fits.extend(rival_fits);
     }
     let best = fits
         .iter()
