@@ -414,7 +414,7 @@ pub fn diagnose(
         linear: matches!(structure, Structure::Linear(_)),
         tell: &tell,
     };
-    let mut outcome = rounds_of.run(
+    let (stage, outcome) = rounds_of.run(
         Stage {
             structure: structure.clone(),
             fit: base_fit.clone(),
@@ -423,7 +423,6 @@ pub fn diagnose(
         &scales,
         opts,
     );
-    let stage = outcome.stage.take().expect("the rounds end on a stage");
     let validation = validation
         .map(|v| validate(&structure, &base_fit, &stage, v, opts.ident.max_lag))
         .transpose()?;

@@ -25,11 +25,10 @@ pub(super) type Significant = (f64, Effect, Structure, Fit);
 /// its place (see [`Rounds::run`]).
 pub const VOCABULARY_PREFERENCE: f64 = 2.0;
 
-/// What the rounds found: the last stage, every round's table of effects and of terms,
+/// What the rounds found: every round's table of effects and of terms,
 /// the effects and the terms accepted (each with its round).
 #[derive(Default)]
 pub(super) struct Outcome {
-    pub stage: Option<Stage>,
     pub rounds: Vec<Vec<Candidate>>,
     pub term_rounds: Vec<Option<terms::Search>>,
     pub findings: Vec<Finding>,
@@ -58,7 +57,7 @@ impl Rounds<'_> {
         free: &[usize],
         scales: &Scales,
         opts: &DiagnoseOptions,
-    ) -> Outcome {
+    ) -> (Stage, Outcome) {
         let data = self.data;
         let explore = data.prefix(candidate::exploration_rows(data.len()));
         let beliefs = stage.structure.model().nominal();
@@ -153,8 +152,33 @@ impl Rounds<'_> {
                 fit: f,
             };
         }
-        out.stage = Some(stage);
-        out
+        (stage, out)
+    }
+
+    /// Where the residual an accepted fit removes from the stage's lay, as a sentence; the
+    /// regime it names is added to `named` under `name` (the next finding names another).
+    fn evidence_of(
+        &self,
+        stage: &Stage,
+        fit: &Fit,
+        weights_outputs: &[f64],
+        named: &mut Vec<(String, &'static str)>,
+        name: &'static str,
+    ) -> String {
+        let after = regimes::energy_per_sample(self.data, &fit.predicted, weights_outputs);
+        let removed: Vec<f64> = self
+            .base_energy
+            .iter()
+            .zip(&after)
+            .map(|(a, b)| (a - b).max(0.0))
+            .collect();
+        let (evidence, regime) = evidence::evidence(
+            &regimes::shares(self.regimes, &removed, removed.iter().sum()),
+            100.0 * (1.0 - fit.rss() / stage.fit.rss()),
+            named,
+        );
+        named.extend(regime.map(|r| (r, name)));
+        evidence
     }
 
     /// An accepted term as a finding: where the residual it removes lay.
@@ -166,19 +190,8 @@ impl Rounds<'_> {
         weights_outputs: &[f64],
         named: &mut Vec<(String, &'static str)>,
     ) -> terms::TermFinding {
-        let after = regimes::energy_per_sample(self.data, &t.fit.predicted, weights_outputs);
-        let removed: Vec<f64> = self
-            .base_energy
-            .iter()
-            .zip(&after)
-            .map(|(a, b)| (a - b).max(0.0))
-            .collect();
-        let (evidence, regime) = evidence::evidence(
-            &regimes::shares(self.regimes, &removed, removed.iter().sum()),
-            100.0 * (1.0 - t.fit.rss() / stage.fit.rss()),
-            named,
-        );
-        named.extend(regime.map(|r| (r, t.form.family.name())));
+        let evidence =
+            self.evidence_of(stage, &t.fit, weights_outputs, named, t.form.family.name());
         terms::TermFinding {
             evidence: format!(
                 "{evidence}; on the held-out half of the record's time blocks it removed {:.0}% of the residual",
@@ -302,19 +315,7 @@ impl Rounds<'_> {
                 })
             })
             .collect();
-        let after = regimes::energy_per_sample(self.data, &f.predicted, weights_outputs);
-        let removed: Vec<f64> = self
-            .base_energy
-            .iter()
-            .zip(&after)
-            .map(|(a, b)| (a - b).max(0.0))
-            .collect();
-        let (evidence, regime) = evidence::evidence(
-            &regimes::shares(self.regimes, &removed, removed.iter().sum()),
-            100.0 * (1.0 - f.rss() / stage.fit.rss()),
-            named,
-        );
-        named.extend(regime.map(|r| (r, e.name())));
+        let evidence = self.evidence_of(stage, f, weights_outputs, named, e.name());
         let idx = f.params.len() - 1;
         Finding {
             effect: *e,

@@ -389,15 +389,17 @@ impl Dynamics for RotaryAxis {
         dx[CLOCK] = 1.0;
         // A term that changes the motor (heat, a drift, a falling torque constant) does so
         // before the armature and the rotor are evaluated.
+        let changed;
         let motor = match &b.term {
             Some(t) => {
                 dx[HEAT] =
                     term::heat_rate_a2_s(x[HEAT], s.motor.current_a, t.thermal_time_constant_s);
-                t.motor_at(&d.motor, s.motor.current_a, x[HEAT], x[CLOCK])
+                changed = t.motor_at(&d.motor, s.motor.current_a, x[HEAT], x[CLOCK]);
+                &changed
             }
             None => {
                 dx[HEAT] = 0.0;
-                d.motor
+                &d.motor
             }
         };
         let w = s.motor.speed_rad_s;

@@ -1,0 +1,150 @@
+//! A fitted term in the contract's parameters and in words a user understands.
+
+use super::{drifting_key, Ceilings, TermRow};
+use crate::ident::data::Dataset;
+use crate::ident::fit::Fit;
+use crate::ident::models::rotary_axis::TermForm;
+use crate::model::term::{amplitude_phase, Family};
+
+/// The contract's parameters of a fitted form (the main coefficient first).
+pub(super) fn contract_params(
+    form: TermForm,
+    v: &[f64],
+    data: &Dataset,
+    stage: &Fit,
+    ceilings: &Ceilings,
+) -> Vec<(String, serde_json::Value)> {
+    let p = |name: &str, x: f64| (name.to_string(), serde_json::json!(x));
+    match form.family {
+        Family::SpeedPower => vec![p("coefficient", v[0]), p("exponent", form.order)],
+        Family::PeriodicMotorAngle | Family::PeriodicWheelAngle => {
+            let (amplitude, phase) = amplitude_phase(v[0], v[1]);
+            vec![
+                p("amplitude_Nm", amplitude),
+                p("phase_rad", phase),
+                p("order", form.order),
+                p("sin_coefficient_Nm", v[0]),
+                p("cos_coefficient_Nm", v[1]),
+            ]
+        }
+        Family::LoadDependentFriction => vec![p("friction_ratio", v[0])],
+        Family::ThermalDrift => {
+            let heat = final_heat_a2(data, stage, form.order);
+            vec![
+                p("resistance_rise_pct", 100.0 * v[0] * heat),
+                p("thermal_time_constant_s", form.order),
+                p("heating_coefficient_1_A2", v[0]),
+            ]
+        }
+        Family::CurrentPower => vec![p("coefficient", v[0]), p("exponent", form.order)],
+        Family::TimeDrift => vec![
+            p("change_pct", 100.0 * v[0] * ceilings.duration_s),
+            ("key".into(), serde_json::json!(drifting_key(form.drifting))),
+        ],
+    }
+}
+
+/// The heat state at the record's end (A^2): the measured current squared, low-passed
+/// over the time constant (the predicted current where none is measured).
+fn final_heat_a2(data: &Dataset, stage: &Fit, tau_s: f64) -> f64 {
+    let j = match data.output_index("current_A") {
+        Some(j) => j,
+        None => return 0.0,
+    };
+    let mut q = 0.0;
+    for k in 1..data.len() {
+        let dt = data.t_s[k] - data.t_s[k - 1];
+        let i = data.outputs[j][k].unwrap_or(stage.predicted[j][k]);
+        q += (1.0 - (-dt / tau_s).exp()) * (i * i - q);
+    }
+    q
+}
+
+/// What the main contract parameter is per unit of the fitted coefficient: a time drift's
+/// change in % over the record, a thermal term's rise in % at its end; 1 otherwise.
+pub(super) fn main_scale(form: TermForm, data: &Dataset, stage: &Fit, ceilings: &Ceilings) -> f64 {
+    match form.family {
+        Family::TimeDrift => 100.0 * ceilings.duration_s,
+        Family::ThermalDrift => 100.0 * final_heat_a2(data, stage, form.order),
+        _ => 1.0,
+    }
+}
+
+/// The main coefficient's standard deviation: the coefficient's own, or a periodic
+/// term's amplitude's (the larger of its parts').
+pub(super) fn main_std(form: TermForm, _v: &[f64], stds: &[Option<f64>]) -> Option<f64> {
+    match form.family {
+        Family::PeriodicMotorAngle | Family::PeriodicWheelAngle => Some(stds[0]?.max(stds[1]?)),
+        _ => stds[0],
+    }
+}
+
+/// An accepted term: its row, the round that accepted it, where its evidence lies and
+/// what it is in words.
+#[derive(Debug, Clone)]
+pub struct TermFinding {
+    /// The fitted term as judged.
+    pub row: TermRow,
+    /// The round (from 1) that accepted it.
+    pub round: usize,
+    /// Where the residual it removes lay, and what the held-out blocks said.
+    pub evidence: String,
+    /// The physics in words.
+    pub description: String,
+}
+
+/// A parameter of a row by name, as a number.
+pub fn param(row: &TermRow, name: &str) -> Option<f64> {
+    row.params
+        .iter()
+        .find(|(n, _)| n == name)
+        .and_then(|(_, v)| v.as_f64())
+}
+
+/// What a fitted term is, in words a user understands, with its numbers.
+pub fn describe(row: &TermRow) -> String {
+    let get = |n: &str| param(row, n).unwrap_or(f64::NAN);
+    let q = crate::numtext::quantity;
+    match Family::from_name(&row.name) {
+        Some(Family::SpeedPower) => format!(
+            "a wheel-side torque of {} (s/rad)^n growing with the wheel speed to the power n = {}: fluid or air drag (n = 2), a seal or churning oil",
+            q(get("coefficient"), 3, "N m"),
+            get("exponent")
+        ),
+        Some(Family::PeriodicMotorAngle) => format!(
+            "{} periods per motor turn of {} amplitude at the motor shaft: cogging, a commutator or a motor-side gear defect",
+            get("order"),
+            q(get("amplitude_Nm"), 3, "N m")
+        ),
+        Some(Family::PeriodicWheelAngle) => format!(
+            "{} periods per wheel turn of {} amplitude at the wheel: 1 per turn is an eccentric or out-of-round wheel or a bent axle, 2 an oval wheel",
+            get("order"),
+            q(get("amplitude_Nm"), 3, "N m")
+        ),
+        Some(Family::LoadDependentFriction) => format!(
+            "friction proportional to the torque the gears carry ({:.1} % of it): a gear efficiency of about {:.0} %",
+            100.0 * get("friction_ratio"),
+            100.0 * (1.0 - get("friction_ratio"))
+        ),
+        Some(Family::ThermalDrift) => format!(
+            "the windings heat up: their resistance rose by {:.1} % over the recording (thermal time constant {})",
+            get("resistance_rise_pct"),
+            q(get("thermal_time_constant_s"), 2, "s")
+        ),
+        Some(Family::CurrentPower) => format!(
+            "the torque per ampere falls at high current as 1 - k |i|^n (k = {:.3e}, n = {}): magnetic saturation",
+            get("coefficient"),
+            get("exponent")
+        ),
+        Some(Family::TimeDrift) => format!(
+            "{} changed by {:.1} % over the recording",
+            row.params
+                .iter()
+                .find(|(n, _)| n == "key")
+                .and_then(|(_, v)| v.as_str())
+                .unwrap_or("a parameter"),
+            get("change_pct")
+        ),
+        None => row.name.clone(),
+    }
+}
