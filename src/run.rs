@@ -289,6 +289,15 @@ pub fn render_summary(scene_path: &Path, scene: &Scene, s: &RunSummary) -> Strin
         "energy     {:.0} J from the battery",
         s.battery_energy_j
     );
+    let terms = scene.term.families_on();
+    if !terms.is_empty() {
+        let names: Vec<&str> = terms.iter().map(|f| f.name()).collect();
+        let _ = writeln!(
+            out,
+            "terms      {} in both drivetrains (the scene's [term]: physics outside the effect vocabulary)",
+            names.join(", ")
+        );
+    }
     if !s.faults.is_empty() {
         let _ = writeln!(out, "DCMC fault {}", s.faults.join(", "));
     }

@@ -119,6 +119,135 @@ fn the_lifted_drive_and_its_fitting_model_agree_through_gear_play() {
     assert!(d < 0.005, "{d}");
 }
 
+/// A term outside the vocabulary in the simulator (`[term]`, the scene keys `set`) and
+/// in the fitting model (`RotaryAxis::with_term`, its coefficients at `values`): the
+/// largest disagreement with the term in both, and with the term in the simulator only
+/// (what the term itself changes, against which the agreement is judged).
+fn term_agreement(
+    name: &str,
+    set: &[&str],
+    form: agvsim::ident::models::rotary_axis::TermForm,
+    values: &[f64],
+) -> (f64, f64) {
+    use agvsim::ident::data::{MEASURED_ANGLE_INTERCEPT, MEASURED_ANGLE_RATE};
+    let mut all = vec!["gearbox.backlash_rad=0", "motor.coulomb_Nm=0"];
+    all.extend(set);
+    let s = machine(&all);
+    let rec = simulated(&s, name);
+    let plain = axis(&s);
+    let (with, indices) = plain.with_term(form, &form.coefficients(&[10.0; 3]));
+    let mut p = nominal(&with);
+    for (&i, v) in indices.iter().zip(values) {
+        p[i] = *v;
+    }
+    // A periodic term reads the angle the encoder measured (its line over each sample).
+    let inputs: Vec<String> = ["voltage_V", MEASURED_ANGLE_INTERCEPT, MEASURED_ANGLE_RATE]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    let outputs = ["motor_speed_rad_s".to_string(), "current_A".to_string()];
+    let data = Dataset::from_recording(&rec, &inputs, &outputs).unwrap();
+    let agree = worst_rms_share(&data, &with.predict(&p, &data).unwrap());
+    let without = worst_rms_share(&data, &plain.predict(&nominal(&plain), &data).unwrap());
+    println!(
+        "{name}: {:.3} % with the term, {:.3} % without",
+        100.0 * agree,
+        100.0 * without
+    );
+    (agree, without)
+}
+
+/// Each family of the term library acts alike in the simulator's drivetrain and in the
+/// fitting model: within 0.2 % of each output's range of the two integrators' own
+/// difference without a term (0.41 %), where leaving the term out of the model differs
+/// by at least twice that. The simulator's load-dependent friction is
+/// set-valued (a Coulomb level raised by the share of the torque carried), the model's
+/// smoothed as its Coulomb law is; the rest are the same laws (`model/term.rs`).
+#[test]
+fn the_lifted_drive_and_its_fitting_model_agree_on_every_term_family() {
+    use agvsim::ident::models::rotary_axis::TermForm;
+    use agvsim::model::term::{Drifting, Family};
+    let form = |family, order| TermForm {
+        family,
+        order,
+        drifting: Drifting::Resistance,
+    };
+    let cases: [(&str, &[&str], TermForm, &[f64]); 7] = [
+        (
+            "speed-power",
+            &[
+                "term.speed_power_coefficient=0.2",
+                "term.speed_power_exponent=2",
+            ],
+            form(Family::SpeedPower, 2.0),
+            &[0.2],
+        ),
+        (
+            "motor-periodic",
+            &[
+                "term.motor_periodic_sin_Nm=0.12",
+                "term.motor_periodic_cos_Nm=-0.08",
+                "term.motor_periodic_order=2",
+            ],
+            form(Family::PeriodicMotorAngle, 2.0),
+            &[0.12, -0.08],
+        ),
+        (
+            "wheel-periodic",
+            &[
+                "term.wheel_periodic_sin_Nm=2.4",
+                "term.wheel_periodic_cos_Nm=1.6",
+                "term.wheel_periodic_order=1",
+            ],
+            form(Family::PeriodicWheelAngle, 1.0),
+            &[2.4, 1.6],
+        ),
+        (
+            "load-friction",
+            &["term.load_friction_ratio=0.3"],
+            form(Family::LoadDependentFriction, 0.0),
+            &[0.3],
+        ),
+        (
+            "thermal",
+            &[
+                "term.heating_coefficient_1_A2=0.1",
+                "term.thermal_time_constant_s=2",
+            ],
+            form(Family::ThermalDrift, 2.0),
+            &[0.1],
+        ),
+        (
+            "current-power",
+            &[
+                "term.current_power_coefficient=0.05",
+                "term.current_power_exponent=1",
+            ],
+            form(Family::CurrentPower, 1.0),
+            &[0.05],
+        ),
+        (
+            "time-drift",
+            &["term.resistance_drift_1_s=0.2"],
+            form(Family::TimeDrift, 0.0),
+            &[0.2],
+        ),
+    ];
+    // The drive without a term: the two integrators' own difference.
+    let plain = machine(&["gearbox.backlash_rad=0", "motor.coulomb_Nm=0"]);
+    let m = axis(&plain);
+    let floor = disagreement(&simulated(&plain, "term-floor"), &m, &nominal(&m));
+    let tolerance = floor + 0.002;
+    let mut failed = vec![];
+    for (name, set, form, values) in cases {
+        let (agree, without) = term_agreement(name, set, form, values);
+        if agree >= tolerance || without <= 2.0 * tolerance {
+            failed.push(format!("{name}: {agree:.4} with, {without:.4} without"));
+        }
+    }
+    assert!(failed.is_empty(), "{failed:?}");
+}
+
 fn wheel_share(m: &RotaryAxis) -> usize {
     m.param_specs()
         .iter()

@@ -15,6 +15,7 @@ pub mod pose_windows;
 pub mod prove;
 mod rounds;
 mod search;
+pub mod terms;
 pub mod validation;
 pub mod write;
 
@@ -461,6 +462,9 @@ pub struct Calibration {
     pub keys: Vec<KeyFit>,
     /// Each effect tried, as last fitted (an accepted one as it was accepted).
     pub effects: Vec<EffectTrial>,
+    /// The search for a term outside the vocabulary, where one ran (every effect offered,
+    /// a lifted drive on the simulator: [`terms::searched`]).
+    pub terms: Option<terms::TermSearch>,
     /// Keys set to switch the accepted effects on.
     pub switches: Vec<Switch>,
     /// Effects the scene had that the recording does not support, taken out.
@@ -589,13 +593,20 @@ pub fn calibrate_telling(
     // Every effect's home is checked before any fit's work.
     let tried = effects::chosen(&request.effects, scene, driven)?;
     let (data, outputs, left_out) = excited_data(rec, &first_look, outputs)?;
-    let signed: Vec<(String, f64)> = tried
+    // Terms outside the vocabulary are searched where every effect is offered.
+    let term_ceilings = (matches!(request.effects, effects::Choice::All)
+        && terms::searched(rec, scene, engine))
+    .then(|| terms::ceilings(scene, &data, max_command_v(&first_look)));
+    let mut signed: Vec<(String, f64)> = tried
         .iter()
         .filter_map(|&e| {
             let h = effects::home(e, scene, driven).ok()?;
             Some((h.key.to_string(), h.signed_range?))
         })
         .collect();
+    if let Some(c) = &term_ceilings {
+        signed.extend(terms::signed_keys(c));
+    }
     // A tracked pose is compared over windows: a drifting simulation must not swamp the fit.
     let windows = pose_windows::PoseWindows::of(&data);
     let data = match &windows {
@@ -623,6 +634,7 @@ pub fn calibrate_telling(
         validation: None,
         simulator_judges: Default::default(),
         simulated: Default::default(),
+        term_ceilings,
     };
     if let Some(v) = &request.validate {
         problem.validation =
@@ -662,6 +674,7 @@ pub fn calibrate_telling(
     Ok(Calibration {
         keys,
         effects: trials,
+        terms: rounds.terms,
         switches: rounds.switches,
         removed: rounds.removed,
         outputs,

@@ -22,7 +22,8 @@ use rayon::prelude::*;
 use super::search::{Added, Presence, Problem, Stage};
 use super::{effects, CalibrateError, EffectTrial, Removal, Switch, Unconfirmed};
 use crate::diagnose::evidence::Gain;
-use crate::diagnose::MIN_RSS_REDUCTION;
+use crate::diagnose::round::VOCABULARY_PREFERENCE;
+use crate::diagnose::{MIN_DELTA_AIC, MIN_RSS_REDUCTION};
 use crate::ident::effects::Effect;
 
 /// Effects tried in full in a round at least: those whose race removed the most of the
@@ -42,6 +43,9 @@ pub(super) struct Rounds {
     /// The wheel geometry's keys, where the wheels' odometry gave them (held, not fitted
     /// through the simulator: [`Problem::geometry_by_odometry`]).
     pub geometry: Option<Vec<super::KeyFit>>,
+    /// The search for a term outside the vocabulary: the round's that accepted one, else
+    /// the last round's (`None` where none ran).
+    pub terms: Option<super::terms::TermSearch>,
 }
 
 impl Rounds {
@@ -85,6 +89,7 @@ pub(super) fn effect_rounds(
         starts: first.starts,
         removed: vec![],
         geometry: first.geometry,
+        terms: None,
     };
     // Every effect offered, and those decided first.
     let mut effects = effects.to_vec();
@@ -208,6 +213,14 @@ fn forward(
             candidates.push(((t.clone(), next.clone()), home));
         }
         let best = confirmed_best(problem, r, candidates, progress)?;
+        let best_aic = best
+            .as_ref()
+            .map(|((t, _), _)| (t.effect.name(), t.delta_aic));
+        if let Some(with) = term_round(problem, r, best_aic, round, progress)? {
+            r.stage = problem.polished(with)?;
+            r.iterations += r.stage.fit.iterations;
+            continue;
+        }
         let Some(((mut t, next), home)) = best else {
             break;
         };
@@ -245,6 +258,55 @@ fn forward(
         r.iterations += r.stage.fit.iterations;
     }
     Ok(())
+}
+
+/// A round's search for a term outside the vocabulary, where the calibration searches
+/// terms and has taken none yet: the stage with the term where it passes the rules and
+/// has more than [`VOCABULARY_PREFERENCE`] times the AIC gain of the round's best effect
+/// (`best`: its name and gain) plus [`MIN_DELTA_AIC`]; a vocabulary effect that explains
+/// the residual keeps its name, as in `diagnose`.
+fn term_round(
+    problem: &Problem,
+    r: &mut Rounds,
+    best: Option<(&'static str, f64)>,
+    round: usize,
+    progress: &dyn Fn(&str),
+) -> Result<Option<Stage>, CalibrateError> {
+    let Some(ceilings) = &problem.term_ceilings else {
+        return Ok(None);
+    };
+    if r.terms.as_ref().is_some_and(|t| t.accepted().is_some()) {
+        return Ok(None);
+    }
+    let (mut search, with) = super::terms::search(problem, &r.stage, ceilings, progress)?;
+    let wins = match (search.accepted(), best) {
+        (Some(t), Some((_, b))) => t.row.delta_aic > VOCABULARY_PREFERENCE * b + MIN_DELTA_AIC,
+        (Some(_), None) => true,
+        (None, _) => false,
+    };
+    let with = match (wins, with) {
+        (true, Some(with)) => with,
+        _ => {
+            for t in search.trials.iter_mut().filter(|t| t.accepted) {
+                t.accepted = false;
+                t.outranked_by = best.map(|(name, _)| name);
+            }
+            r.terms = Some(search);
+            return Ok(None);
+        }
+    };
+    let t = search.accepted().expect("a winning search has its term");
+    progress(&format!(
+        "terms, round {round}: {} accepted (AIC gain {:.0}): {}",
+        t.row.name,
+        t.row.delta_aic,
+        crate::diagnose::terms::describe(&t.row)
+    ));
+    // Its coefficients start from none: the scene had no term.
+    r.starts
+        .extend(t.coefficients.iter().map(|(k, _, _)| (k.clone(), 0.0)));
+    r.terms = Some(search);
+    Ok(Some(with))
 }
 
 /// An effect tried in full: its trial and the stage it reaches.

@@ -77,6 +77,9 @@ pub(super) struct Problem<'a> {
     /// ([`Problem::simulator_prediction`]): a round's reference stage is asked for again
     /// by each candidate's evidence, its confirmation and the judge.
     pub simulated: std::sync::Mutex<std::collections::HashMap<String, Option<Outputs>>>,
+    /// The physical ceilings of a term's coefficients, where terms outside the vocabulary
+    /// are searched in the rounds ([`super::terms::searched`]).
+    pub term_ceilings: Option<crate::diagnose::terms::Ceilings>,
 }
 
 /// Share of the first stage's improvement (as the reduced base claims it) the simulator
@@ -175,6 +178,7 @@ impl Problem<'_> {
                 validation: None,
                 simulator_judges: std::sync::atomic::AtomicBool::new(self.simulator_judges()),
                 simulated: Default::default(),
+                term_ceilings: None,
             },
             None => Problem {
                 rec: self.rec,
@@ -191,6 +195,7 @@ impl Problem<'_> {
                 validation: None,
                 simulator_judges: std::sync::atomic::AtomicBool::new(self.simulator_judges()),
                 simulated: Default::default(),
+                term_ceilings: None,
             },
         }
     }
@@ -352,7 +357,7 @@ impl Problem<'_> {
     /// What `richer` gains over `reference` (whose effective residual counts are
     /// `n_ref`): on the fits' own predictions, or, where the simulator judges
     /// ([`Problem::simulator_judges`]), on its replays of where each fit ended.
-    fn gain(
+    pub(super) fn gain(
         &self,
         reference: &Stage,
         n_ref: &[f64],

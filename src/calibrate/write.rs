@@ -139,6 +139,24 @@ pub fn calibrated_text(
             )
         })?;
     }
+    // An accepted term's order (exponent, periods per turn, time constant): its
+    // coefficients are among the fitted keys.
+    if let Some(t) = c.terms.as_ref().and_then(|t| t.accepted()) {
+        // A refined thermal time constant is a fitted key, written with them.
+        let setting = t
+            .setting
+            .as_ref()
+            .filter(|(k, _)| !c.keys.iter().any(|f| f.key == *k));
+        if let Some((key, _)) = setting {
+            let v = crate::calibrate::keys::get(&c.scene, key)?;
+            set_text(&mut doc, key, &format!("{v:e}"), |was| {
+                format!(
+                    "calibrated against {source}: the order the term search chose for {} (was {was})",
+                    t.row.name
+                )
+            })?;
+        }
+    }
     let mut text = format!(
         "# Calibrated by `agvsim calibrate` against {source}; the fitted keys carry a `# calibrated` comment.\n"
     );
@@ -358,6 +376,9 @@ pub fn render(c: &Calibration) -> String {
             );
         }
     }
+    if let Some(t) = &c.terms {
+        term_lines(&mut s, t);
+    }
     if let Some(g) = c.wheel_geometry() {
         let _ = writeln!(
             s,
@@ -386,6 +407,61 @@ pub fn render(c: &Calibration) -> String {
         let _ = writeln!(s, "  {:<28} left out: {}", l.output, l.why);
     }
     s
+}
+
+/// The term search's lines: what was screened, each form fitted with its verdict, and
+/// the accepted one in words.
+fn term_lines(s: &mut String, t: &super::terms::TermSearch) {
+    use std::fmt::Write as _;
+    let _ = writeln!(
+        s,
+        "terms outside the vocabulary: {} forms screened through the simulator; {}",
+        t.screened,
+        if t.trials.is_empty() {
+            "none removed enough of the held-out residual to be fitted"
+        } else {
+            "fitted:"
+        }
+    );
+    for trial in &t.trials {
+        let r = &trial.row;
+        let verdict = if trial.accepted {
+            "accepted: added to the scene ([term])".to_string()
+        } else if let Some(effect) = trial.outranked_by {
+            format!("passed the rules, but the vocabulary's {effect} explains the residual nearly as well (a term needs twice its AIC gain): not added")
+        } else if trial.wrong_sign {
+            "not supported: a coefficient took the sign the physics cannot have".to_string()
+        } else if r.significant {
+            "passed the rules, but another order of its family fits the recording better: not added"
+                .to_string()
+        } else if r.at_bound {
+            "not supported: a coefficient ended at its bound".to_string()
+        } else if r.undetermined {
+            "not supported: the recording does not determine its coefficients".to_string()
+        } else {
+            "not supported by the recording: not added".to_string()
+        };
+        let _ = writeln!(
+            s,
+            "  {:<24} {:>9.1} AIC gain {:>8.1} % residual {:>7.1} % held out  {verdict}",
+            r.name, r.delta_aic, -r.rss_reduction_pct, -r.held_out_reduction_pct
+        );
+        let coefficients: Vec<String> = trial
+            .coefficients
+            .iter()
+            .map(|(k, v, sd)| format!("{k} = {}", estimate(*v, *sd, unit_of_key(k))))
+            .chain(
+                trial
+                    .setting
+                    .iter()
+                    .map(|(k, v)| format!("{k} = {}", sig(*v, 4))),
+            )
+            .collect();
+        let _ = writeln!(s, "    {}", coefficients.join(", "));
+        if trial.accepted {
+            let _ = writeln!(s, "    {}", crate::diagnose::terms::describe(r));
+        }
+    }
 }
 
 /// Mean replay fit over the calibration's outputs, %.
@@ -476,6 +552,24 @@ pub fn json(c: &Calibration, scene: &str, recording: &str) -> serde_json::Value 
             "umbmark_ed": g.ed(), "umbmark_eb": g.eb(),
         })),
         "iterations": c.iterations,
+        "terms": c.terms.as_ref().map(|t| serde_json::json!({
+            "screened": t.screened,
+            "fitted": t.trials.iter().map(|trial| serde_json::json!({
+                "name": trial.row.name,
+                "outside_vocabulary": true,
+                "params": trial.row.params.iter().cloned().collect::<serde_json::Map<String, serde_json::Value>>(),
+                "std": trial.row.std,
+                "keys": trial.coefficients.iter().map(|(k, v, sd)| serde_json::json!({"key": k, "value": v, "std": sd})).collect::<Vec<_>>(),
+                "setting": trial.setting.as_ref().map(|(k, v)| serde_json::json!({"key": k, "value": v})),
+                "delta_aic": trial.row.delta_aic,
+                "rss_reduction_pct": trial.row.rss_reduction_pct,
+                "held_out_reduction_pct": trial.row.held_out_reduction_pct,
+                "at_bound": trial.row.at_bound,
+                "undetermined": trial.row.undetermined,
+                "wrong_sign": trial.wrong_sign,
+                "accepted": trial.accepted,
+            })).collect::<Vec<_>>(),
+        })),
     })
 }
 

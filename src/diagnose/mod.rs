@@ -20,7 +20,7 @@ pub mod plots;
 pub mod prove;
 pub mod regimes;
 pub mod report;
-mod round;
+pub(crate) mod round;
 mod scales;
 mod search;
 pub mod terms;

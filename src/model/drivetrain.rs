@@ -3,6 +3,7 @@
 
 use super::gearbox::GearboxParams;
 use super::motor::{MotorParams, MotorState, Terminal};
+use super::term::{self, TermParams};
 use super::wheel::WheelParams;
 
 /// Motor, gearbox and wheel of one side.
@@ -14,6 +15,8 @@ pub struct DrivetrainParams {
     pub gearbox: GearboxParams,
     /// The wheel with its output gear and bearings (on the wheel's side of the play).
     pub wheel: WheelParams,
+    /// A term outside the vocabulary acting in the drivetrain (`[term]`), if any.
+    pub term: Option<TermParams>,
 }
 
 /// What is integrated: the motor and the wheel (the gear output angle is motor angle / ratio).
@@ -25,6 +28,23 @@ pub struct DrivetrainState {
     pub wheel_speed_rad_s: f64,
     /// Wheel angle, rad.
     pub wheel_angle_rad: f64,
+    /// What a term outside the vocabulary integrates (unused without one).
+    pub term: TermState,
+}
+
+/// The state a term brings: the windings' heat and the time it has acted.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct TermState {
+    /// The square of the current low-passed over the thermal time constant, A^2
+    /// ([`term::heat_after_a2`]).
+    pub heat_a2: f64,
+    /// Time since the run's start, s (what a steady drift has acted over).
+    pub elapsed_s: f64,
+    /// What a periodic term adds to the motor angle it is read at, rad: zero in a run; in
+    /// a replay, the recording's encoder angle less the simulated one at the last row
+    /// (the replay's angle drifts from the machine's by its speed error, and a periodic
+    /// torque must act at the machine's phase).
+    pub phase_correction_rad: f64,
 }
 
 impl DrivetrainState {
@@ -86,7 +106,12 @@ impl DrivetrainParams {
         ((dt * rate / 0.3).ceil() as usize).max(1)
     }
 
-    /// Motor half of a sub-step: the armature and rotor, loaded by the teeth.
+    /// Motor half of a sub-step: the armature and rotor, loaded by the teeth. A term
+    /// changes the motor first (its resistance with the heat or a drift, its torque
+    /// constant with the current), adds its motor-side periodic torque, and raises the
+    /// Coulomb level by its share of the torque carried (`load_dependent_friction`, the
+    /// set-valued law as the motor's own Coulomb friction); its heat and clock then move
+    /// on over the sub-step.
     pub fn motor_substep(
         &self,
         s: &mut DrivetrainState,
@@ -94,17 +119,39 @@ impl DrivetrainParams {
         tooth_torque_nm: f64,
         h: f64,
     ) {
-        self.motor.step(
-            &mut s.motor,
-            terminal,
-            tooth_torque_nm / self.gearbox.ratio,
+        let load_nm = tooth_torque_nm / self.gearbox.ratio;
+        let Some(t) = &self.term else {
+            self.motor.step(&mut s.motor, terminal, load_nm, h);
+            return;
+        };
+        let current_a = s.motor.current_a;
+        let mut motor = t.motor_at(&self.motor, current_a, s.term.heat_a2, s.term.elapsed_s);
+        motor.coulomb_nm +=
+            t.load_friction_ratio * motor.electromagnetic_torque_nm(current_a).abs();
+        let periodic_nm = t.motor_side_torque_nm(s.motor.angle_rad + s.term.phase_correction_rad);
+        motor.step(&mut s.motor, terminal, load_nm - periodic_nm, h);
+        s.term.heat_a2 = term::heat_after_a2(
+            s.term.heat_a2,
+            s.motor.current_a,
+            t.thermal_time_constant_s,
             h,
         );
+        s.term.elapsed_s += h;
+    }
+
+    /// The wheel-side torque of a term at the wheel now (drag, a periodic torque), N m;
+    /// zero without one.
+    #[inline]
+    pub fn wheel_term_torque_nm(&self, s: &DrivetrainState) -> f64 {
+        self.term.as_ref().map_or(0.0, |t| {
+            let phase = s.wheel_angle_rad + s.term.phase_correction_rad / self.gearbox.ratio;
+            t.wheel_side_torque_nm(phase, s.wheel_speed_rad_s)
+        })
     }
 
     /// Wheel half of a sub-step when the wheel turns on its own (lifted, or on a tyre whose
-    /// torque about the axle is `ground_torque_nm`, positive forward); the bearings'
-    /// viscous friction implicit, as the motor's is.
+    /// torque about the axle is `ground_torque_nm`, positive forward), with a term's
+    /// wheel-side torque; the bearings' viscous friction implicit, as the motor's is.
     pub fn wheel_substep(
         &self,
         s: &mut DrivetrainState,
@@ -113,7 +160,8 @@ impl DrivetrainParams {
         h: f64,
     ) {
         let j = self.wheel.inertia_kg_m2;
-        let trial = s.wheel_speed_rad_s + h * (tooth_torque_nm + ground_torque_nm) / j;
+        let driving = tooth_torque_nm + ground_torque_nm + self.wheel_term_torque_nm(s);
+        let trial = s.wheel_speed_rad_s + h * driving / j;
         s.wheel_speed_rad_s = trial / (1.0 + h * self.wheel.viscous_nm_s_rad / j);
         s.wheel_angle_rad += h * s.wheel_speed_rad_s;
     }

@@ -13,7 +13,7 @@ crate::declare_params! {
     /// family off.
     #[derive(Debug, Clone, Copy, PartialEq)]
     pub struct TermParams in "term" {
-        /// `speed_power`: wheel-side drag `-c sign(w_w) |w_w|^n`, coefficient `c` in
+        /// `speed_power`: wheel-side drag `-c sign(w_w) abs(w_w)^n`, coefficient `c` in
         /// N m (s/rad)^n at the wheel, `w_w` the wheel speed in rad/s.
         speed_power_coefficient: f64 = 0.0, "N m (s/rad)^n", NonNegative;
         /// `speed_power`: the exponent `n` of the wheel speed.
@@ -34,8 +34,8 @@ crate::declare_params! {
         /// `load_dependent_friction`: friction at the motor shaft as this share of the
         /// torque the gears carry (a gear efficiency of about 1 - ratio).
         load_friction_ratio: f64 = 0.0, "", closed(0.0, 0.9);
-        /// `current_power`: the torque constant falls as `K (1 - k |i|^n)`; this is `k`,
-        /// in 1/A^n.
+        /// `current_power`: the torque constant falls as `K (1 - k abs(i)^n)`; this is
+        /// `k`, in 1/A^n.
         current_power_coefficient: f64 = 0.0, "1/A^n", NonNegative;
         /// `current_power`: the exponent `n` of the current.
         current_power_exponent: f64 = 1.0, "", closed(1.0, 2.0);
@@ -173,6 +173,14 @@ pub fn torque_constant_share(coefficient: f64, exponent: f64, current_a: f64) ->
     (1.0 - coefficient * current_a.abs().powf(exponent)).max(0.0)
 }
 
+/// `thermal_drift`'s heat after a step `h` (s) at a steady current: the exact solution of
+/// [`heat_rate_a2_s`] over it, `q' = i^2 + (q - i^2) exp(-h / tau)` (stable for any `h`).
+#[inline]
+pub fn heat_after_a2(heat_a2: f64, current_a: f64, time_constant_s: f64, h: f64) -> f64 {
+    let steady = current_a * current_a;
+    steady + (heat_a2 - steady) * (-h / time_constant_s).exp()
+}
+
 /// `thermal_drift`'s heat state: the rate of the square of the current low-passed over the
 /// thermal time constant, A^2/s: `dq/dt = (i^2 - q) / tau`. With `Cth dT/dt = i^2 R - dT /
 /// Rth` and `R` near `R0`, the temperature rise is `Rth R0 q`, so `R = R0 (1 + a q)`.
@@ -199,6 +207,33 @@ impl TermParams {
                 thermal_time_constant_s: self.thermal_time_constant_s,
                 ..TermParams::default()
             }
+    }
+
+    /// The families switched on (a coefficient not zero), in the contract's order.
+    pub fn families_on(&self) -> Vec<Family> {
+        let on = |f: Family| match f {
+            Family::SpeedPower => self.speed_power_coefficient != 0.0,
+            Family::PeriodicMotorAngle => {
+                self.motor_periodic_sin_nm != 0.0 || self.motor_periodic_cos_nm != 0.0
+            }
+            Family::PeriodicWheelAngle => {
+                self.wheel_periodic_sin_nm != 0.0 || self.wheel_periodic_cos_nm != 0.0
+            }
+            Family::LoadDependentFriction => self.load_friction_ratio != 0.0,
+            Family::ThermalDrift => self.heating_coefficient_1_a2 != 0.0,
+            Family::CurrentPower => self.current_power_coefficient != 0.0,
+            Family::TimeDrift => {
+                self.resistance_drift_1_s != 0.0
+                    || self.torque_constant_drift_1_s != 0.0
+                    || self.viscous_drift_1_s != 0.0
+            }
+        };
+        Family::ALL.into_iter().filter(|&f| on(f)).collect()
+    }
+
+    /// Whether every family is off (what a scene leaves out).
+    pub fn is_off(&self) -> bool {
+        !self.any()
     }
 
     /// The torque the angle- and speed-dependent terms add at the motor shaft, N m
@@ -305,6 +340,10 @@ mod tests {
             q += h * heat_rate_a2_s(q, 3.0, 2.0);
         }
         assert!((q - 9.0).abs() < 1e-3, "{q}");
+        // The exact step agrees with the integrated rate, and settles however long it is.
+        let exact = heat_after_a2(0.0, 3.0, 2.0, 1.0);
+        assert!((exact - 9.0 * (1.0 - (-0.5f64).exp())).abs() < 1e-12);
+        assert!((heat_after_a2(0.0, 3.0, 1e-9, 1e-3) - 9.0).abs() < 1e-12);
     }
 
     #[test]
@@ -324,6 +363,14 @@ mod tests {
             ..TermParams::default()
         };
         assert!(t.any() && !TermParams::default().any());
+        assert_eq!(
+            t.families_on(),
+            [
+                Family::ThermalDrift,
+                Family::CurrentPower,
+                Family::TimeDrift
+            ]
+        );
         let m = t.motor_at(&motor, 10.0, 25.0, 20.0);
         let r = motor.resistance_ohm * 1.05 * 1.02;
         assert!((m.resistance_ohm - r).abs() < 1e-12);

@@ -505,6 +505,59 @@ impl Machine {
             Machine::Reduced(r) => r.set_actuation(a),
         }
     }
+
+    /// A periodic term's phase read at the encoders' angles (the reduced base has no
+    /// terms).
+    fn read_term_phase_at(&mut self, measured_rad: [f64; 2]) {
+        if let Machine::Full(s) = self {
+            s.read_term_phase_at(measured_rad);
+        }
+    }
+}
+
+/// The motor angles a periodic term is read at over `rows`, per side (left, right): the
+/// recording's encoder angle (`motor_angle_rad`, or each side's `left_`/`right_`), or its
+/// speed integrated from zero at the first row (an encoder's speed is its count
+/// difference over the interval ending at its row, so the integral is exact to a count).
+/// `None` where the scene has no periodic term, the recording neither column, or the
+/// column never changes (an encoder that never turned, or a placeholder for the outputs
+/// a replay is to simulate: the simulated angle is the phase then).
+fn term_phases(
+    scene: &Scene,
+    rec: &Recording,
+    rows: &std::ops::Range<usize>,
+) -> Option<[Vec<f64>; 2]> {
+    use crate::model::term::Family;
+    let periodic = scene
+        .term
+        .families_on()
+        .iter()
+        .any(|f| matches!(f, Family::PeriodicMotorAngle | Family::PeriodicWheelAngle));
+    if !periodic {
+        return None;
+    }
+    let side = |prefix: &str| -> Option<Vec<f64>> {
+        let t = &rec.t_s[rows.clone()];
+        let angle: Option<Vec<f64>> = rec
+            .column(&format!("{prefix}angle_rad"))
+            .and_then(|c| c[rows.clone()].iter().copied().collect());
+        let speed = rec
+            .column(&format!("{prefix}speed_rad_s"))
+            .map(|c| &c[rows.clone()]);
+        let (a, b) = crate::ident::data::angle_line(t, angle.as_deref(), speed)?;
+        let theta: Vec<f64> = t
+            .iter()
+            .zip(a.iter().zip(&b))
+            .map(|(t, (a, b))| a + b * t)
+            .collect();
+        let turned = theta.iter().any(|x| *x != theta[0]);
+        turned.then_some(theta)
+    };
+    match (side("motor_"), side("left_motor_"), side("right_motor_")) {
+        (Some(m), _, _) => Some([m.clone(), m]),
+        (None, Some(l), Some(r)) => Some([l, r]),
+        _ => None,
+    }
 }
 
 /// Runs the scene's simulator on the recording's inputs and compares its outputs.
@@ -694,6 +747,7 @@ fn simulate_rows(
     let mut counted: Vec<Option<f64>> = vec![None; chans.len()];
     let mut peak_v = 0.0_f64;
     let mut t_last = 0.0;
+    let phases = term_phases(&scene, rec, &rows);
     for k in rows.clone() {
         if k > rows.start {
             // Step until the simulator reaches this row's time, holding the last input.
@@ -727,6 +781,9 @@ fn simulate_rows(
         peak_v = peak_v.max(s.sides[0].voltage_v.abs().max(s.sides[1].voltage_v.abs()));
         let u: Vec<f64> = inputs.iter().map(|col| col[k]).collect();
         sim.set_actuation(drive.actuation(&u));
+        if let Some([l, r]) = &phases {
+            sim.read_term_phase_at([l[k - rows.start], r[k - rows.start]]);
+        }
     }
     // Coil readings depend on where the wire is: a path moved rigidly would not match them.
     if still - rows.start < MIN_STILL_ROWS && !chans.iter().any(|c| c.name.starts_with("sensor_")) {

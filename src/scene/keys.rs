@@ -25,6 +25,7 @@ pub fn table() -> &'static KeyTable<Scene> {
             .block(|s| &s.motor, |s| &mut s.motor)
             .block(|s| &s.gearbox, |s| &mut s.gearbox)
             .block(|s| &s.wheel, |s| &mut s.wheel)
+            .block(|s| &s.term, |s| &mut s.term)
             .block(|s| &s.tyre, |s| &mut s.tyre)
             .block(|s| &s.floor, |s| &mut s.floor)
             .block(|s| &s.battery, |s| &mut s.battery)

@@ -44,6 +44,9 @@ pub struct Scene {
     pub gearbox: GearboxParams,
     /// The drive wheels (both sides).
     pub wheel: WheelParams,
+    /// A term outside the vocabulary in both drivetrains (all coefficients zero: none).
+    #[serde(skip_serializing_if = "crate::model::term::TermParams::is_off")]
+    pub term: crate::model::term::TermParams,
     /// The drive tyres.
     pub tyre: TyreChoice,
     /// The floor's surfaces.

@@ -237,6 +237,16 @@ impl Sim {
         }
     }
 
+    /// Reads a periodic term's phase at the motor angles `measured_rad` (left, right) from
+    /// now on: each side's term acts at its simulated angle plus the difference (see
+    /// [`crate::model::drivetrain::TermState::phase_correction_rad`]). A replay calls it at
+    /// each row of a recording with an encoder; a run never does.
+    pub fn read_term_phase_at(&mut self, measured_rad: [f64; 2]) {
+        for (d, m) in self.drive.iter_mut().zip(measured_rad) {
+            d.term.phase_correction_rad = m - d.motor.angle_rad;
+        }
+    }
+
     /// Simulated time so far, s.
     pub fn time_s(&self) -> f64 {
         self.t_s

@@ -366,6 +366,7 @@ fn drivetrain_of(scene: &Scene, features: Features) -> DrivetrainParams {
             ..scene.gearbox
         },
         wheel: scene.wheel,
+        term: scene.term.any().then_some(scene.term),
     }
 }
 

@@ -273,8 +273,9 @@ impl Sim {
                     for i in 0..2 {
                         let tooth = dtp.tooth_torque_nm(&self.drive[i]);
                         dtp.motor_substep(&mut self.drive[i], terminals[i], tooth, h);
-                        torque[i] =
-                            tooth - dtp.wheel_bearing_torque_nm(self.drive[i].wheel_speed_rad_s);
+                        torque[i] = tooth
+                            - dtp.wheel_bearing_torque_nm(self.drive[i].wheel_speed_rad_s)
+                            + dtp.wheel_term_torque_nm(&self.drive[i]);
                     }
                     p.noslip.step(state, torque, h);
                     let w = p.noslip.wheel_speeds_rad_s(state);

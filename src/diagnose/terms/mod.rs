@@ -29,10 +29,10 @@ use crate::ident::models::rotary_axis::{AxisInput, RotaryAxis, TermCoefficient, 
 use crate::ident::Structure;
 use crate::model::term::{Drifting, Family};
 
-mod screen;
+pub(crate) mod screen;
 mod words;
 use screen::Linearised;
-use words::{contract_params, main_scale, main_std};
+pub(crate) use words::{contract_params, main_scale, main_std};
 pub use words::{describe, param, TermFinding};
 
 /// Time blocks the record is cut into for the screen: fitted on the even ones, judged on
@@ -48,7 +48,7 @@ pub const ORDER_RIVALS: usize = 2;
 /// fitted.
 pub const RIVAL_SHARE: f64 = 0.9;
 /// A coefficient's screen perturbation, as a share of its physical ceiling.
-const SCREEN_STEP: f64 = 1e-3;
+pub(crate) const SCREEN_STEP: f64 = 1e-3;
 
 /// The forms a rotary axis driven by `input` is searched over: exponents of the speed
 /// from 0.5 to 4 (1 is the viscous friction the model has), 1-12 periods per motor turn,
@@ -285,7 +285,8 @@ pub(super) fn search(
 /// Each family's physical ceilings, from the record and the stage's motor: the torque of
 /// the peak drive (stall torque at the largest voltage, or the largest commanded torque)
 /// bounds every torque a term may add.
-struct Ceilings {
+#[derive(Debug, Clone)]
+pub(crate) struct Ceilings {
     /// Peak motor torque, N m.
     torque_nm: f64,
     /// Peak current, A.
@@ -329,18 +330,39 @@ impl Ceilings {
                 i.iter().sum::<f64>() / i.len().max(1) as f64
             })
             .unwrap_or(current_a * current_a);
+        Ceilings::new(
+            torque_nm,
+            current_a,
+            heat_a2,
+            speed / m.ratio,
+            m.ratio,
+            data.t_s.last().unwrap_or(&1.0) - data.t_s[0],
+        )
+    }
+
+    /// The ceilings of a drive whose peak motor torque is `torque_nm` (N m), peak
+    /// current `current_a` (A), mean square current `heat_a2` (A^2), peak wheel speed
+    /// `wheel_speed_rad_s`, gear `ratio`, over a record of `duration_s`.
+    pub(crate) fn new(
+        torque_nm: f64,
+        current_a: f64,
+        heat_a2: f64,
+        wheel_speed_rad_s: f64,
+        ratio: f64,
+        duration_s: f64,
+    ) -> Ceilings {
         Ceilings {
             torque_nm: torque_nm.max(1e-9),
             current_a: current_a.max(1e-9),
             heat_a2: heat_a2.max(1e-9),
-            wheel_speed_rad_s: (speed / m.ratio).max(1e-9),
-            ratio: m.ratio,
-            duration_s: (data.t_s.last().unwrap_or(&1.0) - data.t_s[0]).max(1e-9),
+            wheel_speed_rad_s: wheel_speed_rad_s.max(1e-9),
+            ratio,
+            duration_s: duration_s.max(1e-9),
         }
     }
 
     /// A form's ceilings, one per coefficient in the form's order.
-    fn of_form(&self, form: TermForm) -> Vec<f64> {
+    pub(crate) fn of_form(&self, form: TermForm) -> Vec<f64> {
         match form.family {
             Family::SpeedPower => {
                 vec![self.torque_nm * self.ratio / self.wheel_speed_rad_s.powf(form.order)]
@@ -366,7 +388,7 @@ fn start_vector(stage: &[f64], form: TermForm, coefficients: &[TermCoefficient])
 }
 
 /// The name a time drift's parameter goes by.
-fn drifting_key(d: Drifting) -> &'static str {
+pub(crate) fn drifting_key(d: Drifting) -> &'static str {
     use crate::model::motor::MotorParams;
     match d {
         Drifting::Resistance => MotorParams::resistance_ohm.key(),

@@ -26,15 +26,7 @@ impl<'a> Linearised<'a> {
     pub(super) fn at(data: &'a Dataset, stage: &'a Stage) -> Option<Linearised<'a>> {
         let w = &stage.fit.weighting.outputs;
         let residual = fit::residuals(data, &stage.fit.predicted, w);
-        let rows = data.len().max(1);
-        let mut fitting = Vec::with_capacity(residual.len());
-        for col in &data.outputs {
-            for (k, y) in col.iter().enumerate() {
-                if y.is_some() {
-                    fitting.push((k * HELD_OUT_BLOCKS / rows).is_multiple_of(2));
-                }
-            }
-        }
+        let fitting = fitting_rows(data);
         let model = stage.structure.model();
         let specs = model.params();
         let p = &stage.fit.params;
@@ -90,26 +82,9 @@ impl<'a> Linearised<'a> {
             let y = with.predict(&q, data).ok()?;
             columns.push(difference(&fit::residuals(data, &y, w), &self.residual, h));
         }
-        let all: Vec<&[f64]> = self
-            .jacobian
-            .iter()
-            .chain(&columns)
-            .map(|c| c.as_slice())
-            .collect();
-        let nominal: Vec<&[f64]> = self.jacobian.iter().map(|c| c.as_slice()).collect();
-        let fit_rows: Vec<bool> = self.fitting.clone();
-        let held_rows: Vec<bool> = self.fitting.iter().map(|f| !f).collect();
-        let every: Vec<bool> = vec![true; self.residual.len()];
-        let with_term = least_squares(&all, &self.residual, &fit_rows)?;
-        let without = least_squares(&nominal, &self.residual, &fit_rows)?;
-        let held = |beta: &[f64], cols: &[&[f64]]| rss(cols, beta, &self.residual, &held_rows);
-        let held_out = 1.0 - held(&with_term, &all) / held(&without, &nominal).max(1e-300);
-        let whole = least_squares(&all, &self.residual, &every)?;
-        let whole_nominal = least_squares(&nominal, &self.residual, &every)?;
-        let reduction = 1.0
-            - rss(&all, &whole, &self.residual, &every)
-                / rss(&nominal, &whole_nominal, &self.residual, &every).max(1e-300);
-        let start = whole[nominal.len()..]
+        let judged = judge_columns(&self.jacobian, &columns, &self.residual, &self.fitting)?;
+        let start = judged
+            .coefficients
             .iter()
             .zip(&coefficients)
             .map(|(b, c)| b.clamp(c.lo, c.hi))
@@ -122,16 +97,77 @@ impl<'a> Linearised<'a> {
             } else {
                 ""
             },
-            held_out_reduction_pct: 100.0 * held_out,
-            reduction_pct: 100.0 * reduction,
+            held_out_reduction_pct: 100.0 * judged.held_out_reduction,
+            reduction_pct: 100.0 * judged.reduction,
             form: Some(form),
             start,
         })
     }
 }
 
+/// A form's columns judged beside a stage's: what they remove of the residual.
+pub(crate) struct Judged {
+    /// Share of the held-out rows' residual removed (fitted on the others).
+    pub held_out_reduction: f64,
+    /// Share of the whole residual removed (fitted on every row).
+    pub reduction: f64,
+    /// The form's coefficients fitted on every row.
+    pub coefficients: Vec<f64>,
+}
+
+/// A form's `columns` (the residual's derivatives in its coefficients) fitted by least
+/// squares beside the stage's `jacobian` (its derivatives in the stage's free
+/// parameters) on the rows `fitting` marks and judged on the others, then fitted on
+/// every row: against the stage's parameters alone refitted alike, so that what a refit
+/// of the stage absorbs is not credited to the form. `None` where a system has no
+/// solution.
+pub(crate) fn judge_columns(
+    jacobian: &[Vec<f64>],
+    columns: &[Vec<f64>],
+    residual: &[f64],
+    fitting: &[bool],
+) -> Option<Judged> {
+    let all: Vec<&[f64]> = jacobian
+        .iter()
+        .chain(columns)
+        .map(|c| c.as_slice())
+        .collect();
+    let nominal: Vec<&[f64]> = jacobian.iter().map(|c| c.as_slice()).collect();
+    let held_rows: Vec<bool> = fitting.iter().map(|f| !f).collect();
+    let every: Vec<bool> = vec![true; residual.len()];
+    let with_term = least_squares(&all, residual, fitting)?;
+    let without = least_squares(&nominal, residual, fitting)?;
+    let held = |beta: &[f64], cols: &[&[f64]]| rss(cols, beta, residual, &held_rows);
+    let held_out_reduction = 1.0 - held(&with_term, &all) / held(&without, &nominal).max(1e-300);
+    let whole = least_squares(&all, residual, &every)?;
+    let whole_nominal = least_squares(&nominal, residual, &every)?;
+    let reduction = 1.0
+        - rss(&all, &whole, residual, &every)
+            / rss(&nominal, &whole_nominal, residual, &every).max(1e-300);
+    Some(Judged {
+        held_out_reduction,
+        reduction,
+        coefficients: whole[nominal.len()..].to_vec(),
+    })
+}
+
+/// Whether each residual of `data` (output by output, present samples only) lies in a
+/// fitting (even) time block of [`HELD_OUT_BLOCKS`].
+pub(crate) fn fitting_rows(data: &Dataset) -> Vec<bool> {
+    let rows = data.len().max(1);
+    let mut fitting = Vec::new();
+    for col in &data.outputs {
+        for (k, y) in col.iter().enumerate() {
+            if y.is_some() {
+                fitting.push((k * HELD_OUT_BLOCKS / rows).is_multiple_of(2));
+            }
+        }
+    }
+    fitting
+}
+
 /// `(a - b) / h`, element by element.
-fn difference(a: &[f64], b: &[f64], h: f64) -> Vec<f64> {
+pub(crate) fn difference(a: &[f64], b: &[f64], h: f64) -> Vec<f64> {
     a.iter().zip(b).map(|(a, b)| (a - b) / h).collect()
 }
 

@@ -7,7 +7,7 @@ use crate::ident::models::rotary_axis::TermForm;
 use crate::model::term::{amplitude_phase, Family};
 
 /// The contract's parameters of a fitted form (the main coefficient first).
-pub(super) fn contract_params(
+pub(crate) fn contract_params(
     form: TermForm,
     v: &[f64],
     data: &Dataset,
@@ -62,7 +62,7 @@ fn final_heat_a2(data: &Dataset, stage: &Fit, tau_s: f64) -> f64 {
 
 /// What the main contract parameter is per unit of the fitted coefficient: a time drift's
 /// change in % over the record, a thermal term's rise in % at its end; 1 otherwise.
-pub(super) fn main_scale(form: TermForm, data: &Dataset, stage: &Fit, ceilings: &Ceilings) -> f64 {
+pub(crate) fn main_scale(form: TermForm, data: &Dataset, stage: &Fit, ceilings: &Ceilings) -> f64 {
     match form.family {
         Family::TimeDrift => 100.0 * ceilings.duration_s,
         Family::ThermalDrift => 100.0 * final_heat_a2(data, stage, form.order),
@@ -72,7 +72,7 @@ pub(super) fn main_scale(form: TermForm, data: &Dataset, stage: &Fit, ceilings: 
 
 /// The main coefficient's standard deviation: the coefficient's own, or a periodic
 /// term's amplitude's (the larger of its parts').
-pub(super) fn main_std(form: TermForm, _v: &[f64], stds: &[Option<f64>]) -> Option<f64> {
+pub(crate) fn main_std(form: TermForm, _v: &[f64], stds: &[Option<f64>]) -> Option<f64> {
     match form.family {
         Family::PeriodicMotorAngle | Family::PeriodicWheelAngle => Some(stds[0]?.max(stds[1]?)),
         _ => stds[0],

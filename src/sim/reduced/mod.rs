@@ -49,6 +49,9 @@ pub enum ReducedError {
     /// The scene's machine is not a base on the floor.
     #[error("the reduced base needs a vehicle on the floor: {0}")]
     NotABase(&'static str),
+    /// The scene has physics the reduced base does not model.
+    #[error("the reduced base does not model {0}")]
+    Unmodelled(&'static str),
     /// The scene does not set up.
     #[error(transparent)]
     Setup(#[from] SimError),
@@ -124,6 +127,11 @@ impl ReducedBase {
         if !scene.floor.regions.is_empty() {
             return Err(ReducedError::NotABase(
                 "the floor has regions of other surfaces (the reduced base holds one floor)",
+            ));
+        }
+        if scene.term.any() {
+            return Err(ReducedError::Unmodelled(
+                "a term outside the vocabulary ([term]): the simulator replays it",
             ));
         }
         let params = SimParams::from_scene(scene)?;

@@ -52,6 +52,7 @@ pub(crate) fn drivetrain_state(x: &[f64]) -> DrivetrainState {
         },
         wheel_speed_rad_s: x[3],
         wheel_angle_rad: x[4],
+        term: Default::default(),
     }
 }
 
@@ -90,6 +91,9 @@ pub(crate) fn drivetrain_blocks(
             viscous_nm_s_rad: total_viscous * wheel_share * ratio * ratio,
             ..*wheel
         },
+        // The fitting model integrates a term itself (its heat and clock are states of
+        // the model: `AxisBlocks::term`), with the same laws.
+        term: None,
     }
 }
 
