@@ -66,7 +66,53 @@ fn the_development_sets_hidden_terms_are_named_with_order_and_coefficient() {
         };
         assert_eq!(found["params"][order].as_f64(), key["n"].as_f64(), "{name}");
         assert!(d.final_fit_pct > d.baseline_fit_pct, "{name}");
+        // The evidence plot: an output's residual, binned by the quantity the term
+        // depends on, follows it before (its binned means spread at least twice as far)
+        // and is flat after. A periodic torque's response lags its phase by the drive's
+        // dynamics, by more as the chirp speeds up, which blurs its bins (dev_open_04:
+        // 2.4 times; the speed powers 9 and 33 times).
+        let (_, x) = d.terms[0].quantity.as_ref().expect("a measured quantity");
+        let data = d.baseline.data.as_ref().unwrap();
+        let ratio = |j: usize| {
+            let spread = |pred: &[f64]| {
+                let r: Vec<f64> = data.outputs[j]
+                    .iter()
+                    .zip(pred)
+                    .map(|(v, p)| v.unwrap() - p)
+                    .collect();
+                binned_spread(x, &r, 24)
+            };
+            spread(&d.baseline.predicted[j]) / spread(&d.diagnosed.predicted[j])
+        };
+        let best = (0..data.output_names.len()).map(ratio).fold(0.0, f64::max);
+        println!("{name}: binned residual spread {best:.1} times smaller after");
+        assert!(best > 2.0, "{name}: {best}");
+        let figures = agvsim::diagnose::plots::figures(&d).unwrap();
+        let file = format!("term_{family}_current_A.svg");
+        assert!(figures.iter().any(|f| f.file == file), "{name}: {file}");
     }
+}
+
+/// The spread of `y`'s means in `bins` equal bins of `x` over its range: their standard
+/// deviation with each bin weighed by its samples (a bin at the range's edge holds a few
+/// noisy samples).
+fn binned_spread(x: &[f64], y: &[f64], bins: usize) -> f64 {
+    let lo = x.iter().cloned().fold(f64::INFINITY, f64::min);
+    let hi = x.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    let mut sum = vec![0.0; bins];
+    let mut count = vec![0.0; bins];
+    for (a, b) in x.iter().zip(y) {
+        let k = (((a - lo) / (hi - lo) * bins as f64) as usize).min(bins - 1);
+        sum[k] += b;
+        count[k] += 1.0;
+    }
+    let n: f64 = count.iter().sum();
+    let m = sum.iter().sum::<f64>() / n;
+    let var: f64 = (0..bins)
+        .filter(|&k| count[k] > 0.0)
+        .map(|k| count[k] * (sum[k] / count[k] - m).powi(2))
+        .sum();
+    (var / n).sqrt()
 }
 
 /// The truth of this test's own recordings: a DC motor through a rigid 23.41:1 gear to a

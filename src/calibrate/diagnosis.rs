@@ -26,6 +26,11 @@ pub fn contract_param(scene: &Scene, t: &EffectTrial) -> (&'static str, f64) {
     (name, value)
 }
 
+/// The term outside the vocabulary the calibration accepted, if any.
+fn accepted_term(c: &Calibration) -> Option<&super::terms::TermTrial> {
+    c.terms.as_ref().and_then(|t| t.accepted())
+}
+
 /// The diagnosis's conclusion in the words `diagnose --rig` uses: a `Found:` line for each
 /// effect accepted, with what it is and its value, then the fit from the baseline (the
 /// scene's free keys fitted, no effect) to the diagnosed scene; or the verdict that
@@ -35,10 +40,11 @@ pub fn findings_text(c: &Calibration, baseline: &Replay) -> String {
     use std::fmt::Write as _;
     let mut s = String::new();
     let found: Vec<&EffectTrial> = c.effects.iter().filter(|t| t.accepted).collect();
-    if found.is_empty() {
+    let term = accepted_term(c);
+    if found.is_empty() && term.is_none() {
         let _ = writeln!(
             s,
-            "Verdict: nothing is missing; no effect explains enough of the residual to be told from noise."
+            "Verdict: nothing is missing; no effect (or term outside the vocabulary) explains enough of the residual to be told from noise."
         );
     }
     for t in &found {
@@ -55,6 +61,14 @@ pub fn findings_text(c: &Calibration, baseline: &Replay) -> String {
             t.effect.name(),
             crate::diagnose::evidence::describe(t.effect, value, false),
             estimate(value, std, unit)
+        );
+    }
+    if let Some(t) = term {
+        let _ = writeln!(
+            s,
+            "Found outside the vocabulary: {} — {}",
+            t.row.name,
+            crate::diagnose::terms::describe(&t.row)
         );
     }
     let _ = writeln!(
@@ -90,7 +104,7 @@ pub fn contract_json(
             .map(|o| (o.name.clone(), serde_json::json!(o.fit_pct)))
             .collect::<serde_json::Map<_, _>>()
     };
-    let effects: Vec<serde_json::Value> = c
+    let mut effects: Vec<serde_json::Value> = c
         .effects
         .iter()
         .filter(|t| t.accepted)
@@ -116,6 +130,24 @@ pub fn contract_json(
             })
         })
         .collect();
+    effects.extend(accepted_term(c).map(|t| {
+        let main = t.row.params.first().map_or(String::new(), |(n, _)| n.clone());
+        serde_json::json!({
+            "name": t.row.name,
+            "outside_vocabulary": true,
+            "params": t.row.params.iter().cloned().collect::<serde_json::Map<_, _>>(),
+            "std": { main: t.row.std },
+            "scene_keys": t.coefficients.iter().map(|(k, _, _)| k.clone()).collect::<Vec<_>>(),
+            "fit_pct": c.after.mean_fit_pct(),
+            "evidence": format!(
+                "through the simulator: its screen removed {:.1} % of the held-out time blocks' residual; fitted, {:.1} % of the weighted residual (AIC gain {:.1})",
+                t.row.held_out_reduction_pct, t.row.rss_reduction_pct, t.row.delta_aic
+            ),
+            "description": crate::diagnose::terms::describe(&t.row),
+            "delta_aic": t.row.delta_aic,
+            "held_out_reduction_pct": t.row.held_out_reduction_pct,
+        })
+    }));
     serde_json::json!({
         "recording": recording,
         "model": format!("the simulator on {scene_path}"),

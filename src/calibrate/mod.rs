@@ -597,16 +597,7 @@ pub fn calibrate_telling(
     let term_ceilings = (matches!(request.effects, effects::Choice::All)
         && terms::searched(rec, scene, engine))
     .then(|| terms::ceilings(scene, &data, max_command_v(&first_look)));
-    let mut signed: Vec<(String, f64)> = tried
-        .iter()
-        .filter_map(|&e| {
-            let h = effects::home(e, scene, driven).ok()?;
-            Some((h.key.to_string(), h.signed_range?))
-        })
-        .collect();
-    if let Some(c) = &term_ceilings {
-        signed.extend(terms::signed_keys(c));
-    }
+    let signed = signed_keys(&tried, scene, driven, term_ceilings.as_ref());
     // A tracked pose is compared over windows: a drifting simulation must not swamp the fit.
     let windows = pose_windows::PoseWindows::of(&data);
     let data = match &windows {
@@ -667,6 +658,7 @@ pub fn calibrate_telling(
     let rounds = rounds::effect_rounds(&problem, stage, &tried, driven, progress, found)?;
     let iterations = rounds.iterations;
     let (keys, final_scene, trials) = settled(scene, &problem, &free, &rounds)?;
+    let rounds = settle_term(rounds, &keys, &problem);
     progress(&format!(
         "fitted in {iterations} iterations in all stages; replaying the recording on the calibrated scene"
     ));
@@ -685,6 +677,36 @@ pub fn calibrate_telling(
         baseline,
         iterations,
     })
+}
+
+/// The rounds with their accepted term at the calibration's final values
+/// ([`terms::TermSearch::settle`]).
+fn settle_term(mut rounds: rounds::Rounds, keys: &[KeyFit], problem: &Problem) -> rounds::Rounds {
+    if let (Some(search), Some(c)) = (&mut rounds.terms, &problem.term_ceilings) {
+        search.settle(keys, &problem.data, &rounds.stage.fit, c);
+    }
+    rounds
+}
+
+/// The keys the fits search on a linear scale through zero, with their half-widths: the
+/// effects' of either sign, and every term coefficient where terms are searched.
+fn signed_keys(
+    tried: &[Effect],
+    scene: &Scene,
+    driven: effects::Driven,
+    term_ceilings: Option<&crate::diagnose::terms::Ceilings>,
+) -> Vec<(String, f64)> {
+    let mut signed: Vec<(String, f64)> = tried
+        .iter()
+        .filter_map(|&e| {
+            let h = effects::home(e, scene, driven).ok()?;
+            Some((h.key.to_string(), h.signed_range?))
+        })
+        .collect();
+    if let Some(c) = term_ceilings {
+        signed.extend(terms::signed_keys(c));
+    }
+    signed
 }
 
 /// The first stage on the fits' engine. Where that is the reduced base and the simulator

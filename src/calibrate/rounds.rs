@@ -213,10 +213,12 @@ fn forward(
             candidates.push(((t.clone(), next.clone()), home));
         }
         let best = confirmed_best(problem, r, candidates, progress)?;
-        let best_aic = best
-            .as_ref()
-            .map(|((t, _), _)| (t.effect.name(), t.delta_aic));
-        if let Some(with) = term_round(problem, r, best_aic, round, progress)? {
+        let rival = best.as_ref().map(|((t, _), _)| super::terms::Rival {
+            effect: t.effect.name(),
+            delta_aic: t.delta_aic,
+            reduction: t.rss_reduction_pct / 100.0,
+        });
+        if let Some(with) = term_round(problem, r, rival, round, progress)? {
             r.stage = problem.polished(with)?;
             r.iterations += r.stage.fit.iterations;
             continue;
@@ -263,12 +265,12 @@ fn forward(
 /// A round's search for a term outside the vocabulary, where the calibration searches
 /// terms and has taken none yet: the stage with the term where it passes the rules and
 /// has more than [`VOCABULARY_PREFERENCE`] times the AIC gain of the round's best effect
-/// (`best`: its name and gain) plus [`MIN_DELTA_AIC`]; a vocabulary effect that explains
-/// the residual keeps its name, as in `diagnose`.
+/// (`best`) plus [`MIN_DELTA_AIC`]; a vocabulary effect that explains the residual keeps
+/// its name, as in `diagnose`.
 fn term_round(
     problem: &Problem,
     r: &mut Rounds,
-    best: Option<(&'static str, f64)>,
+    best: Option<super::terms::Rival>,
     round: usize,
     progress: &dyn Fn(&str),
 ) -> Result<Option<Stage>, CalibrateError> {
@@ -278,9 +280,10 @@ fn term_round(
     if r.terms.as_ref().is_some_and(|t| t.accepted().is_some()) {
         return Ok(None);
     }
-    let (mut search, with) = super::terms::search(problem, &r.stage, ceilings, progress)?;
-    let wins = match (search.accepted(), best) {
-        (Some(t), Some((_, b))) => t.row.delta_aic > VOCABULARY_PREFERENCE * b + MIN_DELTA_AIC,
+    let (mut search, with) =
+        super::terms::search(problem, &r.stage, ceilings, best.as_ref(), progress)?;
+    let wins = match (search.accepted(), &best) {
+        (Some(t), Some(b)) => t.row.delta_aic > VOCABULARY_PREFERENCE * b.delta_aic + MIN_DELTA_AIC,
         (Some(_), None) => true,
         (None, _) => false,
     };
@@ -289,7 +292,7 @@ fn term_round(
         _ => {
             for t in search.trials.iter_mut().filter(|t| t.accepted) {
                 t.accepted = false;
-                t.outranked_by = best.map(|(name, _)| name);
+                t.outranked_by = best.as_ref().map(|b| b.effect);
             }
             r.terms = Some(search);
             return Ok(None);

@@ -9,7 +9,9 @@
 //!    fitted on the even tenths of the recording and judged on the odd ones
 //!    ([`crate::diagnose::terms::screen::judge_columns`]).
 //! 2. **Fit**: the best-screened form (removing at least
-//!    [`crate::diagnose::terms::MIN_HELD_OUT_REDUCTION`] of the held-out residual) has its
+//!    [`crate::diagnose::terms::MIN_HELD_OUT_REDUCTION`] of the held-out residual, and
+//!    half of what the round's best effect removed: a term wins a round only with twice
+//!    its AIC gain) has its
 //!    coefficients (and a thermal time constant) fitted through the simulator with the
 //!    stage's keys, with its family's
 //!    next orders where they screened nearly as well (the best fit of those passing the
@@ -86,6 +88,37 @@ impl TermSearch {
     /// The term the calibration took into the scene, if any.
     pub fn accepted(&self) -> Option<&TermTrial> {
         self.trials.iter().find(|t| t.accepted)
+    }
+
+    /// The accepted term at the calibration's final values (`keys`, the last stage's
+    /// `fit`): the rounds after it refit its coefficients with the others, as an accepted
+    /// effect's key is reported at its final value.
+    pub(super) fn settle(
+        &mut self,
+        keys: &[super::KeyFit],
+        data: &Dataset,
+        fit: &crate::ident::fit::Fit,
+        ceilings: &Ceilings,
+    ) {
+        let Some(t) = self.trials.iter_mut().find(|t| t.accepted) else {
+            return;
+        };
+        for (key, value, std) in &mut t.coefficients {
+            if let Some(k) = keys.iter().find(|k| k.key == *key) {
+                (*value, *std) = (k.after, k.std);
+            }
+        }
+        if let Some((key, order)) = &mut t.setting {
+            if let Some(k) = keys.iter().find(|k| k.key == *key) {
+                *order = k.after;
+                t.form.order = k.after;
+            }
+        }
+        let values: Vec<f64> = t.coefficients.iter().map(|c| c.1).collect();
+        let stds: Vec<Option<f64>> = t.coefficients.iter().map(|c| c.2).collect();
+        t.row.params = contract_params(t.form, &values, data, fit, ceilings);
+        t.row.std = crate::diagnose::terms::main_std(t.form, &values, &stds)
+            .map(|sd| sd * crate::diagnose::terms::main_scale(t.form, data, fit, ceilings));
     }
 }
 
@@ -257,12 +290,31 @@ impl Linearised {
     }
 }
 
-/// Searches the families on the calibration's `stage` through the simulator: the search,
-/// and the stage with the accepted term's coefficients among its free keys.
+/// The round's best effect, against which a term is weighed.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Rival {
+    /// Its name.
+    pub effect: &'static str,
+    /// Its AIC gain.
+    pub delta_aic: f64,
+    /// The share of the stage's residual it removed.
+    pub reduction: f64,
+}
+
+/// Share of the round's best effect's residual reduction a term's screen must reach for
+/// its fits to be run: to win the round a term needs more than twice the effect's AIC
+/// gain, so more than its reduction; the linearised screen on half the record may
+/// underestimate a term's, hence the half.
+const RIVAL_SCREEN_SHARE: f64 = 0.5;
+
+/// Searches the families on the calibration's `stage` through the simulator, against the
+/// round's best effect `rival` (none: no effect passed): the search, and the stage with
+/// the accepted term's coefficients among its free keys.
 pub(super) fn search(
     problem: &Problem,
     stage: &Stage,
     ceilings: &Ceilings,
+    rival: Option<&Rival>,
     progress: &dyn Fn(&str),
 ) -> Result<(TermSearch, Option<Stage>), CalibrateError> {
     let all = forms(AxisInput::Voltage);
@@ -298,8 +350,19 @@ pub(super) fn search(
             .collect::<Vec<_>>()
             .join(", ")
     ));
+    // A term that cannot outdo the round's best effect is not fitted.
+    let needed = rival.map_or(0.0, |r| RIVAL_SCREEN_SHARE * r.reduction);
+    if let (Some(best), Some(r)) = (screened.first(), rival) {
+        if best.held_out_reduction < needed && best.held_out_reduction >= MIN_HELD_OUT_REDUCTION {
+            progress(&format!(
+                "terms: not fitted: the best screen removed less than half of what {} removed ({:.1} %)",
+                r.effect,
+                100.0 * r.reduction
+            ));
+        }
+    }
     let mut families: Vec<Family> = Vec::new();
-    for s in &screened {
+    for s in screened.iter().filter(|s| s.held_out_reduction >= needed) {
         if families.len() >= CONFIRMED || s.held_out_reduction < MIN_HELD_OUT_REDUCTION {
             break;
         }

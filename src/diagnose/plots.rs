@@ -1,6 +1,7 @@
 //! The diagnosis report's plots (SVG): each output measured against the baseline and the
-//! diagnosed model, the residual before and after over time, and the residual energy by
-//! operating regime before and after.
+//! diagnosed model, the residual before and after over time, the residual energy by
+//! operating regime before and after, and each term found: the residual against the
+//! quantity it depends on, before and after.
 
 use std::path::{Path, PathBuf};
 
@@ -84,7 +85,80 @@ pub fn figures(d: &Diagnosis) -> std::io::Result<Vec<Figure>> {
         file: "regimes.svg".into(),
         svg: regime_bars(&d.where_before, &d.where_after),
     });
+    files.extend(term_evidence(d, data));
     Ok(files)
+}
+
+/// Bins of a term's evidence plot.
+const TERM_BINS: usize = 24;
+
+/// Per term found and output, `term_FAMILY_OUTPUT.svg`: the residual's mean in bins of
+/// the quantity the term depends on, before (baseline) and after (diagnosed). Before, it
+/// follows the term's law (a sine in the phase, a power of the speed); after, it is flat.
+fn term_evidence(d: &Diagnosis, data: &crate::ident::data::Dataset) -> Vec<Figure> {
+    let mut files = Vec::new();
+    for t in &d.terms {
+        let Some((label, x)) = &t.quantity else {
+            continue;
+        };
+        for (j, name) in data.output_names.iter().enumerate() {
+            let binned = |pred: &[f64]| {
+                let residual: Vec<f64> = data.outputs[j]
+                    .iter()
+                    .zip(pred)
+                    .map(|(v, p)| v.map_or(f64::NAN, |v| v - p))
+                    .collect();
+                binned_means(x, &residual, TERM_BINS)
+            };
+            let (xb, rb) = binned(&d.baseline.predicted[j]);
+            let (xa, ra) = binned(&d.diagnosed.predicted[j]);
+            let doc = svg(
+                &format!(
+                    "{name}: residual against the {} term's quantity, mean in {TERM_BINS} bins",
+                    t.row.name
+                ),
+                label,
+                name,
+                &[
+                    Series::line("baseline", &xb, &rb, "#d08000"),
+                    Series::line("diagnosed", &xa, &ra, "#1f5fbf"),
+                ],
+                None,
+            );
+            files.push(Figure {
+                file: format!("term_{}_{name}.svg", t.row.name),
+                svg: doc,
+            });
+        }
+    }
+    files
+}
+
+/// The mean of `y` in `bins` equal bins of `x` over its range (bin centres, means), bins
+/// without a finite pair left out.
+fn binned_means(x: &[f64], y: &[f64], bins: usize) -> (Vec<f64>, Vec<f64>) {
+    let finite = || {
+        x.iter()
+            .zip(y)
+            .filter(|(a, b)| a.is_finite() && b.is_finite())
+    };
+    let lo = finite().map(|(a, _)| *a).fold(f64::INFINITY, f64::min);
+    let hi = finite().map(|(a, _)| *a).fold(f64::NEG_INFINITY, f64::max);
+    if !(hi > lo) {
+        return (vec![], vec![]);
+    }
+    let width = (hi - lo) / bins as f64;
+    let mut sum = vec![0.0; bins];
+    let mut count = vec![0usize; bins];
+    for (a, b) in finite() {
+        let k = (((a - lo) / width) as usize).min(bins - 1);
+        sum[k] += b;
+        count[k] += 1;
+    }
+    (0..bins)
+        .filter(|&k| count[k] > 0)
+        .map(|k| (lo + (k as f64 + 0.5) * width, sum[k] / count[k] as f64))
+        .unzip()
 }
 
 /// A horizontal bar chart: per regime, its share of the samples, and the residual energy
@@ -116,4 +190,17 @@ pub fn regime_bars(before: &[RegimeShare], after: &[RegimeShare]) -> String {
         &groups,
         "%",
     )
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn binned_means_average_each_bin_of_the_range() {
+        let x = [0.0, 0.1, 0.9, 1.0];
+        let y = [1.0, 3.0, 10.0, f64::NAN];
+        // The range is the finite pairs': 0 to 0.9.
+        let (c, m) = super::binned_means(&x, &y, 2);
+        assert_eq!(c, vec![0.225, 0.675]);
+        assert_eq!(m, vec![2.0, 10.0]);
+    }
 }

@@ -150,7 +150,7 @@ fn term_lines(s: &mut String, d: &Diagnosis) {
 /// The effects found (or that nothing is missing) and the diagnosed model's fit.
 fn finding_lines(s: &mut String, d: &Diagnosis) {
     if d.findings.is_empty() && d.terms.is_empty() {
-        let _ = writeln!(s, "Verdict: nothing is missing; no effect explains enough of the residual to be told from noise.");
+        let _ = writeln!(s, "Verdict: nothing is missing; no effect (or term outside the vocabulary) explains enough of the residual to be told from noise.");
     }
     for t in &d.terms {
         let (main, value) = t

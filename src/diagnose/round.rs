@@ -198,6 +198,12 @@ impl Rounds<'_> {
                 t.row.held_out_reduction_pct
             ),
             description: terms::describe(&t.row),
+            quantity: match &t.structure {
+                crate::ident::Structure::Rotary(m) => {
+                    terms::quantity_series(t.form, self.data, m.ratio)
+                }
+                _ => None,
+            },
             row: t.row.clone(),
             round,
         }

@@ -32,6 +32,7 @@ use crate::model::term::{Drifting, Family};
 pub(crate) mod screen;
 mod words;
 use screen::Linearised;
+pub(crate) use words::quantity_series;
 pub(crate) use words::{contract_params, main_scale, main_std};
 pub use words::{describe, param, TermFinding};
 

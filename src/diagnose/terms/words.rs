@@ -91,6 +91,80 @@ pub struct TermFinding {
     pub evidence: String,
     /// The physics in words.
     pub description: String,
+    /// What the term depends on, measured, one value per row of the record (NaN where
+    /// nothing was measured), with its label: the evidence plot's axis.
+    pub quantity: Option<(String, Vec<f64>)>,
+}
+
+/// The quantity a term of `form` depends on, over the record's rows, as measured: the
+/// wheel speed (the motor's over the gear `ratio`), a periodic term's phase (its order
+/// times the encoder's angle, in [0, 2 pi)), the current (a load-dependent friction's
+/// torque is the current's through K), the heat (the current squared low-passed over
+/// the time constant) or the time. `None` where the record lacks the measurement.
+pub(crate) fn quantity_series(
+    form: TermForm,
+    data: &Dataset,
+    ratio: f64,
+) -> Option<(String, Vec<f64>)> {
+    let column = |name: &str| -> Option<Vec<f64>> {
+        let j = data.output_index(name)?;
+        Some(
+            data.outputs[j]
+                .iter()
+                .map(|v| v.unwrap_or(f64::NAN))
+                .collect(),
+        )
+    };
+    let phase = |per_motor_turn: f64| -> Option<Vec<f64>> {
+        let speed = data
+            .output_index("motor_speed_rad_s")
+            .map(|j| data.outputs[j].as_slice());
+        let angle: Option<Vec<f64>> = data
+            .output_index("motor_angle_rad")
+            .and_then(|j| data.outputs[j].iter().copied().collect());
+        let (a, b) = crate::ident::data::angle_line(&data.t_s, angle.as_deref(), speed)?;
+        Some(
+            data.t_s
+                .iter()
+                .zip(a.iter().zip(&b))
+                .map(|(t, (a, b))| (per_motor_turn * (a + b * t)).rem_euclid(std::f64::consts::TAU))
+                .collect(),
+        )
+    };
+    Some(match form.family {
+        Family::SpeedPower => (
+            "wheel speed (rad/s)".into(),
+            column("motor_speed_rad_s")?
+                .iter()
+                .map(|w| w / ratio)
+                .collect(),
+        ),
+        Family::PeriodicMotorAngle => (
+            format!("phase {} x motor angle (rad)", form.order),
+            phase(form.order)?,
+        ),
+        Family::PeriodicWheelAngle => (
+            format!("phase {} x wheel angle (rad)", form.order),
+            phase(form.order / ratio)?,
+        ),
+        Family::LoadDependentFriction | Family::CurrentPower => {
+            ("current (A)".into(), column("current_A")?)
+        }
+        Family::ThermalDrift => {
+            let i = column("current_A")?;
+            let mut q = 0.0;
+            let mut heat = Vec::with_capacity(i.len());
+            for k in 0..i.len() {
+                if k > 0 && i[k].is_finite() {
+                    let dt = data.t_s[k] - data.t_s[k - 1];
+                    q = crate::model::term::heat_after_a2(q, i[k], form.order, dt);
+                }
+                heat.push(q);
+            }
+            ("heat q: the current squared low-passed (A^2)".into(), heat)
+        }
+        Family::TimeDrift => ("time (s)".into(), data.t_s.clone()),
+    })
 }
 
 /// A parameter of a row by name, as a number.
