@@ -56,6 +56,10 @@ pub struct Overlay<'a> {
     pub inputs: Vec<Input<'a>>,
     /// The outputs compared.
     pub outputs: Vec<Output<'a>>,
+    /// What the terms outside the vocabulary found depend on (the wheel speed, a phase,
+    /// the heat...), measured, on the recording's time base: shown under the inputs, so a
+    /// residual that follows one reads beside it.
+    pub quantities: Vec<Input<'a>>,
 }
 
 const MEASURED: [u8; 4] = [170, 170, 170, 255];
@@ -169,6 +173,18 @@ fn colour_key(o: &Overlay, window: Option<(f64, f64)>) -> String {
             .collect();
         key.push_str(&format!(" Inputs: {}.", inputs.join(", ")));
     }
+    if !o.quantities.is_empty() {
+        let names: Vec<String> = o
+            .quantities
+            .iter()
+            .enumerate()
+            .map(|(k, i)| format!("{} {}", INPUT_NAMES[k % INPUT_NAMES.len()], i.name))
+            .collect();
+        key.push_str(&format!(
+            " What the terms found depend on, measured: {}.",
+            names.join(", ")
+        ));
+    }
     if let Some((a, b)) = window {
         key.push_str(&format!(
             " Highlighted: {a:.1}-{b:.1} s, where the first model is furthest off."
@@ -244,6 +260,20 @@ fn layout(bp: &RecordingStream, o: &Overlay, window: Option<(f64, f64)>) -> Resu
         hide_legend(bp, &inputs)?;
         rows.push(inputs);
         shares.push(0.22);
+    }
+    if !o.quantities.is_empty() {
+        let names: Vec<&str> = o.quantities.iter().map(|i| i.name).collect();
+        let quantities = view(
+            bp,
+            next(),
+            "TimeSeries",
+            &format!("what the terms found depend on: {}", names.join(", ")),
+            "/terms",
+            &["$origin/**"],
+        )?;
+        hide_legend(bp, &quantities)?;
+        rows.push(quantities);
+        shares.push(0.15);
     }
     rows.push(outputs);
     shares.push(1.0 - shares.iter().sum::<f32>());
@@ -332,6 +362,19 @@ pub fn save(path: &std::path::Path, o: &Overlay) -> Result<(), VizError> {
             i.t_s.iter().copied().zip(i.values.iter().copied()),
         )?;
     }
+    for (k, q) in o.quantities.iter().enumerate() {
+        let p = format!("terms/{}", part(q.name));
+        style(&rec, &p, q.name, INPUTS[k % INPUTS.len()], 1.5)?;
+        series(
+            &rec,
+            &p,
+            q.t_s
+                .iter()
+                .copied()
+                .zip(q.values.iter().copied())
+                .filter(|(_, v)| v.is_finite()),
+        )?;
+    }
     for out in &o.outputs {
         let p = part(&out.name);
         // Numbered paths draw the measurement first, under the models.
@@ -408,6 +451,11 @@ mod tests {
         };
         assert_eq!(title(&out), "fit 80.0 % -> 99.0 %, motor_speed_rad_s");
         let o = Overlay {
+            quantities: vec![Input {
+                name: "wheel speed (rad/s)",
+                t_s: &t,
+                values: &second,
+            }],
             what: "calibration",
             recording: "r.csv",
             inputs: vec![],
@@ -418,5 +466,9 @@ mod tests {
         assert!(a < 7.0 && b > 7.0 && (b - a - 1.0).abs() < 0.02, "{a} {b}");
         let key = colour_key(&o, Some((a, b)));
         assert!(key.contains("Highlighted: 6.5-7.5 s"), "{key}");
+        assert!(
+            key.contains("depend on, measured: red wheel speed (rad/s)"),
+            "{key}"
+        );
     }
 }

@@ -19,13 +19,18 @@ fn inputs<'a>(
         .collect()
 }
 
-/// The inputs of a dataset.
+/// The inputs of a dataset: its commands, not what a fit derives from its outputs (the
+/// measured angle's line a periodic term reads, a ramp of hundreds of radians that would
+/// flatten the commands beside it).
 fn dataset_inputs(data: &Dataset) -> Vec<Input<'_>> {
     inputs(
         data.input_names.iter().map(String::as_str),
         &data.t_s,
         &data.inputs,
     )
+    .into_iter()
+    .filter(|i| !crate::ident::data::is_derived_input(i.name))
+    .collect()
 }
 
 /// Saves a diagnosis: per output, the measurement under the baseline's and the diagnosed
@@ -66,6 +71,16 @@ pub fn save_diagnosis(
             recording: &d.recording,
             inputs: dataset_inputs(data),
             outputs,
+            quantities: d
+                .terms
+                .iter()
+                .filter_map(|t| t.quantity.as_ref())
+                .map(|(name, values)| Input {
+                    name,
+                    t_s: &data.t_s,
+                    values,
+                })
+                .collect(),
         },
     )
 }
@@ -107,6 +122,7 @@ pub fn save_identification(
     save(
         path,
         &Overlay {
+            quantities: vec![],
             what: "identification",
             recording: &id.estimation.recording,
             inputs,
@@ -143,6 +159,7 @@ pub fn save_replay(
     save(
         path,
         &Overlay {
+            quantities: vec![],
             what: "replay",
             recording: name,
             inputs: replay_inputs(r),
@@ -183,6 +200,7 @@ pub fn save_calibration(
     save(
         path,
         &Overlay {
+            quantities: vec![],
             what: "calibration",
             recording: name,
             inputs: replay_inputs(&c.before),
