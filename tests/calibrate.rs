@@ -882,22 +882,24 @@ fn a_play_refined_in_the_rounds_is_still_weighed_against_none() {
     assert!((coulomb / 0.02 - 1.0).abs() < 0.1, "{coulomb}\n{text}");
 }
 
-/// A term outside the vocabulary's round trip: the simulator records a machine with the
-/// term `machine` on (its resistance and rotor inertia as the scene's belief has them
-/// 15 % high and 10 % low, as [`round_trip`]), with noise; `calibrate` with every effect
-/// offered names the term's family, accepts no vocabulary effect, puts the term into the
-/// scene with every coefficient an estimate and the contract's main parameter `param`
-/// within 20 % of the machine's `value` (the contract's tolerance), and the calibrated
-/// scene replays a second recording it never saw better than the original, closing at
-/// least two thirds of the gap to the machine itself (a periodic term's phase is read off
-/// the noisy encoder's integrated speed, a random walk of about 0.2 rad over the 8 s).
-fn term_round_trip(name: &str, machine: &[&str], family: &str, param: &str, value: f64) {
+/// A lifted drive `machine` (no play, no Coulomb friction, then the settings given)
+/// recorded with noise on a multisine voltage, calibrated with every effect offered from
+/// a scene whose resistance is 15 % high and rotor inertia 10 % low: the test's folder,
+/// the machine, the scene and the calibration.
+fn calibrated_with_every_effect(
+    name: &str,
+    machine: &[&str],
+) -> (
+    std::path::PathBuf,
+    Scene,
+    Scene,
+    agvsim::calibrate::Calibration,
+) {
     let dir = tmp(name);
     let mut truth_sets = vec!["gearbox.backlash_rad=0", "motor.coulomb_Nm=0"];
     truth_sets.extend(machine);
     let truth = scene(&truth_sets);
     let rec = noisy_recording(&dir, &truth, &axis_inputs(&dir, "voltage_V", 1), 11);
-    let other = noisy_recording(&dir, &truth, &axis_inputs(&dir, "voltage_V", 2), 12);
     let belief = scene(&[
         "gearbox.backlash_rad=0",
         "motor.coulomb_Nm=0",
@@ -910,6 +912,21 @@ fn term_round_trip(name: &str, machine: &[&str], family: &str, param: &str, valu
         validate: None,
     };
     let c = calibrate_telling(&belief, &rec, &request, &|m| eprintln!("{name}: {m}")).unwrap();
+    (dir, truth, belief, c)
+}
+
+/// A term outside the vocabulary's round trip: the simulator records a machine with the
+/// term `machine` on (its resistance and rotor inertia as the scene's belief has them
+/// 15 % high and 10 % low, as [`round_trip`]), with noise; `calibrate` with every effect
+/// offered names the term's family, accepts no vocabulary effect, puts the term into the
+/// scene with every coefficient an estimate and the contract's main parameter `param`
+/// within 20 % of the machine's `value` (the contract's tolerance), and the calibrated
+/// scene replays a second recording it never saw better than the original, closing at
+/// least two thirds of the gap to the machine itself (a periodic term's phase is read off
+/// the noisy encoder's integrated speed, a random walk of about 0.2 rad over the 8 s).
+fn term_round_trip(name: &str, machine: &[&str], family: &str, param: &str, value: f64) {
+    let (dir, truth, belief, c) = calibrated_with_every_effect(name, machine);
+    let other = noisy_recording(&dir, &truth, &axis_inputs(&dir, "voltage_V", 2), 12);
     print!("{name}:\n{}", agvsim::calibrate::write::render(&c));
     let accepted: Vec<Effect> = c.accepted_in_order().iter().map(|a| a.0).collect();
     assert!(accepted.is_empty(), "{name}: {accepted:?}");
@@ -1048,23 +1065,7 @@ fn with_every_effect_offered_a_clean_machine_gets_no_term_and_friction_keeps_its
             Some(Effect::CoulombFriction),
         ),
     ] {
-        let dir = tmp(name);
-        let mut truth_sets = vec!["gearbox.backlash_rad=0", "motor.coulomb_Nm=0"];
-        truth_sets.extend(machine);
-        let truth = scene(&truth_sets);
-        let rec = noisy_recording(&dir, &truth, &axis_inputs(&dir, "voltage_V", 1), 11);
-        let belief = scene(&[
-            "gearbox.backlash_rad=0",
-            "motor.coulomb_Nm=0",
-            "motor.resistance_ohm=0.4025",
-            "motor.rotor_inertia_kg_m2=0.00018",
-        ]);
-        let request = Request {
-            free: vec![],
-            effects: Choice::All,
-            validate: None,
-        };
-        let c = calibrate_telling(&belief, &rec, &request, &|_| {}).unwrap();
+        let (_, _, _, c) = calibrated_with_every_effect(name, &machine);
         print!("{name}:\n{}", agvsim::calibrate::write::render(&c));
         let terms = c
             .terms

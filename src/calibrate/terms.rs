@@ -32,8 +32,8 @@ use super::search::{Problem, Stage};
 use super::{keys, CalibrateError};
 use crate::diagnose::terms::screen::{difference, fitting_rows, judge_columns};
 use crate::diagnose::terms::{
-    contract_params, forms, Ceilings, TermRow, CONFIRMED, MIN_HELD_OUT_REDUCTION, ORDER_RIVALS,
-    RIVAL_SHARE,
+    contract_params, forms, main_std, Ceilings, TermRow, CONFIRMED, MIN_HELD_OUT_REDUCTION,
+    ORDER_RIVALS, RIVAL_SHARE,
 };
 use crate::ident::data::Dataset;
 use crate::ident::fit::residuals;
@@ -117,8 +117,7 @@ impl TermSearch {
         let values: Vec<f64> = t.coefficients.iter().map(|c| c.1).collect();
         let stds: Vec<Option<f64>> = t.coefficients.iter().map(|c| c.2).collect();
         t.row.params = contract_params(t.form, &values, data, fit, ceilings);
-        t.row.std = crate::diagnose::terms::main_std(t.form, &values, &stds)
-            .map(|sd| sd * crate::diagnose::terms::main_scale(t.form, data, fit, ceilings));
+        t.row.std = main_std(t.form, &stds, data, fit, ceilings);
     }
 }
 
@@ -138,30 +137,24 @@ pub(super) fn searched(rec: &Recording, scene: &Scene, engine: crate::replay::En
 pub(super) fn ceilings(scene: &Scene, data: &Dataset, peak_v: f64) -> Ceilings {
     let m = &scene.motor;
     let stall_a = peak_v / m.resistance_ohm;
-    let column = |name: &str| data.output_index(name).map(|j| &data.outputs[j]);
     // The torque constant's fall is bounded at the largest current the record shows (a
     // lifted axis never nears its stall current, and a ceiling there would leave the
     // screen's step lost in the simulator's roughness).
-    let current_a = column("current_A")
-        .map(|c| c.iter().flatten().fold(0.0f64, |x, i| x.max(i.abs())))
+    let current_a = data
+        .output_index("current_A")
+        .map(|j| {
+            data.outputs[j]
+                .iter()
+                .flatten()
+                .fold(0.0f64, |x, i| x.max(i.abs()))
+        })
         .filter(|i| *i > 0.0)
         .unwrap_or(stall_a);
-    let speed = column("motor_speed_rad_s")
-        .map(|c| c.iter().flatten().fold(0.0f64, |x, v| x.max(v.abs())))
-        .unwrap_or(0.0);
-    let heat_a2 = column("current_A")
-        .map(|c| {
-            let sq: Vec<f64> = c.iter().flatten().map(|i| i * i).collect();
-            sq.iter().sum::<f64>() / sq.len().max(1) as f64
-        })
-        .unwrap_or(current_a * current_a);
-    Ceilings::new(
+    Ceilings::of_record(
+        data,
         m.torque_constant_nm_a * stall_a,
         current_a,
-        heat_a2,
-        speed / scene.gearbox.ratio,
         scene.gearbox.ratio,
-        data.t_s.last().unwrap_or(&1.0) - data.t_s.first().unwrap_or(&0.0),
     )
 }
 
@@ -275,12 +268,7 @@ impl Linearised {
         else {
             return Ok(None);
         };
-        let start = judged
-            .coefficients
-            .iter()
-            .zip(&coefficients)
-            .map(|(b, c)| b.clamp(c.lo, c.hi))
-            .collect();
+        let start = judged.starts(&coefficients);
         Ok(Some(Screened {
             form,
             coefficients,
@@ -491,7 +479,7 @@ fn fitted(
     let row = TermRow {
         name: form.family.name().into(),
         params: contract_params(form, &values, &problem.data, &next.fit, ceilings),
-        std: main_std(form, &stds, ceilings, &problem.data, &next),
+        std: main_std(form, &stds, &problem.data, &next.fit, ceilings),
         fit_pct: crate::ident::fit_pct_mean(&problem.data, &next.fit.predicted),
         rss_reduction_pct: 100.0 * gain.reduction,
         held_out_reduction_pct: 100.0 * s.held_out_reduction,
@@ -515,18 +503,4 @@ fn fitted(
         outranked_by: None,
     };
     Ok((trial, next))
-}
-
-/// The main contract parameter's standard deviation (see
-/// [`crate::diagnose::terms::main_std`]).
-fn main_std(
-    form: TermForm,
-    stds: &[Option<f64>],
-    ceilings: &Ceilings,
-    data: &Dataset,
-    next: &Stage,
-) -> Option<f64> {
-    let values: Vec<f64> = vec![0.0; stds.len()];
-    crate::diagnose::terms::main_std(form, &values, stds)
-        .map(|sd| sd * crate::diagnose::terms::main_scale(form, data, &next.fit, ceilings))
 }

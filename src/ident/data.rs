@@ -268,21 +268,21 @@ fn measured_angle_line(rec: &Recording, name: &str) -> Option<Result<Vec<f64>, R
     })
 }
 
-/// The measured motor angle's line over each sample interval, `theta(t) = a_k + b_k t`
-/// (intercepts, slopes): from a recorded angle, or the motor speed integrated (an
-/// encoder's speed is the count difference over the interval ending at its row, so the
-/// integral is exact to a count), zero at the first row. `None` without either.
-pub fn angle_line(
+/// The measured motor angle at each row, rad: a recorded angle, or the motor speed
+/// integrated (an encoder's speed is the count difference over the interval ending at its
+/// row, so the integral is exact to a count), zero at the first row. `None` without
+/// either, or with fewer than two rows.
+pub fn measured_angle(
     t: &[f64],
     angle: Option<&[f64]>,
     speed: Option<&[Option<f64>]>,
-) -> Option<(Vec<f64>, Vec<f64>)> {
+) -> Option<Vec<f64>> {
     let n = t.len();
     if n < 2 {
         return None;
     }
-    let angle: Vec<f64> = match (angle, speed) {
-        (Some(a), _) => a.to_vec(),
+    match (angle, speed) {
+        (Some(a), _) => Some(a.to_vec()),
         (None, Some(speed)) => {
             let mut theta = vec![0.0; n];
             let mut last = 0.0;
@@ -290,10 +290,21 @@ pub fn angle_line(
                 last = speed[k].unwrap_or(last);
                 theta[k] = theta[k - 1] + last * (t[k] - t[k - 1]);
             }
-            theta
+            Some(theta)
         }
-        (None, None) => return None,
-    };
+        (None, None) => None,
+    }
+}
+
+/// The measured motor angle's line over each sample interval, `theta(t) = a_k + b_k t`
+/// (intercepts, slopes), from [`measured_angle`]. `None` without it.
+pub fn angle_line(
+    t: &[f64],
+    angle: Option<&[f64]>,
+    speed: Option<&[Option<f64>]>,
+) -> Option<(Vec<f64>, Vec<f64>)> {
+    let angle = measured_angle(t, angle, speed)?;
+    let n = t.len();
     let slope: Vec<f64> = (0..n)
         .map(|k| {
             let k = k.min(n - 2);

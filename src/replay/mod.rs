@@ -544,12 +544,7 @@ fn term_phases(
         let speed = rec
             .column(&format!("{prefix}speed_rad_s"))
             .map(|c| &c[rows.clone()]);
-        let (a, b) = crate::ident::data::angle_line(t, angle.as_deref(), speed)?;
-        let theta: Vec<f64> = t
-            .iter()
-            .zip(a.iter().zip(&b))
-            .map(|(t, (a, b))| a + b * t)
-            .collect();
+        let theta = crate::ident::data::measured_angle(t, angle.as_deref(), speed)?;
         let turned = theta.iter().any(|x| *x != theta[0]);
         turned.then_some(theta)
     };

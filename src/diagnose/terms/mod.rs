@@ -33,7 +33,7 @@ pub(crate) mod screen;
 mod words;
 use screen::Linearised;
 pub(crate) use words::quantity_series;
-pub(crate) use words::{contract_params, main_scale, main_std};
+pub(crate) use words::{contract_params, main_std};
 pub use words::{describe, param, TermFinding};
 
 /// Time blocks the record is cut into for the screen: fitted on the even ones, judged on
@@ -315,50 +315,37 @@ impl Ceilings {
                 (a.motor.torque_constant_nm_a * i, i)
             }
         };
-        let speed = data
-            .output_index("motor_speed_rad_s")
-            .map(|j| {
-                data.outputs[j]
-                    .iter()
-                    .flatten()
-                    .fold(0.0f64, |x, v| x.max(v.abs()))
-            })
-            .unwrap_or(0.0);
-        let heat_a2 = data
-            .output_index("current_A")
-            .map(|j| {
-                let i: Vec<f64> = data.outputs[j].iter().flatten().map(|i| i * i).collect();
-                i.iter().sum::<f64>() / i.len().max(1) as f64
-            })
-            .unwrap_or(current_a * current_a);
-        Ceilings::new(
-            torque_nm,
-            current_a,
-            heat_a2,
-            speed / m.ratio,
-            m.ratio,
-            data.t_s.last().unwrap_or(&1.0) - data.t_s[0],
-        )
+        Ceilings::of_record(data, torque_nm, current_a, m.ratio)
     }
 
-    /// The ceilings of a drive whose peak motor torque is `torque_nm` (N m), peak
-    /// current `current_a` (A), mean square current `heat_a2` (A^2), peak wheel speed
-    /// `wheel_speed_rad_s`, gear `ratio`, over a record of `duration_s`.
-    pub(crate) fn new(
+    /// The ceilings of a drive whose peak motor torque is `torque_nm` (N m) and peak
+    /// current `current_a` (A) through a gear of `ratio`, from the record: its mean
+    /// square current (the peak's square without a current), its largest motor speed
+    /// through the gear and its duration.
+    pub(crate) fn of_record(
+        data: &Dataset,
         torque_nm: f64,
         current_a: f64,
-        heat_a2: f64,
-        wheel_speed_rad_s: f64,
         ratio: f64,
-        duration_s: f64,
     ) -> Ceilings {
+        let column = |name: &str| data.output_index(name).map(|j| &data.outputs[j]);
+        let speed = column("motor_speed_rad_s")
+            .map(|c| c.iter().flatten().fold(0.0f64, |x, v| x.max(v.abs())))
+            .unwrap_or(0.0);
+        let heat_a2 = column("current_A")
+            .map(|c| {
+                let sq: Vec<f64> = c.iter().flatten().map(|i| i * i).collect();
+                sq.iter().sum::<f64>() / sq.len().max(1) as f64
+            })
+            .unwrap_or(current_a * current_a);
         Ceilings {
             torque_nm: torque_nm.max(1e-9),
             current_a: current_a.max(1e-9),
             heat_a2: heat_a2.max(1e-9),
-            wheel_speed_rad_s: wheel_speed_rad_s.max(1e-9),
+            wheel_speed_rad_s: (speed / ratio).max(1e-9),
             ratio,
-            duration_s: duration_s.max(1e-9),
+            duration_s: (data.t_s.last().unwrap_or(&1.0) - data.t_s.first().unwrap_or(&0.0))
+                .max(1e-9),
         }
     }
 
@@ -465,8 +452,7 @@ fn confirm(
     let row = TermRow {
         name: form.family.name().into(),
         params: contract_params(form, &values, data, &stage.fit, ceilings),
-        std: main_std(form, &values, &stds)
-            .map(|sd| sd * main_scale(form, data, &stage.fit, ceilings)),
+        std: main_std(form, &stds, data, &stage.fit, ceilings),
         fit_pct: crate::ident::fit_pct_mean(data, &f.predicted),
         rss_reduction_pct: 100.0 * gain.reduction,
         held_out_reduction_pct: s.held_out_reduction_pct,

@@ -8,7 +8,7 @@ use super::{drifting_key, start_vector, Screened, HELD_OUT_BLOCKS, SCREEN_STEP};
 use crate::diagnose::Stage;
 use crate::ident::data::Dataset;
 use crate::ident::fit;
-use crate::ident::models::rotary_axis::{RotaryAxis, TermForm};
+use crate::ident::models::rotary_axis::{RotaryAxis, TermCoefficient, TermForm};
 use crate::model::term::Family;
 
 /// The stage linearised: its weighted residual, which held-out block each residual lies
@@ -83,12 +83,7 @@ impl<'a> Linearised<'a> {
             columns.push(difference(&fit::residuals(data, &y, w), &self.residual, h));
         }
         let judged = judge_columns(&self.jacobian, &columns, &self.residual, &self.fitting)?;
-        let start = judged
-            .coefficients
-            .iter()
-            .zip(&coefficients)
-            .map(|(b, c)| b.clamp(c.lo, c.hi))
-            .collect();
+        let start = judged.starts(&coefficients);
         Some(Screened {
             family: form.family.name(),
             order: form.order,
@@ -149,6 +144,18 @@ pub(crate) fn judge_columns(
         reduction,
         coefficients: whole[nominal.len()..].to_vec(),
     })
+}
+
+impl Judged {
+    /// The coefficients fitted on every row, each clamped into its search: where a fit of
+    /// the form starts.
+    pub(crate) fn starts(&self, coefficients: &[TermCoefficient]) -> Vec<f64> {
+        self.coefficients
+            .iter()
+            .zip(coefficients)
+            .map(|(b, c)| b.clamp(c.lo, c.hi))
+            .collect()
+    }
 }
 
 /// Whether each residual of `data` (output by output, present samples only) lies in a

@@ -62,7 +62,7 @@ fn final_heat_a2(data: &Dataset, stage: &Fit, tau_s: f64) -> f64 {
 
 /// What the main contract parameter is per unit of the fitted coefficient: a time drift's
 /// change in % over the record, a thermal term's rise in % at its end; 1 otherwise.
-pub(crate) fn main_scale(form: TermForm, data: &Dataset, stage: &Fit, ceilings: &Ceilings) -> f64 {
+fn main_scale(form: TermForm, data: &Dataset, stage: &Fit, ceilings: &Ceilings) -> f64 {
     match form.family {
         Family::TimeDrift => 100.0 * ceilings.duration_s,
         Family::ThermalDrift => 100.0 * final_heat_a2(data, stage, form.order),
@@ -70,13 +70,21 @@ pub(crate) fn main_scale(form: TermForm, data: &Dataset, stage: &Fit, ceilings: 
     }
 }
 
-/// The main coefficient's standard deviation: the coefficient's own, or a periodic
-/// term's amplitude's (the larger of its parts').
-pub(crate) fn main_std(form: TermForm, _v: &[f64], stds: &[Option<f64>]) -> Option<f64> {
-    match form.family {
-        Family::PeriodicMotorAngle | Family::PeriodicWheelAngle => Some(stds[0]?.max(stds[1]?)),
-        _ => stds[0],
-    }
+/// The main contract parameter's standard deviation, in its unit, from the coefficients'
+/// (`stds`): the coefficient's own, or a periodic term's amplitude's (the larger of its
+/// parts'), scaled as the parameter is ([`main_scale`]).
+pub(crate) fn main_std(
+    form: TermForm,
+    stds: &[Option<f64>],
+    data: &Dataset,
+    stage: &Fit,
+    ceilings: &Ceilings,
+) -> Option<f64> {
+    let sd = match form.family {
+        Family::PeriodicMotorAngle | Family::PeriodicWheelAngle => stds[0]?.max(stds[1]?),
+        _ => stds[0]?,
+    };
+    Some(sd * main_scale(form, data, stage, ceilings))
 }
 
 /// An accepted term: its row, the round that accepted it, where its evidence lies and
@@ -122,12 +130,11 @@ pub(crate) fn quantity_series(
         let angle: Option<Vec<f64>> = data
             .output_index("motor_angle_rad")
             .and_then(|j| data.outputs[j].iter().copied().collect());
-        let (a, b) = crate::ident::data::angle_line(&data.t_s, angle.as_deref(), speed)?;
+        let theta = crate::ident::data::measured_angle(&data.t_s, angle.as_deref(), speed)?;
         Some(
-            data.t_s
+            theta
                 .iter()
-                .zip(a.iter().zip(&b))
-                .map(|(t, (a, b))| (per_motor_turn * (a + b * t)).rem_euclid(std::f64::consts::TAU))
+                .map(|a| (per_motor_turn * a).rem_euclid(std::f64::consts::TAU))
                 .collect(),
         )
     };
