@@ -286,6 +286,13 @@ fn layout(bp: &RecordingStream, o: &Overlay, window: Option<(f64, f64)>) -> Resu
         &rows,
         Some(&shares),
     )?;
+    time_panel(bp, window)?;
+    Ok(root)
+}
+
+/// The time panel: paused on the timeline `t`, with the window where the first model is
+/// furthest off selected.
+fn time_panel(bp: &RecordingStream, window: Option<(f64, f64)>) -> Result<(), VizError> {
     let mut panel = TimePanelBlueprint::new()
         .with_timeline("t")
         .with_play_state(PlayState::Paused);
@@ -297,8 +304,7 @@ fn layout(bp: &RecordingStream, o: &Overlay, window: Option<(f64, f64)>) -> Resu
             },
         );
     }
-    bp.log("time_panel", &panel).map_err(err)?;
-    Ok(root)
+    bp.log("time_panel", &panel).map_err(err)
 }
 
 /// Sends one series as a column chunk: far cheaper than a log call per sample.
