@@ -411,10 +411,13 @@ fn millimetres_typed_as_metres_are_warned_by_new_and_check() {
         "`wheel.radius_m` = 50 m: expected 0.005 to 1 m",
         "millimetres",
         "gives 769 m/s",
+        // And the 50 m wheel turns the motors' 35 A x 0.0382 N m/A x 20 x 2 into 1.07 N
+        // against 589 N of weight.
+        "push 1.07 N, 0.00182 times the 60 kg robot's weight",
     ] {
         assert!(t.contains(said), "`{said}` not in:\n{t}");
     }
     let o = agvsim(&["check", p]);
     let t = text(&o);
-    assert!(t.contains("3 plausibility warnings"), "{t}");
+    assert!(t.contains("4 plausibility warnings"), "{t}");
 }

@@ -88,6 +88,23 @@ const TOP_SPEED_MAX_M_S: f64 = 20.0;
 /// rad/s where rpm is asked, or a gearmotor's output speed geared down again, lands below.
 const TOP_SPEED_MIN_M_S: f64 = 0.1;
 
+/// Heaviest a vehicle is for its footprint: the mass over `A^1.5` (A the body's outline
+/// area, m^2), kg/m^3. A box as tall as its footprint is wide and full of water has 1000;
+/// robots are mostly air and lower than wide (the thesis machine 246, a TurtleBot 3 about
+/// 260, OptiOdom's robot 90, a 1 t pallet AGV about 550). Twice water is another machine's
+/// mass on this body (the thesis machine's 120 kg on a 0.2 m track's body gives 2600).
+const MASS_PER_FOOTPRINT_1_5_MAX: f64 = 2000.0;
+
+/// The force the two motors at their current limit (or stall) push at the wheels, over the
+/// robot's weight: a drive that cannot push a twentieth of its weight cannot climb a 3
+/// degree ramp; tyres grip about once the weight (mu near 1), so a drive twenty times
+/// stronger is a motor or gear of another machine (the thesis machine 1.3, a TurtleBot 3
+/// about 9, the thesis motor on OptiOdom's 4 kg robot 130).
+const DRIVE_PER_WEIGHT_SPAN: (f64, f64) = (0.05, 20.0);
+
+/// Standard gravity, m/s^2.
+const G_M_S2: f64 = 9.81;
+
 /// Every plausibility warning of a scene, in key order.
 pub fn warnings(scene: &Scene) -> Vec<Warning> {
     let mut w = Vec::new();
@@ -97,6 +114,8 @@ pub fn warnings(scene: &Scene) -> Vec<Warning> {
     supply(scene, &mut w);
     dcmc_gains(scene, &mut w);
     tyre_friction(scene, &mut w);
+    mass_for_size(scene, &mut w);
+    drive_for_weight(scene, &mut w);
     w
 }
 
@@ -226,8 +245,7 @@ fn supply(scene: &Scene, w: &mut Vec<Warning>) {
     }
     // Both motors at the most current they draw (the limit, or stall at the drive
     // voltage) pull the battery down by this; only the full level models the fault.
-    let stall_a = b.drive_limit_v.min(b.open_circuit_v) / scene.motor.resistance_ohm;
-    let most_a = scene.dcmc.current_limit_a.min(stall_a);
+    let most_a = most_current_a(scene);
     let sag_v = 2.0 * most_a * b.internal_resistance_ohm;
     let lowest_v = b.open_circuit_v - sag_v;
     let faults = crate::scene::Features::of(scene.sim.fidelity).dcmc_faults;
@@ -303,6 +321,73 @@ fn tyre_friction(scene: &Scene, w: &mut Vec<Warning>) {
     }
 }
 
+/// A mass no body of this outline carries: the thesis machine's mass left on a small robot.
+fn mass_for_size(scene: &Scene, w: &mut Vec<Warning>) {
+    let c = &scene.chassis;
+    let area_m2 = (c.front_m + c.rear_m) * c.width_m;
+    let heaviest_kg = MASS_PER_FOOTPRINT_1_5_MAX * area_m2.powf(1.5);
+    if c.mass_kg > heaviest_kg {
+        w.push(Warning {
+            key: ChassisParams::mass_kg.key(),
+            value: format!("{} kg", sig(c.mass_kg)),
+            expected: format!("at most about {} kg for its outline", sig(heaviest_kg)),
+            why: format!(
+                "a {} x {} m body (chassis.front_m + rear_m, width_m) full of water as tall as it is wide weighs {} kg; robots are mostly air: another machine's mass?",
+                sig(c.front_m + c.rear_m),
+                sig(c.width_m),
+                sig(1000.0 * area_m2.powf(1.5))
+            ),
+        });
+    }
+}
+
+/// The most current a motor draws, A: the drive's limit, or its stall current at the
+/// drive limit if lower.
+fn most_current_a(scene: &Scene) -> f64 {
+    let drive_v = scene
+        .battery
+        .drive_limit_v
+        .min(scene.battery.open_circuit_v);
+    let stall_a = drive_v / scene.motor.resistance_ohm;
+    scene.dcmc.current_limit_a.min(stall_a)
+}
+
+/// The most force the two drive wheels push, N: each motor's torque at its most current
+/// through the gear to the wheel.
+pub fn drive_force_n(scene: &Scene) -> f64 {
+    2.0 * scene.motor.torque_constant_nm_a * most_current_a(scene) * scene.gearbox.ratio
+        / scene.wheel.radius_m
+}
+
+/// A drive too strong or too weak for the robot's weight: a motor or gear of another
+/// machine (an import's guess when the user gave none).
+fn drive_for_weight(scene: &Scene, w: &mut Vec<Warning>) {
+    let weight_n = scene.chassis.mass_kg * G_M_S2;
+    let ratio = drive_force_n(scene) / weight_n;
+    let (lo, hi) = DRIVE_PER_WEIGHT_SPAN;
+    if ratio.is_finite() && !(lo..=hi).contains(&ratio) {
+        w.push(Warning {
+            key: MotorParams::resistance_ohm.key(),
+            value: format!("{} ohm", sig(scene.motor.resistance_ohm)),
+            expected: format!(
+                "a drive pushing {} to {} times the robot's weight",
+                sig(lo),
+                sig(hi)
+            ),
+            why: format!(
+                "two motors of {} N m/A at {} A (dcmc.current_limit_A, or stall at the drive limit over this resistance) through gearbox.ratio = {} to a {} m wheel push {} N, {} times the {} kg robot's weight; tyres grip about once it: a motor or gear of another machine?",
+                sig(scene.motor.torque_constant_nm_a),
+                sig(most_current_a(scene)),
+                sig(scene.gearbox.ratio),
+                sig(scene.wheel.radius_m),
+                sig(drive_force_n(scene)),
+                sig(ratio),
+                sig(scene.chassis.mass_kg)
+            ),
+        });
+    }
+}
+
 /// A number to 3 significant figures, in plain decimals for everyday magnitudes.
 pub fn sig(v: f64) -> String {
     crate::numtext::sig(v, 3)
@@ -372,6 +457,33 @@ mod tests {
         let mut s = Scene::default();
         s.chassis.mass_kg = 60_000.0;
         assert_eq!(warnings(&s)[0].key, "chassis.mass_kg");
+    }
+
+    #[test]
+    fn the_thesis_machine_on_a_small_robot_is_caught() {
+        // A 0.2 m track's body as `new` and the import make it: 0.4 x 0.32 m.
+        let mut s = Scene::default();
+        s.chassis.track_width_m = 0.2;
+        (s.chassis.front_m, s.chassis.rear_m, s.chassis.width_m) = (0.2, 0.2, 0.32);
+        s.wheel.radius_m = 0.042;
+        s.gearbox.ratio = 43.7;
+        s.chassis.yaw_inertia_kg_m2 = slab_yaw_inertia_kg_m2(120.0, 0.4, 0.32);
+        let w = warnings(&s);
+        let keys: Vec<&str> = w.iter().map(|w| w.key).collect();
+        // 2000 x (0.4 x 0.32)^1.5 = 91.6 kg at most.
+        assert!(keys.contains(&"chassis.mass_kg"), "{w:?}");
+        // With the robot's own 4 kg, the mass fits; the thesis motor does not: 40 A x
+        // 0.063 N m/A x 43.7 / 0.042 m x 2 = 5244 N against 39.2 N of weight.
+        s.chassis.mass_kg = 4.0;
+        s.chassis.yaw_inertia_kg_m2 = slab_yaw_inertia_kg_m2(4.0, 0.4, 0.32);
+        let w = warnings(&s);
+        let keys: Vec<&str> = w.iter().map(|w| w.key).collect();
+        assert_eq!(keys, ["motor.resistance_ohm"], "{w:?}");
+        assert!(w[0].why.contains("5244 N, 134 times"), "{}", w[0]);
+        // A drive sized for it (a 0.6 N m stall gearmotor's worth) is plausible.
+        s.motor.torque_constant_nm_a = 0.01;
+        s.dcmc.current_limit_a = 2.0;
+        assert_eq!(warnings(&s), vec![]);
     }
 
     #[test]
