@@ -321,7 +321,17 @@ pub struct KeyFit {
     /// The recording cannot tell it apart from the other keys (a combination of them is
     /// all it shows): held at the scene's value while the others were fitted.
     pub confounded: bool,
+    /// The other fitted keys it trades off against: each with the correlation of the two
+    /// estimates, where its size reaches [`TRADE_OFF_CORRELATION`] (the recording shows
+    /// their combination far better than either).
+    pub trades_with: Vec<(String, f64)>,
 }
+
+/// The correlation of two fitted keys from which the report says they trade off: at
+/// 0.99 the combination along the pair's long axis is determined seven times better than
+/// either key alone (`1 / sqrt(1 - r^2)`), and a model that lacks something moves them
+/// together along it.
+pub const TRADE_OFF_CORRELATION: f64 = 0.99;
 
 impl KeyFit {
     /// Whether the fit is an estimate the calibrated scene takes: not at a bound of its
@@ -508,6 +518,32 @@ impl WheelGeometry {
     pub fn eb(&self) -> f64 {
         self.track_m.0 / self.configured_m.1
     }
+
+    /// The geometry as `diff_drive_controller`'s multipliers of the configured values
+    /// (ros2_control's `wheel_separation_multiplier`, `left_wheel_radius_multiplier`,
+    /// `right_wheel_radius_multiplier`): the controller and its odometry then work with
+    /// the effective track and radii. Where its file already has multipliers, the new ones
+    /// are these times the old.
+    pub fn controller_multipliers(&self) -> ControllerMultipliers {
+        ControllerMultipliers {
+            wheel_separation: self.eb(),
+            left_wheel_radius: self.radii_m[0].0 / self.configured_m.0,
+            right_wheel_radius: self.radii_m[1].0 / self.configured_m.0,
+        }
+    }
+}
+
+/// `diff_drive_controller`'s geometry multipliers (dimensionless), named as its
+/// parameters without the `_multiplier` suffix.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ControllerMultipliers {
+    /// `wheel_separation_multiplier`: effective track over the configured separation.
+    pub wheel_separation: f64,
+    /// `left_wheel_radius_multiplier`: the left wheel's effective radius over the
+    /// configured radius.
+    pub left_wheel_radius: f64,
+    /// `right_wheel_radius_multiplier`: the right wheel's, likewise.
+    pub right_wheel_radius: f64,
 }
 
 impl Calibration {
@@ -915,6 +951,7 @@ fn settled(
             at_bound: None,
             held: false,
             confounded: true,
+            trades_with: vec![],
         });
     }
     // In the order the keys were asked for, the effects' after them.
@@ -981,7 +1018,90 @@ fn key_fits(scene: &Scene, stage: &Stage, starts: &[(String, f64)]) -> Vec<KeyFi
                 at_bound,
                 held: stage.fit.weighting.holds(i) && stage.fit.held_by_belief(i),
                 confounded: false,
+                trades_with: trades_with(stage, i),
             }
         })
         .collect()
+}
+
+/// The keys free slot `i` of the stage trades off against ([`TRADE_OFF_CORRELATION`]),
+/// from the fit's covariance; none where a key is at a bound or undetermined.
+fn trades_with(stage: &Stage, i: usize) -> Vec<(String, f64)> {
+    let usable: Vec<bool> = (0..stage.free.len())
+        .map(|j| stage.fit.std[j].is_some() && stage.at_bound(j).is_none())
+        .collect();
+    correlated_with(&stage.fit.covariance, &usable, i)
+        .into_iter()
+        .map(|(j, r)| (stage.free[j].clone(), r))
+        .collect()
+}
+
+/// The slots whose correlation with slot `i` reaches [`TRADE_OFF_CORRELATION`] in size,
+/// each with the correlation `c_ij / sqrt(c_ii c_jj)`; only `usable` slots count, and
+/// none where the covariance does not cover them.
+fn correlated_with(c: &nalgebra::DMatrix<f64>, usable: &[bool], i: usize) -> Vec<(usize, f64)> {
+    if c.nrows() != usable.len() || !usable[i] {
+        return vec![];
+    }
+    (0..usable.len())
+        .filter(|&j| j != i && usable[j])
+        .filter_map(|j| {
+            let r = c[(i, j)] / (c[(i, i)] * c[(j, j)]).sqrt();
+            (r.abs() >= TRADE_OFF_CORRELATION).then_some((j, r))
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_controllers_multipliers_are_the_effective_geometry_over_the_configured() {
+        // A 0.4 m, 0.08 m drawing; the right wheel rolls on 1 % less, the track is 2 %
+        // wider: ros2_control scales the drawing's values by these to match.
+        let g = WheelGeometry {
+            radii_m: [(0.08, None), (0.0792, None)],
+            track_m: (0.408, None),
+            configured_m: (0.08, 0.4),
+        };
+        let m = g.controller_multipliers();
+        assert!((m.wheel_separation - 1.02).abs() < 1e-12, "{m:?}");
+        assert!((m.left_wheel_radius - 1.0).abs() < 1e-12, "{m:?}");
+        assert!((m.right_wheel_radius - 0.99).abs() < 1e-12, "{m:?}");
+    }
+
+    #[test]
+    fn keys_whose_estimates_move_together_are_said_to_trade_off() {
+        // Slots 0 and 1 correlated -0.995 (a mass and a gain that make the same response),
+        // slot 2 independent of both (0.5 with slot 0: below the line).
+        let (s0, s1, s2) = (2.0, 0.5, 1.0);
+        let c = nalgebra::DMatrix::from_row_slice(
+            3,
+            3,
+            &[
+                s0 * s0,
+                -0.995 * s0 * s1,
+                0.5 * s0 * s2,
+                -0.995 * s0 * s1,
+                s1 * s1,
+                0.0,
+                0.5 * s0 * s2,
+                0.0,
+                s2 * s2,
+            ],
+        );
+        let all = [true, true, true];
+        let r = correlated_with(&c, &all, 0);
+        assert_eq!(r.len(), 1, "{r:?}");
+        assert_eq!(r[0].0, 1);
+        assert!((r[0].1 + 0.995).abs() < 1e-12, "{r:?}");
+        assert_eq!(correlated_with(&c, &all, 1)[0].0, 0);
+        assert!(correlated_with(&c, &all, 2).is_empty());
+        // A slot at a bound (unusable) trades with nothing, and nothing with it.
+        assert!(correlated_with(&c, &[true, false, true], 0).is_empty());
+        assert!(correlated_with(&c, &[false, true, true], 0).is_empty());
+        // A covariance of another size (an intermediate fit's) says nothing.
+        assert!(correlated_with(&c, &[true, true], 0).is_empty());
+    }
 }

@@ -945,6 +945,7 @@ impl Problem<'_> {
                 at_bound: None,
                 held: false,
                 confounded: false,
+                trades_with: vec![],
             })
             .collect();
         Ok(Some((trial, with, fits)))

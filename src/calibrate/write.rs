@@ -257,6 +257,8 @@ fn key_table(s: &mut String, c: &Calibration) {
             (None, None) => writeln!(s, "{head}"),
         };
     }
+    trade_off_lines(s, c);
+    trade_off_lines(s, c);
     for r in &c.removed {
         let unit = unit_of_key(&r.key);
         let _ = writeln!(
@@ -268,6 +270,25 @@ fn key_table(s: &mut String, c: &Calibration) {
             sig(r.off, 6),
             r.effect.name()
         );
+    }
+}
+
+/// A line per pair of fitted keys that trade off ([`super::TRADE_OFF_CORRELATION`]):
+/// their values are one combination the recording determines, not two findings.
+fn trade_off_lines(s: &mut String, c: &Calibration) {
+    use std::fmt::Write as _;
+    for (i, k) in c.keys.iter().enumerate() {
+        for (other, r) in &k.trades_with {
+            // Each pair once, in the table's order.
+            if c.keys[..i].iter().any(|e| &e.key == other) {
+                continue;
+            }
+            let _ = writeln!(
+                s,
+                "trade-off: {} and {} (correlation {r:+.3}): the recording shows a combination of them far better than either; a model that lacks something moves both along it (hold one with --set, or record a run that tells them apart)",
+                k.key, other
+            );
+        }
     }
 }
 
@@ -391,6 +412,14 @@ pub fn render(c: &Calibration) -> String {
             sig(g.ed(), 6),
             sig(g.eb(), 6)
         );
+        let m = g.controller_multipliers();
+        let _ = writeln!(
+            s,
+            "diff_drive_controller: wheel_separation_multiplier: {}, left_wheel_radius_multiplier: {}, right_wheel_radius_multiplier: {} (of the configured separation and radius; where its file has multipliers already, times those)",
+            sig(m.wheel_separation, 6),
+            sig(m.left_wheel_radius, 6),
+            sig(m.right_wheel_radius, 6)
+        );
     }
     let _ = writeln!(
         s,
@@ -475,6 +504,24 @@ pub fn mean_fit(r: &crate::replay::Replay, outputs: &[String]) -> f64 {
     fits.iter().sum::<f64>() / fits.len().max(1) as f64
 }
 
+/// The wheel geometry as the JSON carries it: radii and track with their deviations,
+/// the configured values, UMBmark's figures and `diff_drive_controller`'s multipliers.
+fn geometry_json(g: &super::WheelGeometry) -> serde_json::Value {
+    let m = g.controller_multipliers();
+    serde_json::json!({
+        "left_radius_m": g.radii_m[0].0, "left_radius_std_m": g.radii_m[0].1,
+        "right_radius_m": g.radii_m[1].0, "right_radius_std_m": g.radii_m[1].1,
+        "track_m": g.track_m.0, "track_std_m": g.track_m.1,
+        "configured_radius_m": g.configured_m.0, "configured_separation_m": g.configured_m.1,
+        "umbmark_ed": g.ed(), "umbmark_eb": g.eb(),
+        "diff_drive_controller": {
+            "wheel_separation_multiplier": m.wheel_separation,
+            "left_wheel_radius_multiplier": m.left_wheel_radius,
+            "right_wheel_radius_multiplier": m.right_wheel_radius,
+        },
+    })
+}
+
 /// The calibration as JSON: each key (before, after, std, at bound) and each fitted
 /// output's replay fit on the original and the calibrated scene.
 pub fn json(c: &Calibration, scene: &str, recording: &str) -> serde_json::Value {
@@ -490,6 +537,7 @@ pub fn json(c: &Calibration, scene: &str, recording: &str) -> serde_json::Value 
                 "std": k.std,
                 "at_bound": k.at_bound,
                 "held_by_belief": k.held,
+                "trades_with": k.trades_with.iter().map(|(key, r)| serde_json::json!({"key": key, "correlation": r})).collect::<Vec<_>>(),
                 "confounded": k.confounded,
                 "estimate": k.calibrated(),
             })
@@ -544,13 +592,7 @@ pub fn json(c: &Calibration, scene: &str, recording: &str) -> serde_json::Value 
         "replay_fit": fits,
         "left_out": c.left_out,
         "mean_fit_pct": {"original": mean_fit(&c.before, &c.outputs), "calibrated": mean_fit(&c.after, &c.outputs)},
-        "wheel_geometry": c.wheel_geometry().map(|g| serde_json::json!({
-            "left_radius_m": g.radii_m[0].0, "left_radius_std_m": g.radii_m[0].1,
-            "right_radius_m": g.radii_m[1].0, "right_radius_std_m": g.radii_m[1].1,
-            "track_m": g.track_m.0, "track_std_m": g.track_m.1,
-            "configured_radius_m": g.configured_m.0, "configured_separation_m": g.configured_m.1,
-            "umbmark_ed": g.ed(), "umbmark_eb": g.eb(),
-        })),
+        "wheel_geometry": c.wheel_geometry().map(|g| geometry_json(&g)),
         "iterations": c.iterations,
         "terms": c.terms.as_ref().map(|t| serde_json::json!({
             "screened": t.screened,
