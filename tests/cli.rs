@@ -1257,3 +1257,41 @@ fn a_recording_given_as_a_scene_is_named_as_one() {
     );
     assert!(!err.contains("TOML parse error"), "{err}");
 }
+
+/// `replay` warns of the DCMC's gains only where the recording drives through the DCMC:
+/// a recording of the motors' voltages bypasses it.
+#[test]
+fn replay_warns_of_the_dcmc_only_where_the_recording_drives_it() {
+    let warned = |recording: &str, out: &str| -> bool {
+        let o = agvsim()
+            .args([
+                "replay",
+                "--scene",
+                "scenes/lab_offset_120mm.toml",
+                "--set",
+                // Full demand would ask 100 V of a 23.5 V drive: a plausibility warning.
+                "dcmc.forward_gain_V_pct=1",
+                "--recording",
+                recording,
+                "--out",
+            ])
+            .arg(tmp(out))
+            .output()
+            .unwrap();
+        let t = format!(
+            "{}{}",
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert!(o.status.success(), "{t}");
+        t.contains("`dcmc.forward_gain_V_pct`")
+    };
+    assert!(!warned(
+        "data/calibrate_example/multisine_inputs.csv",
+        "replay_voltages"
+    ));
+    assert!(warned(
+        "data/thesis_case1/case1_reference.csv",
+        "replay_demands"
+    ));
+}

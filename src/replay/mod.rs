@@ -93,6 +93,12 @@ impl Drive {
         }
     }
 
+    /// Whether the motors' voltages come from the recording itself, so the DCMC (its
+    /// gains and limits) takes no part in the replay.
+    pub fn bypasses_dcmc(self) -> bool {
+        matches!(self, Drive::Voltages | Drive::AxisVoltage)
+    }
+
     fn actuation(self, u: &[f64]) -> Actuation {
         match self {
             Drive::Voltages => Actuation::Voltage([u[0], u[1]]),

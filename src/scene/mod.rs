@@ -108,8 +108,14 @@ pub struct Checked {
 impl Checked {
     /// The warnings, one `warning: ORIGIN: ...` line each.
     pub fn render_warnings(&self) -> String {
+        self.render_warnings_except(|_| false)
+    }
+
+    /// The warnings but those on keys `unused` says the command at hand never reads.
+    pub fn render_warnings_except(&self, unused: impl Fn(&str) -> bool) -> String {
         self.warnings
             .iter()
+            .filter(|(_, w)| !unused(w.key))
             .map(|(o, w)| format!("warning: {o}: {w}\n"))
             .collect()
     }
