@@ -301,12 +301,33 @@ fn effect_value(t: &super::EffectTrial, unit: &str) -> String {
     }
 }
 
+/// Whether a trial's search failed: the model with the effect contains the model
+/// without it (the effect at its off value), so a fit that ends worse than that model by
+/// more than the engines may disagree ([`super::search::JUDGE_SHARE`] of the residual) did
+/// not converge; its "gain" is no evidence either way. Weighings against absence (kept,
+/// removed) compare two fits, and a race is a few iterations' screen: neither is such a
+/// search.
+pub(crate) fn search_failed(t: &super::EffectTrial) -> bool {
+    !t.accepted
+        && !t.removed
+        && !t.kept
+        && !t.raced_only
+        && t.against_absence.is_none()
+        && -t.rss_reduction_pct > 100.0 * super::search::JUDGE_SHARE
+}
+
 /// What became of an effect tried, in words.
 pub(crate) fn verdict(t: &super::EffectTrial, unit: &str) -> String {
     let kept = |was: Option<f64>| match was {
         Some(was) => format!("the scene keeps its {}", quantity(was, 4, unit)),
         None => "not added".to_string(),
     };
+    if search_failed(t) {
+        return format!(
+            "the search failed: its fit ended worse than the model without it, which the effect at its off value is (no evidence either way); {}",
+            kept(t.scene_value)
+        );
+    }
     match (t.accepted, t.scene_value, t.at_bound) {
         _ if t.removed => match t.scene_value {
             Some(was) => format!(
@@ -372,7 +393,7 @@ pub fn render(c: &Calibration) -> String {
             } else {
                 change_pct(change)
             };
-            let aic = if t.delta_aic.is_finite() {
+            let aic = if t.delta_aic.is_finite() && !search_failed(t) {
                 format!("{:.1}", t.delta_aic)
             } else {
                 "-".to_string()
@@ -654,4 +675,54 @@ pub fn figures(c: &Calibration, rec_name: &str) -> Vec<crate::plot::Figure> {
         });
     }
     files
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ident::effects::Effect;
+
+    fn trial(rss_reduction_pct: f64) -> super::super::EffectTrial {
+        super::super::EffectTrial {
+            effect: Effect::Backlash,
+            key: "gearbox.backlash_rad".into(),
+            value: 0.01,
+            std: None,
+            at_bound: None,
+            delta_aic: -21065.8,
+            rss_reduction_pct,
+            accepted: false,
+            removed: false,
+            raced_only: false,
+            unconfirmed: None,
+            kept: false,
+            against_absence: None,
+            accepted_as: None,
+            scene_value: None,
+        }
+    }
+
+    #[test]
+    fn a_fit_that_ends_worse_than_without_its_effect_is_a_failed_search_not_evidence() {
+        // The residual multiplied: the nested model (the effect off) fits better.
+        let failed = trial(-5000.0);
+        assert!(search_failed(&failed));
+        assert!(verdict(&failed, "rad").starts_with("the search failed"));
+        // Within the engines' disagreement (a tenth of the residual): an ordinary verdict.
+        let close = trial(-5.0);
+        assert!(!search_failed(&close));
+        assert_eq!(
+            verdict(&close, "rad"),
+            "not supported by the recording: not added"
+        );
+        // A race (a few iterations' screen) or a weighing against absence is no search.
+        assert!(!search_failed(&super::super::EffectTrial {
+            raced_only: true,
+            ..trial(-5000.0)
+        }));
+        assert!(!search_failed(&super::super::EffectTrial {
+            removed: true,
+            ..trial(-5000.0)
+        }));
+    }
 }
