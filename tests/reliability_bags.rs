@@ -267,3 +267,22 @@ fn a_device_given_as_a_bag_scene_rig_or_recording_is_refused_not_read_forever() 
         assert!(t.contains("not a regular file"), "{args:?}: {t}");
     }
 }
+
+/// A ROS 1 bag of its magic line alone (13 bytes) holds no records: the error says so,
+/// not "no velocity command topic" over an empty list of the bag's topics.
+#[test]
+fn a_bag_of_its_magic_line_alone_is_said_to_hold_no_records() {
+    let dir = tmp("reliability-bags-magic-only");
+    std::fs::create_dir_all(&dir).unwrap();
+    let bag = dir.join("magic_only.bag");
+    std::fs::write(&bag, b"#ROSBAG V2.0\n").unwrap();
+    let o = import(&bag, &dir.join("out"));
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{t}");
+    assert!(t.contains("magic_only.bag"), "{t}");
+    assert!(t.contains("it holds no records"), "{t}");
+    assert!(
+        !t.contains("the bag has \n") && !t.trim_end().ends_with("the bag has"),
+        "{t}"
+    );
+}

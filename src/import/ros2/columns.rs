@@ -80,6 +80,9 @@ impl<'a> Converter<'a> {
     }
 
     pub(super) fn listing(&self) -> String {
+        if self.bag.topics.is_empty() {
+            return "no topic: it holds no records (an empty or cut-short bag)".into();
+        }
         self.bag
             .topics
             .iter()
