@@ -102,6 +102,9 @@ const MASS_PER_FOOTPRINT_1_5_MAX: f64 = 2000.0;
 /// about 9, the thesis motor on OptiOdom's 4 kg robot 130).
 const DRIVE_PER_WEIGHT_SPAN: (f64, f64) = (0.05, 20.0);
 
+/// Density of water, kg/m^3: the scale the mass-for-outline rule speaks in.
+const WATER_KG_M3: f64 = 1000.0;
+
 /// Standard gravity, m/s^2.
 const G_M_S2: f64 = 9.81;
 
@@ -137,12 +140,7 @@ fn sizes(scene: &Scene, w: &mut Vec<Warning>) {
             });
         }
     }
-    let top_m_s = scene.top_speed_m_s(
-        scene
-            .battery
-            .drive_limit_v
-            .min(scene.battery.open_circuit_v),
-    );
+    let top_m_s = scene.top_speed_m_s(drive_v(scene));
     // Too slow or too fast: one warning, the band and the likeliest slip differing.
     let band = if top_m_s.is_finite() && top_m_s > 0.0 && top_m_s < TOP_SPEED_MIN_M_S {
         Some((
@@ -164,7 +162,7 @@ fn sizes(scene: &Scene, w: &mut Vec<Warning>) {
             expected,
             why: format!(
                 "the motor's no-load speed at the drive limit ({} V / {} N m/A) through gearbox.ratio = {} to a {} m wheel gives {} m/s; {slip}",
-                sig(scene.battery.drive_limit_v.min(scene.battery.open_circuit_v)),
+                sig(drive_v(scene)),
                 sig(scene.motor.torque_constant_nm_a),
                 sig(scene.gearbox.ratio),
                 sig(scene.wheel.radius_m),
@@ -267,10 +265,7 @@ fn supply(scene: &Scene, w: &mut Vec<Warning>) {
 
 fn dcmc_gains(scene: &Scene, w: &mut Vec<Warning>) {
     let d = &scene.dcmc;
-    let drive_v = scene
-        .battery
-        .drive_limit_v
-        .min(scene.battery.open_circuit_v);
+    let drive_v = drive_v(scene);
     match d.kind {
         DcmcKind::Gain | DcmcKind::GainPi => {
             let full_v = d.forward_gain_v_pct.abs() * 100.0;
@@ -324,8 +319,10 @@ fn tyre_friction(scene: &Scene, w: &mut Vec<Warning>) {
 /// A mass no body of this outline carries: the thesis machine's mass left on a small robot.
 fn mass_for_size(scene: &Scene, w: &mut Vec<Warning>) {
     let c = &scene.chassis;
-    let area_m2 = (c.front_m + c.rear_m) * c.width_m;
-    let heaviest_kg = MASS_PER_FOOTPRINT_1_5_MAX * area_m2.powf(1.5);
+    let length_m = c.front_m + c.rear_m;
+    // A box as tall as the footprint is wide: its volume, m^3.
+    let box_m3 = (length_m * c.width_m).powf(1.5);
+    let heaviest_kg = MASS_PER_FOOTPRINT_1_5_MAX * box_m3;
     if c.mass_kg > heaviest_kg {
         w.push(Warning {
             key: ChassisParams::mass_kg.key(),
@@ -333,22 +330,26 @@ fn mass_for_size(scene: &Scene, w: &mut Vec<Warning>) {
             expected: format!("at most about {} kg for its outline", sig(heaviest_kg)),
             why: format!(
                 "a {} x {} m body (chassis.front_m + rear_m, width_m) full of water as tall as it is wide weighs {} kg; robots are mostly air: another machine's mass?",
-                sig(c.front_m + c.rear_m),
+                sig(length_m),
                 sig(c.width_m),
-                sig(1000.0 * area_m2.powf(1.5))
+                sig(WATER_KG_M3 * box_m3)
             ),
         });
     }
 }
 
+/// The voltage the bridges deliver a motor, V: their limit, at most the battery's.
+fn drive_v(scene: &Scene) -> f64 {
+    scene
+        .battery
+        .drive_limit_v
+        .min(scene.battery.open_circuit_v)
+}
+
 /// The most current a motor draws, A: the drive's limit, or its stall current at the
 /// drive limit if lower.
 fn most_current_a(scene: &Scene) -> f64 {
-    let drive_v = scene
-        .battery
-        .drive_limit_v
-        .min(scene.battery.open_circuit_v);
-    let stall_a = drive_v / scene.motor.resistance_ohm;
+    let stall_a = drive_v(scene) / scene.motor.resistance_ohm;
     scene.dcmc.current_limit_a.min(stall_a)
 }
 
@@ -363,7 +364,8 @@ pub fn drive_force_n(scene: &Scene) -> f64 {
 /// machine (an import's guess when the user gave none).
 fn drive_for_weight(scene: &Scene, w: &mut Vec<Warning>) {
     let weight_n = scene.chassis.mass_kg * G_M_S2;
-    let ratio = drive_force_n(scene) / weight_n;
+    let force_n = drive_force_n(scene);
+    let ratio = force_n / weight_n;
     let (lo, hi) = DRIVE_PER_WEIGHT_SPAN;
     if ratio.is_finite() && !(lo..=hi).contains(&ratio) {
         w.push(Warning {
@@ -380,7 +382,7 @@ fn drive_for_weight(scene: &Scene, w: &mut Vec<Warning>) {
                 sig(most_current_a(scene)),
                 sig(scene.gearbox.ratio),
                 sig(scene.wheel.radius_m),
-                sig(drive_force_n(scene)),
+                sig(force_n),
                 sig(ratio),
                 sig(scene.chassis.mass_kg)
             ),

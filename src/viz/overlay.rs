@@ -148,7 +148,15 @@ const MAX_COLUMNS: usize = 3;
 /// in a narrow column they sat on the data).
 fn colour_key(o: &Overlay, window: Option<(f64, f64)>) -> String {
     const MODEL_NAMES: [&str; 3] = ["orange", "blue", "green"];
-    const INPUT_NAMES: [&str; 4] = ["red", "blue", "yellow", "purple"];
+    // The lines' colours in order, each named before its series.
+    fn coloured<'a>(names: impl Iterator<Item = &'a str>) -> String {
+        const INPUT_NAMES: [&str; 4] = ["red", "blue", "yellow", "purple"];
+        names
+            .enumerate()
+            .map(|(k, n)| format!("{} {n}", INPUT_NAMES[k % INPUT_NAMES.len()]))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
     let models: Vec<String> = o
         .outputs
         .first()
@@ -165,24 +173,15 @@ fn colour_key(o: &Overlay, window: Option<(f64, f64)>) -> String {
         models.join(". ")
     );
     if !o.inputs.is_empty() {
-        let inputs: Vec<String> = o
-            .inputs
-            .iter()
-            .enumerate()
-            .map(|(k, i)| format!("{} {}", INPUT_NAMES[k % INPUT_NAMES.len()], i.name))
-            .collect();
-        key.push_str(&format!(" Inputs: {}.", inputs.join(", ")));
+        key.push_str(&format!(
+            " Inputs: {}.",
+            coloured(o.inputs.iter().map(|i| i.name))
+        ));
     }
     if !o.quantities.is_empty() {
-        let names: Vec<String> = o
-            .quantities
-            .iter()
-            .enumerate()
-            .map(|(k, i)| format!("{} {}", INPUT_NAMES[k % INPUT_NAMES.len()], i.name))
-            .collect();
         key.push_str(&format!(
             " What the terms found depend on, measured: {}.",
-            names.join(", ")
+            coloured(o.quantities.iter().map(|i| i.name))
         ));
     }
     if let Some((a, b)) = window {
