@@ -816,3 +816,70 @@ fn numbers_from_a_bag_are_named_by_the_topic_they_came_from() {
     assert!(!t.contains("--track-m") && !t.contains(".csv:"), "{t}");
     assert!(!dir.join("inf_out").exists());
 }
+
+/// The shipped example bag holds what drove the robot it was made from
+/// (data/ros2_example/README.md): imported as docs/ros2.md imports it, that robot (its
+/// right wheel 1 % small, its track 2 % wide) replays the wheel speeds to the noise the
+/// bag's encoders were given (0.05 rad/s at a 0.08 m wheel: 0.004 m/s) and the pose to a
+/// millimetre. A bag whose commands reached the robot a row before it says (the example's
+/// earlier make) left 0.008 m/s.
+#[test]
+fn the_example_bag_replays_to_its_noise_on_the_robot_it_was_made_from() {
+    let dir = scratch("example_bag");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/ros2_example");
+    let o = import(
+        &root.join("robot_square"),
+        &dir,
+        &[
+            "--mass-kg",
+            "40",
+            "--gear-ratio",
+            "20",
+            "--motor-no-load-rpm",
+            "3000",
+            "--motor-stall-current-A",
+            "40",
+            "--battery-V",
+            "24",
+            "--controller-yaml",
+            root.join("controller.yaml").to_str().unwrap(),
+        ],
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    let out = dir.join("replayed");
+    let o = agvsim(&[
+        "replay",
+        "--scene",
+        dir.join("robot_square.scene.toml").to_str().unwrap(),
+        "--recording",
+        dir.join("robot_square.csv").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--set",
+        "wheel.right_rolling_radius_m=0.0792",
+        "--set",
+        "chassis.track_width_m=0.408",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let measured = columns(&dir.join("robot_square.csv"));
+    let simulated = columns(&out.join("robot_square.replay.csv"));
+    let rms = |name: &str| {
+        let (m, s) = (col(&measured, name), col(&simulated, name));
+        let d: Vec<f64> = m
+            .iter()
+            .zip(s)
+            .filter(|(a, b)| a.is_finite() && b.is_finite())
+            .map(|(a, b)| a - b)
+            .collect();
+        (d.iter().map(|v| v * v).sum::<f64>() / d.len() as f64).sqrt()
+    };
+    for side in ["left", "right"] {
+        let r = rms(&format!("{side}_wheel_speed_m_s"));
+        // The noise's RMS over 1200 rows is known to about 2 %; 10 % leaves room for the
+        // solver's own rounding, not for a row's timing (which doubles it).
+        assert!(r < 0.0044, "{side} wheel speed RMS {r} m/s");
+    }
+    for name in ["x_m", "y_m"] {
+        assert!(rms(name) < 1e-3, "{name} RMS {} m", rms(name));
+    }
+}

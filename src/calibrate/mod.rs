@@ -6,6 +6,7 @@
 //! in the simulation itself.
 
 pub mod base_limits;
+pub mod defect;
 pub mod diagnosis;
 pub mod effects;
 mod first;
@@ -147,6 +148,9 @@ pub struct SceneReplay<'a> {
     windows: Option<pose_windows::PoseWindows>,
     /// What each evaluation replays on: the simulator, or the reduced base.
     engine: Engine,
+    /// Added to the reduced base's predictions: the simulator's replay minus its own at
+    /// one set of keys ([`defect::Defect`]); `None` on the simulator.
+    defect: Option<defect::Defect>,
 }
 
 impl<'a> SceneReplay<'a> {
@@ -193,7 +197,15 @@ impl<'a> SceneReplay<'a> {
             specs,
             windows: None,
             engine: Engine::Simulator,
+            defect: None,
         })
+    }
+
+    /// The same model with `defect` added to each prediction where it replays on the
+    /// reduced base.
+    pub fn corrected(mut self, defect: Option<defect::Defect>) -> Self {
+        self.defect = defect;
+        self
     }
 
     /// The same model replayed on `engine`.
@@ -292,6 +304,9 @@ impl Predictor for SceneReplay<'_> {
             .collect::<Result<Vec<_>, _>>()?;
         if let Some(w) = &self.windows {
             w.simulated(&mut y);
+        }
+        if let (Engine::ReducedBase, Some(d)) = (self.engine, &self.defect) {
+            d.correct(&mut y);
         }
         Ok(y)
     }
@@ -661,6 +676,8 @@ pub fn calibrate_telling(
         validation: None,
         simulator_judges: Default::default(),
         simulated: Default::default(),
+        defect: Default::default(),
+        bound_held: Default::default(),
         term_ceilings,
     };
     if let Some(v) = &request.validate {
@@ -682,7 +699,7 @@ pub fn calibrate_telling(
     let found = first::found_first(&problem, scene, &tried, driven, progress)?;
     let mut fitted = free.clone();
     fitted.extend(found.extra_free.iter().cloned());
-    let stage = faithful_first_stage(&mut problem, &found.scene, &fitted, progress)?;
+    let stage = defect::faithful_first_stage(&mut problem, &found.scene, &fitted, progress)?;
     let baseline = stage.scene.clone();
     if problem.rejudge(&stage)? {
         progress(JUDGED_BY_THE_SIMULATOR);
@@ -743,30 +760,6 @@ fn signed_keys(
         signed.extend(terms::signed_keys(c));
     }
     signed
-}
-
-/// The first stage on the fits' engine. Where that is the reduced base and the simulator
-/// does not see the improvement it claims ([`Problem::simulator_sees_gain`]: the castors'
-/// swing or the teeth's ringing made up for by a mass or a gain), the calibration runs on
-/// the simulator from then on, the first stage fitted again there.
-fn faithful_first_stage(
-    problem: &mut Problem,
-    scene: &Scene,
-    fitted: &[String],
-    progress: &dyn Fn(&str),
-) -> Result<Stage, CalibrateError> {
-    let stage = problem.first_stage(scene, fitted)?;
-    if problem.engine == Engine::Simulator || problem.simulator_sees_gain(scene, &stage)? {
-        return Ok(stage);
-    }
-    progress("the simulator does not see the reduced base's first fit: the keys bent to make up for what it leaves out; fitting through the simulator from here");
-    problem.engine = Engine::Simulator;
-    problem
-        .held
-        .lock()
-        .expect("no fit panics holding it")
-        .clear();
-    problem.first_stage(scene, fitted)
 }
 
 /// The simulator's replays of the scene as written and calibrated: the first look's where
@@ -951,6 +944,26 @@ fn settled(
             at_bound: None,
             held: false,
             confounded: true,
+            trades_with: vec![],
+        });
+    }
+    // The keys the reduced base's first fit drove to a bound, held at the scene's values.
+    for (key, bound) in problem
+        .bound_held
+        .lock()
+        .expect("no fit panics holding it")
+        .iter()
+    {
+        let value = keys::get(scene, key)?;
+        keys.push(KeyFit {
+            key: key.clone(),
+            before: value,
+            after: value,
+            fitted: *bound,
+            std: None,
+            at_bound: Some(*bound),
+            held: false,
+            confounded: false,
             trades_with: vec![],
         });
     }

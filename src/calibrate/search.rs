@@ -77,6 +77,11 @@ pub(super) struct Problem<'a> {
     /// ([`Problem::simulator_prediction`]): a round's reference stage is asked for again
     /// by each candidate's evidence, its confirmation and the judge.
     pub simulated: std::sync::Mutex<std::collections::HashMap<String, Option<Outputs>>>,
+    /// The reduced base's defect the fits on it carry ([`Problem::correct_at`]).
+    pub defect: std::sync::Mutex<Option<super::defect::Defect>>,
+    /// The user's keys the reduced base's first fit drove to a bound of their search, with
+    /// the bound: held at the scene's values from then on (no estimates).
+    pub bound_held: std::sync::Mutex<Vec<(String, f64)>>,
     /// The physical ceilings of a term's coefficients, where terms outside the vocabulary
     /// are searched in the rounds ([`super::terms::searched`]).
     pub term_ceilings: Option<crate::diagnose::terms::Ceilings>,
@@ -178,6 +183,8 @@ impl Problem<'_> {
                 validation: None,
                 simulator_judges: std::sync::atomic::AtomicBool::new(self.simulator_judges()),
                 simulated: Default::default(),
+                defect: std::sync::Mutex::new(self.defect()),
+                bound_held: Default::default(),
                 term_ceilings: None,
             },
             None => Problem {
@@ -195,6 +202,8 @@ impl Problem<'_> {
                 validation: None,
                 simulator_judges: std::sync::atomic::AtomicBool::new(self.simulator_judges()),
                 simulated: Default::default(),
+                defect: std::sync::Mutex::new(self.defect()),
+                bound_held: Default::default(),
                 term_ceilings: None,
             },
         }
@@ -204,6 +213,7 @@ impl Problem<'_> {
     pub fn rss_of(&self, scene: &Scene, free: &[String]) -> Result<f64, CalibrateError> {
         let model = SceneReplay::with_signed(scene, self.rec, free, &self.signed)?
             .on(self.engine)
+            .corrected(self.defect())
             .windowed(self.windows.clone());
         let p = values(scene, free)?;
         Ok(model
@@ -232,6 +242,34 @@ impl Problem<'_> {
             .expect("no replay panics holding it")
             .insert(text, predicted.clone());
         Ok(predicted)
+    }
+
+    /// The reduced base's defect the fits carry, if any.
+    pub fn defect(&self) -> Option<super::defect::Defect> {
+        self.defect
+            .lock()
+            .expect("no fit panics holding it")
+            .clone()
+    }
+
+    /// Takes the reduced base's defect at `scene`'s keys ([`super::defect`]): from then on
+    /// every fit on the reduced base predicts what the simulator replays there. `false`
+    /// (and no defect) where either diverged.
+    pub fn correct_at(&self, scene: &Scene) -> Result<bool, CalibrateError> {
+        let reduced = SceneReplay::with_signed(scene, self.rec, &[], &[])?
+            .on(crate::replay::Engine::ReducedBase)
+            .windowed(self.windows.clone());
+        let (sim, own) = rayon::join(
+            || self.simulator_prediction(scene),
+            || reduced.predict(&[], &self.data).ok(),
+        );
+        let defect = match (sim?, own) {
+            (Some(s), Some(r)) => Some(super::defect::Defect::between(&s, &r)),
+            _ => None,
+        };
+        let taken = defect.is_some();
+        *self.defect.lock().expect("no fit panics holding it") = defect;
+        Ok(taken)
     }
 
     /// Whether the simulator confirms a step found on the reduced base, `added` keys
@@ -309,14 +347,16 @@ impl Problem<'_> {
         Ok(takes_over)
     }
 
-    /// Whether the simulator sees at least [`FAITHFUL_SHARE`] of the improvement the fits'
-    /// engine claims for `stage` over `scene` as written (each replayed where its fit
-    /// ended, weighted as the residual). Where it does not, the reduced base bent the keys
+    /// Whether the simulator sees at least `share` of the improvement the fits' engine
+    /// claims for `stage` over `scene` as written (each replayed where its fit ended,
+    /// weighted as the residual; [`FAITHFUL_SHARE`] for the reduced base as it is, any
+    /// gain at all for one carrying its defect, whose claim is the corrected one). Where it does not, the reduced base bent the keys
     /// to make up for physics it leaves out, and is no model of this recording.
     pub fn simulator_sees_gain(
         &self,
         scene: &Scene,
         stage: &Stage,
+        share: f64,
     ) -> Result<bool, CalibrateError> {
         let w = &self.weighting.outputs;
         let cost =
@@ -331,7 +371,7 @@ impl Problem<'_> {
             || self.simulator_prediction(&stage.reached),
         );
         Ok(match (b?, a?) {
-            (Some(b), Some(a)) => cost(&b) - cost(&a) >= FAITHFUL_SHARE * claimed,
+            (Some(b), Some(a)) => cost(&b) - cost(&a) >= share * claimed,
             _ => false,
         })
     }
@@ -511,6 +551,7 @@ impl Problem<'_> {
     ) -> Result<Stage, CalibrateError> {
         let model = SceneReplay::with_signed(scene, self.rec, free, &self.signed)?
             .on(engine)
+            .corrected(self.defect())
             .believing(self.belief, &self.free)?
             .anchored(self.belief, &self.free)?
             .windowed(self.windows.clone());
@@ -681,6 +722,7 @@ impl Problem<'_> {
         let model =
             SceneReplay::with_signed(scene, self.rec, &[home.key.to_string()], &self.signed)?
                 .on(self.engine)
+                .corrected(self.defect())
                 .windowed(self.windows.clone());
         Ok(Self::scan_values(home)
             .par_iter()

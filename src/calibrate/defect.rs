@@ -1,0 +1,224 @@
+//! The reduced base's defect: what the simulator's replay of a recording adds to the reduced
+//! base's at one set of keys, carried as an additive correction of the reduced base's
+//! predictions (space mapping's zeroth-order output correction, Bandler et al. 2004).
+//!
+//! The reduced base leaves out the castors' swing and the tooth mesh's sub-steps; on a
+//! recording they leave a residual the fit would otherwise close by bending the mass or a
+//! loop gain. With the defect at the keys the fit starts from added, the corrected reduced
+//! base equals the simulator there and follows the reduced base's sensitivities around it:
+//! the fit moves the keys only for what the simulator would also see, at the reduced base's
+//! cost per evaluation. The defect is in the fitted outputs' units, row by row.
+//!
+//! [`faithful_first_stage`] decides on what a velocity recording's calibration is fitted:
+//! the reduced base as it is, the reduced base carrying its defect, or the simulator.
+
+use super::search::{Problem, Stage, FAITHFUL_SHARE};
+use super::CalibrateError;
+use crate::replay::Engine;
+use crate::scene::Scene;
+use std::sync::Arc;
+
+/// The simulator's prediction minus the reduced base's, one vector of rows per fitted
+/// output (in the dataset's output order), in the outputs' units.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Defect(Arc<Vec<Vec<f64>>>);
+
+impl Defect {
+    /// The defect between a simulator's and a reduced base's predictions of the same rows;
+    /// a row either leaves empty (a pose outside its windows) has none.
+    pub fn between(simulator: &[Vec<f64>], reduced: &[Vec<f64>]) -> Defect {
+        let rows = simulator
+            .iter()
+            .zip(reduced)
+            .map(|(s, r)| {
+                s.iter()
+                    .zip(r)
+                    .map(|(a, b)| if (a - b).is_finite() { a - b } else { 0.0 })
+                    .collect()
+            })
+            .collect();
+        Defect(Arc::new(rows))
+    }
+
+    /// Adds the defect to a reduced base's prediction `y` of the same outputs over the
+    /// same rows or a first part of them (the rows a race explores).
+    pub fn correct(&self, y: &mut [Vec<f64>]) {
+        for (out, d) in y.iter_mut().zip(self.0.iter()) {
+            for (v, dv) in out.iter_mut().zip(d) {
+                *v += dv;
+            }
+        }
+    }
+
+    /// The largest size of the defect in each output, in the outputs' units.
+    pub fn largest(&self) -> Vec<f64> {
+        self.0
+            .iter()
+            .map(|d| d.iter().fold(0.0_f64, |m, v| m.max(v.abs())))
+            .collect()
+    }
+}
+
+/// The first stage on the fits' engine. Where that is the reduced base and the simulator
+/// does not see the improvement it claims ([`Problem::simulator_sees_gain`]: the castors'
+/// swing or the teeth's ringing made up for by a mass or a gain), the reduced base carries
+/// its defect ([`Defect`]: the simulator's replay minus its own at the scene's keys) and
+/// fits again ([`corrected_first_stage`]); where the simulator sees no gain in that either,
+/// the calibration runs on the simulator from then on, the first stage fitted again there.
+pub(super) fn faithful_first_stage(
+    problem: &mut Problem,
+    scene: &Scene,
+    fitted: &[String],
+    progress: &dyn Fn(&str),
+) -> Result<Stage, CalibrateError> {
+    let stage = problem.first_stage(scene, fitted)?;
+    if problem.engine == Engine::Simulator
+        || problem.simulator_sees_gain(scene, &stage, FAITHFUL_SHARE)?
+    {
+        return Ok(stage);
+    }
+    if let Some(stage) = corrected_first_stage(problem, scene, fitted, progress)? {
+        return Ok(stage);
+    }
+    progress("the simulator does not see the reduced base's first fit: the keys bent to make up for what it leaves out; fitting through the simulator from here");
+    problem.engine = Engine::Simulator;
+    *problem.defect.lock().expect("no fit panics holding it") = None;
+    problem
+        .bound_held
+        .lock()
+        .expect("no fit panics holding it")
+        .clear();
+    clear_held(problem);
+    problem.first_stage(scene, fitted)
+}
+
+/// The first stage on the reduced base carrying its defect, taken at the scene's keys; where
+/// the simulator sees its gain, refined once ([`refined_first_stage`]). Where the fit drove
+/// keys of the user's to a bound of their search (no estimates, and a simulator far from
+/// where the defect was taken), those are held ([`first_stage_without_bounds`]). `None`: the simulator sees none of these fits' gains.
+fn corrected_first_stage(
+    problem: &mut Problem,
+    scene: &Scene,
+    fitted: &[String],
+    progress: &dyn Fn(&str),
+) -> Result<Option<Stage>, CalibrateError> {
+    if !problem.correct_at(scene)? {
+        return Ok(None);
+    }
+    progress(DEFECT_CARRIED);
+    clear_held(problem);
+    let stage = problem.first_stage(scene, fitted)?;
+    let bounded = (0..stage.free.len())
+        .any(|i| problem.free.contains(&stage.free[i]) && stage.at_bound(i).is_some());
+    if !bounded && problem.simulator_sees_gain(scene, &stage, ANY_GAIN)? {
+        return refined_first_stage(problem, scene, fitted, stage).map(Some);
+    }
+    first_stage_without_bounds(problem, scene, fitted, &stage, progress)
+}
+
+/// The corrected first stage fitted again with the defect taken where it ended (the
+/// defect changes with the keys); kept where the simulator sees its gain, else the first
+/// (and its defect) stands.
+fn refined_first_stage(
+    problem: &mut Problem,
+    scene: &Scene,
+    fitted: &[String],
+    stage: Stage,
+) -> Result<Stage, CalibrateError> {
+    let held = problem
+        .held
+        .lock()
+        .expect("no fit panics holding it")
+        .clone();
+    if !problem.correct_at(&stage.reached)? {
+        problem.correct_at(scene)?;
+        return Ok(stage);
+    }
+    clear_held(problem);
+    let again = problem.first_stage(scene, fitted)?;
+    if problem.simulator_sees_gain(scene, &again, ANY_GAIN)? {
+        return Ok(again);
+    }
+    problem.correct_at(scene)?;
+    *problem.held.lock().expect("no fit panics holding it") = held;
+    Ok(stage)
+}
+
+/// The corrected first stage with the user's keys `stage`'s fit drove to a bound of their
+/// search (no estimates: the model cannot place them) held at the scene's values
+/// ([`Problem::bound_held`]) and the others fitted; `None` where there are none
+/// or the simulator does not see this fit's gain either.
+fn first_stage_without_bounds(
+    problem: &mut Problem,
+    scene: &Scene,
+    fitted: &[String],
+    stage: &Stage,
+    progress: &dyn Fn(&str),
+) -> Result<Option<Stage>, CalibrateError> {
+    let bound: Vec<(String, f64)> = (0..stage.free.len())
+        .filter(|&i| problem.free.contains(&stage.free[i]))
+        .filter_map(|i| Some((stage.free[i].clone(), stage.at_bound(i)?)))
+        .collect();
+    let rest: Vec<String> = fitted
+        .iter()
+        .filter(|k| !bound.iter().any(|(b, _)| b == *k))
+        .cloned()
+        .collect();
+    if bound.is_empty() || rest.is_empty() {
+        return Ok(None);
+    }
+    clear_held(problem);
+    let stage = problem.first_stage(scene, &rest)?;
+    if !problem.simulator_sees_gain(scene, &stage, ANY_GAIN)? {
+        return Ok(None);
+    }
+    let names: Vec<&str> = bound.iter().map(|(k, _)| k.as_str()).collect();
+    progress(&format!(
+        "the reduced base's fit drove {} to the bounds of their search (no estimates): held at the scene's values, the other keys fitted; the simulator sees that fit's gain",
+        names.join(", ")
+    ));
+    *problem.bound_held.lock().expect("no fit panics holding it") = bound;
+    Ok(Some(stage))
+}
+
+/// The share of a corrected fit's claimed gain the simulator must see: any. The corrected
+/// reduced base predicts the simulator where its defect was taken and claims a gain for
+/// the keys' move from there; where the simulator sees some of it, the move is the
+/// simulator's too (where the two then disagree by more than [`super::search::JUDGE_SHARE`] of
+/// the residual, the simulator judges the evidence and settles the keys).
+const ANY_GAIN: f64 = f64::MIN_POSITIVE;
+
+/// Said when the reduced base takes on its defect ([`faithful_first_stage`]).
+const DEFECT_CARRIED: &str = "the simulator does not see the reduced base's first fit: the reduced base carries what the simulator adds to it (their replays' difference at the scene's keys) and fits again";
+
+/// Forgets the keys a first fit held as undetermined, for a first fit on another model.
+fn clear_held(problem: &Problem) {
+    problem
+        .held
+        .lock()
+        .expect("no fit panics holding it")
+        .clear();
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_corrected_reduced_base_equals_the_simulator_where_the_defect_was_taken() {
+        let sim = vec![vec![1.0, 2.0, 3.5], vec![0.1, f64::NAN, 0.3]];
+        let reduced = vec![vec![0.9, 2.2, 3.5], vec![0.0, f64::NAN, 0.4]];
+        let d = Defect::between(&sim, &reduced);
+        let mut y = reduced.clone();
+        d.correct(&mut y);
+        assert!((y[0][0] - 1.0).abs() < 1e-12 && (y[0][1] - 2.0).abs() < 1e-12);
+        assert!((y[1][2] - 0.3).abs() < 1e-12);
+        // An empty cell stays empty; the defect there is none.
+        assert!(y[1][1].is_nan());
+        // A first part of the rows takes the defect's first part.
+        let mut part = vec![vec![0.9], vec![0.0]];
+        d.correct(&mut part);
+        assert!((part[0][0] - 1.0).abs() < 1e-12 && (part[1][0] - 0.1).abs() < 1e-12);
+        assert!((d.largest()[0] - 0.2).abs() < 1e-12);
+    }
+}
