@@ -134,9 +134,33 @@ pub fn backticked(names: &[String]) -> String {
         .join(", ")
 }
 
+/// A value from the user's input as a message quotes it: whole up to 40 characters, else
+/// its first 40 and how long it was (a 2 MB number in a cell must not make a 2 MB message).
+pub fn echoed(value: &str) -> String {
+    const SHOWN: usize = 40;
+    let n = value.chars().count();
+    if n <= SHOWN {
+        value.to_string()
+    } else {
+        format!(
+            "{}... ({n} characters)",
+            value.chars().take(SHOWN).collect::<String>()
+        )
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_long_value_is_echoed_cut_with_its_length() {
+        assert_eq!(echoed("0.25"), "0.25");
+        let long = "1".repeat(2_000_000);
+        let e = echoed(&long);
+        assert!(e.len() < 80, "{e}");
+        assert!(e.ends_with("... (2000000 characters)"), "{e}");
+    }
 
     #[test]
     fn names_are_listed_in_backticks() {

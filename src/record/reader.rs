@@ -3,6 +3,7 @@
 //! missing values (`None`), never zero. Every contract breach is reported with the file,
 //! the line and the column.
 
+use crate::numtext::echoed;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -136,9 +137,12 @@ impl Rows {
         let t = cells[0].trim();
         let t: f64 = t
             .parse()
-            .map_err(|_| at(format!("column `t_s`: `{t}` is not a number")))?;
+            .map_err(|_| at(format!("column `t_s`: `{}` is not a number", echoed(t))))?;
         if !t.is_finite() {
-            return Err(at(format!("column `t_s`: {t} is not finite")));
+            return Err(at(format!(
+                "column `t_s`: {} is not finite",
+                echoed(cells[0].trim())
+            )));
         }
         if let Some(&prev) = self.t_s.last() {
             if t <= prev {
@@ -153,11 +157,19 @@ impl Rows {
             let v = if cell.is_empty() {
                 None
             } else {
-                let v: f64 = cell
-                    .parse()
-                    .map_err(|_| at(format!("column `{}`: `{cell}` is not a number", names[k])))?;
+                let v: f64 = cell.parse().map_err(|_| {
+                    at(format!(
+                        "column `{}`: `{}` is not a number",
+                        names[k],
+                        echoed(cell)
+                    ))
+                })?;
                 if !v.is_finite() {
-                    return Err(at(format!("column `{}`: {cell} is not finite (leave the cell empty for a missing value)", names[k])));
+                    return Err(at(format!(
+                        "column `{}`: {} is not finite (leave the cell empty for a missing value)",
+                        names[k],
+                        echoed(cell)
+                    )));
                 }
                 Some(v)
             };
@@ -386,6 +398,26 @@ mod tests {
     }
 
     const HEAD: &str = "# agvsim-recording: 1\n# rig: drive_axis\n";
+
+    #[test]
+    fn a_cell_of_two_million_digits_is_refused_with_a_short_message() {
+        let huge = "9".repeat(2_000_000);
+        for (row, column) in [
+            (format!("0,{huge}\n"), "voltage_V"),
+            (format!("0,1\n{huge},1\n"), "t_s"),
+            (format!("0,1\n1,x{huge}\n"), "voltage_V"),
+        ] {
+            let text = format!("{HEAD}t_s,voltage_V\n{row}");
+            let e = parse(&text).unwrap_err().to_string();
+            assert!(
+                e.len() < 300,
+                "{} bytes: {}",
+                e.len(),
+                &e[..300.min(e.len())]
+            );
+            assert!(e.contains(column) && e.contains("characters)"), "{e}");
+        }
+    }
 
     #[test]
     fn reads_values_and_keeps_missing_cells_missing() {
