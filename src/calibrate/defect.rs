@@ -49,14 +49,6 @@ impl Defect {
             }
         }
     }
-
-    /// The largest size of the defect in each output, in the outputs' units.
-    pub fn largest(&self) -> Vec<f64> {
-        self.0
-            .iter()
-            .map(|d| d.iter().fold(0.0_f64, |m, v| m.max(v.abs())))
-            .collect()
-    }
 }
 
 /// The first stage on the fits' engine. Where that is the reduced base and the simulator
@@ -83,11 +75,6 @@ pub(super) fn faithful_first_stage(
     progress("the simulator does not see the reduced base's first fit: the keys bent to make up for what it leaves out; fitting through the simulator from here");
     problem.engine = Engine::Simulator;
     *problem.defect.lock().expect("no fit panics holding it") = None;
-    problem
-        .bound_held
-        .lock()
-        .expect("no fit panics holding it")
-        .clear();
     clear_held(problem);
     problem.first_stage(scene, fitted)
 }
@@ -95,7 +82,8 @@ pub(super) fn faithful_first_stage(
 /// The first stage on the reduced base carrying its defect, taken at the scene's keys; where
 /// the simulator sees its gain, refined once ([`refined_first_stage`]). Where the fit drove
 /// keys of the user's to a bound of their search (no estimates, and a simulator far from
-/// where the defect was taken), those are held ([`first_stage_without_bounds`]). `None`: the simulator sees none of these fits' gains.
+/// where the defect was taken), those are held ([`first_stage_without_bounds`]). `None`:
+/// the simulator sees none of these fits' gains.
 fn corrected_first_stage(
     problem: &mut Problem,
     scene: &Scene,
@@ -108,12 +96,14 @@ fn corrected_first_stage(
     progress(DEFECT_CARRIED);
     clear_held(problem);
     let stage = problem.first_stage(scene, fitted)?;
-    let bounded = (0..stage.free.len())
-        .any(|i| problem.free.contains(&stage.free[i]) && stage.at_bound(i).is_some());
-    if !bounded && problem.simulator_sees_gain(scene, &stage, ANY_GAIN)? {
+    let bound: Vec<(String, f64)> = (0..stage.free.len())
+        .filter(|&i| problem.free.contains(&stage.free[i]))
+        .filter_map(|i| Some((stage.free[i].clone(), stage.at_bound(i)?)))
+        .collect();
+    if bound.is_empty() && problem.simulator_sees_gain(scene, &stage, ANY_GAIN)? {
         return refined_first_stage(problem, scene, fitted, stage).map(Some);
     }
-    first_stage_without_bounds(problem, scene, fitted, &stage, progress)
+    first_stage_without_bounds(problem, scene, fitted, bound, progress)
 }
 
 /// The corrected first stage fitted again with the defect taken where it ended (the
@@ -144,21 +134,17 @@ fn refined_first_stage(
     Ok(stage)
 }
 
-/// The corrected first stage with the user's keys `stage`'s fit drove to a bound of their
-/// search (no estimates: the model cannot place them) held at the scene's values
-/// ([`Problem::bound_held`]) and the others fitted; `None` where there are none
-/// or the simulator does not see this fit's gain either.
+/// The corrected first stage with the user's keys its fit drove to a bound of their
+/// search (`bound`, each with the bound; no estimates: the model cannot place them) held at
+/// the scene's values ([`Problem::bound_held`]) and the others fitted; `None` where there
+/// are none or the simulator does not see this fit's gain either.
 fn first_stage_without_bounds(
     problem: &mut Problem,
     scene: &Scene,
     fitted: &[String],
-    stage: &Stage,
+    bound: Vec<(String, f64)>,
     progress: &dyn Fn(&str),
 ) -> Result<Option<Stage>, CalibrateError> {
-    let bound: Vec<(String, f64)> = (0..stage.free.len())
-        .filter(|&i| problem.free.contains(&stage.free[i]))
-        .filter_map(|i| Some((stage.free[i].clone(), stage.at_bound(i)?)))
-        .collect();
     let rest: Vec<String> = fitted
         .iter()
         .filter(|k| !bound.iter().any(|(b, _)| b == *k))
@@ -219,6 +205,5 @@ mod tests {
         let mut part = vec![vec![0.9], vec![0.0]];
         d.correct(&mut part);
         assert!((part[0][0] - 1.0).abs() < 1e-12 && (part[1][0] - 0.1).abs() < 1e-12);
-        assert!((d.largest()[0] - 0.2).abs() < 1e-12);
     }
 }

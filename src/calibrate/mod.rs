@@ -934,17 +934,9 @@ fn settled(
         .expect("no fit panics holding it")
         .iter()
     {
-        let value = keys::get(scene, key)?;
         keys.push(KeyFit {
-            key: key.clone(),
-            before: value,
-            after: value,
-            fitted: value,
-            std: None,
-            at_bound: None,
-            held: false,
             confounded: true,
-            trades_with: vec![],
+            ..kept_at_scene(scene, key, None)?
         });
     }
     // The keys the reduced base's first fit drove to a bound, held at the scene's values.
@@ -954,18 +946,7 @@ fn settled(
         .expect("no fit panics holding it")
         .iter()
     {
-        let value = keys::get(scene, key)?;
-        keys.push(KeyFit {
-            key: key.clone(),
-            before: value,
-            after: value,
-            fitted: *bound,
-            std: None,
-            at_bound: Some(*bound),
-            held: false,
-            confounded: false,
-            trades_with: vec![],
-        });
+        keys.push(kept_at_scene(scene, key, Some(*bound))?);
     }
     // In the order the keys were asked for, the effects' after them.
     keys.sort_by_key(|k| free.iter().position(|f| *f == k.key).unwrap_or(free.len()));
@@ -1035,6 +1016,23 @@ fn key_fits(scene: &Scene, stage: &Stage, starts: &[(String, f64)]) -> Vec<KeyFi
             }
         })
         .collect()
+}
+
+/// A key the fits held at `scene`'s value, no estimate: where it ended at a bound of its
+/// search, that bound (its `fitted` value).
+fn kept_at_scene(scene: &Scene, key: &str, bound: Option<f64>) -> Result<KeyFit, CalibrateError> {
+    let value = keys::get(scene, key)?;
+    Ok(KeyFit {
+        key: key.to_string(),
+        before: value,
+        after: value,
+        fitted: bound.unwrap_or(value),
+        std: None,
+        at_bound: bound,
+        held: false,
+        confounded: false,
+        trades_with: vec![],
+    })
 }
 
 /// The keys free slot `i` of the stage trades off against ([`TRADE_OFF_CORRELATION`]),

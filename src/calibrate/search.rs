@@ -167,45 +167,28 @@ impl Problem<'_> {
     /// The problem on the recording's first part ([`exploration_rows`]), weighed alike;
     /// the problem itself where there is none.
     pub fn explore(&self) -> Problem<'_> {
-        match &self.explore {
-            Some((rec, data)) => Problem {
-                rec,
-                belief: self.belief,
-                free: self.free.clone(),
-                signed: self.signed.clone(),
-                data: data.clone(),
-                weighting: self.weighting.clone(),
-                explore: None,
-                held: Default::default(),
-                windows: self.windows.clone(),
-                wheel_turns: self.wheel_turns.clone(),
-                engine: self.engine,
-                validation: None,
-                simulator_judges: std::sync::atomic::AtomicBool::new(self.simulator_judges()),
-                simulated: Default::default(),
-                defect: std::sync::Mutex::new(self.defect()),
-                bound_held: Default::default(),
-                term_ceilings: None,
-            },
-            None => Problem {
-                rec: self.rec,
-                belief: self.belief,
-                free: self.free.clone(),
-                signed: self.signed.clone(),
-                data: self.data.clone(),
-                weighting: self.weighting.clone(),
-                explore: None,
-                held: Default::default(),
-                windows: self.windows.clone(),
-                wheel_turns: self.wheel_turns.clone(),
-                engine: self.engine,
-                validation: None,
-                simulator_judges: std::sync::atomic::AtomicBool::new(self.simulator_judges()),
-                simulated: Default::default(),
-                defect: std::sync::Mutex::new(self.defect()),
-                bound_held: Default::default(),
-                term_ceilings: None,
-            },
+        let (rec, data) = match &self.explore {
+            Some((rec, data)) => (rec, data),
+            None => (self.rec, &self.data),
+        };
+        Problem {
+            rec,
+            belief: self.belief,
+            free: self.free.clone(),
+            signed: self.signed.clone(),
+            data: data.clone(),
+            weighting: self.weighting.clone(),
+            explore: None,
+            held: Default::default(),
+            windows: self.windows.clone(),
+            wheel_turns: self.wheel_turns.clone(),
+            engine: self.engine,
+            validation: None,
+            simulator_judges: std::sync::atomic::AtomicBool::new(self.simulator_judges()),
+            simulated: Default::default(),
+            defect: std::sync::Mutex::new(self.defect()),
+            bound_held: Default::default(),
+            term_ceilings: None,
         }
     }
 
@@ -350,8 +333,9 @@ impl Problem<'_> {
     /// Whether the simulator sees at least `share` of the improvement the fits' engine
     /// claims for `stage` over `scene` as written (each replayed where its fit ended,
     /// weighted as the residual; [`FAITHFUL_SHARE`] for the reduced base as it is, any
-    /// gain at all for one carrying its defect, whose claim is the corrected one). Where it does not, the reduced base bent the keys
-    /// to make up for physics it leaves out, and is no model of this recording.
+    /// gain at all for one carrying its defect, whose claim is the corrected one). Where
+    /// it does not, the reduced base bent the keys to make up for physics it leaves out,
+    /// and is no model of this recording.
     pub fn simulator_sees_gain(
         &self,
         scene: &Scene,

@@ -258,7 +258,6 @@ fn key_table(s: &mut String, c: &Calibration) {
         };
     }
     trade_off_lines(s, c);
-    trade_off_lines(s, c);
     for r in &c.removed {
         let unit = unit_of_key(&r.key);
         let _ = writeln!(
