@@ -74,7 +74,7 @@ pub(super) fn faithful_first_stage(
     }
     progress("the simulator does not see the reduced base's first fit: the keys bent to make up for what it leaves out; fitting through the simulator from here");
     problem.engine = Engine::Simulator;
-    *problem.defect.lock().expect("no fit panics holding it") = None;
+    problem.defect = None;
     clear_held(problem);
     problem.first_stage(scene, fitted)
 }
@@ -163,7 +163,7 @@ fn first_stage_without_bounds(
         "the reduced base's fit drove {} to the bounds of their search (no estimates): held at the scene's values, the other keys fitted; the simulator sees that fit's gain",
         names.join(", ")
     ));
-    *problem.bound_held.lock().expect("no fit panics holding it") = bound;
+    problem.bound_held = bound;
     Ok(Some(stage))
 }
 

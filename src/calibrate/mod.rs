@@ -940,12 +940,7 @@ fn settled(
         });
     }
     // The keys the reduced base's first fit drove to a bound, held at the scene's values.
-    for (key, bound) in problem
-        .bound_held
-        .lock()
-        .expect("no fit panics holding it")
-        .iter()
-    {
+    for (key, bound) in &problem.bound_held {
         keys.push(kept_at_scene(scene, key, Some(*bound))?);
     }
     // In the order the keys were asked for, the effects' after them.

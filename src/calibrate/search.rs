@@ -78,10 +78,10 @@ pub(super) struct Problem<'a> {
     /// by each candidate's evidence, its confirmation and the judge.
     pub simulated: std::sync::Mutex<std::collections::HashMap<String, Option<Outputs>>>,
     /// The reduced base's defect the fits on it carry ([`Problem::correct_at`]).
-    pub defect: std::sync::Mutex<Option<super::defect::Defect>>,
+    pub defect: Option<super::defect::Defect>,
     /// The user's keys the reduced base's first fit drove to a bound of their search, with
     /// the bound: held at the scene's values from then on (no estimates).
-    pub bound_held: std::sync::Mutex<Vec<(String, f64)>>,
+    pub bound_held: Vec<(String, f64)>,
     /// The physical ceilings of a term's coefficients, where terms outside the vocabulary
     /// are searched in the rounds ([`super::terms::searched`]).
     pub term_ceilings: Option<crate::diagnose::terms::Ceilings>,
@@ -186,8 +186,8 @@ impl Problem<'_> {
             validation: None,
             simulator_judges: std::sync::atomic::AtomicBool::new(self.simulator_judges()),
             simulated: Default::default(),
-            defect: std::sync::Mutex::new(self.defect()),
-            bound_held: Default::default(),
+            defect: self.defect(),
+            bound_held: vec![],
             term_ceilings: None,
         }
     }
@@ -229,16 +229,13 @@ impl Problem<'_> {
 
     /// The reduced base's defect the fits carry, if any.
     pub fn defect(&self) -> Option<super::defect::Defect> {
-        self.defect
-            .lock()
-            .expect("no fit panics holding it")
-            .clone()
+        self.defect.clone()
     }
 
     /// Takes the reduced base's defect at `scene`'s keys ([`super::defect`]): from then on
     /// every fit on the reduced base predicts what the simulator replays there. `false`
     /// (and no defect) where either diverged.
-    pub fn correct_at(&self, scene: &Scene) -> Result<bool, CalibrateError> {
+    pub fn correct_at(&mut self, scene: &Scene) -> Result<bool, CalibrateError> {
         let reduced = SceneReplay::with_signed(scene, self.rec, &[], &[])?
             .on(crate::replay::Engine::ReducedBase)
             .windowed(self.windows.clone());
@@ -250,9 +247,8 @@ impl Problem<'_> {
             (Some(s), Some(r)) => Some(super::defect::Defect::between(&s, &r)),
             _ => None,
         };
-        let taken = defect.is_some();
-        *self.defect.lock().expect("no fit panics holding it") = defect;
-        Ok(taken)
+        self.defect = defect;
+        Ok(self.defect.is_some())
     }
 
     /// Whether the simulator confirms a step found on the reduced base, `added` keys
