@@ -883,3 +883,64 @@ fn the_example_bag_replays_to_its_noise_on_the_robot_it_was_made_from() {
         assert!(rms(name) < 1e-3, "{name} RMS {} m", rms(name));
     }
 }
+
+/// Bags that lie about their topics (tools/ros2_bags.py `hostile`, rosbags' writers): a
+/// topic published under two types is refused naming both with their counts (its second
+/// type's messages would decode as the first's: a TwistStamped read as a Twist gives
+/// zeros), from a ROS 1 bag and from MCAP; a bag of 1.1 million empty messages, 13 MB of
+/// bz2, is refused by what its messages cost to keep (512 bytes of bookkeeping each beside
+/// their bytes: past 512 MiB at about a million), inside an address space of 1 GiB.
+#[test]
+fn bags_that_lie_about_their_topics_are_refused_naming_what_they_hold() {
+    let dir = scratch("hostile_bags");
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/ros2_bags.py");
+    let o = Command::new("python3")
+        .arg(script)
+        .args(["hostile", dir.to_str().unwrap()])
+        .output()
+        .expect("python3 runs");
+    assert!(o.status.success(), "{}", text(&o));
+    let geometry = [
+        "--mass-kg",
+        "4",
+        "--wheel-radius-m",
+        "0.05",
+        "--track-m",
+        "0.3",
+    ];
+    for bag in ["two_types.bag", "two_types_mcap"] {
+        let out = dir.join(format!("{bag}_out"));
+        let o = import(&dir.join(bag), &out, &geometry);
+        let t = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{t}");
+        assert!(
+            t.contains("topic `/cmd_vel` is published under more than one type: geometry_msgs/msg/Twist (80 messages) and geometry_msgs/msg/TwistStamped (20 messages)"),
+            "{bag}: {t}"
+        );
+        assert!(!out.exists(), "{bag}");
+    }
+    let out = dir.join("tiny_out");
+    let bag = dir.join("tiny_messages.bag");
+    let mut args = vec![
+        "import".to_string(),
+        "ros2".into(),
+        bag.display().to_string(),
+        "--out".into(),
+        out.display().to_string(),
+    ];
+    args.extend(geometry.iter().map(|s| s.to_string()));
+    let o = Command::new("sh")
+        .arg("-c")
+        .arg("ulimit -v 1048576; exec \"$0\" \"$@\"")
+        .arg(env!("CARGO_BIN_EXE_agvsim"))
+        .args(&args)
+        .output()
+        .expect("sh runs");
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{t}");
+    assert!(
+        t.contains("tiny_messages.bag: its messages cost more than 512 MiB to keep"),
+        "{t}"
+    );
+    assert!(!out.exists());
+}

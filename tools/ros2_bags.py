@@ -12,6 +12,12 @@ storages), for agvsim's import tests.
       (map -> odom -> base_link, world -> mocap -> base_link), and ROS 1 .bag files (the
       `fixtures` messages, with rosbags' ROS 1 writer, uncompressed, bz2 and lz4)
 
+  ros2_bags.py hostile OUT_DIR [--tiny-messages N]
+      bags that lie about their topics: `two_types.bag` (ROS 1) and `two_types_mcap`
+      with /cmd_vel published as Twist (80 messages) and as TwistStamped (20), and
+      `tiny_messages.bag` (ROS 1, bz2): N empty JointState messages (default 1,100,000)
+      beside ten /cmd_vel, a few hundred kilobytes that decompress to millions of messages
+
   ros2_bags.py from-recording RECORDING.csv OUT_BAG --wheel-radius-m R --track-m B
                 [--storage mcap|sqlite3]
       a bag of a robot as ROS logs it, from an agvsim recording's columns: /cmd_vel
@@ -308,6 +314,55 @@ def shapes(out):
         use_types(TS)
 
 
+def hostile(out, tiny_messages):
+    """Bags whose topics lie (see the module's doc)."""
+    from rosbags.rosbag1 import Writer as Writer1
+    out.mkdir(parents=True, exist_ok=True)
+    use_types(TS1)
+    try:
+        path = out / 'two_types.bag'
+        path.unlink(missing_ok=True)
+        w = Writer1(path)
+        w.open()
+        plain = w.add_connection('/cmd_vel', 'geometry_msgs/msg/Twist', typestore=TS1)
+        stamped = w.add_connection('/cmd_vel', 'geometry_msgs/msg/TwistStamped', typestore=TS1)
+        for k in range(100):
+            t = T0_NS + k * 20_000_000
+            if k % 5 == 4:
+                w.write(stamped, t, bytes(TS1.serialize_ros1(
+                    twist_stamped(t, 0.3, 0.1), 'geometry_msgs/msg/TwistStamped')))
+            else:
+                w.write(plain, t, bytes(TS1.serialize_ros1(twist(0.3, 0.1), 'geometry_msgs/msg/Twist')))
+        w.close()
+        path = out / 'tiny_messages.bag'
+        path.unlink(missing_ok=True)
+        w = Writer1(path)
+        w.set_compression(Writer1.CompressionFormat.BZ2)
+        w.chunk_threshold = 8 << 20
+        w.open()
+        cmd = w.add_connection('/cmd_vel', 'geometry_msgs/msg/Twist', typestore=TS1)
+        joints = w.add_connection('/joint_states', 'sensor_msgs/msg/JointState', typestore=TS1)
+        for k in range(10):
+            w.write(cmd, T0_NS + k * 10**8, bytes(TS1.serialize_ros1(twist(0.3, 0.0), 'geometry_msgs/msg/Twist')))
+        empty = bytes(TS1.serialize_ros1(joint_state(T0_NS, [], [], [], []), 'sensor_msgs/msg/JointState'))
+        for k in range(tiny_messages):
+            w.write(joints, T0_NS, empty)
+        w.close()
+    finally:
+        use_types(TS)
+    use_types(TS)
+    b = Bag(out / 'two_types_mcap', 'mcap')
+    plain = b.w.add_connection('/cmd_vel', 'geometry_msgs/msg/Twist', typestore=TS)
+    stamped = b.w.add_connection('/cmd_vel', 'geometry_msgs/msg/TwistStamped', typestore=TS)
+    for k in range(100):
+        t = T0_NS + k * 20_000_000
+        if k % 5 == 4:
+            b.w.write(stamped, t, bytes(TS.serialize_cdr(twist_stamped(t, 0.3, 0.1), 'geometry_msgs/msg/TwistStamped')))
+        else:
+            b.w.write(plain, t, bytes(TS.serialize_cdr(twist(0.3, 0.1), 'geometry_msgs/msg/Twist')))
+    b.close()
+
+
 def read_recording(path):
     with open(path, newline='') as f:
         lines = [l for l in f if not l.startswith('#')]
@@ -412,6 +467,9 @@ def main():
     f.add_argument('out', type=Path)
     f = sub.add_parser('shapes')
     f.add_argument('out', type=Path)
+    h = sub.add_parser('hostile')
+    h.add_argument('out', type=Path)
+    h.add_argument('--tiny-messages', type=int, default=1_100_000)
     r = sub.add_parser('from-recording')
     r.add_argument('recording', type=Path)
     r.add_argument('out', type=Path)
@@ -429,6 +487,8 @@ def main():
         fixtures(a.out)
     elif a.cmd == 'shapes':
         shapes(a.out)
+    elif a.cmd == 'hostile':
+        hostile(a.out, a.tiny_messages)
     else:
         from_recording(a.recording, a.out, a.wheel_radius_m, a.track_m, a.storage, a.battery_v, a.noise,
                        a.clock, a.joints)

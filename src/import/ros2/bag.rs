@@ -25,20 +25,27 @@ pub const MAX_METADATA_BYTES: u64 = 16 << 20;
 /// Longest an SQLite3 bag's queries may run, s (a view over itself never ends).
 pub const MAX_QUERY_SECONDS: u64 = 30;
 
+/// What keeping one message costs beside its bytes, bytes: the kept copy's vector, time
+/// and allocation, and its decoded form (a `JointState` is five vectors and a header).
+/// Measured: three million empty `JointState` messages peaked at 250 bytes each with no
+/// decoding error on the way; a message with joint names costs more. Counting this keeps
+/// a bag of millions of tiny messages (a few hundred kilobytes of bz2) inside the budget.
+pub const PER_MESSAGE_BYTES: u64 = 512;
+
 /// The message bytes a bag has left to give.
 #[derive(Debug, Default)]
 pub(super) struct Budget {
-    /// Message bytes read so far, decompressed.
+    /// Message bytes read so far, decompressed, each with [`PER_MESSAGE_BYTES`].
     bytes: u64,
+    /// Messages read so far.
+    messages: u64,
 }
 
 impl Budget {
     /// Counts a message of `n` bytes (and what keeping it costs beside its bytes); an
     /// error naming the file past [`MAX_MESSAGE_BYTES`].
     pub(super) fn take(&mut self, path: &Path, n: usize) -> Result<(), BagError> {
-        // A kept message is its bytes, a vector and a time: tens of millions of empty
-        // messages weigh as much as their data would.
-        const PER_MESSAGE_BYTES: u64 = 48;
+        self.messages += 1;
         self.bytes = self
             .bytes
             .saturating_add(n as u64)
@@ -47,7 +54,9 @@ impl Budget {
             return Err(bad(
                 path,
                 format!(
-                    "its messages hold more than {MAX_MESSAGE_BYTES} bytes decompressed; cut the log to the test first (`ros2 bag convert` with a time window, or only the topics agvsim reads)"
+                    "its messages cost more than {} MiB to keep ({} messages so far, each its bytes decompressed and {PER_MESSAGE_BYTES} bytes of bookkeeping); cut the log to the test first (`ros2 bag convert` or `rosbag filter` with a time window, or only the topics agvsim reads)",
+                    MAX_MESSAGE_BYTES >> 20,
+                    self.messages
                 ),
             ));
         }
@@ -123,6 +132,73 @@ pub struct Topic {
     pub msg_type: String,
     /// Its messages in log-time order.
     pub messages: Vec<RawMessage>,
+    /// Other types the same name was published under, with their message counts: a
+    /// recorder keeps one stream per publisher, and two publishers of one name may
+    /// disagree on the type. Their messages are not kept, as they would be decoded as
+    /// `msg_type`; a topic with any is refused where it is used ([`Topic::other_types`]).
+    pub other_types: BTreeMap<String, usize>,
+}
+
+impl Topic {
+    /// An empty topic of one type.
+    pub(super) fn new(name: &str, msg_type: &str) -> Topic {
+        Topic {
+            name: name.to_string(),
+            msg_type: msg_type.to_string(),
+            messages: vec![],
+            other_types: BTreeMap::new(),
+        }
+    }
+
+    /// Keeps a message published as `msg_type`, or counts it under its other type.
+    pub(super) fn push(&mut self, msg_type: &str, m: RawMessage) {
+        if msg_type == self.msg_type {
+            self.messages.push(m);
+        } else {
+            *self.other_types.entry(msg_type.to_string()).or_default() += 1;
+        }
+    }
+
+    /// Notes that the topic is also declared as `msg_type` (a connection or channel
+    /// without messages yet).
+    pub(super) fn declare(&mut self, msg_type: &str) {
+        if msg_type != self.msg_type {
+            self.other_types.entry(msg_type.to_string()).or_default();
+        }
+    }
+
+    /// Its types and message counts, `geometry_msgs/msg/Twist (80 messages) and
+    /// geometry_msgs/msg/TwistStamped (20 messages)`, when it has more than one.
+    pub fn mixed_types(&self) -> Option<String> {
+        if self.other_types.is_empty() {
+            return None;
+        }
+        let mut all = vec![format!(
+            "{} ({} messages)",
+            self.msg_type,
+            self.messages.len()
+        )];
+        all.extend(
+            self.other_types
+                .iter()
+                .map(|(t, n)| format!("{t} ({n} messages)")),
+        );
+        let last = all.pop().unwrap_or_default();
+        Some(format!("{} and {last}", all.join(", ")))
+    }
+}
+
+/// The topic `name` declared as `msg_type`: made if new, else noted if of another type.
+pub(super) fn declare_topic<'a>(
+    topics: &'a mut BTreeMap<String, Topic>,
+    name: &str,
+    msg_type: &str,
+) -> &'a mut Topic {
+    let t = topics
+        .entry(name.to_string())
+        .or_insert_with(|| Topic::new(name, msg_type));
+    t.declare(msg_type);
+    t
 }
 
 /// A bag's topics.
@@ -151,11 +227,7 @@ pub fn open(path: &Path) -> Result<Bag, BagError> {
             read_file(&path.join(f), info.storage, &mut topics, &mut budget)?;
         }
         for (name, ty, count) in &info.topics {
-            let t = topics.entry(name.clone()).or_insert_with(|| Topic {
-                name: name.clone(),
-                msg_type: ty.clone(),
-                messages: vec![],
-            });
+            let t = declare_topic(&mut topics, name, ty);
             if t.messages.len() < *count {
                 return Err(bad(
                     path,

@@ -86,7 +86,10 @@ impl<'a> Converter<'a> {
         self.bag
             .topics
             .iter()
-            .map(|t| format!("{} ({}, {} messages)", t.name, t.msg_type, t.messages.len()))
+            .map(|t| match t.mixed_types() {
+                Some(types) => format!("{} ({types})", t.name),
+                None => format!("{} ({}, {} messages)", t.name, t.msg_type, t.messages.len()),
+            })
             .collect::<Vec<_>>()
             .join(", ")
     }
@@ -159,6 +162,13 @@ impl<'a> Converter<'a> {
         topic: &Topic,
         f: impl Fn(&[u8]) -> Result<T, CdrError>,
     ) -> Result<Vec<(i64, T)>, Ros2Error> {
+        if let Some(types) = topic.mixed_types() {
+            // Decoding one type's bytes as another's gives numbers, not an error.
+            return Err(self.err(format!(
+                "topic `{}` is published under more than one type: {types}; agvsim reads one type per topic: keep one publisher's messages (`rosbag filter` / `ros2 bag convert`), or record the other under its own topic name",
+                topic.name
+            )));
+        }
         topic
             .messages
             .iter()

@@ -5,7 +5,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use super::bag::{bad, BagError, Budget, RawMessage, Topic, MAX_RECORD_BYTES};
+use super::bag::{bad, declare_topic, BagError, Budget, RawMessage, Topic, MAX_RECORD_BYTES};
 use super::cdr;
 
 /// Reads an MCAP file's channels and messages into `topics`.
@@ -71,8 +71,8 @@ pub(super) fn read(
 struct McapStream {
     /// Schema id -> its type name.
     schemas: BTreeMap<u16, String>,
-    /// Channel id -> (topic, message encoding).
-    channels: BTreeMap<u16, (String, String)>,
+    /// Channel id -> (topic, message encoding, ROS 2 type).
+    channels: BTreeMap<u16, (String, String, String)>,
     /// Records read.
     count: usize,
 }
@@ -92,12 +92,13 @@ impl McapStream {
             }
             Record::Channel(c) => {
                 let ty = self.schemas.get(&c.schema_id).cloned().unwrap_or_default();
-                mcap_topic(topics, &c.topic, &c.message_encoding, ty);
-                self.channels.insert(c.id, (c.topic, c.message_encoding));
+                let ty = mcap_topic(topics, &c.topic, &c.message_encoding, ty);
+                self.channels
+                    .insert(c.id, (c.topic, c.message_encoding, ty));
             }
             Record::Message { header, data } => {
                 let count = self.count;
-                let (topic, encoding) = self.channels.get(&header.channel_id).ok_or_else(|| {
+                let (topic, encoding, ty) = self.channels.get(&header.channel_id).ok_or_else(|| {
                     bad(
                         path,
                         format!(
@@ -126,10 +127,13 @@ impl McapStream {
                     data.into_owned()
                 };
                 if let Some(t) = topics.get_mut(topic) {
-                    t.messages.push(RawMessage {
-                        log_time_ns: header.log_time as i64,
-                        data,
-                    });
+                    t.push(
+                        ty,
+                        RawMessage {
+                            log_time_ns: header.log_time as i64,
+                            data,
+                        },
+                    );
                 }
             }
             _ => {}
@@ -139,17 +143,19 @@ impl McapStream {
 }
 
 /// Lists a channel's topic, ROS 1 type names as ROS 2's.
-fn mcap_topic(topics: &mut BTreeMap<String, Topic>, topic: &str, encoding: &str, ty: String) {
+fn mcap_topic(
+    topics: &mut BTreeMap<String, Topic>,
+    topic: &str,
+    encoding: &str,
+    ty: String,
+) -> String {
     let ty = if encoding == "ros1" {
         super::rosbag1::ros2_type(&ty)
     } else {
         ty
     };
-    topics.entry(topic.to_string()).or_insert_with(|| Topic {
-        name: topic.to_string(),
-        msg_type: ty,
-        messages: vec![],
-    });
+    declare_topic(topics, topic, &ty);
+    ty
 }
 
 /// An MCAP file's summary section, its records' lengths limited.

@@ -18,7 +18,7 @@ use std::collections::BTreeMap;
 use std::io::Read;
 use std::path::Path;
 
-use super::bag::{bad, BagError, Budget, RawMessage, Topic, MAX_RECORD_BYTES};
+use super::bag::{bad, declare_topic, BagError, Budget, RawMessage, Topic, MAX_RECORD_BYTES};
 use super::cdr::ROS1_MARKER;
 
 const MAGIC: &[u8] = b"#ROSBAG V2.0\n";
@@ -95,14 +95,9 @@ fn records(buf: &[u8]) -> Result<Vec<(usize, Record<'_>)>, usize> {
 
 /// A chunk's records' bytes, decompressed.
 ///
-/// Its size is checked before it is decompressed (rosbag's chunks are 768 KiB by default)
-/// and counted against the bag's `budget`.
-fn chunk_bytes(
-    path: &Path,
-    rec: &Record,
-    offset: usize,
-    budget: &mut Budget,
-) -> Result<Vec<u8>, BagError> {
+/// Its size is checked before it is decompressed (rosbag's chunks are 768 KiB by default);
+/// the messages kept from it are counted against the bag's budget one by one.
+fn chunk_bytes(path: &Path, rec: &Record, offset: usize) -> Result<Vec<u8>, BagError> {
     let compression = rec.field("compression").unwrap_or(b"none");
     let size = rec.u32_field("size").unwrap_or(0) as usize;
     if size > MAX_RECORD_BYTES {
@@ -111,7 +106,6 @@ fn chunk_bytes(
             format!("the chunk at byte {offset} says {size} bytes uncompressed, more than the {MAX_RECORD_BYTES} accepted (a damaged bag?)"),
         ));
     }
-    budget.take(path, size)?;
     let mut out = Vec::with_capacity(size);
     let decoded = match compression {
         b"none" => {
@@ -277,30 +271,32 @@ pub fn read(
     for (at, rec) in &top {
         let offset = at + MAGIC.len();
         if rec.op() == Some(OP_CHUNK) {
-            let bytes = chunk_bytes(path, rec, offset, budget)?;
+            let bytes = chunk_bytes(path, rec, offset)?;
             let inner = records(&bytes)
                 .map_err(|at| cut(at, &format!("in the chunk at byte {offset}, ")))?;
             for (_, r) in &inner {
                 gathered
                     .take(r)
                     .map_err(|m| bad(path, format!("in the chunk at byte {offset}: {m}")))?;
+                if r.op() == Some(OP_MESSAGE_DATA) {
+                    budget.take(path, r.data.len())?;
+                }
             }
         } else {
             gathered
                 .take(rec)
                 .map_err(|m| bad(path, format!("at byte {offset}: {m}")))?;
+            if rec.op() == Some(OP_MESSAGE_DATA) {
+                budget.take(path, rec.data.len())?;
+            }
         }
     }
     let Gathered { conns, messages } = gathered;
     for (topic, ty) in conns.values() {
-        topics.entry(topic.clone()).or_insert_with(|| Topic {
-            name: topic.clone(),
-            msg_type: ty.clone(),
-            messages: vec![],
-        });
+        declare_topic(topics, topic, ty);
     }
     for (conn, m) in messages {
-        let (topic, _) = conns.get(&conn).ok_or_else(|| {
+        let (topic, ty) = conns.get(&conn).ok_or_else(|| {
             bad(
                 path,
                 format!("a message of connection {conn}, which no connection record names"),
@@ -309,8 +305,7 @@ pub fn read(
         topics
             .get_mut(topic)
             .expect("every connection's topic is listed")
-            .messages
-            .push(m);
+            .push(ty, m);
     }
     Ok(())
 }

@@ -5,7 +5,9 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use super::bag::{bad, BagError, Budget, RawMessage, Topic, MAX_QUERY_SECONDS, MAX_RECORD_BYTES};
+use super::bag::{
+    bad, declare_topic, BagError, Budget, RawMessage, Topic, MAX_QUERY_SECONDS, MAX_RECORD_BYTES,
+};
 
 /// Reads an SQLite3 bag's topics and messages into `topics`.
 pub(super) fn read(
@@ -53,17 +55,20 @@ pub(super) fn read(
         let data = row.get_ref(2).map_err(sql_err)?;
         let data = data.as_blob().map_err(|e| sql_err(e.into()))?;
         budget.take(path, data.len())?;
-        let name = by_id.get(&id).ok_or_else(|| {
+        let (name, ty) = by_id.get(&id).ok_or_else(|| {
             bad(
                 path,
                 format!("a message of topic id {id}, which the topics table does not list"),
             )
         })?;
         if let Some(topic) = topics.get_mut(name) {
-            topic.messages.push(RawMessage {
-                log_time_ns: t,
-                data: data.to_vec(),
-            });
+            topic.push(
+                ty,
+                RawMessage {
+                    log_time_ns: t,
+                    data: data.to_vec(),
+                },
+            );
         }
     }
     Ok(())
@@ -101,8 +106,8 @@ fn sqlite_topics(
     path: &Path,
     db: &rusqlite::Connection,
     topics: &mut BTreeMap<String, Topic>,
-) -> Result<BTreeMap<i64, String>, SqliteRead> {
-    let mut by_id: BTreeMap<i64, String> = BTreeMap::new();
+) -> Result<BTreeMap<i64, (String, String)>, SqliteRead> {
+    let mut by_id: BTreeMap<i64, (String, String)> = BTreeMap::new();
     let mut q = db.prepare("SELECT id, name, type, serialization_format FROM topics")?;
     let rows = q.query_map([], |r| {
         Ok((
@@ -120,12 +125,8 @@ fn sqlite_topics(
                 format!("topic `{name}`: serialization format `{format}`, expected `cdr`"),
             )));
         }
-        topics.entry(name.clone()).or_insert_with(|| Topic {
-            name: name.clone(),
-            msg_type: ty,
-            messages: vec![],
-        });
-        by_id.insert(id, name);
+        declare_topic(topics, &name, &ty);
+        by_id.insert(id, (name, ty));
     }
     Ok(by_id)
 }
