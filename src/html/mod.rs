@@ -22,6 +22,8 @@ figure{margin:1em 0}figure svg{max-width:100%;height:auto;border:1px solid #eee}
 pub struct Document {
     title: String,
     body: String,
+    /// Figures inlined so far: each figure's ids are prefixed with its number.
+    figures: usize,
 }
 
 /// A table cell: text, or a number set right-aligned.
@@ -58,6 +60,7 @@ impl Document {
         Document {
             title: title.to_string(),
             body: String::new(),
+            figures: 0,
         }
     }
 
@@ -113,6 +116,8 @@ impl Document {
                 .strip_prefix("<?xml")
                 .and_then(|r| r.split_once("?>").map(|(_, rest)| rest))
                 .unwrap_or(svg);
+            self.figures += 1;
+            let svg = scoped_ids(svg, &format!("fig{}-", self.figures));
             let _ = writeln!(self.body, "<figure>{svg}</figure>");
         }
         self
@@ -182,6 +187,30 @@ impl Document {
     }
 }
 
+/// `svg` with each of its ids (`id="data"`) and the references to them (`url(#data)`,
+/// `href="#data"`) prefixed: an HTML page is one document, so figures inlined side by side
+/// must not share an id (each plot's clip path would clip to the first figure's frame).
+fn scoped_ids(svg: &str, prefix: &str) -> String {
+    let mut ids: Vec<&str> = svg
+        .split("id=\"")
+        .skip(1)
+        .filter_map(|rest| rest.split_once('"').map(|(id, _)| id))
+        .collect();
+    ids.sort_unstable();
+    ids.dedup();
+    let mut out = svg.to_string();
+    for id in ids {
+        for (before, after) in [
+            (format!("id=\"{id}\""), format!("id=\"{prefix}{id}\"")),
+            (format!("url(#{id})"), format!("url(#{prefix}{id})")),
+            (format!("href=\"#{id}\""), format!("href=\"#{prefix}{id}\"")),
+        ] {
+            out = out.replace(&before, &after);
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -199,6 +228,19 @@ mod tests {
         assert!(html.contains("<p>x &lt; y</p>"));
         assert!(html.contains("<figure>\n<svg xmlns"));
         assert!(!html.contains("<?xml"));
+        // Two figures with the same clip path get ids of their own, each used by its own.
+        let clip = "<svg><defs><clipPath id=\"data\"><rect/></clipPath></defs><path clip-path=\"url(#data)\"/></svg>";
+        let fig = |file: &str| crate::plot::Figure {
+            file: file.into(),
+            svg: clip.into(),
+        };
+        d.figures(&[fig("a.svg"), fig("b.svg")]);
+        let html = d.finish();
+        assert_eq!(html.matches("id=\"data\"").count(), 0, "{html}");
+        for k in [2, 3] {
+            assert_eq!(html.matches(&format!("id=\"fig{k}-data\"")).count(), 1);
+            assert_eq!(html.matches(&format!("url(#fig{k}-data)")).count(), 1);
+        }
         // Nothing fetched from anywhere.
         assert!(
             !html.contains("http://")

@@ -241,12 +241,24 @@ fn legend_layout(labels: &[&str]) -> Vec<(f64, usize)> {
     out
 }
 
+/// Largest magnitude an axis reaches: past it a value (a sentinel such as -1.7e308) is
+/// drawn at the frame's edge, as the span of an axis to it would overflow to infinity and
+/// every coordinate with it.
+const AXIS_LIMIT: f64 = 1e100;
+
 fn range_of<'b>(values: impl Iterator<Item = &'b f64>) -> (f64, f64) {
     values
         .filter(|v| v.is_finite())
+        .map(|v| v.clamp(-AXIS_LIMIT, AXIS_LIMIT))
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-            (a.min(*v), b.max(*v))
+            (a.min(v), b.max(v))
         })
+}
+
+/// A canvas coordinate kept within a few canvases of the frame: a point far outside the
+/// axes is clipped all the same, and its coordinate stays a short finite number.
+fn on_canvas(c: f64) -> f64 {
+    c.clamp(-10.0 * W, 10.0 * W)
 }
 
 impl Plot<'_> {
@@ -289,8 +301,8 @@ impl Plot<'_> {
     /// The plot as an SVG document.
     pub fn render(&self) -> String {
         let ((x0, x1), (y0, y1)) = self.ranges();
-        let px = |x: f64| MARGIN_L + (x - x0) / (x1 - x0) * (W - MARGIN_L - MARGIN_R);
-        let py = |y: f64| MARGIN_T + (y1 - y) / (y1 - y0) * PLOT_H;
+        let px = |x: f64| on_canvas(MARGIN_L + (x - x0) / (x1 - x0) * (W - MARGIN_L - MARGIN_R));
+        let py = |y: f64| on_canvas(MARGIN_T + (y1 - y) / (y1 - y0) * PLOT_H);
         let owned = self.legend_labels();
         let mut labels: Vec<&str> = owned.iter().map(String::as_str).collect();
         if let Some(f) = &self.flags {
@@ -656,5 +668,36 @@ mod tests {
         };
         let (_, (y0, y1)) = p.ranges();
         assert!(y0 > -0.03 && y1 < 0.03, "{y0} {y1}");
+    }
+}
+
+#[cfg(test)]
+mod sentinel_tests {
+    use super::*;
+
+    /// A sentinel cell (-1.7e308, near f64's limit) does not make the axis span overflow:
+    /// every coordinate written is a finite number of a few digits.
+    #[test]
+    fn a_sentinel_value_leaves_every_coordinate_finite_and_short() {
+        let x = [0.0, 1.0, 2.0, 3.0];
+        let y = [0.5, -1.7e308, 0.7, 1e300];
+        let series = [Series::line("v", &x, &y, "#000")];
+        let p = Plot {
+            title: "t",
+            x_label: "x",
+            y_label: "y",
+            series: &series,
+            band: None,
+            flags: None,
+            empty_note: "",
+        };
+        let svg = p.render();
+        assert!(!svg.contains("NaN") && !svg.contains("inf"), "{svg}");
+        for number in svg
+            .split(|c: char| !(c.is_ascii_digit() || c == '.' || c == '-' || c == 'e'))
+            .filter(|t| t.chars().any(|c| c.is_ascii_digit()))
+        {
+            assert!(number.len() < 40, "{number}");
+        }
     }
 }

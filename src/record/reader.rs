@@ -111,6 +111,13 @@ fn header_columns(header: &str, hline: usize, path: &Path) -> Result<Vec<String>
     Ok(cols)
 }
 
+/// Largest magnitude of a cell, in the column's SI unit: beyond it no quantity of a
+/// vehicle's recording lies (1e12 m is seven times the Sun's distance, 1e12 A or V or
+/// rad/s is no machine; an encoder counting 10,000 a turn at 1,000 turns a second passes
+/// it after three years). A cell of 1e300 or -1.7e308 is a sentinel or damage, and would
+/// otherwise be fitted (a mass of 452 kg for 120) and scored (an RMS of inf).
+pub const MAX_CELL_MAGNITUDE: f64 = 1e12;
+
 /// The samples read so far.
 struct Rows {
     t_s: Vec<f64>,
@@ -138,10 +145,15 @@ impl Rows {
         let t: f64 = t
             .parse()
             .map_err(|_| at(format!("column `t_s`: `{}` is not a number", echoed(t))))?;
-        if !t.is_finite() {
+        if !t.is_finite() || t.abs() > MAX_CELL_MAGNITUDE {
             return Err(at(format!(
-                "column `t_s`: {} is not finite",
-                echoed(cells[0].trim())
+                "column `t_s`: {} is {}",
+                echoed(cells[0].trim()),
+                if t.is_finite() {
+                    "beyond any time in seconds (magnitude above 1e12 s, 30,000 years): nanoseconds?"
+                } else {
+                    "not finite"
+                }
             )));
         }
         if let Some(&prev) = self.t_s.last() {
@@ -167,6 +179,13 @@ impl Rows {
                 if !v.is_finite() {
                     return Err(at(format!(
                         "column `{}`: {} is not finite (leave the cell empty for a missing value)",
+                        names[k],
+                        echoed(cell)
+                    )));
+                }
+                if v.abs() > MAX_CELL_MAGNITUDE {
+                    return Err(at(format!(
+                        "column `{}`: {} is beyond any physical value of a vehicle's recording (magnitude above {MAX_CELL_MAGNITUDE:e} in SI units): a logger's sentinel or a damaged cell? leave the cell empty for a missing value",
                         names[k],
                         echoed(cell)
                     )));
@@ -398,6 +417,24 @@ mod tests {
     }
 
     const HEAD: &str = "# agvsim-recording: 1\n# rig: drive_axis\n";
+
+    #[test]
+    fn a_cell_beyond_any_physical_value_is_refused_naming_its_line_and_column() {
+        for cell in ["-1.7e308", "1e300", "2e12"] {
+            let text = format!("# agvsim-recording: 1\n# rig: vehicle\nt_s,voltage_V\n0,1\n0.01,{cell}\n");
+            let e = parse(&text).unwrap_err().to_string();
+            assert!(
+                e.contains("r.csv:5") && e.contains("`voltage_V`") && e.contains(cell) && e.contains("beyond any physical value"),
+                "{e}"
+            );
+        }
+        let text = "# agvsim-recording: 1\n# rig: vehicle\nt_s,voltage_V\n1.7e18,1\n";
+        let e = parse(text).unwrap_err().to_string();
+        assert!(e.contains("nanoseconds?"), "{e}");
+        // Large real values pass: an epoch time, a high encoder count.
+        let text = "# agvsim-recording: 1\n# rig: vehicle\nt_s,left_encoder_counts\n1.7e9,9e11\n";
+        assert!(parse(text).is_ok());
+    }
 
     #[test]
     fn a_cell_of_two_million_digits_is_refused_with_a_short_message() {
