@@ -328,21 +328,41 @@ fn path_lines(scene: &Scene, s: &RunSummary) -> String {
     let (dx, dy) = (m.end.x_m - m.start.x_m, m.end.y_m - m.start.y_m);
     let turned = m.end.heading_rad - m.start.heading_rad;
     let manoeuvre = &scene.manoeuvre;
-    let closes = manoeuvre.kind != "commands";
-    let _ = if closes {
+    let shape_s = manoeuvre.duration_s();
+    // A shape the run's length cuts short ends wherever it was: no closing to judge.
+    let cut_short = manoeuvre.kind != "commands" && s.duration_s + 1e-9 < shape_s;
+    let shape = if manoeuvre.kind == "square" {
+        format!(
+            "of {} m sides",
+            crate::param::plain_number(manoeuvre.side_m)
+        )
+    } else {
+        format!(
+            "of {} m radius",
+            crate::param::plain_number(manoeuvre.radius_m)
+        )
+    };
+    let _ = if cut_short {
+        writeln!(
+            out,
+            "path       {} {shape}, {} laps: cut short at {:.2} s by sim.duration_s (the laps take {} s); ended ({:.3}, {:.3}) m from its start, turned {:+.1} deg",
+            manoeuvre.kind,
+            manoeuvre.laps,
+            s.duration_s,
+            crate::numtext::sig(shape_s, 4),
+            dx,
+            dy,
+            turned.to_degrees()
+        )
+    } else if manoeuvre.kind != "commands" {
         let laps = manoeuvre.laps.max(1) as f64;
         let sign = if manoeuvre.clockwise { -1.0 } else { 1.0 };
         // The shape turns a whole turn a lap; what is left over is the heading error.
         let heading_error = turned - sign * laps * std::f64::consts::TAU;
         writeln!(
             out,
-            "path       {} {}: ended {:.3} m from its start, heading {:+.2} deg off (a base following its commands exactly closes on its start)",
+            "path       {} {shape}: ended {:.3} m from its start, heading {:+.2} deg off (a base following its commands exactly closes on its start)",
             manoeuvre.kind,
-            if manoeuvre.kind == "square" {
-                format!("of {} m sides", crate::param::plain_number(manoeuvre.side_m))
-            } else {
-                format!("of {} m radius", crate::param::plain_number(manoeuvre.radius_m))
-            },
             dx.hypot(dy),
             heading_error.to_degrees()
         )

@@ -37,11 +37,14 @@ pub struct RunRequest {
 
 /// The commands a velocity-commanded scene's manoeuvre reads from its CSV (`manoeuvre.kind
 /// = "commands"`: `manoeuvre.commands`, relative to the scene's folder), each row's
-/// command held to the next; `None` for every other scene.
+/// command held to the next, with what is said of them; `None` for every other scene. The
+/// run's length becomes the commands' unless `length_given`
+/// ([`super::run_commands::fit_run_to_commands`]).
 fn commands_of(
     scene_path: &std::path::Path,
-    scene: &Scene,
-) -> Result<Option<crate::model::manoeuvre::Manoeuvre>, CommandError> {
+    scene: &mut Scene,
+    length_given: bool,
+) -> Result<Option<(crate::model::manoeuvre::Manoeuvre, String)>, CommandError> {
     use crate::firmware::ControllerKind;
     let m = &scene.manoeuvre;
     if scene.controller.kind != ControllerKind::Velocity || m.kind != "commands" {
@@ -61,13 +64,17 @@ fn commands_of(
             message: "expected the columns cmd_linear_m_s and cmd_angular_rad_s".into(),
         });
     };
-    let rows = rec
+    let rows: Vec<_> = rec
         .t_s
         .iter()
         .zip(v.iter().zip(w))
         .filter_map(|(t, (v, w))| Some((*t, (*v)?, (*w)?)))
         .collect();
-    Ok(Some(crate::model::manoeuvre::Manoeuvre::Commands(rows)))
+    let said = super::run_commands::fit_run_to_commands(scene, &rows, &path, length_given)?;
+    Ok(Some((
+        crate::model::manoeuvre::Manoeuvre::Commands(rows),
+        said,
+    )))
 }
 
 /// Runs the scene and prints its summary, its claims' check and the files written.
@@ -76,7 +83,20 @@ pub fn run(req: &RunRequest, say: Say) -> Result<(), CommandError> {
     let checked = Scene::load_checked(&req.scene, &set)
         .map_err(|e| super::name_own_options(e, &req.set, req.duration_s, req.seed))?;
     say(&checked.render_warnings());
-    let scene = checked.scene;
+    let mut scene = checked.scene;
+    let length_given = req.duration_s.is_some()
+        || req
+            .set
+            .iter()
+            .any(|a| a.split('=').next().unwrap_or("").trim() == "sim.duration_s");
+    if scene.controller.kind == crate::firmware::ControllerKind::Velocity {
+        super::run_commands::check_shape_speeds(&scene)?;
+    }
+    let commands = commands_of(&req.scene, &mut scene, length_given)?;
+    let manoeuvre = commands.map(|(m, said_of_it)| {
+        say(&said_of_it);
+        m
+    });
     for arg in req.set.iter() {
         let key = arg.split('=').next().unwrap_or("").trim();
         if let Some(why) = crate::scene::inert::inert_reason(&scene, key) {
@@ -92,7 +112,7 @@ pub fn run(req: &RunRequest, say: Say) -> Result<(), CommandError> {
             .clone()
             .unwrap_or_else(|| PathBuf::from("runs").join(&name)),
         name: name.clone(),
-        manoeuvre: commands_of(&req.scene, &scene)?,
+        manoeuvre,
     };
     let _lock = super::lock_out("--out", &opts.out_dir)?;
     // An earlier run's recording there is replaced: said, not done in silence.

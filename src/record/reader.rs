@@ -421,10 +421,14 @@ mod tests {
     #[test]
     fn a_cell_beyond_any_physical_value_is_refused_naming_its_line_and_column() {
         for cell in ["-1.7e308", "1e300", "2e12"] {
-            let text = format!("# agvsim-recording: 1\n# rig: vehicle\nt_s,voltage_V\n0,1\n0.01,{cell}\n");
+            let text =
+                format!("# agvsim-recording: 1\n# rig: vehicle\nt_s,voltage_V\n0,1\n0.01,{cell}\n");
             let e = parse(&text).unwrap_err().to_string();
             assert!(
-                e.contains("r.csv:5") && e.contains("`voltage_V`") && e.contains(cell) && e.contains("beyond any physical value"),
+                e.contains("r.csv:5")
+                    && e.contains("`voltage_V`")
+                    && e.contains(cell)
+                    && e.contains("beyond any physical value"),
                 "{e}"
             );
         }

@@ -1,0 +1,215 @@
+//! The fourth reliability campaign's findings (issue "bags that lie about their topics,
+//! runs that outlive their commands, seals that anyone can forge"), each built from its
+//! description with inputs made here. The bag findings are in tests/ros2_import.rs (their
+//! bags written by rosbags).
+
+mod common;
+use common::{text, tmp};
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn agvsim(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_agvsim"))
+        .args(args)
+        .output()
+        .expect("agvsim runs")
+}
+
+/// A velocity-commanded robot's scene written by `agvsim new` (top speed 1.23 m/s: 3000
+/// rpm at 23.5 V through 20:1 to a 0.08 m wheel), its square's `sim.duration_s` 22.57 s.
+fn velocity_scene(dir: &Path) -> PathBuf {
+    let scene = dir.join("robot.toml");
+    let o = agvsim(&[
+        "new",
+        scene.to_str().unwrap(),
+        "--mass-kg",
+        "40",
+        "--track-m",
+        "0.4",
+        "--wheel-radius-m",
+        "0.08",
+        "--battery-V",
+        "24",
+        "--motor-no-load-rpm",
+        "3000",
+        "--motor-stall-current-A",
+        "40",
+        "--gear-ratio",
+        "20",
+        "--force",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    scene
+}
+
+/// The scene driving the commands CSV `rows` (t_s, cmd_linear_m_s, cmd_angular_rad_s).
+fn commands_scene(dir: &Path, name: &str, rows: &str) -> PathBuf {
+    let scene = velocity_scene(dir);
+    let csv = dir.join(format!("{name}.csv"));
+    std::fs::write(
+        &csv,
+        format!(
+            "# agvsim-recording: 1\n# rig: vehicle\nt_s,cmd_linear_m_s,cmd_angular_rad_s\n{rows}"
+        ),
+    )
+    .unwrap();
+    let text = std::fs::read_to_string(&scene).unwrap();
+    let commands = text
+        .lines()
+        .map(|l| {
+            if l.starts_with("kind = \"square\"") {
+                "kind = \"commands\"".to_string()
+            } else if l.starts_with("commands = ") {
+                format!("commands = \"{name}.csv\"")
+            } else {
+                l.to_string()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let path = dir.join(format!("{name}.toml"));
+    std::fs::write(&path, commands).unwrap();
+    path
+}
+
+fn run(scene: &Path, out: &Path, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend(extra);
+    agvsim(&args)
+}
+
+/// "simulated  T s, D m travelled": (T, D).
+fn simulated(t: &str) -> (f64, f64) {
+    let line = t
+        .lines()
+        .find(|l| l.starts_with("simulated"))
+        .unwrap_or_else(|| panic!("{t}"));
+    let n: Vec<f64> = line
+        .split_whitespace()
+        .filter_map(|w| w.parse().ok())
+        .collect();
+    (n[0], n[1])
+}
+
+/// A commands file runs for its span and the rest after it, not the square's
+/// `sim.duration_s`: one row of 0.4 m/s drives a second (the rest), about 0.35 m with the
+/// start's acceleration, not 22.57 s and 9 m. With `--duration` the run keeps that length
+/// and says what it held or cut; a file whose commands all lie past the run's end, or so
+/// far out that no run reaches them, is refused naming the file.
+#[test]
+fn a_commands_run_lasts_its_commands_and_says_what_it_held_or_cut() {
+    let dir = tmp("commands_span");
+    let one = commands_scene(&dir, "one", "0,0.4,0\n");
+    let o = run(&one, &dir.join("one_out"), &[]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    let (secs, metres) = simulated(&t);
+    assert_eq!(secs, 1.0, "{t}");
+    assert!(metres > 0.2 && metres < 0.4, "{t}");
+    assert!(
+        t.contains("the last command held for manoeuvre.rest_s"),
+        "{t}"
+    );
+    let o = run(&one, &dir.join("one_long"), &["--duration", "5"]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(
+        t.contains("the last (0.4 m/s, 0 rad/s at 0 s) is held to the run's end at 5 s"),
+        "{t}"
+    );
+    let steps = commands_scene(&dir, "steps", "0,0,0\n1,0.3,0\n2,0.2,0.5\n4,0,0\n");
+    let o = run(&steps, &dir.join("steps_cut"), &["--duration", "3"]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(t.contains("the last 1 (from 4 s on) are not run"), "{t}");
+    assert!(t.contains("the base rests") == false, "{t}");
+    let late = commands_scene(&dir, "late", "1000000,0.4,0\n1000001,0,0\n");
+    for extra in [&[][..], &["--duration", "5"][..]] {
+        let out = dir.join("late_out");
+        let o = run(&late, &out, extra);
+        let t = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{t}");
+        assert!(
+            t.contains("manoeuvre.commands = ")
+                && t.contains("late.csv")
+                && t.contains("1000000 s"),
+            "{t}"
+        );
+        assert!(!out.join("late.csv").exists(), "{t}");
+    }
+}
+
+/// Commands above the base's top speed are said (the wheels saturate), naming the worst row.
+#[test]
+fn commands_above_the_top_speed_are_said_to_saturate() {
+    let dir = tmp("saturate");
+    let fast = commands_scene(&dir, "fast", "0,0,0\n0.5,100,0\n1,0.2,0\n");
+    let o = run(&fast, &dir.join("out"), &[]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(
+        t.contains(
+            "warning: 1 of 3 command rows ask a wheel for more than the base's top speed 1.23 m/s"
+        ) && t.contains("100 m/s and 0 rad/s at 0.5 s"),
+        "{t}"
+    );
+    let calm = commands_scene(&dir, "calm", "0,0,0\n0.5,1,0\n1,0.2,0\n");
+    let t = text(&run(&calm, &dir.join("calm_out"), &[]));
+    assert!(!t.contains("top speed"), "{t}");
+}
+
+/// A square or circle faster than the base can drive is refused naming the key (a speed of
+/// 1e300 m/s travelled nothing and said the square closed); a shape the run's length cuts
+/// short is said to be cut, not given a heading error of -359999999635 deg.
+#[test]
+fn shapes_the_base_cannot_drive_are_refused_and_cut_shapes_are_said() {
+    let dir = tmp("shapes");
+    let scene = velocity_scene(&dir);
+    for (set, key) in [
+        (
+            "manoeuvre.speed_m_s=1e300",
+            "manoeuvre.speed_m_s = 1e300 m/s",
+        ),
+        (
+            "manoeuvre.turn_rate_rad_s=7",
+            "manoeuvre.turn_rate_rad_s = 7 rad/s",
+        ),
+    ] {
+        let out = dir.join("refused");
+        let o = run(&scene, &out, &["--set", set]);
+        let t = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{t}");
+        assert!(t.contains(key) && t.contains("top speed 1.23 m/s"), "{t}");
+        assert!(!out.exists(), "{t}");
+    }
+    let o = run(
+        &scene,
+        &dir.join("circle"),
+        &[
+            "--set",
+            "manoeuvre.kind=\"circle\"",
+            "--set",
+            "manoeuvre.speed_m_s=1.1",
+        ],
+    );
+    assert!(
+        text(&o).contains("outer wheel's speed on the circle would be 1.32 m/s"),
+        "{}",
+        text(&o)
+    );
+    let o = run(
+        &scene,
+        &dir.join("laps"),
+        &["--set", "manoeuvre.laps=1000000000", "--duration", "5"],
+    );
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(t.contains("cut short at 5.00 s by sim.duration_s"), "{t}");
+    assert!(!t.contains("deg off"), "{t}");
+}
