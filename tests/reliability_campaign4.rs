@@ -213,3 +213,65 @@ fn shapes_the_base_cannot_drive_are_refused_and_cut_shapes_are_said() {
     assert!(t.contains("cut short at 5.00 s by sim.duration_s"), "{t}");
     assert!(!t.contains("deg off"), "{t}");
 }
+
+/// A controller file whose wheel separation is 40 times the robot's track (16 m for
+/// 0.4 m: another robot's, or millimetres) is warned of naming the file; a `--set` of the
+/// configured separation or radius, or a rolling radius, far from the wheels is warned of
+/// on `run`.
+#[test]
+fn configured_sizes_far_from_the_wheels_are_warned_of_naming_their_source() {
+    let dir = tmp("configured");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let yaml = std::fs::read_to_string(root.join("data/ros2_example/controller.yaml")).unwrap();
+    assert!(yaml.contains("wheel_separation: 0.4\n"), "{yaml}");
+    let wide = dir.join("wide.yaml");
+    std::fs::write(
+        &wide,
+        yaml.replace("wheel_separation: 0.4\n", "wheel_separation: 16\n"),
+    )
+    .unwrap();
+    let o = agvsim(&[
+        "import",
+        "ros2",
+        root.join("data/ros2_example/robot_square")
+            .to_str()
+            .unwrap(),
+        "--out",
+        dir.join("import").to_str().unwrap(),
+        "--mass-kg",
+        "40",
+        "--controller-yaml",
+        wide.to_str().unwrap(),
+    ]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(
+        t.contains("warning: --controller-yaml ")
+            && t.contains("`base.wheel_separation_m` = 16 m")
+            && t.contains("40 times it"),
+        "{t}"
+    );
+    let scene = velocity_scene(&dir);
+    for (set, key) in [
+        (
+            "base.wheel_separation_m=1e5",
+            "`base.wheel_separation_m` = 100000 m",
+        ),
+        (
+            "base.wheel_radius_m=1e-300",
+            "`base.wheel_radius_m` = 1e-300 m",
+        ),
+        (
+            "wheel.left_rolling_radius_m=1e-300",
+            "`wheel.left_rolling_radius_m` = 1e-300 m",
+        ),
+    ] {
+        let o = run(
+            &scene,
+            &dir.join("set"),
+            &["--set", set, "--duration", "0.5"],
+        );
+        let t = text(&o);
+        assert!(t.contains(key), "{set}: {t}");
+    }
+}

@@ -944,3 +944,62 @@ fn bags_that_lie_about_their_topics_are_refused_naming_what_they_hold() {
     );
     assert!(!out.exists());
 }
+
+/// A bag without `/robot_description` takes the wheel radius and separation from
+/// `--controller-yaml` (docs/ros2.md names it as a source), each column saying so; a
+/// broken controller file is named as such, not as a missing radius. A description behind
+/// a DTD is refused with that reason named, not as a bag without one.
+#[test]
+fn the_controller_file_gives_the_geometry_a_bag_does_not_describe() {
+    let dir = scratch("controller_geometry");
+    let cmd = dir.join("cmd.csv");
+    commands(&cmd);
+    let bag = dir.join("nodesc");
+    write_bag(&cmd, &bag, &["--description", "none"]);
+    let yaml = dir.join("controller.yaml");
+    std::fs::write(
+        &yaml,
+        "diff_drive:\n  ros__parameters:\n    wheel_separation: 0.5\n    wheel_radius: 0.075\n",
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let o = import(
+        &bag,
+        &out,
+        &[
+            "--controller-yaml",
+            yaml.to_str().unwrap(),
+            "--mass-kg",
+            "40",
+        ],
+    );
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    let csv = std::fs::read_to_string(out.join("nodesc.csv")).unwrap();
+    assert!(
+        csv.contains("times the wheel radius 0.075 m (wheel_radius in ")
+            && csv.contains("controller.yaml (--controller-yaml))"),
+        "{}",
+        &csv[..2000.min(csv.len())]
+    );
+    let scene = std::fs::read_to_string(out.join("nodesc.scene.toml")).unwrap();
+    assert!(scene.contains("track_width_m = 0.5"), "{scene}");
+    std::fs::write(&yaml, "diff_drive: [unclosed\n").unwrap();
+    let o = import(
+        &bag,
+        &dir.join("broken"),
+        &["--controller-yaml", yaml.to_str().unwrap()],
+    );
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{t}");
+    assert!(
+        t.contains("controller.yaml") && t.contains("not YAML"),
+        "{t}"
+    );
+    assert!(!t.contains("give --wheel-radius-m"), "{t}");
+    let dtd = dir.join("dtd");
+    write_bag(&cmd, &dtd, &["--description", "dtd"]);
+    let o = import(&dtd, &dir.join("dtd_out"), &[]);
+    let t = text(&o);
+    assert!(t.contains("declares a DTD"), "{t}");
+}

@@ -35,6 +35,7 @@ storages), for agvsim's import tests.
         short-velocity a velocity array holding the left wheel's speed only
         position-only  positions, no velocities
         nan            velocities all NaN
+      --description none|dtd writes no /robot_description, or the URDF behind a DTD
 
 Install: python3 -m pip install rosbags
 """
@@ -407,7 +408,7 @@ def driver_joints(kind, names, pos, vel):
     return names, pos, vel
 
 
-def from_recording(rec, out, radius, track, storage, battery_v, noise, clock=None, joints=None):
+def from_recording(rec, out, radius, track, storage, battery_v, noise, clock=None, joints=None, description='urdf'):
     import random
     rng = random.Random(1)
     n = lambda sd: rng.gauss(0.0, sd) if noise else 0.0
@@ -421,8 +422,15 @@ def from_recording(rec, out, radius, track, storage, battery_v, noise, clock=Non
                      ('/tf', 'tf2_msgs/msg/TFMessage'),
                      ('/battery', 'sensor_msgs/msg/BatteryState'),
                      ('/robot_description', 'std_msgs/msg/String')]:
-        b.topic(name, ty)
-    b.write('/robot_description', T0_NS, string_msg(urdf(track, radius)))
+        if name != '/robot_description' or description != 'none':
+            b.topic(name, ty)
+    if description == 'urdf':
+        b.write('/robot_description', T0_NS, string_msg(urdf(track, radius)))
+    elif description == 'dtd':
+        doc = urdf(track, radius)
+        b.write('/robot_description', T0_NS, string_msg(
+            '<?xml version="1.0"?>\n<!DOCTYPE robot [<!ENTITY r "x">]>\n' + doc.split('?>', 1)[-1].lstrip()
+            if doc.startswith('<?xml') else '<!DOCTYPE robot [<!ENTITY r "x">]>\n' + doc))
     t_s = c['t_s']
     pos = [0.0, 0.0]
     ox = oy = oyaw = 0.0
@@ -480,6 +488,8 @@ def main():
     r.add_argument('--noise', action='store_true', help='add encoder and gyro noise (seeded)')
     r.add_argument('--clock', choices=['sim-cmd', 'skew-cmd', 'jump-back', 'y2038', 'half-unstamped'],
                    help='stamp messages on clocks that disagree with the log times')
+    r.add_argument('--description', choices=['urdf', 'none', 'dtd'], default='urdf',
+                   help='/robot_description: the URDF, none, or the URDF behind a DTD')
     r.add_argument('--joints', choices=['renamed', 'short-velocity', 'position-only', 'nan'],
                    help='write /joint_states as a driver that does not match the URDF')
     a = ap.parse_args()
@@ -491,7 +501,7 @@ def main():
         hostile(a.out, a.tiny_messages)
     else:
         from_recording(a.recording, a.out, a.wheel_radius_m, a.track_m, a.storage, a.battery_v, a.noise,
-                       a.clock, a.joints)
+                       a.clock, a.joints, a.description)
 
 
 if __name__ == '__main__':

@@ -174,6 +174,7 @@ impl ImportFormat {
                     geometry: crate::import::ros2::Geometry {
                         wheel_radius_m,
                         track_m,
+                        ..Default::default()
                     },
                     mass_kg,
                     motor: drive.motor()?,
@@ -519,15 +520,8 @@ pub fn ros2(req: &Ros2Import, say: Say) -> Result<(), CommandError> {
         Some(p) => ros2::TopicMap::load(p)?,
         None => ros2::TopicMap::default(),
     };
-    let rec = ros2::import(&req.bag, &map, &req.geometry)?;
-    let dir = out_dir(&req.out);
-    let _lock = super::lock_out("--out", &dir)?;
-    let stem = crate::output::safe_file_stem(&stem(&req.bag, "bag"));
-    let csv_path = dir.join(format!("{stem}.csv"));
-    let text = rec.to_csv();
-    check_recording(&text, &csv_path)?;
-    let mut files = vec![(csv_path.clone(), text)];
-    let scene_path = dir.join(format!("{stem}.scene.toml"));
+    // The controller's file is read first: where the bag has no description of the
+    // wheels, its configured radius and separation convert the wheel speeds.
     let params = match &req.controller_yaml {
         Some(p) => Some(
             ros2::controller::load(p).map_err(|e| CommandError::Contract {
@@ -537,6 +531,21 @@ pub fn ros2(req: &Ros2Import, say: Say) -> Result<(), CommandError> {
         ),
         None => None,
     };
+    let mut geometry = req.geometry.clone();
+    if let (Some(p), Some(file)) = (&params, &req.controller_yaml) {
+        let from = |what: &str| format!("{what} in {} (--controller-yaml)", file.display());
+        geometry.configured_radius_m = p.wheel_radius_m.map(|r| (r, from("wheel_radius")));
+        geometry.configured_track_m = p.wheel_separation_m.map(|b| (b, from("wheel_separation")));
+    }
+    let rec = ros2::import(&req.bag, &map, &geometry)?;
+    let dir = out_dir(&req.out);
+    let _lock = super::lock_out("--out", &dir)?;
+    let stem = crate::output::safe_file_stem(&stem(&req.bag, "bag"));
+    let csv_path = dir.join(format!("{stem}.csv"));
+    let text = rec.to_csv();
+    check_recording(&text, &csv_path)?;
+    let mut files = vec![(csv_path.clone(), text)];
+    let scene_path = dir.join(format!("{stem}.scene.toml"));
     // The controller's file says what the odometry is configured with where the bag's
     // description does not.
     let geometry = rec.geometry.clone().or_else(|| {
@@ -630,14 +639,26 @@ fn robot_scene(
         // Each warning names where its number came from: an option, the bag's
         // description, its battery topic.
         for (origin, w) in &checked.warnings {
-            warnings.push(match spec.options_setting(w.key) {
+            let from = spec.options_setting(w.key).or_else(|| {
+                let file = req.controller_yaml.as_ref()?;
+                w.key
+                    .starts_with("base.")
+                    .then(|| format!("--controller-yaml {}", file.display()))
+            });
+            warnings.push(match from {
                 Some(from) => format!("warning: {from} ({origin}): {w}\n"),
                 None => format!("warning: {origin}: {w}\n"),
             });
         }
     }
     crate::scene::Scene::from_toml(&text, scene_path, &[]).map_err(|e| CommandError::Contract {
-        what: "the robot's scene".into(),
+        what: match &req.controller_yaml {
+            Some(f) => format!(
+                "the robot's scene (with the values of --controller-yaml {})",
+                f.display()
+            ),
+            None => "the robot's scene".into(),
+        },
         message: e.to_string(),
     })?;
     Ok((text, warnings))

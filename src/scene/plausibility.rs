@@ -114,6 +114,7 @@ pub fn warnings(scene: &Scene) -> Vec<Warning> {
     sizes(scene, &mut w);
     yaw_inertia(scene, &mut w);
     geometry(scene, &mut w);
+    configured_geometry(scene, &mut w);
     supply(scene, &mut w);
     dcmc_gains(scene, &mut w);
     tyre_friction(scene, &mut w);
@@ -224,6 +225,74 @@ fn geometry(scene: &Scene, w: &mut Vec<Warning>) {
                 sig(c.width_m)
             ),
         });
+    }
+}
+
+/// Widest ratio of a configured size (the base controller's wheel radius and separation)
+/// to the size the wheels have: a controller configured 1.5 times off its wheels drives
+/// 50 % off every command, which no robot is tuned to; a factor of 1000 is millimetres.
+const CONFIGURED_SIZE_RATIO: f64 = 1.5;
+
+/// Widest ratio of a wheel's rolling radius to its nominal radius: a tyre compressed or
+/// worn by a fifth is flat, not rolling on a smaller radius.
+const ROLLING_RADIUS_RATIO: f64 = 1.25;
+
+/// The sizes the base controller is configured with, and the wheels' rolling radii, far
+/// from the sizes the wheels have (`--set base.wheel_separation_m=1e5`, a controller file
+/// in millimetres or of another robot).
+fn configured_geometry(scene: &Scene, w: &mut Vec<Warning>) {
+    use crate::model::base_controller::BaseParams;
+    let r = scene.wheel.radius_m;
+    let checks = [
+        (
+            BaseParams::wheel_separation_m.key(),
+            scene.base.wheel_separation_m,
+            scene.chassis.track_width_m,
+            "the track, chassis.track_width_m",
+            CONFIGURED_SIZE_RATIO,
+            "the base controller would turn every yaw command into wheel speeds and every wheel speed into odometry that far off: millimetres, or another robot's file?",
+        ),
+        (
+            BaseParams::wheel_radius_m.key(),
+            scene.base.wheel_radius_m,
+            r,
+            "the wheel's radius, wheel.radius_m",
+            CONFIGURED_SIZE_RATIO,
+            "the base controller would drive every command and count every distance that far off: millimetres, a diameter, or another robot's file?",
+        ),
+        (
+            WheelParams::left_rolling_radius_m.key(),
+            scene.wheel.left_rolling_radius_m,
+            r,
+            "the wheel's radius, wheel.radius_m",
+            ROLLING_RADIUS_RATIO,
+            "a tyre rolls within a few per cent of its radius",
+        ),
+        (
+            WheelParams::right_rolling_radius_m.key(),
+            scene.wheel.right_rolling_radius_m,
+            r,
+            "the wheel's radius, wheel.radius_m",
+            ROLLING_RADIUS_RATIO,
+            "a tyre rolls within a few per cent of its radius",
+        ),
+    ];
+    for (key, value, size, what, ratio, why) in checks {
+        let Some(v) = value else { continue };
+        if !(v >= size / ratio && v <= size * ratio) {
+            w.push(Warning {
+                key,
+                value: format!("{} m", num(v)),
+                expected: format!(
+                    "{} to {} m, within a factor of {} of {what} ({} m)",
+                    sig(size / ratio),
+                    sig(size * ratio),
+                    sig(ratio),
+                    sig(size)
+                ),
+                why: format!("{} times it: {why}", sig(v / size)),
+            });
+        }
     }
 }
 
@@ -459,6 +528,33 @@ mod tests {
         let mut s = Scene::default();
         s.chassis.mass_kg = 60_000.0;
         assert_eq!(warnings(&s)[0].key, "chassis.mass_kg");
+    }
+
+    /// A configured separation in millimetres, a radius of 1e-300, a rolling radius of a
+    /// thousandth: each named; a configured size 10 % off its wheels passes.
+    #[test]
+    fn configured_sizes_far_from_the_wheels_are_caught() {
+        let mut s = Scene::default();
+        s.base.wheel_separation_m = Some(1.1 * s.chassis.track_width_m);
+        s.wheel.left_rolling_radius_m = Some(0.98 * s.wheel.radius_m);
+        assert!(warnings(&s).is_empty(), "{:?}", warnings(&s));
+        s.base.wheel_separation_m = Some(1000.0 * s.chassis.track_width_m);
+        s.base.wheel_radius_m = Some(1e-300);
+        s.wheel.right_rolling_radius_m = Some(1e-3 * s.wheel.radius_m);
+        let keys: Vec<&str> = warnings(&s).iter().map(|w| w.key).collect();
+        assert_eq!(
+            keys,
+            [
+                "base.wheel_separation_m",
+                "base.wheel_radius_m",
+                "wheel.right_rolling_radius_m"
+            ]
+        );
+        assert!(
+            warnings(&s)[0].why.contains("1000 times it"),
+            "{}",
+            warnings(&s)[0]
+        );
     }
 
     #[test]

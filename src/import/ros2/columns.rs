@@ -300,7 +300,7 @@ fn convert_timed(
     let mut table = Table::new(&rows, &base_name);
     table.add_commands(&cmd);
     if let (Some(t), Some(names)) = (topics.joints, &wheel_names) {
-        table.add_wheels(&c, t, &wheel, names, &size.radius)?;
+        table.add_wheels(&c, t, &wheel, names, &size)?;
     }
     if let Some(t) = topics.imu {
         let placing = table.placing(&t.name);
@@ -528,11 +528,15 @@ impl<'r> Table<'r> {
         t: &Topic,
         wheel: &Series,
         [l, r]: &[String; 2],
-        radius: &streams::Sourced,
+        size: &streams::DriveSize,
     ) -> Result<(), Ros2Error> {
-        let Some((radius_m, radius_from)) = radius else {
+        let Some((radius_m, radius_from)) = &size.radius else {
+            let described = match &size.not_described {
+                Some(why) => why.clone(),
+                None => "the bag has no /robot_description with the wheels".into(),
+            };
             return Err(c.err(format!(
-                "topic `{}` gives wheel speeds in rad/s and the contract's are rim speeds in m/s: give --wheel-radius-m (the bag has no /robot_description with the wheels)",
+                "topic `{}` gives wheel speeds in rad/s and the contract's are rim speeds in m/s: give --wheel-radius-m ({described}; no --controller-yaml with wheel_radius)",
                 t.name
             )));
         };

@@ -116,6 +116,12 @@ pub struct Geometry {
     pub wheel_radius_m: Option<f64>,
     /// Track width, m (else from `/robot_description`).
     pub track_m: Option<f64>,
+    /// What the base controller is configured with (`--controller-yaml`): its wheel
+    /// radius and separation, m, each with where it came from; used where neither an
+    /// option nor the bag's description gives the size.
+    pub configured_radius_m: Option<(f64, String)>,
+    /// As `configured_radius_m`, the wheel separation, m.
+    pub configured_track_m: Option<(f64, String)>,
 }
 
 /// Reads a bag and converts it.

@@ -18,6 +18,8 @@ pub(super) type Sourced = Option<(f64, String)>;
 pub(super) struct DriveSize {
     /// What /robot_description gives.
     pub described: Option<DriveGeometry>,
+    /// Why /robot_description gives nothing, where the bag has one.
+    pub not_described: Option<String>,
     /// Wheel radius, m.
     pub radius: Sourced,
     /// Track, m.
@@ -37,6 +39,7 @@ pub(super) fn drive_size(
         .topics
         .iter()
         .find(|t| t.msg_type == STRING && t.name.ends_with("robot_description"));
+    let mut not_described = None;
     let described = match description.and_then(|t| t.messages.last()) {
         Some(m) => {
             let name = description.map_or("", |t| &t.name);
@@ -49,9 +52,9 @@ pub(super) fn drive_size(
             ) {
                 Ok(g) => Some(g),
                 Err(why) => {
-                    notes.push(format!(
-                        "topic `{name}` not used for the drive's geometry: {why}"
-                    ));
+                    let why = format!("topic `{name}` not used for the drive's geometry: {why}");
+                    notes.push(why.clone());
+                    not_described = Some(why);
                     None
                 }
             }
@@ -71,7 +74,8 @@ pub(super) fn drive_size(
                     ),
                 )
             })
-        });
+        })
+        .or_else(|| geometry.configured_radius_m.clone());
     let track = geometry
         .track_m
         .map(|t| (t, "--track-m".to_string()))
@@ -85,7 +89,8 @@ pub(super) fn drive_size(
                     ),
                 )
             })
-        });
+        })
+        .or_else(|| geometry.configured_track_m.clone());
     // A radius or track that is not a length (an infinite cylinder in the URDF) is named
     // with where it came from before any column is made of it.
     for (what, v) in [("wheel radius", &radius), ("track", &track)] {
@@ -100,6 +105,7 @@ pub(super) fn drive_size(
     }
     Ok(DriveSize {
         described,
+        not_described,
         radius,
         track,
     })

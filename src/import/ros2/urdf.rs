@@ -109,7 +109,12 @@ pub fn drive_geometry(
     left: Option<&str>,
     right: Option<&str>,
 ) -> Result<DriveGeometry, UrdfFault> {
-    let doc = roxmltree::Document::parse(xml).map_err(|e| UrdfFault::NotXml(e.to_string()))?;
+    let doc = roxmltree::Document::parse(xml).map_err(|e| match e {
+        roxmltree::Error::DtdDetected => UrdfFault::NotXml(
+            "it declares a DTD (<!DOCTYPE ...>), which is refused: its entities can expand without bound; a URDF needs none (xacro's output has none)".into(),
+        ),
+        e => UrdfFault::NotXml(e.to_string()),
+    })?;
     let robot = doc.root_element();
     if robot.tag_name().name() != "robot" {
         return Err(UrdfFault::NotRobot(robot.tag_name().name().to_string()));
