@@ -23,7 +23,7 @@ pub struct ExperimentRequest {
     #[arg(long)]
     pub name: Option<String>,
     /// Seed of noise and random demands (overrides sim.seed).
-    #[arg(long)]
+    #[arg(long, value_parser = super::flags::seed)]
     pub seed: Option<u64>,
     /// Sample interval, s (floor-run: dash interval) [default: 0.025 lifted, 0.002
     /// falling weight, 0.005 coast-down, 0.25 floor-run].

@@ -25,7 +25,7 @@ pub struct RunRequest {
     #[arg(long = "duration", value_name = "DURATION", value_parser = positive_seconds)]
     pub duration_s: Option<f64>,
     /// Seed of the sensor noise (overrides sim.seed).
-    #[arg(long)]
+    #[arg(long, value_parser = super::flags::seed)]
     pub seed: Option<u64>,
     /// Where the run goes in Rerun, if anywhere.
     #[command(flatten)]

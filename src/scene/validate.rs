@@ -88,12 +88,12 @@ impl Scene {
         if steps > s.max_steps as f64 {
             return Err(bad(
                 SimSettings::duration_s.key(),
-                format!("{} s", s.duration_s),
+                format!("{} s", crate::param::plain_number(s.duration_s)),
                 &format!(
-                    "a run of at most sim.max_steps = {} physics steps; at sim.dt_s = {} s this one would take {steps:.3e}: shorten it, or raise sim.max_steps (e.g. --set sim.max_steps={:.0}) if it is meant",
+                    "a run of at most sim.max_steps = {} physics steps; at sim.dt_s = {} s this one would take {steps:.3e}: shorten it, or raise sim.max_steps (e.g. --set sim.max_steps={}) if it is meant",
                     s.max_steps,
                     s.dt_s,
-                    steps.ceil()
+                    crate::param::plain_number(steps.ceil())
                 ),
             ));
         }

@@ -52,6 +52,12 @@ pub(super) fn round4(v: f64) -> f64 {
     (v * scale).round() / scale
 }
 
+/// A derived number for a `how` text: four figures, in exponent form past 1e7 (a mass of
+/// 1e308 given would otherwise print 300 digits).
+fn r4(v: f64) -> String {
+    crate::param::plain_number(round4(v))
+}
+
 pub(super) fn d(
     key: &'static str,
     value: f64,
@@ -124,11 +130,11 @@ pub(super) fn body(n: &Numbers) -> Vec<Derived> {
     let (l, w) = (n.length_m, n.width_m);
     vec![
         d(ChassisParams::front_m.key(), thesis::FRONT_SHARE * l, &[Footprint],
-          format!("{:.0} % of the body length {} m ahead of the axle, as the thesis machine", 100.0 * thesis::FRONT_SHARE, round4(l))),
+          format!("{:.0} % of the body length {} m ahead of the axle, as the thesis machine", 100.0 * thesis::FRONT_SHARE, r4(l))),
         d(ChassisParams::rear_m.key(), (1.0 - thesis::FRONT_SHARE) * l, &[Footprint], "the rest of the body length behind the axle"),
         d(ChassisParams::width_m.key(), w, &[Footprint, Track], format!("body width (given, or the track plus {} m as the thesis machine)", thesis::WIDTH_OVER_TRACK_M)),
         d(ChassisParams::yaw_inertia_kg_m2.key(), slab_yaw_inertia_kg_m2(n.mass_kg, l, w), &[Mass, Footprint],
-          format!("a uniform slab of the footprint: mass (L^2 + W^2) / 12 with L = {}, W = {} m; measure or calibrate it for a real body", round4(l), round4(w))),
+          format!("a uniform slab of the footprint: mass (L^2 + W^2) / 12 with L = {}, W = {} m; measure or calibrate it for a real body", r4(l), r4(w))),
         d(ChassisParams::cg_x_m.key(), if n.castors { thesis::CG_X_SHARE * l } else { 0.0 }, &[Footprint, Castors],
           if n.castors { "5 % of the length ahead of the axle, as the thesis machine" } else { "over the drive axle: no castors carry any load" }),
         d(ChassisParams::drive_load_fraction.key(), if n.castors { 0.6 } else { 1.0 }, &[Castors],
@@ -209,7 +215,7 @@ pub(super) fn motor(n: &Numbers) -> Vec<Derived> {
         d(MotorParams::resistance_ohm.key(), r, &[Motor], "rated voltage over stall current"),
         d(MotorParams::inductance_h.key(), r * thesis::ELECTRICAL_TAU_S, &[Motor], format!("assumed: an electrical time constant L/R of {:.2} ms, the thesis machine's", 1e3 * thesis::ELECTRICAL_TAU_S)),
         d(MotorParams::rotor_inertia_kg_m2.key(), thesis::MECHANICAL_TAU_S * emf_damping, &[Motor], format!("assumed: a mechanical time constant J R / K^2 of {:.1} ms, the thesis machine's", 1e3 * thesis::MECHANICAL_TAU_S)),
-        d(MotorParams::coulomb_nm.key(), thesis::COULOMB_SHARE_OF_STALL * stall_nm, &[Motor], format!("assumed: {:.2} % of the stall torque ({} N m), the thesis machine's share", 100.0 * thesis::COULOMB_SHARE_OF_STALL, round4(stall_nm))),
+        d(MotorParams::coulomb_nm.key(), thesis::COULOMB_SHARE_OF_STALL * stall_nm, &[Motor], format!("assumed: {:.2} % of the stall torque ({} N m), the thesis machine's share", 100.0 * thesis::COULOMB_SHARE_OF_STALL, r4(stall_nm))),
         d(MotorParams::viscous_nm_s_rad.key(), thesis::VISCOUS_SHARE_OF_EMF_DAMPING * emf_damping, &[Motor], format!("assumed: {:.2} % of the back-EMF damping K^2/R, the thesis machine's share", 100.0 * thesis::VISCOUS_SHARE_OF_EMF_DAMPING)),
     ]
 }
@@ -235,7 +241,7 @@ pub(super) fn drivetrain(n: &Numbers) -> Vec<Derived> {
     vec![
         d(WheelParams::inertia_kg_m2.key(), wheel_kg_m2, &[Mass, Wheel], "scaled from the thesis machine's 0.02 kg m^2 with mass and radius squared"),
         d(GearboxParams::tooth_stiffness_nm_rad.key(), k_mesh, &[Mass, Wheel, Motor, Ratio],
-          format!("the thesis machine's mesh resonance ({:.1} Hz) against the reflected inertia wheel + rotor x ratio^2 = {} kg m^2", omega2.sqrt() / std::f64::consts::TAU, round4(reflected))),
+          format!("the thesis machine's mesh resonance ({:.1} Hz) against the reflected inertia wheel + rotor x ratio^2 = {} kg m^2", omega2.sqrt() / std::f64::consts::TAU, r4(reflected))),
         d(GearboxParams::tooth_damping_nm_s_rad.key(), 2.0 * zeta * (k_mesh * reflected).sqrt(), &[Mass, Wheel, Motor, Ratio],
           format!("the thesis machine's mesh damping ratio {zeta:.3}")),
     ]
@@ -253,7 +259,7 @@ pub(super) fn supply_and_drive(n: &Numbers) -> Vec<Derived> {
         d(BatteryParams::low_voltage_fault_v.key(), thesis::FAULT_SHARE * n.battery_v, &[Battery], "faults at 22 of 24 V on the thesis machine (91.7 %)"),
         d(BatteryParams::internal_resistance_ohm.key(), thesis::SAG_SHARE * n.battery_v / (2.0 * limit_a), &[Battery, Motor],
           format!("assumed: both motors at the current limit sag the battery by {:.1} % (the thesis machine's share), above the fault threshold", 100.0 * thesis::SAG_SHARE)),
-        d(DcmcParams::current_limit_a.key(), limit_a, &[Motor], format!("{:.0} % of the stall current {} A, the thesis machine's share", 100.0 * thesis::CURRENT_LIMIT_SHARE, round4(stall_a))),
+        d(DcmcParams::current_limit_a.key(), limit_a, &[Motor], format!("{:.0} % of the stall current {} A, the thesis machine's share", 100.0 * thesis::CURRENT_LIMIT_SHARE, r4(stall_a))),
         d(DcmcParams::forward_gain_v_pct.key(), forward, &[Battery], "full forward demand (100 %) asks the drive limit"),
         d(DcmcParams::turn_gain_v_pct.key(), thesis::TURN_OVER_FORWARD * forward, &[Battery], "the thesis unit's identified turn/forward ratio 0.628"),
         d(DcmcParams::speed_per_pct_rad_s.key(), thesis::SPEED_SHARE_OF_NO_LOAD * drive_v / k / 100.0, &[Battery, Motor],

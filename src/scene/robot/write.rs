@@ -219,6 +219,10 @@ pub(super) fn render(
         Some(p) => format!("from {}", p.display()),
         None => "the thesis machine's".to_string(),
     };
+    // A comment ends at a line break: one inside an argument (`--description "a\nb"`)
+    // would leave the rest of the command as a line of TOML.
+    let command = command.replace('\r', "\\r").replace('\n', "\\n");
+    let origin = origin.replace('\r', "\\r").replace('\n', "\\n");
     let mut out = format!(
         "# Written by: {command}\n\
          # Values derived from the numbers given say how; the others are {origin} \
