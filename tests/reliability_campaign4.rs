@@ -275,3 +275,34 @@ fn configured_sizes_far_from_the_wheels_are_warned_of_naming_their_source() {
         assert!(t.contains(key), "{set}: {t}");
     }
 }
+
+/// A plain `t_s,cmd_linear_m_s,cmd_angular_rad_s` CSV, as docs/own-robot.md and `keys`
+/// describe a commands file, runs without the recording's metadata lines; a breach in it is
+/// still named by its line.
+#[test]
+fn a_plain_commands_csv_runs_without_the_recording_header() {
+    let dir = tmp("plain_commands");
+    let scene = commands_scene(&dir, "plain", "0,0,0\n");
+    std::fs::write(
+        dir.join("plain.csv"),
+        "t_s,cmd_linear_m_s,cmd_angular_rad_s\n0,0.3,0\n1,0,0\n",
+    )
+    .unwrap();
+    let o = run(&scene, &dir.join("out"), &[]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(
+        t.contains("3 rows") == false && t.contains("2 rows from"),
+        "{t}"
+    );
+    std::fs::write(
+        dir.join("plain.csv"),
+        "t_s,cmd_linear_m_s,cmd_angular_rad_s\n0,0.3,0\n1,fast,0\n",
+    )
+    .unwrap();
+    let t = text(&run(&scene, &dir.join("bad"), &[]));
+    assert!(
+        t.contains("plain.csv:3") && t.contains("`fast` is not a number"),
+        "{t}"
+    );
+}

@@ -297,10 +297,9 @@ pub(crate) fn name_own_options(
             return None;
         }
         match (duration_s, seed) {
-            (Some(d), _) if arg == format!("sim.duration_s={d}") => Some(format!(
-                "--duration {}",
-                crate::param::plain_number(d)
-            )),
+            (Some(d), _) if arg == format!("sim.duration_s={d}") => {
+                Some(format!("--duration {}", crate::param::plain_number(d)))
+            }
             (_, Some(s)) if arg == format!("sim.seed={s}") => Some(format!("--seed {s}")),
             _ => None,
         }

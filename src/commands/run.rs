@@ -54,7 +54,7 @@ fn commands_of(
         .parent()
         .unwrap_or(std::path::Path::new("."))
         .join(&m.commands);
-    let rec = crate::record::Recording::load(&path)?;
+    let rec = crate::record::Recording::load_commands(&path)?;
     let (Some(v), Some(w)) = (
         rec.column("cmd_linear_m_s"),
         rec.column("cmd_angular_rad_s"),

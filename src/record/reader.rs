@@ -241,6 +241,21 @@ pub const KNOWN_UNITS: [&str; 12] = [
 impl Recording {
     /// Reads and checks a recording.
     pub fn load(path: &Path) -> Result<Recording, RecordingError> {
+        Recording::load_with_defaults(path, &[])
+    }
+
+    /// Reads and checks a commands file (`manoeuvre.commands`): a recording whose
+    /// metadata may be left out, as a plain `t_s,cmd_linear_m_s,cmd_angular_rad_s` CSV
+    /// (format 1, rig `vehicle`, where it says nothing else).
+    pub fn load_commands(path: &Path) -> Result<Recording, RecordingError> {
+        Recording::load_with_defaults(path, &[("agvsim-recording", "1"), ("rig", "vehicle")])
+    }
+
+    /// As [`Recording::load`], with metadata the file leaves out taken from `defaults`.
+    fn load_with_defaults(
+        path: &Path,
+        defaults: &[(&str, &str)],
+    ) -> Result<Recording, RecordingError> {
         // The size first: a fit of a recording this large would take hours and gigabytes
         // before it said anything.
         if let Ok(m) = std::fs::metadata(path) {
@@ -261,19 +276,31 @@ impl Recording {
                 source,
             },
         )?;
-        Recording::parse(&text, path)
+        Recording::parse_with_defaults(&text, path, defaults)
     }
 
     /// Parses text; `path` is used in messages. A leading UTF-8 byte-order mark (as some
     /// spreadsheet programs write) is skipped.
     pub fn parse(text: &str, path: &Path) -> Result<Recording, RecordingError> {
+        Recording::parse_with_defaults(text, path, &[])
+    }
+
+    /// As [`Recording::parse`], with metadata the text leaves out taken from `defaults`.
+    fn parse_with_defaults(
+        text: &str,
+        path: &Path,
+        defaults: &[(&str, &str)],
+    ) -> Result<Recording, RecordingError> {
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let file = || path.to_owned();
         let mut lines = text
             .lines()
             .enumerate()
             .map(|(i, l)| (i + 1, l.trim_end_matches('\r')));
-        let (meta, header) = metadata_and_header(&mut lines);
+        let (mut meta, header) = metadata_and_header(&mut lines);
+        for (k, v) in defaults {
+            meta.entry(k.to_string()).or_insert_with(|| v.to_string());
+        }
         let (hline, header) = header.ok_or_else(|| RecordingError::File {
             file: file(),
             message: "empty recording: no header line and no samples".into(),
