@@ -109,13 +109,13 @@ pub enum LockError {
     #[error("cannot create the folder: {0}")]
     Create(std::io::Error),
     /// The lock file could not be opened, locked or written.
-    #[error("cannot take the folder's lock: {0}")]
+    #[error("cannot take the output's lock: {0}")]
     Lock(std::io::Error),
     /// Another process holds it (as its lock file names it).
-    #[error("another agvsim ({}) is writing there; wait for it to finish or choose another folder", if .0.is_empty() { "starting" } else { .0.as_str() })]
+    #[error("another agvsim ({}) is writing there; wait for it to finish, or write elsewhere", if .0.is_empty() { "starting" } else { .0.as_str() })]
     Held(String),
     /// The lock file was replaced each time it was taken.
-    #[error("the folder's lock changed hands while it was taken; try again")]
+    #[error("the output's lock changed hands while it was taken; try again")]
     Moving,
 }
 
@@ -235,41 +235,86 @@ fn still_at(f: &std::fs::File, path: &Path) -> bool {
     }
 }
 
+/// Takes the lock file at `path` (created if missing) without waiting, writing this
+/// process's id and host into it.
+fn lock_file_at(path: &Path) -> Result<std::fs::File, LockError> {
+    use std::io::{Read, Seek, Write};
+    let cannot = LockError::Lock;
+    for _ in 0..10 {
+        let mut f = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(path)
+            .map_err(cannot)?;
+        if !try_lock(&f).map_err(cannot)? {
+            let mut owner = String::new();
+            let _ = f.read_to_string(&mut owner);
+            return Err(LockError::Held(owner.trim().to_string()));
+        }
+        if !still_at(&f, path) {
+            continue; // its owner removed it as we locked it: take the new one
+        }
+        f.set_len(0).map_err(cannot)?;
+        f.rewind().map_err(cannot)?;
+        writeln!(f, "process {} on {}", std::process::id(), host_name()).map_err(cannot)?;
+        return Ok(f);
+    }
+    Err(LockError::Moving)
+}
+
 impl FolderLock {
     /// Creates `dir` if needed and takes its lock; the message says what is wrong (the
     /// caller names the option and the folder).
     pub fn acquire(dir: &Path) -> Result<FolderLock, LockError> {
-        use std::io::{Read, Seek, Write};
         let created = (!dir.exists()).then(|| dir.to_path_buf());
         std::fs::create_dir_all(dir).map_err(LockError::Create)?;
         let path = dir.join(LOCK_FILE);
-        let cannot = LockError::Lock;
-        for _ in 0..10 {
-            let mut f = std::fs::OpenOptions::new()
-                .read(true)
-                .write(true)
-                .create(true)
-                .truncate(false)
-                .open(&path)
-                .map_err(cannot)?;
-            if !try_lock(&f).map_err(cannot)? {
-                let mut owner = String::new();
-                let _ = f.read_to_string(&mut owner);
-                return Err(LockError::Held(owner.trim().to_string()));
+        let file = match lock_file_at(&path) {
+            Ok(f) => f,
+            Err(e) => {
+                if let Some(d) = &created {
+                    let _ = std::fs::remove_dir(d);
+                }
+                return Err(e);
             }
-            if !still_at(&f, &path) {
-                continue; // its owner removed it as we locked it: take the new one
-            }
-            f.set_len(0).map_err(cannot)?;
-            f.rewind().map_err(cannot)?;
-            writeln!(f, "process {} on {}", std::process::id(), host_name()).map_err(cannot)?;
-            return Ok(FolderLock {
-                path,
+        };
+        Ok(FolderLock {
+            path,
+            _file: file,
+            created,
+        })
+    }
+
+    /// Takes the lock of one output file (`--json FILE`): a lock file beside it,
+    /// `.NAME.agvsim.lock`, so two commands writing the same file (with the same or other
+    /// flags) do not leave one's result under the other's name. A folder made for it is
+    /// removed again if left empty.
+    pub fn acquire_file(file: &Path) -> Result<FolderLock, LockError> {
+        let name = file
+            .file_name()
+            .map_or_else(|| "output".into(), |n| n.to_string_lossy().into_owned());
+        let dir = match file.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        let created = (!dir.exists()).then(|| dir.clone());
+        std::fs::create_dir_all(&dir).map_err(LockError::Create)?;
+        let path = dir.join(format!(".{name}.agvsim.lock"));
+        match lock_file_at(&path) {
+            Ok(f) => Ok(FolderLock {
                 _file: f,
+                path,
                 created,
-            });
+            }),
+            Err(e) => {
+                if let Some(d) = &created {
+                    let _ = std::fs::remove_dir(d);
+                }
+                Err(e)
+            }
         }
-        Err(LockError::Moving)
     }
 }
 
@@ -297,6 +342,26 @@ mod tests {
         assert_eq!(safe_file_stem("slow-forward"), "slow-forward");
         assert_eq!(safe_file_stem("δοκιμή 1"), "δοκιμή_1");
         assert_ne!(safe_file_stem("走行"), safe_file_stem("試験"));
+    }
+
+    #[test]
+    fn an_output_files_lock_refuses_a_second_writer_and_goes_with_its_holder() {
+        let dir = std::env::temp_dir().join(format!("agvsim_file_lock_{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let file = dir.join("sub/result.json");
+        let held = FolderLock::acquire_file(&file).unwrap();
+        let lock = dir.join("sub/.result.json.agvsim.lock");
+        assert!(lock.exists());
+        let err = FolderLock::acquire_file(&file).unwrap_err().to_string();
+        assert!(err.contains("another agvsim (process"), "{err}");
+        // Another file in the same folder is another lock.
+        let other = FolderLock::acquire_file(&dir.join("sub/result.toml")).unwrap();
+        drop(other);
+        drop(held);
+        // The lock file and the folder made for it, left empty, are gone.
+        assert!(!lock.exists());
+        assert!(!dir.join("sub").exists());
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

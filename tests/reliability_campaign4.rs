@@ -306,3 +306,71 @@ fn a_plain_commands_csv_runs_without_the_recording_header() {
         "{t}"
     );
 }
+
+/// Lost output: a `--json` (or `--write`, `--html`) file another live agvsim writes is
+/// refused before any work, naming the option and the holder (held here by util-linux
+/// `flock`, an independent taker, on the lock file beside it). (That a lock taken is
+/// removed when its command ends: src/output.rs's unit test.)
+#[test]
+fn an_output_file_another_agvsim_writes_is_refused_naming_it() {
+    let dir = tmp("file_lock");
+    let json = dir.join("result.json");
+    let lock = dir.join(".result.json.agvsim.lock");
+    std::fs::write(&lock, "process 4242 on another-host\n").unwrap();
+    let mut other = Command::new("flock")
+        .arg("-o")
+        .arg(&lock)
+        .args(["sleep", "30"])
+        .spawn()
+        .unwrap();
+    let t0 = std::time::Instant::now();
+    while Command::new("flock")
+        .arg("-n")
+        .arg(&lock)
+        .arg("true")
+        .status()
+        .unwrap()
+        .success()
+    {
+        assert!(t0.elapsed().as_secs() < 10, "flock never took the lock");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let o = agvsim(&[
+        "run",
+        "scenes/lifted_identification.toml",
+        "--duration",
+        "1",
+        "--out",
+        dir.join("rec").to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let rec = dir.join("rec/lifted_identification.csv");
+    let calibrate = |extra: &[&str]| {
+        let mut args = vec![
+            "calibrate",
+            "--scene",
+            "scenes/lifted_identification.toml",
+            "--recording",
+            rec.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        Command::new(env!("CARGO_BIN_EXE_agvsim"))
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .args(&args)
+            .output()
+            .unwrap()
+    };
+    for (option, file) in [("--json", &json), ("--write", &dir.join("result.json"))] {
+        let o = calibrate(&[option, file.to_str().unwrap()]);
+        let t = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{t}");
+        assert!(
+            t.contains(option)
+                && t.contains("another agvsim (process 4242 on another-host) is writing there"),
+            "{t}"
+        );
+    }
+    other.kill().unwrap();
+    other.wait().unwrap();
+    assert!(!json.exists());
+}

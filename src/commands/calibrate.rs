@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 
 use super::flags::{no_progress, Effects, Jobs, Overrides};
-use super::{check_targets, io, on_workers, write_file, CommandError, Say};
+use super::{io, on_workers, write_file, CommandError, Say};
 use crate::calibrate::{self, write as cw, Request};
 use crate::record::Recording;
 use crate::scene::Scene;
@@ -94,7 +94,7 @@ pub fn run(req: &CalibrateRequest, say: Say) -> Result<(), CommandError> {
     request.validate = other.clone();
     let recordings = super::joined_names(&req.recording);
     // The output paths are checked before the fit's work.
-    check_targets(&[
+    let _locks = super::lock_targets(&[
         ("--write", req.write.as_deref(), false),
         ("--json", req.json.as_deref(), false),
         ("--report", req.report.as_deref(), true),

@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 
 use super::flags::{Effects, Jobs};
-use super::{check_targets, on_workers, write_file, CommandError, Say};
+use super::{on_workers, write_file, CommandError, Say};
 use crate::diagnose::{diagnose, report::render, DiagnoseOptions};
 use crate::record::Recording;
 use crate::rig::Rig;
@@ -76,7 +76,7 @@ pub fn run(req: &DiagnoseRequest, say: Say) -> Result<(), CommandError> {
     let say = |s: &str| transcript.say(s);
     let options = req.options()?;
     // Output paths are checked before the diagnosis's work, not after it.
-    check_targets(&[
+    let _locks = super::lock_targets(&[
         ("--json", req.json.as_deref(), false),
         ("--report", req.report_dir.as_deref(), true),
         ("--save", req.save_rrd.as_deref(), false),

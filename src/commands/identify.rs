@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 
-use super::{check_targets, write_file, CommandError, Say};
+use super::{write_file, CommandError, Say};
 use crate::ident::{identify, report, IdentifyOptions, ModelChoice};
 use crate::record::Recording;
 use crate::rig::Rig;
@@ -93,7 +93,7 @@ pub fn run(req: &IdentifyRequest, say: Say) -> Result<(), CommandError> {
     let transcript = super::Transcript::new(say);
     let say = |s: &str| transcript.say(s);
     // Output paths are checked before the fit's work, not after it.
-    check_targets(&[
+    let _locks = super::lock_targets(&[
         ("--json", req.json.as_deref(), false),
         ("--report", req.plot_dir.as_deref(), true),
         ("--save", req.save_rrd.as_deref(), false),

@@ -249,6 +249,32 @@ pub(crate) fn check_targets(targets: &[(&str, Option<&Path>, bool)]) -> Result<(
     Ok(())
 }
 
+/// Checks the output paths (as [`check_targets`]) and takes each one's lock (a folder's
+/// as `--out`'s, a file's beside it: [`crate::output::FolderLock::acquire_file`]), held
+/// until the returned locks are dropped: a second command writing any of them stops
+/// before its work, naming the option and the process that holds it, instead of one
+/// result silently replacing the other (or a TOML from one run beside a JSON from another).
+pub(crate) fn lock_targets(
+    targets: &[(&str, Option<&Path>, bool)],
+) -> Result<Vec<crate::output::FolderLock>, CommandError> {
+    check_targets(targets)?;
+    let mut locks = vec![];
+    for (option, path, folder) in targets {
+        let Some(p) = path else { continue };
+        let lock = if *folder {
+            crate::output::FolderLock::acquire(p)
+        } else {
+            crate::output::FolderLock::acquire_file(p)
+        };
+        locks.push(lock.map_err(|e| CommandError::Option {
+            option: option.to_string(),
+            value: p.display().to_string(),
+            message: e.to_string(),
+        })?);
+    }
+    Ok(locks)
+}
+
 /// Writes a file whole or not at all, creating its folder.
 pub(crate) fn write_file(path: &Path, bytes: impl AsRef<[u8]>) -> Result<(), CommandError> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
