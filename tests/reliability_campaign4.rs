@@ -374,3 +374,99 @@ fn an_output_file_another_agvsim_writes_is_refused_naming_it() {
     other.wait().unwrap();
     assert!(!json.exists());
 }
+
+/// Three short recordings of the lab machine at three gains, as a fleet.
+fn small_fleet(dir: &Path) -> PathBuf {
+    let fleet = dir.join("fleet");
+    std::fs::create_dir_all(&fleet).unwrap();
+    for (i, gain) in ["0.9", "1.0", "1.1"].iter().enumerate() {
+        let out = dir.join(format!("run{i}"));
+        let o = agvsim(&[
+            "run",
+            "scenes/lab_offset_120mm.toml",
+            "--duration",
+            "1",
+            "--set",
+            &format!("controller.gain_scale={gain}"),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+        std::fs::copy(
+            out.join("lab_offset_120mm.csv"),
+            fleet.join(format!("robot{i}.csv")),
+        )
+        .unwrap();
+    }
+    fleet
+}
+
+fn batch_merge(dir: &Path, shards: &[&Path]) -> Output {
+    let mut args = vec!["batch", "merge"];
+    args.extend(shards.iter().map(|s| s.to_str().unwrap()));
+    let out = dir.join("merged");
+    let _ = std::fs::remove_dir_all(&out);
+    args.extend(["--out", out.to_str().unwrap()]);
+    agvsim(&args)
+}
+
+/// Batch merge: a manifest cut to fewer recordings and one shard, or its `--effects`
+/// edited, is refused by its seal (it named "the recording changed"); a result resealed
+/// by hand (the seal is unkeyed: anyone can recompute it, docs/fleet.md says so) with a
+/// fit of 123456 % is refused as impossible.
+#[test]
+fn batch_merge_refuses_edited_manifests_and_impossible_results() {
+    let dir = tmp("batch_seal");
+    let fleet = small_fleet(&dir);
+    let shard = dir.join("s1");
+    let o = agvsim(&[
+        "batch",
+        "calibrate",
+        fleet.to_str().unwrap(),
+        "--scene",
+        "scenes/lab_offset_120mm.toml",
+        "--effects",
+        "coulomb_friction",
+        "--out",
+        shard.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(batch_merge(&dir, &[&shard]).status.success());
+    let refused = |says: &str| {
+        let o = batch_merge(&dir, &[&shard]);
+        let t = text(&o);
+        assert!(!o.status.success(), "accepted: {t}");
+        assert!(t.contains(says), "expected `{says}` in: {t}");
+        assert!(!dir.join("merged/summary.csv").exists(), "{t}");
+    };
+    let manifest_path = shard.join("batch.json");
+    let original = std::fs::read_to_string(&manifest_path).unwrap();
+    let mut m: serde_json::Value = serde_json::from_str(&original).unwrap();
+    // Cut to the first two recordings.
+    m["items"].as_array_mut().unwrap().truncate(2);
+    m["fingerprints"].as_array_mut().unwrap().truncate(2);
+    std::fs::write(&manifest_path, serde_json::to_string_pretty(&m).unwrap()).unwrap();
+    refused("batch.json: its contents differ from what the batch wrote");
+    std::fs::write(
+        &manifest_path,
+        original.replace("\"coulomb_friction\"", "\"viscous_friction\""),
+    )
+    .unwrap();
+    refused("batch.json: its contents differ from what the batch wrote");
+    std::fs::write(&manifest_path, &original).unwrap();
+    // A result with an impossible fit, sealed again as the batch seals.
+    let seal = serde_json::from_str::<serde_json::Value>(&original).unwrap()["seal"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    let result = shard.join("results/robot1.json");
+    let text_before = std::fs::read_to_string(&result).unwrap();
+    let mut entry: agvsim::batch::Entry = serde_json::from_str(&text_before).unwrap();
+    entry.fit_after_pct = Some(123456.0);
+    let forged = entry.sealed(&seal);
+    assert!(forged.seal_holds(&seal));
+    std::fs::write(&result, serde_json::to_string_pretty(&forged).unwrap()).unwrap();
+    refused("fit_after_pct = 123456: a fit is at most 100 %");
+    std::fs::write(&result, &text_before).unwrap();
+    assert!(batch_merge(&dir, &[&shard]).status.success());
+}

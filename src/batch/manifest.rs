@@ -45,6 +45,12 @@ pub struct Manifest {
     pub shard_count: usize,
     /// The fingerprint of each recording of this shard, by name, when it started.
     pub fingerprints: Vec<(String, String)>,
+    /// The fingerprint of the manifest's own contents as written (this field empty); each
+    /// result's seal includes it. A manifest edited since (recordings cut from its list,
+    /// its shard count or `--effects` changed) does not merge. Unkeyed, as the results'
+    /// seals: a check against accidents, not a signature.
+    #[serde(default)]
+    pub seal: String,
 }
 
 fn absolute(p: &Path) -> PathBuf {
@@ -68,7 +74,7 @@ impl Manifest {
             } => ("calibrate", Some(absolute(scene)), effect_words),
         };
         let mine = &items[shard.range(items.len())];
-        Manifest {
+        let mut m = Manifest {
             agvsim: env!("CARGO_PKG_VERSION").to_string(),
             job: kind.to_string(),
             scene,
@@ -88,7 +94,16 @@ impl Manifest {
                 .zip(prints)
                 .map(|(i, p)| (i.name.clone(), p.clone()))
                 .collect(),
-        }
+            seal: String::new(),
+        };
+        m.seal = m.contents_print();
+        m
+    }
+
+    fn contents_print(&self) -> String {
+        let mut bare = self.clone();
+        bare.seal = String::new();
+        super::fnv1a(&[serde_json::to_string(&bare).unwrap_or_default().as_bytes()])
     }
 
     /// Writes `DIR/batch.json`.
@@ -116,6 +131,12 @@ impl Manifest {
                     "shard {} of {}: expected a shard from 1 to the count (edited?)",
                     m.shard_index, m.shard_count
                 ),
+            });
+        }
+        if m.seal != m.contents_print() {
+            return Err(BatchError::Result {
+                path,
+                message: "its contents differ from what the batch wrote (its recordings, shard count or --effects edited since?); run the shard again".into(),
             });
         }
         Ok(m)
@@ -181,11 +202,14 @@ pub fn check_entry(
         path: path.to_owned(),
         message,
     };
-    if !entry.seal_holds() {
+    if !entry.seal_holds(&manifest.seal) {
         return Err(bad(
-            "its contents differ from what the batch wrote (edited since?); run its shard again"
+            "its contents differ from what the batch wrote, or it was written for another batch.json (edited or copied since?); run its shard again"
                 .into(),
         ));
+    }
+    if let Some(why) = entry.impossible_value() {
+        return Err(bad(format!("{why}; run its shard again")));
     }
     let started = manifest
         .fingerprints

@@ -77,29 +77,64 @@ pub struct Entry {
     pub params: BTreeMap<String, f64>,
     /// Things to know (a parameter at a bound, outputs left out).
     pub warnings: Vec<String>,
-    /// The fingerprint of the entry's own contents as written (this field empty): a
-    /// result edited since does not merge. (Numbers read back exactly: serde_json's
-    /// `float_roundtrip`.)
+    /// The fingerprint of the entry's own contents as written (this field empty) and of
+    /// its shard's manifest (its seal): a result edited since, or moved to another batch's
+    /// folder, does not merge. (Numbers read back exactly: serde_json's `float_roundtrip`.)
+    /// It is a check against accidents (a hand edit, a file from another run, a truncated
+    /// copy), not a signature: the hash is unkeyed, and whoever can write the files can
+    /// recompute it (docs/fleet.md).
     #[serde(default)]
     pub seal: String,
 }
 
 impl Entry {
-    fn contents_print(&self) -> String {
+    fn contents_print(&self, manifest_seal: &str) -> String {
         let mut bare = self.clone();
         bare.seal = String::new();
-        fnv1a(&[serde_json::to_string(&bare).unwrap_or_default().as_bytes()])
+        fnv1a(&[
+            serde_json::to_string(&bare).unwrap_or_default().as_bytes(),
+            manifest_seal.as_bytes(),
+        ])
     }
 
-    /// The entry with its seal set.
-    pub fn sealed(mut self) -> Entry {
-        self.seal = self.contents_print();
+    /// The entry with its seal set, bound to its shard's manifest's seal.
+    pub fn sealed(mut self, manifest_seal: &str) -> Entry {
+        self.seal = self.contents_print(manifest_seal);
         self
     }
 
-    /// Whether the entry is as it was sealed.
-    pub fn seal_holds(&self) -> bool {
-        self.seal == self.contents_print()
+    /// Whether the entry is as it was sealed under the manifest sealed `manifest_seal`.
+    pub fn seal_holds(&self, manifest_seal: &str) -> bool {
+        self.seal == self.contents_print(manifest_seal)
+    }
+
+    /// The first value no result can have (a fit above 100 %, a number that is not
+    /// finite, a negative standard deviation), in words.
+    pub fn impossible_value(&self) -> Option<String> {
+        for (what, v) in [
+            ("fit_before_pct", self.fit_before_pct),
+            ("fit_after_pct", self.fit_after_pct),
+        ] {
+            if let Some(v) = v {
+                // A fit (100 (1 - |e| / |y - mean y|)) is at most 100 %; far below zero
+                // is a model that diverged, which the batch reports as it is.
+                if !(v.is_finite() && v <= 100.0) {
+                    return Some(format!("{what} = {v}: a fit is at most 100 %"));
+                }
+            }
+        }
+        for e in &self.effects {
+            if !e.value.is_finite() || e.std.is_some_and(|s| !(s.is_finite() && s >= 0.0)) {
+                return Some(format!(
+                    "effect {} ({}) = {} +/- {:?}: expected a finite value and a standard deviation of zero or more",
+                    e.name, e.key, e.value, e.std
+                ));
+            }
+        }
+        self.params
+            .iter()
+            .find(|(_, v)| !v.is_finite())
+            .map(|(k, v)| format!("{k} = {v}: expected a finite number"))
     }
 }
 
@@ -374,10 +409,10 @@ pub fn result_path(out: &Path, name: &str) -> PathBuf {
 
 /// Reads a result file, `None` if it is missing, not a result or not as written (it is
 /// then redone).
-fn read_entry(path: &Path) -> Option<Entry> {
+fn read_entry(path: &Path, manifest_seal: &str) -> Option<Entry> {
     serde_json::from_slice::<Entry>(&std::fs::read(path).ok()?)
         .ok()
-        .filter(Entry::seal_holds)
+        .filter(|e| e.seal_holds(manifest_seal))
 }
 
 /// Runs `job` on this shard's items in parallel (on the current rayon pool), writing each
@@ -400,7 +435,8 @@ pub fn run(
         .collect::<Result<_, _>>()?;
     // What this folder is part of, before any work; a summary of an earlier run goes, so
     // that a run stopped midway leaves none that reads as this one's.
-    manifest::Manifest::new(job, items, shard, &prints).write(out)?;
+    let manifest = manifest::Manifest::new(job, items, shard, &prints);
+    manifest.write(out)?;
     for old in [summary::SUMMARY_FILE, summary::FLEET_FILE] {
         let p = out.join(old);
         match std::fs::remove_file(&p) {
@@ -413,12 +449,12 @@ pub fn run(
         .zip(prints.par_iter())
         .map(|(item, print)| {
             let path = result_path(out, &item.name);
-            if let Some(e) = read_entry(&path).filter(|e| &e.fingerprint == print) {
+            if let Some(e) = read_entry(&path, &manifest.seal).filter(|e| &e.fingerprint == print) {
                 told(&e, true);
                 return Ok((e, true));
             }
             let (entry, report) = job.run(item, print.clone());
-            let entry = entry.sealed();
+            let entry = entry.sealed(&manifest.seal);
             let text = results.join(format!("{}.txt", item.name));
             crate::output::write_atomically(&text, report).map_err(io(&text))?;
             let json = serde_json::to_string_pretty(&entry).unwrap_or_default();
@@ -467,12 +503,24 @@ mod seal_tests {
             warnings: vec![],
             seal: String::new(),
         }
-        .sealed();
+        .sealed("m1");
         let text = serde_json::to_string_pretty(&entry).unwrap();
         let back: Entry = serde_json::from_str(&text).unwrap();
-        assert!(back.seal_holds());
+        assert!(back.seal_holds("m1"));
+        assert!(!back.seal_holds("m2"), "another batch's manifest");
         let edited: Entry =
             serde_json::from_str(&text.replace("81.2345678912345", "1e308")).unwrap();
-        assert!(!edited.seal_holds());
+        assert!(!edited.seal_holds("m1"));
+        assert!(back.impossible_value().is_none());
+        let resealed = Entry {
+            fit_after_pct: Some(123456.0),
+            ..back
+        }
+        .sealed("m1");
+        assert!(resealed.seal_holds("m1"));
+        assert!(resealed
+            .impossible_value()
+            .unwrap()
+            .contains("at most 100 %"));
     }
 }
