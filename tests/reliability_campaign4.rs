@@ -470,3 +470,63 @@ fn batch_merge_refuses_edited_manifests_and_impossible_results() {
     std::fs::write(&result, &text_before).unwrap();
     assert!(batch_merge(&dir, &[&shard]).status.success());
 }
+
+/// An obstacle's `angle_rad = nan` is named as itself, on its line (it was blamed on
+/// `center_m`, a key not in the file).
+#[test]
+fn an_obstacles_bad_angle_is_named_on_its_line() {
+    let dir = tmp("obstacle_angle");
+    let scene = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/bumper_stop.toml"),
+    )
+    .unwrap();
+    let at = scene.find("[[obstacles]]\n").unwrap() + "[[obstacles]]\n".len();
+    let text = format!("{}angle_rad = nan\n{}", &scene[..at], &scene[at..]);
+    let line = text[..at].lines().count() + 1;
+    let path = dir.join("bumper.toml");
+    std::fs::write(&path, &text).unwrap();
+    let o = run(&path, &dir.join("out"), &["--duration", "0.1"]);
+    let t = text_of(&o);
+    assert_eq!(o.status.code(), Some(2), "{t}");
+    assert!(
+        t.contains(&format!(
+            "bumper.toml:{line}: `obstacles[0].angle_rad` = NaN"
+        )),
+        "{t}"
+    );
+}
+
+fn text_of(o: &Output) -> String {
+    text(o)
+}
+
+/// `--free` with a key the scene does not have is named by its option before any replay.
+#[test]
+fn a_free_key_that_is_no_scene_key_is_named_by_its_option() {
+    let dir = tmp("free_key");
+    let o = agvsim(&[
+        "run",
+        "scenes/lifted_identification.toml",
+        "--duration",
+        "1",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let o = agvsim(&[
+        "calibrate",
+        "--scene",
+        "scenes/lifted_identification.toml",
+        "--recording",
+        dir.join("lifted_identification.csv").to_str().unwrap(),
+        "--free",
+        "motor.resistance_ohm,base.nope",
+    ]);
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{t}");
+    assert!(
+        t.contains("error: --free base.nope: no such scene key"),
+        "{t}"
+    );
+    assert!(!t.contains("calibrate  "), "no fit began: {t}");
+}

@@ -79,6 +79,18 @@ pub fn run(req: &CalibrateRequest, say: Say) -> Result<(), CommandError> {
     let checked = Scene::checked_from_toml(&text, &req.scene, &req.set)?;
     say(&checked.render_warnings());
     let scene = checked.scene;
+    // A key to fit that is none of the scene's is named before any replay.
+    if let Some(k) = req
+        .free
+        .iter()
+        .find(|k| *k != "none" && crate::scene::keys::table().find(k).is_none())
+    {
+        return Err(CommandError::Option {
+            option: "--free".into(),
+            value: k.clone(),
+            message: "no such scene key (`agvsim keys` lists them)".into(),
+        });
+    }
     let rec = Recording::load_joined(&req.recording)?;
     let other = (!req.validate.is_empty())
         .then(|| Recording::load_joined(&req.validate))

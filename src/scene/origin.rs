@@ -62,11 +62,16 @@ pub fn origin_of(key: &str, text: &str, file: &Path, overrides: &[String]) -> Or
 /// line under its `[section]` header, or a dotted name under a parent header.
 pub fn key_line(text: &str, key: &str) -> Option<usize> {
     let mut section = String::new();
+    // Each array of tables' count so far: `[[obstacles]]` the second time is
+    // `obstacles[1]`.
+    let mut arrays: std::collections::BTreeMap<String, usize> = Default::default();
     for (i, raw) in text.lines().enumerate() {
         let line = strip_comment(raw).trim();
         if let Some(header) = line.strip_prefix("[[") {
-            // An array of tables: its keys are indexed, not dotted names.
-            section = format!("\u{0}{}", header.trim_end_matches("]]").trim());
+            let name = unquote_path(header.trim_end_matches("]]"));
+            let n = arrays.entry(name.clone()).or_insert(0);
+            section = format!("{name}[{n}]");
+            *n += 1;
             continue;
         }
         if let Some(header) = line.strip_prefix('[') {
@@ -128,6 +133,10 @@ mod tests {
     #[test]
     fn a_key_is_found_on_its_line_under_its_section() {
         assert_eq!(key_line(TEXT, "description"), Some(1));
+        let tables = "[[obstacles]]\ncenter_m = [1, 0]\n\n[[obstacles]]\nangle_rad = nan\n";
+        assert_eq!(key_line(tables, "obstacles[1].angle_rad"), Some(5));
+        assert_eq!(key_line(tables, "obstacles[0].center_m"), Some(2));
+        assert_eq!(key_line(tables, "obstacles[0].angle_rad"), None);
         assert_eq!(key_line(TEXT, "battery.open_circuit_V"), Some(3));
         assert_eq!(key_line(TEXT, "controller.swing_away.correction"), Some(6));
         assert_eq!(key_line(TEXT, "chassis.mass_kg"), Some(10));

@@ -310,11 +310,18 @@ impl Scene {
     fn check_obstacles(&self) -> Result<(), Invalid> {
         for (i, o) in self.obstacles.iter().enumerate() {
             let key = format!("obstacles[{i}]");
-            if !o.center_m.iter().all(|v| v.is_finite()) || !o.angle_rad.is_finite() {
+            if !o.center_m.iter().all(|v| v.is_finite()) {
                 return Err(bad(
                     &format!("{key}.center_m"),
                     format!("{:?}", o.center_m),
                     "finite coordinates",
+                ));
+            }
+            if !o.angle_rad.is_finite() {
+                return Err(bad(
+                    &format!("{key}.angle_rad"),
+                    o.angle_rad,
+                    "a finite angle, rad",
                 ));
             }
             match (o.half_extents_m, o.radius_m) {
