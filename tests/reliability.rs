@@ -74,8 +74,10 @@ fn a_record_too_short_to_fit_is_refused() {
     );
 }
 
-/// One output cell of 1e300: the loss cannot be computed, and that is an error naming
-/// the recording and the cell's size, not a NaN report with exit 0.
+/// One output cell of 1e300: the recording's reader refuses it naming its line and column
+/// (no vehicle's quantity reaches 1e12); a recording holding one all the same (made in
+/// memory) gives a loss that cannot be computed, and that is an error naming the
+/// recording and the cell's size, not a NaN report with exit 0.
 #[test]
 fn a_fit_whose_loss_is_not_finite_is_an_error() {
     let dir = tmp("huge");
@@ -88,7 +90,17 @@ fn a_fit_whose_loss_is_not_finite_is_an_error() {
     lines[row] = cells.join(",");
     let bad = dir.join("huge.csv");
     std::fs::write(&bad, lines.join("\n") + "\n").unwrap();
-    let err = gain_fit(&rig, &rig_path, &Recording::load(&bad).unwrap()).unwrap_err();
+    let refused = Recording::load(&bad).unwrap_err().to_string();
+    assert!(
+        refused.contains(&format!("huge.csv:{}", row + 1)) && refused.contains("1e300"),
+        "{refused}"
+    );
+    let mut held = Recording::load(&rec_path).unwrap();
+    held.path = bad.clone();
+    let last = held.columns.len() - 1;
+    let at = held.t_s.len() - 20;
+    held.columns[last][at] = Some(1e300);
+    let err = gain_fit(&rig, &rig_path, &held).unwrap_err();
     println!("{err}");
     assert!(
         err.contains("huge.csv") && err.contains("loss") && err.contains("1e300"),
@@ -306,7 +318,16 @@ fn a_diverging_start_or_a_single_row_points_at_the_recording() {
     lines[row] = cells.join(",");
     let bad = dir.join("input.csv");
     std::fs::write(&bad, lines.join("\n") + "\n").unwrap();
-    let err = gain_fit(&rig, &rig_path, &Recording::load(&bad).unwrap()).unwrap_err();
+    assert!(Recording::load(&bad)
+        .unwrap_err()
+        .to_string()
+        .contains("beyond any physical value"));
+    // Held in memory all the same, it makes the model diverge.
+    let mut held = Recording::load(&rec_path).unwrap();
+    held.path = bad.clone();
+    let at = held.t_s.len() - 40;
+    held.columns[0][at] = Some(1e300);
+    let err = gain_fit(&rig, &rig_path, &held).unwrap_err();
     println!("{err}");
     assert!(
         err.contains("input.csv") && err.contains("largest |input|") && err.contains("1e300"),

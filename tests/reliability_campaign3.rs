@@ -162,7 +162,7 @@ fn durations_are_named_as_the_option_given_and_a_run_of_no_row_is_refused() {
     let t = text(&o);
     assert_eq!(o.status.code(), Some(2), "{t}");
     assert!(
-        t.contains("error: --duration 10000000000000000000: `sim.duration_s`"),
+        t.contains("error: --duration 1e19: `sim.duration_s` = 1e19 s"),
         "{t}"
     );
     let o = run_lab(dir.join("b").as_ref(), "1e-9", &[]);

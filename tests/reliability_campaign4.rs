@@ -128,7 +128,7 @@ fn a_commands_run_lasts_its_commands_and_says_what_it_held_or_cut() {
     let t = text(&o);
     assert!(o.status.success(), "{t}");
     assert!(t.contains("the last 1 (from 4 s on) are not run"), "{t}");
-    assert!(t.contains("the base rests") == false, "{t}");
+    assert!(!t.contains("the base rests"), "{t}");
     let late = commands_scene(&dir, "late", "1000000,0.4,0\n1000001,0,0\n");
     for extra in [&[][..], &["--duration", "5"][..]] {
         let out = dir.join("late_out");
@@ -291,10 +291,7 @@ fn a_plain_commands_csv_runs_without_the_recording_header() {
     let o = run(&scene, &dir.join("out"), &[]);
     let t = text(&o);
     assert!(o.status.success(), "{t}");
-    assert!(
-        t.contains("3 rows") == false && t.contains("2 rows from"),
-        "{t}"
-    );
+    assert!(!t.contains("3 rows") && t.contains("2 rows from"), "{t}");
     std::fs::write(
         dir.join("plain.csv"),
         "t_s,cmd_linear_m_s,cmd_angular_rad_s\n0,0.3,0\n1,fast,0\n",
@@ -481,12 +478,12 @@ fn an_obstacles_bad_angle_is_named_on_its_line() {
     )
     .unwrap();
     let at = scene.find("[[obstacles]]\n").unwrap() + "[[obstacles]]\n".len();
-    let text = format!("{}angle_rad = nan\n{}", &scene[..at], &scene[at..]);
-    let line = text[..at].lines().count() + 1;
+    let edited = format!("{}angle_rad = nan\n{}", &scene[..at], &scene[at..]);
+    let line = edited[..at].lines().count() + 1;
     let path = dir.join("bumper.toml");
-    std::fs::write(&path, &text).unwrap();
+    std::fs::write(&path, &edited).unwrap();
     let o = run(&path, &dir.join("out"), &["--duration", "0.1"]);
-    let t = text_of(&o);
+    let t = text(&o);
     assert_eq!(o.status.code(), Some(2), "{t}");
     assert!(
         t.contains(&format!(
@@ -494,10 +491,6 @@ fn an_obstacles_bad_angle_is_named_on_its_line() {
         )),
         "{t}"
     );
-}
-
-fn text_of(o: &Output) -> String {
-    text(o)
 }
 
 /// `--free` with a key the scene does not have is named by its option before any replay.
@@ -529,4 +522,47 @@ fn a_free_key_that_is_no_scene_key_is_named_by_its_option() {
         "{t}"
     );
     assert!(!t.contains("calibrate  "), "no fit began: {t}");
+}
+
+/// A CSV map with `t_s` under `[columns]` is refused naming the map and saying where the
+/// time goes; a `scale` that carries a cell beyond any physical value is refused naming
+/// the source file's line and column and the conversion (it blamed a line of the output,
+/// not yet written).
+#[test]
+fn a_csv_maps_time_column_and_absurd_scale_are_named_in_the_users_files() {
+    let dir = tmp("csv_map");
+    let raw = dir.join("raw.csv");
+    std::fs::write(&raw, "time_ms,volts\n0,1\n10,2\n20,3\n").unwrap();
+    let import = |map_text: &str| {
+        let map = dir.join("map.toml");
+        std::fs::write(&map, map_text).unwrap();
+        agvsim(&[
+            "import",
+            "csv",
+            raw.to_str().unwrap(),
+            "--map",
+            map.to_str().unwrap(),
+            "--out",
+            dir.join("out").to_str().unwrap(),
+        ])
+    };
+    let head = "rig = \"drive_axis\"\ntime = { column = \"time_ms\", unit = \"ms\" }\n[columns]\n";
+    let o = import(&format!(
+        "{head}t_s = {{ column = \"volts\" }}\nvoltage_V = {{ column = \"volts\" }}\n"
+    ));
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{t}");
+    assert!(t.contains("map.toml: [columns] names `t_s`"), "{t}");
+    let o = import(&format!(
+        "{head}voltage_V = {{ column = \"volts\", scale = 1e308 }}\n"
+    ));
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{t}");
+    assert!(
+        t.contains(
+            "raw.csv:2: column `volts`: 1 converted to voltage_V by the map (1 x 1e308) is 1e308"
+        ),
+        "{t}"
+    );
+    assert!(!dir.join("out").exists(), "{t}");
 }

@@ -571,6 +571,7 @@ fn import_ros2(
         geometry: agvsim::import::ros2::Geometry {
             wheel_radius_m: positive("wheel_radius_m", wheel_radius_m)?,
             track_m: positive("track_m", track_m)?,
+            ..Default::default()
         },
         mass_kg: positive("mass_kg", mass_kg)?,
         motor,

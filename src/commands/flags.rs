@@ -229,6 +229,22 @@ pub fn yes_no(s: &str) -> Result<bool, String> {
     }
 }
 
+/// `--seed`: a whole number from 0 to 2^63 - 1 (a scene's TOML holds its seed as a signed
+/// 64-bit integer: a larger one would be read back as a float).
+pub fn seed(s: &str) -> Result<u64, String> {
+    let v: u64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("expected a whole number from 0 to {}", i64::MAX))?;
+    if v > i64::MAX as u64 {
+        return Err(format!(
+            "expected a whole number from 0 to {} (a scene's seed is a TOML integer)",
+            i64::MAX
+        ));
+    }
+    Ok(v)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -246,20 +262,4 @@ mod tests {
         assert_eq!(Jobs::of(0).count(), 0);
         assert_eq!(Jobs::of(3).count(), 3);
     }
-}
-
-/// `--seed`: a whole number from 0 to 2^63 - 1 (a scene's TOML holds its seed as a signed
-/// 64-bit integer: a larger one would be read back as a float).
-pub fn seed(s: &str) -> Result<u64, String> {
-    let v: u64 = s
-        .trim()
-        .parse()
-        .map_err(|_| format!("expected a whole number from 0 to {}", i64::MAX))?;
-    if v > i64::MAX as u64 {
-        return Err(format!(
-            "expected a whole number from 0 to {} (a scene's seed is a TOML integer)",
-            i64::MAX
-        ));
-    }
-    Ok(v)
 }

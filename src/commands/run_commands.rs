@@ -163,7 +163,7 @@ pub fn check_shape_speeds(scene: &Scene) -> Result<(), CommandError> {
     let applies = |key: &str| m.kind != "circle" || key != M::turn_rate_rad_s.key();
     for (key, value, wheel_m_s, unit, what) in asks
         .into_iter()
-        .filter(|a| applies(&a.0))
+        .filter(|a| applies(a.0))
         .chain((m.kind == "circle").then_some(circle))
     {
         if !(wheel_m_s <= top_m_s) {

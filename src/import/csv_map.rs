@@ -140,6 +140,12 @@ pub fn load_map(path: &Path) -> Result<CsvMap, ImportError> {
             message: "[columns] is empty: name at least one contract column".into(),
         });
     }
+    if map.columns.contains_key("t_s") {
+        return Err(ImportError::Map {
+            file: path.to_owned(),
+            message: "[columns] names `t_s`: the time is the map's `time = { column = \"...\", unit = \"...\" }` line, not a column of [columns]".into(),
+        });
+    }
     Ok(map)
 }
 
@@ -290,9 +296,26 @@ fn converted_row(
         let v: f64 = raw.parse().ok().filter(|v: &f64| v.is_finite()).ok_or_else(|| ImportError::Data {
             file: data_file.to_owned(),
             line,
-            message: format!("column `{}`: `{raw}` is not a finite number (an empty cell marks a missing sample)", header[*col]),
+            message: format!("column `{}`: `{}` is not a finite number (an empty cell marks a missing sample)", header[*col], crate::numtext::echoed(raw)),
         })?;
         let x = v * f + offset;
+        // Checked here, where the source's line and the map's conversion can be named: the
+        // converted file's reader would name a line of a file not yet written.
+        if !(x.is_finite() && x.abs() <= crate::record::MAX_CELL_MAGNITUDE) {
+            return Err(ImportError::Data {
+                file: data_file.to_owned(),
+                line,
+                message: format!(
+                    "column `{}`: {} converted to {target} by the map ({} x {}{}) is {}, beyond any physical value (magnitude above 1e12 in SI units): a wrong scale or unit in the map?",
+                    header[*col],
+                    crate::numtext::echoed(raw),
+                    crate::param::plain_number(v),
+                    crate::param::plain_number(*f),
+                    if *offset != 0.0 { format!(" + {}", crate::param::plain_number(*offset)) } else { String::new() },
+                    crate::param::plain_number(x)
+                ),
+            });
+        }
         if target == "t_s" {
             if let Some(prev) = last_t.filter(|p| x <= *p) {
                 return Err(ImportError::Data {

@@ -5,7 +5,7 @@ mod join;
 mod reader;
 mod writer;
 
-pub use reader::{median_interval_s, Recording, RecordingError, KNOWN_UNITS};
+pub use reader::{median_interval_s, Recording, RecordingError, KNOWN_UNITS, MAX_CELL_MAGNITUDE};
 pub use writer::{header, vehicle_columns, RecordingWriter};
 
 /// Row ranges from the rows where segments start (the first is row 0) and the row count.
