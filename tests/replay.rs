@@ -143,16 +143,28 @@ fn recordings_a_replay_cannot_use_are_refused_clearly() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("too few samples"), "{err}");
-    // A corrupt time column (found by tests/fuzz.rs) used to run the simulator for ever.
+    // A corrupt time column (found by tests/fuzz.rs) used to run the simulator for ever:
+    // the reader refuses a time past 1e12 s, and a recording holding one all the same
+    // (made in memory) is refused by the replay's own guard.
     let endless = dir.join("endless.csv");
     std::fs::write(
         &endless,
         "# agvsim-recording: 1\n# rig: drive_axis\nt_s,voltage_V,motor_speed_rad_s\n0,1,0\n99999999999999999999,1,0\n",
     )
     .unwrap();
-    let err = replay(&lab(&[]), &Recording::load(&endless).unwrap())
-        .unwrap_err()
-        .to_string();
+    let refused = Recording::load(&endless).unwrap_err().to_string();
+    assert!(
+        refused.contains("endless.csv:5") && refused.contains("beyond any time"),
+        "{refused}"
+    );
+    std::fs::write(
+        &endless,
+        "# agvsim-recording: 1\n# rig: drive_axis\nt_s,voltage_V,motor_speed_rad_s\n0,1,0\n1,1,0\n",
+    )
+    .unwrap();
+    let mut held = Recording::load(&endless).unwrap();
+    held.t_s[1] = 1e20;
+    let err = replay(&lab(&[]), &held).unwrap_err().to_string();
     println!("{err}");
     assert!(
         err.contains("simulator steps") && err.contains("time column"),

@@ -130,6 +130,11 @@ pub fn parse(data: &[u8]) -> Result<DataLog, FormatError> {
     while b.at < data.len() {
         record(&mut b, &mut log, &mut live)?;
     }
+    // Records need not be in time order (a logger's threads append as they go): each
+    // entry's values are sorted by time, records of one time keeping file order.
+    for e in &mut log.entries {
+        e.values.sort_by_key(|(t, _)| *t);
+    }
     Ok(log)
 }
 
@@ -194,13 +199,35 @@ fn control(
             let name = p.string("the entry name").map_err(at)?;
             let kind = p.string("the entry type").map_err(at)?;
             let metadata = p.string("the entry metadata").map_err(at)?;
-            live.insert(id, log.entries.len());
-            log.entries.push(Entry {
-                name,
-                kind,
-                metadata,
-                values: Vec::new(),
-            });
+            // A name started again (a restarted logger, a Start repeated) is the same
+            // channel: its values go on in the one entry, so no lookup by name finds
+            // half of them.
+            match log.entries.iter().position(|e| e.name == name) {
+                Some(index) if log.entries[index].kind != kind => {
+                    return Err(FormatError {
+                        offset: start,
+                        message: format!(
+                            "entry `{name}` started again as `{kind}`; it was started as `{}`",
+                            log.entries[index].kind
+                        ),
+                    })
+                }
+                Some(index) => {
+                    live.insert(id, index);
+                    if !metadata.is_empty() {
+                        log.entries[index].metadata = metadata;
+                    }
+                }
+                None => {
+                    live.insert(id, log.entries.len());
+                    log.entries.push(Entry {
+                        name,
+                        kind,
+                        metadata,
+                        values: Vec::new(),
+                    });
+                }
+            }
         }
         1 => {
             live.remove(&id);
@@ -353,6 +380,59 @@ mod tests {
         assert_eq!(
             log.entries[1].values,
             vec![(20_001, Value::Text("none".into()))]
+        );
+    }
+
+    /// A Start record with its own id for `name`.
+    fn start(id: u32, name: &str, kind: &str) -> Vec<u8> {
+        let mut p = vec![0u8];
+        p.extend_from_slice(&id.to_le_bytes());
+        for s in [name, kind, ""] {
+            p.extend_from_slice(&(s.len() as u32).to_le_bytes());
+            p.extend_from_slice(s.as_bytes());
+        }
+        p
+    }
+
+    /// One record, as the specification lays it out (four-byte id and size, eight-byte
+    /// timestamp).
+    fn put(out: &mut Vec<u8>, id: u32, t: i64, payload: &[u8]) {
+        out.push(0x7f);
+        out.extend_from_slice(&id.to_le_bytes());
+        out.extend_from_slice(&(payload.len() as u32).to_le_bytes());
+        out.extend_from_slice(&t.to_le_bytes());
+        out.extend_from_slice(payload);
+    }
+
+    /// An entry finished and started again under a new id, a Start repeated, and records
+    /// out of time order: one entry, every value, in time order. A name started again as
+    /// another type is refused naming both.
+    #[test]
+    fn restarted_entries_and_unsorted_records_read_as_one_channel_in_time_order() {
+        let mut f = write("", &[], &[]);
+        let v = |x: f64| x.to_le_bytes().to_vec();
+        put(&mut f, 0, 0, &start(1, "speed", "double"));
+        put(&mut f, 1, 30, &v(3.0));
+        put(&mut f, 1, 10, &v(1.0));
+        put(&mut f, 0, 40, &{
+            let mut p = vec![1u8];
+            p.extend_from_slice(&1u32.to_le_bytes());
+            p
+        });
+        put(&mut f, 0, 50, &start(7, "speed", "double"));
+        put(&mut f, 0, 50, &start(7, "speed", "double"));
+        put(&mut f, 7, 60, &v(6.0));
+        put(&mut f, 7, 20, &v(2.0));
+        let log = parse(&f).unwrap();
+        assert_eq!(log.entries.len(), 1);
+        let times: Vec<i64> = log.entries[0].values.iter().map(|(t, _)| *t).collect();
+        assert_eq!(times, [10, 20, 30, 60]);
+        put(&mut f, 0, 70, &start(9, "speed", "int64"));
+        let e = parse(&f).unwrap_err();
+        assert!(
+            e.message
+                .contains("started again as `int64`; it was started as `double`"),
+            "{e}"
         );
     }
 }

@@ -220,6 +220,20 @@ pub enum LogFault {
     },
 
     // A test's samples.
+    /// A value beyond any physical one (its magnitude past
+    /// [`crate::record::MAX_CELL_MAGNITUDE`]): its speed would make the motion threshold
+    /// infinite.
+    #[error("test `{test}`, row {row}: {what} is {value:e}, beyond any physical value (magnitude above 1e12): a damaged log or a sentinel?")]
+    Unphysical {
+        /// The test.
+        test: String,
+        /// The row, from 0.
+        row: usize,
+        /// Which value.
+        what: &'static str,
+        /// The value.
+        value: f64,
+    },
     /// A value that is not finite.
     #[error("test `{test}`, row {row}: {what} is {value}, not a finite number")]
     NotFinite {

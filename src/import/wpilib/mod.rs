@@ -230,6 +230,18 @@ pub(crate) fn check_test(test: &Test) -> Result<(), LogFault> {
                 value: *v,
             });
         }
+        // A timestamp is microseconds since the robot started: far below 1e12 s.
+        if let Some((what, v)) = values
+            .iter()
+            .find(|(_, v)| v.abs() > crate::record::MAX_CELL_MAGNITUDE)
+        {
+            return Err(LogFault::Unphysical {
+                test: test.name.clone(),
+                row: i,
+                what,
+                value: *v,
+            });
+        }
         if let Some(prev) = last.filter(|p| s.t_s <= *p) {
             let how = if s.t_s == prev {
                 "repeats"
@@ -344,4 +356,39 @@ pub fn import(
         feedforward,
         speed_unit,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A velocity of 1e300 is refused naming the test, the row and the value (its speed
+    /// made SysId's motion threshold infinite: "0 pairs above the motion threshold inf").
+    #[test]
+    fn a_value_beyond_any_physical_one_is_refused_naming_its_row() {
+        let side = |velocity| Side {
+            voltage_v: 1.0,
+            position: 0.0,
+            velocity,
+            current_a: None,
+        };
+        let sample = |t_s, velocity| Sample {
+            t_s,
+            left: side(velocity),
+            right: None,
+            gyro_angle_rad: None,
+            gyro_rate_rad_s: None,
+        };
+        let mut test = Test {
+            name: "slow-forward".into(),
+            samples: vec![sample(0.0, 0.1), sample(0.02, 1e300)],
+        };
+        let e = check_test(&test).unwrap_err().to_string();
+        assert!(
+            e.contains("test `slow-forward`, row 1: velocity is 1e300, beyond any physical value"),
+            "{e}"
+        );
+        test.samples[1].left.velocity = 0.2;
+        assert!(check_test(&test).is_ok());
+    }
 }
