@@ -268,23 +268,7 @@ impl FolderLock {
     /// Creates `dir` if needed and takes its lock; the message says what is wrong (the
     /// caller names the option and the folder).
     pub fn acquire(dir: &Path) -> Result<FolderLock, LockError> {
-        let created = (!dir.exists()).then(|| dir.to_path_buf());
-        std::fs::create_dir_all(dir).map_err(LockError::Create)?;
-        let path = dir.join(LOCK_FILE);
-        let file = match lock_file_at(&path) {
-            Ok(f) => f,
-            Err(e) => {
-                if let Some(d) = &created {
-                    let _ = std::fs::remove_dir(d);
-                }
-                return Err(e);
-            }
-        };
-        Ok(FolderLock {
-            path,
-            _file: file,
-            created,
-        })
+        FolderLock::lock_in(dir, LOCK_FILE)
     }
 
     /// Takes the lock of one output file (`--json FILE`): a lock file beside it,
@@ -299,13 +283,19 @@ impl FolderLock {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
             _ => PathBuf::from("."),
         };
-        let created = (!dir.exists()).then(|| dir.clone());
-        std::fs::create_dir_all(&dir).map_err(LockError::Create)?;
-        let path = dir.join(format!(".{name}.agvsim.lock"));
+        FolderLock::lock_in(&dir, &format!(".{name}.agvsim.lock"))
+    }
+
+    /// Creates `dir` if needed and takes the lock file `lock_name` in it; a folder made
+    /// here is removed again if the lock cannot be taken (or, on drop, if left empty).
+    fn lock_in(dir: &Path, lock_name: &str) -> Result<FolderLock, LockError> {
+        let created = (!dir.exists()).then(|| dir.to_path_buf());
+        std::fs::create_dir_all(dir).map_err(LockError::Create)?;
+        let path = dir.join(lock_name);
         match lock_file_at(&path) {
-            Ok(f) => Ok(FolderLock {
-                _file: f,
+            Ok(file) => Ok(FolderLock {
                 path,
+                _file: file,
                 created,
             }),
             Err(e) => {

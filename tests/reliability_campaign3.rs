@@ -2,7 +2,7 @@
 //! fleets merged wrong"), each built from its description with inputs made here.
 
 mod common;
-use common::{text, tmp};
+use common::{batch_merge, small_fleet, text, tmp};
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -653,26 +653,6 @@ fn an_interrupted_rerun_leaves_no_new_scene_beside_the_old_recording() {
 }
 
 /// A fleet of three 1 s recordings of the lab scene with different gains.
-fn small_fleet(dir: &Path) -> PathBuf {
-    let fleet = dir.join("fleet");
-    std::fs::create_dir_all(&fleet).unwrap();
-    for (i, gain) in ["0.9", "1.0", "1.1"].iter().enumerate() {
-        let out = dir.join(format!("run{i}"));
-        let o = run_lab(
-            out.as_ref(),
-            "1",
-            &[&format!("controller.gain_scale={gain}")],
-        );
-        assert!(o.status.success(), "{}", text(&o));
-        std::fs::copy(
-            out.join("lab_offset_120mm.csv"),
-            fleet.join(format!("robot{i}.csv")),
-        )
-        .unwrap();
-    }
-    fleet
-}
-
 fn batch_shard(fleet: &Path, out: &Path, shard: &str) -> Output {
     agvsim(&[
         "batch",
@@ -687,15 +667,6 @@ fn batch_shard(fleet: &Path, out: &Path, shard: &str) -> Output {
         "--out",
         out.to_str().unwrap(),
     ])
-}
-
-fn batch_merge(dir: &Path, shards: &[&Path]) -> Output {
-    let mut args = vec!["batch", "merge"];
-    args.extend(shards.iter().map(|s| s.to_str().unwrap()));
-    let out = dir.join("merged");
-    let _ = std::fs::remove_dir_all(&out);
-    args.extend(["--out", out.to_str().unwrap()]);
-    agvsim(&args)
 }
 
 #[test]

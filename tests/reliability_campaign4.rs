@@ -4,7 +4,7 @@
 //! bags written by rosbags).
 
 mod common;
-use common::{text, tmp};
+use common::{batch_merge, hold_lock, small_fleet, text, tmp};
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -314,24 +314,7 @@ fn an_output_file_another_agvsim_writes_is_refused_naming_it() {
     let json = dir.join("result.json");
     let lock = dir.join(".result.json.agvsim.lock");
     std::fs::write(&lock, "process 4242 on another-host\n").unwrap();
-    let mut other = Command::new("flock")
-        .arg("-o")
-        .arg(&lock)
-        .args(["sleep", "30"])
-        .spawn()
-        .unwrap();
-    let t0 = std::time::Instant::now();
-    while Command::new("flock")
-        .arg("-n")
-        .arg(&lock)
-        .arg("true")
-        .status()
-        .unwrap()
-        .success()
-    {
-        assert!(t0.elapsed().as_secs() < 10, "flock never took the lock");
-        std::thread::sleep(std::time::Duration::from_millis(20));
-    }
+    let mut other = hold_lock(&lock);
     let o = agvsim(&[
         "run",
         "scenes/lifted_identification.toml",
@@ -370,41 +353,6 @@ fn an_output_file_another_agvsim_writes_is_refused_naming_it() {
     other.kill().unwrap();
     other.wait().unwrap();
     assert!(!json.exists());
-}
-
-/// Three short recordings of the lab machine at three gains, as a fleet.
-fn small_fleet(dir: &Path) -> PathBuf {
-    let fleet = dir.join("fleet");
-    std::fs::create_dir_all(&fleet).unwrap();
-    for (i, gain) in ["0.9", "1.0", "1.1"].iter().enumerate() {
-        let out = dir.join(format!("run{i}"));
-        let o = agvsim(&[
-            "run",
-            "scenes/lab_offset_120mm.toml",
-            "--duration",
-            "1",
-            "--set",
-            &format!("controller.gain_scale={gain}"),
-            "--out",
-            out.to_str().unwrap(),
-        ]);
-        assert!(o.status.success(), "{}", text(&o));
-        std::fs::copy(
-            out.join("lab_offset_120mm.csv"),
-            fleet.join(format!("robot{i}.csv")),
-        )
-        .unwrap();
-    }
-    fleet
-}
-
-fn batch_merge(dir: &Path, shards: &[&Path]) -> Output {
-    let mut args = vec!["batch", "merge"];
-    args.extend(shards.iter().map(|s| s.to_str().unwrap()));
-    let out = dir.join("merged");
-    let _ = std::fs::remove_dir_all(&out);
-    args.extend(["--out", out.to_str().unwrap()]);
-    agvsim(&args)
 }
 
 /// Batch merge: a manifest cut to fewer recordings and one shard, or its `--effects`

@@ -5,7 +5,7 @@
 //! final name; and evidence given twice is refused.
 
 mod common;
-use common::{text, tmp};
+use common::{hold_lock, text, tmp};
 
 use std::path::Path;
 use std::process::{Command, Stdio};
@@ -141,27 +141,7 @@ fn outputs_belong_to_one_process_and_a_stopped_run_claims_no_file() {
     // `flock`, an independent taker), with its owner's line in the file.
     let lock = dir.join(".agvsim.lock");
     std::fs::write(&lock, "process 4242 on another-host\n").unwrap();
-    // `-o`: the lock is `flock`'s own, not handed to its command, so killing `flock`
-    // ends the writer.
-    let mut other = Command::new("flock")
-        .arg("-o")
-        .arg(&lock)
-        .args(["sleep", "30"])
-        .spawn()
-        .unwrap();
-    // Until `flock` holds it (a lock taken is visible to a non-blocking try).
-    let t0 = std::time::Instant::now();
-    while Command::new("flock")
-        .args(["-n"])
-        .arg(&lock)
-        .arg("true")
-        .status()
-        .unwrap()
-        .success()
-    {
-        assert!(t0.elapsed().as_secs() < 10, "flock never took the lock");
-        std::thread::sleep(std::time::Duration::from_millis(20));
-    }
+    let mut other = hold_lock(&lock);
     let o = agvsim()
         .args([
             "run",

@@ -546,21 +546,10 @@ pub fn ros2(req: &Ros2Import, say: Say) -> Result<(), CommandError> {
     check_recording(&text, &csv_path)?;
     let mut files = vec![(csv_path.clone(), text)];
     let scene_path = dir.join(format!("{stem}.scene.toml"));
-    // The controller's file says what the odometry is configured with where the bag's
-    // description does not.
-    let geometry = rec.geometry.clone().or_else(|| {
-        let p = params.as_ref()?;
-        Some((
-            p.wheel_separation_m?,
-            p.wheel_radius_m?,
-            format!(
-                "wheel separation and radius from {}",
-                req.controller_yaml.as_ref()?.display()
-            ),
-        ))
-    });
+    // The geometry comes from the flags, the bag's description or, where neither gives
+    // it, the controller's file (each given to the import above, which names its source).
     let mut warnings: Vec<String> = vec![];
-    if let Some(g) = &geometry {
+    if let Some(g) = &rec.geometry {
         let (text, said) = robot_scene(req, &rec, g, params.as_ref(), &stem, &scene_path)?;
         warnings = said;
         files.push((scene_path.clone(), text));

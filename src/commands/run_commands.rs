@@ -136,36 +136,32 @@ pub fn check_shape_speeds(scene: &Scene) -> Result<(), CommandError> {
     }
     let top_m_s = scene.top_speed_m_s(scene.battery.drive_limit_v);
     let half_track_m = 0.5 * scene.chassis.track_width_m;
-    let asks = [
+    let straight = (
+        M::speed_m_s.key(),
+        m.speed_m_s,
+        m.speed_m_s,
+        "m/s",
+        "the straights' speed",
+    );
+    // The square's other limit is a turn on the spot, the circle's its outer wheel.
+    let other = if m.kind == "circle" {
         (
             M::speed_m_s.key(),
             m.speed_m_s,
-            m.speed_m_s,
+            m.speed_m_s * (1.0 + half_track_m / m.radius_m),
             "m/s",
-            "the straights' speed",
-        ),
+            "the outer wheel's speed on the circle",
+        )
+    } else {
         (
             M::turn_rate_rad_s.key(),
             m.turn_rate_rad_s,
             m.turn_rate_rad_s * half_track_m,
             "rad/s",
             "each wheel's speed turning on the spot",
-        ),
-    ];
-    let circle_outer_m_s = m.speed_m_s * (1.0 + half_track_m / m.radius_m);
-    let circle = (
-        M::speed_m_s.key(),
-        m.speed_m_s,
-        circle_outer_m_s,
-        "m/s",
-        "the outer wheel's speed on the circle",
-    );
-    let applies = |key: &str| m.kind != "circle" || key != M::turn_rate_rad_s.key();
-    for (key, value, wheel_m_s, unit, what) in asks
-        .into_iter()
-        .filter(|a| applies(a.0))
-        .chain((m.kind == "circle").then_some(circle))
-    {
+        )
+    };
+    for (key, value, wheel_m_s, unit, what) in [straight, other] {
         if !(wheel_m_s <= top_m_s) {
             return Err(CommandError::Option {
                 option: key.to_string(),
