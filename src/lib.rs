@@ -16,7 +16,8 @@
 //!   plant's linearisation (controllability, observability).
 //! - [`record`]: the exchange format for recordings.
 //! - [`viz`]: the Rerun recorder (an observer of snapshots).
-//! - [`run`]: running a scene with its observers, as the CLI does.
+//! - [`run`]: running a scene with its observers, as the CLI does; [`live`]: a scene's
+//!   simulation held in memory and stepped from outside (Python's `agvsim.Sim`).
 //! - [`experiment`], [`rig`], [`ident`], [`diagnose`]: the thesis's lab experiments,
 //!   rig files, grey-box identification and the diagnosis of missing physics.
 //! - [`sweep`], [`study`]: parallel parameter sweeps (shards, merge) and the shipped
@@ -32,6 +33,7 @@ pub mod html;
 pub mod ident;
 pub mod import;
 pub mod jobs;
+pub mod live;
 pub mod matfile;
 pub mod model;
 pub mod numtext;

@@ -1295,3 +1295,31 @@ fn replay_warns_of_the_dcmc_only_where_the_recording_drives_it() {
         "replay_demands"
     ));
 }
+
+/// The first experiment a newcomer makes is not a diagnosis's kind: `diagnose` says so and
+/// names the command that does take it (with the user's own files), and that command runs.
+#[test]
+fn diagnose_of_a_lifted_pair_experiment_names_the_command_that_takes_it() {
+    let dir = tmp("cli_experiment_then_diagnose");
+    let out = dir.to_str().unwrap();
+    let o = common::agvsim_output(&[
+        "experiment",
+        "lifted-random-demand",
+        "scenes/lifted_identification.toml",
+        "--out",
+        out,
+    ]);
+    assert!(o.status.success(), "{}", common::text(&o));
+    let rig = dir.join("lifted_random_demand.rig.toml");
+    let rec = dir.join("lifted_random_demand.csv");
+    let (rig, rec) = (rig.to_str().unwrap(), rec.to_str().unwrap());
+    let o = common::agvsim_output(&["diagnose", "--rig", rig, "--recording", rec]);
+    let said = common::text(&o);
+    assert!(!o.status.success(), "{said}");
+    let suggested = format!("agvsim identify --rig {rig} --recording {rec}");
+    assert!(said.contains(&suggested), "{said}");
+    assert!(said.contains("experiment floor-run"), "{said}");
+    let o = common::agvsim_output(&["identify", "--rig", rig, "--recording", rec]);
+    assert!(o.status.success(), "{}", common::text(&o));
+    let _ = std::fs::remove_dir_all(&dir);
+}

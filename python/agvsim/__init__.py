@@ -54,6 +54,9 @@ __all__ = [
     "import_ros2",
     "import_wpilib",
     "keys_reference",
+    "Sim",
+    "VecSim",
+    "SimState",
 ]
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -863,3 +866,7 @@ def import_wpilib(
 def keys_reference() -> str:
     """Every scene key with its unit, range, default and meaning (``agvsim keys``)."""
     return _native.keys_markdown()
+
+
+# The simulations held in memory (they use Scene and Recording above).
+from .live import Sim, SimState, VecSim  # noqa: E402

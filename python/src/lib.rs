@@ -24,6 +24,8 @@ use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 
+mod live;
+
 use agvsim::commands::flags::Jobs;
 use agvsim::commands::{self, CommandError};
 
@@ -768,5 +770,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_recording, m)?)?;
     m.add_function(wrap_pyfunction!(write_recording, m)?)?;
     m.add_function(wrap_pyfunction!(keys_markdown, m)?)?;
+    m.add_class::<live::NativeSim>()?;
+    m.add_class::<live::NativeVecSim>()?;
+    m.add_class::<live::NativeSaved>()?;
     Ok(())
 }

@@ -77,8 +77,13 @@ fn commands_of(
     )))
 }
 
-/// Runs the scene and prints its summary, its claims' check and the files written.
-pub fn run(req: &RunRequest, say: Say) -> Result<(), CommandError> {
+/// The scene as `run` runs it (overrides, checks, a velocity base's commands read from
+/// their CSV and the run's length fitted to them), and the manoeuvre it drives if the
+/// scene names a commands CSV; what is said of them goes to `say`.
+fn scene_to_run(
+    req: &RunRequest,
+    say: Say,
+) -> Result<(Scene, Option<crate::model::manoeuvre::Manoeuvre>), CommandError> {
     let set = overrides(&req.set, req.duration_s, req.seed);
     let checked = Scene::load_checked(&req.scene, &set)
         .map_err(|e| super::name_own_options(e, &req.set, req.duration_s, req.seed))?;
@@ -97,6 +102,35 @@ pub fn run(req: &RunRequest, say: Say) -> Result<(), CommandError> {
         say(&said_of_it);
         m
     });
+    Ok((scene, manoeuvre))
+}
+
+/// The scene's simulation held in memory, loaded as `run` loads it (Python's
+/// `agvsim.Sim`): the scene, its `--set` overrides and seed, and what was said of them
+/// (the scene's warnings, a commands CSV's fit).
+pub fn live_sim(
+    scene: PathBuf,
+    set: Vec<String>,
+    seed: Option<u64>,
+) -> Result<(crate::live::LiveSim, String), CommandError> {
+    let req = RunRequest {
+        scene,
+        out: None,
+        set: set.into(),
+        duration_s: None,
+        seed,
+        rerun: Default::default(),
+        rerun_interval_s: 0.02,
+    };
+    let said = std::cell::RefCell::new(String::new());
+    let (scene, manoeuvre) = scene_to_run(&req, &|s: &str| said.borrow_mut().push_str(s))?;
+    let live = crate::live::LiveSim::new(scene, manoeuvre)?;
+    Ok((live, said.into_inner()))
+}
+
+/// Runs the scene and prints its summary, its claims' check and the files written.
+pub fn run(req: &RunRequest, say: Say) -> Result<(), CommandError> {
+    let (scene, manoeuvre) = scene_to_run(req, say)?;
     for arg in req.set.iter() {
         let key = arg.split('=').next().unwrap_or("").trim();
         if let Some(why) = crate::scene::inert::inert_reason(&scene, key) {
@@ -138,7 +172,11 @@ pub fn run(req: &RunRequest, say: Say) -> Result<(), CommandError> {
         r.finish()?;
     }
     say(&render_summary(&req.scene, &scene, &out.summary));
-    say(&render_expectations(&scene, &out.summary, !set.is_empty()));
+    say(&render_expectations(
+        &scene,
+        &out.summary,
+        !overrides(&req.set, req.duration_s, req.seed).is_empty(),
+    ));
     say(&format!(
         "recording  {}{}\n",
         out.recording.display(),

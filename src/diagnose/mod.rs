@@ -464,6 +464,7 @@ fn diagnosable_structure(
     ) {
         return Err(IdentError::NotDiagnosable {
             file: rec.path.clone(),
+            rig: rig_path.to_path_buf(),
             model: structure.model().name(),
         });
     }

@@ -180,10 +180,12 @@ pub enum IdentError {
         known: String,
     },
     /// Diagnosis asked of a recording of another kind of experiment.
-    #[error("{}: diagnosis works on drive-axis (rotary or linear) and vehicle recordings; this is a {model} experiment", file.display())]
+    #[error("{}: diagnosis works on drive-axis (rotary or linear) and vehicle recordings; this is a {model} experiment. To fit its model (parameters with their intervals, and the residual checks that say whether the model is enough) run `agvsim identify --rig {} --recording {}`; to ask which physics a model lacks, diagnose a vehicle recording (`agvsim experiment floor-run SCENE --out DIR` writes one with its rig) or a drive axis driven by voltages", file.display(), rig.display(), file.display())]
     NotDiagnosable {
         /// The recording.
         file: PathBuf,
+        /// The rig file it was given with.
+        rig: PathBuf,
         /// Its model.
         model: String,
     },

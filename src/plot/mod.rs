@@ -46,6 +46,9 @@ pub enum Style {
     Stems,
     /// Markers only, no line.
     Points,
+    /// Censored values: an open triangle pointing up at each point, "above this: none
+    /// found up to here" (an onset not reached at the top of the values searched).
+    Above,
 }
 
 /// One series of a plot.
@@ -280,7 +283,10 @@ impl Plot<'_> {
         if !(y1 > y0) {
             let c = if y0.is_finite() { y0 } else { 0.0 };
             let h = if c == 0.0 { 1.0 } else { 0.1 * c.abs() };
-            (y0, y1) = (c - h, c + h);
+            // One value, 0 or more: do not invent negative values (a fraction that is
+            // 0 everywhere reads 0..1, not -1..1).
+            let lo = if c >= 0.0 { (c - h).max(0.0) } else { c - h };
+            (y0, y1) = (lo, c + h);
         }
         let pad = 0.05 * (y1 - y0);
         // Room along the top for the flags' crosses, clear of the data.
@@ -481,6 +487,20 @@ fn cross(s: &mut String, x: f64, y: f64, colour: &str) {
     );
 }
 
+/// An open triangle pointing up: a value above this point (censored).
+fn above_marker(s: &mut String, x: f64, y: f64, colour: &str) {
+    let _ = writeln!(
+        s,
+        r#"<path d="M{:.1},{:.1}L{:.1},{:.1}L{:.1},{:.1}Z" fill="white" stroke="{colour}" stroke-width="1.8"/>"#,
+        x,
+        y - 6.0,
+        x - 5.0,
+        y + 3.0,
+        x + 5.0,
+        y + 3.0
+    );
+}
+
 fn marker(s: &mut String, x: f64, y: f64, colour: &str) {
     let _ = writeln!(
         s,
@@ -510,6 +530,10 @@ fn legend_key(
     } else {
         r#" stroke-dasharray="6,3""#
     };
+    if style == Style::Above {
+        above_marker(s, x + 11.0, y, colour);
+        return;
+    }
     if style != Style::Points {
         let _ = writeln!(
             s,
@@ -564,6 +588,11 @@ fn draw_series(s: &mut String, ser: &Series, px: &dyn Fn(f64) -> f64, py: &dyn F
         Style::Points => {
             for (x, y) in &finite {
                 marker(s, px(*x), py(*y), ser.colour);
+            }
+        }
+        Style::Above => {
+            for (x, y) in &finite {
+                above_marker(s, px(*x), py(*y), ser.colour);
             }
         }
         Style::Line | Style::Measured => {
@@ -646,6 +675,34 @@ mod tests {
             assert!(x + 50.0 + CHAR_W * long.len() as f64 <= W, "{x}");
         }
         assert!(l.last().unwrap().1 >= 2, "{l:?}");
+    }
+
+    /// A quantity that is 0 everywhere (a sliding fraction of runs that never slid) gets
+    /// an axis from 0 up, not an invented -1..1.
+    #[test]
+    fn a_constant_zero_series_gets_no_negative_axis() {
+        let x = [1.0, 2.0, 3.0];
+        let y = [0.0; 3];
+        let series = [Series::line("never slid", &x, &y, "#000")];
+        let p = Plot {
+            title: "t",
+            x_label: "x",
+            y_label: "y",
+            series: &series,
+            band: None,
+            flags: None,
+            empty_note: "",
+        };
+        let (_, (y0, y1)) = p.ranges();
+        assert!((-0.06..0.0).contains(&y0) && y1 > 0.9, "{y0} {y1}");
+        let neg = [-2.0; 3];
+        let series = [Series::line("constant below 0", &x, &neg, "#000")];
+        let (_, (y0, y1)) = Plot {
+            series: &series,
+            ..p
+        }
+        .ranges();
+        assert!(y0 < -2.0 && y1 > -2.0, "{y0} {y1}");
     }
 
     #[test]

@@ -6,7 +6,7 @@ mod reader;
 mod writer;
 
 pub use reader::{median_interval_s, Recording, RecordingError, KNOWN_UNITS, MAX_CELL_MAGNITUDE};
-pub use writer::{header, vehicle_columns, RecordingWriter};
+pub use writer::{header, vehicle_columns, Column, RecordingWriter};
 
 /// Row ranges from the rows where segments start (the first is row 0) and the row count.
 pub fn segment_ranges(starts: &[usize], rows: usize) -> Vec<std::ops::Range<usize>> {

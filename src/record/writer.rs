@@ -9,8 +9,11 @@ use crate::sim::Snapshot;
 
 /// A column: name (ending in its unit) and how to read it from a snapshot.
 pub struct Column {
+    /// The column's name, ending in its unit.
     pub name: &'static str,
+    /// Decimals written (the recording's resolution of the column).
     pub decimals: usize,
+    /// The column's value in a snapshot.
     pub value: fn(&Snapshot) -> f64,
 }
 

@@ -109,6 +109,7 @@ pub enum Actuation {
 }
 
 /// The chassis in whichever form the fidelity level uses.
+#[derive(Clone)]
 enum Body {
     /// Wheels lifted off the floor: the chassis stays where it is.
     Lifted(Pose),
@@ -134,7 +135,10 @@ struct LastStep {
     bumper: bool,
 }
 
-/// A running simulation: the parameters (immutable) and everything that evolves.
+/// A running simulation: the parameters (immutable) and everything that evolves. A clone
+/// is a saved state: stepped with the same inputs, it gives the same numbers as the
+/// original from that instant on.
+#[derive(Clone)]
 pub struct Sim {
     params: SimParams,
     actuation: Actuation,

@@ -11,7 +11,7 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use super::{md_table, opt, study_sweep, value_of, write_summary, StudyOptions, StudyOutput};
-use crate::plot::{Plot, Series, COLOURS};
+use crate::plot::{Plot, Series, Style, COLOURS};
 use crate::sweep::{RunResult, SweepError, SweepOptions};
 
 /// The scene the study sweeps.
@@ -265,15 +265,48 @@ fn onset_plot(
             "onset gain by compound and floor, one payload",
         )
     } else {
-        let series: Vec<Series> = lines
+        // Where no onset was found up to the top gain swept, the onset is censored: an
+        // open triangle at the top gain ("above this"), never a point as if measured.
+        let top = groups
+            .iter()
+            .flat_map(|g| g.runs.iter().map(|r| r.0))
+            .fold(f64::NEG_INFINITY, f64::max);
+        let censored: Vec<(String, Vec<f64>, Vec<f64>)> = lines
+            .values()
+            .zip(&labels)
+            .map(|((x, y), label)| {
+                let xs: Vec<f64> = x
+                    .iter()
+                    .zip(y)
+                    .filter(|(_, y)| y.is_nan())
+                    .map(|(x, _)| *x)
+                    .collect();
+                let n = xs.len();
+                (
+                    format!("{label}: none up to gain {}", crate::numtext::sig(top, 3)),
+                    xs,
+                    vec![top; n],
+                )
+            })
+            .collect();
+        let mut series: Vec<Series> = lines
             .values()
             .zip(&labels)
             .enumerate()
             .map(|(i, ((x, y), label))| Series::line(label, x, y, COLOURS[i % COLOURS.len()]))
             .collect();
+        series.extend(
+            censored
+                .iter()
+                .enumerate()
+                .filter(|(_, c)| !c.1.is_empty())
+                .map(|(i, (label, x, y))| {
+                    Series::line(label, x, y, COLOURS[i % COLOURS.len()]).with_style(Style::Above)
+                }),
+        );
         (
             Plot {
-                title: "onset of slip-driven limit cycles",
+                title: "onset of slip-driven limit cycles (open triangle: none up to the top gain swept)",
                 x_label: "payload, kg",
                 y_label: "gain_scale",
                 series: &series,
@@ -282,9 +315,54 @@ fn onset_plot(
                 empty_note: "no run reached a slip-driven limit cycle at the gains swept",
             }
             .render(),
-            "onset gain against payload",
+            "onset gain against payload; an open triangle where none was found up to the top gain swept",
         )
     };
     crate::output::write_atomically(&plot, svg).map_err(crate::sweep::io_err(&plot))?;
     Ok((plot, plot_says))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn group(payload: &str, onset: Option<f64>) -> TyreGroup {
+        TyreGroup {
+            compound: "soft_rubber".into(),
+            surface: "painted_concrete".into(),
+            payload_kg: payload.into(),
+            runs: vec![(1.0, 0.0, 0.0, false), (4.0, 0.2, 0.01, false)],
+            slip_onset_gain: onset,
+            slip_cycle_onset_gain: onset,
+            wire_lost_gains: vec![],
+        }
+    }
+
+    /// An onset not found up to the top gain swept is drawn censored (an open triangle at
+    /// the top gain), never as a measured point; a found onset stays a point.
+    #[test]
+    fn an_onset_not_reached_is_drawn_censored_at_the_top_gain() {
+        let dir = std::env::temp_dir().join(format!("agvsim_onset_{}", std::process::id()));
+        let opts = StudyOptions {
+            out_dir: dir.clone(),
+            jobs: 1,
+            quick: false,
+        };
+        let groups = [
+            group("0", Some(2.5)),
+            group("100", None),
+            group("200", None),
+        ];
+        let (file, says) = onset_plot(&opts, &groups).unwrap();
+        let svg = std::fs::read_to_string(file).unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        assert!(says.contains("open triangle"), "{says}");
+        assert!(
+            svg.contains("none up to gain 4"),
+            "no censored legend entry"
+        );
+        // Two censored payloads: two open triangles in the data, one in the legend.
+        let triangles = svg.matches(r##"fill="white" stroke="#1f5fbf""##).count();
+        assert_eq!(triangles, 3, "{svg}");
+    }
 }

@@ -7,8 +7,22 @@ use std::path::{Path, PathBuf};
 /// A series' points binned by x (scaled to an integer): the sums of x and y, and the count.
 type Bins = BTreeMap<i64, (f64, f64, usize)>;
 
-/// A metric's lines by the other keys' value places: each its label and its bins.
-type Lines = BTreeMap<Vec<usize>, (String, Bins)>;
+/// One line of a metric's plot (one combination of the other varied keys).
+#[derive(Default)]
+struct Line {
+    /// Legend text: the other keys' values.
+    label: String,
+    /// Its points, binned by x.
+    bins: Bins,
+    /// The x of its runs that failed or lost the wire (drawn as crosses on its plot).
+    flagged: Vec<f64>,
+}
+
+/// A metric's lines by the other keys' value places.
+type Lines = BTreeMap<Vec<usize>, Line>;
+
+/// A line ready to draw: label, x, mean y, and the x of its flagged runs.
+type LineData = (String, Vec<f64>, Vec<f64>, Vec<f64>);
 
 use super::grid::Grid;
 use super::results::{Table, METRICS};
@@ -54,41 +68,38 @@ pub fn write(dir: &Path, grid: &Grid, table: &Table) -> Result<Vec<PathBuf>, Swe
             continue;
         };
         let tracking = TRACKING_METRICS.contains(metric);
-        let (lines, flagged) = axis.lines(table, mc, tracking);
-        if lines.is_empty() && flagged.is_empty() {
+        let lines = axis.lines(table, mc, tracking);
+        if lines.is_empty() {
             continue;
         }
-        let data: Vec<(String, Vec<f64>, Vec<f64>)> = lines
+        let data: Vec<LineData> = lines
             .into_values()
-            .map(|(label, pts)| {
-                let (xs, ys) = pts.values().map(|(x, s, n)| (*x, s / *n as f64)).unzip();
-                (
-                    if label.is_empty() {
-                        "mean over repeats".into()
-                    } else {
-                        label
-                    },
-                    xs,
-                    ys,
-                )
+            .map(|line| {
+                let (xs, ys) = line
+                    .bins
+                    .values()
+                    .map(|(x, s, n)| (*x, s / *n as f64))
+                    .unzip();
+                let label = if line.label.is_empty() {
+                    "mean over repeats".into()
+                } else {
+                    line.label
+                };
+                (label, xs, ys, line.flagged)
             })
             .collect();
-        let flags = (!flagged.is_empty()).then_some(Flags {
-            label: if tracking {
-                "a run here lost the wire or failed (left out)"
-            } else {
-                "a run here lost the wire (kept) or failed (left out)"
-            },
-            x: &flagged,
-            colour: "#c00000",
-        });
+        let flag_label = if tracking {
+            "a run here lost the wire or failed (left out)"
+        } else {
+            "a run here lost the wire (kept) or failed (left out)"
+        };
         files.extend(write_parts(
             &pdir,
             metric,
             meaning,
             &data,
             &axis.label(),
-            flags,
+            flag_label,
         )?);
     }
     Ok(files)
@@ -147,24 +158,24 @@ impl<'g> Axis<'g> {
     }
 
     /// A metric's lines (one per combination of the other keys, in grid order, each the
-    /// mean at each x) and the x of runs that failed or lost the wire. A failed run has no
-    /// value; a lost run's tracking figures measure distance from the wire, so both are
-    /// left out of the lines; its other figures (slip until the wire was lost, energy,
+    /// mean at each x, with the x of its runs that failed or lost the wire). A failed run
+    /// has no value; a lost run's tracking figures measure distance from the wire, so both
+    /// are left out of the lines; its other figures (slip until the wire was lost, energy,
     /// distance) stay in.
-    fn lines(&self, table: &Table, mc: usize, tracking: bool) -> (Lines, Vec<f64>) {
-        // series label -> x -> (sum, count)
+    fn lines(&self, table: &Table, mc: usize, tracking: bool) -> Lines {
         let mut lines: Lines = BTreeMap::new();
-        let mut flagged: Vec<f64> = vec![];
         for (_, _, cells) in &table.rows {
             let failed = self.outcome.map(|c| cells[c] != "ok").unwrap_or(false);
             let was_lost = self.lost.is_some_and(|c| cells[c] == "1");
-            if failed || was_lost {
-                if let Some(Some(col)) = self.key_cols.get(self.xi) {
-                    let x = self.x_of(&cells[*col]);
-                    if x.is_finite() && !flagged.contains(&x) {
-                        flagged.push(x);
-                    }
-                }
+            let Some((order, label, x)) = self.place(cells) else {
+                continue;
+            };
+            let line = lines.entry(order).or_insert_with(|| Line {
+                label,
+                ..Line::default()
+            });
+            if (failed || was_lost) && !line.flagged.contains(&x) {
+                line.flagged.push(x);
             }
             if failed || (tracking && was_lost) {
                 continue;
@@ -172,34 +183,34 @@ impl<'g> Axis<'g> {
             let Ok(y) = cells[mc].parse::<f64>() else {
                 continue;
             };
-            let mut order = vec![];
-            let mut label = vec![];
-            let mut x = f64::NAN;
-            for (k, (v, col)) in self.grid.varies.iter().zip(&self.key_cols).enumerate() {
-                let Some(col) = col else { continue };
-                let val = &cells[*col];
-                if k == self.xi {
-                    x = self.x_of(val);
-                } else {
-                    order.push(v.values.iter().position(|w| w == val).unwrap_or(usize::MAX));
-                    label.push(format!("{}={val}", short_key(&v.key)));
-                }
-            }
-            if !x.is_finite() {
-                continue;
-            }
-            let entry = lines
-                .entry(order)
-                .or_insert_with(|| (label.join(" "), BTreeMap::new()));
             // Keyed by x in fixed point so the map orders the points along x.
-            let p = entry
-                .1
+            let p = line
+                .bins
                 .entry((x * 1e9).round() as i64)
                 .or_insert((x, 0.0, 0));
             p.1 += y;
             p.2 += 1;
         }
-        (lines, flagged)
+        lines
+    }
+
+    /// A run's line (the other keys' value places, and its label) and its x; `None` for
+    /// a run whose x is not a value of the axis.
+    fn place(&self, cells: &[String]) -> Option<(Vec<usize>, String, f64)> {
+        let mut order = vec![];
+        let mut label = vec![];
+        let mut x = f64::NAN;
+        for (k, (v, col)) in self.grid.varies.iter().zip(&self.key_cols).enumerate() {
+            let Some(col) = col else { continue };
+            let val = &cells[*col];
+            if k == self.xi {
+                x = self.x_of(val);
+            } else {
+                order.push(v.values.iter().position(|w| w == val).unwrap_or(usize::MAX));
+                label.push(format!("{}={val}", short_key(&v.key)));
+            }
+        }
+        x.is_finite().then(|| (order, label.join(" "), x))
     }
 }
 
@@ -209,9 +220,9 @@ fn write_parts(
     pdir: &Path,
     metric: &str,
     meaning: &str,
-    data: &[(String, Vec<f64>, Vec<f64>)],
+    data: &[LineData],
     x_label: &str,
-    flags: Option<Flags>,
+    flag_label: &str,
 ) -> Result<Vec<PathBuf>, SweepError> {
     let mut files = vec![];
     let parts = data.len().div_ceil(MAX_SERIES).max(1);
@@ -221,8 +232,21 @@ fn write_parts(
         let series: Vec<Series> = chunk
             .iter()
             .enumerate()
-            .map(|(i, (label, xs, ys))| Series::line(label, xs, ys, COLOURS[i % COLOURS.len()]))
+            .map(|(i, (label, xs, ys, _))| Series::line(label, xs, ys, COLOURS[i % COLOURS.len()]))
             .collect();
+        // Each part marks only its own lines' failed or lost runs: a cross on a part
+        // whose lines all kept the wire would say one of them lost it.
+        let mut flagged: Vec<f64> = vec![];
+        for x in chunk.iter().flat_map(|(.., f)| f) {
+            if !flagged.contains(x) {
+                flagged.push(*x);
+            }
+        }
+        let flags = (!flagged.is_empty()).then_some(Flags {
+            label: flag_label,
+            x: &flagged,
+            colour: "#c00000",
+        });
         // The parts are files side by side (METRIC.svg, METRIC_part2.svg, ...).
         let title = if parts > 1 {
             format!(
@@ -264,4 +288,35 @@ fn part_file(metric: &str, part: usize) -> String {
 /// `tyre.compound` -> `compound`: legends stay short.
 fn short_key(key: &str) -> &str {
     key.rsplit('.').next().unwrap_or(key)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A plot split over parts marks on each part only its own lines' lost or failed runs:
+    /// a part whose lines all kept the wire has no cross.
+    #[test]
+    fn each_part_crosses_only_its_own_lines_lost_runs() {
+        let dir = std::env::temp_dir().join(format!("agvsim_parts_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let data: Vec<LineData> = (0..12)
+            .map(|i| {
+                let flagged = if i == 2 { vec![4.0] } else { vec![] };
+                (format!("line {i}"), vec![1.0, 4.0], vec![0.0, 0.1], flagged)
+            })
+            .collect();
+        let files = write_parts(&dir, "m", "meaning", &data, "gain", "lost").unwrap();
+        let texts: Vec<String> = files
+            .iter()
+            .map(|f| std::fs::read_to_string(f).unwrap())
+            .collect();
+        let _ = std::fs::remove_dir_all(&dir);
+        assert_eq!(texts.len(), 2);
+        assert!(texts[0].contains(">lost<"), "part 1 lost its cross");
+        assert!(
+            !texts[1].contains(">lost<"),
+            "part 2 has a cross of part 1's line"
+        );
+    }
 }

@@ -43,6 +43,39 @@ pub struct Engine {
     heading_rad: f64,
 }
 
+/// A copy of the world for a saved simulation (`Sim`'s `Clone`): every body, collider,
+/// joint (with its warm-start impulses), island and contact pair is copied; rapier's
+/// pipelines and CCD solver hold only per-step scratch (rapier says so of
+/// `PhysicsWorld`'s workspace fields) and start afresh. A copy steps as the original
+/// would (`tests/physics.rs` checks it bit for bit).
+impl Clone for Engine {
+    fn clone(&self) -> Engine {
+        let w = &self.world;
+        let world = PhysicsWorld {
+            gravity: w.gravity,
+            integration_parameters: w.integration_parameters,
+            physics_pipeline: PhysicsPipeline::new(),
+            collision_pipeline: CollisionPipeline::new(),
+            islands: w.islands.clone(),
+            broad_phase: w.broad_phase.clone(),
+            narrow_phase: w.narrow_phase.clone(),
+            bodies: w.bodies.clone(),
+            colliders: w.colliders.clone(),
+            impulse_joints: w.impulse_joints.clone(),
+            multibody_joints: w.multibody_joints.clone(),
+            soft_bodies: w.soft_bodies.clone(),
+            ccd_solver: w.ccd_solver.clone(),
+        };
+        Engine {
+            world,
+            chassis: self.chassis,
+            castors: self.castors,
+            castor: self.castor.clone(),
+            heading_rad: self.heading_rad,
+        }
+    }
+}
+
 fn v(p: [f64; 2]) -> Vector {
     Vector::new(p[0], p[1])
 }
