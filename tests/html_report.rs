@@ -178,3 +178,64 @@ fn diagnosis_and_identification_reports_carry_their_findings_and_parameters() {
         assert!(page.contains(&format!("<td>{}</td>", p["name"].as_str().unwrap())));
     }
 }
+
+/// A mobile robot's calibration report shows its path from above (measured, original,
+/// calibrated: one more figure than the fitted outputs) and its wheel geometry as a table
+/// whose UMBmark figures and controller multipliers are the JSON's.
+#[test]
+fn a_mobile_robot_report_has_its_path_from_above_and_its_wheel_geometry() {
+    let dir = tmp("mobile");
+    let d = dir.to_str().unwrap();
+    agvsim(&[
+        "import",
+        "ros2",
+        "data/ros2_example/robot_square",
+        "--out",
+        d,
+        "--mass-kg",
+        "40",
+        "--gear-ratio",
+        "20",
+        "--motor-no-load-rpm",
+        "3000",
+        "--motor-stall-current-A",
+        "40",
+        "--battery-V",
+        "24",
+        "--controller-yaml",
+        "data/ros2_example/controller.yaml",
+    ]);
+    let (html_path, json_path) = (dir.join("report.html"), dir.join("cal.json"));
+    agvsim(&[
+        "calibrate",
+        "--scene",
+        dir.join("robot_square.scene.toml").to_str().unwrap(),
+        "--recording",
+        dir.join("robot_square.csv").to_str().unwrap(),
+        "--effects",
+        "wheel_geometry",
+        "--html",
+        html_path.to_str().unwrap(),
+        "--json",
+        json_path.to_str().unwrap(),
+    ]);
+    let html = std::fs::read_to_string(&html_path).unwrap();
+    let j = json(&json_path);
+    let outputs = j["replay_fit"].as_object().map_or(0, |o| o.len());
+    assert!(outputs >= 3, "{}", j["replay_fit"]);
+    assert_self_contained(&html, outputs + 1);
+    assert!(html.contains("seen from above, to scale"), "no path figure");
+    assert!(html.contains("Wheel geometry"));
+    let g = &j["wheel_geometry"];
+    for v in [
+        &g["umbmark_ed"],
+        &g["umbmark_eb"],
+        &g["diff_drive_controller"]["wheel_separation_multiplier"],
+    ] {
+        let shown = agvsim::numtext::sig(v.as_f64().unwrap(), 6);
+        assert!(
+            html.contains(&format!(">{shown}<")),
+            "{shown} not in the table"
+        );
+    }
+}

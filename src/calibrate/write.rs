@@ -673,7 +673,50 @@ pub fn figures(c: &Calibration, rec_name: &str) -> Vec<crate::plot::Figure> {
             svg: doc,
         });
     }
+    files.extend(path_figure(c, rec_name));
     files
+}
+
+/// The path seen from above (x against y, to scale): measured, replayed on the original
+/// scene and on the calibrated one, where the recording has a pose that was fitted.
+fn path_figure(c: &Calibration, rec_name: &str) -> Option<crate::plot::Figure> {
+    use crate::plot::{Figure, Plot, Series, Style};
+    let (bx, by) = (c.before.output("x_m")?, c.before.output("y_m")?);
+    let (ax, ay) = (c.after.output("x_m")?, c.after.output("y_m")?);
+    let (mx, my): (Vec<f64>, Vec<f64>) = bx
+        .measured
+        .iter()
+        .zip(&by.measured)
+        .filter_map(|(x, y)| Some(((*x)?, (*y)?)))
+        .unzip();
+    let orig = format!(
+        "original scene (x {:.1} %, y {:.1} %)",
+        bx.fit_pct, by.fit_pct
+    );
+    let cal = format!(
+        "calibrated scene (x {:.1} %, y {:.1} %)",
+        ax.fit_pct, ay.fit_pct
+    );
+    let title = format!("path of {rec_name} seen from above, to scale: measured and replayed");
+    let series = [
+        Series::line("measured", &mx, &my, "#555").with_style(Style::Measured),
+        Series::line(&orig, &bx.simulated, &by.simulated, "#d08000"),
+        Series::line(&cal, &ax.simulated, &ay.simulated, "#1f5fbf"),
+    ];
+    let svg = Plot {
+        title: &title,
+        x_label: "x (m)",
+        y_label: "y (m)",
+        series: &series,
+        band: None,
+        flags: None,
+        empty_note: "no pose measured",
+    }
+    .render_to_scale();
+    Some(Figure {
+        file: "path_calibrated.svg".into(),
+        svg,
+    })
 }
 
 #[cfg(test)]

@@ -48,6 +48,9 @@ pub fn calibration(
     if !c.effects.is_empty() {
         effect_table(&mut d, c);
     }
+    if let Some(g) = c.wheel_geometry() {
+        geometry_table(&mut d, &g);
+    }
     d.heading("Replay fit per output");
     let rows = c
         .outputs
@@ -68,6 +71,57 @@ pub fn calibration(
     d.pre(text_report);
     d.command(command);
     d.finish()
+}
+
+/// The wheel geometry the recording shows: effective radii and track against the
+/// configured ones, UMBmark's figures, and `diff_drive_controller`'s multipliers.
+fn geometry_table(d: &mut Document, g: &crate::calibrate::WheelGeometry) {
+    d.heading("Wheel geometry");
+    let num = |v: f64| Cell::Num(sig(v, 6));
+    let m = g.controller_multipliers();
+    let rows = vec![
+        vec![
+            "left wheel's effective radius".into(),
+            Cell::Num(estimate(g.radii_m[0].0, g.radii_m[0].1, "m")),
+            Cell::Num(quantity(g.configured_m.0, 6, "m")),
+        ],
+        vec![
+            "right wheel's effective radius".into(),
+            Cell::Num(estimate(g.radii_m[1].0, g.radii_m[1].1, "m")),
+            Cell::Num(quantity(g.configured_m.0, 6, "m")),
+        ],
+        vec![
+            "effective track".into(),
+            Cell::Num(estimate(g.track_m.0, g.track_m.1, "m")),
+            Cell::Num(quantity(g.configured_m.1, 6, "m")),
+        ],
+        vec![
+            "UMBmark Ed (right/left diameter)".into(),
+            num(g.ed()),
+            num(1.0),
+        ],
+        vec![
+            "UMBmark Eb (track/configured)".into(),
+            num(g.eb()),
+            num(1.0),
+        ],
+        vec![
+            "diff_drive_controller wheel_separation_multiplier".into(),
+            num(m.wheel_separation),
+            "".into(),
+        ],
+        vec![
+            "diff_drive_controller left_wheel_radius_multiplier".into(),
+            num(m.left_wheel_radius),
+            "".into(),
+        ],
+        vec![
+            "diff_drive_controller right_wheel_radius_multiplier".into(),
+            num(m.right_wheel_radius),
+            "".into(),
+        ],
+    ];
+    d.table(&["", "from the recording", "configured"], rows);
 }
 
 /// Each key before and after, with its verdict.

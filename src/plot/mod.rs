@@ -306,7 +306,29 @@ impl Plot<'_> {
 
     /// The plot as an SVG document.
     pub fn render(&self) -> String {
+        self.render_in(self.ranges())
+    }
+
+    /// The plot with a metre on x as long as a metre on y (a path seen from above): the
+    /// ranges widened about their middles until both scales agree.
+    pub fn render_to_scale(&self) -> String {
         let ((x0, x1), (y0, y1)) = self.ranges();
+        let (wx, wy) = (x1 - x0, y1 - y0);
+        let (ux, uy) = (wx / (W - MARGIN_L - MARGIN_R), wy / PLOT_H);
+        let ranges = if ux > uy {
+            let half = 0.5 * ux * PLOT_H;
+            let c = 0.5 * (y0 + y1);
+            ((x0, x1), (c - half, c + half))
+        } else {
+            let half = 0.5 * uy * (W - MARGIN_L - MARGIN_R);
+            let c = 0.5 * (x0 + x1);
+            ((c - half, c + half), (y0, y1))
+        };
+        self.render_in(ranges)
+    }
+
+    /// The plot drawn over the given axes' ranges.
+    fn render_in(&self, ((x0, x1), (y0, y1)): ((f64, f64), (f64, f64))) -> String {
         let px = |x: f64| on_canvas(MARGIN_L + (x - x0) / (x1 - x0) * (W - MARGIN_L - MARGIN_R));
         let py = |y: f64| on_canvas(MARGIN_T + (y1 - y) / (y1 - y0) * PLOT_H);
         let owned = self.legend_labels();
