@@ -35,6 +35,41 @@ fn counts(start: Instant) -> String {
     )
 }
 
+/// What the fits under way have left, for the live line: the longest by its pace so far
+/// (`fits: 3 under way, the longest at iteration 4 of at most 30: at most about 1 min 5 s
+/// left`), or nothing while none runs.
+fn time_left() -> String {
+    let fits = activity::running_fits();
+    let longest = fits
+        .iter()
+        .filter_map(|f| f.most_left_s().map(|s| (s, f)))
+        .max_by(|a, b| a.0.total_cmp(&b.0));
+    let Some((left_s, f)) = longest else {
+        return String::new();
+    };
+    let many = if fits.len() > 1 {
+        format!("{} fits under way, the longest", fits.len())
+    } else {
+        "fit".to_string()
+    };
+    format!(
+        "; {many} at iteration {} of at most {}: at most about {} left",
+        f.done,
+        f.max,
+        duration_words(left_s)
+    )
+}
+
+/// A duration as people say it: `45 s`, `3 min 20 s`, `1 h 5 min`.
+fn duration_words(s: f64) -> String {
+    let s = s.max(0.0).round() as u64;
+    match s {
+        0..=59 => format!("{s} s"),
+        60..=3599 => format!("{} min {} s", s / 60, s % 60),
+        _ => format!("{} h {} min", s / 3600, (s % 3600) / 60),
+    }
+}
+
 /// A count with thousands separated by commas.
 fn grouped(n: u64) -> String {
     let digits = n.to_string();
@@ -62,17 +97,10 @@ pub fn start(command: &'static str) {
         b
     });
     let stage = Arc::new(Mutex::new(String::new()));
-    let ticker = bar.clone().map(|b| {
-        let (stop, stage) = (stop.clone(), stage.clone());
-        std::thread::spawn(move || {
-            while !stop.load(Ordering::Relaxed) {
-                let now = stage.lock().map(|s| s.clone()).unwrap_or_default();
-                b.set_message(format!("{now}  [{}]", counts(start)));
-                b.tick();
-                std::thread::sleep(Duration::from_millis(200));
-            }
-        })
-    });
+    let ticker = match bar.clone() {
+        Some(b) => Some(live_ticker(b, start, stop.clone(), stage.clone())),
+        None => Some(log_ticker(command, start, stop.clone(), stage.clone())),
+    };
     let _ = DISPLAY.set(Display {
         command,
         start,
@@ -81,6 +109,57 @@ pub fn start(command: &'static str) {
         stop,
         ticker: Mutex::new(ticker),
     });
+}
+
+/// How often a log (not a terminal) gets a line while a stage goes on.
+const LOG_EVERY: Duration = Duration::from_secs(30);
+
+/// The terminal's live line, redrawn five times a second.
+fn live_ticker(
+    b: indicatif::ProgressBar,
+    start: Instant,
+    stop: Arc<AtomicBool>,
+    stage: Arc<Mutex<String>>,
+) -> std::thread::JoinHandle<()> {
+    std::thread::spawn(move || {
+        while !stop.load(Ordering::Relaxed) {
+            let now = stage.lock().map(|s| s.clone()).unwrap_or_default();
+            // The counts and time left first: a narrow terminal cuts the stage's end.
+            b.set_message(format!("[{}{}]  {now}", counts(start), time_left()));
+            b.tick();
+            std::thread::sleep(Duration::from_millis(200));
+        }
+    })
+}
+
+/// In a log: a line after every [`LOG_EVERY`] without a stage line, with the counts and
+/// the time left, so that a long stage shows it is going on.
+fn log_ticker(
+    command: &'static str,
+    start: Instant,
+    stop: Arc<AtomicBool>,
+    stage: Arc<Mutex<String>>,
+) -> std::thread::JoinHandle<()> {
+    std::thread::spawn(move || {
+        let mut last = Instant::now();
+        let mut seen = String::new();
+        while !stop.load(Ordering::Relaxed) {
+            std::thread::sleep(Duration::from_millis(100));
+            let now = stage.lock().map(|s| s.clone()).unwrap_or_default();
+            if now != seen {
+                // A stage line was just printed.
+                (seen, last) = (now, Instant::now());
+            }
+            if last.elapsed() >= LOG_EVERY {
+                last = Instant::now();
+                eprintln!(
+                    "{command:<10} still working  [{}{}]",
+                    counts(start),
+                    time_left()
+                );
+            }
+        }
+    })
 }
 
 /// Tells the stage the command has reached (callable from worker threads).
@@ -99,6 +178,15 @@ pub fn stage(msg: &str) {
     }
 }
 
+/// Runs `print` (which writes to standard output) with the live line cleared, then
+/// draws the line again: a report printed as it comes does not end the display.
+pub fn above(print: impl FnOnce()) {
+    match DISPLAY.get().and_then(|d| d.bar.as_ref()) {
+        Some(b) => b.suspend(print),
+        None => print(),
+    }
+}
+
 /// Ends the display: the live line is cleared, the stage lines stay.
 pub fn finish() {
     let Some(d) = DISPLAY.get() else { return };
@@ -113,6 +201,13 @@ pub fn finish() {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn durations_read_as_people_say_them() {
+        assert_eq!(super::duration_words(44.6), "45 s");
+        assert_eq!(super::duration_words(200.0), "3 min 20 s");
+        assert_eq!(super::duration_words(3900.0), "1 h 5 min");
+    }
+
     #[test]
     fn counts_are_grouped_by_thousands() {
         assert_eq!(super::grouped(0), "0");

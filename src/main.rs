@@ -27,10 +27,9 @@ fn quiet_on_closed_pipe() {
 #[cfg(not(unix))]
 fn quiet_on_closed_pipe() {}
 
-/// Prints a command's report as it comes, after any live progress line.
+/// Prints a command's report as it comes, above any live progress line (which goes on).
 fn say(text: &str) {
-    cli_progress::finish();
-    print!("{text}");
+    cli_progress::above(|| print!("{text}"));
 }
 
 /// A reference's text, printed whole.

@@ -249,6 +249,36 @@ fn no_cycle_text(n: Option<crate::sim::metrics::NoCycle>, tail_pct: f64, over: &
     }
 }
 
+/// Where the tyres slid and why a peak slip ratio is large, as the run shows it: the
+/// sliding split by what the wheels were doing, and what they did at the peak where that
+/// is not driving along (a slip ratio divides by the contact's speed over the ground,
+/// small when the wheels start from rest or counter-rotate before the body turns).
+fn slip_explained(s: &RunSummary) -> String {
+    use crate::sim::metrics::WheelMotion;
+    let mut out = String::new();
+    let b = s.sliding_by_motion;
+    // Sliding only while driving along needs no split (a wire follower's cornering).
+    if b.turning_on_spot + b.near_rest > 0.0 {
+        let parts: Vec<String> = [
+            (b.turning_on_spot, WheelMotion::TurningOnTheSpot),
+            (b.near_rest, WheelMotion::NearRest),
+            (b.moving, WheelMotion::Driving),
+        ]
+        .iter()
+        .filter(|(v, _)| *v > 0.0)
+        .map(|(v, m)| format!("{:.1} % {}", 100.0 * v, m.words()))
+        .collect();
+        out.push_str(&format!("\n           where it slid: {}", parts.join(", ")));
+    }
+    if s.peak_abs_slip_ratio > 0.5 && s.peak_slip_motion != WheelMotion::Driving {
+        out.push_str(&format!(
+            "\n           the peak slip ratio came while {}: a slip ratio divides by the contact's speed over the ground, which is small there (the body has not yet followed the wheels)",
+            s.peak_slip_motion.words()
+        ));
+    }
+    out
+}
+
 /// The summary `agvsim run` prints: one labelled line per measure, with units. Every
 /// error figure says what stretch of the run it covers.
 pub fn render_summary(scene_path: &Path, scene: &Scene, s: &RunSummary) -> String {
@@ -278,11 +308,12 @@ pub fn render_summary(scene_path: &Path, scene: &Scene, s: &RunSummary) -> Strin
     }
     let _ = writeln!(
         out,
-        "slip       peak {:.3}, mean {:.3} (slip ratio), sliding {:.1} % of the time ({})",
+        "slip       peak {:.3}, mean {:.3} (slip ratio), sliding {:.1} % of the time ({}){}",
         s.peak_abs_slip_ratio,
         s.mean_abs_slip_ratio,
         100.0 * s.sliding_fraction,
-        s.slip_window.describe()
+        s.slip_window.describe(),
+        slip_explained(s)
     );
     let _ = writeln!(
         out,

@@ -101,6 +101,56 @@ impl SlipWindow {
     }
 }
 
+/// Below this rim speed a wheel is at or near rest, m/s: a creeping robot's pace.
+pub const NEAR_REST_M_S: f64 = 0.02;
+
+/// What the wheels were doing at a sample, by their rim speeds.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum WheelMotion {
+    /// Turning opposite ways, each faster than [`NEAR_REST_M_S`]: turning on the spot.
+    TurningOnTheSpot,
+    /// Both at or near rest: starting or stopping.
+    #[default]
+    NearRest,
+    /// Driving along (or curving).
+    Driving,
+}
+
+impl WheelMotion {
+    /// The motion of wheels turning at these rim speeds (left, right), m/s.
+    pub fn of(rim_m_s: [f64; 2]) -> WheelMotion {
+        let [l, r] = rim_m_s;
+        if l.abs() < NEAR_REST_M_S && r.abs() < NEAR_REST_M_S {
+            WheelMotion::NearRest
+        } else if l * r < 0.0 && l.abs() >= NEAR_REST_M_S && r.abs() >= NEAR_REST_M_S {
+            WheelMotion::TurningOnTheSpot
+        } else {
+            WheelMotion::Driving
+        }
+    }
+
+    /// As a report says it.
+    pub fn words(self) -> &'static str {
+        match self {
+            WheelMotion::TurningOnTheSpot => "turning on the spot",
+            WheelMotion::NearRest => "starting or stopping (both wheels under 0.02 m/s)",
+            WheelMotion::Driving => "driving along",
+        }
+    }
+}
+
+/// Where in the motion the tyres slid, as shares of the slip window (they add up to the
+/// sliding fraction).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SlidingByMotion {
+    /// The wheels turning opposite ways.
+    pub turning_on_spot: f64,
+    /// Both wheels at or near rest.
+    pub near_rest: f64,
+    /// Driving along.
+    pub moving: f64,
+}
+
 /// The summary of a run.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct RunSummary {
@@ -132,6 +182,11 @@ pub struct RunSummary {
     /// Share of [`RunSummary::slip_window`] in which either drive tyre slid (its force on
     /// the friction limit).
     pub sliding_fraction: f64,
+    /// The sliding fraction split by what the body was doing.
+    pub sliding_by_motion: SlidingByMotion,
+    /// What the wheels were doing where the peak slip ratio was (a ratio of speeds is
+    /// large where the contact's speed over the ground is small).
+    pub peak_slip_motion: WheelMotion,
     /// What the slip figures cover.
     pub slip_window: SlipWindow,
     /// Energy drawn from the battery, J.
@@ -226,6 +281,8 @@ pub struct MetricsObserver {
     distance_m: f64,
     /// (time, larger |slip ratio| of the two sides, mean |slip ratio|, either sliding).
     slip: Vec<(f64, f64, f64, bool)>,
+    /// For each slip sample: what the wheels were doing.
+    slip_motion: Vec<WheelMotion>,
     energy_j: f64,
     last_t: f64,
     /// (time, mean squared swivel rate over the castors) per interval.
@@ -240,6 +297,21 @@ pub struct MetricsObserver {
     wheels_lifted: bool,
     bumper: bool,
     bumper_at: Option<RunEvent>,
+}
+
+/// The sliding samples of a window split by what the body was doing, as shares of it.
+fn sliding_by_motion(late: &[(&(f64, f64, f64, bool), &WheelMotion)]) -> SlidingByMotion {
+    let n = late.len().max(1) as f64;
+    let mut out = SlidingByMotion::default();
+    for (_, m) in late.iter().filter(|(x, _)| x.3) {
+        let share = match m {
+            WheelMotion::Driving => &mut out.moving,
+            WheelMotion::TurningOnTheSpot => &mut out.turning_on_spot,
+            WheelMotion::NearRest => &mut out.near_rest,
+        };
+        *share += 1.0 / n;
+    }
+    out
 }
 
 impl MetricsObserver {
@@ -273,6 +345,10 @@ impl MetricsObserver {
             0.5 * (l + r),
             s.sides.iter().any(|x| x.sliding),
         ));
+        self.slip_motion.push(WheelMotion::of([
+            s.sides[0].wheel_rim_m_s,
+            s.sides[1].wheel_rim_m_s,
+        ]));
         self.energy_j += s.battery_v * s.battery_current_a * dt;
         if !s.castors.is_empty() {
             if self.last_swivel.len() == s.castors.len() && dt > 0.0 {
@@ -404,11 +480,13 @@ impl MetricsObserver {
         };
         // The second half of the time on the wire (of the whole run when it stayed on).
         let slip_from_t = 0.5 * event_t.min(self.last_t);
-        let late_slip: Vec<&(f64, f64, f64, bool)> = self
+        let late: Vec<(&(f64, f64, f64, bool), &WheelMotion)> = self
             .slip
             .iter()
-            .filter(|x| x.0 >= slip_from_t && x.0 < event_t)
+            .zip(&self.slip_motion)
+            .filter(|(x, _)| x.0 >= slip_from_t && x.0 < event_t)
             .collect();
+        let late_slip: Vec<&(f64, f64, f64, bool)> = late.iter().map(|(x, _)| *x).collect();
         let late_n = late_slip.len().max(1) as f64;
         let cycle_end_t = on_wire.last().map_or(0.0, |s| s.t_s);
         let tail_start = (1.0 - LIMIT_CYCLE_TAIL_FRACTION) * cycle_end_t;
@@ -432,6 +510,11 @@ impl MetricsObserver {
             peak_abs_slip_ratio: late_slip.iter().map(|x| x.1).fold(0.0, f64::max),
             mean_abs_slip_ratio: late_slip.iter().map(|x| x.2).sum::<f64>() / late_n,
             sliding_fraction: late_slip.iter().filter(|x| x.3).count() as f64 / late_n,
+            sliding_by_motion: sliding_by_motion(&late),
+            peak_slip_motion: late
+                .iter()
+                .max_by(|a, b| a.0 .1.total_cmp(&b.0 .1))
+                .map_or(WheelMotion::NearRest, |(_, m)| **m),
             slip_window,
             battery_energy_j: self.energy_j,
             castor_shimmy_rad_s: self.castor_shimmy_rad_s(),
@@ -456,6 +539,39 @@ impl MetricsObserver {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Sliding is split by what the wheels do: opposite ways is turning on the spot, both
+    /// slow is starting or stopping, else driving; the shares add up to the fraction.
+    #[test]
+    fn sliding_is_split_by_what_the_wheels_were_doing() {
+        assert_eq!(WheelMotion::of([-0.1, 0.1]), WheelMotion::TurningOnTheSpot);
+        assert_eq!(WheelMotion::of([0.01, -0.015]), WheelMotion::NearRest);
+        assert_eq!(WheelMotion::of([0.3, 0.25]), WheelMotion::Driving);
+        assert_eq!(WheelMotion::of([-0.1, 0.01]), WheelMotion::Driving);
+        let mut m = MetricsObserver::wireless();
+        for k in 0..=400 {
+            let t_s = k as f64 * 0.01;
+            let mut s = Snapshot {
+                t_s,
+                ..Snapshot::default()
+            };
+            // Second half: 1 s turning on the spot and sliding, then 1 s driving, gripping.
+            let turning = t_s < 3.0;
+            s.sides[0].wheel_rim_m_s = if turning { -0.1 } else { 0.3 };
+            s.sides[1].wheel_rim_m_s = if turning { 0.1 } else { 0.3 };
+            for side in &mut s.sides {
+                side.sliding = turning;
+                side.slip_ratio = if turning { 1.5 } else { 0.01 };
+            }
+            m.observe(&s);
+        }
+        let r = m.summary();
+        let b = r.sliding_by_motion;
+        assert!((b.turning_on_spot - 0.5).abs() < 0.02, "{b:?}");
+        assert_eq!(b.moving + b.near_rest, 0.0);
+        assert!((r.sliding_fraction - b.turning_on_spot).abs() < 1e-12);
+        assert_eq!(r.peak_slip_motion, WheelMotion::TurningOnTheSpot);
+    }
 
     /// A run of 10 s whose tyres grip (slip 0.02) while on the wire, then spin freely
     /// (slip 0.9, sliding) once the wire is lost at `lost_at_s`.

@@ -129,9 +129,10 @@ pub(super) fn run_lm(
     let n = z.len();
     // The bounds in the search's coordinates: fixed for the whole search.
     let (zlo, zhi) = pb.z_bounds();
+    let under_way = crate::ident::activity::begin_fit(max_iterations);
     while iterations < max_iterations && !converged {
         iterations += 1;
-        crate::ident::activity::count_iteration();
+        under_way.iteration();
         let jac = pb.jacobian(&z, &r);
         evaluations += n;
         let h = jac.transpose() * &jac;
