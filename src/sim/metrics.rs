@@ -299,8 +299,11 @@ pub struct MetricsObserver {
     bumper_at: Option<RunEvent>,
 }
 
-/// The sliding samples of a window split by what the body was doing, as shares of it.
-fn sliding_by_motion(late: &[(&(f64, f64, f64, bool), &WheelMotion)]) -> SlidingByMotion {
+/// One slip sample (time s, peak |slip|, mean |slip|, sliding) with what the wheels did.
+type SlipAndMotion<'a> = (&'a (f64, f64, f64, bool), &'a WheelMotion);
+
+/// The sliding samples of a window split by what the wheels were doing, as shares of it.
+fn sliding_by_motion(late: &[SlipAndMotion]) -> SlidingByMotion {
     let n = late.len().max(1) as f64;
     let mut out = SlidingByMotion::default();
     for (_, m) in late.iter().filter(|(x, _)| x.3) {
@@ -480,7 +483,7 @@ impl MetricsObserver {
         };
         // The second half of the time on the wire (of the whole run when it stayed on).
         let slip_from_t = 0.5 * event_t.min(self.last_t);
-        let late: Vec<(&(f64, f64, f64, bool), &WheelMotion)> = self
+        let late: Vec<SlipAndMotion> = self
             .slip
             .iter()
             .zip(&self.slip_motion)
