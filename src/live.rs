@@ -52,6 +52,16 @@ pub enum LiveError {
     /// A command the scene's controller does not take.
     #[error(transparent)]
     Command(#[from] WrongCommand),
+    /// A fleet given another number of commands or seeds than it has simulations.
+    #[error("{given} {what} for {expected} simulations: give one per simulation")]
+    Count {
+        /// What was given (commands, seeds).
+        what: &'static str,
+        /// How many.
+        given: usize,
+        /// How many simulations.
+        expected: usize,
+    },
 }
 
 /// The names of the state [`LiveSim::state`] gives, with units, in its order.
@@ -335,10 +345,10 @@ pub struct LiveFleet {
 
 /// A member of a fleet that could not step, by its index.
 #[derive(Debug, thiserror::Error)]
-#[error("simulation {index}: {source}")]
+#[error("{}{source}", index.map(|i| format!("simulation {i}: ")).unwrap_or_default())]
 pub struct FleetError {
-    /// Which simulation, from 0.
-    pub index: usize,
+    /// Which simulation, from 0 (`None`: the fleet as a whole).
+    pub index: Option<usize>,
     /// Why.
     #[source]
     pub source: LiveError,
@@ -358,11 +368,17 @@ impl LiveFleet {
     /// Steps each simulation `n` steps with its command (one per simulation), in parallel.
     pub fn step(&mut self, commands: &[Command], n: u64) -> Result<(), FleetError> {
         use rayon::prelude::*;
+        self.check_count("commands", commands.len())?;
         self.sims
             .par_iter_mut()
             .zip(commands.par_iter())
             .enumerate()
-            .map(|(index, (s, c))| s.step(*c, n).map_err(|source| FleetError { index, source }))
+            .map(|(i, (s, c))| {
+                s.step(*c, n).map_err(|source| FleetError {
+                    index: Some(i),
+                    source,
+                })
+            })
             .collect::<Vec<_>>()
             .into_iter()
             .collect()
@@ -370,10 +386,64 @@ impl LiveFleet {
 
     /// Resets every simulation, the i-th seeded `seeds[i]` where given.
     pub fn reset(&mut self, seeds: Option<&[u64]>) -> Result<(), FleetError> {
+        if let Some(v) = seeds {
+            self.check_count("seeds", v.len())?;
+        }
         for (index, s) in self.sims.iter_mut().enumerate() {
             s.reset(seeds.map(|v| v[index]))
-                .map_err(|source| FleetError { index, source })?;
+                .map_err(|source| FleetError {
+                    index: Some(index),
+                    source,
+                })?;
         }
         Ok(())
+    }
+
+    /// One of `what` per simulation, or an error saying how many were given.
+    fn check_count(&self, what: &'static str, given: usize) -> Result<(), FleetError> {
+        let expected = self.sims.len();
+        if given == expected {
+            return Ok(());
+        }
+        Err(FleetError {
+            index: None,
+            source: LiveError::Count {
+                what,
+                given,
+                expected,
+            },
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The thesis machine (every key at its default), in memory.
+    fn thesis() -> LiveSim {
+        LiveSim::new(Scene::default(), None).unwrap()
+    }
+
+    /// A fleet steps each member as it would alone, refuses a count of commands that is
+    /// not one per member, and refuses a velocity command to a wire-following scene.
+    #[test]
+    fn a_fleet_steps_each_member_as_alone_and_checks_its_commands() {
+        let mut alone = thesis();
+        alone.step(Command::Scene, 300).unwrap();
+        let mut fleet = LiveFleet::new(vec![thesis(), thesis()]);
+        let err = fleet.step(&[Command::Scene], 300).unwrap_err();
+        assert!(err.to_string().starts_with("1 commands for 2"), "{err}");
+        fleet.step(&[Command::Scene, Command::Scene], 300).unwrap();
+        for s in fleet.sims() {
+            assert_eq!(s.outputs(), alone.outputs());
+        }
+        let v = Command::Velocity {
+            linear_m_s: 0.3,
+            angular_rad_s: 0.0,
+        };
+        let err = fleet.step(&[Command::Scene, v], 1).unwrap_err();
+        assert_eq!(err.index, Some(1));
+        assert!(err.to_string().contains("demand_fwd_pct"), "{err}");
     }
 }

@@ -15,6 +15,7 @@ use crate::{f64_bytes, to_py, AgvsimError, InputError};
 fn live_err(e: LiveError) -> PyErr {
     match e {
         LiveError::Command(w) => InputError::new_err(format!("step(command=...): {w}")),
+        e @ LiveError::Count { .. } => InputError::new_err(e.to_string()),
         LiveError::Sim(e) => AgvsimError::new_err(e.to_string()),
     }
 }
@@ -261,9 +262,9 @@ impl NativeVecSim {
         };
         let fleet = &mut self.fleet;
         py.allow_threads(|| fleet.step(&cmds, n)).map_err(|e| {
-            let text = format!("simulation {}: {}", e.index, e.source);
+            let text = e.to_string();
             match e.source {
-                LiveError::Command(_) => InputError::new_err(text),
+                LiveError::Command(_) | LiveError::Count { .. } => InputError::new_err(text),
                 LiveError::Sim(_) => AgvsimError::new_err(text),
             }
         })
