@@ -186,25 +186,14 @@ fn diagnosis_and_identification_reports_carry_their_findings_and_parameters() {
 fn a_mobile_robot_report_has_its_path_from_above_and_its_wheel_geometry() {
     let dir = tmp("mobile");
     let d = dir.to_str().unwrap();
-    agvsim(&[
+    let import = [
         "import",
         "ros2",
         "data/ros2_example/robot_square",
         "--out",
         d,
-        "--mass-kg",
-        "40",
-        "--gear-ratio",
-        "20",
-        "--motor-no-load-rpm",
-        "3000",
-        "--motor-stall-current-A",
-        "40",
-        "--battery-V",
-        "24",
-        "--controller-yaml",
-        "data/ros2_example/controller.yaml",
-    ]);
+    ];
+    agvsim(&[&import[..], &common::EXAMPLE_BAG_ROBOT[..]].concat());
     let (html_path, json_path) = (dir.join("report.html"), dir.join("cal.json"));
     agvsim(&[
         "calibrate",

@@ -827,24 +827,7 @@ fn numbers_from_a_bag_are_named_by_the_topic_they_came_from() {
 fn the_example_bag_replays_to_its_noise_on_the_robot_it_was_made_from() {
     let dir = scratch("example_bag");
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/ros2_example");
-    let o = import(
-        &root.join("robot_square"),
-        &dir,
-        &[
-            "--mass-kg",
-            "40",
-            "--gear-ratio",
-            "20",
-            "--motor-no-load-rpm",
-            "3000",
-            "--motor-stall-current-A",
-            "40",
-            "--battery-V",
-            "24",
-            "--controller-yaml",
-            root.join("controller.yaml").to_str().unwrap(),
-        ],
-    );
+    let o = import(&root.join("robot_square"), &dir, &common::EXAMPLE_BAG_ROBOT);
     assert!(o.status.success(), "{}", text(&o));
     let out = dir.join("replayed");
     let o = agvsim(&[

@@ -94,3 +94,20 @@ pub fn batch_merge(dir: &Path, shards: &[&Path]) -> Output {
     args.extend(["--out", out.to_str().unwrap()]);
     agvsim_output(&args)
 }
+
+/// The numbers of the robot the shipped example bag was made from (`data/ros2_example`'s
+/// README): `import ros2`'s options for it, with its controller file.
+pub const EXAMPLE_BAG_ROBOT: [&str; 12] = [
+    "--mass-kg",
+    "40",
+    "--gear-ratio",
+    "20",
+    "--motor-no-load-rpm",
+    "3000",
+    "--motor-stall-current-A",
+    "40",
+    "--battery-V",
+    "24",
+    "--controller-yaml",
+    "data/ros2_example/controller.yaml",
+];
