@@ -279,10 +279,8 @@ pub struct MetricsObserver {
     samples: Vec<Sample>,
     last_xy: Option<[f64; 2]>,
     distance_m: f64,
-    /// (time, larger |slip ratio| of the two sides, mean |slip ratio|, either sliding).
-    slip: Vec<(f64, f64, f64, bool)>,
-    /// For each slip sample: what the wheels were doing.
-    slip_motion: Vec<WheelMotion>,
+    /// The drive tyres' slip at each sample.
+    slip: Vec<SlipSample>,
     energy_j: f64,
     last_t: f64,
     /// (time, mean squared swivel rate over the castors) per interval.
@@ -299,15 +297,27 @@ pub struct MetricsObserver {
     bumper_at: Option<RunEvent>,
 }
 
-/// One slip sample (time s, peak |slip|, mean |slip|, sliding) with what the wheels did.
-type SlipAndMotion<'a> = (&'a (f64, f64, f64, bool), &'a WheelMotion);
+/// The drive tyres' slip at one sample.
+#[derive(Debug, Clone, Copy)]
+struct SlipSample {
+    /// Time, s.
+    t_s: f64,
+    /// The larger |slip ratio| of the two sides.
+    peak: f64,
+    /// The mean |slip ratio| of the two sides.
+    mean: f64,
+    /// Either tyre on its friction limit.
+    sliding: bool,
+    /// What the wheels were doing.
+    motion: WheelMotion,
+}
 
 /// The sliding samples of a window split by what the wheels were doing, as shares of it.
-fn sliding_by_motion(late: &[SlipAndMotion]) -> SlidingByMotion {
+fn sliding_by_motion(late: &[&SlipSample]) -> SlidingByMotion {
     let n = late.len().max(1) as f64;
     let mut out = SlidingByMotion::default();
-    for (_, m) in late.iter().filter(|(x, _)| x.3) {
-        let share = match m {
+    for x in late.iter().filter(|x| x.sliding) {
+        let share = match x.motion {
             WheelMotion::Driving => &mut out.moving,
             WheelMotion::TurningOnTheSpot => &mut out.turning_on_spot,
             WheelMotion::NearRest => &mut out.near_rest,
@@ -342,16 +352,13 @@ impl MetricsObserver {
             lateral_error_m: s.lateral_error_m,
         });
         let [l, r] = [s.sides[0].slip_ratio.abs(), s.sides[1].slip_ratio.abs()];
-        self.slip.push((
-            s.t_s,
-            l.max(r),
-            0.5 * (l + r),
-            s.sides.iter().any(|x| x.sliding),
-        ));
-        self.slip_motion.push(WheelMotion::of([
-            s.sides[0].wheel_rim_m_s,
-            s.sides[1].wheel_rim_m_s,
-        ]));
+        self.slip.push(SlipSample {
+            t_s: s.t_s,
+            peak: l.max(r),
+            mean: 0.5 * (l + r),
+            sliding: s.sides.iter().any(|x| x.sliding),
+            motion: WheelMotion::of([s.sides[0].wheel_rim_m_s, s.sides[1].wheel_rim_m_s]),
+        });
         self.energy_j += s.battery_v * s.battery_current_a * dt;
         if !s.castors.is_empty() {
             if self.last_swivel.len() == s.castors.len() && dt > 0.0 {
@@ -483,13 +490,11 @@ impl MetricsObserver {
         };
         // The second half of the time on the wire (of the whole run when it stayed on).
         let slip_from_t = 0.5 * event_t.min(self.last_t);
-        let late: Vec<SlipAndMotion> = self
+        let late_slip: Vec<&SlipSample> = self
             .slip
             .iter()
-            .zip(&self.slip_motion)
-            .filter(|(x, _)| x.0 >= slip_from_t && x.0 < event_t)
+            .filter(|x| x.t_s >= slip_from_t && x.t_s < event_t)
             .collect();
-        let late_slip: Vec<&(f64, f64, f64, bool)> = late.iter().map(|(x, _)| *x).collect();
         let late_n = late_slip.len().max(1) as f64;
         let cycle_end_t = on_wire.last().map_or(0.0, |s| s.t_s);
         let tail_start = (1.0 - LIMIT_CYCLE_TAIL_FRACTION) * cycle_end_t;
@@ -510,14 +515,14 @@ impl MetricsObserver {
             error_window,
             limit_cycle: cycle.and_then(Result::ok),
             no_cycle: cycle.and_then(Result::err),
-            peak_abs_slip_ratio: late_slip.iter().map(|x| x.1).fold(0.0, f64::max),
-            mean_abs_slip_ratio: late_slip.iter().map(|x| x.2).sum::<f64>() / late_n,
-            sliding_fraction: late_slip.iter().filter(|x| x.3).count() as f64 / late_n,
-            sliding_by_motion: sliding_by_motion(&late),
-            peak_slip_motion: late
+            peak_abs_slip_ratio: late_slip.iter().map(|x| x.peak).fold(0.0, f64::max),
+            mean_abs_slip_ratio: late_slip.iter().map(|x| x.mean).sum::<f64>() / late_n,
+            sliding_fraction: late_slip.iter().filter(|x| x.sliding).count() as f64 / late_n,
+            sliding_by_motion: sliding_by_motion(&late_slip),
+            peak_slip_motion: late_slip
                 .iter()
-                .max_by(|a, b| a.0 .1.total_cmp(&b.0 .1))
-                .map_or(WheelMotion::NearRest, |(_, m)| **m),
+                .max_by(|a, b| a.peak.total_cmp(&b.peak))
+                .map_or(WheelMotion::NearRest, |x| x.motion),
             slip_window,
             battery_energy_j: self.energy_j,
             castor_shimmy_rad_s: self.castor_shimmy_rad_s(),
