@@ -65,11 +65,11 @@ inputs = "data/calibrate_example/multisine_inputs.csv"
 measured = agvsim.replay(axis.with_values({"motor.coulomb_Nm": 0.05, "battery.drive_limit_V": 11}), inputs)
 result = agvsim.calibrate(axis, measured, effects=["coulomb_friction", "voltage_saturation", "battery_sag"])
 for e in result.effects:
-    verdict = "accepted" if e["accepted"] else "not supported"
-    print(f"{e['name']:<20} {e['key']:<32} {verdict}")
+    verdict = "accepted" if e.accepted else "not supported"
+    print(f"{e.name:<20} {e.key:<32} {verdict}")
 print(f"motor.coulomb_Nm      {result.scene['motor.coulomb_Nm']:.4f} N m (the worn machine: 0.05)")
 print(f"battery.drive_limit_V {result.scene['battery.drive_limit_V']:.3f} V (the worn machine: 11)")
-print(f"mean fit {result.mean_fit_pct['original']:.1f} % -> {result.mean_fit_pct['calibrated']:.1f} %")
+print(f"mean fit {result.mean_fit_pct.original:.1f} % -> {result.mean_fit_pct.calibrated:.1f} %")
 
 # %% [markdown]
 # ## The fit before and after
@@ -82,8 +82,8 @@ fig, axes = plt.subplots(2, 1, figsize=(10, 5.5), sharex=True)
 for ax, name, label in zip(axes, ["motor_speed_rad_s", "current_A"], ["motor speed, rad/s", "current, A"]):
     fits = result.replay_fit[name]
     ax.plot(measured.t_s, measured[name], color="0.6", lw=2.5, label="measured (worn machine)")
-    ax.plot(before.t_s, before[name], color="tab:orange", lw=1, label=f"scene: fit {fits['original_pct']:.1f} %")
-    ax.plot(after.t_s, after[name], color="tab:blue", lw=1, ls="--", label=f"calibrated: fit {fits['calibrated_pct']:.1f} %")
+    ax.plot(before.t_s, before[name], color="tab:orange", lw=1, label=f"scene: fit {fits.original_pct:.1f} %")
+    ax.plot(after.t_s, after[name], color="tab:blue", lw=1, ls="--", label=f"calibrated: fit {fits.calibrated_pct:.1f} %")
     ax.set(ylabel=label)
     # Beside the plot, not on the data.
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)

@@ -18,18 +18,20 @@ Units are in the names, as in the scenes and recordings: ``duration_s``, ``mass_
 from __future__ import annotations
 
 import csv
+import functools
 import math
 import os
 import re
 import shutil
 import tempfile
 from pathlib import Path
-from typing import Any, Dict, Iterable, List, Mapping, Optional, Sequence, Union
+from typing import Any, Callable, Dict, Iterable, List, Mapping, Optional, Sequence, TypeVar, Union, cast
 
 import numpy as np
 
 from . import _native
 from ._native import AgvsimError, InputError
+from .results import Calibration, Diagnosis, Identification
 
 __all__ = [
     "AgvsimError",
@@ -37,8 +39,9 @@ __all__ = [
     "Scene",
     "Check",
     "Recording",
-    "Result",
-    "CalibrateResult",
+    "Calibration",
+    "Diagnosis",
+    "Identification",
     "Table",
     "Imported",
     "run",
@@ -57,9 +60,21 @@ __all__ = [
     "Sim",
     "VecSim",
     "SimState",
+    "Linearisation",
+    "Presets",
+    "Experiment",
+    "Study",
+    "linearize",
+    "presets",
+    "experiment",
+    "study",
+    "EXPERIMENTS",
+    "STUDIES",
 ]
 
 PathLike = Union[str, "os.PathLike[str]"]
+_T = TypeVar("_T")
+_F = TypeVar("_F", bound=Callable[..., Any])
 
 
 class _Scratch:
@@ -82,48 +97,104 @@ def _set_text(key: str, value: Any) -> str:
     return f"{key}={value}"
 
 
-# The CLI's flags as this package's arguments, so that a message naming a flag names
-# what a Python caller passed.
-_FLAGS = {
-    "--battery-V": "battery_v",
-    "--motor-rated-V": "motor_rated_v",
-    "--motor-no-load-rpm": "motor_no_load_rpm",
-    "--motor-stall-current-A": "motor_stall_current_a",
-    "--motor-stall-torque-Nm": "motor_stall_torque_nm",
-    "--motor-*": "motor_*",
-    "--gear-ratio": "gear_ratio",
-    "--backlash-rad": "backlash_rad",
-    "--mass-kg": "mass_kg",
-    "--track-m": "track_m",
-    "--track-width-m": "track_m",
-    "--supply-v": "battery_v",
-    "--wheel-radius-m": "wheel_radius_m",
-    "--length-m": "length_m",
-    "--width-m": "width_m",
-    "--from SCENE": "from_scene",
-    "--from": "from_scene",
-    "--force": "force=True",
-    "--tyre": "tyre",
-    "--castors": "castors",
-    "--guidance": "guidance",
-    "--controller-yaml": "controller_yaml",
-    "--map": "map",
-    "--out": "out",
-    "NAME.toml": "path",
+# The CLI's flags whose Python argument is not the flag's own name (lower case, ``-`` as
+# ``_``), so that a message naming a flag names what a Python caller passed.
+_RENAMED_FLAGS = {
+    "recording": "recordings",
+    "set": "with_values",
+    "duration": "duration_s",
+    "interval": "interval_s",
+    "peak-demand": "peak_demand_pct",
+    "hold": "hold_samples",
+    "speed-noise": "speed_noise_rad_s",
+    "track-width-m": "track_m",
+    "supply-v": "battery_v",
+    "from": "from_scene",
 }
 
+# The CLI's commands as this package's functions.
+_COMMANDS = {
+    "new": "Scene.new",
+    "check": "Scene.check",
+    "keys": "keys_reference",
+    "import ros2": "import_ros2",
+    "import wpilib": "import_wpilib",
+    "sweep merge": "sweep_merge",
+    "batch calibrate": "batch_calibrate",
+    "batch diagnose": "batch_diagnose",
+    "batch merge": "batch_merge",
+}
+_COMMANDS.update({c: c for c in ("run", "replay", "calibrate", "diagnose", "identify", "sweep",
+                                  "study", "linearize", "presets", "experiment")})
 
-def _in_python_words(call):
-    """Runs ``call``; an error naming the CLI's flags names this package's arguments."""
+
+def _argument(flag: str) -> str:
+    """A CLI flag (without ``--``) as the Python argument it is."""
+    name = flag.lower()
+    return _RENAMED_FLAGS.get(name, name.replace("-", "_"))
+
+
+def _value_text(token: str) -> str:
+    """A command line's value as Python source: a placeholder (``SCENE``, ``DIR``) as
+    it is, anything else quoted."""
+    return token if re.fullmatch(r"[A-Z][A-Z_.]*", token) else repr(token)
+
+
+def _python_call(command: str) -> Optional[str]:
+    """``agvsim SUB ARGS...`` as the call of this package that does it, if there is one."""
+    words = command.split()
+    name = " ".join(words[:2]) if " ".join(words[:2]) in _COMMANDS else words[0] if words else ""
+    if name not in _COMMANDS:
+        return None
+    rest = words[len(name.split()):]
+    positional: List[str] = []
+    keywords: Dict[str, List[str]] = {}
+    i = 0
+    while i < len(rest):
+        w = rest[i]
+        if w.startswith("--"):
+            value = rest[i + 1] if i + 1 < len(rest) and not rest[i + 1].startswith("--") else None
+            keywords.setdefault(_argument(w[2:]), []).append("True" if value is None else _value_text(value))
+            i += 1 if value is None else 2
+        else:
+            positional.append(_value_text(w))
+            i += 1
+    args = positional + [f"{k}={v[0] if len(v) == 1 else '[' + ', '.join(v) + ']'}" for k, v in keywords.items()]
+    return f"agvsim.{_COMMANDS[name]}({', '.join(args)})"
+
+
+def _python_words(text: str) -> str:
+    """A library message in this package's words: its commands as calls of this package,
+    its flags as the arguments a Python caller passed."""
+    def command(m: "re.Match[str]") -> str:
+        call = _python_call(m.group(1))
+        return f"`{call}`" if call is not None else m.group(0)
+
+    text = re.sub(r"`agvsim ([^`]*)`", command, text)
+    # A message that starts by naming a flag names the argument: "free: chassis.foo: ...".
+    text = re.sub(r"^--([A-Za-z][\w-]*) ", lambda m: f"{_argument(m.group(1))}: ", text)
+    return re.sub(r"(?<![\w`-])--([A-Za-z][\w-]*)", lambda m: _argument(m.group(1)), text)
+
+
+def _in_python_words(call: Callable[[], _T]) -> _T:
+    """Runs ``call``; an error naming the CLI's commands and flags names this package's."""
     try:
         return call()
     except AgvsimError as e:
-        text = str(e)
-        for flag in sorted(_FLAGS, key=len, reverse=True):
-            text = re.sub(re.escape(flag) + r"(?![\w-])", _FLAGS[flag], text)
+        text = _python_words(str(e))
         if text == str(e):
             raise
         raise type(e)(text) from None
+
+
+def _speaks_python(f: _F) -> _F:
+    """``f``, its errors in this package's words (:func:`_in_python_words`)."""
+
+    @functools.wraps(f)
+    def speaking(*args: Any, **kwargs: Any) -> Any:
+        return _in_python_words(lambda: f(*args, **kwargs))
+
+    return cast(_F, speaking)
 
 
 # --------------------------------------------------------------------------------------
@@ -161,7 +232,7 @@ class Scene:
         self._path = Path(path)
         self._set = list(values)
         self._scratch = _scratch
-        warnings, keys, toml = _native.scene_info(self._path, self._set)
+        warnings, keys, toml = _in_python_words(lambda: _native.scene_info(self._path, self._set))
         self._warnings = warnings
         self._keys = {k: v for k, v, _ in keys}
         self._units = {k: u for k, _, u in keys}
@@ -266,7 +337,7 @@ class Scene:
 
     def check(self) -> Check:
         """The scene's plausibility, as ``agvsim check``."""
-        return Check(_native.check(self._path, self._set))
+        return Check(_in_python_words(lambda: _native.check(self._path, self._set)))
 
     def to_toml(self) -> str:
         """The scene as agvsim reads it (every value set applied), as TOML."""
@@ -315,8 +386,7 @@ class Recording:
     ) -> None:
         #: Time of each row, s.
         self.t_s = np.asarray(t_s, dtype=float)
-        #: The columns by name, in the file's order.
-        self.columns: Dict[str, np.ndarray] = {k: np.asarray(v, dtype=float) for k, v in columns.items()}
+        self._data: Dict[str, np.ndarray] = {k: np.asarray(v, dtype=float) for k, v in columns.items()}
         #: The rig kind (``drive_axis``, ``vehicle`` or ``drive_pair``).
         self.rig = rig
         #: The metadata lines, in the file's order.
@@ -329,11 +399,12 @@ class Recording:
         self.report: Optional[str] = None
 
     @classmethod
+    @_speaks_python
     def read(cls, path: PathLike) -> "Recording":
         """Reads a recording (the contract's reader: every check the CLI makes)."""
         rig, meta, names, t, cols, starts = _native.read_recording(Path(path))
-        rec = cls(np.frombuffer(t, dtype="<f8").copy(), {}, rig, dict(meta))
-        rec.columns = {n: np.frombuffer(c, dtype="<f8").copy() for n, c in zip(names, cols)}
+        data = {n: np.frombuffer(c, dtype="<f8").copy() for n, c in zip(names, cols)}
+        rec = cls(np.frombuffer(t, dtype="<f8").copy(), data, rig, dict(meta))
         rec.segment_starts = list(starts)
         rec.path = Path(path)
         return rec
@@ -346,24 +417,44 @@ class Recording:
             Path(path),
             self.rig,
             list(self.meta.items()),
-            list(self.columns),
+            list(self._data),
             [float(x) for x in self.t_s],
-            [[float(x) for x in c] for c in self.columns.values()],
+            [[float(x) for x in c] for c in self._data.values()],
         )
         return Path(path)
 
     @property
+    def columns(self) -> List[str]:
+        """The column names in the file's order, without ``t_s`` (as a DataFrame's
+        ``columns``); ``rec[name]`` is a column's values."""
+        return list(self._data)
+
+    @property
     def names(self) -> List[str]:
-        """The column names (without ``t_s``)."""
-        return list(self.columns)
+        """The column names (the same as :attr:`columns`)."""
+        return list(self._data)
+
+    def to_dict(self) -> Dict[str, np.ndarray]:
+        """The columns by name, ``t_s`` left out (a new dict of the same arrays)."""
+        return dict(self._data)
+
+    def __contains__(self, name: object) -> bool:
+        return name == "t_s" or name in self._data
 
     def __getitem__(self, name: str) -> np.ndarray:
         if name == "t_s":
             return self.t_s
         try:
-            return self.columns[name]
+            return self._data[name]
         except KeyError:
-            raise KeyError(f"{name}: no such column (columns: {', '.join(self.columns)})") from None
+            raise KeyError(f"{name}: no such column (columns: {', '.join(self._data)})") from None
+
+    def __setitem__(self, name: str, values: Iterable[float]) -> None:
+        """Sets or adds a column (as many values as rows)."""
+        column = np.asarray(values, dtype=float)
+        if column.shape != self.t_s.shape:
+            raise ValueError(f"{name}: {column.shape[0] if column.ndim else 1} values for {len(self.t_s)} rows")
+        self._data[name] = column
 
     def __len__(self) -> int:
         return len(self.t_s)
@@ -374,7 +465,7 @@ class Recording:
             import pandas as pd  # type: ignore[import-untyped]
         except ImportError as e:  # pragma: no cover - depends on the environment
             raise ImportError("Recording.to_pandas needs pandas: pip install pandas") from e
-        return pd.DataFrame(self.columns, index=pd.Index(self.t_s, name="t_s"))
+        return pd.DataFrame(self._data, index=pd.Index(self.t_s, name="t_s"))
 
     def __repr__(self) -> str:
         span = f"{self.t_s[-1] - self.t_s[0]:.3g} s" if len(self.t_s) else "empty"
@@ -404,37 +495,6 @@ def _recording_paths(recordings: Any, scratch: _Scratch) -> List[Path]:
 # Results
 
 
-class Result:
-    """A command's result: the fields of its JSON output as attributes (``result.findings``,
-    ``result.keys``), the whole JSON as ``result.data``, and what the CLI prints as
-    ``result.report``."""
-
-    def __init__(self, data: Dict[str, Any], report: str) -> None:
-        self.data = data
-        self.report = report
-
-    def __getattr__(self, name: str) -> Any:
-        data = self.__dict__.get("data", {})
-        if name in data:
-            return data[name]
-        raise AttributeError(f"{type(self).__name__} has no field {name!r} (fields: {', '.join(data)})")
-
-    def __dir__(self) -> List[str]:
-        return sorted(set(super().__dir__()) | set(self.data))
-
-    def __repr__(self) -> str:
-        return f"{type(self).__name__}(fields={list(self.data)!r})"
-
-
-class CalibrateResult(Result):
-    """A calibration: the JSON's fields, the report, and the calibrated ``scene``."""
-
-    def __init__(self, data: Dict[str, Any], report: str, scene: Scene) -> None:
-        super().__init__(data, report)
-        #: The calibrated scene (the CLI's ``--write``).
-        self.scene = scene
-
-
 class Table:
     """A results table (a sweep's ``results.csv``, a batch's ``summary.csv``): numeric
     columns as float arrays (NaN where empty), the others as lists of text."""
@@ -447,30 +507,38 @@ class Table:
         with open(self.path, newline="") as f:
             rows = list(csv.reader(f))
         header, body = (rows[0], rows[1:]) if rows else ([], [])
-        self.columns: Dict[str, Any] = {}
+        self._data: Dict[str, Any] = {}
         for i, name in enumerate(header):
             cells = [r[i] if i < len(r) else "" for r in body]
-            self.columns[name] = _numeric(cells)
+            self._data[name] = _numeric(cells)
+
+    @property
+    def columns(self) -> List[str]:
+        """The column names, in the file's order; ``table[name]`` is a column."""
+        return list(self._data)
 
     def __getitem__(self, name: str) -> Any:
-        return self.columns[name]
+        try:
+            return self._data[name]
+        except KeyError:
+            raise KeyError(f"{name}: no such column (columns: {', '.join(self._data)})") from None
 
     def __len__(self) -> int:
-        return len(next(iter(self.columns.values()), []))
+        return len(next(iter(self._data.values()), []))
 
     @property
     def rows(self) -> List[Dict[str, Any]]:
         """One dict per row."""
-        return [{k: v[i] for k, v in self.columns.items()} for i in range(len(self))]
+        return [{k: v[i] for k, v in self._data.items()} for i in range(len(self))]
 
     def to_pandas(self):
         """The table as a pandas DataFrame (needs pandas)."""
         import pandas as pd  # type: ignore[import-untyped]
 
-        return pd.DataFrame(self.columns)
+        return pd.DataFrame(self._data)
 
     def __repr__(self) -> str:
-        return f"Table({len(self)} rows, columns={list(self.columns)!r})"
+        return f"Table({len(self)} rows, columns={self.columns!r})"
 
 
 def _numeric(cells: List[str]) -> Any:
@@ -528,6 +596,7 @@ def _out(out: Optional[PathLike], prefix: str):
 # Commands
 
 
+@_speaks_python
 def run(
     scene: Union[Scene, PathLike],
     duration_s: Optional[float] = None,
@@ -551,6 +620,7 @@ def run(
             scratch.cleanup()
 
 
+@_speaks_python
 def replay(
     scene: Union[Scene, PathLike],
     recording: Union[Recording, PathLike],
@@ -576,6 +646,7 @@ def replay(
             scratch.cleanup()
 
 
+@_speaks_python
 def calibrate(
     scene: Union[Scene, PathLike],
     recordings: Any,
@@ -585,7 +656,7 @@ def calibrate(
     out: Optional[PathLike] = None,
     jobs: int = 0,
     html: Optional[PathLike] = None,
-) -> CalibrateResult:
+) -> Calibration:
     """Fits the scene to recordings through the simulator, as ``agvsim calibrate``.
 
     ``free``: scene keys to fit (empty: the recording kind's set); ``effects``: ``"all"``,
@@ -620,9 +691,10 @@ def calibrate(
     calibrated = Scene(folder / "calibrated.toml", _scratch=None if out is not None else scratch)
     if out is not None:
         scratch.cleanup()
-    return CalibrateResult(data, report, calibrated)
+    return Calibration.from_json(data, report, calibrated)
 
 
+@_speaks_python
 def diagnose(
     recordings: Any,
     rig: Optional[PathLike] = None,
@@ -632,7 +704,7 @@ def diagnose(
     out: Optional[PathLike] = None,
     jobs: int = 0,
     html: Optional[PathLike] = None,
-) -> Result:
+) -> Diagnosis:
     """Finds what physics the model leaves out, as ``agvsim diagnose``: with a ``rig``
     (the fitting models) or a ``scene`` (through the simulator). Returns the contract's
     diagnosis JSON as fields (``result.findings``, ``result.baseline``, ...)."""
@@ -660,11 +732,12 @@ def diagnose(
             report=folder / "report" if out is not None else None, jobs=jobs,
             html=None if html is None else Path(html), command="agvsim.diagnose (Python)",
         )
-        return Result(json.loads((folder / "diagnosis.json").read_text()), report)
+        return Diagnosis.from_json(json.loads((folder / "diagnosis.json").read_text()), report)
     finally:
         scratch.cleanup()
 
 
+@_speaks_python
 def identify(
     rig: PathLike,
     recordings: Any,
@@ -675,7 +748,7 @@ def identify(
     max_iterations: int = 100,
     out: Optional[PathLike] = None,
     html: Optional[PathLike] = None,
-) -> Result:
+) -> Identification:
     """Fits a rig's model to recordings, as ``agvsim identify``; returns the JSON report's
     fields (parameters with standard deviations, fits, loss)."""
     import json
@@ -693,7 +766,7 @@ def identify(
             starts=starts, max_iterations=max_iterations,
             html=None if html is None else Path(html), command="agvsim.identify (Python)",
         )
-        return Result(json.loads((folder / "identify.json").read_text()), report)
+        return Identification.from_json(json.loads((folder / "identify.json").read_text()), report)
     finally:
         scratch.cleanup()
 
@@ -709,6 +782,7 @@ def _vary_text(key: str, values: Any) -> str:
     return f"{key}={','.join(items)}"
 
 
+@_speaks_python
 def sweep(
     scene: Union[Scene, PathLike],
     vary: Mapping[str, Any],
@@ -750,6 +824,7 @@ def _table(path: Path, report: str, scratch: Optional[_Scratch]) -> Table:
     return t
 
 
+@_speaks_python
 def sweep_merge(shards: Sequence[PathLike], out: PathLike) -> Table:
     """Joins sweep shard folders into one ``results.csv`` in ``out``, as ``agvsim sweep
     merge``: the same bytes as the unsharded sweep."""
@@ -770,6 +845,7 @@ def _batch(recordings: PathLike, out: Optional[PathLike], **kw: Any) -> Table:
             scratch.cleanup()
 
 
+@_speaks_python
 def batch_calibrate(
     recordings: PathLike,
     scene: PathLike,
@@ -784,6 +860,7 @@ def batch_calibrate(
     return _batch(recordings, out, scene=Path(scene), rig=None, effects=effects, shard=shard, jobs=jobs)
 
 
+@_speaks_python
 def batch_diagnose(
     recordings: PathLike,
     rig: Optional[PathLike] = None,
@@ -799,6 +876,7 @@ def batch_diagnose(
     )
 
 
+@_speaks_python
 def batch_merge(shards: Sequence[PathLike], out: PathLike) -> Table:
     """Joins batch shard folders into one ``summary.csv`` in ``out``, as ``agvsim batch
     merge``."""
@@ -806,6 +884,7 @@ def batch_merge(shards: Sequence[PathLike], out: PathLike) -> Table:
     return Table(Path(out) / "summary.csv", report)
 
 
+@_speaks_python
 def import_ros2(
     bag: PathLike,
     out: PathLike,
@@ -839,6 +918,7 @@ def import_ros2(
     return Imported(report)
 
 
+@_speaks_python
 def import_wpilib(
     file: PathLike,
     out: PathLike,
@@ -870,3 +950,15 @@ def keys_reference() -> str:
 
 # The simulations held in memory (they use Scene and Recording above).
 from .live import Sim, SimState, VecSim  # noqa: E402
+from .lab import (  # noqa: E402
+    EXPERIMENTS,
+    STUDIES,
+    Experiment,
+    Linearisation,
+    Presets,
+    Study,
+    experiment,
+    linearize,
+    presets,
+    study,
+)

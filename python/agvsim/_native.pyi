@@ -6,7 +6,7 @@ from typing import List, Optional, Sequence, Tuple, final
 
 _Path = os.PathLike[str] | str
 
-__all__ = ['AgvsimError', 'InputError', 'scene_info', 'check', 'new_scene', 'run', 'replay', 'calibrate', 'diagnose', 'identify', 'sweep', 'sweep_merge', 'batch', 'batch_merge', 'import_ros2', 'import_wpilib', 'read_recording', 'write_recording', 'keys_markdown', 'NativeSim', 'NativeVecSim', 'NativeSaved']
+__all__ = ['AgvsimError', 'InputError', 'scene_info', 'check', 'new_scene', 'run', 'replay', 'calibrate', 'diagnose', 'identify', 'sweep', 'sweep_merge', 'batch', 'batch_merge', 'import_ros2', 'import_wpilib', 'read_recording', 'write_recording', 'keys_markdown', 'linearize', 'presets', 'experiment', 'study', 'NativeSim', 'NativeVecSim', 'NativeSaved']
 
 class AgvsimError(Exception):
     """A command of agvsim that could not be done (the CLI's exit status 1)."""
@@ -151,6 +151,29 @@ def write_recording(
     columns: Sequence[Sequence[float]],
 ) -> None: ...
 def keys_markdown() -> str: ...
+def linearize(scene: _Path, set: Sequence[str]) -> Tuple[str, str]: ...
+def presets() -> Tuple[
+    List[Tuple[str, str, float, float, float, float, float]],
+    List[Tuple[str, str]],
+    List[Tuple[str, float, str]],
+    str,
+]: ...
+def experiment(
+    kind: str,
+    scene: _Path,
+    set: Sequence[str],
+    out: _Path,
+    name: Optional[str] = None,
+    seed: Optional[int] = None,
+    interval_s: Optional[float] = None,
+    duration_s: float = 15.0,
+    pattern: str = ...,
+    peak_demand_pct: float = 40.0,
+    hold_samples: Tuple[int, int] = ...,
+    speed_noise_rad_s: float = 0.5,
+    rig_error: float = 0.0,
+) -> str: ...
+def study(name: str, out: _Path, jobs: int = 0, quick: bool = False) -> str: ...
 
 @final
 class NativeSaved:

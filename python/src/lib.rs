@@ -25,6 +25,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 
 mod live;
+mod machine;
+mod studies;
 
 use agvsim::commands::flags::Jobs;
 use agvsim::commands::{self, CommandError};
@@ -770,6 +772,10 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_recording, m)?)?;
     m.add_function(wrap_pyfunction!(write_recording, m)?)?;
     m.add_function(wrap_pyfunction!(keys_markdown, m)?)?;
+    m.add_function(wrap_pyfunction!(machine::linearize, m)?)?;
+    m.add_function(wrap_pyfunction!(machine::presets, m)?)?;
+    m.add_function(wrap_pyfunction!(studies::experiment, m)?)?;
+    m.add_function(wrap_pyfunction!(studies::study, m)?)?;
     m.add_class::<live::NativeSim>()?;
     m.add_class::<live::NativeVecSim>()?;
     m.add_class::<live::NativeSaved>()?;

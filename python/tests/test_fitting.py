@@ -7,6 +7,14 @@ import numpy as np
 import pytest
 
 import agvsim
+from agvsim.results import uncovered
+
+
+def assert_typed(cls, data):
+    """Every field of the JSON the library wrote is a field of the typed result (none is
+    dropped on the way to Python)."""
+    missing = uncovered(cls, data)
+    assert not missing, f"{cls.__name__} has no field for: {missing}"
 
 LAB = "scenes/lab_offset_120mm.toml"
 INPUTS = "data/calibrate_example/multisine_inputs.csv"
@@ -47,10 +55,14 @@ def test_calibrate_gives_the_cli_json_and_scene(root, cli, machine, tmp_path):
     assert (tmp_path / "py" / "calibrated.toml").read_bytes() == (tmp_path / "cli.toml").read_bytes()
     # The fields are the JSON's; the calibrated scene carries the friction found.
     assert result.data == json.loads((tmp_path / "cli.json").read_text())
-    accepted = [e for e in result.effects if e["accepted"]]
-    assert [e["name"] for e in accepted] == ["coulomb_friction"], result.effects
+    assert [e.name for e in result.accepted] == ["coulomb_friction"], result.effects
     assert result.scene["motor.coulomb_Nm"] == pytest.approx(0.05, rel=0.02)
-    assert result.mean_fit_pct["calibrated"] > result.mean_fit_pct["original"] + 10
+    assert result.mean_fit_pct.calibrated > result.mean_fit_pct.original + 10
+    assert_typed(agvsim.Calibration, result.data)
+    # Typed fields carry the JSON's numbers.
+    effect = result.accepted[0]
+    assert (effect.value, effect.std) == (result.data["effects"][0]["value"], result.data["effects"][0]["std"])
+    assert effect.key == "motor.coulomb_Nm" and effect.at_bound is None
 
 
 def test_calibrate_takes_a_recording_in_memory(root, machine):
@@ -68,7 +80,14 @@ def test_diagnose_gives_the_contract_json_of_the_cli(shared, cli, tmp_path):
         "--json", tmp_path / "cli.json")
     result = agvsim.diagnose(dev / "dev_axis_03.csv", rig=dev / "dev_axis_03.rig.toml", out=tmp_path / "py")
     assert (tmp_path / "py" / "diagnosis.json").read_bytes() == (tmp_path / "cli.json").read_bytes()
-    assert result.effects == json.loads((tmp_path / "cli.json").read_text())["effects"]
+    data = json.loads((tmp_path / "cli.json").read_text())
+    assert result.data == data
+    assert_typed(agvsim.Diagnosis, data)
+    assert result.names == [e["name"] for e in data["effects"]] and result.names
+    found = result.effects[0]
+    assert found.params == data["effects"][0]["params"] and found.fit_pct == data["effects"][0]["fit_pct"]
+    assert result.final.fit_pct > result.baseline.fit_pct
+    assert [p.name for p in result.final.estimates] == [p["name"] for p in data["final"]["estimates"]]
     assert "Found" in result.report or "found" in result.report
 
 
@@ -78,9 +97,13 @@ def test_identify_gives_the_cli_json(shared, cli, tmp_path):
         "--json", tmp_path / "cli.json")
     result = agvsim.identify(dev / "dev_axis_01.rig.toml", dev / "dev_axis_01.csv", out=tmp_path / "py")
     assert (tmp_path / "py" / "identify.json").read_bytes() == (tmp_path / "cli.json").read_bytes()
-    assert result.converged is True or result.converged is False
-    names = [p["name"] for p in result.params]
-    assert names, result.params
+    data = json.loads((tmp_path / "cli.json").read_text())
+    assert_typed(agvsim.Identification, data)
+    assert [p.name for p in result.params] == [p["name"] for p in data["params"]] and result.params
+    first = result.params[0]
+    assert (first.value, first.std, first.at_bound) == tuple(data["params"][0][k] for k in ("value", "std", "at_bound"))
+    assert result.estimation.fit_pct == data["estimation"]["fit_pct"]
+    assert result.converged == data["converged"]
 
 
 def test_fitting_errors_name_what_is_wrong(root, shared, tmp_path):
@@ -109,3 +132,14 @@ def test_a_fleet_diagnosis_gives_the_cli_summary(shared, cli, tmp_path):
     # The summary in memory is the same without an output folder.
     again = agvsim.batch_diagnose(fleet)
     assert again.rows == table.rows
+
+
+def test_a_diagnosis_through_the_simulator_is_typed_too(machine, tmp_path):
+    axis = agvsim.Scene.load(LAB).with_values({"gearbox.backlash_rad": 0, "motor.coulomb_Nm": 0})
+    result = agvsim.diagnose(machine, scene=axis.save(tmp_path / "axis.toml"), effects=["coulomb_friction"])
+    assert_typed(agvsim.Diagnosis, result.data)
+    assert result.names == ["coulomb_friction"], result.report
+    found = result.effects[0]
+    assert found.scene_key == "motor.coulomb_Nm" and not found.outside_vocabulary
+    assert found.params["coulomb_torque_Nm"] == pytest.approx(0.05, rel=0.02)
+    assert result.final.fit_pct > result.baseline.fit_pct + 10

@@ -110,6 +110,12 @@ def test_a_recording_written_reads_back_exactly_and_pandas_reads_it(tmp_path):
     np.testing.assert_array_equal(theirs["speed_rad_s"].isna().to_numpy(), np.isnan(speed))
     df = back.to_pandas()
     assert list(df.columns) == ["voltage_V", "speed_rad_s"] and df.index.name == "t_s"
+    # The columns are the names, as a DataFrame's; a column is indexed by its name.
+    assert back.columns == list(df.columns) and "voltage_V" in back and "current_A" not in back
+    back["power_W"] = back["voltage_V"] ** 2
+    assert back.columns[-1] == "power_W" and back.to_dict()["power_W"][3] == v[3] ** 2
+    with pytest.raises(ValueError, match="power_W: 2 values for 100 rows"):
+        back["power_W"] = [1.0, 2.0]
 
 
 def test_a_recording_the_contract_refuses_is_not_written(tmp_path):

@@ -16,6 +16,9 @@ pub struct ExperimentRequest {
     pub kind: ExperimentKind,
     /// Scene file (TOML) giving the machine, e.g. scenes/lab_offset_120mm.toml.
     pub scene: PathBuf,
+    /// Scene overrides (`--set`).
+    #[command(flatten)]
+    pub set: super::flags::Overrides,
     /// Output folder.
     #[arg(long, default_value = "runs/experiments")]
     pub out: PathBuf,
@@ -71,7 +74,7 @@ impl ExperimentRequest {
 
 /// Runs the experiment and prints what it wrote.
 pub fn run(req: &ExperimentRequest, say: Say) -> Result<(), CommandError> {
-    let scene = Scene::load(&req.scene, &[])?;
+    let scene = Scene::load(&req.scene, &req.set)?;
     let options = req.options();
     let _lock = super::lock_out("--out", &options.out_dir)?;
     let o = run_experiment(req.kind, &scene, &options)?;
