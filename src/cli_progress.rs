@@ -36,8 +36,10 @@ fn counts(start: Instant) -> String {
 }
 
 /// What the fits under way have left, for the live line: the longest by its pace so far
-/// (`fits: 3 under way, the longest at iteration 4 of at most 30: at most about 1 min 5 s
-/// left`), or nothing while none runs.
+/// (`3 fits under way, the longest at iteration 4 of at most 30: about 1 min 5 s more at
+/// its pace so far`), or nothing while none runs. An estimate, not a bound: a fit stops
+/// early once it converges, and its later iterations may cost more than its first (a
+/// stage that confirms through the simulator).
 fn time_left() -> String {
     let fits = activity::running_fits();
     let longest = fits
@@ -53,7 +55,7 @@ fn time_left() -> String {
         "fit".to_string()
     };
     format!(
-        "; {many} at iteration {} of at most {}: at most about {} left",
+        "; {many} at iteration {} of at most {}: about {} more at its pace so far",
         f.done,
         f.max,
         duration_words(left_s)

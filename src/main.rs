@@ -81,7 +81,7 @@ fn dispatch(command: Command) -> Result<(), CommandError> {
         Command::Study(r) => study::run(&r, &say),
         Command::Presets => print(&agvsim::scene::presets_table::render()),
         Command::Keys => print(&agvsim::scene::keys::markdown()),
-        Command::New(args) => new::run(&args.request()?, &say),
+        Command::New(args) => new::run(&args.request(commands::command_line())?, &say),
         Command::Batch { action } => batch(action),
         Command::Check(r) => new::check(&r, &say),
     }

@@ -29,8 +29,9 @@ fn floors() -> BTreeMap<String, u32> {
     floors
 }
 
-/// Every library source file (not the binary's) with its top-level module and its text
-/// before any `#[cfg(test)]` (tests may reach anywhere), comment lines left out.
+/// Every library source file (not the binary's) with its top-level module and its whole
+/// text without the items under `#[cfg(test)]` (tests may reach anywhere), comment lines
+/// left out.
 fn library_sources() -> Vec<(PathBuf, String, String)> {
     let binary = [
         "main.rs",
@@ -63,8 +64,7 @@ fn library_sources() -> Vec<(PathBuf, String, String)> {
                 .trim_end_matches(".rs")
                 .to_string();
             let text = std::fs::read_to_string(&path).unwrap();
-            let code = text.split("#[cfg(test)]").next().unwrap();
-            let code: String = code
+            let code: String = without_test_items(&text)
                 .lines()
                 .filter(|l| !l.trim_start().starts_with("//"))
                 .collect::<Vec<_>>()
@@ -74,6 +74,33 @@ fn library_sources() -> Vec<(PathBuf, String, String)> {
     }
     out.sort();
     out
+}
+
+/// A source text without each item marked `#[cfg(test)]`: the attribute and the item
+/// after it (to its `;`, or to the brace that closes its body); the code after such an
+/// item stays.
+fn without_test_items(text: &str) -> String {
+    let mut out = Vec::new();
+    let mut lines = text.lines();
+    while let Some(line) = lines.next() {
+        if line.trim() != "#[cfg(test)]" {
+            out.push(line);
+            continue;
+        }
+        let mut depth = 0i64;
+        let mut opened = false;
+        for item in lines.by_ref() {
+            for b in braces_of(item).chars() {
+                depth += if b == '{' { 1 } else { -1 };
+                opened = true;
+            }
+            let code = item.split("//").next().unwrap_or("").trim_end();
+            if (opened && depth == 0) || (!opened && code.ends_with(';')) {
+                break;
+            }
+        }
+    }
+    out.join("\n")
 }
 
 /// The top-level modules a text names as `crate::MODULE`.
@@ -304,5 +331,147 @@ fn no_library_function_is_over_100_lines() {
         found.is_empty(),
         "functions a reader cannot take in at once; split each into its named steps:\n{}",
         found.join("\n")
+    );
+}
+
+/// The module path of a library file: `src/import/ros2/bag.rs` is `import::ros2::bag`,
+/// `src/import/ros2/mod.rs` is `import::ros2`.
+fn module_path(path: &Path) -> Vec<String> {
+    let rel = path.strip_prefix("src").unwrap().with_extension("");
+    let mut parts: Vec<String> = rel
+        .components()
+        .map(|c| c.as_os_str().to_string_lossy().into_owned())
+        .collect();
+    if parts.last().is_some_and(|p| p == "mod") {
+        parts.pop();
+    }
+    parts
+}
+
+/// The first name of each path a `use` or expression names after `prefix` in `code`
+/// (`super::{a, b::c}` names `a` and `b`; `super::d::e` names `d`), with the module
+/// path the prefix stands for: `(base, first name)`.
+fn named_after(code: &str, prefix: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    for (i, _) in code.match_indices(prefix) {
+        let before = code[..i].chars().next_back();
+        if before.is_some_and(|c| c.is_ascii_alphanumeric() || c == '_' || c == ':') {
+            continue;
+        }
+        let rest = &code[i + prefix.len()..];
+        if let Some(group) = rest.strip_prefix('{') {
+            // The top-level items of the group.
+            let mut depth = 0;
+            let mut item = String::new();
+            for c in group.chars() {
+                match c {
+                    '{' => depth += 1,
+                    '}' if depth == 0 => break,
+                    '}' => depth -= 1,
+                    ',' if depth == 0 => {
+                        out.push(std::mem::take(&mut item));
+                        continue;
+                    }
+                    _ => {}
+                }
+                item.push(c);
+            }
+            out.push(item);
+        } else {
+            out.push(rest.to_string());
+        }
+    }
+    out.into_iter()
+        .map(|s| {
+            s.trim()
+                .chars()
+                .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+                .collect::<String>()
+        })
+        .filter(|s| !s.is_empty())
+        .collect()
+}
+
+/// Each library file's uses of its sibling modules (the files and folders beside it in
+/// its folder), named as `super::NAME` or by the whole path `crate::...::NAME`.
+fn sibling_uses() -> BTreeMap<Vec<String>, BTreeMap<String, BTreeSet<String>>> {
+    let files: Vec<(PathBuf, String)> = library_sources()
+        .into_iter()
+        .map(|(p, _, code)| (p, code))
+        .collect();
+    let modules: BTreeSet<Vec<String>> = files.iter().map(|(p, _)| module_path(p)).collect();
+    // folder -> module in it -> the siblings it uses
+    let mut edges: BTreeMap<Vec<String>, BTreeMap<String, BTreeSet<String>>> = BTreeMap::new();
+    for (path, code) in &files {
+        if path.file_name().is_some_and(|n| n == "mod.rs") {
+            continue; // a folder's face uses its own parts
+        }
+        let me = module_path(path);
+        let (name, folder) = me.split_last().unwrap();
+        let mut used = BTreeSet::new();
+        used.extend(named_after(code, "super::"));
+        let whole = format!("crate::{}::", folder.join("::"));
+        if !folder.is_empty() {
+            used.extend(named_after(code, &whole));
+        }
+        used.retain(|u| {
+            u != name && {
+                let mut m = folder.to_vec();
+                m.push(u.clone());
+                modules.contains(&m)
+            }
+        });
+        edges
+            .entry(folder.to_vec())
+            .or_default()
+            .entry(name.clone())
+            .or_default()
+            .extend(used);
+    }
+    edges
+}
+
+#[test]
+fn the_files_of_a_folder_use_each_other_in_no_circle() {
+    let edges = sibling_uses();
+    // The reader of uses finds a sibling through a brace group (a known-good check).
+    assert_eq!(
+        named_after("use super::{a, b::{c, d}};", "super::"),
+        ["a", "b"]
+    );
+    assert!(
+        edges[&vec!["commands".to_string()]]["calibrate"].contains("flags"),
+        "the sibling uses were not read: {edges:?}"
+    );
+    let mut circles = Vec::new();
+    for (folder, modules) in &edges {
+        for start in modules.keys() {
+            let mut seen = BTreeSet::new();
+            let mut todo: Vec<(&String, Vec<&String>)> =
+                modules[start].iter().map(|m| (m, vec![m])).collect();
+            while let Some((m, way)) = todo.pop() {
+                if m == start {
+                    let names: Vec<&str> = way.iter().map(|s| s.as_str()).collect();
+                    circles.push(format!(
+                        "{}: {start} -> {}",
+                        folder.join("/"),
+                        names.join(" -> ")
+                    ));
+                    break;
+                }
+                if seen.insert(m.clone()) {
+                    for next in modules.get(m).into_iter().flatten() {
+                        let mut w = way.clone();
+                        w.push(next);
+                        todo.push((next, w));
+                    }
+                }
+            }
+        }
+    }
+    assert!(
+        circles.is_empty(),
+        "files that use each other in a circle (move what both need into a file of its own):\n{}",
+        circles.join("\n")
     );
 }

@@ -129,23 +129,33 @@ where
     }
 }
 
-/// The motor's datasheet point from the numbers given (as `agvsim new`'s `--motor-*`),
-/// each checked positive and named as Python passes it.
-fn motor_of(
-    rated_v: Option<f64>,
-    no_load_rpm: Option<f64>,
-    stall_current_a: Option<f64>,
-    stall_torque_nm: Option<f64>,
+/// The battery, motor and gear as given (`agvsim new`'s and `import ros2`'s drive flags),
+/// each number checked positive and named as Python passes it.
+fn drive_of(
     battery_v: Option<f64>,
-) -> PyResult<Option<agvsim::scene::robot::MotorDatasheet>> {
-    commands::new::motor_datasheet(&commands::new::MotorFlags {
-        rated_v: positive("motor_rated_v", rated_v)?,
-        no_load_rpm: positive("motor_no_load_rpm", no_load_rpm)?,
-        stall_current_a: positive("motor_stall_current_a", stall_current_a)?,
-        stall_torque_nm: positive("motor_stall_torque_nm", stall_torque_nm)?,
+    (rated_v, no_load_rpm, stall_current_a, stall_torque_nm): (
+        Option<f64>,
+        Option<f64>,
+        Option<f64>,
+        Option<f64>,
+    ),
+    gear_ratio: Option<f64>,
+    backlash_rad: Option<f64>,
+) -> PyResult<commands::flags::DriveFlags> {
+    Ok(commands::flags::DriveFlags {
         battery_v: positive("battery_v", battery_v)?,
+        motor_rated_v: positive("motor_rated_v", rated_v)?,
+        motor_no_load_rpm: positive("motor_no_load_rpm", no_load_rpm)?,
+        motor_stall_current_a: positive("motor_stall_current_a", stall_current_a)?,
+        motor_stall_torque_nm: positive("motor_stall_torque_nm", stall_torque_nm)?,
+        gear_ratio: positive("gear_ratio", gear_ratio)?,
+        backlash_rad,
     })
-    .map_err(|e| to_py((e.to_string(), e.exit_code())))
+}
+
+/// A request builder's refusal, as Python sees it.
+fn refused(e: CommandError) -> PyErr {
+    to_py((e.to_string(), e.exit_code()))
 }
 
 /// A progress callback that tells nobody (the CLI draws bars; Python callers read the
@@ -215,50 +225,39 @@ fn new_scene(
     width_m: Option<f64>,
     description: Option<String>,
 ) -> PyResult<String> {
-    use agvsim::scene::robot::{Guidance, RobotSpec};
-    let guidance = match guidance.as_deref() {
-        None => None,
-        Some("wire") => Some(Guidance::Wire),
-        Some("open-loop") => Some(Guidance::OpenLoop),
-        Some("none") => Some(Guidance::None),
-        Some(g) => return Err(bad_argument("guidance", g, "wire, none or open-loop")),
-    };
-    let motor = motor_of(
-        motor_rated_v,
-        motor_no_load_rpm,
-        motor_stall_current_a,
-        motor_stall_torque_nm,
-        battery_v,
-    )?;
-    let spec = RobotSpec {
+    let guidance = guidance
+        .map(|g| {
+            g.parse()
+                .map_err(|why: String| bad_argument("guidance", &g, &why))
+        })
+        .transpose()?;
+    let args = commands::new::NewArgs {
+        out,
+        from: from_,
         mass_kg: positive("mass_kg", mass_kg)?,
         track_m: positive("track_m", track_m)?,
         wheel_radius_m: positive("wheel_radius_m", wheel_radius_m)?,
-        battery_v,
-        motor,
-        gear_ratio: positive("gear_ratio", gear_ratio)?,
-        backlash_rad,
+        drive: drive_of(
+            battery_v,
+            (
+                motor_rated_v,
+                motor_no_load_rpm,
+                motor_stall_current_a,
+                motor_stall_torque_nm,
+            ),
+            gear_ratio,
+            backlash_rad,
+        )?,
         tyre,
         castors,
         guidance,
         length_m: positive("length_m", length_m)?,
         width_m: positive("width_m", width_m)?,
         description,
-        configured_geometry: false,
-        origins: vec![],
+        force,
     };
-    job(py, false, move |say| {
-        commands::new::run(
-            &commands::new::NewRequest {
-                out,
-                spec,
-                from: from_,
-                force,
-                command,
-            },
-            say,
-        )
-    })
+    let request = args.request(command).map_err(refused)?;
+    job(py, false, move |say| commands::new::run(&request, say))
 }
 
 /// `agvsim run SCENE --out OUT`.
@@ -562,30 +561,27 @@ fn import_ros2(
     gear_ratio: Option<f64>,
     backlash_rad: Option<f64>,
 ) -> PyResult<String> {
-    let motor = motor_of(
-        motor_rated_v,
-        motor_no_load_rpm,
-        motor_stall_current_a,
-        motor_stall_torque_nm,
-        battery_v,
-    )?;
-    let request = commands::import::Ros2Import {
+    let args = commands::import::Ros2Args {
         bag,
         map,
-        geometry: agvsim::import::ros2::Geometry {
-            wheel_radius_m: positive("wheel_radius_m", wheel_radius_m)?,
-            track_m: positive("track_m", track_m)?,
-            ..Default::default()
-        },
-        mass_kg: positive("mass_kg", mass_kg)?,
-        motor,
-        battery_v,
-        gear_ratio: positive("gear_ratio", gear_ratio)?,
-        backlash_rad,
-        controller_yaml,
         out: Some(out),
-        command,
+        wheel_radius_m: positive("wheel_radius_m", wheel_radius_m)?,
+        track_m: positive("track_m", track_m)?,
+        mass_kg: positive("mass_kg", mass_kg)?,
+        controller_yaml,
+        drive: drive_of(
+            battery_v,
+            (
+                motor_rated_v,
+                motor_no_load_rpm,
+                motor_stall_current_a,
+                motor_stall_torque_nm,
+            ),
+            gear_ratio,
+            backlash_rad,
+        )?,
     };
+    let request = args.request(command).map_err(refused)?;
     job(py, false, move |say| commands::import::ros2(&request, say))
 }
 
@@ -606,28 +602,24 @@ fn import_wpilib(
     track_width_m: Option<f64>,
     supply_v: Option<f64>,
 ) -> PyResult<String> {
-    use agvsim::import::wpilib::{wpilog::Choice, Assumptions, Mechanism};
     let mechanism = mechanism
         .map(|m| {
-            m.parse::<Mechanism>()
+            m.parse::<agvsim::import::wpilib::Mechanism>()
                 .map_err(|e| bad_argument("mechanism", &m, &e))
         })
         .transpose()?;
-    let request = commands::import::WpilibImport {
+    let request = commands::import::WpilibArgs {
         file,
-        choice: Choice {
-            routine,
-            motors,
-            mechanism,
-        },
-        assumed: Assumptions {
-            wheel_radius_m: positive("wheel_radius_m", wheel_radius_m)?,
-            resistance_ohm: positive("resistance_ohm", resistance_ohm)?,
-            track_width_m: positive("track_width_m", track_width_m)?,
-            supply_v: positive("supply_v", supply_v)?,
-        },
         out: Some(out),
-    };
+        routine,
+        motors,
+        mechanism,
+        wheel_radius_m: positive("wheel_radius_m", wheel_radius_m)?,
+        resistance_ohm: positive("resistance_ohm", resistance_ohm)?,
+        track_width_m: positive("track_width_m", track_width_m)?,
+        supply_v: positive("supply_v", supply_v)?,
+    }
+    .request();
     job(py, false, move |say| {
         commands::import::wpilib(&request, say)
     })

@@ -9,6 +9,7 @@ pub mod base_limits;
 pub mod defect;
 pub mod diagnosis;
 pub mod effects;
+mod faithful;
 mod first;
 pub mod keys;
 pub mod odometry;
@@ -699,7 +700,7 @@ pub fn calibrate_telling(
     let found = first::found_first(&problem, scene, &tried, driven, progress)?;
     let mut fitted = free.clone();
     fitted.extend(found.extra_free.iter().cloned());
-    let stage = defect::faithful_first_stage(&mut problem, &found.scene, &fitted, progress)?;
+    let stage = faithful::faithful_first_stage(&mut problem, &found.scene, &fitted, progress)?;
     let baseline = stage.scene.clone();
     if problem.rejudge(&stage)? {
         progress(JUDGED_BY_THE_SIMULATOR);

@@ -151,16 +151,27 @@ pub struct DriveFlags {
 }
 
 impl DriveFlags {
-    /// The motor's datasheet point the flags give, if any
-    /// ([`super::new::motor_datasheet`]).
+    /// The motor's datasheet point the flags give: `None` when no motor number is given;
+    /// an error naming the flags when some are given but not enough for a motor.
     pub fn motor(&self) -> Result<Option<MotorDatasheet>, super::CommandError> {
-        super::new::motor_datasheet(&super::new::MotorFlags {
-            rated_v: self.motor_rated_v,
-            no_load_rpm: self.motor_no_load_rpm,
-            stall_current_a: self.motor_stall_current_a,
-            stall_torque_nm: self.motor_stall_torque_nm,
-            battery_v: self.battery_v,
-        })
+        let motor_given = self.motor_no_load_rpm.is_some()
+            || self.motor_stall_current_a.is_some()
+            || self.motor_stall_torque_nm.is_some()
+            || self.motor_rated_v.is_some();
+        match (motor_given, self.motor_no_load_rpm, self.motor_rated_v.or(self.battery_v)) {
+            (false, _, _) => Ok(None),
+            (true, Some(rpm), Some(v)) => Ok(Some(MotorDatasheet {
+                rated_v: v,
+                no_load_rpm: rpm,
+                stall_current_a: self.motor_stall_current_a,
+                stall_torque_nm: self.motor_stall_torque_nm,
+            })),
+            (true, _, _) => Err(super::CommandError::Option {
+                option: "--motor-*".into(),
+                value: String::new(),
+                message: "a motor needs --motor-no-load-rpm and --motor-rated-V (or --battery-V), with --motor-stall-current-A or --motor-stall-torque-Nm".into(),
+            }),
+        }
     }
 }
 

@@ -48,37 +48,7 @@ pub enum ImportFormat {
     /// header; and BAG.scene.toml when the track and wheel radius are known (from
     /// /robot_description, the flags or --controller-yaml).
     #[command(alias = "ros1", alias = "ros")]
-    Ros2 {
-        /// The bag.
-        bag: PathBuf,
-        /// A topic map (TOML) choosing among several topics of a type: keys cmd_vel,
-        /// joint_states, imu, odom, battery, pose = "PARENT:CHILD" (frames on /tf) or
-        /// "/topic", left_wheel_joint, right_wheel_joint, time = "header" or "log".
-        #[arg(long, value_name = "MAP.toml")]
-        map: Option<PathBuf>,
-        /// Output folder [default: runs/import].
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Drive wheel radius, m [default: from /robot_description].
-        #[arg(long, value_parser = positive_number)]
-        wheel_radius_m: Option<f64>,
-        /// Track width, m [default: from /robot_description].
-        #[arg(long, value_parser = positive_number)]
-        track_m: Option<f64>,
-        /// Robot mass for the scene, kg [default: the thesis machine's 120, said as such].
-        #[arg(long, value_parser = positive_number)]
-        mass_kg: Option<f64>,
-        /// The robot's `diff_drive_controller` parameters (YAML, as ros2_control loads
-        /// them): its wheel_separation, wheel_radius and their multipliers become the
-        /// scene's configured odometry, its velocity and acceleration limits the base
-        /// controller's.
-        #[arg(long, value_name = "PARAMS.yaml")]
-        controller_yaml: Option<PathBuf>,
-        /// The battery, the motor and the gear [default: the battery topic's median
-        /// voltage; the thesis machine's motor and gear, said as assumed; no gear play].
-        #[command(flatten)]
-        drive: DriveFlags,
-    },
+    Ros2(Ros2Args),
     /// A MATLAB file (MAT level 5) by a map file ([`MAP_HELP`] is its help's example).
     #[command(
         about = "A MATLAB file (MAT level 5, as `save` writes by default) by a map file like the\nCSV's, each `column` naming a variable (a vector).",
@@ -119,74 +89,17 @@ pub enum ImportFormat {
     /// SysIdRoutineLog): one recording per test (FILE_STEM_TEST.csv; rig `vehicle` for a
     /// drivetrain, `drive_axis` for one mechanism), the nominal rig of the linear machine
     /// SysId's kV and kA describe (FILE_STEM.rig.toml), and SysId's kS, kV, kA (kG).
-    Wpilib {
-        /// The log (.json or .wpilog).
-        file: PathBuf,
-        /// Output folder [default: runs/import].
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// DataLog only: the routine (the LOG of `sysid-test-state-LOG`) when there are several.
-        #[arg(long)]
-        routine: Option<String>,
-        /// DataLog only: the motor of a single mechanism, or LEFT,RIGHT of a drivetrain
-        /// [default: the routine's one motor, or its motors named left and right].
-        #[arg(long, value_delimiter = ',')]
-        motors: Vec<String>,
-        /// DataLog only: drivetrain, drivetrain-angular, simple, elevator or arm
-        /// [default: a drivetrain for two motors (angular when driven in opposition), else simple].
-        #[arg(long, value_parser = |s: &str| s.parse::<wpilib::Mechanism>())]
-        mechanism: Option<wpilib::Mechanism>,
-        /// Drive wheel (or a linear mechanism's drum) radius, m: needed for a drivetrain
-        /// logged in rotations; the vehicle rig's wheel [default 0.0762].
-        #[arg(long, value_parser = positive_number)]
-        wheel_radius_m: Option<f64>,
-        /// Motor resistance per side, ohm [default: from the logged current, else 0.05, said as assumed].
-        #[arg(long, value_parser = positive_number)]
-        resistance_ohm: Option<f64>,
-        /// Track width, m [default: from a turning test's gyro, else 0.6, said as assumed]
-        /// (`--track-width-m` is an older name for it).
-        #[arg(long = "track-m", alias = "track-width-m", value_parser = positive_number)]
-        track_width_m: Option<f64>,
-        /// Battery voltage, V [default: none stated; the logged voltages are the applied ones]
-        /// (`--supply-v` is an older name for it).
-        #[arg(long = "battery-V", alias = "supply-v", value_parser = positive_number)]
-        supply_v: Option<f64>,
-    },
+    Wpilib(WpilibArgs),
 }
 
 impl ImportFormat {
     /// Converts the file the command line names.
     pub fn run(self, say: Say) -> Result<(), CommandError> {
         match self {
-            ImportFormat::Ros2 {
-                bag,
-                map,
-                out,
-                wheel_radius_m,
-                track_m,
-                mass_kg,
-                controller_yaml,
-                drive,
-            } => ros2(
-                &Ros2Import {
-                    bag,
-                    map,
-                    geometry: crate::import::ros2::Geometry {
-                        wheel_radius_m,
-                        track_m,
-                        ..Default::default()
-                    },
-                    mass_kg,
-                    motor: drive.motor()?,
-                    battery_v: drive.battery_v,
-                    gear_ratio: drive.gear_ratio,
-                    backlash_rad: drive.backlash_rad,
-                    controller_yaml,
-                    out,
-                    command: std::env::args().collect::<Vec<_>>().join(" "),
-                },
-                say,
-            ),
+            ImportFormat::Ros2(args) => {
+                let command = std::env::args().collect::<Vec<_>>().join(" ");
+                ros2(&args.request(command)?, say)
+            }
             ImportFormat::Csv { file, map, out } => mapped(
                 &MappedImport {
                     file,
@@ -205,34 +118,7 @@ impl ImportFormat {
                 },
                 say,
             ),
-            ImportFormat::Wpilib {
-                file,
-                out,
-                routine,
-                motors,
-                mechanism,
-                wheel_radius_m,
-                resistance_ohm,
-                track_width_m,
-                supply_v,
-            } => wpilib(
-                &WpilibImport {
-                    file,
-                    choice: wpilog::Choice {
-                        routine,
-                        motors,
-                        mechanism,
-                    },
-                    assumed: Assumptions {
-                        wheel_radius_m,
-                        resistance_ohm,
-                        track_width_m,
-                        supply_v,
-                    },
-                    out,
-                },
-                say,
-            ),
+            ImportFormat::Wpilib(args) => wpilib(&args.request(), say),
         }
     }
 }
@@ -291,6 +177,63 @@ fn check_recording(text: &str, path: &Path) -> Result<(), CommandError> {
         message: e.to_string(),
     })?;
     Ok(())
+}
+
+/// `agvsim import wpilib`'s command line (and Python's `import_wpilib`'s arguments).
+#[derive(clap::Args, Debug, Clone)]
+pub struct WpilibArgs {
+    /// The log (.json or .wpilog).
+    pub file: PathBuf,
+    /// Output folder [default: runs/import].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// DataLog only: the routine (the LOG of `sysid-test-state-LOG`) when there are several.
+    #[arg(long)]
+    pub routine: Option<String>,
+    /// DataLog only: the motor of a single mechanism, or LEFT,RIGHT of a drivetrain
+    /// [default: the routine's one motor, or its motors named left and right].
+    #[arg(long, value_delimiter = ',')]
+    pub motors: Vec<String>,
+    /// DataLog only: drivetrain, drivetrain-angular, simple, elevator or arm
+    /// [default: a drivetrain for two motors (angular when driven in opposition), else simple].
+    #[arg(long, value_parser = |s: &str| s.parse::<wpilib::Mechanism>())]
+    pub mechanism: Option<wpilib::Mechanism>,
+    /// Drive wheel (or a linear mechanism's drum) radius, m: needed for a drivetrain
+    /// logged in rotations; the vehicle rig's wheel [default 0.0762].
+    #[arg(long, value_parser = positive_number)]
+    pub wheel_radius_m: Option<f64>,
+    /// Motor resistance per side, ohm [default: from the logged current, else 0.05, said as assumed].
+    #[arg(long, value_parser = positive_number)]
+    pub resistance_ohm: Option<f64>,
+    /// Track width, m [default: from a turning test's gyro, else 0.6, said as assumed]
+    /// (`--track-width-m` is an older name for it).
+    #[arg(long = "track-m", alias = "track-width-m", value_parser = positive_number)]
+    pub track_width_m: Option<f64>,
+    /// Battery voltage, V [default: none stated; the logged voltages are the applied ones]
+    /// (`--supply-v` is an older name for it).
+    #[arg(long = "battery-V", alias = "supply-v", value_parser = positive_number)]
+    pub supply_v: Option<f64>,
+}
+
+impl WpilibArgs {
+    /// The request these values make.
+    pub fn request(self) -> WpilibImport {
+        WpilibImport {
+            file: self.file,
+            choice: wpilog::Choice {
+                routine: self.routine,
+                motors: self.motors,
+                mechanism: self.mechanism,
+            },
+            assumed: Assumptions {
+                wheel_radius_m: self.wheel_radius_m,
+                resistance_ohm: self.resistance_ohm,
+                track_width_m: self.track_width_m,
+                supply_v: self.supply_v,
+            },
+            out: self.out,
+        }
+    }
 }
 
 /// What `agvsim import wpilib` was asked.
@@ -446,6 +389,63 @@ fn with_controller_params(
         "angular.z.max_acceleration",
     );
     Ok(doc.to_string())
+}
+
+/// `agvsim import ros2`'s command line (and Python's `import_ros2`'s arguments).
+#[derive(clap::Args, Debug, Clone)]
+pub struct Ros2Args {
+    /// The bag.
+    pub bag: PathBuf,
+    /// A topic map (TOML) choosing among several topics of a type: keys cmd_vel,
+    /// joint_states, imu, odom, battery, pose = "PARENT:CHILD" (frames on /tf) or
+    /// "/topic", left_wheel_joint, right_wheel_joint, time = "header" or "log".
+    #[arg(long, value_name = "MAP.toml")]
+    pub map: Option<PathBuf>,
+    /// Output folder [default: runs/import].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Drive wheel radius, m [default: from /robot_description].
+    #[arg(long, value_parser = positive_number)]
+    pub wheel_radius_m: Option<f64>,
+    /// Track width, m [default: from /robot_description].
+    #[arg(long, value_parser = positive_number)]
+    pub track_m: Option<f64>,
+    /// Robot mass for the scene, kg [default: the thesis machine's 120, said as such].
+    #[arg(long, value_parser = positive_number)]
+    pub mass_kg: Option<f64>,
+    /// The robot's `diff_drive_controller` parameters (YAML, as ros2_control loads
+    /// them): its wheel_separation, wheel_radius and their multipliers become the
+    /// scene's configured odometry, its velocity and acceleration limits the base
+    /// controller's.
+    #[arg(long, value_name = "PARAMS.yaml")]
+    pub controller_yaml: Option<PathBuf>,
+    /// The battery, the motor and the gear [default: the battery topic's median
+    /// voltage; the thesis machine's motor and gear, said as assumed; no gear play].
+    #[command(flatten)]
+    pub drive: DriveFlags,
+}
+
+impl Ros2Args {
+    /// The request these values make; `command` is what the scene's header says made it.
+    pub fn request(self, command: String) -> Result<Ros2Import, CommandError> {
+        Ok(Ros2Import {
+            motor: self.drive.motor()?,
+            battery_v: self.drive.battery_v,
+            gear_ratio: self.drive.gear_ratio,
+            backlash_rad: self.drive.backlash_rad,
+            bag: self.bag,
+            map: self.map,
+            geometry: crate::import::ros2::Geometry {
+                wheel_radius_m: self.wheel_radius_m,
+                track_m: self.track_m,
+                ..Default::default()
+            },
+            mass_kg: self.mass_kg,
+            controller_yaml: self.controller_yaml,
+            out: self.out,
+            command,
+        })
+    }
 }
 
 /// What `agvsim import ros2` was asked.

@@ -5,45 +5,16 @@ use std::path::PathBuf;
 
 use super::flags::{positive_number, yes_no, DriveFlags, Overrides};
 use super::{CommandError, Say};
-use crate::scene::robot::{new_scene, MotorDatasheet, RobotSpec};
+use crate::scene::robot::{new_scene, Guidance, RobotSpec};
 use crate::scene::{keys, plausibility::sig, Scene};
 
-/// The motor's datasheet numbers as given (`--motor-*`, `--battery-V`).
-#[derive(Debug, Clone, Copy, Default)]
-pub struct MotorFlags {
-    /// The datasheet's rated voltage, V.
-    pub rated_v: Option<f64>,
-    /// No-load speed at the rated voltage, rpm.
-    pub no_load_rpm: Option<f64>,
-    /// Stall current at the rated voltage, A.
-    pub stall_current_a: Option<f64>,
-    /// Stall torque at the rated voltage, N m.
-    pub stall_torque_nm: Option<f64>,
-    /// The battery's voltage, V: the rated voltage when none is given.
-    pub battery_v: Option<f64>,
-}
-
-/// The motor's datasheet point the numbers give: `None` when no motor number is given;
-/// an error naming the flags when some are given but not enough for a motor.
-pub fn motor_datasheet(m: &MotorFlags) -> Result<Option<MotorDatasheet>, CommandError> {
-    let motor_given = m.no_load_rpm.is_some()
-        || m.stall_current_a.is_some()
-        || m.stall_torque_nm.is_some()
-        || m.rated_v.is_some();
-    match (motor_given, m.no_load_rpm, m.rated_v.or(m.battery_v)) {
-        (false, _, _) => Ok(None),
-        (true, Some(rpm), Some(v)) => Ok(Some(MotorDatasheet {
-            rated_v: v,
-            no_load_rpm: rpm,
-            stall_current_a: m.stall_current_a,
-            stall_torque_nm: m.stall_torque_nm,
-        })),
-        (true, _, _) => Err(CommandError::Option {
-            option: "--motor-*".into(),
-            value: String::new(),
-            message: "a motor needs --motor-no-load-rpm and --motor-rated-V (or --battery-V), with --motor-stall-current-A or --motor-stall-torque-Nm".into(),
-        }),
-    }
+/// `--guidance`: one of [`Guidance`]'s words, listed in the help as clap lists possible
+/// values.
+fn guidance_words() -> impl clap::builder::TypedValueParser<Value = Guidance> {
+    use clap::builder::TypedValueParser;
+    // The parser admits only the listed words, each of which parses.
+    clap::builder::PossibleValuesParser::new(Guidance::ALL.map(Guidance::name))
+        .map(|word| word.parse().unwrap_or(Guidance::None))
 }
 
 /// `agvsim new`'s command line: the robot's numbers, each in its unit; without --from the
@@ -80,8 +51,8 @@ pub struct NewArgs {
     /// Guidance: `wire` (the thesis's guide wire and P-D firmware), `none` (a
     /// velocity-commanded base, as a ROS robot: `run` drives its [manoeuvre], a square,
     /// `replay` a recording's cmd_vel) or `open-loop` (constant demands) [default: none].
-    #[arg(long, value_parser = ["wire", "none", "open-loop"])]
-    pub guidance: Option<String>,
+    #[arg(long, value_parser = guidance_words())]
+    pub guidance: Option<Guidance>,
     /// Body length, m [default: twice the track].
     #[arg(long, value_parser = positive_number)]
     pub length_m: Option<f64>,
@@ -97,15 +68,15 @@ pub struct NewArgs {
 }
 
 impl NewArgs {
-    /// The request the flags make: the robot's numbers as a [`RobotSpec`].
-    pub fn request(self) -> Result<NewRequest, CommandError> {
-        use crate::scene::robot::Guidance;
+    /// The request the flags make: the robot's numbers as a [`RobotSpec`]; `command` is
+    /// what the scene file's header says made it.
+    pub fn request(self, command: String) -> Result<NewRequest, CommandError> {
         let motor = self.drive.motor()?;
         Ok(NewRequest {
             out: self.out,
             from: self.from,
             force: self.force,
-            command: super::command_line(),
+            command,
             spec: RobotSpec {
                 mass_kg: self.mass_kg,
                 track_m: self.track_m,
@@ -116,11 +87,7 @@ impl NewArgs {
                 backlash_rad: self.drive.backlash_rad,
                 tyre: self.tyre,
                 castors: self.castors,
-                guidance: self.guidance.map(|g| match g.as_str() {
-                    "wire" => Guidance::Wire,
-                    "open-loop" => Guidance::OpenLoop,
-                    _ => Guidance::None,
-                }),
+                guidance: self.guidance,
                 length_m: self.length_m,
                 width_m: self.width_m,
                 description: self.description,

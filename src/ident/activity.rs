@@ -50,9 +50,9 @@ pub struct RunningFit {
 }
 
 impl RunningFit {
-    /// The time its remaining iterations would take at its pace so far, s: an upper
-    /// estimate, as a fit stops early once it converges (`None` before its first
-    /// iteration ends).
+    /// The time its remaining iterations would take at its pace so far, s (`None` before
+    /// its first iteration ends). An estimate: a fit stops early once it converges, and
+    /// its later iterations may cost more than its first.
     pub fn most_left_s(&self) -> Option<f64> {
         (self.done > 0)
             .then(|| self.max.saturating_sub(self.done) as f64 * self.elapsed_s / self.done as f64)

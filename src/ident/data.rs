@@ -151,7 +151,7 @@ impl Dataset {
             .iter()
             .zip(&self.outputs)
             .filter_map(|(name, col)| {
-                let v = crate::ident::evaluate::constant_value(col)?;
+                let v = constant_value(col)?;
                 Some((
                     name.clone(),
                     format!(
@@ -336,4 +336,19 @@ impl Dataset {
         d.inputs.extend([a, b]);
         Some(d)
     }
+}
+
+/// The one value every measured cell holds, when there are at least two and they are
+/// all equal: a column without spread, which no normalised fit scores.
+pub fn constant_value(measured: &[Option<f64>]) -> Option<f64> {
+    let mut cells = measured.iter().flatten();
+    let first = *cells.next()?;
+    let mut n = 1;
+    for v in cells {
+        if *v != first {
+            return None;
+        }
+        n += 1;
+    }
+    (n >= 2).then_some(first)
 }

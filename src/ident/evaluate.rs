@@ -45,20 +45,7 @@ pub struct Evaluation {
     pub data: Option<Dataset>,
 }
 
-/// The one value every measured cell holds, when there are at least two and they are
-/// all equal: a column without spread, which no normalised fit scores.
-pub fn constant_value(measured: &[Option<f64>]) -> Option<f64> {
-    let mut cells = measured.iter().flatten();
-    let first = *cells.next()?;
-    let mut n = 1;
-    for v in cells {
-        if *v != first {
-            return None;
-        }
-        n += 1;
-    }
-    (n >= 2).then_some(first)
-}
+pub use super::data::constant_value;
 
 /// Normalised fit, %, over the measured cells: `100 (1 - |y - yhat| / |y - mean y|)`.
 /// NaN for a column without spread ([`constant_value`]): the ratio has no meaning there

@@ -16,8 +16,10 @@ pub mod cdr;
 pub mod clock;
 mod columns;
 pub mod controller;
+mod converter;
 mod joints;
 mod mcap;
+mod open;
 mod pose;
 mod rosbag1;
 mod sqlite;
@@ -130,6 +132,6 @@ pub fn import(
     map: &TopicMap,
     geometry: &Geometry,
 ) -> Result<Ros2Recording, Ros2Error> {
-    let bag = bag::open(path)?;
+    let bag = open::open(path)?;
     columns::convert(&bag, map, geometry)
 }

@@ -4,7 +4,7 @@
 use super::align::Series;
 use super::bag::Topic;
 use super::cdr;
-use super::columns::{Converter, ODOMETRY, POSE_COV_STAMPED, POSE_STAMPED, TF};
+use super::converter::{Converter, ODOMETRY, POSE_COV_STAMPED, POSE_STAMPED, TF};
 use super::Ros2Error;
 
 /// The independent pose, and how it was found (`(what, topic)`):

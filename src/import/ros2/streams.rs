@@ -6,7 +6,7 @@
 use super::align::Series;
 use super::bag::Topic;
 use super::cdr::{self, Header};
-use super::columns::{Converter, COMMAND_TYPES, STRING};
+use super::converter::{Converter, COMMAND_TYPES, STRING};
 use super::urdf::DriveGeometry;
 use super::{joints, urdf, Geometry, Ros2Error};
 

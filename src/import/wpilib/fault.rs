@@ -4,8 +4,7 @@
 //! [`super::SysIdError`].
 
 use super::feedforward::FeedforwardError;
-use super::json::TESTS;
-use super::wpilog::STATE_PREFIX;
+use super::{STATE_PREFIX, TESTS};
 
 /// One fault of a SysId log; its text names the key, entry, test and row at fault.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

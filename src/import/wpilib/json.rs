@@ -9,15 +9,7 @@
 use super::fault::LogFault;
 use serde_json::Value;
 
-use super::{unit, Mechanism, Sample, Side, SysIdLog, Test};
-
-/// The four tests, in the order SysId lists them.
-pub const TESTS: [&str; 4] = [
-    "slow-forward",
-    "slow-backward",
-    "fast-forward",
-    "fast-backward",
-];
+use super::{unit, Mechanism, Sample, Side, SysIdLog, Test, TESTS};
 
 /// Parses a SysId JSON file's text. Errors name the key, test and row.
 pub(crate) fn parse(text: &str) -> Result<SysIdLog, LogFault> {

@@ -17,6 +17,17 @@ use convert::{convert, feedforward, nominal_rig};
 pub use convert::{gravity, Assumptions, Converted};
 use fault::LogFault;
 
+/// SysId's four tests, in the order it lists them (a JSON log's keys).
+pub const TESTS: [&str; 4] = [
+    "slow-forward",
+    "slow-backward",
+    "fast-forward",
+    "fast-backward",
+];
+
+/// The prefix of a `.wpilog`'s entry of a routine's test state (`sysid-test-state-NAME`).
+pub const STATE_PREFIX: &str = "sysid-test-state-";
+
 use std::f64::consts::TAU;
 
 /// The mechanism SysId characterised.

@@ -12,9 +12,7 @@
 
 use super::datalog::{DataLog, Entry, Value};
 use super::fault::LogFault;
-use super::{unit, Mechanism, Sample, Side, SysIdLog, Test, Unit};
-
-pub(super) const STATE_PREFIX: &str = "sysid-test-state-";
+use super::{unit, Mechanism, Sample, Side, SysIdLog, Test, Unit, STATE_PREFIX};
 
 /// What the user says when the log alone does not decide.
 #[derive(Debug, Clone, Default)]

@@ -60,6 +60,33 @@ pub enum Guidance {
     OpenLoop,
 }
 
+impl Guidance {
+    /// Every guidance, in the order its words are listed.
+    pub const ALL: [Guidance; 3] = [Guidance::Wire, Guidance::None, Guidance::OpenLoop];
+
+    /// Its word on the command line and in Python (`wire`, `none`, `open-loop`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Guidance::Wire => "wire",
+            Guidance::None => "none",
+            Guidance::OpenLoop => "open-loop",
+        }
+    }
+}
+
+impl std::str::FromStr for Guidance {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Guidance::ALL
+            .into_iter()
+            .find(|g| g.name() == s)
+            .ok_or_else(|| {
+                let words: Vec<&str> = Guidance::ALL.iter().map(|g| g.name()).collect();
+                format!("unknown guidance `{s}`: expected {}", words.join(", "))
+            })
+    }
+}
+
 /// The numbers of `agvsim new`; `None` where not given (taken from `--from`'s scene, or
 /// a default stated in the output).
 #[derive(Debug, Clone, Default)]
