@@ -352,3 +352,30 @@ pub fn constant_value(measured: &[Option<f64>]) -> Option<f64> {
     }
     (n >= 2).then_some(first)
 }
+
+/// An output of a record left out of the fit, and why.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct LeftOut {
+    /// The output column.
+    pub output: String,
+    /// Why the record cannot show it ([`GreyBox::unexcited_outputs`]).
+    pub why: String,
+}
+
+impl LeftOut {
+    /// The outputs of `unexcited` (output, why) that `data` measures, then those whose
+    /// measured cells do not spread ([`Dataset::flat_outputs`]): one rule for every fit.
+    pub fn of(data: &Dataset, unexcited: Vec<(String, String)>) -> Vec<LeftOut> {
+        let mut left: Vec<LeftOut> = unexcited
+            .into_iter()
+            .filter(|(o, _)| data.output_index(o).is_some())
+            .map(|(output, why)| LeftOut { output, why })
+            .collect();
+        for (output, why) in data.flat_outputs() {
+            if !left.iter().any(|l| l.output == output) {
+                left.push(LeftOut { output, why });
+            }
+        }
+        left
+    }
+}
