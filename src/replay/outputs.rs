@@ -24,7 +24,7 @@ pub(super) struct Channel {
 /// states), not the speed at the instant: at a 25 ms interval the two differ by half an
 /// interval's lag, which a fit would otherwise explain with a dead time. A gyro's yaw
 /// rate and a current are read at the instant.
-pub(super) fn encoder_source(name: &str) -> Option<fn(&Snapshot) -> f64> {
+fn encoder_source(name: &str) -> Option<fn(&Snapshot) -> f64> {
     match name {
         "motor_speed_rad_s" | "left_motor_speed_rad_s" => Some(|s| s.sides[0].motor_angle_rad),
         "right_motor_speed_rad_s" => Some(|s| s.sides[1].motor_angle_rad),
@@ -35,10 +35,10 @@ pub(super) fn encoder_source(name: &str) -> Option<fn(&Snapshot) -> f64> {
 }
 
 /// Reads one output from a simulator snapshot.
-pub(super) type Probe = fn(&Snapshot) -> f64;
+type Probe = fn(&Snapshot) -> f64;
 
 /// The drive-axis outputs (the left drive of the lifted simulator).
-pub(super) fn axis_channels() -> Vec<(&'static str, Probe)> {
+fn axis_channels() -> Vec<(&'static str, Probe)> {
     vec![
         ("motor_speed_rad_s", |s| s.sides[0].motor_speed_rad_s),
         ("motor_angle_rad", |s| s.sides[0].motor_angle_rad),

@@ -34,7 +34,7 @@ pub(super) const MIN_STILL_ROWS: usize = 20;
 /// Span at a segment's start over which its start pose is fitted when the machine moves
 /// from the first row, s: long enough to average the tracker's noise, short enough that
 /// a model still being fitted stays close to the measurement.
-pub(super) const START_POSE_WINDOW_S: f64 = 0.25;
+const START_POSE_WINDOW_S: f64 = 0.25;
 
 /// Fits the start pose of a segment that moves from its first row, where one noisy
 /// sample would set it (a tracker's 5 mrad on the heading turns the whole replayed path,
