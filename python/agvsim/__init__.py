@@ -914,7 +914,7 @@ def import_ros2(
     for k in ("map", "controller_yaml"):
         if k in given:
             given[k] = Path(given[k])
-    report = _in_python_words(lambda: _native.import_ros2(Path(bag), Path(out), command, **given))
+    report = _native.import_ros2(Path(bag), Path(out), command, **given)
     return Imported(report)
 
 
@@ -933,12 +933,10 @@ def import_wpilib(
 ) -> Imported:
     """Converts a WPILib SysId log (``.json`` or ``.wpilog``), as ``agvsim import wpilib``:
     a recording per test and a rig."""
-    report = _in_python_words(
-        lambda: _native.import_wpilib(
-            Path(file), Path(out), routine=routine, motors=list(motors), mechanism=mechanism,
-            wheel_radius_m=wheel_radius_m, resistance_ohm=resistance_ohm,
-            track_width_m=track_m, supply_v=battery_v,
-        )
+    report = _native.import_wpilib(
+        Path(file), Path(out), routine=routine, motors=list(motors), mechanism=mechanism,
+        wheel_radius_m=wheel_radius_m, resistance_ohm=resistance_ohm,
+        track_width_m=track_m, supply_v=battery_v,
     )
     return Imported(report)
 

@@ -21,6 +21,9 @@ from typing import Any, Dict, List, Optional, Type, TypeVar, Union
 
 import numpy as np
 
+if typing.TYPE_CHECKING:  # pragma: no cover - for the annotations only
+    from . import Scene
+
 __all__ = [
     "Parameter",
     "LeftOut",
@@ -528,8 +531,9 @@ class Calibration:
     iterations: Optional[int] = None
     #: The search of terms outside the vocabulary, if run (the JSON's object).
     terms: Optional[Dict[str, Any]] = None
-    #: The calibrated scene (an :class:`agvsim.Scene`).
-    scene: Any = field(default=None, metadata={"json_name": "-scene"})
+    #: The calibrated scene (see :attr:`scene`; typed there, as this module is imported
+    #: before :class:`agvsim.Scene` exists).
+    calibrated_scene: Any = field(default=None, repr=False, metadata={"json_name": "-scene"})
     #: What the command printed.
     report: str = field(default="", metadata={"json_name": "-report"})
     #: The whole JSON.
@@ -538,7 +542,12 @@ class Calibration:
     @classmethod
     def from_json(cls, data: Dict[str, Any], report: str = "", scene: Any = None) -> "Calibration":
         """From ``calibrate.json`` (``agvsim calibrate --json``)."""
-        return dataclasses.replace(_from_json(cls, data), report=report, data=data, scene=scene)
+        return dataclasses.replace(_from_json(cls, data), report=report, data=data, calibrated_scene=scene)
+
+    @property
+    def scene(self) -> "Scene":
+        """The calibrated scene (the CLI's ``--write``), an :class:`agvsim.Scene`."""
+        return typing.cast("Scene", self.calibrated_scene)
 
     @property
     def accepted(self) -> List[CalibratedEffect]:

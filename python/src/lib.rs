@@ -133,12 +133,10 @@ where
 /// each number checked positive and named as Python passes it.
 fn drive_of(
     battery_v: Option<f64>,
-    (rated_v, no_load_rpm, stall_current_a, stall_torque_nm): (
-        Option<f64>,
-        Option<f64>,
-        Option<f64>,
-        Option<f64>,
-    ),
+    rated_v: Option<f64>,
+    no_load_rpm: Option<f64>,
+    stall_current_a: Option<f64>,
+    stall_torque_nm: Option<f64>,
     gear_ratio: Option<f64>,
     backlash_rad: Option<f64>,
 ) -> PyResult<commands::flags::DriveFlags> {
@@ -153,8 +151,10 @@ fn drive_of(
     })
 }
 
-/// A request builder's refusal, as Python sees it.
-fn refused(e: CommandError) -> PyErr {
+/// A library error (a request builder's refusal, a scene that does not load) as Python
+/// sees it, with the CLI's exit status.
+fn failed(e: impl Into<CommandError>) -> PyErr {
+    let e = e.into();
     to_py((e.to_string(), e.exit_code()))
 }
 
@@ -239,12 +239,10 @@ fn new_scene(
         wheel_radius_m: positive("wheel_radius_m", wheel_radius_m)?,
         drive: drive_of(
             battery_v,
-            (
-                motor_rated_v,
-                motor_no_load_rpm,
-                motor_stall_current_a,
-                motor_stall_torque_nm,
-            ),
+            motor_rated_v,
+            motor_no_load_rpm,
+            motor_stall_current_a,
+            motor_stall_torque_nm,
             gear_ratio,
             backlash_rad,
         )?,
@@ -256,7 +254,7 @@ fn new_scene(
         description,
         force,
     };
-    let request = args.request(command).map_err(refused)?;
+    let request = args.request(command).map_err(failed)?;
     job(py, false, move |say| commands::new::run(&request, say))
 }
 
@@ -571,17 +569,15 @@ fn import_ros2(
         controller_yaml,
         drive: drive_of(
             battery_v,
-            (
-                motor_rated_v,
-                motor_no_load_rpm,
-                motor_stall_current_a,
-                motor_stall_torque_nm,
-            ),
+            motor_rated_v,
+            motor_no_load_rpm,
+            motor_stall_current_a,
+            motor_stall_torque_nm,
             gear_ratio,
             backlash_rad,
         )?,
     };
-    let request = args.request(command).map_err(refused)?;
+    let request = args.request(command).map_err(failed)?;
     job(py, false, move |say| commands::import::ros2(&request, say))
 }
 

@@ -5,19 +5,10 @@ use std::path::PathBuf;
 
 use pyo3::prelude::*;
 
-use agvsim::model::tyre::TyreParams;
 use agvsim::model::tyre_presets::{COMPOUNDS, SURFACES};
 use agvsim::sim::linearize as linear;
 
-use agvsim::commands::CommandError;
-
-use crate::to_py;
-
-/// A library error as Python sees it, with the CLI's exit status.
-fn failed(e: impl Into<CommandError>) -> PyErr {
-    let e = e.into();
-    to_py((e.to_string(), e.exit_code()))
-}
+use crate::failed;
 
 /// Complex numbers as `[re, im]` pairs (JSON has no complex type).
 fn pairs(poles: &[(f64, f64)]) -> Vec<[f64; 2]> {
@@ -47,11 +38,7 @@ pub fn linearize(py: Python<'_>, scene: PathBuf, set: Vec<String>) -> PyResult<(
         "closed_loop_poles": closed.as_ref().map(|c| pairs(&c.poles)),
         "closed_loop_stable": closed.as_ref().map(|c| c.stable()),
     });
-    let report = format!(
-        "scene            {}\n{}",
-        scene.display(),
-        linear::render(&l, &reach)
-    );
+    let report = agvsim::commands::linearize::report(&scene, &l, &reach);
     Ok((report, json.to_string()))
 }
 
@@ -69,14 +56,12 @@ pub fn presets() -> (
     Vec<(String, f64, String)>,
     String,
 ) {
-    let rows = COMPOUNDS
-        .iter()
-        .flat_map(|c| SURFACES.iter().map(move |s| (c, s)))
-        .map(|(c, s)| {
-            let t = TyreParams::of(c, s);
+    let rows = agvsim::scene::presets_table::pairs()
+        .into_iter()
+        .map(|(c, s, t)| {
             (
-                c.name.to_string(),
-                s.name.to_string(),
+                c.to_string(),
+                s.to_string(),
                 t.peak_mu,
                 t.sliding_mu,
                 t.long_stiffness_per_N,

@@ -33,9 +33,17 @@ pub fn run(req: &LinearizeRequest, say: Say) -> Result<(), CommandError> {
         write_export(&l, path)?;
         say(&format!("exported         {}\n", path.display()));
     }
-    say(&format!("scene            {}\n", req.scene.display()));
-    say(&linearize::render(&l, &linearize::analyse(&l)));
+    say(&report(&req.scene, &l, &linearize::analyse(&l)));
     Ok(())
+}
+
+/// What `agvsim linearize` prints of the scene at `scene`: its name, then the analysis.
+pub fn report(scene: &Path, l: &Linearisation, reach: &linearize::Reach) -> String {
+    format!(
+        "scene            {}\n{}",
+        scene.display(),
+        linearize::render(l, reach)
+    )
 }
 
 /// The export's format from its name's extension.

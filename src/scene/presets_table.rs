@@ -6,15 +6,24 @@ use std::fmt::Write;
 use crate::model::tyre::TyreParams;
 use crate::model::tyre_presets::{COMPOUNDS, SURFACES};
 
-/// The compounds on the surfaces, one row each, then each compound's and surface's note.
-pub fn render() -> String {
-    let rows: Vec<(String, TyreParams)> = COMPOUNDS
+/// Every compound on every surface, compounds outer: their names and the tyre values they
+/// combine into.
+pub fn pairs() -> Vec<(&'static str, &'static str, TyreParams)> {
+    COMPOUNDS
         .iter()
         .flat_map(|c| {
             SURFACES
                 .iter()
-                .map(move |s| (format!("{} on {}", c.name, s.name), TyreParams::of(c, s)))
+                .map(move |s| (c.name, s.name, TyreParams::of(c, s)))
         })
+        .collect()
+}
+
+/// The compounds on the surfaces, one row each, then each compound's and surface's note.
+pub fn render() -> String {
+    let rows: Vec<(String, TyreParams)> = pairs()
+        .into_iter()
+        .map(|(c, s, t)| (format!("{c} on {s}"), t))
         .collect();
     let width = rows.iter().map(|(n, _)| n.len()).max().unwrap_or(0);
     let mut out = format!(
