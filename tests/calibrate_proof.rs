@@ -4,10 +4,17 @@
 //! 1-sigma coverage of the fitted keys is printed (`cargo test --test calibrate_proof --
 //! --nocapture`; over every kind, `agvsim prove --calibrate`).
 
-use agvsim::calibrate::prove::{cases, coverage, render, run, Kind, Outcome};
+mod common;
+
+use agvsim::calibrate::prove::{cases, coverage, record_text, render, run, setup, Kind, Outcome};
 
 fn prove_kind(kind: Kind) -> Vec<Outcome> {
     let only = std::env::var("AGVSIM_PROOF_CASE").ok();
+    // Another seed's round trips, for looking into one (the test's own is 1).
+    let seed: u64 = std::env::var("AGVSIM_PROOF_SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1);
     let mut out = vec![];
     for case in cases(&[kind]).unwrap() {
         if only
@@ -17,15 +24,15 @@ fn prove_kind(kind: Kind) -> Vec<Outcome> {
             continue;
         }
         if let Ok(dir) = std::env::var("AGVSIM_PROOF_DUMP") {
-            let (machine, _, belief) = agvsim::calibrate::prove::setup(&case, 1).unwrap();
-            let (text, _) = agvsim::calibrate::prove::record_text(&case, &machine, 1).unwrap();
+            let (machine, _, belief) = setup(&case, seed).unwrap();
+            let (text, _) = record_text(&case, &machine, seed).unwrap();
             let stem = case.name.replace('/', "_");
             std::fs::create_dir_all(&dir).unwrap();
             std::fs::write(format!("{dir}/{stem}.csv"), text).unwrap();
             std::fs::write(format!("{dir}/{stem}.machine.toml"), machine.to_toml()).unwrap();
             std::fs::write(format!("{dir}/{stem}.belief.toml"), belief.to_toml()).unwrap();
         }
-        let (o, c) = run(&case, 1).unwrap();
+        let (o, c) = run(&case, seed).unwrap();
         println!("{}\n{}", case.name, agvsim::calibrate::write::render(&c));
         for (k, truth, v, sd) in &o.keys {
             println!(
@@ -73,4 +80,56 @@ fn floor_vehicle_on_voltage_multisines() {
 #[test]
 fn velocity_commanded_base_on_random_cmd_vel_steps() {
     prove_kind(Kind::BaseVelocity);
+}
+
+/// `agvsim diagnose --rig` on a velocity recording: the base known by a `base` rig.
+#[test]
+fn velocity_commanded_base_known_by_its_rig() {
+    prove_kind(Kind::BaseRig);
+}
+
+/// `agvsim diagnose --rig` itself on a base's velocity recording: the wheel-geometry case of
+/// the base known by its rig, its rig and recording written as files. The contract's JSON
+/// names the geometry first, its track within the proof's 10 % (the case's truth), and the
+/// console says it as a diagnosis.
+#[test]
+fn diagnose_with_a_base_rig_names_the_wheel_geometry() {
+    let case = cases(&[Kind::BaseRig])
+        .unwrap()
+        .into_iter()
+        .find(|c| c.name.ends_with("/wheel_geometry"))
+        .unwrap();
+    let (machine, _, belief) = setup(&case, 1).unwrap();
+    let (recording, _) = record_text(&case, &machine, 1).unwrap();
+    let dir = common::tmp("base-rig");
+    let (csv, rig, json) = (
+        dir.join("run.csv"),
+        dir.join("robot.rig.toml"),
+        dir.join("diagnosis.json"),
+    );
+    std::fs::write(&csv, recording).unwrap();
+    std::fs::write(&rig, agvsim::rig::Rig::of_base_scene(&belief).to_toml()).unwrap();
+    let path = |p: &std::path::Path| p.to_str().unwrap().to_string();
+    let o = common::agvsim_output(&[
+        "diagnose",
+        "--rig",
+        &path(&rig),
+        "--recording",
+        &path(&csv),
+        "--json",
+        &path(&json),
+    ]);
+    let t = common::text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(t.contains("Found: wheel_geometry"), "{t}");
+    let d: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let first = &d["effects"][0];
+    assert_eq!(first["name"], "wheel_geometry", "{d:#}");
+    let (_, truth) = case.truth.unwrap();
+    let track = first["params"]["track_m"].as_f64().unwrap();
+    assert!(
+        (track / truth - 1.0).abs() <= 0.10,
+        "track {track} for {truth}\n{t}"
+    );
 }

@@ -127,6 +127,15 @@ pub fn default_free(rig: RigKind) -> &'static [ParamKey] {
     }
 }
 
+/// A velocity-commanded base's keys fitted by default: what its recordings show of the
+/// chassis (mass, yaw inertia) and of its drivers' speed loops.
+pub const VELOCITY_BASE_FREE: [ParamKey; 4] = [
+    ChassisParams::mass_kg,
+    ChassisParams::yaw_inertia_kg_m2,
+    BaseParams::speed_kp_v_s_rad,
+    BaseParams::speed_ki_v_rad,
+];
+
 /// The keys a recording fits by default: [`default_free`], but for a vehicle driven by
 /// velocity commands the chassis mass and yaw inertia and its drivers' speed-loop gains
 /// (the loops hide the motor's torque constant and resistance behind their set-points).
@@ -136,12 +145,7 @@ pub fn default_free_of(rec: &Recording) -> &'static [ParamKey] {
         .iter()
         .all(|c| rec.column(c).is_some());
     if rec.rig == RigKind::Vehicle && velocity {
-        &[
-            ChassisParams::mass_kg,
-            ChassisParams::yaw_inertia_kg_m2,
-            BaseParams::speed_kp_v_s_rad,
-            BaseParams::speed_ki_v_rad,
-        ]
+        &VELOCITY_BASE_FREE
     } else {
         default_free(rec.rig)
     }

@@ -843,7 +843,35 @@ impl Problem<'_> {
             _ => stage,
         };
         let n_ref = reference.effective_n(&self.data);
-        Ok((self.trial(home, reference, &n_ref, &next)?, next))
+        let trial = self.trial(home, reference, &n_ref, &next)?;
+        let trial = match (&null, self.simulator_judges() && trial.accepted) {
+            (Some(null), true) => self.against_the_simulators_null(home, trial, null, &next)?,
+            _ => trial,
+        };
+        Ok((trial, next))
+    }
+
+    /// Where the simulator judges, an effect's trial that passes against a null fitted on
+    /// the reduced base weighed again against the null refitted through the simulator
+    /// itself (the stage's keys from where the effect's fit ended, the effect off): the
+    /// two engines' optima differ, and an effect whose extra keys only move the stage's
+    /// keys to where the simulator would have them anyway has no evidence of its own.
+    /// The weaker of the two gains is the effect's.
+    fn against_the_simulators_null(
+        &self,
+        home: &effects::Home,
+        trial: EffectTrial,
+        null: &Stage,
+        next: &Stage,
+    ) -> Result<EffectTrial, CalibrateError> {
+        let refitted = self.through_simulator(&null.reached, &null.free)?;
+        let n_ref = refitted.effective_n(&self.data);
+        let again = self.trial(home, &refitted, &n_ref, next)?;
+        Ok(if again.delta_aic < trial.delta_aic {
+            again
+        } else {
+            trial
+        })
     }
 
     /// An effect the model has, weighed against its absence: the stage's other keys fitted

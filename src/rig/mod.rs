@@ -19,6 +19,7 @@
 //! holds a parameter its record cannot determine near its belief by that much
 //! ([`crate::ident::model::ParamSpec::belief_sd_rel`]; unstated: 30 %).
 
+mod base;
 pub mod blocks;
 pub mod keys;
 pub mod kind;
@@ -565,99 +566,12 @@ pub fn electrical_damping(rig: &Rig) -> Option<f64> {
     }
 }
 
-impl Rig {
-    /// The velocity-commanded base a `base` rig describes, as a scene for the simulator:
-    /// a robot of its size (`agvsim new`'s derivations from its mass, track, wheel radius,
-    /// supply and gear ratio; the thesis machine's where the rig is silent), then every
-    /// value the rig states under its scene key (the motor's, the chassis's, the base
-    /// controller's limits, configured geometry and its drivers' loop gains), with the
-    /// rig's `[uncertainty_pct]`. No gear play and no Coulomb friction unless stated: a rig
-    /// is the machine as believed, its effects for the diagnosis to find.
-    pub fn base_scene(&self, path: &Path) -> Result<crate::scene::Scene, RigError> {
-        use crate::scene::robot::{new_scene, Guidance, RobotSpec};
-        let invalid = |message: String| RigError::invalid(path, message);
-        let spec = RobotSpec {
-            mass_kg: self.get(ChassisParams::mass_kg.key()),
-            track_m: self.get(ChassisParams::track_width_m.key()),
-            wheel_radius_m: self.get(WheelParams::radius_m.key()),
-            battery_v: self.get(keys::alias::SUPPLY_VOLTAGE_V.key()),
-            gear_ratio: self.get(GearboxParams::ratio.key()),
-            backlash_rad: Some(0.0),
-            guidance: Some(Guidance::None),
-            configured_geometry: true,
-            description: Some(format!(
-                "The velocity-commanded base of {}, for the simulator",
-                path.display()
-            )),
-            ..RobotSpec::default()
-        };
-        // What the rig does not state is the thesis machine's, as `import ros2` takes it.
-        let thesis = crate::scene::Scene::default();
-        let from = Path::new("the thesis machine (agvsim's defaults)");
-        let made = new_scene(&spec, Some((from, &thesis)), "agvsim diagnose --rig")
-            .map_err(|e| invalid(format!("the base does not make a scene: {e}")))?;
-        let mut sets = vec![format!("{}=0", MotorParams::coulomb_nm.key())];
-        for (k, v) in self.stated() {
-            if let (Some(scene_key), Stated::Number(x)) = (k.scene_key, v) {
-                sets.push(format!("{scene_key}={x}"));
-            }
-        }
-        let mut scene = crate::scene::Scene::from_toml(&made.text, path, &sets)
-            .map_err(|e| invalid(format!("the base's values do not make a scene: {e}")))?;
-        let table = keys::table();
-        for (o, pct) in &self.uncertainty_pct {
-            if let Some(scene_key) = table[*o].scene_key {
-                scene.uncertainty_pct.insert(scene_key.to_string(), *pct);
-            }
-        }
-        scene.validate().map_err(|bad| {
-            invalid(format!(
-                "{} = {}: expected {}",
-                bad.key, bad.value, bad.expected
-            ))
-        })?;
-        Ok(scene)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
     fn parse(t: &str) -> Result<Rig, RigError> {
         Rig::parse(t, Path::new("x.rig.toml"))
-    }
-
-    /// A base rig's scene: the robot it states (size, configured geometry, limits, loop
-    /// gains, with their uncertainty), no play and no Coulomb friction it did not state.
-    #[test]
-    fn a_base_rig_makes_the_scene_of_the_robot_it_states() {
-        let rig = parse(
-            r#"
-rig = "base"
-[chassis]
-mass_kg = 12.0
-track_width_m = 0.3
-[wheel]
-radius_m = 0.05
-[base]
-wheel_separation_m = 0.3
-wheel_radius_m = 0.05
-max_angular_rad_s = 1.2
-speed_kp_V_s_rad = 0.4
-[uncertainty_pct]
-"chassis.mass_kg" = 10
-"#,
-        )
-        .unwrap();
-        let s = rig.base_scene(Path::new("x.rig.toml")).unwrap();
-        assert_eq!(s.chassis.mass_kg, 12.0);
-        assert_eq!(s.chassis.track_width_m, 0.3);
-        assert_eq!(s.base.max_angular_rad_s, 1.2);
-        assert_eq!(s.base.speed_kp_v_s_rad, 0.4);
-        assert_eq!(s.gearbox.backlash_rad, 0.0);
-        assert_eq!(s.motor.coulomb_nm, 0.0);
-        assert_eq!(s.uncertainty_pct.get("chassis.mass_kg"), Some(&10.0));
     }
 
     #[test]
