@@ -254,3 +254,59 @@ fn the_open_question_on_a_square_run_names_the_geometry_and_the_base_limits() {
     assert!(fit_after("mean") > 0.0, "{shown}");
     assert!(fit_after("validate") > 0.0, "{shown}");
 }
+
+/// The import says what the commands show of the base's own limits, with the numbers: on a
+/// square run `/cmd_vel` asks turns at the corners the wheels never reach. The commanded
+/// peak it says is the recording's own, and the wheels' reach lies beyond the rule's
+/// margin below it (1.5 times).
+#[test]
+fn the_import_says_the_turn_rate_limit_the_commands_show() {
+    let Some(bags) = data() else {
+        println!("skipped: ../shared/data/real/optiodom not found");
+        return;
+    };
+    let dir = scratch("limits");
+    let run = "square_230620202042_run1";
+    let o = agvsim(&[
+        "import",
+        "ros2",
+        bags.join(run).to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+        "--mass-kg",
+        "4",
+        "--gear-ratio",
+        "43.7",
+    ]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    let line = t
+        .lines()
+        .find(|l| l.starts_with("limits") && l.contains("base.max_angular_rad_s"))
+        .unwrap_or_else(|| panic!("no turn-rate limit said:\n{t}"));
+    let numbers: Vec<f64> = line
+        .split_whitespace()
+        .filter_map(|w| w.trim_end_matches(',').parse().ok())
+        .collect();
+    let (asked, reached) = (numbers[0], numbers[1]);
+    let csv = std::fs::read_to_string(dir.join(format!("{run}.csv"))).unwrap();
+    let mut lines = csv.lines().filter(|l| !l.starts_with('#'));
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = header
+        .iter()
+        .position(|c| *c == "cmd_angular_rad_s")
+        .unwrap();
+    let peak = lines
+        .filter_map(|l| l.split(',').nth(col)?.parse::<f64>().ok())
+        .fold(0.0f64, |m, v| m.max(v.abs()));
+    assert!(
+        (asked / peak - 1.0).abs() < 0.01,
+        "{asked} against {peak}: {line}"
+    );
+    assert!(reached > 0.0 && 1.5 * reached < asked, "{line}");
+    // docs/ros2.md quotes this run's line: up to 1.6 rad/s asked, about 0.48 reached.
+    assert!(
+        (asked - 1.6).abs() < 0.05 && (reached - 0.48).abs() < 0.01,
+        "{line}"
+    );
+}

@@ -552,6 +552,7 @@ pub fn ros2(req: &Ros2Import, say: Say) -> Result<(), CommandError> {
     if let Some(g) = &rec.geometry {
         let (text, said) = robot_scene(req, &rec, g, params.as_ref(), &stem, &scene_path)?;
         warnings = said;
+        warnings.extend(limits_shown(&files[0].1, &csv_path, &text, &scene_path));
         files.push((scene_path.clone(), text));
     }
     std::fs::create_dir_all(&dir).map_err(io(&dir))?;
@@ -686,6 +687,53 @@ fn guesses(req: &Ros2Import, battery_v: Option<f64>, scene: &crate::scene::Scene
         ));
     }
     said
+}
+
+/// What the recording shows of the base controller's own limits
+/// ([`crate::calibrate::base_limits`]): commands the wheels never follow, said with the
+/// numbers, so that nobody asks other physics to explain the gap.
+fn limits_shown(csv: &str, csv_path: &Path, scene_text: &str, scene_path: &Path) -> Vec<String> {
+    use crate::model::base_controller::BaseParams;
+    let (Ok(rec), Ok(scene)) = (
+        crate::record::Recording::parse(csv, csv_path),
+        crate::scene::Scene::from_toml(scene_text, scene_path, &[]),
+    ) else {
+        return vec![];
+    };
+    let sig = crate::scene::plausibility::sig;
+    let peak = |column: &str| {
+        rec.column(column).map_or(0.0, |c| {
+            c.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()))
+        })
+    };
+    let shown = crate::calibrate::base_limits::shown(&rec, &scene);
+    shown
+        .starts
+        .iter()
+        .map(|(key, start)| {
+            let unit = key.unit();
+            let (what, command) = if *key == BaseParams::max_linear_m_s
+                || *key == BaseParams::max_linear_accel_m_s2
+            {
+                ("linear", "cmd_linear_m_s")
+            } else {
+                ("angular", "cmd_angular_rad_s")
+            };
+            let seen = if key.key().contains("accel") {
+                format!("the wheels climb its steps at about {} {unit} at most", sig(*start))
+            } else {
+                format!(
+                    "it asks up to {} {unit}, the wheels reach about {} {unit}",
+                    sig(peak(command)),
+                    sig(*start)
+                )
+            };
+            format!(
+                "limits     /cmd_vel's {what} speed: {seen}: the base controller's (or its drivers') limit {} (`agvsim calibrate` fits it first, effect base_limits)\n",
+                key.key()
+            )
+        })
+        .collect()
 }
 
 /// What `import ros2` prints: the bag, how each column was made, notes and warnings,
