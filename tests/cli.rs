@@ -207,6 +207,18 @@ fn bad_command_line_values_are_rejected() {
         !st.status.success() && err.contains("no/such/scene.toml"),
         "{err}"
     );
+    // The proof's seeds: only for the calibration's proof, and at least one.
+    for (args, says) in [
+        (&["prove", "--seeds", "3"][..], "--calibrate"),
+        (&["prove", "--calibrate", "--seeds", "0"][..], "--seeds"),
+    ] {
+        let st = agvsim().args(args).output().unwrap();
+        let err = String::from_utf8_lossy(&st.stderr);
+        assert!(
+            !st.status.success() && err.contains(says),
+            "{args:?}: {err}"
+        );
+    }
 }
 
 #[test]
