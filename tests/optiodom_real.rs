@@ -37,6 +37,12 @@ fn agvsim(args: &[&str]) -> Output {
 /// Imports a run: its recording and its scene (a 4 kg robot, the 43.7:1 gear the data
 /// set states; motor assumed), as docs/ros2.md's recipe does.
 fn import(bags: &Path, run: &str, out: &Path) -> (PathBuf, PathBuf) {
+    let (scene, rec, _) = import_saying(bags, run, out);
+    (scene, rec)
+}
+
+/// [`import`], with what the import said.
+fn import_saying(bags: &Path, run: &str, out: &Path) -> (PathBuf, PathBuf, String) {
     let o = agvsim(&[
         "import",
         "ros2",
@@ -48,10 +54,12 @@ fn import(bags: &Path, run: &str, out: &Path) -> (PathBuf, PathBuf) {
         "--gear-ratio",
         "43.7",
     ]);
-    assert!(o.status.success(), "{}", text(&o));
+    let said = text(&o);
+    assert!(o.status.success(), "{said}");
     (
         out.join(format!("{run}.scene.toml")),
         out.join(format!("{run}.csv")),
+        said,
     )
 }
 
@@ -267,19 +275,7 @@ fn the_import_says_the_turn_rate_limit_the_commands_show() {
     };
     let dir = scratch("limits");
     let run = "square_230620202042_run1";
-    let o = agvsim(&[
-        "import",
-        "ros2",
-        bags.join(run).to_str().unwrap(),
-        "--out",
-        dir.to_str().unwrap(),
-        "--mass-kg",
-        "4",
-        "--gear-ratio",
-        "43.7",
-    ]);
-    let t = text(&o);
-    assert!(o.status.success(), "{t}");
+    let (_, rec, t) = import_saying(&bags, run, &dir);
     let line = t
         .lines()
         .find(|l| l.starts_with("limits") && l.contains("base.max_angular_rad_s"))
@@ -289,7 +285,7 @@ fn the_import_says_the_turn_rate_limit_the_commands_show() {
         .filter_map(|w| w.trim_end_matches(',').parse().ok())
         .collect();
     let (asked, reached) = (numbers[0], numbers[1]);
-    let csv = std::fs::read_to_string(dir.join(format!("{run}.csv"))).unwrap();
+    let csv = std::fs::read_to_string(rec).unwrap();
     let mut lines = csv.lines().filter(|l| !l.starts_with('#'));
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
     let col = header

@@ -719,11 +719,7 @@ fn setup_through_rig(
     seed: u64,
 ) -> Result<(Scene, Recording, Scene), CalibrateError> {
     let believed = through_rig(&belief(known, &super::VELOCITY_BASE_FREE, seed)?)?;
-    let mut sets: Vec<String> = crate::rig::Rig::of_base_scene(known)
-        .numbers()
-        .into_iter()
-        .filter_map(|(key, v)| Some(format!("{}={v}", crate::rig::keys::find(&key)?.scene_key?)))
-        .collect();
+    let mut sets = crate::rig::Rig::of_base_scene(known).scene_sets();
     sets.extend(case.machine.iter().cloned());
     let machine = Scene::from_toml(&believed.to_toml(), Path::new("machine.toml"), &sets)
         .map_err(|e| CalibrateError::Key(e.to_string()))?;

@@ -171,12 +171,11 @@ pub fn mapped(req: &MappedImport, say: Say) -> Result<(), CommandError> {
 }
 
 /// A converted recording must read back as the contract's.
-fn check_recording(text: &str, path: &Path) -> Result<(), CommandError> {
+fn check_recording(text: &str, path: &Path) -> Result<Recording, CommandError> {
     Recording::parse(text, path).map_err(|e| CommandError::Contract {
         what: "the converted recording".into(),
         message: e.to_string(),
-    })?;
-    Ok(())
+    })
 }
 
 /// `agvsim import wpilib`'s command line (and Python's `import_wpilib`'s arguments).
@@ -543,7 +542,7 @@ pub fn ros2(req: &Ros2Import, say: Say) -> Result<(), CommandError> {
     let stem = crate::output::safe_file_stem(&stem(&req.bag, "bag"));
     let csv_path = dir.join(format!("{stem}.csv"));
     let text = rec.to_csv();
-    check_recording(&text, &csv_path)?;
+    let parsed = check_recording(&text, &csv_path)?;
     let mut files = vec![(csv_path.clone(), text)];
     let scene_path = dir.join(format!("{stem}.scene.toml"));
     // The geometry comes from the flags, the bag's description or, where neither gives
@@ -552,7 +551,7 @@ pub fn ros2(req: &Ros2Import, say: Say) -> Result<(), CommandError> {
     if let Some(g) = &rec.geometry {
         let (text, said) = robot_scene(req, &rec, g, params.as_ref(), &stem, &scene_path)?;
         warnings = said;
-        warnings.extend(limits_shown(&files[0].1, &csv_path, &text, &scene_path));
+        warnings.extend(limits_shown(&parsed, &text, &scene_path));
         files.push((scene_path.clone(), text));
     }
     std::fs::create_dir_all(&dir).map_err(io(&dir))?;
@@ -692,12 +691,9 @@ fn guesses(req: &Ros2Import, battery_v: Option<f64>, scene: &crate::scene::Scene
 /// What the recording shows of the base controller's own limits
 /// ([`crate::calibrate::base_limits`]): commands the wheels never follow, said with the
 /// numbers, so that nobody asks other physics to explain the gap.
-fn limits_shown(csv: &str, csv_path: &Path, scene_text: &str, scene_path: &Path) -> Vec<String> {
+fn limits_shown(rec: &Recording, scene_text: &str, scene_path: &Path) -> Vec<String> {
     use crate::model::base_controller::BaseParams;
-    let (Ok(rec), Ok(scene)) = (
-        crate::record::Recording::parse(csv, csv_path),
-        crate::scene::Scene::from_toml(scene_text, scene_path, &[]),
-    ) else {
+    let Ok(scene) = crate::scene::Scene::from_toml(scene_text, scene_path, &[]) else {
         return vec![];
     };
     let sig = crate::scene::plausibility::sig;
@@ -706,7 +702,7 @@ fn limits_shown(csv: &str, csv_path: &Path, scene_text: &str, scene_path: &Path)
             c.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()))
         })
     };
-    let shown = crate::calibrate::base_limits::shown(&rec, &scene);
+    let shown = crate::calibrate::base_limits::shown(rec, &scene);
     shown
         .starts
         .iter()

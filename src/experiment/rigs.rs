@@ -27,22 +27,6 @@ const MOTOR: [&str; 6] = [
     MotorParams::coulomb_nm.key(),
 ];
 
-/// A rig of `kind` stating the scene's value of each rig key in `keys`.
-fn from_scene(kind: RigKind, scene: &Scene, keys: &[&str]) -> Rig {
-    let mut rig = Rig::new(kind);
-    let table = crate::scene::keys::table();
-    for key in keys {
-        let value = crate::rig::keys::find(key)
-            .and_then(|k| k.scene_key)
-            .and_then(|scene_key| table.find(scene_key))
-            .and_then(|k| k.get(scene));
-        if let Some(v) = value {
-            rig.set(key, v);
-        }
-    }
-    rig
-}
-
 /// A lifted drive axis: motor, gearbox, wheel, supply and the motor encoder.
 pub(super) fn axis_rig(scene: &Scene) -> Rig {
     let mut keys = MOTOR.to_vec();
@@ -52,7 +36,7 @@ pub(super) fn axis_rig(scene: &Scene) -> Rig {
         WheelParams::inertia_kg_m2.key(),
         alias::SUPPLY_VOLTAGE_V.key(),
     ]);
-    with_encoder(from_scene(RigKind::DriveAxis, scene, &keys))
+    with_encoder(Rig::from_scene(RigKind::DriveAxis, scene, &keys))
 }
 
 fn with_encoder(mut rig: Rig) -> Rig {
@@ -98,7 +82,7 @@ pub(super) fn pair_rig(scene: &Scene) -> Rig {
 
 /// The motor off the vehicle under a falling weight.
 pub(super) fn falling_weight_rig(scene: &Scene, opts: &ExperimentOptions) -> Rig {
-    let mut rig = with_encoder(from_scene(RigKind::DriveAxis, scene, &MOTOR));
+    let mut rig = with_encoder(Rig::from_scene(RigKind::DriveAxis, scene, &MOTOR));
     rig.set(FallingWeight::mass_kg.key(), opts.weight_mass_kg);
     rig.set(FallingWeight::pulley_radius_m.key(), opts.pulley_radius_m);
     rig.set(FallingWeight::drop_m.key(), opts.drop_m);

@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use super::{keys, Rig, RigError, RigKind, Stated};
+use super::{keys, Rig, RigError, RigKind};
 use crate::model::base_controller::BaseParams;
 use crate::model::chassis::ChassisParams;
 use crate::model::gearbox::GearboxParams;
@@ -44,17 +44,7 @@ impl Rig {
     /// robot would write it. [`Rig::base_scene`] of it makes the same machine wherever
     /// the base's scene keys decide.
     pub fn of_base_scene(scene: &crate::scene::Scene) -> Rig {
-        let mut rig = Rig::new(RigKind::Base);
-        let table = crate::scene::keys::table();
-        for key in BASE_KEYS.map(ParamKey::key) {
-            let value = keys::find(key)
-                .and_then(|k| k.scene_key)
-                .and_then(|scene_key| table.find(scene_key))
-                .and_then(|k| k.get(scene));
-            if let Some(v) = value {
-                rig.set(key, v);
-            }
-        }
+        let mut rig = Rig::from_scene(RigKind::Base, scene, &BASE_KEYS.map(ParamKey::key));
         rig.set(
             ChassisParams::mass_kg.key(),
             scene.chassis.mass_kg + scene.payload.mass_kg,
@@ -93,11 +83,7 @@ impl Rig {
         let made = new_scene(&spec, Some((from, &thesis)), "agvsim diagnose --rig")
             .map_err(|e| invalid(format!("the base does not make a scene: {e}")))?;
         let mut sets = vec![format!("{}=0", MotorParams::coulomb_nm.key())];
-        for (k, v) in self.stated() {
-            if let (Some(scene_key), Stated::Number(x)) = (k.scene_key, v) {
-                sets.push(format!("{scene_key}={x}"));
-            }
-        }
+        sets.extend(self.scene_sets());
         let mut scene = crate::scene::Scene::from_toml(&made.text, path, &sets)
             .map_err(|e| invalid(format!("the base's values do not make a scene: {e}")))?;
         let table = keys::table();

@@ -347,6 +347,34 @@ impl Rig {
         self.values.iter().map(move |(i, v)| (&table[*i], v))
     }
 
+    /// A rig of `kind` stating the scene's value of each rig key in `keys` (those the
+    /// scene has a value for).
+    pub fn from_scene(kind: RigKind, scene: &crate::scene::Scene, keys: &[&str]) -> Rig {
+        let mut rig = Rig::new(kind);
+        let table = crate::scene::keys::table();
+        for key in keys {
+            let value = keys::find(key)
+                .and_then(|k| k.scene_key)
+                .and_then(|scene_key| table.find(scene_key))
+                .and_then(|k| k.get(scene));
+            if let Some(v) = value {
+                rig.set(key, v);
+            }
+        }
+        rig
+    }
+
+    /// Each stated number that is a scene key, as a `--set` text under the scene's name
+    /// (`battery.open_circuit_V=24` for the rig's `supply.voltage_V`).
+    pub fn scene_sets(&self) -> Vec<String> {
+        self.stated()
+            .filter_map(|(k, v)| match (k.scene_key, v) {
+                (Some(scene_key), Stated::Number(x)) => Some(format!("{scene_key}={x}")),
+                _ => None,
+            })
+            .collect()
+    }
+
     /// This rig stating `key = value` as well (a number), replacing any value it had.
     /// `None` for a key the rig format does not have.
     pub fn set(&mut self, key: &str, value: f64) -> Option<()> {
