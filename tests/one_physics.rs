@@ -594,3 +594,89 @@ fn the_velocity_base_and_its_reduced_model_agree_while_sliding() {
     let d = base_disagreement("wheel_slip", true);
     assert!(d < 0.03, "{:.2} % of range", 100.0 * d);
 }
+
+/// The wheel speeds' RMS difference between replays of `rec` on `engine` at two chassis
+/// masses, m/s.
+fn mass_sensitivity(
+    machine: &Scene,
+    rec: &Recording,
+    engine: agvsim::replay::Engine,
+    masses: [f64; 2],
+) -> f64 {
+    let replays: Vec<_> = masses
+        .iter()
+        .map(|&m| {
+            let mut s = machine.clone();
+            s.chassis.mass_kg = m;
+            agvsim::replay::replay_with(&s, rec, engine).unwrap()
+        })
+        .collect();
+    let speed =
+        |r: &agvsim::replay::Replay| r.output("left_wheel_speed_m_s").unwrap().simulated.clone();
+    let (a, b) = (speed(&replays[0]), speed(&replays[1]));
+    (a.iter().zip(&b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / a.len() as f64).sqrt()
+}
+
+/// A fit moves a key smoothly only where its model does. The reduced base's step is a
+/// whole number of the simulator's, chosen from the mass (the speed loop's time constant),
+/// so at the mass where that number changes its replay jumps: on the example bag's base, a
+/// jump of a tenth of the encoders' noise, which a fit read as the mass determined to 50 g
+/// (37.2 ± 0.05 kg for 40). Held as a fit's start asked (`Engine::ReducedBaseHeld`, as
+/// calibrate replays), two masses 1 % apart across that point move the wheel speeds as two
+/// masses as far apart on one side do (within 30 %); stepped as each mass asks, more
+/// than five times as much.
+#[test]
+fn the_reduced_base_held_at_a_fits_start_moves_smoothly_with_the_mass() {
+    use agvsim::calibrate::prove::{cases, setup, Kind};
+    use agvsim::replay::Engine;
+    use agvsim::sim::reduced::Stepping;
+    let case = cases(&[Kind::BaseVelocity])
+        .unwrap()
+        .into_iter()
+        .find(|c| c.name.ends_with("clean"))
+        .unwrap();
+    let (machine, rec, _) = setup(&case, 1).unwrap();
+    let step_at = |m: f64| {
+        let mut s = machine.clone();
+        s.chassis.mass_kg = m;
+        Stepping::of(&s).unwrap().step_multiple
+    };
+    // The mass where the step changes, between a fifth and five times the machine's.
+    let m0 = machine.chassis.mass_kg;
+    let (mut lo, mut hi) = (0.2 * m0, 5.0 * m0);
+    assert_ne!(
+        step_at(lo),
+        step_at(hi),
+        "the step does not change with the mass"
+    );
+    for _ in 0..40 {
+        let mid = 0.5 * (lo + hi);
+        if step_at(mid) == step_at(lo) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let across = [0.995 * lo, 1.005 * hi];
+    let spacing = across[1] - across[0];
+    let one_side = [across[1], across[1] + spacing];
+    let mut at_start = machine.clone();
+    at_start.chassis.mass_kg = across[1];
+    let held = Engine::reduced_held_at(&at_start).unwrap();
+    let smooth = mass_sensitivity(&machine, &rec, held, across);
+    let beside = mass_sensitivity(&machine, &rec, held, one_side);
+    let jumping = mass_sensitivity(&machine, &rec, Engine::ReducedBase, across);
+    let sim = mass_sensitivity(&machine, &rec, Engine::Simulator, across);
+    println!(
+        "step changes at {lo:.3} kg; the wheel speed moves {smooth:.3e} m/s across it held, \
+         {beside:.3e} beside it, {jumping:.3e} across it unheld; the simulator {sim:.3e}"
+    );
+    assert!(
+        (smooth / beside - 1.0).abs() < 0.3,
+        "held: {smooth:.3e} across against {beside:.3e} beside"
+    );
+    assert!(
+        jumping > 5.0 * beside,
+        "unheld: {jumping:.3e} across against {beside:.3e} beside"
+    );
+}

@@ -986,3 +986,65 @@ fn the_controller_file_gives_the_geometry_a_bag_does_not_describe() {
     let t = text(&o);
     assert!(t.contains("declares a DTD"), "{t}");
 }
+
+/// The example bag on the robot it was made from (its geometry set as the bag's README
+/// states it): calibrate's intervals on the mass, the yaw inertia and the speed loop's gains
+/// hold the robot's values (within 3 standard deviations), and the mass is reported as the
+/// recording determines it, to kilograms: its commands are ramped by the base's
+/// acceleration limits, and 2.8 kg less mass moves the wheel speeds by a hundredth of the
+/// encoders' noise. A fitting model whose step changed with the mass reported it as 37.2 ±
+/// 0.05 kg (`tests/one_physics.rs`, the reduced base held at a fit's start).
+#[test]
+fn the_example_bags_intervals_hold_the_robot_it_was_made_from() {
+    let dir = scratch("example_bag_intervals");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/ros2_example");
+    let o = import(&root.join("robot_square"), &dir, &common::EXAMPLE_BAG_ROBOT);
+    assert!(o.status.success(), "{}", text(&o));
+    let json = dir.join("calibrated.json");
+    let o = agvsim(&[
+        "calibrate",
+        "--scene",
+        dir.join("robot_square.scene.toml").to_str().unwrap(),
+        "--recording",
+        dir.join("robot_square.csv").to_str().unwrap(),
+        "--effects",
+        "none",
+        "--set",
+        "wheel.right_rolling_radius_m=0.0792",
+        "--set",
+        "chassis.track_width_m=0.408",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let robot = [
+        ("chassis.mass_kg", 40.0),
+        ("chassis.yaw_inertia_kg_m2", 3.035),
+        ("base.speed_kp_V_s_rad", 0.6063),
+        ("base.speed_ki_V_rad", 4.85),
+    ];
+    for (key, truth) in robot {
+        let k = j["keys"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|k| k["key"] == key)
+            .unwrap_or_else(|| panic!("{key} not in {}", j["keys"]));
+        if k["estimate"] != true {
+            continue;
+        }
+        let (v, sd) = (
+            k["calibrated"].as_f64().unwrap(),
+            k["std"].as_f64().unwrap(),
+        );
+        assert!(
+            (v - truth).abs() < 3.0 * sd,
+            "{key}: {v} ± {sd} for the robot's {truth}"
+        );
+        if key == "chassis.mass_kg" {
+            assert!(sd > 1.0, "the mass reported to {sd} kg");
+        }
+    }
+}

@@ -74,10 +74,7 @@ pub fn calibrate_telling(
 ) -> Result<Calibration, CalibrateError> {
     let free = free_keys(request, rec)?;
     let engine = engine_for(scene, rec);
-    progress(match engine {
-        Engine::Simulator => "replaying the recording on the scene as written",
-        Engine::ReducedBase => "replaying the recording on the scene as written (the reduced base; the simulator's replay at the end)",
-    });
+    progress(said(engine, FIRST_LOOK));
     let first_look = replay_with(scene, rec, engine)?;
     let outputs = fitted_outputs(&first_look, rec)?;
     let driven = driven_by(&first_look, rec);
@@ -128,10 +125,7 @@ pub fn calibrate_telling(
     progress(&format!(
         "fitting {} keys through {} ({} or more replays an iteration, at most 30 iterations in this stage)",
         free.len(),
-        match problem.engine {
-            Engine::Simulator => "the simulator",
-            Engine::ReducedBase => "the reduced base (each effect accepted confirmed through the simulator)",
-        },
+        said(problem.engine, FITTED_THROUGH),
         free.len() + 1,
     ));
     // What the recording shows without dynamics (a base's limits, its wheels' geometry)
@@ -211,13 +205,28 @@ fn replays_before_after(
     calibrated: &Scene,
     rec: &Recording,
 ) -> Result<(Replay, Replay), CalibrateError> {
-    Ok(match engine {
-        Engine::Simulator => (first_look, replay(calibrated, rec)?),
-        Engine::ReducedBase => {
-            let (b, a) = rayon::join(|| replay(scene, rec), || replay(calibrated, rec));
-            (b?, a?)
-        }
+    Ok(if engine.is_reduced() {
+        let (b, a) = rayon::join(|| replay(scene, rec), || replay(calibrated, rec));
+        (b?, a?)
+    } else {
+        (first_look, replay(calibrated, rec)?)
     })
+}
+
+/// What the progress says of the engine's first replay, and what the fits run through:
+/// on the simulator, and on the reduced base.
+const FIRST_LOOK: [&str; 2] = [
+    "replaying the recording on the scene as written",
+    "replaying the recording on the scene as written (the reduced base; the simulator's replay at the end)",
+];
+const FITTED_THROUGH: [&str; 2] = [
+    "the simulator",
+    "the reduced base (each effect accepted confirmed through the simulator)",
+];
+
+/// The words of `said` for `engine`.
+fn said(engine: Engine, said: [&'static str; 2]) -> &'static str {
+    said[usize::from(engine.is_reduced())]
 }
 
 /// Said when the simulator takes over judging the evidence ([`search::Problem::rejudge`]).
@@ -225,16 +234,18 @@ pub(crate) const JUDGED_BY_THE_SIMULATOR: &str = "the reduced base and the simul
 
 /// What the fits replay on: a vehicle driven by velocity commands on the reduced base
 /// ([`crate::sim::reduced`]: the same laws without rapier, the tooth mesh's sub-steps and
-/// the castors' bodies), where the scene allows it; everything else on the simulator.
+/// the castors' bodies), where the scene allows it, stepped throughout as the scene as
+/// written asks ([`crate::sim::reduced::Stepping`]: the keys' fits move its replays
+/// smoothly, and every fit of the run is judged on one discretisation); everything else on
+/// the simulator.
 fn engine_for(scene: &Scene, rec: &Recording) -> Engine {
     let velocity = crate::replay::drive_of(rec).is_ok_and(|d| d == Drive::Velocity);
     let reducible = velocity
         && rec.rig == RigKind::Vehicle
         && crate::sim::reduced::ReducedBase::new(scene).is_ok();
-    if reducible {
-        Engine::ReducedBase
-    } else {
-        Engine::Simulator
+    match Engine::reduced_held_at(scene) {
+        Ok(held) if reducible => held,
+        _ => Engine::Simulator,
     }
 }
 

@@ -177,7 +177,7 @@ impl Predictor for SceneReplay<'_> {
         if let Some(w) = &self.windows {
             w.simulated(&mut y);
         }
-        if let (Engine::ReducedBase, Some(d)) = (self.engine, &self.defect) {
+        if let (true, Some(d)) = (self.engine.is_reduced(), &self.defect) {
             d.correct(&mut y);
         }
         Ok(y)

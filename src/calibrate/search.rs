@@ -237,7 +237,7 @@ impl Problem<'_> {
     /// (and no defect) where either diverged.
     pub fn correct_at(&mut self, scene: &Scene) -> Result<bool, CalibrateError> {
         let reduced = SceneReplay::with_signed(scene, self.rec, &[], &[])?
-            .on(crate::replay::Engine::ReducedBase)
+            .on(self.engine)
             .windowed(self.windows.clone());
         let (sim, own) = rayon::join(
             || self.simulator_prediction(scene),
@@ -288,7 +288,7 @@ impl Problem<'_> {
         added: Added,
     ) -> Result<Option<super::Unconfirmed>, CalibrateError> {
         // Judged by the simulator already, or confirmed by it here.
-        if self.engine == crate::replay::Engine::ReducedBase
+        if self.engine.is_reduced()
             && !self.simulator_judges()
             && !self.confirmed(before, after, added)?
         {

@@ -4,7 +4,7 @@
 use super::ReplayError;
 use crate::record::Recording;
 use crate::scene::Scene;
-use crate::sim::reduced::ReducedBase;
+use crate::sim::reduced::{ReducedBase, Stepping};
 use crate::sim::{Actuation, Sim, SimError, Snapshot};
 
 /// What a replay runs: the simulator, or the reduced base a fit of a velocity-commanded
@@ -15,8 +15,23 @@ pub enum Engine {
     #[default]
     Simulator,
     /// The reduced velocity-commanded base: only for a vehicle on the floor driven by
-    /// velocity commands.
+    /// velocity commands, stepped as its scene asks.
     ReducedBase,
+    /// The reduced base stepped as a fit's start asked ([`ReducedBase::held`]), so that its
+    /// replays move smoothly with the keys the fit moves.
+    ReducedBaseHeld(Stepping),
+}
+
+impl Engine {
+    /// Whether it is the reduced base, however stepped.
+    pub fn is_reduced(self) -> bool {
+        !matches!(self, Engine::Simulator)
+    }
+
+    /// The reduced base stepped as `scene` asks, held from then on.
+    pub fn reduced_held_at(scene: &Scene) -> Result<Engine, crate::sim::reduced::ReducedError> {
+        Ok(Engine::ReducedBaseHeld(Stepping::of(scene)?))
+    }
 }
 
 /// The machine a replay steps.
@@ -39,8 +54,12 @@ impl Machine {
                 // readings compared with the recording's.
                 Machine::Full(Box::new(if coils { sim } else { sim.without_coils() }))
             }
-            Engine::ReducedBase => {
-                Machine::Reduced(Box::new(ReducedBase::new(scene).map_err(|source| {
+            Engine::ReducedBase | Engine::ReducedBaseHeld(_) => {
+                let reduced = match engine {
+                    Engine::ReducedBaseHeld(held) => ReducedBase::held(scene, held),
+                    _ => ReducedBase::new(scene),
+                };
+                Machine::Reduced(Box::new(reduced.map_err(|source| {
                     ReplayError::Reduced {
                         file: rec.path.clone(),
                         source,

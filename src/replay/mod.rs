@@ -163,7 +163,7 @@ pub fn replay_with(scene: &Scene, rec: &Recording, engine: Engine) -> Result<Rep
         ));
     }
     let drive = choose_drive(rec)?;
-    if engine == Engine::ReducedBase && drive != Drive::Velocity {
+    if engine.is_reduced() && drive != Drive::Velocity {
         return Err(ReplayError::Reduced {
             file: rec.path.clone(),
             source: ReducedError::NotABase("the recording is not driven by velocity commands"),

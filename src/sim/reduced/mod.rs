@@ -43,6 +43,51 @@ const MAX_STEP_MULTIPLE: usize = 4;
 /// implicitly and set no bound).
 const SUBSTEP_RATE: f64 = 0.5;
 
+/// How the reduced base cuts time: simulator steps per step of its own and sub-steps per
+/// step. Both are whole numbers, chosen from the scene's masses, loop gains and tyres
+/// ([`Stepping::of`]); a fit holds them from its start ([`ReducedBase::held`]), since a
+/// whole number that changes as a key moves makes the replay jump (a base of 40 kg stepped
+/// at 2 ms and one of 39 kg at 1 ms differ by a tenth of an encoder's noise), and a fit
+/// reads such a jump as the key determined to a few grams.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Stepping {
+    /// Simulator steps (`sim.dt_s`) one step of the reduced base spans.
+    pub step_multiple: usize,
+    /// Sub-steps of drivetrains and chassis per step.
+    pub substeps: usize,
+}
+
+impl Stepping {
+    /// The stepping a scene's own keys ask for ([`step_multiple`], [`substeps`]).
+    pub fn of(scene: &Scene) -> Result<Stepping, ReducedError> {
+        let p = SimParams::from_scene(scene)?;
+        Ok(Stepping::of_params(&p))
+    }
+
+    fn of_params(p: &SimParams) -> Stepping {
+        let step_multiple = step_multiple(p);
+        let dt = p.sim.dt_s * step_multiple as f64;
+        Stepping {
+            step_multiple,
+            substeps: substeps(p, &p.drive_tyre(p.floor.default), dt),
+        }
+    }
+
+    /// This stepping held for keys that ask for `own`: kept, unless the keys have moved
+    /// so far that it would step more than twice as coarsely as they ask for (a loop
+    /// twice as fast, tyres twice as stiff against the chassis), where the integration's
+    /// stability, not its smoothness in the keys, decides.
+    fn held_for(self, own: Stepping, p: &SimParams) -> Stepping {
+        let step_multiple = self.step_multiple.min(2 * own.step_multiple);
+        let dt = p.sim.dt_s * step_multiple as f64;
+        let needed = substeps(p, &p.drive_tyre(p.floor.default), dt);
+        Stepping {
+            step_multiple,
+            substeps: self.substeps.max(needed.div_ceil(2)),
+        }
+    }
+}
+
 /// Why the reduced base cannot stand in for a scene.
 #[derive(Debug, thiserror::Error)]
 pub enum ReducedError {
@@ -121,6 +166,17 @@ pub struct ReducedBase {
 impl ReducedBase {
     /// The reduced base of a (validated) scene of a vehicle on the floor.
     pub fn new(scene: &Scene) -> Result<ReducedBase, ReducedError> {
+        Self::stepped(scene, None)
+    }
+
+    /// The reduced base of `scene` stepped as `held` asks (a fit's stepping, taken at its
+    /// start: [`Stepping`]), refined only where the scene's keys need steps more than
+    /// twice as fine.
+    pub fn held(scene: &Scene, held: Stepping) -> Result<ReducedBase, ReducedError> {
+        Self::stepped(scene, Some(held))
+    }
+
+    fn stepped(scene: &Scene, held: Option<Stepping>) -> Result<ReducedBase, ReducedError> {
         if scene.sim.wheels_lifted {
             return Err(ReducedError::NotABase("the scene's wheels are lifted"));
         }
@@ -135,7 +191,9 @@ impl ReducedBase {
             ));
         }
         let params = SimParams::from_scene(scene)?;
-        let fixed = fixed_of(&params);
+        let own = Stepping::of_params(&params);
+        let stepping = held.map_or(own, |h| h.held_for(own, &params));
+        let fixed = fixed_of(&params, stepping);
         let delay = params.dcmc.params.command_delay_s;
         let (s, c) = params.castors.initial_angle_rad.sin_cos();
         Ok(ReducedBase {
@@ -297,15 +355,15 @@ impl ReducedBase {
     }
 }
 
-/// What the reduced base works out once: its step and sub-steps, the inertia on each
-/// wheel, the tyres' law on the floor, the armature's decay, the castors.
-fn fixed_of(p: &SimParams) -> Fixed {
+/// What the reduced base works out once: its step and sub-steps (`stepping`), the inertia
+/// on each wheel, the tyres' law on the floor, the armature's decay, the castors.
+fn fixed_of(p: &SimParams, stepping: Stepping) -> Fixed {
     let d = &p.drivetrain;
     let play = d.gearbox.backlash_rad > 0.0;
     let geared_kg_m2 = d.wheel.inertia_kg_m2 + d.reflected_motor_inertia();
-    let dt = p.sim.dt_s * step_multiple(p) as f64;
+    let dt = p.sim.dt_s * stepping.step_multiple as f64;
     let tyre = p.drive_tyre(p.floor.default);
-    let substeps = substeps(p, &tyre, dt);
+    let substeps = stepping.substeps;
     let h = dt / substeps as f64;
     let castor_drag_n = p.loads.castor_n.map(|l| p.castors.rolling_resistance * l);
     let grip = p.castor_tyre(p.floor.default).peak_mu;
