@@ -128,8 +128,17 @@ pub struct TyreOutput {
     pub sliding_speed_m_s: f64,
     /// The friction limit is active.
     pub sliding: bool,
-    /// The friction limit, N.
-    pub limit_n: f64,
+}
+
+/// A tyre's bristles at one normal load: stiffness and damping (x, y), N/m and N s/m
+/// ([`TyreParams::bristle_stiffness_n_m`], [`TyreParams::bristle_damping_n_s_m`]), worked
+/// out once where the load stays (the reduced base's wheels) instead of at every sub-step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Bristles {
+    /// Stiffness (x, y), N/m.
+    pub stiffness_n_m: [f64; 2],
+    /// Damping (x, y), N s/m.
+    pub damping_n_s_m: [f64; 2],
 }
 
 /// Below this speed, slip measures are reported as zero (m/s).
@@ -211,14 +220,34 @@ impl TyreParams {
         normal_load_n: f64,
         h: f64,
     ) -> TyreOutput {
+        self.step_force_with(s, kin, normal_load_n, self.bristles(normal_load_n), h)
+    }
+
+    /// The bristles at a normal load, N.
+    pub fn bristles(&self, normal_load_n: f64) -> Bristles {
+        Bristles {
+            stiffness_n_m: self.bristle_stiffness_n_m(normal_load_n),
+            damping_n_s_m: self.bristle_damping_n_s_m(normal_load_n),
+        }
+    }
+
+    /// [`Self::step_force`] with the bristles at `normal_load_n` given
+    /// ([`Self::bristles`]).
+    pub fn step_force_with(
+        &self,
+        s: &mut TyreState,
+        kin: ContactKinematics,
+        normal_load_n: f64,
+        bristles: Bristles,
+        h: f64,
+    ) -> TyreOutput {
         if normal_load_n <= 0.0 {
             s.deflection_m = [0.0, 0.0];
             return TyreOutput::default();
         }
         let slide = [kin.forward_m_s - kin.rim_m_s, kin.lateral_m_s];
         let speed = kin.forward_m_s.abs().max(kin.rim_m_s.abs());
-        let k = self.bristle_stiffness_n_m(normal_load_n);
-        let c = self.bristle_damping_n_s_m(normal_load_n);
+        let (k, c) = (bristles.stiffness_n_m, bristles.damping_n_s_m);
         // Implicit in the relaxation term: stable however fast the wheel rolls.
         let relax = 1.0 + h * speed / self.relaxation_length_m;
         let mut d = [0.0; 2];
@@ -229,8 +258,16 @@ impl TyreParams {
             f[i] = -(k[i] * d[i] + c[i] * rate);
         }
         let sliding_speed = (slide[0] * slide[0] + slide[1] * slide[1]).sqrt();
-        let limit = self.mu_at(sliding_speed) * normal_load_n;
         let mag = (f[0] * f[0] + f[1] * f[1]).sqrt();
+        // The friction coefficient lies between the peak and the sliding one at any
+        // speed: below the lower of the two the bristles hold, and the Stribeck curve's
+        // exponential need not be worked out (most sub-steps of a rolling wheel).
+        let holds = mag <= self.peak_mu.min(self.sliding_mu) * normal_load_n;
+        let limit = if holds {
+            f64::INFINITY
+        } else {
+            self.mu_at(sliding_speed) * normal_load_n
+        };
         let sliding = mag > limit;
         if sliding {
             // On the friction circle the bristles carry exactly the friction force.
@@ -247,7 +284,6 @@ impl TyreParams {
             slip_angle_rad: 0.0,
             sliding_speed_m_s: sliding_speed,
             sliding,
-            limit_n: limit,
         }
     }
 }

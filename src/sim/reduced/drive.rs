@@ -60,9 +60,10 @@ impl ReducedBase {
         h: f64,
     ) -> [f64; 2] {
         let kin = ContactKinematics { rim_m_s, ..kin };
+        let bristles = self.fixed.bristles[i];
         self.fixed
             .tyre
-            .step_force(&mut self.tyres[i], kin, load, h)
+            .step_force_with(&mut self.tyres[i], kin, load, bristles, h)
             .force_n
     }
 
@@ -80,16 +81,16 @@ impl ReducedBase {
         h: f64,
     ) -> (f64, f64) {
         let t = &self.fixed.tyre;
+        let b = self.fixed.bristles[i];
         let kin = ContactKinematics { rim_m_s, ..kin };
         let mut trial = self.tyres[i];
-        let out = t.step_force(&mut trial, kin, load, h);
+        let out = t.step_force_with(&mut trial, kin, load, b, h);
         if out.sliding || load <= 0.0 {
             return (out.force_n[0], 0.0);
         }
         let speed = kin.forward_m_s.abs().max(rim_m_s.abs());
         let relax = 1.0 + h * speed / t.relaxation_length_m;
-        let rate =
-            (t.bristle_stiffness_n_m(load)[0] * h + t.bristle_damping_n_s_m(load)[0]) / relax;
+        let rate = (b.stiffness_n_m[0] * h + b.damping_n_s_m[0]) / relax;
         (out.force_n[0], rate)
     }
 

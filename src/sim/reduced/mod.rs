@@ -27,7 +27,7 @@ use super::{Actuation, SideSnapshot, SimError, SimParams, Snapshot};
 use crate::model::base_controller::{BaseInput, BaseState};
 use crate::model::chassis::Pose;
 use crate::model::drivetrain::DrivetrainState;
-use crate::model::tyre::{TyreParams, TyreState};
+use crate::model::tyre::{Bristles, TyreParams, TyreState};
 use crate::scene::Scene;
 
 /// Largest share of the drivers' speed-loop time constant one step of the reduced base
@@ -130,8 +130,9 @@ struct Fixed {
     /// at their swivels, kg m^2.
     mass_kg: f64,
     yaw_inertia_kg_m2: f64,
-    /// The drive tyres on the floor.
+    /// The drive tyres on the floor, and their bristles at each drive wheel's load.
     tyre: TyreParams,
+    bristles: [Bristles; 2],
     /// The armature's decay over one sub-step, `exp(-h R / L)`.
     armature_decay: f64,
     /// Castor swivels (body frame, m), their rolling drag and the side force that turns
@@ -385,6 +386,7 @@ fn fixed_of(p: &SimParams, stepping: Stepping) -> Fixed {
         substeps,
         geared_kg_m2,
         play,
+        bristles: p.loads.drive_n.map(|load| tyre.bristles(load)),
         tyre,
         armature_decay: (-h / d.motor.electrical_time_constant_s()).exp(),
         castor_points_m: p.chassis.castor_points_m(),
