@@ -104,6 +104,41 @@ impl PoseWindows {
         })
     }
 
+    /// The windows of the recording's first `rows` rows (the part effects are raced on):
+    /// a window whose start is estimated from samples beyond them has none (its rows are
+    /// left out of the part's comparison: [`PoseWindows::forget_unwindowed`]).
+    pub fn prefix(&self, rows: usize) -> PoseWindows {
+        let mut starts: Vec<Vec<(usize, f64)>> = self.starts.iter().take(rows).cloned().collect();
+        let reaches_beyond = |w: &Vec<(usize, f64)>| w.iter().any(|&(k, _)| k >= rows);
+        let anchors = self
+            .anchors
+            .iter()
+            .take(rows)
+            .map(|a| a.filter(|&j| !reaches_beyond(&starts[j])))
+            .collect();
+        for w in starts.iter_mut().filter(|w| reaches_beyond(w)) {
+            w.clear();
+        }
+        PoseWindows {
+            columns: self.columns,
+            anchors,
+            starts,
+            window_s: self.window_s,
+        }
+    }
+
+    /// `data`'s pose cells emptied where the row has no window (its windowed motion,
+    /// measured over a whole recording, cannot be compared on a part of it).
+    pub fn forget_unwindowed(&self, data: &mut Dataset) {
+        for (k, a) in self.anchors.iter().enumerate() {
+            if a.is_none() {
+                for &j in &self.columns {
+                    data.outputs[j][k] = None;
+                }
+            }
+        }
+    }
+
     /// The motion over each row's window, from a pose at every row (`pose[i][row]`, x, y,
     /// heading): forward and left of the window's start in its frame, m, and the turn
     /// since, rad; `None` for a row without a window. Each start is the weighted samples of
@@ -117,7 +152,7 @@ impl PoseWindows {
                     let mut a = [0.0; 3];
                     for &(k, w) in weights {
                         for i in 0..3 {
-                            a[i] += w * pose[i][k];
+                            a[i] += w * pose[i].get(k).copied().unwrap_or(f64::NAN);
                         }
                     }
                     a
@@ -366,6 +401,36 @@ mod tests {
             for i in 0..3 {
                 let (a, b) = (m.outputs[i][k].unwrap_or(0.0), y[i][k]);
                 assert!((a - b).abs() < 1e-12, "row {k}, pose {i}: {a} against {b}");
+            }
+        }
+    }
+
+    /// The recording's first part (where effects are raced) compares as the whole does:
+    /// a replay of the part alone, exact, equals the measured motions of the part's rows,
+    /// and the window whose start is smoothed over samples beyond the part is left out.
+    #[test]
+    fn a_first_part_compares_alike_without_the_samples_beyond_it() {
+        let t: Vec<f64> = (0..800).map(|k| k as f64 * 0.005).collect();
+        let pose: Vec<[f64; 3]> = t
+            .iter()
+            .map(|&t| [0.3 * t + 0.1 * t * t, 0.05 * t * t, 0.2 * t * t])
+            .collect();
+        let d = dataset(&t, &pose);
+        let w = PoseWindows::of(&d).unwrap();
+        let mut part = w.measured(&d).prefix(410);
+        let windows = w.prefix(410);
+        windows.forget_unwindowed(&mut part);
+        // The window starting at row 400 (t = 2 s) is smoothed over rows up to 420.
+        assert!(part.outputs[0][405].is_none() && part.outputs[0][399].is_some());
+        let mut y: Vec<Vec<f64>> = (0..3)
+            .map(|i| pose[..410].iter().map(|p| p[i]).collect())
+            .collect();
+        windows.simulated(&mut y);
+        for k in 0..410 {
+            for i in 0..3 {
+                if let Some(m) = part.outputs[i][k] {
+                    assert!((m - y[i][k]).abs() < 1e-12, "row {k}, pose {i}");
+                }
             }
         }
     }

@@ -180,7 +180,7 @@ impl Problem<'_> {
             weighting: self.weighting.clone(),
             explore: None,
             held: Default::default(),
-            windows: self.windows.clone(),
+            windows: self.windows.as_ref().map(|w| w.prefix(data.len())),
             wheel_turns: self.wheel_turns.clone(),
             engine: self.engine,
             validation: None,
