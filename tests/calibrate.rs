@@ -1086,13 +1086,9 @@ fn with_every_effect_offered_a_clean_machine_gets_no_term_and_friction_keeps_its
 /// (39.92 kg for 40, yaw inertia 3.028 for 3.035).
 #[test]
 fn a_noise_free_velocity_base_comes_back_exactly() {
-    use agvsim::calibrate::prove::{cases, setup, Kind};
+    use agvsim::calibrate::prove::{setup, Kind};
     let dir = tmp("noise_free_base");
-    let case = cases(&[Kind::BaseVelocity])
-        .unwrap()
-        .into_iter()
-        .find(|c| c.name.ends_with("clean"))
-        .unwrap();
+    let case = common::proof_case(Kind::BaseVelocity, "/clean");
     let (machine, rec, belief) = setup(&case, 1).unwrap();
     let exact = replay(&machine, &rec).unwrap();
     let path = dir.join("exact.csv");

@@ -94,11 +94,7 @@ fn velocity_commanded_base_known_by_its_rig() {
 /// console says it as a diagnosis.
 #[test]
 fn diagnose_with_a_base_rig_names_the_wheel_geometry() {
-    let case = cases(&[Kind::BaseRig])
-        .unwrap()
-        .into_iter()
-        .find(|c| c.name.ends_with("/wheel_geometry"))
-        .unwrap();
+    let case = common::proof_case(Kind::BaseRig, "/wheel_geometry");
     let (machine, _, belief) = setup(&case, 1).unwrap();
     let (recording, _) = record_text(&case, &machine, 1).unwrap();
     let dir = common::tmp("base-rig");

@@ -5,6 +5,8 @@
 //! of the play), on demands through the DCMC's speed loop, the vehicle rolling without
 //! slip and sliding.
 
+mod common;
+
 use std::path::Path;
 
 use agvsim::ident::data::Dataset;
@@ -523,13 +525,9 @@ fn worst_rms_share(data: &Dataset, y: &[Vec<f64>]) -> f64 {
 /// driven by random `cmd_vel` steps: the largest RMS difference over the outputs, as a
 /// share of that output's range.
 fn base_disagreement(effect: &str, rates_only: bool) -> f64 {
-    use agvsim::calibrate::prove::{cases, setup, Kind};
+    use agvsim::calibrate::prove::{setup, Kind};
     use agvsim::replay::{replay_with, Engine};
-    let case = cases(&[Kind::BaseVelocity])
-        .unwrap()
-        .into_iter()
-        .find(|c| c.name.ends_with(effect))
-        .unwrap();
+    let case = common::proof_case(Kind::BaseVelocity, effect);
     let (machine, rec, _) = setup(&case, 1).unwrap();
     let full = replay_with(&machine, &rec, Engine::Simulator).unwrap();
     let reduced = replay_with(&machine, &rec, Engine::ReducedBase).unwrap();
@@ -627,14 +625,10 @@ fn mass_sensitivity(
 /// than five times as much.
 #[test]
 fn the_reduced_base_held_at_a_fits_start_moves_smoothly_with_the_mass() {
-    use agvsim::calibrate::prove::{cases, setup, Kind};
+    use agvsim::calibrate::prove::{setup, Kind};
     use agvsim::replay::Engine;
     use agvsim::sim::reduced::Stepping;
-    let case = cases(&[Kind::BaseVelocity])
-        .unwrap()
-        .into_iter()
-        .find(|c| c.name.ends_with("clean"))
-        .unwrap();
+    let case = common::proof_case(Kind::BaseVelocity, "/clean");
     let (machine, rec, _) = setup(&case, 1).unwrap();
     let step_at = |m: f64| {
         let mut s = machine.clone();

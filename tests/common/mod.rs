@@ -111,3 +111,16 @@ pub const EXAMPLE_BAG_ROBOT: [&str; 12] = [
     "--controller-yaml",
     "data/ros2_example/controller.yaml",
 ];
+
+/// The calibrate proof's case of `kind` whose name ends with `name_end` (`"/clean"`,
+/// `"/wheel_geometry"`).
+pub fn proof_case(
+    kind: agvsim::calibrate::prove::Kind,
+    name_end: &str,
+) -> agvsim::calibrate::prove::Case {
+    agvsim::calibrate::prove::cases(&[kind])
+        .unwrap()
+        .into_iter()
+        .find(|c| c.name.ends_with(name_end))
+        .unwrap_or_else(|| panic!("no {kind:?} case ends with {name_end}"))
+}
