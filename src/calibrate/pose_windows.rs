@@ -104,10 +104,20 @@ impl PoseWindows {
         })
     }
 
-    /// The windows of the recording's first `rows` rows (the part effects are raced on):
-    /// a window whose start is estimated from samples beyond them has none (its rows are
-    /// left out of the part's comparison: [`PoseWindows::forget_unwindowed`]).
-    pub fn prefix(&self, rows: usize) -> PoseWindows {
+    /// The first `rows` rows of `measured` (a dataset made by [`PoseWindows::measured`]:
+    /// the part effects are raced on) and their windows. A window whose start is
+    /// estimated from samples beyond the part has none there, and its rows' pose cells are
+    /// left out of the part: their motions, measured over the whole recording, cannot be
+    /// replayed on the part alone.
+    pub fn part(&self, measured: &Dataset, rows: usize) -> (PoseWindows, Dataset) {
+        let windows = self.prefix(rows);
+        let mut data = measured.prefix(rows);
+        windows.forget_unwindowed(&mut data);
+        (windows, data)
+    }
+
+    /// The windows of the first `rows` rows, without those whose start reaches beyond.
+    fn prefix(&self, rows: usize) -> PoseWindows {
         let mut starts: Vec<Vec<(usize, f64)>> = self.starts.iter().take(rows).cloned().collect();
         let reaches_beyond = |w: &Vec<(usize, f64)>| w.iter().any(|&(k, _)| k >= rows);
         let anchors = self
@@ -127,9 +137,8 @@ impl PoseWindows {
         }
     }
 
-    /// `data`'s pose cells emptied where the row has no window (its windowed motion,
-    /// measured over a whole recording, cannot be compared on a part of it).
-    pub fn forget_unwindowed(&self, data: &mut Dataset) {
+    /// `data`'s pose cells emptied where the row has no window.
+    fn forget_unwindowed(&self, data: &mut Dataset) {
         for (k, a) in self.anchors.iter().enumerate() {
             if a.is_none() {
                 for &j in &self.columns {
@@ -417,9 +426,7 @@ mod tests {
             .collect();
         let d = dataset(&t, &pose);
         let w = PoseWindows::of(&d).unwrap();
-        let mut part = w.measured(&d).prefix(410);
-        let windows = w.prefix(410);
-        windows.forget_unwindowed(&mut part);
+        let (windows, part) = w.part(&w.measured(&d), 410);
         // The window starting at row 400 (t = 2 s) is smoothed over rows up to 420.
         assert!(part.outputs[0][405].is_none() && part.outputs[0][399].is_some());
         let mut y: Vec<Vec<f64>> = (0..3)

@@ -92,13 +92,7 @@ pub fn calibrate_telling(
         Some(w) => w.measured(&data),
         None => data,
     };
-    let explore = search::exploration_rows(rec).map(|rows| {
-        let mut part = data.prefix(rows);
-        if let Some(w) = &windows {
-            w.prefix(rows).forget_unwindowed(&mut part);
-        }
-        (rec.prefix(rows), part)
-    });
+    let explore = search::Exploration::of(rec, &data, windows.as_ref());
     let mut problem = Problem {
         rec,
         belief: scene,

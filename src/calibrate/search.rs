@@ -55,7 +55,7 @@ pub(super) struct Problem<'a> {
     pub weighting: Weighting,
     /// The recording's first part, where effects are raced ([`Problem::explore`]); `None`
     /// where the recording is short enough to race on whole.
-    pub explore: Option<(Recording, Dataset)>,
+    pub explore: Option<Exploration>,
     /// The free keys the recording cannot tell apart from the others, held at the scene's
     /// values ([`Problem::determined`]), in the order they were held.
     pub held: std::sync::Mutex<Vec<String>>,
@@ -163,13 +163,49 @@ pub(super) struct Presence {
     pub off: Stage,
 }
 
+/// The recording's first part, where effects are raced: its rows, their measured outputs
+/// (the pose as motions over their windows) and those windows
+/// ([`super::pose_windows::PoseWindows::part`]).
+pub struct Exploration {
+    /// The recording's first rows.
+    pub rec: Recording,
+    /// Their measured outputs.
+    pub data: Dataset,
+    /// Their pose windows, where the recording has a pose.
+    pub windows: Option<super::pose_windows::PoseWindows>,
+}
+
+impl Exploration {
+    /// The first part of `rec` ([`exploration_rows`]) with its rows of `data` (measured,
+    /// the pose over `windows`); `None` where the recording is raced whole.
+    pub fn of(
+        rec: &Recording,
+        data: &Dataset,
+        windows: Option<&super::pose_windows::PoseWindows>,
+    ) -> Option<Exploration> {
+        let rows = exploration_rows(rec)?;
+        let (windows, data) = match windows {
+            Some(w) => {
+                let (w, part) = w.part(data, rows);
+                (Some(w), part)
+            }
+            None => (None, data.prefix(rows)),
+        };
+        Some(Exploration {
+            rec: rec.prefix(rows),
+            data,
+            windows,
+        })
+    }
+}
+
 impl Problem<'_> {
     /// The problem on the recording's first part ([`exploration_rows`]), weighed alike;
     /// the problem itself where there is none.
     pub fn explore(&self) -> Problem<'_> {
-        let (rec, data) = match &self.explore {
-            Some((rec, data)) => (rec, data),
-            None => (self.rec, &self.data),
+        let (rec, data, windows) = match &self.explore {
+            Some(e) => (&e.rec, &e.data, &e.windows),
+            None => (self.rec, &self.data, &self.windows),
         };
         Problem {
             rec,
@@ -180,7 +216,7 @@ impl Problem<'_> {
             weighting: self.weighting.clone(),
             explore: None,
             held: Default::default(),
-            windows: self.windows.as_ref().map(|w| w.prefix(data.len())),
+            windows: windows.clone(),
             wheel_turns: self.wheel_turns.clone(),
             engine: self.engine,
             validation: None,
