@@ -124,8 +124,6 @@ pub struct TyreOutput {
     pub slip_ratio: f64,
     /// Slip angle, rad (positive when the wheel centre moves to the left of its heading).
     pub slip_angle_rad: f64,
-    /// Patch sliding velocity over the ground, m/s.
-    pub sliding_speed_m_s: f64,
     /// The friction limit is active.
     pub sliding: bool,
 }
@@ -257,24 +255,25 @@ impl TyreParams {
             let rate = (d[i] - s.deflection_m[i]) / h;
             f[i] = -(k[i] * d[i] + c[i] * rate);
         }
-        let sliding_speed = (slide[0] * slide[0] + slide[1] * slide[1]).sqrt();
-        let mag = (f[0] * f[0] + f[1] * f[1]).sqrt();
         // The friction coefficient lies between the peak and the sliding one at any
-        // speed: below the lower of the two the bristles hold, and the Stribeck curve's
-        // exponential need not be worked out (most sub-steps of a rolling wheel).
-        let holds = mag <= self.peak_mu.min(self.sliding_mu) * normal_load_n;
-        let limit = if holds {
-            f64::INFINITY
-        } else {
-            self.mu_at(sliding_speed) * normal_load_n
-        };
-        let sliding = mag > limit;
-        if sliding {
-            // On the friction circle the bristles carry exactly the friction force.
-            let scale = limit / mag;
-            for i in 0..2 {
-                f[i] *= scale;
-                d[i] = -f[i] / k[i];
+        // speed: below the lower of the two the bristles hold, and neither the sliding
+        // speed nor the Stribeck curve's exponential need be worked out (most sub-steps of
+        // a rolling wheel; compared squared, so that no root is taken either).
+        let mag_sq = f[0] * f[0] + f[1] * f[1];
+        let hold_n = self.peak_mu.min(self.sliding_mu) * normal_load_n;
+        let mut sliding = false;
+        if mag_sq > hold_n * hold_n {
+            let sliding_speed = (slide[0] * slide[0] + slide[1] * slide[1]).sqrt();
+            let limit = self.mu_at(sliding_speed) * normal_load_n;
+            let mag = mag_sq.sqrt();
+            sliding = mag > limit;
+            if sliding {
+                // On the friction circle the bristles carry exactly the friction force.
+                let scale = limit / mag;
+                for i in 0..2 {
+                    f[i] *= scale;
+                    d[i] = -f[i] / k[i];
+                }
             }
         }
         s.deflection_m = d;
@@ -282,7 +281,6 @@ impl TyreParams {
             force_n: f,
             slip_ratio: 0.0,
             slip_angle_rad: 0.0,
-            sliding_speed_m_s: sliding_speed,
             sliding,
         }
     }

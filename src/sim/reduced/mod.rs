@@ -155,6 +155,8 @@ pub struct ReducedBase {
     drive: [DrivetrainState; 2],
     tyres: [TyreState; 2],
     body: BodyState,
+    /// The chassis's heading as its cosine and sine, turned on each sub-step with it.
+    heading_dir: [f64; 2],
     /// Each castor wheel's heading against the chassis, as its cosine and sine (1, 0:
     /// trailing straight).
     castor_heading: [[f64; 2]; 4],
@@ -214,6 +216,10 @@ impl ReducedBase {
                 ..BodyState::default()
             },
             castor_heading: [[c, s]; 4],
+            heading_dir: {
+                let (s, c) = params.start.heading_rad.sin_cos();
+                [c, s]
+            },
             motor_v: [0.0; 2],
             battery_v: params.battery.open_circuit_v,
             battery_current_a: 0.0,
