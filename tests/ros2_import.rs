@@ -993,7 +993,8 @@ fn the_controller_file_gives_the_geometry_a_bag_does_not_describe() {
 /// recording determines it, to kilograms: its commands are ramped by the base's
 /// acceleration limits, and 2.8 kg less mass moves the wheel speeds by a hundredth of the
 /// encoders' noise. A fitting model whose step changed with the mass reported it as 37.2 ±
-/// 0.05 kg (`tests/one_physics.rs`, the reduced base held at a fit's start).
+/// 0.05 kg (`tests/one_physics.rs`, the reduced base held at a fit's start). A key off
+/// by more than 10 % is said to be loosely determined.
 #[test]
 fn the_example_bags_intervals_hold_the_robot_it_was_made_from() {
     let dir = scratch("example_bag_intervals");
@@ -1042,6 +1043,11 @@ fn the_example_bags_intervals_hold_the_robot_it_was_made_from() {
         assert!(
             (v - truth).abs() < 3.0 * sd,
             "{key}: {v} ± {sd} for the robot's {truth}"
+        );
+        // Within 10 % of the robot, or said to be loosely determined (issue 55).
+        assert!(
+            (v - truth).abs() < 0.1 * truth || k["loosely_determined"] == true,
+            "{key}: {v} ± {sd} for the robot's {truth}, not said to be loosely determined"
         );
         if key == "chassis.mass_kg" {
             assert!(sd > 1.0, "the mass reported to {sd} kg");

@@ -394,6 +394,8 @@ class CalibratedKey:
     confounded: bool = False
     #: Whether the value is an estimate the data give (not on a bound, not held).
     estimate: bool = False
+    #: An estimate whose 95 % interval reaches further than 10 % of it either side.
+    loosely_determined: bool = False
 
 
 @dataclass(frozen=True)

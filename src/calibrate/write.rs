@@ -235,7 +235,15 @@ pub(crate) fn key_cells(k: &super::KeyFit, unit: &str) -> (Option<String>, Optio
             Some(estimate(k.after, Some(std), "")),
             keeps("held by its stated belief: the recording determines it less well"),
         ),
-        (None, Some(std)) => (Some(estimate(k.after, Some(std), "")), None),
+        (None, Some(std)) => (
+            Some(estimate(k.after, Some(std), "")),
+            k.loose_share().map(|share| {
+                format!(
+                    "loosely determined: its 95 % interval reaches ±{:.0} % of it, so the recording does not tell it to 10 %",
+                    100.0 * share
+                )
+            }),
+        ),
     }
 }
 
@@ -560,6 +568,7 @@ pub fn json(c: &Calibration, scene: &str, recording: &str) -> serde_json::Value 
                 "trades_with": k.trades_with.iter().map(|(key, r)| serde_json::json!({"key": key, "correlation": r})).collect::<Vec<_>>(),
                 "confounded": k.confounded,
                 "estimate": k.calibrated(),
+                "loosely_determined": k.loose_share().is_some(),
             })
         })
         .collect();
@@ -742,6 +751,40 @@ mod tests {
             accepted_as: None,
             scene_value: None,
         }
+    }
+
+    #[test]
+    fn an_estimate_known_to_no_better_than_ten_per_cent_is_said_to_be_loosely_determined() {
+        // The example bag's yaw inertia: 2.61 +- 0.35, a 95 % interval of +-27 %.
+        let k = super::super::KeyFit {
+            key: "chassis.yaw_inertia_kg_m2".into(),
+            before: 3.0,
+            after: 2.61,
+            fitted: 2.61,
+            std: Some(0.35),
+            at_bound: None,
+            held: false,
+            confounded: false,
+            trades_with: vec![],
+        };
+        let (_, note) = key_cells(&k, "kg m^2");
+        let note = note.expect("a note");
+        assert!(
+            note.starts_with("loosely determined") && note.contains("±27 %"),
+            "{note}"
+        );
+        // Known to 2 % (a 95 % interval of +-4 %): a plain estimate.
+        let tight = super::super::KeyFit {
+            std: Some(0.05),
+            ..k.clone()
+        };
+        assert_eq!(key_cells(&tight, "kg m^2").1, None);
+        // No estimate (its deviation beyond its value) is not called loosely determined.
+        let none = super::super::KeyFit {
+            std: Some(3.0),
+            ..k
+        };
+        assert_eq!(none.loose_share(), None);
     }
 
     #[test]
