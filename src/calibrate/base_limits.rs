@@ -5,7 +5,9 @@
 //! limiter (each component within `+-max`, changing at most `max_accel dt` a step) before
 //! its kinematics make the wheels' set-points. The wheels' encoders, read with the radius
 //! and separation the controller is configured with, give back what it passed:
-//! `v = (l + r) / 2`, `w = (r - l) / b` (after the drivers' loops' short lag). So:
+//! `v = (l + r) / 2`, `w = (r - l) / b` (after the drivers' loops' short lag). A robot
+//! logged without its encoders shows the same in its tracked pose: the forward speed and
+//! the yaw rate differenced over [`POSE_SPAN_S`] ([`pose_motion`]). So:
 //!
 //! - **a speed limit** shows as commands the wheels never reach: the command beyond
 //!   [`BEYOND_REACH`] times the largest speed measured for at least [`MIN_BEYOND_ROWS`]
@@ -37,11 +39,39 @@ pub const MIN_RAMP_ROWS: f64 = 4.0;
 /// Span over which a measured speed's slope is taken, s.
 pub const SLOPE_SPAN_S: f64 = 0.2;
 
+/// Span over which a tracked pose is differenced into the base's speeds where the
+/// recording has no wheel speeds, s: long enough that a motion tracker's millimetres of
+/// noise stay a few per cent of a slow base's speed, short beside the limiter's ramps
+/// (on OptiOdom's square runs, the pose's speeds over 0.1 s find the limits the wheels'
+/// encoders find, within 12 %).
+pub const POSE_SPAN_S: f64 = 0.1;
+
 /// The limits a recording shows, each with where its fit starts (key's unit).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Shown {
     /// Each limit key and its start.
     pub starts: Vec<(ParamKey, f64)>,
+    /// What the base's motion was read from.
+    pub seen_by: SeenBy,
+}
+
+/// What a recording's base motion is read from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SeenBy {
+    /// The wheels' encoders (their speeds).
+    Wheels,
+    /// The tracked pose (a recording without the wheels' speeds).
+    Pose,
+}
+
+impl SeenBy {
+    /// What moved, as a report says it ("the wheels never follow").
+    pub fn noun(self) -> &'static str {
+        match self {
+            SeenBy::Wheels => "the wheels",
+            SeenBy::Pose => "the tracked pose's speeds",
+        }
+    }
 }
 
 /// The forward speed (m/s) and yaw rate (rad/s) the wheels' encoders give at each row,
@@ -65,6 +95,34 @@ fn measured_motion(rec: &Recording, scene: &Scene) -> Option<[Vec<Option<f64>>; 
         .map(|(l, r)| Some((r.as_ref()? - l.as_ref()?) / b))
         .collect();
     Some([v, w])
+}
+
+/// The forward speed (m/s, along the heading) and yaw rate (rad/s) of the tracked pose at
+/// each row, each a central difference over [`POSE_SPAN_S`] (a row either side at least);
+/// `None` without the pose's three columns, and at rows where the pose is not measured or
+/// the span reaches past the recording.
+fn pose_motion(rec: &Recording) -> Option<[Vec<Option<f64>>; 2]> {
+    let (x, y, heading) = (
+        rec.column("x_m")?,
+        rec.column("y_m")?,
+        rec.column("heading_rad")?,
+    );
+    let dt = crate::record::median_interval_s(&rec.t_s)?;
+    let half = ((0.5 * POSE_SPAN_S / dt).round() as usize).max(1);
+    let n = rec.t_s.len();
+    let at = |k: usize| -> Option<[f64; 2]> {
+        let (a, b) = (k.checked_sub(half)?, k + half);
+        if b >= n {
+            return None;
+        }
+        let d = rec.t_s[b] - rec.t_s[a];
+        let (ha, hb) = (heading[a]?, heading[b]?);
+        let (s, c) = (0.5 * (ha + hb)).sin_cos();
+        let along = (x[b]? - x[a]?) * c + (y[b]? - y[a]?) * s;
+        (d > 0.0).then(|| [along / d, (hb - ha) / d])
+    };
+    let motion: Vec<Option<[f64; 2]>> = (0..n).map(at).collect();
+    Some([0, 1].map(|i| motion.iter().map(|m| m.map(|m| m[i])).collect()))
 }
 
 /// The `q`-quantile of the absolute values (0 for none).
@@ -122,10 +180,22 @@ pub fn shown(rec: &Recording, scene: &Scene) -> Shown {
         rec.column("cmd_linear_m_s"),
         rec.column("cmd_angular_rad_s"),
     ) else {
-        return Shown { starts };
+        return Shown {
+            starts,
+            seen_by: SeenBy::Wheels,
+        };
     };
-    let Some([v, w]) = measured_motion(rec, scene) else {
-        return Shown { starts };
+    let (seen_by, [v, w]) = match measured_motion(rec, scene) {
+        Some(m) => (SeenBy::Wheels, m),
+        None => match pose_motion(rec) {
+            Some(m) => (SeenBy::Pose, m),
+            None => {
+                return Shown {
+                    starts,
+                    seen_by: SeenBy::Wheels,
+                }
+            }
+        },
     };
     let components = [
         (
@@ -149,7 +219,7 @@ pub fn shown(rec: &Recording, scene: &Scene) -> Shown {
             starts.push((max_accel, a));
         }
     }
-    Shown { starts }
+    Shown { starts, seen_by }
 }
 
 #[cfg(test)]
@@ -169,6 +239,35 @@ mod tests {
         assert!((s - 1.2).abs() < 1e-12, "{s}");
         let reached: Vec<Option<f64>> = command.clone();
         assert_eq!(speed_limit(&command, &reached), None);
+    }
+
+    #[test]
+    fn a_tracked_pose_gives_the_speeds_of_a_base_without_encoders() {
+        // A base on a circle at 0.3 m/s and 0.5 rad/s, tracked at 20 Hz: the pose's
+        // central differences over 0.1 s give both within the chord's shortening of the
+        // arc, 1 - sinc(0.025) = 1e-4.
+        let mut text = String::from(
+            "# agvsim-recording: 1\n# rig: vehicle\nt_s,cmd_linear_m_s,cmd_angular_rad_s,x_m,y_m,heading_rad\n",
+        );
+        for k in 0..40 {
+            let t = k as f64 * 0.05;
+            let th = 0.5 * t + 0.3;
+            let radius = 0.3 / 0.5;
+            let (x, y) = (radius * th.sin(), -radius * th.cos());
+            text.push_str(&format!("{t},0.3,0.5,{x},{y},{th}\n"));
+        }
+        let rec = Recording::parse(&text, std::path::Path::new("circle.csv")).unwrap();
+        let [v, w] = pose_motion(&rec).unwrap();
+        assert_eq!(
+            (v[0], v[39]),
+            (None, None),
+            "the span reaches past the ends"
+        );
+        for k in 1..39 {
+            let (v, w) = (v[k].unwrap(), w[k].unwrap());
+            assert!((v - 0.3).abs() < 0.3 * 2e-4, "row {k}: {v}");
+            assert!((w - 0.5).abs() < 1e-12, "row {k}: {w}");
+        }
     }
 
     #[test]

@@ -84,7 +84,8 @@ fn limits(
         .map(|(k, v)| (k.key().to_string(), *v))
         .collect();
     progress(&format!(
-        "base limits: the recording commands what the wheels never follow: {}; fitting them first",
+        "base limits: the recording commands what {} never follow: {}; fitting them first",
+        shown.seen_by.noun(),
         pairs
             .iter()
             .map(|(k, v)| format!("{k} from {}", crate::numtext::sig(*v, 3)))

@@ -659,9 +659,15 @@ fn guesses(req: &Ros2Import, battery_v: Option<f64>, scene: &crate::scene::Scene
     let sig = crate::scene::plausibility::sig;
     let mut said = vec![];
     if req.mass_kg.is_none() {
+        let (c, thesis) = (&scene.chassis, crate::scene::Scene::default().chassis);
         said.push(format!(
-            "guessed    chassis mass {} kg, the thesis machine's: give --mass-kg\n",
-            sig(scene.chassis.mass_kg)
+            "guessed    chassis mass {} kg, sized from its {} x {} m outline as the thesis machine's {} kg on {} x {} m: give --mass-kg\n",
+            sig(c.mass_kg),
+            sig(c.front_m + c.rear_m),
+            sig(c.width_m),
+            sig(thesis.mass_kg),
+            sig(thesis.front_m + thesis.rear_m),
+            sig(thesis.width_m)
         ));
     }
     if req.motor.is_none() {
@@ -715,11 +721,12 @@ fn limits_shown(rec: &Recording, scene_text: &str, scene_path: &Path) -> Vec<Str
             } else {
                 ("angular", "cmd_angular_rad_s")
             };
+            let moved = shown.seen_by.noun();
             let seen = if key.key().contains("accel") {
-                format!("the wheels climb its steps at about {} {unit} at most", sig(*start))
+                format!("{moved} climb its steps at about {} {unit} at most", sig(*start))
             } else {
                 format!(
-                    "it asks up to {} {unit}, the wheels reach about {} {unit}",
+                    "it asks up to {} {unit}, {moved} reach about {} {unit}",
                     sig(peak(command)),
                     sig(*start)
                 )

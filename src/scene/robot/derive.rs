@@ -90,8 +90,26 @@ pub(super) fn derive(n: &Numbers) -> Vec<Derived> {
 
 pub(super) fn given_values(n: &Numbers) -> Vec<Derived> {
     use Input::*;
+    let mass = if n.mass_given {
+        d(ChassisParams::mass_kg.key(), n.mass_kg, &[Mass], "given")
+    } else {
+        let [l0, w0] = n.base_outline_m;
+        d(
+            ChassisParams::mass_kg.key(),
+            n.mass_kg,
+            &[Footprint],
+            format!(
+                "not given: sized from the body's {} x {} m outline as the starting machine's {} kg on {} x {} m (mass in proportion to the outline's area to the power 1.5); weigh the robot",
+                r4(n.length_m),
+                r4(n.width_m),
+                r4(n.base_mass_kg),
+                r4(l0),
+                r4(w0)
+            ),
+        )
+    };
     vec![
-        d(ChassisParams::mass_kg.key(), n.mass_kg, &[Mass], "given"),
+        mass,
         d(
             ChassisParams::track_width_m.key(),
             n.track_m,

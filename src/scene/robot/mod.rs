@@ -205,10 +205,24 @@ pub const THESIS_DIFFERENCES: &[(&str, &str)] = &[
     ),
 ];
 
+/// A robot's mass sized from its body's outline (length and width, m) as a starting
+/// machine's (`base_kg` on `base_outline_m`): in proportion to the outline's area to the
+/// power 1.5, a box as tall as it is wide (robots of one kind are about as dense: the
+/// thesis machine 246 kg/m^3 so, a TurtleBot 3 about 260; `scene::plausibility`).
+fn sized_mass_kg(base_kg: f64, base_outline_m: [f64; 2], outline_m: [f64; 2]) -> f64 {
+    let area = |o: [f64; 2]| o[0] * o[1];
+    base_kg * (area(outline_m) / area(base_outline_m)).powf(1.5)
+}
+
 /// The builder's numbers, completed from a starting scene.
 #[derive(Debug, Clone)]
 struct Numbers {
     mass_kg: f64,
+    /// Whether the mass was given (else sized from the outline: [`sized_mass_kg`]).
+    mass_given: bool,
+    /// The starting scene's body outline (length, width; m) and mass, kg.
+    base_outline_m: [f64; 2],
+    base_mass_kg: f64,
     track_m: f64,
     wheel_radius_m: f64,
     battery_v: f64,
@@ -360,18 +374,17 @@ impl RobotSpec {
             .into_iter()
             .collect();
         }
+        let footprint = self.length_m.is_some() || self.width_m.is_some() || self.track_m.is_some();
         [
-            (self.mass_kg.is_some(), Mass),
+            // Not given, the mass is sized from the footprint ([`sized_mass_kg`]).
+            (self.mass_kg.is_some() || footprint, Mass),
             (self.track_m.is_some(), Track),
             (self.wheel_radius_m.is_some(), Wheel),
             (self.battery_v.is_some(), Battery),
             (self.motor.is_some(), Motor),
             (self.gear_ratio.is_some(), Ratio),
             (self.backlash_rad.is_some(), Backlash),
-            (
-                self.length_m.is_some() || self.width_m.is_some() || self.track_m.is_some(),
-                Footprint,
-            ),
+            (footprint, Footprint),
             (self.castors.is_some(), Castors),
         ]
         .into_iter()
@@ -497,8 +510,16 @@ impl RobotSpec {
             ),
             (None, l, w) => (l.unwrap_or(base_length), w.unwrap_or(base.chassis.width_m)),
         };
+        // Not given, the mass is sized from the body's outline as the starting scene's
+        // ([`sized_mass_kg`]), not carried over from a machine of another size.
+        let base_outline = [base_length, base.chassis.width_m];
         let n = Numbers {
-            mass_kg: self.mass_kg.unwrap_or(base.chassis.mass_kg),
+            mass_kg: self.mass_kg.unwrap_or_else(|| {
+                sized_mass_kg(base.chassis.mass_kg, base_outline, [length_m, width_m])
+            }),
+            mass_given: self.mass_kg.is_some(),
+            base_outline_m: base_outline,
+            base_mass_kg: base.chassis.mass_kg,
             track_m,
             wheel_radius_m: self.wheel_radius_m.unwrap_or(base.wheel.radius_m),
             battery_v: self.battery_v.unwrap_or(base.battery.open_circuit_v),
@@ -595,6 +616,39 @@ mod tests {
             base.dcmc.forward_gain_v_pct
         );
         assert!(new.text.contains("from base.toml"));
+    }
+
+    #[test]
+    fn a_mass_not_given_is_sized_from_the_outline_not_carried_over() {
+        // A 0.2 m track from the thesis machine (as `import ros2` takes a robot): its body
+        // 0.4 x 0.32 m, the thesis machine's 1.0 x 0.62 m; 120 kg (0.128 / 0.62)^1.5.
+        let base = Scene::default();
+        let spec = RobotSpec {
+            track_m: Some(0.2),
+            ..Default::default()
+        };
+        let new = new_scene(&spec, Some((Path::new("base.toml"), &base)), "t").unwrap();
+        let expected = 120.0 * (0.4 * 0.32 / 0.62f64).powf(1.5);
+        let m = new.scene.chassis.mass_kg;
+        assert!((m / expected - 1.0).abs() < 1e-3, "{m} for {expected}");
+        assert!(new.text.contains("not given: sized from the body's"));
+        // The outline's plausibility rule has nothing to say of it, nor of what follows
+        // from the mass (the castors' share of it).
+        let warnings = crate::scene::plausibility::warnings(&new.scene);
+        assert!(
+            !warnings
+                .iter()
+                .any(|w| w.key == ChassisParams::mass_kg.key()),
+            "{warnings:?}"
+        );
+        assert!((new.scene.castors.mass_kg - 0.01 * m).abs() < 1e-3 * m);
+        // Given, the mass is the user's.
+        let given = RobotSpec {
+            mass_kg: Some(4.0),
+            ..spec
+        };
+        let new = new_scene(&given, Some((Path::new("base.toml"), &base)), "t").unwrap();
+        assert_eq!(new.scene.chassis.mass_kg, 4.0);
     }
 
     #[test]
