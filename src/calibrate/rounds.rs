@@ -414,17 +414,26 @@ fn race_then_try(
             names.join(", ")
         ));
     }
-    // Raced on the recording's first part, against the stage there.
+    // Raced on the recording's first part, against the keys refitted there alone: each
+    // race's gain is what it removed beyond them.
     let explore = problem.explore();
     let stage_rss = explore.rss_of(&r.stage.scene, &r.stage.free)?;
-    let raced = homes
-        .par_iter()
-        .map(|h| explore.race(&r.stage, h))
-        .collect::<Result<Vec<_>, _>>()?;
+    let (null, raced) = rayon::join(
+        || explore.null_race(&r.stage),
+        || {
+            homes
+                .par_iter()
+                .map(|h| explore.race(&r.stage, h))
+                .collect::<Result<Vec<_>, _>>()
+        },
+    );
+    let (null, raced) = (null?, raced?);
+    let null_rss = null.fit.rss().min(stage_rss);
     let gains: Vec<f64> = raced
         .iter()
-        .map(|s| 1.0 - s.fit.rss() / stage_rss)
+        .map(|s| (null_rss - s.fit.rss()) / stage_rss)
         .collect();
+    r.iterations += null.fit.iterations;
     for s in &raced {
         r.iterations += s.fit.iterations;
     }
@@ -604,11 +613,14 @@ fn problem_scene_value(problem: &Problem, key: &str) -> Option<f64> {
 }
 
 /// The races to try in full: the [`FULL_TRIALS`] whose races removed the most of the
-/// residual (a share of it, `reductions`; in the races' order). Only the ranking counts:
-/// every race refits the other keys on the first part alone, which gains there whatever
-/// the effect.
+/// residual beyond the keys refitted alone (a share of the stage's, `reductions`; in the
+/// races' order), of those that removed some: a race that gained no more than a tenth of
+/// what acceptance asks ([`shows_no_sign`]'s measure) beyond the keys alone shows no sign
+/// of its effect, and its full trial would be spent for nothing.
 fn most_promising(reductions: &[f64]) -> Vec<usize> {
-    let mut order: Vec<usize> = (0..reductions.len()).collect();
+    let mut order: Vec<usize> = (0..reductions.len())
+        .filter(|&i| 100.0 * reductions[i] >= 10.0 * MIN_RSS_REDUCTION)
+        .collect();
     order.sort_by(|&a, &b| reductions[b].total_cmp(&reductions[a]));
     let mut chosen: Vec<usize> = order.into_iter().take(FULL_TRIALS).collect();
     chosen.sort_unstable();
@@ -616,8 +628,9 @@ fn most_promising(reductions: &[f64]) -> Vec<usize> {
 }
 
 /// The trial of an effect only raced: its key as the race left it, not supported (the
-/// round's full trials went to effects whose races gained more); `reduction` the share of
-/// the residual its race removed on the recording's first part.
+/// round's full trials went to effects whose races gained more, or it gained next to
+/// nothing); `reduction` the share of the residual its race removed on the recording's
+/// first part beyond the keys refitted alone.
 fn raced_trial(home: &effects::Home, s: &Stage, reduction: f64) -> EffectTrial {
     let i = s.free.len() - 1;
     // No AIC gain: a race's few iterations weigh nothing.

@@ -820,6 +820,20 @@ impl Problem<'_> {
         Ok(if b.fit.cost < a.fit.cost { b } else { a })
     }
 
+    /// A race without an effect: the stage's keys alone fitted for [`RACE_ITERATIONS`] from
+    /// the stage and from the beliefs, the better kept, as [`Problem::race`] does with an
+    /// effect's key. On the recording's first part the keys alone gain there whatever the
+    /// effect; what an effect's race gains beyond this is what the effect did.
+    pub fn null_race(&self, stage: &Stage) -> Result<Stage, CalibrateError> {
+        let believed = self.with_beliefs(&stage.scene)?;
+        let (a, b) = rayon::join(
+            || self.fit_for(&stage.scene, &stage.free, RACE_ITERATIONS),
+            || self.fit_for(&believed, &stage.free, RACE_ITERATIONS),
+        );
+        let (a, b) = (a?, b?);
+        Ok(if b.fit.cost < a.fit.cost { b } else { a })
+    }
+
     /// The fit moved on while the effect's key ends at the edge of its search window where
     /// the effect grows (a window is a factor of 10 around where the scan started it, not a
     /// physical limit): up to twice, the window is centred on that edge and the fit

@@ -361,7 +361,12 @@ pub(crate) fn verdict(t: &super::EffectTrial, unit: &str) -> String {
             kept(t.scene_value)
         ),
         _ if t.raced_only => format!(
-            "not tried in full: its race on the recording's first part gained less than others'; {}",
+            "not tried in full: its race on the recording's first part gained {} beyond the keys refitted alone; {}",
+            if t.rss_reduction_pct < 10.0 * crate::diagnose::MIN_RSS_REDUCTION {
+                "next to nothing"
+            } else {
+                "less than others'"
+            },
             kept(t.scene_value)
         ),
         (false, was, Some(b)) => format!(
