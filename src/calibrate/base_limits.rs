@@ -176,26 +176,21 @@ fn accel_limit(t_s: &[f64], command: &[Option<f64>], measured: &[Option<f64>]) -
 /// The limits `rec` shows of the base controller of `scene` (see the module's doc).
 pub fn shown(rec: &Recording, scene: &Scene) -> Shown {
     let mut starts = vec![];
+    let none = Shown {
+        starts: vec![],
+        seen_by: SeenBy::Wheels,
+    };
     let (Some(cv), Some(cw)) = (
         rec.column("cmd_linear_m_s"),
         rec.column("cmd_angular_rad_s"),
     ) else {
-        return Shown {
-            starts,
-            seen_by: SeenBy::Wheels,
-        };
+        return none;
     };
-    let (seen_by, [v, w]) = match measured_motion(rec, scene) {
-        Some(m) => (SeenBy::Wheels, m),
-        None => match pose_motion(rec) {
-            Some(m) => (SeenBy::Pose, m),
-            None => {
-                return Shown {
-                    starts,
-                    seen_by: SeenBy::Wheels,
-                }
-            }
-        },
+    let seen = measured_motion(rec, scene)
+        .map(|m| (SeenBy::Wheels, m))
+        .or_else(|| pose_motion(rec).map(|m| (SeenBy::Pose, m)));
+    let Some((seen_by, [v, w])) = seen else {
+        return none;
     };
     let components = [
         (

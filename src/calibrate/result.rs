@@ -70,6 +70,10 @@ impl KeyFit {
     }
 }
 
+/// The share of the residual, %, below which an effect's trial or race shows no sign of
+/// it: a tenth of what acceptance asks ([`crate::diagnose::MIN_RSS_REDUCTION`]).
+pub const NO_SIGN_PCT: f64 = 10.0 * crate::diagnose::MIN_RSS_REDUCTION;
+
 /// An effect the scene had and the recording does not support, taken out.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Removal {
@@ -131,6 +135,12 @@ pub struct EffectTrial {
 }
 
 impl EffectTrial {
+    /// Whether it removed next to nothing of the residual, or added to it ([`NO_SIGN_PCT`]):
+    /// the recording shows no sign of the effect.
+    pub fn shows_no_sign(&self) -> bool {
+        self.rss_reduction_pct < NO_SIGN_PCT
+    }
+
     /// The trial of `home`'s effect with its strength key at `value`, weighed by
     /// `gain`; not (yet) accepted, removed, raced only, kept or weighed against absence.
     pub(super) fn of(

@@ -23,7 +23,7 @@ use super::search::{Added, Presence, Problem, Stage};
 use super::{effects, CalibrateError, EffectTrial, Removal, Switch, Unconfirmed};
 use crate::diagnose::evidence::Gain;
 use crate::diagnose::round::VOCABULARY_PREFERENCE;
-use crate::diagnose::{MIN_DELTA_AIC, MIN_RSS_REDUCTION};
+use crate::diagnose::MIN_DELTA_AIC;
 use crate::ident::effects::Effect;
 
 /// Effects tried in full in a round at least: those whose race removed the most of the
@@ -128,13 +128,16 @@ pub(super) fn effect_rounds(
         .collect();
     let removed = backward(problem, &mut r, present, &scenes_own, driven, progress)?;
     if !removed.is_empty() {
+        // An effect that showed no sign is not raced again: the one removed explained less
+        // than its key's penalty, so what it masked is about as little (on OptiOdom's
+        // square runs, racing every unsupported effect again took a fifth of the time).
         let again: Vec<Effect> = effects
             .iter()
             .copied()
             .filter(|e| !removed.contains(e) && !first.decided.contains(e))
             .filter(|&e| {
                 effects::home(e, &r.stage.scene, driven).is_ok_and(|h| !h.in_scene)
-                    && !r.trial(e).is_some_and(|t| t.accepted || shows_no_sign(t))
+                    && !r.trial(e).is_some_and(|t| t.accepted || t.shows_no_sign())
             })
             .collect();
         forward(problem, &mut r, again, driven, progress)?;
@@ -143,16 +146,6 @@ pub(super) fn effect_rounds(
         r.iterations += r.stage.fit.iterations;
     }
     Ok(r)
-}
-
-/// Whether an effect's trial removed next to nothing of the residual (a tenth of what
-/// acceptance asks, [`MIN_RSS_REDUCTION`]), or added to it: it shows no sign in this
-/// recording. Such an effect is not tried again in later rounds, nor after the backward
-/// pass removed another: the removed one explained less than its key's penalty, so what it
-/// masked is about as little, and the forward rounds would race every unsupported effect
-/// again for nothing (on OptiOdom's square runs, a fifth of the calibration's time).
-fn shows_no_sign(t: &EffectTrial) -> bool {
-    t.rss_reduction_pct < 10.0 * MIN_RSS_REDUCTION
 }
 
 /// Whether the rounds accepted an effect beyond those decided first: the effects whose
@@ -263,7 +256,7 @@ fn forward(
             trials
                 .iter()
                 .find(|t| t.effect == e)
-                .is_none_or(|t| !shows_no_sign(t))
+                .is_none_or(|t| !t.shows_no_sign())
         });
         r.stage = problem.polished(next)?;
         r.iterations += r.stage.fit.iterations;
@@ -600,7 +593,7 @@ fn take_out(
 
 /// Whether the recording supports an effect the model has, by its gain over the model
 /// without it: the burden is the other way round from adding one (where the rule asks
-/// [`MIN_DELTA_AIC`] and [`MIN_RSS_REDUCTION`]). The scene states the physics; it stays
+/// [`MIN_DELTA_AIC`] and [`crate::diagnose::MIN_RSS_REDUCTION`]). The scene states the physics; it stays
 /// unless the model without it is as likely, its key's penalty counted (an AIC gain of
 /// zero or less).
 fn supports(gain: &Gain) -> bool {
@@ -615,11 +608,11 @@ fn problem_scene_value(problem: &Problem, key: &str) -> Option<f64> {
 /// The races to try in full: the [`FULL_TRIALS`] whose races removed the most of the
 /// residual beyond the keys refitted alone (a share of the stage's, `reductions`; in the
 /// races' order), of those that removed some: a race that gained no more than a tenth of
-/// what acceptance asks ([`shows_no_sign`]'s measure) beyond the keys alone shows no sign
+/// what acceptance asks ([`super::result::NO_SIGN_PCT`]) beyond the keys alone shows no sign
 /// of its effect, and its full trial would be spent for nothing.
 fn most_promising(reductions: &[f64]) -> Vec<usize> {
     let mut order: Vec<usize> = (0..reductions.len())
-        .filter(|&i| 100.0 * reductions[i] >= 10.0 * MIN_RSS_REDUCTION)
+        .filter(|&i| 100.0 * reductions[i] >= super::result::NO_SIGN_PCT)
         .collect();
     order.sort_by(|&a, &b| reductions[b].total_cmp(&reductions[a]));
     let mut chosen: Vec<usize> = order.into_iter().take(FULL_TRIALS).collect();

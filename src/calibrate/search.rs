@@ -816,8 +816,7 @@ impl Problem<'_> {
             self.fit_for(&start, &free, RACE_ITERATIONS)
         };
         let (a, b) = rayon::join(|| from(on_stage), || from(believed));
-        let (a, b) = (a?, b?);
-        Ok(if b.fit.cost < a.fit.cost { b } else { a })
+        Ok(better_fit(a?, b?))
     }
 
     /// A race without an effect: the stage's keys alone fitted for [`RACE_ITERATIONS`] from
@@ -830,8 +829,7 @@ impl Problem<'_> {
             || self.fit_for(&stage.scene, &stage.free, RACE_ITERATIONS),
             || self.fit_for(&believed, &stage.free, RACE_ITERATIONS),
         );
-        let (a, b) = (a?, b?);
-        Ok(if b.fit.cost < a.fit.cost { b } else { a })
+        Ok(better_fit(a?, b?))
     }
 
     /// The fit moved on while the effect's key ends at the edge of its search window where
@@ -1089,6 +1087,16 @@ impl Problem<'_> {
             accepted: gain.passes() && at_bound.is_none() && distinct,
             ..EffectTrial::of(home, value, std, at_bound, &gain)
         })
+    }
+}
+
+/// The better of two fits of the same keys from two starts (the lower cost; the first on a
+/// tie).
+fn better_fit(a: Stage, b: Stage) -> Stage {
+    if b.fit.cost < a.fit.cost {
+        b
+    } else {
+        a
     }
 }
 

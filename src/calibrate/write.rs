@@ -362,7 +362,7 @@ pub(crate) fn verdict(t: &super::EffectTrial, unit: &str) -> String {
         ),
         _ if t.raced_only => format!(
             "not tried in full: its race on the recording's first part gained {} beyond the keys refitted alone; {}",
-            if t.rss_reduction_pct < 10.0 * crate::diagnose::MIN_RSS_REDUCTION {
+            if t.shows_no_sign() {
                 "next to nothing"
             } else {
                 "less than others'"
