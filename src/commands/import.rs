@@ -608,9 +608,12 @@ fn robot_scene(
             if req.motor.is_some() {
                 "the rest derived from the numbers given"
             } else {
-                "the motor and gear the thesis machine's (assumed: give --motor-* and --gear-ratio)"
+                "the motor and gear sized for it as the thesis machine's are for that (assumed: give --motor-* and --gear-ratio)"
             }
         )),
+        // The thesis machine only stands in for the robot: a motor and gear not given
+        // are sized for the robot, not carried over.
+        size_drive: true,
         ..Default::default()
     };
     let base = crate::scene::Scene::default();
@@ -654,12 +657,14 @@ fn robot_scene(
 }
 
 /// The numbers the user did not give, said on the console (the scene's comments say them
-/// too): each taken from the thesis machine, with the option that gives it.
+/// too): each sized from the robot or taken from the thesis machine, with the option that
+/// gives it.
 fn guesses(req: &Ros2Import, battery_v: Option<f64>, scene: &crate::scene::Scene) -> Vec<String> {
     let sig = crate::scene::plausibility::sig;
     let mut said = vec![];
+    let thesis = crate::scene::Scene::default();
     if req.mass_kg.is_none() {
-        let (c, thesis) = (&scene.chassis, crate::scene::Scene::default().chassis);
+        let (c, thesis) = (&scene.chassis, &thesis.chassis);
         said.push(format!(
             "guessed    chassis mass {} kg, sized from its {} x {} m outline as the thesis machine's {} kg on {} x {} m: give --mass-kg\n",
             sig(c.mass_kg),
@@ -670,19 +675,26 @@ fn guesses(req: &Ros2Import, battery_v: Option<f64>, scene: &crate::scene::Scene
             sig(thesis.width_m)
         ));
     }
+    let proportions = crate::scene::robot::DriveProportions::of(&thesis);
     if req.motor.is_none() {
         let v = battery_v.unwrap_or(scene.battery.open_circuit_v);
         said.push(format!(
-            "guessed    motor: the thesis machine's ({} rad/s no-load, {} N m stall at {} V): give --motor-no-load-rpm and --motor-stall-current-A\n",
+            "guessed    motor: {} rad/s no-load, {} N m stall at {} V ({} N m/A, {} ohm), sized as the thesis machine's for it: a top speed of {} m/s at the wheel, both motors at stall pushing {} times its weight: give --motor-no-load-rpm and --motor-stall-current-A\n",
             sig(scene.motor.no_load_speed_rad_s(v)),
             sig(scene.motor.stall_torque_nm(v)),
-            sig(v)
+            sig(v),
+            sig(scene.motor.torque_constant_nm_a),
+            sig(scene.motor.resistance_ohm),
+            sig(proportions.top_speed_m_s),
+            sig(proportions.stall_push_per_weight)
         ));
     }
     if req.gear_ratio.is_none() {
         said.push(format!(
-            "guessed    gear ratio {}, the thesis machine's: give --gear-ratio\n",
-            sig(scene.gearbox.ratio)
+            "guessed    gear ratio {}, sized for the thesis machine's top speed of {} m/s on the {} m wheel: give --gear-ratio\n",
+            sig(scene.gearbox.ratio),
+            sig(proportions.top_speed_m_s),
+            sig(scene.wheel.radius_m)
         ));
     }
     if battery_v.is_none() {

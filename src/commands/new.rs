@@ -93,6 +93,8 @@ impl NewArgs {
                 description: self.description,
                 configured_geometry: false,
                 origins: vec![],
+                // `--from` is the user's own machine: its drive carries over.
+                size_drive: false,
             },
         })
     }

@@ -122,7 +122,7 @@ pub(super) fn given_values(n: &Numbers) -> Vec<Derived> {
             &[Wheel],
             "given",
         ),
-        d(GearboxParams::ratio.key(), n.ratio, &[Ratio], "given"),
+        d(GearboxParams::ratio.key(), n.ratio, &[Ratio], ratio_how(n)),
         d(
             GearboxParams::backlash_rad.key(),
             n.backlash_rad,
@@ -218,9 +218,46 @@ pub(super) fn castors(n: &Numbers) -> Vec<Derived> {
     ]
 }
 
+/// How the gear ratio was found: given, or sized for the starting machine's top speed.
+fn ratio_how(n: &Numbers) -> String {
+    match n.drive_sized {
+        Some(p) if !n.ratio_given => format!(
+            "not given: sized for the starting machine's top speed {} m/s (the motors' no-load speed at the wheel) on this wheel; give --gear-ratio",
+            r4(p.top_speed_m_s)
+        ),
+        _ => "given".into(),
+    }
+}
+
+/// How the motor's torque constant and resistance were found: from the datasheet given,
+/// or sized for the robot as the starting machine's drive is for it.
+fn motor_how(n: &Numbers) -> [String; 2] {
+    match n.drive_sized {
+        Some(p) if !n.motor_given => [
+            format!(
+                "not given: sized for the starting machine's top speed {} m/s at the wheel through this gear on {} V; give the motor's datasheet",
+                r4(p.top_speed_m_s),
+                r4(n.rated_v)
+            ),
+            format!(
+                "not given: sized so that both motors at stall push {} times the robot's weight, as the starting machine's; give the motor's datasheet",
+                r4(p.stall_push_per_weight)
+            ),
+        ],
+        _ => [
+            format!(
+                "rated {} V over the no-load speed in rad/s (the back-EMF constant; no-load current neglected)",
+                n.rated_v
+            ),
+            "rated voltage over stall current".into(),
+        ],
+    }
+}
+
 pub(super) fn motor(n: &Numbers) -> Vec<Derived> {
     use Input::*;
     let (k, r) = (n.torque_constant_nm_a, n.resistance_ohm);
+    let [k_how, r_how] = motor_how(n);
     let datasheet = MotorParams {
         torque_constant_nm_a: k,
         resistance_ohm: r,
@@ -229,12 +266,45 @@ pub(super) fn motor(n: &Numbers) -> Vec<Derived> {
     let stall_nm = datasheet.stall_torque_nm(n.rated_v);
     let emf_damping = datasheet.electrical_damping_nm_s_rad();
     vec![
-        d(MotorParams::torque_constant_nm_a.key(), k, &[Motor], format!("rated {} V over the no-load speed in rad/s (the back-EMF constant; no-load current neglected)", n.rated_v)),
-        d(MotorParams::resistance_ohm.key(), r, &[Motor], "rated voltage over stall current"),
-        d(MotorParams::inductance_h.key(), r * thesis::ELECTRICAL_TAU_S, &[Motor], format!("assumed: an electrical time constant L/R of {:.2} ms, the thesis machine's", 1e3 * thesis::ELECTRICAL_TAU_S)),
-        d(MotorParams::rotor_inertia_kg_m2.key(), thesis::MECHANICAL_TAU_S * emf_damping, &[Motor], format!("assumed: a mechanical time constant J R / K^2 of {:.1} ms, the thesis machine's", 1e3 * thesis::MECHANICAL_TAU_S)),
-        d(MotorParams::coulomb_nm.key(), thesis::COULOMB_SHARE_OF_STALL * stall_nm, &[Motor], format!("assumed: {:.2} % of the stall torque ({} N m), the thesis machine's share", 100.0 * thesis::COULOMB_SHARE_OF_STALL, r4(stall_nm))),
-        d(MotorParams::viscous_nm_s_rad.key(), thesis::VISCOUS_SHARE_OF_EMF_DAMPING * emf_damping, &[Motor], format!("assumed: {:.2} % of the back-EMF damping K^2/R, the thesis machine's share", 100.0 * thesis::VISCOUS_SHARE_OF_EMF_DAMPING)),
+        d(MotorParams::torque_constant_nm_a.key(), k, &[Motor], k_how),
+        d(MotorParams::resistance_ohm.key(), r, &[Motor], r_how),
+        d(
+            MotorParams::inductance_h.key(),
+            r * thesis::ELECTRICAL_TAU_S,
+            &[Motor],
+            format!(
+                "assumed: an electrical time constant L/R of {:.2} ms, the thesis machine's",
+                1e3 * thesis::ELECTRICAL_TAU_S
+            ),
+        ),
+        d(
+            MotorParams::rotor_inertia_kg_m2.key(),
+            thesis::MECHANICAL_TAU_S * emf_damping,
+            &[Motor],
+            format!(
+                "assumed: a mechanical time constant J R / K^2 of {:.1} ms, the thesis machine's",
+                1e3 * thesis::MECHANICAL_TAU_S
+            ),
+        ),
+        d(
+            MotorParams::coulomb_nm.key(),
+            thesis::COULOMB_SHARE_OF_STALL * stall_nm,
+            &[Motor],
+            format!(
+                "assumed: {:.2} % of the stall torque ({} N m), the thesis machine's share",
+                100.0 * thesis::COULOMB_SHARE_OF_STALL,
+                r4(stall_nm)
+            ),
+        ),
+        d(
+            MotorParams::viscous_nm_s_rad.key(),
+            thesis::VISCOUS_SHARE_OF_EMF_DAMPING * emf_damping,
+            &[Motor],
+            format!(
+                "assumed: {:.2} % of the back-EMF damping K^2/R, the thesis machine's share",
+                100.0 * thesis::VISCOUS_SHARE_OF_EMF_DAMPING
+            ),
+        ),
     ]
 }
 

@@ -30,8 +30,11 @@ use crate::model::motor::MotorParams;
 use crate::model::tyre_presets;
 
 mod derive;
+mod sizing;
 mod write;
 use derive::*;
+use sizing::sized_mass_kg;
+pub use sizing::DriveProportions;
 pub use write::new_scene;
 
 /// What a builder knows about the drive motor: one datasheet operating line.
@@ -125,6 +128,12 @@ pub struct RobotSpec {
     /// Where a number came from when it is not an option typed to `agvsim new`, by key
     /// (an import's `/robot_description` or battery topic), for warnings and errors.
     pub origins: Vec<(&'static str, String)>,
+    /// Size a motor and gear not given for this robot as the starting scene's drive is
+    /// for it (its top speed and stall push per weight: [`sizing::DriveProportions`]),
+    /// rather than carry them over: for a starting scene that only stands in for a robot
+    /// of another size (`import ros2` starts from the thesis machine). `agvsim new --from`
+    /// carries the starting scene's drive: there it is the user's own machine's.
+    pub size_drive: bool,
 }
 
 /// What is wrong with the numbers given to `agvsim new`.
@@ -205,15 +214,6 @@ pub const THESIS_DIFFERENCES: &[(&str, &str)] = &[
     ),
 ];
 
-/// A robot's mass sized from its body's outline (length and width, m) as a starting
-/// machine's (`base_kg` on `base_outline_m`): in proportion to the outline's area to the
-/// power 1.5, a box as tall as it is wide (robots of one kind are about as dense: the
-/// thesis machine 246 kg/m^3 so, a TurtleBot 3 about 260; `scene::plausibility`).
-fn sized_mass_kg(base_kg: f64, base_outline_m: [f64; 2], outline_m: [f64; 2]) -> f64 {
-    let area = |o: [f64; 2]| o[0] * o[1];
-    base_kg * (area(outline_m) / area(base_outline_m)).powf(1.5)
-}
-
 /// The builder's numbers, completed from a starting scene.
 #[derive(Debug, Clone)]
 struct Numbers {
@@ -230,6 +230,12 @@ struct Numbers {
     torque_constant_nm_a: f64,
     resistance_ohm: f64,
     ratio: f64,
+    /// Whether the motor's datasheet and the gear ratio were given.
+    motor_given: bool,
+    ratio_given: bool,
+    /// The starting scene's drive proportions, where the motor or gear (not given) was
+    /// sized for this robot by them.
+    drive_sized: Option<DriveProportions>,
     backlash_rad: f64,
     length_m: f64,
     width_m: f64,
@@ -381,8 +387,9 @@ impl RobotSpec {
             (self.track_m.is_some(), Track),
             (self.wheel_radius_m.is_some(), Wheel),
             (self.battery_v.is_some(), Battery),
-            (self.motor.is_some(), Motor),
-            (self.gear_ratio.is_some(), Ratio),
+            // Not given, a motor and gear may be sized for the robot ([`Self::drive`]).
+            (self.motor.is_some() || self.size_drive, Motor),
+            (self.gear_ratio.is_some() || self.size_drive, Ratio),
             (self.backlash_rad.is_some(), Backlash),
             (footprint, Footprint),
             (self.castors.is_some(), Castors),
@@ -479,28 +486,6 @@ impl RobotSpec {
     fn numbers(&self, base: &Scene) -> (Numbers, Vec<String>) {
         let mut notes = Vec::new();
         let track_m = self.track_m.unwrap_or(base.chassis.track_width_m);
-        let (rated_v, k, r) = match &self.motor {
-            Some(m) => {
-                let no_load_rad_s = m.no_load_rpm * std::f64::consts::TAU / 60.0;
-                let k = m.rated_v / no_load_rad_s;
-                let stall_a = m
-                    .stall_current_a
-                    .unwrap_or_else(|| m.stall_torque_nm.unwrap_or(0.0) / k);
-                if let (Some(i), Some(t)) = (m.stall_current_a, m.stall_torque_nm) {
-                    notes.push(format!(
-                        "the datasheet's stall torque {t} N m against {:.3} N m from its no-load speed and stall current ({:+.0} %): the difference is the motor's own friction and no-load current",
-                        k * i,
-                        100.0 * (t / (k * i) - 1.0)
-                    ));
-                }
-                (m.rated_v, k, m.rated_v / stall_a)
-            }
-            None => (
-                base.battery.open_circuit_v,
-                base.motor.torque_constant_nm_a,
-                base.motor.resistance_ohm,
-            ),
-        };
         let base_length = base.chassis.front_m + base.chassis.rear_m;
         let (length_m, width_m) = match (self.track_m, self.length_m, self.width_m) {
             (_, Some(l), Some(w)) => (l, w),
@@ -513,20 +498,27 @@ impl RobotSpec {
         // Not given, the mass is sized from the body's outline as the starting scene's
         // ([`sized_mass_kg`]), not carried over from a machine of another size.
         let base_outline = [base_length, base.chassis.width_m];
+        let mass_kg = self.mass_kg.unwrap_or_else(|| {
+            sized_mass_kg(base.chassis.mass_kg, base_outline, [length_m, width_m])
+        });
+        let wheel_radius_m = self.wheel_radius_m.unwrap_or(base.wheel.radius_m);
+        let battery_v = self.battery_v.unwrap_or(base.battery.open_circuit_v);
+        let drive = self.drive(base, mass_kg, wheel_radius_m, battery_v, &mut notes);
         let n = Numbers {
-            mass_kg: self.mass_kg.unwrap_or_else(|| {
-                sized_mass_kg(base.chassis.mass_kg, base_outline, [length_m, width_m])
-            }),
+            mass_kg,
             mass_given: self.mass_kg.is_some(),
             base_outline_m: base_outline,
             base_mass_kg: base.chassis.mass_kg,
             track_m,
-            wheel_radius_m: self.wheel_radius_m.unwrap_or(base.wheel.radius_m),
-            battery_v: self.battery_v.unwrap_or(base.battery.open_circuit_v),
-            rated_v,
-            torque_constant_nm_a: k,
-            resistance_ohm: r,
-            ratio: self.gear_ratio.unwrap_or(base.gearbox.ratio),
+            wheel_radius_m,
+            battery_v,
+            rated_v: drive.rated_v,
+            torque_constant_nm_a: drive.k_nm_a,
+            resistance_ohm: drive.resistance_ohm,
+            ratio: drive.ratio,
+            motor_given: self.motor.is_some(),
+            ratio_given: self.gear_ratio.is_some(),
+            drive_sized: drive.sized_by,
             backlash_rad: self.backlash_rad.unwrap_or(if self.gear_ratio.is_some() {
                 0.0
             } else {
@@ -539,6 +531,87 @@ impl RobotSpec {
                 .unwrap_or(base.chassis.drive_load_fraction < 1.0),
         };
         (n, notes)
+    }
+
+    /// The motor (rated voltage, torque constant, resistance) and gear ratio: each given,
+    /// sized for the robot ([`RobotSpec::size_drive`]) or the starting scene's.
+    fn drive(
+        &self,
+        base: &Scene,
+        mass_kg: f64,
+        wheel_radius_m: f64,
+        battery_v: f64,
+        notes: &mut Vec<String>,
+    ) -> Drive {
+        let sized_by = self
+            .size_drive
+            .then(|| DriveProportions::of(base))
+            .filter(|_| self.motor.is_none() || self.gear_ratio.is_none());
+        let datasheet = self.motor.as_ref().map(|m| m.motor(notes));
+        let (rated_v, k_nm_a, resistance_ohm, ratio) = match (datasheet, sized_by) {
+            (Some((v, k, r)), Some(p)) => {
+                let ratio = self.gear_ratio.unwrap_or(p.ratio(v, k, wheel_radius_m));
+                (v, k, r, ratio)
+            }
+            (Some((v, k, r)), None) => (v, k, r, self.gear_ratio.unwrap_or(base.gearbox.ratio)),
+            (None, Some(p)) => {
+                // Not given either, the gear is sized for the starting motor's torque
+                // constant; given, the motor is sized for it.
+                let k0 = base.motor.torque_constant_nm_a;
+                let ratio = self
+                    .gear_ratio
+                    .unwrap_or(p.ratio(battery_v, k0, wheel_radius_m));
+                let k = p.torque_constant_nm_a(battery_v, ratio, wheel_radius_m);
+                (battery_v, k, p.resistance_ohm(battery_v, mass_kg), ratio)
+            }
+            (None, None) => (
+                base.battery.open_circuit_v,
+                base.motor.torque_constant_nm_a,
+                base.motor.resistance_ohm,
+                self.gear_ratio.unwrap_or(base.gearbox.ratio),
+            ),
+        };
+        Drive {
+            rated_v,
+            k_nm_a,
+            resistance_ohm,
+            ratio,
+            sized_by,
+        }
+    }
+}
+
+/// A robot's motor and gear as the builder takes them ([`RobotSpec::drive`]).
+struct Drive {
+    /// The voltage the motor's numbers are rated at, V.
+    rated_v: f64,
+    /// Torque (back-EMF) constant, N m/A.
+    k_nm_a: f64,
+    /// Winding resistance, ohm.
+    resistance_ohm: f64,
+    /// Motor turns per wheel turn.
+    ratio: f64,
+    /// The proportions the motor or gear was sized by, where one was.
+    sized_by: Option<DriveProportions>,
+}
+
+impl MotorDatasheet {
+    /// The rated voltage, torque constant (N m/A) and resistance (ohm) of the datasheet
+    /// point, with a note where its stall torque and stall current disagree.
+    fn motor(&self, notes: &mut Vec<String>) -> (f64, f64, f64) {
+        let no_load_rad_s = self.no_load_rpm * std::f64::consts::TAU / 60.0;
+        let k = self.rated_v / no_load_rad_s;
+        let stall_a = self
+            .stall_current_a
+            .unwrap_or_else(|| self.stall_torque_nm.unwrap_or(0.0) / k);
+        if let (Some(i), Some(t)) = (self.stall_current_a, self.stall_torque_nm) {
+            notes.push(format!(
+                "the datasheet's stall torque {t} N m against {:.3} N m from its no-load speed and stall current ({:+.0} %): the difference is the motor's own friction and no-load current",
+                k * i,
+                100.0 * (t / (k * i) - 1.0)
+            ));
+        }
+        (self.rated_v, k, self.rated_v / stall_a)
     }
 }
 
@@ -649,6 +722,65 @@ mod tests {
         };
         let new = new_scene(&given, Some((Path::new("base.toml"), &base)), "t").unwrap();
         assert_eq!(new.scene.chassis.mass_kg, 4.0);
+    }
+
+    #[test]
+    fn a_drive_not_given_is_sized_for_the_robot_where_the_start_only_stands_in() {
+        // OptiOdom's robot as `import ros2` takes it: 4 kg, 0.042 m wheels, a 0.2 m track,
+        // from the thesis machine; once with its 43.7:1 gear, once without.
+        let base = Scene::default();
+        let from = Some((Path::new("base.toml"), &base));
+        let spec = RobotSpec {
+            mass_kg: Some(4.0),
+            track_m: Some(0.2),
+            wheel_radius_m: Some(0.042),
+            size_drive: true,
+            ..Default::default()
+        };
+        let thesis = DriveProportions::of(&base);
+        let plausibility = crate::scene::plausibility::warnings;
+        for gear in [Some(43.7), None] {
+            let spec = RobotSpec {
+                gear_ratio: gear,
+                ..spec.clone()
+            };
+            let s = new_scene(&spec, from, "t").unwrap().scene;
+            let p = DriveProportions::of(&s);
+            // Written to four figures: the proportions within their rounding.
+            assert!(
+                (p.top_speed_m_s / thesis.top_speed_m_s - 1.0).abs() < 1e-3,
+                "{p:?}"
+            );
+            let push = p.stall_push_per_weight / thesis.stall_push_per_weight;
+            assert!((push - 1.0).abs() < 1e-3, "{p:?}");
+            assert_eq!(s.gearbox.ratio, gear.unwrap_or(13.11), "{gear:?}");
+            // The thesis motor on this robot pushes 25 times its weight: no longer.
+            let w = plausibility(&s);
+            assert!(
+                !w.iter().any(|w| w.key == MotorParams::resistance_ohm.key()),
+                "{w:?}"
+            );
+        }
+        // `agvsim new --from` carries the starting drive: the user's own machine's.
+        let carried = new_scene(
+            &RobotSpec {
+                size_drive: false,
+                ..spec
+            },
+            from,
+            "t",
+        )
+        .unwrap();
+        assert_eq!(
+            carried.scene.motor.resistance_ohm,
+            base.motor.resistance_ohm
+        );
+        assert_eq!(carried.scene.gearbox.ratio, base.gearbox.ratio);
+        let w = plausibility(&carried.scene);
+        assert!(
+            w.iter().any(|w| w.key == MotorParams::resistance_ohm.key()),
+            "{w:?}"
+        );
     }
 
     #[test]
