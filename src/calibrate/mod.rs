@@ -8,8 +8,9 @@
 //! This file is the face: the errors, the default keys and outputs per recording kind, and
 //! the re-exports. A run's order is in `run.rs` ([`calibrate_telling`]), the simulator as a
 //! fitted model in `scene_replay.rs` ([`SceneReplay`]), what a run gives in `result.rs`
-//! ([`Calibration`]), the effect rounds in `rounds.rs` and `search.rs`, the first stage in
-//! `first.rs` and `faithful.rs`, the output in `write.rs`.
+//! ([`Calibration`]), the effect rounds in `rounds.rs` and `search/` (stages, the
+//! simulator as judge, races, the wheels' odometry), the first stage in `first.rs` and
+//! `faithful.rs`, the output in `write.rs`.
 
 pub mod base_limits;
 pub mod defect;
