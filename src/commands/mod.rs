@@ -357,3 +357,15 @@ pub(crate) fn overrides(set: &[String], duration_s: Option<f64>, seed: Option<u6
     }
     set
 }
+
+impl From<crate::import::ros2::robot::RobotSceneError> for CommandError {
+    /// The same words as before the scene moved to the library: the numbers' error, or
+    /// the contract's.
+    fn from(e: crate::import::ros2::robot::RobotSceneError) -> Self {
+        use crate::import::ros2::robot::RobotSceneError;
+        match e {
+            RobotSceneError::Robot(e) => CommandError::Robot(e),
+            RobotSceneError::Contract { what, message } => CommandError::Contract { what, message },
+        }
+    }
+}

@@ -21,6 +21,7 @@ mod joints;
 mod mcap;
 mod open;
 mod pose;
+pub mod robot;
 mod rosbag1;
 mod sqlite;
 mod streams;
