@@ -8,11 +8,16 @@
 //! scale; tick labels are rounded to their step; a measured trace is drawn wide and pale
 //! under the simulated one so both stay visible.
 
+mod axes;
 pub mod bars;
+mod draw;
 
 use std::fmt::Write;
 
+pub use axes::{fmt_tick, nice_ticks};
+use axes::{legend_layout, on_canvas, range_of};
 pub use bars::{bar_chart, BarGroup};
+use draw::{cross, draw_series, legend_key};
 
 /// Canvas width, px.
 pub const W: f64 = 900.0;
@@ -179,37 +184,6 @@ pub fn svg(
     .render()
 }
 
-/// Axis ticks at round steps covering `[lo, hi]`, and the number of decimals their step
-/// needs. Ticks are whole multiples of the step, so a tick at zero reads `0`, never
-/// `-1.4e-17`.
-pub fn nice_ticks(lo: f64, hi: f64) -> (Vec<f64>, usize) {
-    let span = (hi - lo).max(1e-300);
-    let raw = span / 5.0;
-    let mag = 10f64.powf(raw.log10().floor());
-    let step = [1.0, 2.0, 5.0, 10.0]
-        .iter()
-        .map(|m| m * mag)
-        .find(|s| span / s <= 6.0)
-        .unwrap_or(10.0 * mag);
-    let first = (lo / step).ceil() as i64;
-    let last = (hi / step + 1e-9).floor() as i64;
-    let ticks = (first..=last).map(|k| k as f64 * step).collect();
-    let decimals = (-step.log10().floor()).max(0.0) as usize;
-    (ticks, decimals)
-}
-
-/// A tick label: rounded to the step's decimals; scientific for very large or very small
-/// magnitudes.
-pub fn fmt_tick(t: f64, decimals: usize) -> String {
-    if t == 0.0 {
-        return "0".into();
-    }
-    if t.abs() >= 1e5 || decimals > 4 {
-        return format!("{t:.1e}");
-    }
-    format!("{t:.decimals$}")
-}
-
 /// The measured cells of a column as plot points: times and values where a value was
 /// recorded (missing samples leave gaps, not zeros).
 pub fn measured_points(t_s: &[f64], column: &[Option<f64>]) -> (Vec<f64>, Vec<f64>) {
@@ -225,43 +199,6 @@ pub fn escape(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
-}
-
-/// Legend entries laid out in rows across the width below the plot, wrapping instead of
-/// cutting: the (x, row) of each entry.
-fn legend_layout(labels: &[&str]) -> Vec<(f64, usize)> {
-    let mut out = Vec::new();
-    let (mut x, mut row) = (MARGIN_L, 0);
-    for l in labels {
-        let w = 30.0 + CHAR_W * l.chars().count() as f64 + 20.0;
-        if x + w > W - MARGIN_R && x > MARGIN_L {
-            x = MARGIN_L;
-            row += 1;
-        }
-        out.push((x, row));
-        x += w;
-    }
-    out
-}
-
-/// Largest magnitude an axis reaches: past it a value (a sentinel such as -1.7e308) is
-/// drawn at the frame's edge, as the span of an axis to it would overflow to infinity and
-/// every coordinate with it.
-const AXIS_LIMIT: f64 = 1e100;
-
-fn range_of<'b>(values: impl Iterator<Item = &'b f64>) -> (f64, f64) {
-    values
-        .filter(|v| v.is_finite())
-        .map(|v| v.clamp(-AXIS_LIMIT, AXIS_LIMIT))
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-            (a.min(v), b.max(v))
-        })
-}
-
-/// A canvas coordinate kept within a few canvases of the frame: a point far outside the
-/// axes is clipped all the same, and its coordinate stays a short finite number.
-fn on_canvas(c: f64) -> f64 {
-    c.clamp(-10.0 * W, 10.0 * W)
 }
 
 impl Plot<'_> {
@@ -489,164 +426,6 @@ impl Plot<'_> {
                     W - MARGIN_R,
                     y = py(v)
                 );
-            }
-        }
-    }
-}
-
-fn cross(s: &mut String, x: f64, y: f64, colour: &str) {
-    let _ = writeln!(
-        s,
-        r#"<path d="M{:.1},{:.1}L{:.1},{:.1}M{:.1},{:.1}L{:.1},{:.1}" stroke="{colour}" stroke-width="2"/>"#,
-        x - 4.0,
-        y - 4.0,
-        x + 4.0,
-        y + 4.0,
-        x - 4.0,
-        y + 4.0,
-        x + 4.0,
-        y - 4.0
-    );
-}
-
-/// An open triangle pointing up: a value above this point (censored).
-fn above_marker(s: &mut String, x: f64, y: f64, colour: &str) {
-    let _ = writeln!(
-        s,
-        r#"<path d="M{:.1},{:.1}L{:.1},{:.1}L{:.1},{:.1}Z" fill="white" stroke="{colour}" stroke-width="1.8"/>"#,
-        x,
-        y - 6.0,
-        x - 5.0,
-        y + 3.0,
-        x + 5.0,
-        y + 3.0
-    );
-}
-
-fn marker(s: &mut String, x: f64, y: f64, colour: &str) {
-    let _ = writeln!(
-        s,
-        r#"<circle cx="{x:.1}" cy="{y:.1}" r="3.5" fill="{colour}" stroke="white" stroke-width="1"/>"#
-    );
-}
-
-fn legend_key(
-    s: &mut String,
-    x: f64,
-    y: f64,
-    colour: &str,
-    style: Style,
-    in_scale: bool,
-    is_flag: bool,
-) {
-    if is_flag {
-        cross(s, x + 11.0, y, colour);
-        return;
-    }
-    let (width, opacity) = match style {
-        Style::Measured => (5.0, 0.45),
-        _ => (3.0, 1.0),
-    };
-    let dash = if in_scale {
-        ""
-    } else {
-        r#" stroke-dasharray="6,3""#
-    };
-    if style == Style::Above {
-        above_marker(s, x + 11.0, y, colour);
-        return;
-    }
-    if style != Style::Points {
-        let _ = writeln!(
-            s,
-            r#"<line x1="{x:.1}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="{colour}" stroke-width="{width}" stroke-opacity="{opacity}"{dash}/>"#,
-            x + 22.0
-        );
-    }
-    if style == Style::Points {
-        marker(s, x + 11.0, y, colour);
-    }
-}
-
-/// The points cut into the runs between breaks (a run starts at the first point at or
-/// past each break).
-fn pieces<'p>(points: &'p [(f64, f64)], breaks: &[f64]) -> Vec<&'p [(f64, f64)]> {
-    let mut out = Vec::new();
-    let mut start = 0;
-    for k in 1..points.len() {
-        let (before, at) = (points[k - 1].0, points[k].0);
-        if breaks.iter().any(|&b| before < b && at >= b) {
-            out.push(&points[start..k]);
-            start = k;
-        }
-    }
-    out.push(&points[start..]);
-    out
-}
-
-fn draw_series(s: &mut String, ser: &Series, px: &dyn Fn(f64) -> f64, py: &dyn Fn(f64) -> f64) {
-    let finite: Vec<(f64, f64)> = ser
-        .x
-        .iter()
-        .zip(ser.y)
-        .filter(|(x, y)| x.is_finite() && y.is_finite())
-        .map(|(x, y)| (*x, *y))
-        .collect();
-    let clip = r#" clip-path="url(#data)""#;
-    match ser.style {
-        Style::Stems => {
-            for (x, y) in &finite {
-                let _ = writeln!(
-                    s,
-                    r#"<line x1="{:.1}" y1="{:.1}" x2="{:.1}" y2="{:.1}" stroke="{}" stroke-width="2"{clip}/>"#,
-                    px(*x),
-                    py(0.0),
-                    px(*x),
-                    py(*y),
-                    ser.colour
-                );
-            }
-        }
-        Style::Points => {
-            for (x, y) in &finite {
-                marker(s, px(*x), py(*y), ser.colour);
-            }
-        }
-        Style::Above => {
-            for (x, y) in &finite {
-                above_marker(s, px(*x), py(*y), ser.colour);
-            }
-        }
-        Style::Line | Style::Measured => {
-            // Thin long series to about two points per pixel column.
-            let stride = (finite.len() / 2000).max(1);
-            let thinned: Vec<(f64, f64)> = finite.iter().step_by(stride).copied().collect();
-            let (width, opacity) = if ser.style == Style::Measured {
-                (4.0, 0.45)
-            } else {
-                (1.4, 1.0)
-            };
-            let dash = if ser.in_scale {
-                ""
-            } else {
-                r#" stroke-dasharray="6,3""#
-            };
-            for piece in pieces(&thinned, ser.breaks) {
-                let pts: Vec<String> = piece
-                    .iter()
-                    .map(|(x, y)| format!("{:.1},{:.1}", px(*x), py(*y)))
-                    .collect();
-                let _ = writeln!(
-                    s,
-                    r#"<polyline fill="none" stroke="{}" stroke-width="{width}" stroke-opacity="{opacity}"{dash}{clip} points="{}"/>"#,
-                    ser.colour,
-                    pts.join(" ")
-                );
-            }
-            if ser.style == Style::Line && finite.len() <= MARKERS_UP_TO && ser.in_scale {
-                for (x, y) in &finite {
-                    marker(s, px(*x), py(*y), ser.colour);
-                }
             }
         }
     }
