@@ -1,0 +1,39 @@
+//! The thesis machine's proportions `agvsim new` keeps when it derives a robot's keys (its
+//! shipped values), so that its own numbers give back its shipped scene.
+
+pub const LENGTH_PER_TRACK: f64 = 2.0; // 1.0 m body on a 0.5 m track
+pub const WIDTH_OVER_TRACK_M: f64 = 0.12; // 0.62 m body on a 0.5 m track
+pub const FRONT_SHARE: f64 = 0.55; // front 0.55 of 1.0 m
+pub const CG_X_SHARE: f64 = 0.05;
+pub const CASTOR_FRONT_SHARE: f64 = 0.4;
+pub const CASTOR_REAR_SHARE: f64 = -0.35;
+pub const CASTOR_HALF_SPACING_SHARE: f64 = 0.24 / 0.62;
+pub const TRAIL_SHARE: f64 = 0.04;
+pub const MASS_KG: f64 = 120.0;
+pub const CASTOR_MASS_SHARE: f64 = 1.2 / 120.0;
+pub const SWIVEL_NM_PER_KG_M: f64 = 0.3 / 120.0;
+pub const LINEAR_DRAG_PER_KG: f64 = 10.0 / 120.0;
+pub const ANGULAR_DRAG_PER_KG_M2: f64 = 2.0 / 120.0;
+pub const R_OHM: f64 = 0.35;
+pub const K_NM_A: f64 = 0.063;
+pub const ELECTRICAL_TAU_S: f64 = 0.0008 / R_OHM;
+pub const MECHANICAL_TAU_S: f64 = 2.0e-4 * R_OHM / (K_NM_A * K_NM_A);
+pub const COULOMB_SHARE_OF_STALL: f64 = 0.02 / (K_NM_A * 24.0 / R_OHM);
+pub const VISCOUS_SHARE_OF_EMF_DAMPING: f64 = 1.0e-4 / (K_NM_A * K_NM_A / R_OHM);
+pub const WHEEL_INERTIA_KG_M2: f64 = 0.02;
+pub const WHEEL_RADIUS_M: f64 = 0.075;
+pub const RATIO: f64 = 23.41;
+pub const ROTOR_KG_M2: f64 = 2.0e-4;
+pub const TOOTH_STIFFNESS: f64 = 3000.0;
+pub const TOOTH_DAMPING: f64 = 4.0;
+pub const DRIVE_SHARE: f64 = 23.5 / 24.0;
+pub const FAULT_SHARE: f64 = 22.0 / 24.0;
+pub const SAG_SHARE: f64 = 2.0 * 40.0 * 0.02 / 24.0;
+pub const CURRENT_LIMIT_SHARE: f64 = 40.0 / (24.0 / R_OHM);
+pub const TURN_OVER_FORWARD: f64 = 0.102 / 0.1623;
+pub const SPEED_SHARE_OF_NO_LOAD: f64 = 3.5 * 100.0 * K_NM_A / 23.5;
+pub const KP_PER_K: f64 = 0.5 / K_NM_A;
+pub const KI_PER_K: f64 = 4.0 / K_NM_A;
+pub const BRAKE_PER_K: f64 = 0.3 / K_NM_A;
+pub const SENSOR_BEHIND_FRONT_SHARE: f64 = 0.1;
+pub const OPEN_LOOP_DEMAND_PCT: f64 = 50.0;
