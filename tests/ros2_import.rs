@@ -1054,3 +1054,37 @@ fn the_example_bags_intervals_hold_the_robot_it_was_made_from() {
         }
     }
 }
+
+/// A robot imported with nothing but its bag gets a drive of its own size, said on the
+/// console: the thesis machine's motor and gear sized for it (its top speed at the wheel,
+/// 24 V / 0.063 V s/rad / 23.41 x 0.075 m = 1.22 m/s, and both motors at stall pushing
+/// 2.29 times the weight), which `check` finds plausible; a gear given keeps that top
+/// speed through the motor instead.
+#[test]
+fn a_robot_imported_without_its_drive_gets_one_sized_for_it_and_said() {
+    let dir = scratch("sized_drive");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/ros2_example");
+    for (out, extra) in [("bare", &[][..]), ("geared", &["--gear-ratio", "20"][..])] {
+        let o = import(&root.join("robot_square"), &dir.join(out), extra);
+        let t = text(&o);
+        assert!(o.status.success(), "{t}");
+        assert!(
+            t.contains("sized as the thesis machine's for it: a top speed of 1.22 m/s at the wheel, both motors at stall pushing 2.29 times its weight"),
+            "{t}"
+        );
+        // The example robot's wheels are 0.08 m: 23.41 x 0.08 / 0.075 = 24.97.
+        assert_eq!(
+            t.contains("guessed    gear ratio 25, sized for the thesis machine's top speed of 1.22 m/s on the 0.08 m wheel"),
+            extra.is_empty(),
+            "{t}"
+        );
+        let scene = dir.join(out).join("robot_square.scene.toml");
+        let o = agvsim(&["check", scene.to_str().unwrap()]);
+        let c = text(&o);
+        assert!(o.status.success(), "{c}");
+        assert!(
+            c.contains("top speed 1.2 m/s") && c.contains("no plausibility warnings"),
+            "{c}"
+        );
+    }
+}
