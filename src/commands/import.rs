@@ -351,7 +351,8 @@ pub struct Ros2Args {
     /// Track width, m [default: from /robot_description].
     #[arg(long, value_parser = positive_number)]
     pub track_m: Option<f64>,
-    /// Robot mass for the scene, kg [default: the thesis machine's 120, said as such].
+    /// Robot mass for the scene, kg [default: sized from the body's outline as the thesis
+    /// machine's 120 kg on 1 x 0.62 m, said as a guess].
     #[arg(long, value_parser = positive_number)]
     pub mass_kg: Option<f64>,
     /// The robot's `diff_drive_controller` parameters (YAML, as ros2_control loads
@@ -361,7 +362,8 @@ pub struct Ros2Args {
     #[arg(long, value_name = "PARAMS.yaml")]
     pub controller_yaml: Option<PathBuf>,
     /// The battery, the motor and the gear [default: the battery topic's median
-    /// voltage; the thesis machine's motor and gear, said as assumed; no gear play].
+    /// voltage; a motor and gear sized for the robot as the thesis machine's are for it (its
+    /// top speed at the wheel, its push per weight), said as guesses; no gear play].
     #[command(flatten)]
     pub drive: DriveFlags,
 }
