@@ -372,10 +372,6 @@ impl Ros2Args {
     /// The request these values make; `command` is what the scene's header says made it.
     pub fn request(self, command: String) -> Result<Ros2Import, CommandError> {
         Ok(Ros2Import {
-            motor: self.drive.motor()?,
-            battery_v: self.drive.battery_v,
-            gear_ratio: self.drive.gear_ratio,
-            backlash_rad: self.drive.backlash_rad,
             bag: self.bag,
             map: self.map,
             geometry: crate::import::ros2::Geometry {
@@ -383,10 +379,16 @@ impl Ros2Args {
                 track_m: self.track_m,
                 ..Default::default()
             },
-            mass_kg: self.mass_kg,
-            controller_yaml: self.controller_yaml,
+            robot: crate::import::ros2::robot::Given {
+                mass_kg: self.mass_kg,
+                motor: self.drive.motor()?,
+                battery_v: self.drive.battery_v,
+                gear_ratio: self.drive.gear_ratio,
+                backlash_rad: self.drive.backlash_rad,
+                controller_yaml: self.controller_yaml,
+                command,
+            },
             out: self.out,
-            command,
         })
     }
 }
@@ -400,37 +402,10 @@ pub struct Ros2Import {
     pub map: Option<PathBuf>,
     /// Track and wheel radius beside the bag's description.
     pub geometry: crate::import::ros2::Geometry,
-    /// Robot mass for the scene, kg.
-    pub mass_kg: Option<f64>,
-    /// The drive motor's datasheet point, if given.
-    pub motor: Option<crate::scene::robot::MotorDatasheet>,
-    /// Battery voltage, V (else the battery topic's median).
-    pub battery_v: Option<f64>,
-    /// Motor turns per wheel turn, if given.
-    pub gear_ratio: Option<f64>,
-    /// Gear play at the wheel, rad (default 0).
-    pub backlash_rad: Option<f64>,
-    /// A `diff_drive_controller` parameter file.
-    pub controller_yaml: Option<PathBuf>,
+    /// What the user said of the robot (mass, drive, controller file, the command line).
+    pub robot: crate::import::ros2::robot::Given,
     /// Output folder (default `runs/import`).
     pub out: Option<PathBuf>,
-    /// The command line, for the scene's header.
-    pub command: String,
-}
-
-impl Ros2Import {
-    /// What the user said of the robot, for the scene the library makes of it.
-    fn given(&self) -> crate::import::ros2::robot::Given {
-        crate::import::ros2::robot::Given {
-            mass_kg: self.mass_kg,
-            motor: self.motor,
-            battery_v: self.battery_v,
-            gear_ratio: self.gear_ratio,
-            backlash_rad: self.backlash_rad,
-            controller_yaml: self.controller_yaml.clone(),
-            command: self.command.clone(),
-        }
-    }
 }
 
 /// Reads the bag, writes `DIR/BAG.csv` and, where the track and wheel radius are known,
@@ -443,7 +418,7 @@ pub fn ros2(req: &Ros2Import, say: Say) -> Result<(), CommandError> {
     };
     // The controller's file is read first: where the bag has no description of the
     // wheels, its configured radius and separation convert the wheel speeds.
-    let params = match &req.controller_yaml {
+    let params = match &req.robot.controller_yaml {
         Some(p) => Some(
             ros2::controller::load(p).map_err(|e| CommandError::Contract {
                 what: "--controller-yaml".into(),
@@ -453,7 +428,7 @@ pub fn ros2(req: &Ros2Import, say: Say) -> Result<(), CommandError> {
         None => None,
     };
     let mut geometry = req.geometry.clone();
-    if let (Some(p), Some(file)) = (&params, &req.controller_yaml) {
+    if let (Some(p), Some(file)) = (&params, &req.robot.controller_yaml) {
         let from = |what: &str| format!("{what} in {} (--controller-yaml)", file.display());
         geometry.configured_radius_m = p.wheel_radius_m.map(|r| (r, from("wheel_radius")));
         geometry.configured_track_m = p.wheel_separation_m.map(|b| (b, from("wheel_separation")));
@@ -472,7 +447,7 @@ pub fn ros2(req: &Ros2Import, say: Say) -> Result<(), CommandError> {
     let mut warnings: Vec<String> = vec![];
     if let Some(g) = &rec.geometry {
         let (text, said) =
-            ros2::robot::scene(&req.given(), &rec, g, params.as_ref(), &stem, &scene_path)?;
+            ros2::robot::scene(&req.robot, &rec, g, params.as_ref(), &stem, &scene_path)?;
         warnings = said;
         warnings.extend(limits_shown(&parsed, &text, &scene_path));
         files.push((scene_path.clone(), text));

@@ -101,29 +101,28 @@ impl RobotSpec {
             .then(|| DriveProportions::of(base))
             .filter(|_| self.motor.is_none() || self.gear_ratio.is_none());
         let datasheet = self.motor.as_ref().map(|m| m.motor(notes));
-        let (rated_v, k_nm_a, resistance_ohm, ratio) = match (datasheet, sized_by) {
-            (Some((v, k, r)), Some(p)) => {
-                let ratio = self.gear_ratio.unwrap_or(p.ratio(v, k, wheel_radius_m));
-                (v, k, r, ratio)
-            }
-            (Some((v, k, r)), None) => (v, k, r, self.gear_ratio.unwrap_or(base.gearbox.ratio)),
-            (None, Some(p)) => {
-                // Not given either, the gear is sized for the starting motor's torque
-                // constant; given, the motor is sized for it.
-                let k0 = base.motor.torque_constant_nm_a;
-                let ratio = self
-                    .gear_ratio
-                    .unwrap_or(p.ratio(battery_v, k0, wheel_radius_m));
-                let k = p.torque_constant_nm_a(battery_v, ratio, wheel_radius_m);
-                (battery_v, k, p.resistance_ohm(battery_v, mass_kg), ratio)
-            }
-            (None, None) => (
-                base.battery.open_circuit_v,
-                base.motor.torque_constant_nm_a,
-                base.motor.resistance_ohm,
-                self.gear_ratio.unwrap_or(base.gearbox.ratio),
-            ),
-        };
+        let (mut rated_v, mut k_nm_a, mut resistance_ohm) = datasheet.unwrap_or((
+            base.battery.open_circuit_v,
+            base.motor.torque_constant_nm_a,
+            base.motor.resistance_ohm,
+        ));
+        // A motor sized (not given) runs on the robot's battery.
+        let motor_sized = sized_by.filter(|_| datasheet.is_none());
+        if motor_sized.is_some() {
+            rated_v = battery_v;
+        }
+        // A gear not given is sized for the motor's torque constant: the datasheet's, or
+        // the starting motor's where the motor is sized too.
+        let ratio = self.gear_ratio.unwrap_or_else(|| {
+            sized_by.map_or(base.gearbox.ratio, |p| {
+                p.ratio(rated_v, k_nm_a, wheel_radius_m)
+            })
+        });
+        // A motor not given is sized for the gear.
+        if let Some(p) = motor_sized {
+            k_nm_a = p.torque_constant_nm_a(rated_v, ratio, wheel_radius_m);
+            resistance_ohm = p.resistance_ohm(rated_v, mass_kg);
+        }
         Drive {
             rated_v,
             k_nm_a,

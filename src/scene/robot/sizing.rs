@@ -5,9 +5,7 @@
 //! 0.2 m-track robot is another machine's, which `check` calls implausible.
 
 use super::Scene;
-
-/// Standard gravity, m/s^2.
-const G_M_S2: f64 = 9.81;
+use crate::model::GRAVITY_M_S2 as G_M_S2;
 
 /// A robot's mass sized from its body's outline (length and width, m) as a starting
 /// machine's (`base_kg` on `base_outline_m`): in proportion to the outline's area to the
