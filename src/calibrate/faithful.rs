@@ -35,6 +35,28 @@ pub(super) fn faithful_first_stage(
     problem.first_stage(scene, fitted)
 }
 
+/// The first stage as the simulator judges it: where the reduced base and the simulator
+/// disagree on it by more than [`super::search::JUDGE_SHARE`] of its residual, the
+/// simulator judges from then on ([`Problem::rejudge`]), and where no defect is carried yet
+/// the reduced base takes its defect at the scene's keys (where no fit has bent a key to
+/// make up for what the reduced base leaves out) and the stage is refitted with it, so that
+/// what the fits claim is what their judge sees.
+pub(super) fn judged_first_stage(
+    problem: &mut Problem,
+    scene: &Scene,
+    stage: Stage,
+    progress: &dyn Fn(&str),
+) -> Result<Stage, CalibrateError> {
+    if !problem.rejudge(&stage)? {
+        return Ok(stage);
+    }
+    progress(super::JUDGED_BY_THE_SIMULATOR);
+    if problem.defect.is_none() && problem.correct_at(scene)? {
+        return problem.fit(&stage.reached, &stage.free);
+    }
+    Ok(stage)
+}
+
 /// The first stage on the reduced base carrying its defect, taken at the scene's keys; where
 /// the simulator sees its gain, refined once ([`refined_first_stage`]). Where the fit drove
 /// keys of the user's to a bound of their search (no estimates, and a simulator far from

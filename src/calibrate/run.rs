@@ -135,16 +135,7 @@ pub fn calibrate_telling(
     fitted.extend(found.extra_free.iter().cloned());
     let stage = faithful::faithful_first_stage(&mut problem, &found.scene, &fitted, progress)?;
     let baseline = stage.scene.clone();
-    let mut stage = stage;
-    if problem.rejudge(&stage)? {
-        progress(JUDGED_BY_THE_SIMULATOR);
-        // The fits from here on carry the reduced base's defect at the scene's keys (where
-        // no fit has bent a key to make up for what the reduced base leaves out), so that
-        // what they claim is what the simulator, their judge, sees.
-        if problem.defect.is_none() && problem.correct_at(&found.scene)? {
-            stage = problem.fit(&stage.reached, &stage.free)?;
-        }
-    }
+    let stage = faithful::judged_first_stage(&mut problem, &found.scene, stage, progress)?;
     let tried: Vec<Effect> = tried
         .into_iter()
         .filter(|e| !found.decided.contains(e))
