@@ -48,6 +48,7 @@ pub use result::{
 pub(crate) use run::JUDGED_BY_THE_SIMULATOR;
 pub use run::{calibrate, calibrate_telling, Request};
 pub use scene_replay::SceneReplay;
+pub use search::JUDGE_SHARE;
 
 /// Why a calibration cannot be done.
 #[derive(Debug, thiserror::Error)]

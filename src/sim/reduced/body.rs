@@ -5,23 +5,13 @@
 //! `I_z dr/dt = sum (p - c) x F` (each force `F` at its point `p`), integrated
 //! semi-implicitly (velocities, then the pose at the midpoint heading).
 //!
-//! A castor is a massless trailing wheel: it turns so that its patch, `t` behind its
-//! swivel, slides neither way, `dphi/dt = (v_s . n) / t - r` (`v_s` its swivel's
-//! velocity, `n` its wheel's left), and the floor turns it against its swivel friction
-//! `T_s` with a side force `T_s / t` (within the castor tyre's grip); along its wheel it
-//! drags with its rolling resistance ([`rolling_drag_n`]). The simulator's castors are
-//! bodies on their tyres; what this leaves out, their forks' swing after a reversal, is a
-//! few per cent of the yaw rate's range on hard steps (`tests/one_physics.rs`).
+//! The castors push at their swivels as [`castor`](super::castor) says: trailing wheels
+//! held by their swivel friction until their tyres' bristles carry it. The simulator's
+//! castors are bodies on their tyres; what this leaves out, their forks' swing after a
+//! reversal, is a few per cent of the yaw rate's range on hard steps
+//! (`tests/one_physics.rs`).
 
 use super::ReducedBase;
-use crate::model::castor::rolling_drag_n;
-
-/// Speed over which a castor's rolling drag is smoothed through rest, m/s (the
-/// simulator's castors use the same).
-const CASTOR_DRAG_SMOOTHING_M_S: f64 = 0.005;
-
-/// Swivel rate over which a castor's swivel friction is smoothed through rest, rad/s.
-const SWIVEL_SMOOTHING_RAD_S: f64 = 0.05;
 
 impl ReducedBase {
     /// The chassis over a sub-step `h` under the tyres' forces (wheel frame, N: the left
@@ -42,7 +32,8 @@ impl ReducedBase {
         }
         for k in 0..4 {
             let p = self.fixed.castor_points_m[k];
-            let f = self.castor_force(k, [u - w * p[1], v + w * p[0]], w, h);
+            let pivot_m_s = [u - w * p[1], v + w * p[0]];
+            let (f, _) = self.fixed.castors[k].force(&mut self.castors[k], pivot_m_s, w, h);
             force[0] += f[0];
             force[1] += f[1];
             moment += (p[0] - cg[0]) * f[1] - (p[1] - cg[1]) * f[0];
@@ -63,26 +54,12 @@ impl ReducedBase {
         b.pose.heading_rad += h * b.yaw_rate_rad_s;
         self.heading_dir = turned([co, s], half_turn);
     }
-
-    /// Castor `k`'s force on the chassis at its swivel (body frame, N), its wheel turned on
-    /// over `h` (see the module's doc). `pivot_m_s`: the swivel's velocity.
-    fn castor_force(&mut self, k: usize, pivot_m_s: [f64; 2], yaw_rate: f64, h: f64) -> [f64; 2] {
-        let f = &self.fixed;
-        let [c, s] = self.castor_heading[k];
-        let along = pivot_m_s[0] * c + pivot_m_s[1] * s;
-        let across = -pivot_m_s[0] * s + pivot_m_s[1] * c;
-        let swivel_rate = across / f.castor_trail_m - yaw_rate;
-        let [roll] = rolling_drag_n(f.castor_drag_n[k], [along], CASTOR_DRAG_SMOOTHING_M_S);
-        let [side] = rolling_drag_n(f.castor_side_n[k], [swivel_rate], SWIVEL_SMOOTHING_RAD_S);
-        self.castor_heading[k] = turned([c, s], h * swivel_rate);
-        [roll * c - side * s, roll * s + side * c]
-    }
 }
 
 /// A direction (cosine, sine) turned by `angle` (rad): the small turns of a step through
 /// their series (to the fifth power: within 3e-11 of the closed form below 0.05 rad),
 /// renormalised so that rounding does not grow it; larger turns in closed form.
-fn turned([c, s]: [f64; 2], angle: f64) -> [f64; 2] {
+pub(super) fn turned([c, s]: [f64; 2], angle: f64) -> [f64; 2] {
     let (sin, cos) = if angle.abs() < 0.05 {
         let a2 = angle * angle;
         (

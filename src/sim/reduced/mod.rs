@@ -10,8 +10,9 @@
 //!   flanks rigid too, meeting without rebound (the simulator's tooth is a stiff spring
 //!   with little damping: the ringing after each engagement is left out, the lost motion
 //!   kept);
-//! - **castors as trailing wheels** ([`body`]): each turns to trail its swivel's motion
-//!   against its swivel friction, and drags with its rolling resistance; no castor bodies;
+//! - **castors as trailing wheels** ([`castor`]): each held by its swivel friction until
+//!   its tyre's bristles carry it, then turning to trail its swivel's motion, and dragging
+//!   with its rolling resistance; no castor bodies;
 //! - **a longer step**: as many of the simulator's steps as keep it within a third of the
 //!   drivers' speed loop's time constant (at most four), sub-stepped where the tyres are
 //!   stiff against the wheels or the chassis;
@@ -20,6 +21,7 @@
 //! `tests/one_physics.rs` holds it to the simulator on the same scenes and commands.
 
 mod body;
+mod castor;
 mod drive;
 
 use super::command_delay::CommandDelay;
@@ -29,6 +31,7 @@ use crate::model::chassis::Pose;
 use crate::model::drivetrain::DrivetrainState;
 use crate::model::tyre::{Bristles, TyreParams, TyreState};
 use crate::scene::Scene;
+use castor::{CastorLaw, CastorState};
 
 /// Largest share of the drivers' speed-loop time constant one step of the reduced base
 /// spans: the loop acts on the speed at the step's start, so a step much shorter than the
@@ -135,12 +138,9 @@ struct Fixed {
     bristles: [Bristles; 2],
     /// The armature's decay over one sub-step, `exp(-h R / L)`.
     armature_decay: f64,
-    /// Castor swivels (body frame, m), their rolling drag and the side force that turns
-    /// each against its swivel friction (within its tyre's grip), N, and their trail, m.
+    /// Castor swivels (body frame, m) and each castor's law.
     castor_points_m: [[f64; 2]; 4],
-    castor_drag_n: [f64; 4],
-    castor_side_n: [f64; 4],
-    castor_trail_m: f64,
+    castors: [CastorLaw; 4],
 }
 
 /// The reduced velocity-commanded base, at rest at its start pose.
@@ -157,9 +157,8 @@ pub struct ReducedBase {
     body: BodyState,
     /// The chassis's heading as its cosine and sine, turned on each sub-step with it.
     heading_dir: [f64; 2],
-    /// Each castor wheel's heading against the chassis, as its cosine and sine (1, 0:
-    /// trailing straight).
-    castor_heading: [[f64; 2]; 4],
+    /// Each castor's heading against the chassis and its tyre's bristles.
+    castors: [CastorState; 4],
     motor_v: [f64; 2],
     battery_v: f64,
     battery_current_a: f64,
@@ -198,7 +197,7 @@ impl ReducedBase {
         let stepping = held.map_or(own, |h| h.held_for(own, &params));
         let fixed = fixed_of(&params, stepping);
         let delay = params.dcmc.params.command_delay_s;
-        let (s, c) = params.castors.initial_angle_rad.sin_cos();
+        let castor = CastorState::at_rest(params.castors.initial_angle_rad);
         Ok(ReducedBase {
             fixed,
             actuation: Actuation::Velocity {
@@ -215,7 +214,7 @@ impl ReducedBase {
                 pose: params.start,
                 ..BodyState::default()
             },
-            castor_heading: [[c, s]; 4],
+            castors: [castor; 4],
             heading_dir: {
                 let (s, c) = params.start.heading_rad.sin_cos();
                 [c, s]
@@ -372,12 +371,15 @@ fn fixed_of(p: &SimParams, stepping: Stepping) -> Fixed {
     let tyre = p.drive_tyre(p.floor.default);
     let substeps = stepping.substeps;
     let h = dt / substeps as f64;
-    let castor_drag_n = p.loads.castor_n.map(|l| p.castors.rolling_resistance * l);
-    let grip = p.castor_tyre(p.floor.default).peak_mu;
-    let castor_side_n = p
-        .loads
-        .castor_n
-        .map(|l| (p.castors.swivel_friction_nm / p.castors.trail_m).min(grip * l));
+    let castor_tyre = p.castor_tyre(p.floor.default);
+    let castors = p.loads.castor_n.map(|load_n| CastorLaw {
+        drag_n: p.castors.rolling_resistance * load_n,
+        side_n: (p.castors.swivel_friction_nm / p.castors.trail_m)
+            .min(castor_tyre.peak_mu * load_n),
+        trail_m: p.castors.trail_m,
+        bristle_n_m: castor_tyre.bristle_stiffness_n_m(load_n)[1],
+        relaxation_m: castor_tyre.relaxation_length_m,
+    });
     let c = &p.chassis;
     let castor_kg = p.castors.mass_kg;
     let at_swivels: f64 = c
@@ -396,9 +398,7 @@ fn fixed_of(p: &SimParams, stepping: Stepping) -> Fixed {
         tyre,
         armature_decay: (-h / d.motor.electrical_time_constant_s()).exp(),
         castor_points_m: p.chassis.castor_points_m(),
-        castor_drag_n,
-        castor_side_n,
-        castor_trail_m: p.castors.trail_m,
+        castors,
     }
 }
 
