@@ -3,16 +3,19 @@
 //!
 //! `L di/dt = V - R i - K w`, `(Jm + Jw/N^2) dw/dt = K i - b w`, `dtheta/dt = w`, with all
 //! viscous friction `b` referred to the motor shaft, as the rig format defines it. The laws
-//! are the simulator's blocks (`crate::model`), assembled in `dynamics`.
+//! are the simulator's blocks (`crate::model`), assembled in `dynamics`; what drives the axis is
+//! in `input`, the form a term outside the vocabulary is fitted in, in `term_form`.
 
 mod dynamics;
+mod input;
+mod term_form;
 
-use crate::rig::blocks::CurrentAmplifier;
 use crate::rig::blocks::Instruments;
-use crate::rig::blocks::PositionLoop;
 use crate::rig::keys::alias;
 pub use dynamics::AxisBlocks;
 pub(crate) use dynamics::{drivetrain_blocks, drivetrain_state};
+pub use input::{AxisInput, TorqueCommand, WheelCascade};
+pub use term_form::{TermCoefficient, TermForm};
 
 use crate::model::Bounded;
 use std::path::Path;
@@ -24,107 +27,10 @@ use crate::model::battery::BatteryParams;
 use crate::model::dcmc::DcmcParams;
 use crate::model::gearbox::GearboxParams;
 use crate::model::motor::MotorParams;
-use crate::model::term::{Drifting, Family, TermParams};
+use crate::model::term::{Family, TermParams};
 use crate::model::wheel::WheelParams;
 use crate::param::KeyTable;
 use crate::rig::{Rig, RigError};
-
-/// What drives the axis.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum AxisInput {
-    /// `voltage_V` on the armature.
-    Voltage,
-    /// `demand_pct` x `controller.gain_V_pct` on the armature.
-    Demand,
-    /// A current (torque) amplifier: the motor torque is commanded, so the armature's
-    /// resistance, inductance and back-EMF do not act. `torque_Nm` directly
-    /// (`per_volt_nm_v` = 1), or `command_V` x `drive.torque_per_volt_Nm_V`.
-    Torque(TorqueCommand),
-}
-
-/// Where a torque amplifier's command comes from.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TorqueCommand {
-    /// Motor torque per unit of the input column, N m per V (1 for `torque_Nm`).
-    pub per_volt_nm_v: f64,
-    /// Command limit, in the input column's unit (infinite when the rig gives none).
-    pub limit: f64,
-    /// The column the command is recorded in.
-    pub column: &'static str,
-    /// The position loop that produced the command from `reference_rad`, if recorded in
-    /// closed loop: then the command is an output and the reference the input.
-    pub feedback: Option<WheelCascade>,
-}
-
-/// command = kv (kp (reference - wheel angle) - wheel speed), the contract's
-/// position-velocity cascade on the load side of a rotary axis.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct WheelCascade {
-    /// Position gain, 1/s.
-    pub kp_1_s: f64,
-    /// V per rad/s of the wheel.
-    pub kv_v_s_rad: f64,
-}
-
-impl TorqueCommand {
-    /// The torque command a recording's columns and the rig describe, if it has one:
-    /// `torque_Nm`, `command_V` through `drive.torque_per_volt_Nm_V`, or `reference_rad`
-    /// through the rig's `[feedback]` loop into that amplifier.
-    pub fn from_columns(
-        rig: &Rig,
-        path: &Path,
-        has: impl Fn(&str) -> bool,
-    ) -> Result<Option<TorqueCommand>, RigError> {
-        let need = |k: &str, why: &str| rig.require(k, path, why);
-        if has("torque_Nm") {
-            return Ok(Some(TorqueCommand {
-                per_volt_nm_v: 1.0,
-                limit: f64::INFINITY,
-                column: "torque_Nm",
-                feedback: None,
-            }));
-        }
-        let closed = has("reference_rad");
-        if !has("command_V") && !closed {
-            return Ok(None);
-        }
-        let why = if closed {
-            "reference_rad is the input of a position loop into a current amplifier"
-        } else {
-            "command_V drives a current amplifier"
-        };
-        let feedback = if closed {
-            match rig.text(PositionLoop::kind.key()) {
-                Some("position_velocity_cascade") => Some(WheelCascade {
-                    kp_1_s: need(PositionLoop::kp_1_s.key(), "the position loop gain")?,
-                    kv_v_s_rad: need(
-                        PositionLoop::kv_v_s_rad.key(),
-                        "the velocity loop gain of a rotary axis, V per rad/s of the wheel",
-                    )?,
-                }),
-                other => {
-                    return Err(RigError::Invalid {
-                        file: path.to_owned(),
-                        message: format!(
-                            "feedback.kind = {}: the recording gives reference_rad, so the rig must say how the command was made from it (\"position_velocity_cascade\")",
-                            other.map_or("(missing)".into(), |k| format!("\"{k}\""))
-                        ),
-                    })
-                }
-            }
-        } else {
-            None
-        };
-        Ok(Some(TorqueCommand {
-            per_volt_nm_v: need(CurrentAmplifier::torque_per_volt_nm_v.key(), why)?,
-            limit: rig
-                .get(CurrentAmplifier::limit_v.key())
-                .unwrap_or(f64::INFINITY),
-            column: "command_V",
-            feedback,
-        }))
-    }
-}
 
 /// The drive train's keys a fit may move, as the rig and the scene name them.
 pub const RESISTANCE: &str = MotorParams::resistance_ohm.key();
@@ -277,137 +183,6 @@ pub struct RotaryAxis {
     pub coulomb_eps_rad_s: f64,
     /// The term outside the vocabulary switched on, if any, with its form.
     pub term: Option<TermForm>,
-}
-
-/// A term's form: its family and what the search chose of it (the exponent, order or
-/// thermal time constant in `order`; the drifting parameter of a time drift).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TermForm {
-    /// The family.
-    pub family: Family,
-    /// Exponent (`speed_power`, `current_power`), periods per turn (the periodic
-    /// families) or the thermal time constant in s (`thermal_drift`); unused otherwise.
-    pub order: f64,
-    /// The parameter a `time_drift` lets drift.
-    pub drifting: Drifting,
-}
-
-/// One fitted coefficient of a term: its parameter's name (as the contract and the
-/// report name it), the key of [`TermParams`] it sets, its start and search bounds.
-#[derive(Debug, Clone, PartialEq)]
-pub struct TermCoefficient {
-    /// The parameter's name.
-    pub name: &'static str,
-    /// The key it sets.
-    pub key: &'static str,
-    /// Start of its search.
-    pub start: f64,
-    /// Lower bound of its search.
-    pub lo: f64,
-    /// Upper bound of its search.
-    pub hi: f64,
-}
-
-impl TermForm {
-    /// The form's fitted coefficients, each at `start` within `[-limit, limit]` (or
-    /// `[0, limit]` where a negative value is no such physics), `limit` each coefficient's
-    /// physical ceiling, in the coefficient's own unit.
-    pub fn coefficients(&self, limits: &[f64]) -> Vec<TermCoefficient> {
-        let c = |name, key: crate::param::ParamKey, signed: bool, i: usize| TermCoefficient {
-            name,
-            key: key.key(),
-            start: 0.0,
-            lo: if signed { -limits[i] } else { 0.0 },
-            hi: limits[i],
-        };
-        match self.family {
-            Family::SpeedPower => vec![c(
-                "coefficient",
-                TermParams::speed_power_coefficient,
-                false,
-                0,
-            )],
-            Family::PeriodicMotorAngle => vec![
-                c(
-                    "sin_coefficient_Nm",
-                    TermParams::motor_periodic_sin_nm,
-                    true,
-                    0,
-                ),
-                c(
-                    "cos_coefficient_Nm",
-                    TermParams::motor_periodic_cos_nm,
-                    true,
-                    1,
-                ),
-            ],
-            Family::PeriodicWheelAngle => vec![
-                c(
-                    "sin_coefficient_Nm",
-                    TermParams::wheel_periodic_sin_nm,
-                    true,
-                    0,
-                ),
-                c(
-                    "cos_coefficient_Nm",
-                    TermParams::wheel_periodic_cos_nm,
-                    true,
-                    1,
-                ),
-            ],
-            Family::LoadDependentFriction => {
-                vec![c(
-                    "friction_ratio",
-                    TermParams::load_friction_ratio,
-                    false,
-                    0,
-                )]
-            }
-            Family::ThermalDrift => vec![c(
-                "heating_coefficient_1_A2",
-                TermParams::heating_coefficient_1_a2,
-                false,
-                0,
-            )],
-            Family::CurrentPower => vec![c(
-                "coefficient",
-                TermParams::current_power_coefficient,
-                false,
-                0,
-            )],
-            Family::TimeDrift => vec![match self.drifting {
-                Drifting::Resistance => c(
-                    "resistance_drift_1_s",
-                    TermParams::resistance_drift_1_s,
-                    true,
-                    0,
-                ),
-                Drifting::TorqueConstant => c(
-                    "torque_constant_drift_1_s",
-                    TermParams::torque_constant_drift_1_s,
-                    true,
-                    0,
-                ),
-                Drifting::Viscous => c("viscous_drift_1_s", TermParams::viscous_drift_1_s, true, 0),
-            }],
-        }
-    }
-
-    /// The form's fixed choice as a parameter held at its value: name, key and value.
-    pub fn fixed(&self) -> Option<(&'static str, &'static str, f64)> {
-        let f = |name, key: crate::param::ParamKey| Some((name, key.key(), self.order));
-        match self.family {
-            Family::SpeedPower => f("exponent", TermParams::speed_power_exponent),
-            Family::PeriodicMotorAngle => f("order", TermParams::motor_periodic_order),
-            Family::PeriodicWheelAngle => f("order", TermParams::wheel_periodic_order),
-            Family::ThermalDrift => f(
-                "thermal_time_constant_s",
-                TermParams::thermal_time_constant_s,
-            ),
-            Family::CurrentPower => f("exponent", TermParams::current_power_exponent),
-            Family::LoadDependentFriction | Family::TimeDrift => None,
-        }
-    }
 }
 
 impl RotaryAxis {

@@ -14,6 +14,10 @@
 //! `Iz dr/dt = (Fx_r - Fx_l) track / 2`. The pose `(x, y, heading)` is in the world frame.
 //! The physical laws are the simulator's own (`crate::model`: armature law, gear tooth
 //! contact, no-slip body, tyre slip force).
+//!
+//! The blocks and their keys are in `blocks`, the equations as the fit integrates them in
+//! `dynamics` (how wheels, tyres and chassis move within an evaluation in `motion`), and
+//! whether a record shows turning at all in `turning`.
 
 use crate::model::chassis::ChassisParams;
 use crate::model::gearbox::GearboxParams;
@@ -26,9 +30,7 @@ use std::path::Path;
 
 use crate::ident::data::Dataset;
 use crate::ident::effects::{self, Effect};
-use crate::ident::model::{
-    Binding, Dynamics, GreyBox, OutputKind, ParamSpec, DEFAULT_BELIEF_SD_REL,
-};
+use crate::ident::model::{Binding, GreyBox, ParamSpec, DEFAULT_BELIEF_SD_REL};
 use crate::rig::{Rig, RigError};
 
 use crate::ident::models::rotary_axis::{
@@ -37,9 +39,12 @@ use crate::ident::models::rotary_axis::{
 };
 
 pub(crate) mod blocks;
+mod dynamics;
 mod motion;
+mod turning;
 
 pub use blocks::{vehicle_keys, CastorDrag, CreepTyre, VehicleBlocks, VehicleParams};
+pub use turning::{Turning, NO_TURN_COMMAND_SHARE, NO_TURN_HEADING_RAD};
 
 /// The chassis's mass.
 pub const MASS: &str = ChassisParams::mass_kg.key();
@@ -63,134 +68,6 @@ pub const DEFAULT_DRIVE_LOAD_FRACTION: f64 = 0.6;
 /// Ground speed below which slip is measured against this speed instead (m/s): keeps
 /// slip finite at standstill and the tyre's stiffness bounded for explicit integration.
 pub const SLIP_SPEED_FLOOR_M_S: f64 = 0.2;
-
-/// Largest RMS of the left and right commands' difference, as a share of the RMS of their
-/// mean, at which a record commands no turn. Two sides' drivers never deliver exactly the
-/// same voltage (a competition robot's straight SysId tests differ by 0.3 % to 2 %, a
-/// single sample of 3.5 V at a step among them); a record that means to turn commands
-/// several percent or more.
-pub const NO_TURN_COMMAND_SHARE: f64 = 0.05;
-
-/// Largest heading excursion within a test, rad, at which a record shows no turn (about
-/// one degree: a gyro's drift and noise over a straight test of tens of seconds).
-pub const NO_TURN_HEADING_RAD: f64 = 0.02;
-
-/// What a record shows of turning: how much turn it commands, and how far the heading
-/// moved where a gyro or a tracker measures it.
-#[derive(Debug, Clone, Copy)]
-pub struct Turning {
-    /// RMS of the commands' difference over the RMS of their mean.
-    pub command_share: f64,
-    /// Largest heading excursion within a test (measured, or the gyro's rate integrated),
-    /// rad; `None` where neither is measured.
-    pub heading_excursion_rad: Option<f64>,
-}
-
-impl Turning {
-    /// What `data` (inputs: left and right voltage) shows.
-    pub fn of(data: &Dataset) -> Turning {
-        let (l, r) = (&data.inputs[0], &data.inputs[1]);
-        let n = l.len().max(1) as f64;
-        let diff = (l.iter().zip(r).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / n).sqrt();
-        let mean = (l
-            .iter()
-            .zip(r)
-            .map(|(a, b)| (0.5 * (a + b)).powi(2))
-            .sum::<f64>()
-            / n)
-            .sqrt();
-        let command_share = if mean > 0.0 {
-            diff / mean
-        } else if diff > 0.0 {
-            f64::INFINITY
-        } else {
-            0.0
-        };
-        Turning {
-            command_share,
-            heading_excursion_rad: heading_excursion(data),
-        }
-    }
-
-    /// Whether the record shows a turn: a commanded one, or a heading that moved.
-    pub fn shown(&self) -> bool {
-        self.command_share > NO_TURN_COMMAND_SHARE
-            || self
-                .heading_excursion_rad
-                .is_some_and(|h| h > NO_TURN_HEADING_RAD)
-    }
-
-    /// The yaw outputs a record without a turn leaves out, each with why; none when it turns.
-    pub fn yaw_left_out(&self) -> Vec<(String, String)> {
-        if self.shown() {
-            return Vec::new();
-        }
-        let why = self.why_none();
-        ["yaw_rate_rad_s", "heading_rad"]
-            .into_iter()
-            .map(|o| (o.to_string(), why.clone()))
-            .collect()
-    }
-
-    /// Why a record without a turn leaves the yaw outputs out, in words.
-    fn why_none(&self) -> String {
-        let heading = match self.heading_excursion_rad {
-            Some(h) => format!(", and the heading moves {h:.4} rad at most within a test"),
-            None => String::new(),
-        };
-        format!(
-            "no turn: the left and right voltages differ by {:.1} % (RMS, of their mean){heading}; the yaw measured is the sensor's noise and the model's a response to the commands' imbalance, so it would steer the fit without showing anything",
-            100.0 * self.command_share
-        )
-    }
-}
-
-/// Largest heading excursion within a test, rad: from `heading_rad` where measured, else
-/// the integral of `yaw_rate_rad_s`; `None` with neither.
-fn heading_excursion(data: &Dataset) -> Option<f64> {
-    let excursion = |values: &mut dyn Iterator<Item = f64>| {
-        let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-            (a.min(v), b.max(v))
-        });
-        if hi >= lo {
-            hi - lo
-        } else {
-            0.0
-        }
-    };
-    let segments = data.segments();
-    if let Some(j) = data.output_index("heading_rad") {
-        let col = &data.outputs[j];
-        return Some(
-            segments
-                .iter()
-                .map(|s| excursion(&mut col[s.clone()].iter().flatten().copied()))
-                .fold(0.0, f64::max),
-        );
-    }
-    let j = data.output_index("yaw_rate_rad_s")?;
-    let col = &data.outputs[j];
-    Some(
-        segments
-            .iter()
-            .map(|s| {
-                let mut heading = 0.0;
-                let mut last: Option<(f64, f64)> = None;
-                let mut values = Vec::new();
-                for k in s.clone() {
-                    if let Some(w) = col[k] {
-                        if let Some((t0, w0)) = last {
-                            heading += 0.5 * (w + w0) * (data.t_s[k] - t0);
-                        }
-                        last = Some((data.t_s[k], w));
-                        values.push(heading);
-                    }
-                }
-                excursion(&mut values.into_iter())
-            })
-            .fold(0.0, f64::max),
-    )
-}
 
 /// Name of the castor-drag block's nuisance parameter: the castors' distance from the
 /// drive-axle midpoint, m.
@@ -579,183 +456,6 @@ impl GreyBox for Vehicle {
         ]
         .map(String::from)
         .to_vec()
-    }
-}
-
-impl Dynamics for Vehicle {
-    type Blocks = VehicleBlocks;
-
-    #[inline]
-    fn blocks(&self, p: &[f64]) -> VehicleBlocks {
-        self.blocks_of(&self.declared(p))
-    }
-
-    fn n_states(&self) -> usize {
-        BODY + 6
-    }
-
-    fn initial_state(&self, _b: &VehicleBlocks, data: &Dataset) -> Vec<f64> {
-        // At rest; the pose where the tracker first saw the vehicle.
-        let mut x = vec![0.0; self.n_states()];
-        x[BODY + 3] = data.first_measured("x_m").unwrap_or(0.0);
-        x[BODY + 4] = data.first_measured("y_m").unwrap_or(0.0);
-        x[BODY + 5] = data.first_measured("heading_rad").unwrap_or(0.0);
-        x
-    }
-
-    fn max_step_s(&self, b: &VehicleBlocks) -> f64 {
-        self.step_bound(b, SLIP_SPEED_FLOOR_M_S)
-    }
-
-    /// With a gear play: the first of the two sides' teeth to meet or part.
-    fn event_fraction(
-        &self,
-        b: &VehicleBlocks,
-        before: &[f64],
-        after: &[f64],
-        h: f64,
-    ) -> Option<f64> {
-        if !b.play {
-            return None;
-        }
-        (0..2)
-            .filter_map(|side| {
-                let (twist_before, twist_rate) = Self::twist(b, before, side);
-                let twist_after = Self::twist(b, after, side).0;
-                b.drivetrain
-                    .gearbox
-                    .flank_crossing(twist_before, twist_after, twist_rate * h)
-            })
-            .reduce(f64::min)
-    }
-
-    /// The tyre's stiffness falls as the contact speed rises (slip is measured against
-    /// it), so a moving vehicle allows longer steps than one at rest. The slowest contact
-    /// at the interval's start is taken at half its speed: no record's sample interval is
-    /// long enough for a vehicle to lose half its speed within it.
-    fn max_step_at(&self, b: &VehicleBlocks, x: &[f64]) -> Option<f64> {
-        let (fwd, yaw_rate) = (x[BODY], x[BODY + 2]);
-        let sweep = (yaw_rate * 0.5 * b.body.track_width_m).abs();
-        let slowest = (fwd.abs() - sweep).abs();
-        Some(self.step_bound(
-            b,
-            (0.25 * slowest * slowest + SLIP_SPEED_FLOOR_M_S * SLIP_SPEED_FLOOR_M_S).sqrt(),
-        ))
-    }
-
-    fn input_delay_s(&self, b: &VehicleBlocks) -> f64 {
-        b.supply.delay_s
-    }
-
-    /// The order of one evaluation: terminal voltages (saturation, sag), each side's
-    /// armature and the torque driving its rotor, then the motors' friction, the gears and
-    /// the wheels with the chassis, rolling without slip (the simulator's no-slip body)
-    /// unless the tyres' slip forces join them (a tracked pose, or the wheel-slip block),
-    /// then the pose.
-    fn derivatives(&self, b: &VehicleBlocks, x: &[f64], u: &[f64], _held: &[f64], dx: &mut [f64]) {
-        let motor = &b.drivetrain.motor;
-        let v = self.terminal_voltages(b, [u[0], u[1]], [x[0], x[SIDE]]);
-        let mut driving = [0.0; 2];
-        for (side, driving) in driving.iter_mut().enumerate() {
-            let s = side * SIDE;
-            let (i, wm) = (x[s], x[s + 1]);
-            dx[s] = motor.current_rate_a_s(v[side], i, wm);
-            *driving = motor.driving_torque_nm(motor.electromagnetic_torque_nm(i), 0.0);
-            dx[s + 2] = wm;
-        }
-        if b.peak_mu.is_some() || self.creeping_tyres {
-            self.slipping(b, x, driving, dx);
-        } else {
-            self.rolling(b, x, driving, dx);
-        }
-        let (fwd, lat, heading) = (x[BODY], x[BODY + 1], x[BODY + 5]);
-        let (sin, cos) = heading.sin_cos();
-        dx[BODY + 3] = fwd * cos - lat * sin;
-        dx[BODY + 4] = fwd * sin + lat * cos;
-        dx[BODY + 5] = x[BODY + 2];
-    }
-
-    /// The vehicle starts where the tracker first saw it, but that reading is as noisy as
-    /// any other: a start heading 5 mrad off swings the whole path by 5 mrad, 10 mm at 2 m.
-    /// The start pose is therefore fitted, in closed form, to each simulation: the small
-    /// rigid motion (rotation about the start point, then shift) that best aligns the
-    /// simulated pose with the tracked one, positions and heading weighted by the tracker's
-    /// noise. This is the least-squares optimum over three nuisance parameters, at no cost
-    /// in simulations.
-    fn align_outputs(&self, data: &Dataset, y: &mut [Vec<f64>]) {
-        let (Some(jx), Some(jy)) = (data.output_index("x_m"), data.output_index("y_m")) else {
-            return;
-        };
-        let jh = data.output_index("heading_rad");
-        let (wp, wh) = (
-            1.0 / (self.tracker_position_noise_m * self.tracker_position_noise_m),
-            1.0 / (self.tracker_heading_noise_rad * self.tracker_heading_noise_rad),
-        );
-        let (xs, ys) = (y[jx][0], y[jy][0]);
-        // Linearised in the rotation a: x' = x - a (y - ys) + dx, y' = y + a (x - xs) + dy,
-        // heading' = heading + a. Normal equations for (a, dx, dy).
-        let mut n = nalgebra::Matrix3::<f64>::zeros();
-        let mut b = nalgebra::Vector3::<f64>::zeros();
-        for k in 0..data.len() {
-            if let (Some(mx), Some(my)) = (data.outputs[jx][k], data.outputs[jy][k]) {
-                let (rx, ry) = (-(y[jy][k] - ys), y[jx][k] - xs);
-                for (row, resid) in [
-                    (nalgebra::Vector3::new(rx, 1.0, 0.0), mx - y[jx][k]),
-                    (nalgebra::Vector3::new(ry, 0.0, 1.0), my - y[jy][k]),
-                ] {
-                    n += wp * row * row.transpose();
-                    b += wp * row * resid;
-                }
-            }
-            if let Some(jh) = jh {
-                if let Some(mh) = data.outputs[jh][k] {
-                    let row = nalgebra::Vector3::new(1.0, 0.0, 0.0);
-                    n += wh * row * row.transpose();
-                    b += wh * row * (mh - y[jh][k]);
-                }
-            }
-        }
-        let Some(sol) = n.lu().solve(&b) else {
-            return;
-        };
-        let (a, dx, dy) = (sol[0], sol[1], sol[2]);
-        if !(a.is_finite() && dx.is_finite() && dy.is_finite()) {
-            return;
-        }
-        let (sin, cos) = a.sin_cos();
-        for k in 0..data.len() {
-            let (px, py) = (y[jx][k] - xs, y[jy][k] - ys);
-            y[jx][k] = xs + cos * px - sin * py + dx;
-            y[jy][k] = ys + sin * px + cos * py + dy;
-            if let Some(jh) = jh {
-                y[jh][k] += a;
-            }
-        }
-    }
-
-    fn output_kind(&self, name: &str) -> OutputKind {
-        match name {
-            "left_motor_speed_rad_s" if self.encoder => OutputKind::IntervalRate(2),
-            "right_motor_speed_rad_s" if self.encoder => OutputKind::IntervalRate(SIDE + 2),
-            _ => OutputKind::Instant,
-        }
-    }
-
-    fn output(&self, b: &VehicleBlocks, name: &str, x: &[f64], _u: &[f64], _held: &[f64]) -> f64 {
-        let wheel = |s: usize| self.wheel_speed_rad_s(x, s);
-        match name {
-            "x_m" => x[BODY + 3],
-            "y_m" => x[BODY + 4],
-            "heading_rad" => x[BODY + 5],
-            "left_motor_speed_rad_s" => x[1],
-            "right_motor_speed_rad_s" => x[SIDE + 1],
-            "left_wheel_speed_m_s" => wheel(0) * b.drivetrain.wheel.radius_m,
-            "right_wheel_speed_m_s" => wheel(SIDE) * b.drivetrain.wheel.radius_m,
-            "yaw_rate_rad_s" => x[BODY + 2],
-            "left_current_A" => x[0],
-            "right_current_A" => x[SIDE],
-            _ => f64::NAN,
-        }
     }
 }
 
