@@ -1,7 +1,7 @@
 //! The fit's problem in its search coordinates: the free parameters on a log or a
 //! normalised linear scale, the residuals a point gives, and their Jacobians.
 
-use super::{residuals, Dataset, Predictor, Weighting, COVARIANCE_FD_STEP};
+use super::{residuals, Dataset, ParamSpec, Predictor, Weighting, COVARIANCE_FD_STEP};
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
@@ -20,6 +20,24 @@ pub(super) enum Coord {
     Linear { scale: f64 },
 }
 
+impl Coord {
+    /// A parameter's value in this coordinate.
+    fn of(self, value: f64) -> f64 {
+        match self {
+            Coord::Log => value.ln(),
+            Coord::Linear { scale } => value / scale,
+        }
+    }
+
+    /// The parameter's value at coordinate `z`.
+    fn value(self, z: f64) -> f64 {
+        match self {
+            Coord::Log => z.exp(),
+            Coord::Linear { scale } => z * scale,
+        }
+    }
+}
+
 /// A fit's problem: the model and data, the parameter vector the free ones are set in
 /// (`base`), the free parameters' places and search coordinates, the weighting.
 pub(super) struct Problem<'a> {
@@ -36,10 +54,7 @@ impl Problem<'_> {
         self.free
             .iter()
             .zip(&self.coords)
-            .map(|(&i, c)| match c {
-                Coord::Log => p[i].ln(),
-                Coord::Linear { scale } => p[i] / scale,
-            })
+            .map(|(&i, c)| c.of(p[i]))
             .collect()
     }
 
@@ -47,11 +62,7 @@ impl Problem<'_> {
         let specs = self.model.param_specs();
         let mut p = self.base.clone();
         for ((&i, c), zi) in self.free.iter().zip(&self.coords).zip(z) {
-            let v = match c {
-                Coord::Log => zi.exp(),
-                Coord::Linear { scale } => zi * scale,
-            };
-            p[i] = v.clamp(specs[i].lo, specs[i].hi);
+            p[i] = c.value(*zi).clamp(specs[i].lo, specs[i].hi);
         }
         p
     }
@@ -59,23 +70,14 @@ impl Problem<'_> {
     /// Bounds of the search coordinates.
     pub(super) fn z_bounds(&self) -> (Vec<f64>, Vec<f64>) {
         let specs = self.model.param_specs();
-        let z = |c: &Coord, v: f64| match c {
-            Coord::Log => v.ln(),
-            Coord::Linear { scale } => v / scale,
+        let bound = |at: fn(&ParamSpec) -> f64| -> Vec<f64> {
+            self.free
+                .iter()
+                .zip(&self.coords)
+                .map(|(&i, c)| c.of(at(&specs[i])))
+                .collect()
         };
-        let lo = self
-            .free
-            .iter()
-            .zip(&self.coords)
-            .map(|(&i, c)| z(c, specs[i].lo))
-            .collect();
-        let hi = self
-            .free
-            .iter()
-            .zip(&self.coords)
-            .map(|(&i, c)| z(c, specs[i].hi))
-            .collect();
-        (lo, hi)
+        (bound(|s| s.lo), bound(|s| s.hi))
     }
 
     /// dp/dz for each free parameter at p.
