@@ -14,7 +14,8 @@
 //! - [`world`]: floor surfaces and the rapier engine (chassis and castor bodies).
 //! - [`sim`]: `Sim::step` in a fixed order, fidelity levels, snapshots, metrics, and the
 //!   plant's linearisation (controllability, observability).
-//! - [`record`]: the exchange format for recordings.
+//! - [`record`]: the exchange format for recordings; [`import`]: other formats into it;
+//!   [`sysid`]: WPILib SysId's feedforward regression (kS, kV, kA, kG).
 //! - [`viz`]: the Rerun recorder (an observer of snapshots).
 //! - [`run`]: running a scene with its observers, as the CLI does; [`live`]: a scene's
 //!   simulation held in memory and stepped from outside (Python's `agvsim.Sim`).
@@ -50,5 +51,6 @@ pub mod shard;
 pub mod sim;
 pub mod study;
 pub mod sweep;
+pub mod sysid;
 pub mod viz;
 pub mod world;

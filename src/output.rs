@@ -56,6 +56,12 @@ pub fn write_atomically(path: &Path, bytes: impl AsRef<[u8]>) -> std::io::Result
     })
 }
 
+/// A file's name without its extension, or `fallback` (a path with no name).
+pub fn file_stem_or(path: &std::path::Path, fallback: &str) -> String {
+    path.file_stem()
+        .map_or_else(|| fallback.into(), |s| s.to_string_lossy().into_owned())
+}
+
 /// A name that comes from inside a file (a test's, a topic's) or from a file's stem as a
 /// file stem of ours: anything but ASCII letters, digits, `.`, `-` and `_` replaced by
 /// `_`, no leading dot (so no `..`), at most 120 characters, never empty; so that what it

@@ -334,7 +334,7 @@ fn no_library_function_is_over_100_lines() {
     );
 }
 
-/// The module path of a library file: `src/import/ros2/bag.rs` is `import::ros2::bag`,
+/// The module path of a library file: `src/import/ros2/cdr.rs` is `import::ros2::cdr`,
 /// `src/import/ros2/mod.rs` is `import::ros2`.
 fn module_path(path: &Path) -> Vec<String> {
     let rel = path.strip_prefix("src").unwrap().with_extension("");
@@ -393,7 +393,11 @@ fn named_after(code: &str, prefix: &str) -> Vec<String> {
 }
 
 /// Each library file's uses of its sibling modules (the files and folders beside it in
-/// its folder), named as `super::NAME` or by the whole path `crate::...::NAME`.
+/// its folder), named as `super::NAME` or by the whole path `crate::...::NAME`; and, at
+/// each folder above its own, the uses by whole path of that folder's other modules,
+/// counted as uses by the subfolder it is in (`import/ros2/open.rs` naming
+/// `crate::import::ros1::read` is a use of `ros1` by `ros2` in `import`). A folder's
+/// `mod.rs` counts only at the folders above: it is the face of its own parts.
 fn sibling_uses() -> BTreeMap<Vec<String>, BTreeMap<String, BTreeSet<String>>> {
     let files: Vec<(PathBuf, String)> = library_sources()
         .into_iter()
@@ -403,30 +407,35 @@ fn sibling_uses() -> BTreeMap<Vec<String>, BTreeMap<String, BTreeSet<String>>> {
     // folder -> module in it -> the siblings it uses
     let mut edges: BTreeMap<Vec<String>, BTreeMap<String, BTreeSet<String>>> = BTreeMap::new();
     for (path, code) in &files {
-        if path.file_name().is_some_and(|n| n == "mod.rs") {
-            continue; // a folder's face uses its own parts
-        }
+        let face = path.file_name().is_some_and(|n| n == "mod.rs");
         let me = module_path(path);
-        let (name, folder) = me.split_last().unwrap();
-        let mut used = BTreeSet::new();
-        used.extend(named_after(code, "super::"));
-        let whole = format!("crate::{}::", folder.join("::"));
-        if !folder.is_empty() {
-            used.extend(named_after(code, &whole));
-        }
-        used.retain(|u| {
-            u != name && {
-                let mut m = folder.to_vec();
-                m.push(u.clone());
-                modules.contains(&m)
+        // The folders that hold this file: its own (unless it is a face), then each above
+        // but the crate's root (the top-level modules have a test of their own).
+        let own = me.len() - 1;
+        for depth in (1..=own).rev() {
+            let (folder, name) = (&me[..depth], &me[depth]);
+            let mut used = BTreeSet::new();
+            if depth == own && !face {
+                used.extend(named_after(code, "super::"));
             }
-        });
-        edges
-            .entry(folder.to_vec())
-            .or_default()
-            .entry(name.clone())
-            .or_default()
-            .extend(used);
+            used.extend(named_after(
+                code,
+                &format!("crate::{}::", folder.join("::")),
+            ));
+            used.retain(|u| {
+                u != name && {
+                    let mut m = folder.to_vec();
+                    m.push(u.clone());
+                    modules.contains(&m)
+                }
+            });
+            edges
+                .entry(folder.to_vec())
+                .or_default()
+                .entry(name.clone())
+                .or_default()
+                .extend(used);
+        }
     }
     edges
 }
@@ -442,6 +451,11 @@ fn the_files_of_a_folder_use_each_other_in_no_circle() {
     assert!(
         edges[&vec!["commands".to_string()]]["calibrate"].contains("flags"),
         "the sibling uses were not read: {edges:?}"
+    );
+    assert!(
+        edges[&vec!["import".to_string()]]["ros2"].contains("ros1"),
+        "a subfolder's files' uses were not counted as the subfolder's: {:?}",
+        edges[&vec!["import".to_string()]]
     );
     let mut circles = Vec::new();
     for (folder, modules) in &edges {

@@ -4,11 +4,13 @@
 use std::path::{Path, PathBuf};
 
 use super::flags::{positive_number, DriveFlags};
-use super::{io, stem, write_file, CommandError, Say};
+use super::{io, write_file, CommandError, Say};
+pub use crate::import::ros2::Ros2Import;
+pub use crate::import::wpilib::WpilibImport;
 use crate::import::wpilib::{self, wpilog, Assumptions};
-use crate::import::{csv_map, mat, ImportError};
+pub use crate::import::MappedImport;
+use crate::import::{FileKind, Importer, Made};
 use crate::record::Recording;
-use crate::rig::Rig;
 
 /// What a map file holds, with an example, as `import csv --help` and `import mat --help`
 /// print it (a string, not a doc comment: its indented example is TOML, not a doctest).
@@ -120,59 +122,29 @@ impl ImportFormat {
     }
 }
 
-/// What `agvsim import csv` or `import mat` was asked.
-#[derive(Debug, Clone)]
-pub struct MappedImport {
-    /// The CSV or MAT file.
-    pub file: PathBuf,
-    /// The map file.
-    pub map: PathBuf,
-    /// Output folder (default `runs/import`).
-    pub out: Option<PathBuf>,
-    /// A MAT file (else a CSV).
-    pub mat: bool,
-}
-
-/// The output folder an import writes into.
-fn out_dir(out: &Option<PathBuf>) -> PathBuf {
-    out.clone()
-        .unwrap_or_else(|| PathBuf::from("runs").join("import"))
-}
-
-/// Loads the map, reads the file, converts it, checks the result reads as a contract
-/// recording, and writes it as `DIR/FILE_STEM.csv`.
-pub fn mapped(req: &MappedImport, say: Say) -> Result<(), CommandError> {
-    let map = csv_map::load_map(&req.map)?;
-    let bytes = crate::output::read_bounded(&req.file, crate::output::MAX_INPUT_BYTES).map_err(
-        |source| ImportError::Read {
-            file: req.file.clone(),
-            source,
-        },
-    )?;
-    let text = if req.mat {
-        mat::convert(&bytes, &req.file, &map, &req.map)?
-    } else {
-        let text = String::from_utf8(bytes).map_err(|_| ImportError::Data {
-            file: req.file.clone(),
-            line: 0,
-            message: "not UTF-8 text".into(),
-        })?;
-        csv_map::convert(&text, &req.file, &map, &req.map)?
-    };
-    let _lock = super::lock_out("--out", &out_dir(&req.out))?;
-    let path = out_dir(&req.out).join(format!("{}.csv", stem(&req.file, "imported")));
-    check_recording(&text, &path)?;
-    write_file(&path, &text)?;
-    say(&format!("recording  {}\n", path.display()));
+/// Converts what `req` asks, then, holding the output folder's lock, writes every file or
+/// none and says the report; `extra` adds what only a later floor can say of the files
+/// (it is said after what the import says before its files).
+fn write_import(
+    req: &dyn Importer,
+    extra: &dyn Fn(&Made) -> String,
+    say: Say,
+) -> Result<(), CommandError> {
+    let dir = req.out_dir();
+    let mut made = req.import(&dir)?;
+    made.said_before.push_str(&extra(&made));
+    let _lock = super::lock_out("--out", &dir)?;
+    std::fs::create_dir_all(&dir).map_err(io(&dir))?;
+    for f in &made.files {
+        write_file(&f.path, &f.text)?;
+    }
+    say(&made.report());
     Ok(())
 }
 
-/// A converted recording must read back as the contract's.
-fn check_recording(text: &str, path: &Path) -> Result<Recording, CommandError> {
-    Recording::parse(text, path).map_err(|e| CommandError::Contract {
-        what: "the converted recording".into(),
-        message: e.to_string(),
-    })
+/// `agvsim import csv` or `import mat`: the recording `DIR/FILE_STEM.csv`.
+pub fn mapped(req: &MappedImport, say: Say) -> Result<(), CommandError> {
+    write_import(req, &|_| String::new(), say)
 }
 
 /// `agvsim import wpilib`'s command line (and Python's `import_wpilib`'s arguments).
@@ -232,104 +204,10 @@ impl WpilibArgs {
     }
 }
 
-/// What `agvsim import wpilib` was asked.
-#[derive(Debug, Clone)]
-pub struct WpilibImport {
-    /// The SysId JSON or DataLog.
-    pub file: PathBuf,
-    /// Which routine and motors (DataLog only).
-    pub choice: wpilog::Choice,
-    /// Values the log cannot give.
-    pub assumed: Assumptions,
-    /// Output folder (default `runs/import`).
-    pub out: Option<PathBuf>,
-}
-
-/// Reads, converts, writes every file or none, prints SysId's gains.
+/// `agvsim import wpilib`: one recording per test, the nominal rig and, for a vehicle,
+/// its scene (every file or none); SysId's gains said.
 pub fn wpilib(req: &WpilibImport, say: Say) -> Result<(), CommandError> {
-    let imported = wpilib::import(&req.file, &req.choice, &req.assumed)?;
-    let dir = out_dir(&req.out);
-    let _lock = super::lock_out("--out", &dir)?;
-    let stem = stem(&req.file, "sysid");
-    let mut files = Vec::new();
-    for r in &imported.recordings {
-        // A test's name comes from inside the log: made safe, it names a file in `dir`.
-        let path = dir.join(format!(
-            "{stem}_{}.csv",
-            crate::output::safe_file_stem(&r.test)
-        ));
-        check_recording(&r.text, &path)?;
-        files.push((path, r.text.clone()));
-    }
-    let rig_path = dir.join(format!("{stem}.rig.toml"));
-    let rig = Rig::parse(&imported.rig, &rig_path).map_err(|e| CommandError::Contract {
-        what: "the nominal rig".into(),
-        message: e.to_string(),
-    })?;
-    files.push((rig_path.clone(), imported.rig.clone()));
-    let scene_path = dir.join(format!("{stem}.scene.toml"));
-    let scene = scene_of(&rig, &imported.rig, &rig_path);
-    if let Some(text) = &scene {
-        crate::scene::Scene::from_toml(text, &scene_path, &[]).map_err(|e| {
-            CommandError::Contract {
-                what: "the machine's scene".into(),
-                message: e.to_string(),
-            }
-        })?;
-        files.push((scene_path.clone(), text.clone()));
-    }
-    std::fs::create_dir_all(&dir).map_err(io(&dir))?;
-    for (path, text) in &files {
-        write_file(path, text)?;
-    }
-    say(&format!(
-        "log        {} ({})\n",
-        req.file.display(),
-        imported.log.source
-    ));
-    for (path, _) in &files[..imported.recordings.len()] {
-        say(&format!("recording  {}\n", path.display()));
-    }
-    say(&format!("rig        {}\n", rig_path.display()));
-    if scene.is_some() {
-        say(&format!("scene      {}\n", scene_path.display()));
-    }
-    say(&format!(
-        "SysId feedforward ({}, per {} of {}):\n",
-        imported.log.mechanism.name(),
-        imported.speed_unit,
-        if imported.log.mechanism.is_drivetrain() {
-            "wheel rim"
-        } else {
-            "shaft"
-        }
-    ));
-    say(&crate::import::wpilib::feedforward::render(
-        &imported.feedforward,
-        imported.speed_unit,
-    ));
-    Ok(())
-}
-
-/// The imported vehicle as a scene for the simulator ([`Rig::scene_toml`]), headed by the
-/// rig's own notes on what was measured and what assumed; `None` for a lifted axis.
-fn scene_of(rig: &Rig, rig_text: &str, rig_path: &std::path::Path) -> Option<String> {
-    let rig_name = rig_path
-        .file_name()
-        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-    let body = rig.scene_toml(&format!("The machine of {rig_name}, for the simulator"))?;
-    let mut text = format!(
-        "# The machine of {rig_name} as a scene (agvsim import): its values, and how far each is believed ([uncertainty_pct]), are the rig's:\n"
-    );
-    for line in rig_text.lines().filter(|l| l.starts_with('#')) {
-        text.push_str(line);
-        text.push('\n');
-    }
-    text.push_str(
-        "# Not in the rig, so the scene's defaults (the thesis's vehicle): castors, tyres (hard polyurethane), battery (24 V: above every logged voltage, which is what the controllers applied), guide wire, sensors and firmware. `calibrate --recording` replays the logged voltages; `run` would follow the thesis's wire.\n",
-    );
-    text.push_str(&body);
-    Some(text)
+    write_import(req, &|_| String::new(), say)
 }
 
 /// `agvsim import ros2`'s command line (and Python's `import_ros2`'s arguments).
@@ -393,77 +271,23 @@ impl Ros2Args {
     }
 }
 
-/// What `agvsim import ros2` was asked.
-#[derive(Debug, Clone)]
-pub struct Ros2Import {
-    /// The bag: an .mcap or .db3 file, or a rosbag2 folder.
-    pub bag: PathBuf,
-    /// The topic map, if given.
-    pub map: Option<PathBuf>,
-    /// Track and wheel radius beside the bag's description.
-    pub geometry: crate::import::ros2::Geometry,
-    /// What the user said of the robot (mass, drive, controller file, the command line).
-    pub robot: crate::import::ros2::robot::Given,
-    /// Output folder (default `runs/import`).
-    pub out: Option<PathBuf>,
+/// `agvsim import ros2`: `DIR/BAG.csv` and, where the track and wheel radius are known,
+/// `DIR/BAG.scene.toml` (every file or none), saying how each column was made and what the
+/// recording shows of the base controller's own limits.
+pub fn ros2(req: &Ros2Import, say: Say) -> Result<(), CommandError> {
+    write_import(req, &limits_of_made, say)
 }
 
-/// Reads the bag, writes `DIR/BAG.csv` and, where the track and wheel radius are known,
-/// `DIR/BAG.scene.toml` (every file or none), and says how each column was made.
-pub fn ros2(req: &Ros2Import, say: Say) -> Result<(), CommandError> {
-    use crate::import::ros2;
-    let map = match &req.map {
-        Some(p) => ros2::TopicMap::load(p)?,
-        None => ros2::TopicMap::default(),
+/// [`limits_shown`] of an import's recording and scene (nothing without a scene).
+fn limits_of_made(made: &Made) -> String {
+    let (Some(rec), Some(scene)) = (made.first(FileKind::Recording), made.first(FileKind::Scene))
+    else {
+        return String::new();
     };
-    // The controller's file is read first: where the bag has no description of the
-    // wheels, its configured radius and separation convert the wheel speeds.
-    let params = match &req.robot.controller_yaml {
-        Some(p) => Some(
-            ros2::controller::load(p).map_err(|e| CommandError::Contract {
-                what: "--controller-yaml".into(),
-                message: e.to_string(),
-            })?,
-        ),
-        None => None,
+    let Ok(parsed) = Recording::parse(&rec.text, &rec.path) else {
+        return String::new();
     };
-    let mut geometry = req.geometry.clone();
-    if let (Some(p), Some(file)) = (&params, &req.robot.controller_yaml) {
-        let from = |what: &str| format!("{what} in {} (--controller-yaml)", file.display());
-        geometry.configured_radius_m = p.wheel_radius_m.map(|r| (r, from("wheel_radius")));
-        geometry.configured_track_m = p.wheel_separation_m.map(|b| (b, from("wheel_separation")));
-    }
-    let rec = ros2::import(&req.bag, &map, &geometry)?;
-    let dir = out_dir(&req.out);
-    let _lock = super::lock_out("--out", &dir)?;
-    let stem = crate::output::safe_file_stem(&stem(&req.bag, "bag"));
-    let csv_path = dir.join(format!("{stem}.csv"));
-    let text = rec.to_csv();
-    let parsed = check_recording(&text, &csv_path)?;
-    let mut files = vec![(csv_path.clone(), text)];
-    let scene_path = dir.join(format!("{stem}.scene.toml"));
-    // The geometry comes from the flags, the bag's description or, where neither gives
-    // it, the controller's file (each given to the import above, which names its source).
-    let mut warnings: Vec<String> = vec![];
-    if let Some(g) = &rec.geometry {
-        let (text, said) =
-            ros2::robot::scene(&req.robot, &rec, g, params.as_ref(), &stem, &scene_path)?;
-        warnings = said;
-        warnings.extend(limits_shown(&parsed, &text, &scene_path));
-        files.push((scene_path.clone(), text));
-    }
-    std::fs::create_dir_all(&dir).map_err(io(&dir))?;
-    for (path, text) in &files {
-        write_file(path, text)?;
-    }
-    say(&ros2_report(
-        req,
-        &rec,
-        &warnings,
-        &csv_path,
-        (files.len() > 1).then_some(&scene_path),
-    ));
-    Ok(())
+    limits_shown(&parsed, &scene.text, &scene.path).concat()
 }
 
 /// What the recording shows of the base controller's own limits
@@ -509,41 +333,4 @@ fn limits_shown(rec: &Recording, scene_text: &str, scene_path: &Path) -> Vec<Str
             )
         })
         .collect()
-}
-
-/// What `import ros2` prints: the bag, how each column was made, notes and warnings,
-/// the files written (`scene`: the scene's, if one was).
-fn ros2_report(
-    req: &Ros2Import,
-    rec: &crate::import::ros2::Ros2Recording,
-    warnings: &[String],
-    csv_path: &Path,
-    scene: Option<&PathBuf>,
-) -> String {
-    let mut report = format!(
-        "bag        {} ({} storage), {} rows over {} s\n",
-        req.bag.display(),
-        rec.storage.name(),
-        rec.t_s.len(),
-        crate::scene::plausibility::sig(*rec.t_s.last().unwrap_or(&0.0))
-    );
-    for (k, v) in &rec.timing {
-        report.push_str(&format!("{k:<10} {v}\n"));
-    }
-    for c in &rec.conversions {
-        report.push_str(&format!("  {:<22} {}\n", c.column, c.how));
-    }
-    for n in &rec.notes {
-        report.push_str(&format!("note: {n}\n"));
-    }
-    for w in warnings {
-        report.push_str(w);
-    }
-    report.push_str(&format!("recording  {}\n", csv_path.display()));
-    if let Some(scene_path) = scene {
-        report.push_str(&format!("scene      {}\n", scene_path.display()));
-    } else {
-        report.push_str("scene      not written: the bag has no /robot_description with the drive wheels; give --track-m and --wheel-radius-m\n");
-    }
-    report
 }

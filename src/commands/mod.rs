@@ -230,8 +230,7 @@ pub(crate) fn joined_names(paths: &[PathBuf]) -> String {
 
 /// A file's name without its extension, or `fallback`.
 pub(crate) fn stem(path: &Path, fallback: &str) -> String {
-    path.file_stem()
-        .map_or_else(|| fallback.into(), |s| s.to_string_lossy().into_owned())
+    crate::output::file_stem_or(path, fallback)
 }
 
 /// Checks, before any work, that each given output path can be written (`true`: a
@@ -358,14 +357,17 @@ pub(crate) fn overrides(set: &[String], duration_s: Option<f64>, seed: Option<u6
     set
 }
 
-impl From<crate::import::ros2::robot::RobotSceneError> for CommandError {
-    /// The same words as before the scene moved to the library: the numbers' error, or
-    /// the contract's.
-    fn from(e: crate::import::ros2::robot::RobotSceneError) -> Self {
-        use crate::import::ros2::robot::RobotSceneError;
+impl From<crate::import::ImportFailure> for CommandError {
+    /// Each importer's error as before importers shared a shape: the format's own, the
+    /// numbers' error, or the contract's (the same words and exit status).
+    fn from(e: crate::import::ImportFailure) -> Self {
+        use crate::import::ImportFailure;
         match e {
-            RobotSceneError::Robot(e) => CommandError::Robot(e),
-            RobotSceneError::Contract { what, message } => CommandError::Contract { what, message },
+            ImportFailure::Mapped(e) => CommandError::Import(e),
+            ImportFailure::SysId(e) => CommandError::SysId(e),
+            ImportFailure::Ros2(e) => CommandError::Ros2(e),
+            ImportFailure::Robot(e) => CommandError::Robot(e),
+            ImportFailure::Contract { what, message } => CommandError::Contract { what, message },
         }
     }
 }

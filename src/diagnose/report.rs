@@ -223,7 +223,7 @@ fn finding_lines(s: &mut String, d: &Diagnosis) {
 /// validation.
 fn sysid_and_error_lines(s: &mut String, d: &Diagnosis) {
     if let Some(ff) = &d.feedforward {
-        s.push_str(&crate::import::wpilib::feedforward::render_report(ff));
+        s.push_str(&crate::ident::sysid_regression::render_report(ff));
         if let Some(t) = &d.sysid_terms {
             let speed = &t.speed_unit;
             let _ = writeln!(

@@ -137,7 +137,7 @@ pub struct Diagnosis {
     pub validation: Option<(Evaluation, Evaluation)>,
     /// SysId's kS, kV, kA of the same record, beside what diagnosis finds (voltage-driven
     /// records; kS as a motor torque with the baseline's torque constant and resistance).
-    pub feedforward: Option<crate::import::wpilib::feedforward::Report>,
+    pub feedforward: Option<crate::ident::sysid_regression::Report>,
     /// SysId's terms the diagnosed model implies, with their standard deviations, in the
     /// regression's unit of speed (voltage-driven DC drives).
     pub sysid_terms: Option<crate::ident::sysid_terms::FittedTerms>,

@@ -229,7 +229,7 @@ fn report_of(
     // SysId's kS beside the diagnosed model: both as a torque at the motor shaft, with
     // the diagnosed model's own torque constant and resistance (the baseline's absorbed
     // the missing friction).
-    let feedforward = crate::import::wpilib::feedforward::of_recording(
+    let feedforward = crate::ident::sysid_regression::of_recording(
         rec,
         final_params
             .get(MotorParams::torque_constant_nm_a.key())

@@ -11,7 +11,7 @@ use super::fit::Fit;
 use super::model::GreyBox;
 use super::models::dcmc_pair::DcmcPair;
 use super::structure::Structure;
-use crate::import::wpilib::feedforward;
+use super::sysid_regression as feedforward;
 
 /// One parameter as reported.
 #[derive(Debug, Clone, Serialize)]

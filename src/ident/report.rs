@@ -144,7 +144,7 @@ pub fn render(id: &Identification) -> String {
     }
     if let Some(ff) = &id.feedforward {
         let _ = writeln!(out);
-        out.push_str(&crate::import::wpilib::feedforward::render_report(ff));
+        out.push_str(&crate::ident::sysid_regression::render_report(ff));
     }
     let _ = writeln!(
         out,

@@ -14,9 +14,9 @@ use super::fit::{self, Fit, FitSettings};
 use super::identification::{assemble, Identification};
 use super::model::{GreyBox, Predictor};
 use super::structure::{build_structure, Structure};
+use super::sysid_regression as feedforward;
 use super::weighting;
 use super::{IdentError, IdentifyOptions};
-use crate::import::wpilib::feedforward;
 use crate::record::Recording;
 use crate::rig::Rig;
 

@@ -11,9 +11,7 @@
 //! [`ROS1_MARKER`]): little-endian, nothing aligned, strings without their NUL, and a
 //! `Header` that starts with a `uint32 seq`.
 
-/// The four bytes agvsim puts before a ROS 1 message so that [`Cdr`] reads it as ROS 1
-/// (not a CDR encapsulation: those start `00`).
-pub const ROS1_MARKER: [u8; 4] = *b"ROS1";
+pub use crate::import::ros1::ROS1_MARKER;
 
 /// Why a message cannot be decoded.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

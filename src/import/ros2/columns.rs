@@ -4,13 +4,13 @@
 use std::path::PathBuf;
 
 use super::align::{held, median_interval_ns, nearest, seconds_of_ns, Series};
-use super::bag::{Bag, Storage, Topic};
 use super::converter::{
     s_of, Converter, BATTERY, IMU, JOINT_STATE, ODOMETRY, POSE_COV_STAMPED, POSE_STAMPED, STRING,
     TF,
 };
 use super::{clock, streams};
 use super::{Geometry, Ros2Error, TimeSource, TopicMap};
+use crate::import::bag::{Bag, Storage, Topic};
 
 /// How one column was made, for the recording's header.
 #[derive(Debug, Clone, PartialEq)]

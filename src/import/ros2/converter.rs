@@ -2,10 +2,10 @@
 //! it picks the topic that plays each part and places each message in time (its header
 //! stamp or its log time), keeping what the clocks' check needs.
 
-use super::bag::{Bag, Topic};
 use super::cdr::{CdrError, Header};
 use super::clock;
 use super::{Ros2Error, TimeSource, TopicMap};
+use crate::import::bag::{Bag, Topic};
 
 pub(super) const COMMAND_TYPES: &[&str] =
     &["geometry_msgs/msg/Twist", "geometry_msgs/msg/TwistStamped"];

@@ -5,8 +5,10 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use super::bag::{bad, declare_topic, BagError, Budget, RawMessage, Topic, MAX_RECORD_BYTES};
 use super::cdr;
+use crate::import::bag::{
+    bad, declare_topic, BagError, Budget, RawMessage, Topic, MAX_RECORD_BYTES,
+};
 
 /// Reads an MCAP file's channels and messages into `topics`.
 pub(super) fn read(
@@ -150,7 +152,7 @@ fn mcap_topic(
     ty: String,
 ) -> String {
     let ty = if encoding == "ros1" {
-        super::rosbag1::ros2_type(&ty)
+        crate::import::ros1::ros2_type(&ty)
     } else {
         ty
     };

@@ -8,29 +8,30 @@
 //! one time base) is stated in the recording's header. Odometry integrated from the
 //! wheels is not ground truth: it is written as `odom_*` columns, which nothing compares,
 //! and only a pose from another source (a motion-capture or localisation transform on
-//! `/tf`) becomes the contract's `x_m`, `y_m`, `heading_rad`.
+//! `/tf`) becomes the contract's `x_m`, `y_m`, `heading_rad`. [`Ros2Import`] is the
+//! command's request, which makes the files.
 
 mod align;
-pub mod bag;
 pub mod cdr;
 pub mod clock;
 mod columns;
 pub mod controller;
 mod converter;
+mod importer;
 mod joints;
 mod mcap;
 mod open;
 mod pose;
 pub mod robot;
-mod rosbag1;
 mod sqlite;
 mod streams;
 mod urdf;
 
 use std::path::{Path, PathBuf};
 
-pub use bag::{Bag, BagError, Storage, Topic};
+pub use crate::import::bag::{Bag, BagError, Storage, Topic};
 pub use columns::{Conversion, Ros2Recording};
+pub use importer::Ros2Import;
 
 /// Why a bag cannot be imported.
 #[derive(Debug, thiserror::Error)]

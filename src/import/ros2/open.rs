@@ -5,7 +5,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use super::bag::{
+use crate::import::bag::{
     bad, declare_topic, Bag, BagError, Budget, Storage, Topic, MAX_BAG_BYTES, MAX_METADATA_BYTES,
 };
 
@@ -220,7 +220,7 @@ fn read_file(
                 path: path.to_owned(),
                 source,
             })?;
-            super::rosbag1::read(path, &buf, topics, budget)
+            crate::import::ros1::read(path, &buf, topics, budget)
         }
     }
 }

@@ -2,10 +2,10 @@
 //! `/tf` transforms composed down to the base, or the one pose topic the bag has.
 
 use super::align::Series;
-use super::bag::Topic;
 use super::cdr;
 use super::converter::{Converter, ODOMETRY, POSE_COV_STAMPED, POSE_STAMPED, TF};
 use super::Ros2Error;
+use crate::import::bag::Topic;
 
 /// The independent pose, and how it was found (`(what, topic)`):
 ///

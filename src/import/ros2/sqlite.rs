@@ -5,7 +5,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use super::bag::{
+use crate::import::bag::{
     bad, declare_topic, BagError, Budget, RawMessage, Topic, MAX_QUERY_SECONDS, MAX_RECORD_BYTES,
 };
 

@@ -4,11 +4,11 @@
 //! stamp or its log time), in the order the streams are read here.
 
 use super::align::Series;
-use super::bag::Topic;
 use super::cdr::{self, Header};
 use super::converter::{Converter, COMMAND_TYPES, STRING};
 use super::urdf::DriveGeometry;
 use super::{joints, urdf, Geometry, Ros2Error};
+use crate::import::bag::Topic;
 
 /// A length in metres and where it came from (a flag, or the robot description).
 pub(super) type Sourced = Option<(f64, String)>;

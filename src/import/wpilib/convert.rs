@@ -10,8 +10,8 @@ use std::fmt::Write as _;
 
 use super::fault::LogFault;
 use super::{Mechanism, Sample, SysIdLog, Test};
-use crate::import::wpilib::feedforward::{self, Feedforward, Gravity, Series};
 use crate::rig::{Rig, RigKind};
+use crate::sysid::{self as feedforward, Feedforward, Gravity, Series};
 
 /// What the log cannot say and the user may: each `None` takes the stated default.
 #[derive(Debug, Clone, Default)]
@@ -396,7 +396,7 @@ pub(crate) fn nominal_rig(
 const ASSUMED_UNCERTAINTY_PCT: f64 = 100.0;
 
 /// A gain's standard deviation, % of its value.
-fn relative_pct(g: crate::import::wpilib::feedforward::Gain) -> f64 {
+fn relative_pct(g: crate::sysid::Gain) -> f64 {
     100.0 * g.std / g.value.abs().max(1e-300)
 }
 

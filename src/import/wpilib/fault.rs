@@ -3,8 +3,8 @@
 //! needs. [`super::load`] and [`super::import`] report each with the file as a
 //! [`super::SysIdError`].
 
-use super::feedforward::FeedforwardError;
 use super::{STATE_PREFIX, TESTS};
+use crate::sysid::FeedforwardError;
 
 /// One fault of a SysId log; its text names the key, entry, test and row at fault.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

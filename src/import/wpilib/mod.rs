@@ -4,18 +4,20 @@
 //! forward and backward), each a list of samples in the log's own units. `convert`
 //! turns each test into a recording (rig `vehicle` for drivetrains, `drive_axis` for a
 //! single mechanism) with every unit conversion stated in its header, and `nominal_rig`
-//! writes the rig a linear fit (SysId's kV and kA) gives.
+//! writes the rig a linear fit (SysId's kV and kA, [`crate::sysid`]) gives;
+//! [`WpilibImport`] is the command's request, which makes the files.
 
 pub mod datalog;
-pub mod feedforward;
 pub mod json;
 pub mod wpilog;
 
 mod convert;
 pub mod fault;
+mod importer;
 use convert::{convert, feedforward, nominal_rig};
 pub use convert::{gravity, Assumptions, Converted};
 use fault::LogFault;
+pub use importer::WpilibImport;
 
 /// SysId's four tests, in the order it lists them (a JSON log's keys).
 pub const TESTS: [&str; 4] = [
@@ -336,7 +338,7 @@ pub struct Imported {
     /// The nominal rig's text.
     pub rig: String,
     /// SysId's gains from its own regression.
-    pub feedforward: crate::import::wpilib::feedforward::Feedforward,
+    pub feedforward: crate::sysid::Feedforward,
     /// The speed unit the gains are per (`m/s` or `rad/s`).
     pub speed_unit: &'static str,
 }

@@ -1,7 +1,7 @@
 //! A ROS bag's messages, raw: an MCAP file, or a rosbag2 folder (`metadata.yaml` with
 //! its `.mcap` or `.db3` files), a lone `.db3` file, or a ROS 1 `.bag` file. Each topic
 //! with its message type (ROS 2's name, `geometry_msgs/msg/Twist`) and its messages' log
-//! times and bytes (CDR, or ROS 1's serialisation behind [`super::cdr::ROS1_MARKER`]), in
+//! times and bytes (CDR, or ROS 1's serialisation behind the `ros1` module's marker), in
 //! log-time order.
 
 use std::collections::BTreeMap;

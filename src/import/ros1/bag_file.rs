@@ -10,16 +10,17 @@
 //! message, also in a bag whose recording was cut short before its index was written.
 //!
 //! A message keeps its ROS 1 bytes behind [`ROS1_MARKER`], which tells the message
-//! decoders ([`super::cdr`]) to read ROS 1's layout; types are renamed to ROS 2's
-//! (`geometry_msgs/Twist` -> `geometry_msgs/msg/Twist`, `tf/tfMessage` ->
-//! `tf2_msgs/msg/TFMessage`: the same fields).
+//! decoders (`import::ros2::cdr`) to read ROS 1's layout; types are renamed to ROS 2's
+//! ([`ros2_type`]).
 
 use std::collections::BTreeMap;
 use std::io::Read;
 use std::path::Path;
 
-use super::bag::{bad, declare_topic, BagError, Budget, RawMessage, Topic, MAX_RECORD_BYTES};
-use super::cdr::ROS1_MARKER;
+use super::{ros2_type, ROS1_MARKER};
+use crate::import::bag::{
+    bad, declare_topic, BagError, Budget, RawMessage, Topic, MAX_RECORD_BYTES,
+};
 
 const MAGIC: &[u8] = b"#ROSBAG V2.0\n";
 const OP_MESSAGE_DATA: u8 = 0x02;
@@ -150,17 +151,6 @@ fn chunk_bytes(path: &Path, rec: &Record, offset: usize) -> Result<Vec<u8>, BagE
     Ok(out)
 }
 
-/// A ROS 1 type in ROS 2's naming.
-pub(super) fn ros2_type(ros1: &str) -> String {
-    match ros1 {
-        "tf/tfMessage" => "tf2_msgs/msg/TFMessage".into(),
-        t => match t.split_once('/') {
-            Some((pkg, name)) if !name.contains('/') => format!("{pkg}/msg/{name}"),
-            _ => t.into(),
-        },
-    }
-}
-
 /// What is wrong with a record of a bag.
 #[derive(Debug, thiserror::Error)]
 enum RecordFault {
@@ -247,7 +237,7 @@ impl Gathered {
 }
 
 /// Reads a ROS 1 bag's topics into `topics`.
-pub fn read(
+pub(in crate::import) fn read(
     path: &Path,
     buf: &[u8],
     topics: &mut BTreeMap<String, Topic>,
@@ -313,13 +303,6 @@ pub fn read(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn ros1_types_are_named_as_ros2_names_them() {
-        assert_eq!(ros2_type("geometry_msgs/Twist"), "geometry_msgs/msg/Twist");
-        assert_eq!(ros2_type("tf/tfMessage"), "tf2_msgs/msg/TFMessage");
-        assert_eq!(ros2_type("tf2_msgs/TFMessage"), "tf2_msgs/msg/TFMessage");
-    }
 
     #[test]
     fn a_record_cut_short_is_found_at_its_offset() {
