@@ -5,7 +5,7 @@
 
 use super::{keys, CalibrateError};
 pub use crate::ident::effects::Choice;
-use crate::ident::effects::Effect;
+use crate::ident::effects::{Effect, Off};
 use crate::model::battery::BatteryParams;
 use crate::model::dcmc::DcmcParams;
 use crate::model::wheel::WheelParams;
@@ -381,14 +381,13 @@ fn limits_home(scene: &Scene, driven: Driven) -> Result<Home, CalibrateError> {
 /// drive limit at the largest voltage command (it clips none of them). A drive limit
 /// under a DCMC's or a base's loops is the hardware's: nothing to take out.
 pub fn off_value(effect: Effect, driven: Driven) -> Option<f64> {
-    match effect {
-        Effect::WheelSlip => None,
-        Effect::FrictionAsymmetry => Some(1.0),
-        Effect::VoltageSaturation => match driven.drive {
+    match effect.def().off {
+        Off::Never => None,
+        Off::At(v) => Some(v),
+        Off::LargestVoltageCommand => match driven.drive {
             Drive::Voltages | Drive::AxisVoltage => driven.max_command_v,
             _ => None,
         },
-        _ => Some(0.0),
     }
 }
 

@@ -10,72 +10,10 @@ use crate::ident::data::Dataset;
 use crate::ident::effects::Effect;
 use crate::ident::fit::Fit;
 
-/// What the fitted effect is, in words, with its value and units.
+/// What the fitted effect is, in words, with its value and units (its declaration's
+/// words, [`crate::ident::effects::EffectDef::describe`]).
 pub(crate) fn describe(e: Effect, v: f64, linear: bool) -> String {
-    match e {
-        Effect::Backlash => format!(
-            "gear backlash of about {:.1} degrees ({v:.4} rad) of total play at the wheel",
-            v.to_degrees()
-        ),
-        Effect::CoulombFriction if linear => {
-            format!("Coulomb friction of about {v:.2} N opposing the motion")
-        }
-        Effect::CoulombFriction => format!(
-            "Coulomb friction of about {} at the motor shaft (brushes, bearings)",
-            crate::numtext::quantity(v, 3, "N m")
-        ),
-        Effect::FrictionAsymmetry => direction_of_viscous_friction(v),
-        Effect::Offset if linear => {
-            format!("a constant bias force of {v:.2} N (gravity component, cable, sensor bias)")
-        }
-        Effect::Offset => format!(
-            "a constant bias torque of {} at the motor shaft",
-            crate::numtext::quantity(v, 3, "N m")
-        ),
-        Effect::VoltageSaturation => {
-            format!("the drive voltage clipped at about {v:.2} V by the supply")
-        }
-        Effect::BatterySag => format!(
-            "the supply sagging with current through about {:.0} mohm of internal resistance",
-            1000.0 * v
-        ),
-        Effect::TransportDelay => format!(
-            "a dead time of about {:.1} ms between command and actuation",
-            1000.0 * v
-        ),
-        Effect::SpeedFeedback => format!(
-            "the motor controller closing its own speed loop with integral gain {v:.4} V/rad"
-        ),
-        Effect::WheelSlip => format!(
-            "wheel slip: the tyres' grip limited by a peak floor friction coefficient of about {v:.2}"
-        ),
-        Effect::CastorDrag => format!(
-            "drag of about {v:.1} N from the idler castors opposing the chassis's motion"
-        ),
-        Effect::WheelGeometry => format!(
-            "wheel geometry other than configured: an effective track of {} (with the wheels' effective rolling radii)",
-            crate::numtext::quantity(v, 5, "m")
-        ),
-        Effect::BaseLimits => format!(
-            "the base controller's limits: commanded motion beyond them never reached the wheels (yaw rate within {})",
-            crate::numtext::quantity(v, 3, "rad/s")
-        ),
-    }
-}
-
-/// A ratio of forward to backward viscous friction in words, naming the stronger
-/// direction (a ratio of 0.68 is friction 1.47 times as strong backwards).
-fn direction_of_viscous_friction(ratio: f64) -> String {
-    if (ratio - 1.0).abs() < 0.005 {
-        format!("viscous friction the same both ways (forward/backward ratio {ratio:.2})")
-    } else if ratio > 1.0 {
-        format!("viscous friction {ratio:.2} times as strong forwards as backwards")
-    } else {
-        format!(
-            "viscous friction {:.2} times as strong backwards as forwards (forward/backward ratio {ratio:.2})",
-            1.0 / ratio
-        )
-    }
+    (e.def().describe)(v, linear)
 }
 
 pub(crate) use crate::ident::weighting::effective_n;

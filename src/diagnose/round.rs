@@ -14,7 +14,7 @@ use super::{
 };
 use crate::ident::data::Dataset;
 use crate::ident::effects::Choice;
-use crate::ident::effects::Effect;
+use crate::ident::effects::{Effect, NullBound};
 use crate::ident::fit::Fit;
 use crate::ident::Structure;
 
@@ -264,11 +264,10 @@ impl Rounds<'_> {
         let lo = cand.model().params()[idx].lo;
         let hi = cand.model().params()[idx].hi;
         let value = f.params[idx];
-        let at_null_bound = match e {
-            Effect::VoltageSaturation | Effect::FrictionAsymmetry | Effect::Offset => false,
-            // Grip vanishes as a limit when the friction coefficient grows without bound.
-            Effect::WheelSlip => value > hi / 1.5,
-            _ => lo > 0.0 && value < 1.5 * lo,
+        let at_null_bound = match e.def().null_bound {
+            NullBound::Neither => false,
+            NullBound::Upper => value > hi / 1.5,
+            NullBound::Lower => lo > 0.0 && value < 1.5 * lo,
         };
         let slot = f.free.len() - 1;
         // An effect whose parameter ends on either bound of its search (a peak friction

@@ -4,62 +4,42 @@
 use rayon::prelude::*;
 
 use crate::ident::data::Dataset;
-use crate::ident::effects::Effect;
+use crate::ident::effects::{Effect, Scale, Scaled, Spacing};
 use crate::ident::fit;
 use crate::ident::model::GreyBox;
 use crate::ident::Structure;
 
 use super::Scales;
 
-/// A scan grid and the bounds of an effect's parameter. Effects like backlash have narrow
-/// basins (a wrong play shifts every engagement), so a local solver needs a start found by
-/// scanning the parameter with the baseline's other values.
+/// A scan grid and the bounds of an effect's parameter: its declaration's grid
+/// ([`crate::ident::effects::Grid`]) placed by the record's scales. Effects like backlash
+/// have narrow basins (a wrong play shifts every engagement), so a local solver needs a
+/// start found by scanning the parameter with the baseline's other values.
 pub(super) fn effect_grid(e: Effect, s: &Scales) -> (Vec<f64>, f64, f64) {
-    let log = |a: f64, b: f64, n: usize| -> Vec<f64> {
-        (0..n)
+    let g = e.def().grid;
+    let at = |v: Scaled| v.times * scale(v.of, s);
+    let (a, b, n) = (at(g.from), at(g.to), g.n);
+    let grid = match g.spacing {
+        Spacing::Log => (0..n)
             .map(|i| a * (b / a).powf(i as f64 / (n - 1) as f64))
-            .collect()
-    };
-    let lin = |a: f64, b: f64, n: usize| -> Vec<f64> {
-        (0..n)
+            .collect(),
+        Spacing::Linear => (0..n)
             .map(|i| a + (b - a) * i as f64 / (n - 1) as f64)
-            .collect()
+            .collect(),
     };
-    match e {
-        Effect::Backlash => (log(0.002, 0.4, 48), 1e-4, 1.0),
-        Effect::CoulombFriction => (
-            log(1e-3 * s.effort, 0.2 * s.effort, 16),
-            1e-6 * s.effort,
-            s.effort,
-        ),
-        Effect::FrictionAsymmetry => (log(0.4, 2.5, 13), 0.1, 10.0),
-        Effect::Offset => (
-            lin(-0.05 * s.effort, 0.05 * s.effort, 13),
-            -s.effort,
-            s.effort,
-        ),
-        Effect::VoltageSaturation => (
-            lin(0.4 * s.v_max, 1.0 * s.v_max, 13),
-            0.2 * s.v_max,
-            2.0 * s.v_max,
-        ),
-        Effect::BatterySag => (log(0.003, 2.0, 14), 1e-5, 5.0),
-        Effect::TransportDelay => (log(0.1 * s.dt, 30.0 * s.dt.max(1e-3), 16), 1e-6, 0.5),
-        Effect::SpeedFeedback => {
-            let k = s.v_max / s.speed_max.max(1e-9) / s.tau.max(1e-6);
-            (log(1e-5 * k, 0.3 * k, 16), 1e-7 * k, 10.0 * k)
-        }
-        Effect::WheelSlip => (log(0.15, 2.0, 14), 0.05, 4.0),
-        Effect::CastorDrag => {
-            let w = s.weight_n.max(1e-6);
-            (log(1e-3 * w, 0.1 * w, 14), 1e-5 * w, 0.5 * w)
-        }
-        // Not a fitting model's effect (no model lists it as applicable): its keys are the
-        // vehicle's nominal wheel radius and track; the calibration tries it.
-        Effect::WheelGeometry => (lin(0.9, 1.1, 11), 0.5, 2.0),
-        // Not a fitting model's effect either: the calibration reads the base
-        // controller's limits off a velocity-commanded recording and fits them.
-        Effect::BaseLimits => (log(0.1, 10.0, 11), 1e-3, 100.0),
+    (grid, at(g.lo), at(g.hi))
+}
+
+/// A record's scale ([`Scale`]) as the diagnosis measured it.
+fn scale(of: Scale, s: &Scales) -> f64 {
+    match of {
+        Scale::One => 1.0,
+        Scale::Effort => s.effort,
+        Scale::SupplyV => s.v_max,
+        Scale::SampleS => s.dt,
+        Scale::SampleAtLeastMsS => s.dt.max(1e-3),
+        Scale::SpeedLoopGain => s.v_max / s.speed_max.max(1e-9) / s.tau.max(1e-6),
+        Scale::WeightN => s.weight_n.max(1e-6),
     }
 }
 

@@ -1,15 +1,14 @@
 //! The contract's vocabulary of missing physics, as optional blocks of the identification
-//! models. Each effect brings its parameter (named as the contract names it) and, where
-//! needed, its own state; the physical laws are the simulator's own (`crate::model`).
+//! models. Each effect is declared once in `defs.rs` ([`EffectDef`]: its contract name and
+//! parameter, unit, keys, the diagnosis's grid and its words) and brings, where needed,
+//! its own state; the physical laws are the simulator's own (`crate::model`).
+
+mod defs;
+
+pub use defs::{ByAxis, EffectDef, Grid, NullBound, Off, Scale, Scaled, Spacing};
 
 use crate::ident::model::ParamSpec;
 use crate::model::battery::BatteryParams;
-use crate::model::castor::CastorParams;
-use crate::model::chassis::ChassisParams;
-use crate::model::dcmc::DcmcParams;
-use crate::model::gearbox::GearboxParams;
-use crate::model::motor::MotorParams;
-use crate::model::tyre::TyreChoice;
 
 /// One effect of the vocabulary.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -61,98 +60,38 @@ impl Effect {
         Effect::BaseLimits,
     ];
 
+    /// The effect's declaration: its names, units, keys, grid and words.
+    pub fn def(self) -> &'static EffectDef {
+        defs::def(self)
+    }
+
     /// The contract's name.
     pub fn name(self) -> &'static str {
-        match self {
-            Effect::Backlash => "backlash",
-            Effect::CoulombFriction => "coulomb_friction",
-            Effect::FrictionAsymmetry => "friction_asymmetry",
-            Effect::Offset => "offset",
-            Effect::WheelSlip => "wheel_slip",
-            Effect::VoltageSaturation => "voltage_saturation",
-            Effect::BatterySag => "battery_sag",
-            Effect::TransportDelay => "transport_delay",
-            Effect::SpeedFeedback => "speed_feedback",
-            Effect::CastorDrag => "castor_drag",
-            Effect::WheelGeometry => "wheel_geometry",
-            Effect::BaseLimits => "base_limits",
-        }
+        self.def().name
     }
 
     /// The contract's parameter name (rotary or linear axis).
     pub fn param_name(self, linear: bool) -> &'static str {
-        match self {
-            Effect::Backlash => "backlash_rad",
-            Effect::CoulombFriction if linear => "coulomb_force_N",
-            Effect::CoulombFriction => "coulomb_torque_Nm",
-            Effect::FrictionAsymmetry => "viscous_ratio",
-            Effect::Offset if linear => "offset_N",
-            Effect::Offset => "offset_Nm",
-            Effect::WheelSlip => "peak_mu",
-            Effect::VoltageSaturation => "limit_V",
-            Effect::BatterySag => "internal_resistance_ohm",
-            Effect::TransportDelay => "delay_s",
-            Effect::SpeedFeedback => "integral_gain",
-            Effect::CastorDrag => "drag_N",
-            Effect::WheelGeometry => "track_m",
-            Effect::BaseLimits => "max_angular_rad_s",
-        }
+        self.def().param.on(linear)
     }
 
     /// The unit of the contract's parameter ([`Effect::param_name`]); `""` for a ratio
     /// or a friction coefficient.
     pub fn unit(self, linear: bool) -> &'static str {
-        match self {
-            Effect::Backlash => "rad",
-            Effect::CoulombFriction | Effect::Offset if linear => "N",
-            Effect::CoulombFriction | Effect::Offset => "N m",
-            Effect::FrictionAsymmetry | Effect::WheelSlip => "",
-            Effect::VoltageSaturation => "V",
-            Effect::BatterySag => "ohm",
-            Effect::TransportDelay => "s",
-            Effect::SpeedFeedback => "V/rad",
-            Effect::CastorDrag => "N",
-            Effect::WheelGeometry => "m",
-            Effect::BaseLimits => "rad/s",
-        }
+        self.def().unit.on(linear)
     }
 
-    /// The key of a fitting model's blocks that the effect's strength sets: the
-    /// simulator's own key where the scene has the physics (a rotary axis, the vehicle),
-    /// the linear axis's effect block otherwise. (The fitting models' own blocks are named
-    /// by text here, as the vocabulary sits below the models; a test holds each to its
-    /// handle.)
+    /// The key of a fitting model's blocks that the effect's strength sets
+    /// ([`EffectDef::key`]).
     pub fn key(self, linear: bool) -> &'static str {
-        match self {
-            Effect::Backlash => GearboxParams::backlash_rad.key(),
-            Effect::CoulombFriction if linear => "effect.coulomb_force_N",
-            Effect::CoulombFriction => MotorParams::coulomb_nm.key(),
-            Effect::FrictionAsymmetry if linear => "effect.viscous_ratio",
-            Effect::FrictionAsymmetry => MotorParams::viscous_ratio.key(),
-            Effect::Offset if linear => "effect.offset_N",
-            Effect::Offset => MotorParams::offset_nm.key(),
-            Effect::WheelSlip => TyreChoice::peak_mu.key(),
-            Effect::VoltageSaturation => BatteryParams::drive_limit_v.key(),
-            Effect::BatterySag => BatteryParams::internal_resistance_ohm.key(),
-            Effect::TransportDelay if linear => "effect.delay_s",
-            Effect::TransportDelay => DcmcParams::command_delay_s.key(),
-            Effect::SpeedFeedback => DcmcParams::ki_v_rad.key(),
-            Effect::CastorDrag => "castor_drag.drag_N",
-            Effect::WheelGeometry => ChassisParams::track_width_m.key(),
-            Effect::BaseLimits => {
-                crate::model::base_controller::BaseParams::max_angular_rad_s.key()
-            }
-        }
+        self.def().key.on(linear)
     }
 
     /// The scene key that sets the effect's strength in the simulator (where a
     /// calibration fits it): the fitting model's key ([`Effect::key`]), but for castor
     /// drag, which the scene sets as the castors' rolling resistance.
     pub fn scene_key(self) -> &'static str {
-        match self {
-            Effect::CastorDrag => CastorParams::rolling_resistance.key(),
-            other => other.key(false),
-        }
+        self.def().scene_key
     }
 
     /// The effect's strength as a fit's parameter: the vocabulary's name, setting the
@@ -341,6 +280,7 @@ mod tests {
     use super::*;
     use crate::ident::models::linear_axis::LinearEffects;
     use crate::ident::models::vehicle::blocks::{CastorDrag, CreepTyre};
+    use crate::model::tyre::TyreChoice;
 
     #[test]
     fn each_effects_key_is_its_fitting_blocks_declared_key() {
