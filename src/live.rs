@@ -5,6 +5,7 @@
 //! comes loaded (`commands::run::live_sim` loads it as `run` does).
 
 use crate::model::manoeuvre::Manoeuvre;
+use crate::record::channels as chan;
 use crate::record::{vehicle_columns, Column};
 use crate::scene::Scene;
 use crate::sim::{Actuation, Sim, SimError, Snapshot};
@@ -66,20 +67,20 @@ pub enum LiveError {
 
 /// The names of the state [`LiveSim::state`] gives, with units, in its order.
 pub const STATE_NAMES: [&str; 20] = [
-    "x_m",
-    "y_m",
-    "heading_rad",
+    chan::X_M,
+    chan::Y_M,
+    chan::HEADING_RAD,
     "forward_speed_m_s",
     "lateral_speed_m_s",
-    "yaw_rate_rad_s",
+    chan::YAW_RATE_RAD_S,
     "left_motor_angle_rad",
     "right_motor_angle_rad",
-    "left_motor_speed_rad_s",
-    "right_motor_speed_rad_s",
-    "left_current_A",
-    "right_current_A",
-    "left_wheel_angle_rad",
-    "right_wheel_angle_rad",
+    chan::LEFT_MOTOR_SPEED_RAD_S,
+    chan::RIGHT_MOTOR_SPEED_RAD_S,
+    chan::LEFT_CURRENT_A,
+    chan::RIGHT_CURRENT_A,
+    chan::LEFT_WHEEL_ANGLE_RAD,
+    chan::RIGHT_WHEEL_ANGLE_RAD,
     "left_wheel_speed_rad_s",
     "right_wheel_speed_rad_s",
     "left_backlash_gap_rad",
@@ -143,7 +144,7 @@ impl LiveSim {
         let sim = start(&scene, manoeuvre.is_some())?;
         let columns = vehicle_columns()
             .into_iter()
-            .filter(|c| c.name != "t_s")
+            .filter(|c| c.name != chan::T_S)
             .collect();
         Ok(LiveSim {
             scene,
@@ -232,9 +233,9 @@ impl LiveSim {
     /// The names of the command the scene's controller takes, with units.
     pub fn command_names(&self) -> [&'static str; 2] {
         if self.manoeuvre.is_some() {
-            ["cmd_linear_m_s", "cmd_angular_rad_s"]
+            [chan::CMD_LINEAR_M_S, chan::CMD_ANGULAR_RAD_S]
         } else {
-            ["demand_fwd_pct", "demand_turn_pct"]
+            [chan::DEMAND_FWD_PCT, chan::DEMAND_TURN_PCT]
         }
     }
 

@@ -23,6 +23,7 @@
 
 use crate::model::base_controller::BaseParams;
 use crate::param::ParamKey;
+use crate::record::channels as chan;
 use crate::record::Recording;
 use crate::scene::Scene;
 
@@ -78,8 +79,8 @@ impl SeenBy {
 /// read as the base controller's configuration reads them; `None` without both wheels'
 /// speeds. Rows where either is not measured are `None`.
 fn measured_motion(rec: &Recording, scene: &Scene) -> Option<[Vec<Option<f64>>; 2]> {
-    let l = rec.column("left_wheel_speed_m_s")?;
-    let r = rec.column("right_wheel_speed_m_s")?;
+    let l = rec.column(chan::LEFT_WHEEL_SPEED_M_S)?;
+    let r = rec.column(chan::RIGHT_WHEEL_SPEED_M_S)?;
     let b = scene
         .base
         .wheel_separation_m
@@ -103,9 +104,9 @@ fn measured_motion(rec: &Recording, scene: &Scene) -> Option<[Vec<Option<f64>>; 
 /// the span reaches past the recording.
 fn pose_motion(rec: &Recording) -> Option<[Vec<Option<f64>>; 2]> {
     let (x, y, heading) = (
-        rec.column("x_m")?,
-        rec.column("y_m")?,
-        rec.column("heading_rad")?,
+        rec.column(chan::X_M)?,
+        rec.column(chan::Y_M)?,
+        rec.column(chan::HEADING_RAD)?,
     );
     let dt = crate::record::median_interval_s(&rec.t_s)?;
     let half = ((0.5 * POSE_SPAN_S / dt).round() as usize).max(1);
@@ -181,8 +182,8 @@ pub fn shown(rec: &Recording, scene: &Scene) -> Shown {
         seen_by: SeenBy::Wheels,
     };
     let (Some(cv), Some(cw)) = (
-        rec.column("cmd_linear_m_s"),
-        rec.column("cmd_angular_rad_s"),
+        rec.column(chan::CMD_LINEAR_M_S),
+        rec.column(chan::CMD_ANGULAR_RAD_S),
     ) else {
         return none;
     };

@@ -35,6 +35,7 @@ use crate::model::base_controller::BaseParams;
 use crate::model::chassis::ChassisParams;
 use crate::model::motor::MotorParams;
 use crate::param::ParamKey;
+use crate::record::channels as chan;
 use std::path::PathBuf;
 
 use crate::record::Recording;
@@ -84,22 +85,22 @@ pub enum CalibrateError {
 pub fn contract_outputs(rig: RigKind) -> &'static [&'static str] {
     match rig {
         RigKind::DriveAxis => &[
-            "motor_speed_rad_s",
-            "motor_angle_rad",
-            "wheel_angle_rad",
-            "current_A",
+            chan::MOTOR_SPEED_RAD_S,
+            chan::MOTOR_ANGLE_RAD,
+            chan::WHEEL_ANGLE_RAD,
+            chan::CURRENT_A,
         ],
         _ => &[
-            "x_m",
-            "y_m",
-            "heading_rad",
-            "left_motor_speed_rad_s",
-            "right_motor_speed_rad_s",
-            "sensor_left_adc",
-            "sensor_right_adc",
-            "left_wheel_speed_m_s",
-            "right_wheel_speed_m_s",
-            "yaw_rate_rad_s",
+            chan::X_M,
+            chan::Y_M,
+            chan::HEADING_RAD,
+            chan::LEFT_MOTOR_SPEED_RAD_S,
+            chan::RIGHT_MOTOR_SPEED_RAD_S,
+            chan::SENSOR_LEFT_ADC,
+            chan::SENSOR_RIGHT_ADC,
+            chan::LEFT_WHEEL_SPEED_M_S,
+            chan::RIGHT_WHEEL_SPEED_M_S,
+            chan::YAW_RATE_RAD_S,
         ],
     }
 }

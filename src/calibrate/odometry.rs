@@ -18,6 +18,7 @@ use crate::ident::model::{Diverged, ParamSpec, Predictor};
 use crate::model::chassis::rolling_motion;
 use crate::model::chassis::ChassisParams;
 use crate::model::wheel::WheelParams;
+use crate::record::channels as chan;
 use crate::record::Recording;
 
 /// The keys the model fits, in its parameter order.
@@ -47,7 +48,7 @@ impl WheelTurns {
             Some([col(a)?, col(b)?])
         };
         let n = rec.t_s.len();
-        if let Some([l, r]) = pair("left_wheel_angle_rad", "right_wheel_angle_rad") {
+        if let Some([l, r]) = pair(chan::LEFT_WHEEL_ANGLE_RAD, chan::RIGHT_WHEEL_ANGLE_RAD) {
             let turns_rad = (0..n)
                 .map(|k| match k {
                     0 => [0.0; 2],
@@ -59,7 +60,7 @@ impl WheelTurns {
                 source: "the wheels' encoder angles".into(),
             });
         }
-        let [l, r] = pair("left_wheel_speed_m_s", "right_wheel_speed_m_s")?;
+        let [l, r] = pair(chan::LEFT_WHEEL_SPEED_M_S, chan::RIGHT_WHEEL_SPEED_M_S)?;
         let turns_rad = (0..n)
             .map(|k| match k {
                 0 => [0.0; 2],
@@ -118,7 +119,7 @@ impl Predictor for Odometry {
     fn predict(&self, p: &[f64], data: &Dataset) -> Result<Vec<Vec<f64>>, Diverged> {
         let (radii, track) = ([p[0], p[1]], p[2]);
         let start = |n: &str| data.first_measured(n).unwrap_or(0.0);
-        let (mut x, mut y, mut h) = (start("x_m"), start("y_m"), start("heading_rad"));
+        let (mut x, mut y, mut h) = (start(chan::X_M), start(chan::Y_M), start(chan::HEADING_RAD));
         let mut pose = vec![[0.0; 3]; data.len()];
         for (k, turn) in self.turns.turns_rad.iter().enumerate().take(data.len()) {
             let rims = [radii[0] * turn[0], radii[1] * turn[1]];
@@ -133,9 +134,9 @@ impl Predictor for Odometry {
             .iter()
             .map(|n| {
                 let i = match n.as_str() {
-                    "x_m" => 0,
-                    "y_m" => 1,
-                    "heading_rad" => 2,
+                    chan::X_M => 0,
+                    chan::Y_M => 1,
+                    chan::HEADING_RAD => 2,
                     _ => return Err(Diverged { t_s: data.t_s[0] }),
                 };
                 Ok(pose.iter().map(|q| q[i]).collect())

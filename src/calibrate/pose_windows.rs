@@ -9,9 +9,10 @@
 //! run on.
 
 use crate::ident::data::Dataset;
+use crate::record::channels as chan;
 
 /// Outputs of a tracked pose, in the order the windows transform them.
-const POSE: [&str; 3] = ["x_m", "y_m", "heading_rad"];
+const POSE: [&str; 3] = [chan::X_M, chan::Y_M, chan::HEADING_RAD];
 
 /// The shortest window, s, and the share of the recording a window spans where that is
 /// longer: a window must hold enough motion to show the vehicle's geometry and dynamics

@@ -5,6 +5,7 @@ use crate::ident::data::Dataset;
 use crate::ident::effects::Effect;
 use crate::ident::fit::Weighting;
 use crate::ident::weighting::spread_weights;
+use crate::record::channels as chan;
 use crate::record::Recording;
 use crate::replay::{replay, replay_with, Drive, Engine, Replay};
 use crate::rig::RigKind;
@@ -292,7 +293,7 @@ fn driven_by(before: &Replay, rec: &Recording) -> effects::Driven {
         drive: before.drive,
         on_floor: rec.rig == RigKind::Vehicle,
         max_command_v: Some(max_command_v(before)),
-        tracked_pose: ["x_m", "y_m", "heading_rad"].iter().all(|c| {
+        tracked_pose: [chan::X_M, chan::Y_M, chan::HEADING_RAD].iter().all(|c| {
             before
                 .output(c)
                 .is_some_and(|o| o.measured.iter().flatten().count() >= 2)

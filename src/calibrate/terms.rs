@@ -39,6 +39,7 @@ use crate::ident::data::Dataset;
 use crate::ident::fit::residuals;
 use crate::ident::models::rotary_axis::{AxisInput, TermCoefficient, TermForm};
 use crate::model::term::Family;
+use crate::record::channels as chan;
 use crate::record::Recording;
 use crate::rig::RigKind;
 use crate::scene::Scene;
@@ -141,7 +142,7 @@ pub(super) fn ceilings(scene: &Scene, data: &Dataset, peak_v: f64) -> Ceilings {
     // lifted axis never nears its stall current, and a ceiling there would leave the
     // screen's step lost in the simulator's roughness).
     let current_a = data
-        .output_index("current_A")
+        .output_index(chan::CURRENT_A)
         .map(|j| {
             data.outputs[j]
                 .iter()

@@ -10,6 +10,7 @@ pub use crate::import::wpilib::WpilibImport;
 use crate::import::wpilib::{self, wpilog, Assumptions};
 pub use crate::import::MappedImport;
 use crate::import::{FileKind, Importer, Made};
+use crate::record::channels as chan;
 use crate::record::Recording;
 
 /// What a map file holds, with an example, as `import csv --help` and `import mat --help`
@@ -313,9 +314,9 @@ fn limits_shown(rec: &Recording, scene_text: &str, scene_path: &Path) -> Vec<Str
             let (what, command) = if *key == BaseParams::max_linear_m_s
                 || *key == BaseParams::max_linear_accel_m_s2
             {
-                ("linear", "cmd_linear_m_s")
+                ("linear", chan::CMD_LINEAR_M_S)
             } else {
-                ("angular", "cmd_angular_rad_s")
+                ("angular", chan::CMD_ANGULAR_RAD_S)
             };
             let moved = shown.seen_by.noun();
             let seen = if key.key().contains("accel") {

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use super::flags::{positive_seconds, Overrides, RerunFlags};
 use super::{overrides, stem, CommandError, Say};
+use crate::record::channels as chan;
 use crate::run::{render_expectations, render_summary, run_scene, RunOptions, Watcher};
 use crate::scene::Scene;
 use crate::sim::SimParams;
@@ -56,8 +57,8 @@ fn commands_of(
         .join(&m.commands);
     let rec = crate::record::Recording::load_commands(&path)?;
     let (Some(v), Some(w)) = (
-        rec.column("cmd_linear_m_s"),
-        rec.column("cmd_angular_rad_s"),
+        rec.column(chan::CMD_LINEAR_M_S),
+        rec.column(chan::CMD_ANGULAR_RAD_S),
     ) else {
         return Err(CommandError::Contract {
             what: format!("{} (manoeuvre.commands)", path.display()),

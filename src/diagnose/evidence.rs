@@ -9,6 +9,7 @@ use super::{MIN_DELTA_AIC, MIN_RSS_REDUCTION};
 use crate::ident::data::Dataset;
 use crate::ident::effects::Effect;
 use crate::ident::fit::Fit;
+use crate::record::channels as chan;
 
 /// What the fitted effect is, in words, with its value and units (its declaration's
 /// words, [`crate::ident::effects::EffectDef::describe`]).
@@ -103,7 +104,7 @@ pub fn relative_errors(data: &Dataset, predicted: &[Vec<f64>]) -> BTreeMap<Strin
             .filter_map(|(y, p)| y.map(|y| (y, *p)))
             .collect();
         out.insert(name.clone(), rel(&pairs));
-        if let Some(stem) = name.strip_suffix("position_m") {
+        if let Some(stem) = name.strip_suffix(chan::POSITION_M) {
             let mut speed = Vec::new();
             for k in 1..data.len() {
                 if let (Some(a), Some(b)) = (data.outputs[j][k - 1], data.outputs[j][k]) {

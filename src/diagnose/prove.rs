@@ -15,6 +15,7 @@ use crate::model::chassis::ChassisParams;
 use crate::model::gearbox::GearboxParams;
 use crate::model::motor::MotorParams;
 use crate::model::wheel::WheelParams;
+use crate::record::channels as chan;
 use crate::rig::blocks::Instruments;
 use crate::rig::keys::alias;
 use std::fmt::Write as _;
@@ -216,7 +217,12 @@ fn record(
             ("sample_time_s", format!("{interval}")),
             ("source", simulation_source(&sim)),
         ],
-        &["t_s", "voltage_V", "motor_speed_rad_s", "current_A"],
+        &[
+            chan::T_S,
+            chan::VOLTAGE_V,
+            chan::MOTOR_SPEED_RAD_S,
+            chan::CURRENT_A,
+        ],
     );
     let (mut v, mut hold) = (0.0, 0usize);
     let mut encoder = EncoderSpeed::new(sim.drivetrains()[0].motor.angle_rad);
@@ -467,16 +473,16 @@ fn record_vehicle(
             ("source", simulation_source(&sim)),
         ],
         &[
-            "t_s",
-            "left_voltage_V",
-            "right_voltage_V",
-            "x_m",
-            "y_m",
-            "heading_rad",
-            "left_motor_speed_rad_s",
-            "right_motor_speed_rad_s",
-            "left_current_A",
-            "right_current_A",
+            chan::T_S,
+            chan::LEFT_VOLTAGE_V,
+            chan::RIGHT_VOLTAGE_V,
+            chan::X_M,
+            chan::Y_M,
+            chan::HEADING_RAD,
+            chan::LEFT_MOTOR_SPEED_RAD_S,
+            chan::RIGHT_MOTOR_SPEED_RAD_S,
+            chan::LEFT_CURRENT_A,
+            chan::RIGHT_CURRENT_A,
         ],
     );
     let (mut target, mut level, mut hold) = ([0.0f64; 2], [0.0f64; 2], 0usize);

@@ -4,6 +4,7 @@
 use serde::Serialize;
 
 use crate::ident::data::Dataset;
+use crate::record::channels as chan;
 
 /// A set of samples with a physical meaning.
 #[derive(Debug, Clone)]
@@ -118,8 +119,8 @@ pub fn regimes(data: &Dataset, speed: &[f64]) -> Vec<Regime> {
         mask: speed.iter().map(|v| v.abs() > 0.8 * vmax).collect(),
     });
     if let (Some(l), Some(r)) = (
-        data.output_index("left_motor_speed_rad_s"),
-        data.output_index("right_motor_speed_rad_s"),
+        data.output_index(chan::LEFT_MOTOR_SPEED_RAD_S),
+        data.output_index(chan::RIGHT_MOTOR_SPEED_RAD_S),
     ) {
         // Turning: the two sides' speed difference, against its largest.
         let (l, r) = (filled(&data.outputs[l]), filled(&data.outputs[r]));
@@ -166,8 +167,8 @@ pub fn measured_speed(data: &Dataset) -> Vec<f64> {
     // A vehicle: its forward speed is the mean of the two motors' (or, without motor
     // speeds, of the two wheels': never the yaw rate, which is another `_rad_s`).
     for (left, right) in [
-        ("left_motor_speed_rad_s", "right_motor_speed_rad_s"),
-        ("left_wheel_speed_m_s", "right_wheel_speed_m_s"),
+        (chan::LEFT_MOTOR_SPEED_RAD_S, chan::RIGHT_MOTOR_SPEED_RAD_S),
+        (chan::LEFT_WHEEL_SPEED_M_S, chan::RIGHT_WHEEL_SPEED_M_S),
     ] {
         if let (Some(l), Some(r)) = (data.output_index(left), data.output_index(right)) {
             let (l, r) = (filled(&data.outputs[l]), filled(&data.outputs[r]));

@@ -3,6 +3,7 @@
 
 use crate::ident::data::Dataset;
 use crate::ident::Structure;
+use crate::record::channels as chan;
 
 /// Scales of a record that set effect starting values and bounds.
 pub(crate) struct Scales {
@@ -73,8 +74,8 @@ pub(crate) fn scales(structure: &Structure, p: &[f64], data: &Dataset, speed: &[
         }
         Structure::Vehicle(m) => {
             let a = m.declared(p);
-            let motor_measured = data.output_index("left_motor_speed_rad_s").is_some()
-                && data.output_index("right_motor_speed_rad_s").is_some();
+            let motor_measured = data.output_index(chan::LEFT_MOTOR_SPEED_RAD_S).is_some()
+                && data.output_index(chan::RIGHT_MOTOR_SPEED_RAD_S).is_some();
             let speed_max = if motor_measured {
                 speed_max
             } else {
@@ -108,7 +109,7 @@ pub(crate) fn scales(structure: &Structure, p: &[f64], data: &Dataset, speed: &[
 
 /// Largest recorded drive command (`command_V`), or `otherwise` when it is not recorded.
 fn largest_command(data: &Dataset, otherwise: f64) -> f64 {
-    data.output_index("command_V")
+    data.output_index(chan::COMMAND_V)
         .map(|j| {
             data.outputs[j]
                 .iter()

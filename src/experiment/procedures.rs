@@ -8,6 +8,7 @@ use super::{
 use crate::model::motor::{MotorParams, MotorState, Terminal};
 use crate::model::Bounded;
 use crate::model::GRAVITY_M_S2;
+use crate::record::channels as chan;
 use crate::record::header;
 use crate::record::Recording;
 use crate::scene::Scene;
@@ -43,7 +44,7 @@ pub(super) fn lifted_random_demand(
             ("experiment", "lifted-random-demand".into()),
             ("seed", format!("{}", scene.sim.seed)),
         ],
-        &["t_s", "demand_fwd_pct", "demand_turn_pct", "left_motor_speed_rad_s", "right_motor_speed_rad_s"],
+        &[chan::T_S, chan::DEMAND_FWD_PCT, chan::DEMAND_TURN_PCT, chan::LEFT_MOTOR_SPEED_RAD_S, chan::RIGHT_MOTOR_SPEED_RAD_S],
     );
     let mut encoders = [0, 1].map(|i| EncoderSpeed::new(sim.drivetrains()[i].motor.angle_rad));
     for k in 0..=n {
@@ -132,7 +133,7 @@ pub(super) fn falling_weight(
             ),
             ("experiment", "falling-weight".into()),
         ],
-        &["t_s", "motor_speed_rad_s", "back_emf_V"],
+        &[chan::T_S, chan::MOTOR_SPEED_RAD_S, "back_emf_V"],
     );
     let mut encoder = EncoderSpeed::new(s.angle_rad);
     let mut rows = 0;
@@ -199,7 +200,7 @@ pub(super) fn coast_down(
             ),
             ("experiment", "coast-down".into()),
         ],
-        &["t_s", "motor_speed_rad_s"],
+        &[chan::T_S, chan::MOTOR_SPEED_RAD_S],
     );
     let mut encoder = EncoderSpeed::new(sim.drivetrains()[0].motor.angle_rad);
     let mut rows = 0;
@@ -242,7 +243,7 @@ pub(super) fn pen_trace(
         rec.require_complete(n)
             .map_err(|e| ExperimentError::Setup(e.to_string()))
     };
-    let (x, y) = (col("x_m")?, col("y_m")?);
+    let (x, y) = (col(chan::X_M)?, col(chan::Y_M)?);
     let mut out = String::from("# agvsim-pen-trace: 1\n# description: pen dash starts (drive-axle midpoint), with pen play\nt_s,x_m,y_m\n");
     let mut n = 0;
     let mut next = 0.0;

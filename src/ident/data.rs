@@ -1,6 +1,7 @@
 //! The samples an identification works on: a recording's inputs (complete, zero-order held)
 //! and outputs (possibly with missing cells), picked by the model's column names.
 
+use crate::record::channels as chan;
 use crate::record::{Recording, RecordingError};
 
 /// Inputs and outputs of one recording, row-aligned.
@@ -207,29 +208,13 @@ impl Dataset {
     }
 }
 
-/// Input columns the contract defines, for any rig.
-pub const CONTRACT_INPUTS: [&str; 12] = [
-    "voltage_V",
-    "demand_pct",
-    "command_V",
-    "torque_Nm",
-    "force_N",
-    "disturbance_force_N",
-    "reference_rad",
-    "reference_m",
-    "left_voltage_V",
-    "right_voltage_V",
-    "demand_fwd_pct",
-    "demand_turn_pct",
-];
-
 /// The recording's contract input columns a model neither takes as an input nor
 /// compares as an output (`used`: the model's inputs and outputs): named in the report,
 /// never dropped silently.
 pub fn ignored_inputs(rec: &Recording, used: &[String]) -> Vec<String> {
     rec.names
         .iter()
-        .filter(|n| CONTRACT_INPUTS.contains(&n.as_str()) && !used.contains(n))
+        .filter(|n| chan::is_contract_input(n) && !used.contains(n))
         .cloned()
         .collect()
 }
@@ -255,8 +240,12 @@ fn measured_angle_line(rec: &Recording, name: &str) -> Option<Result<Vec<f64>, R
     if name != MEASURED_ANGLE_INTERCEPT && name != MEASURED_ANGLE_RATE {
         return None;
     }
-    let angle = rec.require_complete("motor_angle_rad").ok();
-    let line = angle_line(&rec.t_s, angle.as_deref(), rec.column("motor_speed_rad_s"));
+    let angle = rec.require_complete(chan::MOTOR_ANGLE_RAD).ok();
+    let line = angle_line(
+        &rec.t_s,
+        angle.as_deref(),
+        rec.column(chan::MOTOR_SPEED_RAD_S),
+    );
     Some(match line {
         Some((a, b)) => Ok(if name == MEASURED_ANGLE_RATE { b } else { a }),
         None => Err(RecordingError::File {
@@ -322,11 +311,11 @@ impl Dataset {
     pub fn with_measured_angle(&self) -> Option<Dataset> {
         let out = |name: &str| self.output_index(name).map(|j| &self.outputs[j]);
         let angle: Option<Vec<f64>> =
-            out("motor_angle_rad").and_then(|c| c.iter().copied().collect());
+            out(chan::MOTOR_ANGLE_RAD).and_then(|c| c.iter().copied().collect());
         let (a, b) = angle_line(
             &self.t_s,
             angle.as_deref(),
-            out("motor_speed_rad_s").map(|c| c.as_slice()),
+            out(chan::MOTOR_SPEED_RAD_S).map(|c| c.as_slice()),
         )?;
         let mut d = self.clone();
         d.input_names.extend([

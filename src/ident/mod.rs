@@ -31,7 +31,7 @@ use crate::record::RecordingError;
 use crate::rig::{RigError, RigKind};
 use fit::FitError;
 
-pub use data::{ignored_inputs, LeftOut, CONTRACT_INPUTS};
+pub use data::{ignored_inputs, LeftOut};
 pub use evaluate::{evaluate, fit_pct, fit_pct_mean, Evaluation, OutputChecks};
 pub use fit::{bound_reached, AT_BOUND_REL};
 pub use identification::{param_reports, Identification, ParamReport, StateSpaceReport};

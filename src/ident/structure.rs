@@ -1,6 +1,7 @@
 //! Which model structure a rig and a recording get (`--model` or the rig's kind), built
 //! with each belief as uncertain as the rig states.
 
+use crate::record::channels as chan;
 use crate::rig::keys::alias;
 
 use std::path::Path;
@@ -161,14 +162,14 @@ fn default_choice(rig: &Rig, rec: &Recording) -> ModelChoice {
 /// The whole-vehicle model of a recording driven by motor voltages; its tyres creep
 /// where the recording has a pose.
 fn vehicle_structure(rig: &Rig, rig_path: &Path, rec: &Recording) -> Result<Vehicle, IdentError> {
-    if rec.column("left_voltage_V").is_none() || rec.column("right_voltage_V").is_none() {
+    if rec.column(chan::LEFT_VOLTAGE_V).is_none() || rec.column(chan::RIGHT_VOLTAGE_V).is_none() {
         return Err(IdentError::Mismatch {
             file: rec.path.clone(),
             message: "the whole-vehicle model is driven by `left_voltage_V` and `right_voltage_V`; recordings driven through the motor controller (`demand_fwd_pct`, `demand_turn_pct`) or by velocity commands (`cmd_linear_m_s`, `cmd_angular_rad_s`) are not supported yet; `agvsim calibrate --scene SCENE --recording REC --effects all` fits them through the simulator and finds missing physics there".into(),
         });
     }
     let mut m = Vehicle::from_rig(rig, rig_path)?;
-    m.creeping_tyres = ["x_m", "y_m", "heading_rad"]
+    m.creeping_tyres = [chan::X_M, chan::Y_M, chan::HEADING_RAD]
         .iter()
         .any(|c| rec.column(c).is_some());
     Ok(m)
@@ -208,17 +209,17 @@ fn structure_of(
                 return Err(wrong_rig(RigKind::DriveAxis));
             }
             if rig.is_linear() {
-                let force_input = rec.column("force_N").is_some()
-                    && rec.column("command_V").is_none()
-                    && rec.column("reference_m").is_none();
+                let force_input = rec.column(chan::FORCE_N).is_some()
+                    && rec.column(chan::COMMAND_V).is_none()
+                    && rec.column(chan::REFERENCE_M).is_none();
                 let mut m = LinearAxis::from_rig(rig, rig_path, force_input)?;
-                m.disturbance_input = rec.column("disturbance_force_N").is_some();
+                m.disturbance_input = rec.column(chan::DISTURBANCE_FORCE_N).is_some();
                 Structure::Linear(m)
             } else {
                 let has = |c: &str| rec.column(c).is_some();
-                let input = if has("voltage_V") {
+                let input = if has(chan::VOLTAGE_V) {
                     AxisInput::Voltage
-                } else if has("demand_pct") {
+                } else if has(chan::DEMAND_PCT) {
                     AxisInput::Demand
                 } else if let Some(c) = TorqueCommand::from_columns(rig, rig_path, has)? {
                     AxisInput::Torque(c)
@@ -242,7 +243,7 @@ fn structure_of(
                 return Err(wrong_rig(RigKind::DriveAxis));
             }
             let w0 = rec
-                .column("motor_speed_rad_s")
+                .column(chan::MOTOR_SPEED_RAD_S)
                 .and_then(|c| c.iter().flatten().next().copied())
                 .unwrap_or(1.0);
             Structure::Coast(CoastDown::from_rig(rig, rig_path, w0)?)

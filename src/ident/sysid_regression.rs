@@ -3,6 +3,7 @@
 
 use serde::Serialize;
 
+use crate::record::channels as chan;
 use crate::sysid::{default_threshold, fit, render, Feedforward, Gravity, Series};
 
 /// SysId's gains of a recording, beside a fitted model: which columns they came from and
@@ -26,22 +27,22 @@ fn drive_columns(
 ) -> Option<(Vec<(&'static str, &'static str)>, &'static str)> {
     let has = |n: &str| rec.column(n).is_some_and(|c| c.iter().all(Option::is_some));
     let pairs: [(&[(&str, &str)], &str); 4] = [
-        (&[("voltage_V", "motor_speed_rad_s")], "rad/s"),
+        (&[(chan::VOLTAGE_V, chan::MOTOR_SPEED_RAD_S)], "rad/s"),
         (
             &[
-                ("left_voltage_V", "left_wheel_speed_m_s"),
-                ("right_voltage_V", "right_wheel_speed_m_s"),
+                (chan::LEFT_VOLTAGE_V, chan::LEFT_WHEEL_SPEED_M_S),
+                (chan::RIGHT_VOLTAGE_V, chan::RIGHT_WHEEL_SPEED_M_S),
             ],
             "m/s",
         ),
         (
             &[
-                ("left_voltage_V", "left_motor_speed_rad_s"),
-                ("right_voltage_V", "right_motor_speed_rad_s"),
+                (chan::LEFT_VOLTAGE_V, chan::LEFT_MOTOR_SPEED_RAD_S),
+                (chan::RIGHT_VOLTAGE_V, chan::RIGHT_MOTOR_SPEED_RAD_S),
             ],
             "rad/s",
         ),
-        (&[("voltage_V", "speed_m_s")], "m/s"),
+        (&[(chan::VOLTAGE_V, chan::SPEED_M_S)], "m/s"),
     ];
     pairs
         .into_iter()

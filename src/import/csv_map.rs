@@ -16,6 +16,7 @@
 //! are reported with their line and column, never fixed silently; an empty cell stays
 //! empty (a missing sample, as the contract says).
 
+use crate::record::channels as chan;
 use crate::rig::RigKind;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -95,7 +96,7 @@ fn factor(target: &str, m: &ColumnMap, map_file: &Path) -> Result<(f64, String),
                     known.join(", ")
                 )));
             };
-            if !(target.ends_with(&format!("_{to}")) || target == "t_s" && *to == "s") {
+            if !(target.ends_with(&format!("_{to}")) || target == chan::T_S && *to == "s") {
                 return Err(bad(format!(
                     "`{target}`: unit `{u}` converts to {to}, but the column's unit is another"
                 )));
@@ -140,7 +141,7 @@ pub fn load_map(path: &Path) -> Result<CsvMap, ImportError> {
             message: "[columns] is empty: name at least one contract column".into(),
         });
     }
-    if map.columns.contains_key("t_s") {
+    if map.columns.contains_key(chan::T_S) {
         return Err(ImportError::Map {
             file: path.to_owned(),
             message: "[columns] names `t_s`: the time is the map's `time = { column = \"...\", unit = \"...\" }` line, not a column of [columns]".into(),
@@ -221,9 +222,9 @@ fn plan_of(
             })
     };
     let mut plan = vec![(
-        "t_s".to_string(),
+        chan::T_S.to_string(),
         index(&map.time)?,
-        factor("t_s", &map.time, map_file)?,
+        factor(chan::T_S, &map.time, map_file)?,
         map.time.offset,
     )];
     for (target, m) in &map.columns {
@@ -283,7 +284,7 @@ fn converted_row(
     for (target, col, (f, _), offset) in plan {
         let raw = rec.get(*col).unwrap_or("");
         if raw.is_empty() {
-            if target == "t_s" {
+            if target == chan::T_S {
                 return Err(ImportError::Data {
                     file: data_file.to_owned(),
                     line,
@@ -316,7 +317,7 @@ fn converted_row(
                 ),
             });
         }
-        if target == "t_s" {
+        if target == chan::T_S {
             if let Some(prev) = last_t.filter(|p| x <= *p) {
                 return Err(ImportError::Data {
                     file: data_file.to_owned(),

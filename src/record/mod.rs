@@ -1,6 +1,7 @@
 //! The exchange format (`shared/spec/recording-format.md`): recordings written by runs
 //! and read from elsewhere.
 
+pub mod channels;
 mod join;
 mod reader;
 mod writer;

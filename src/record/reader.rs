@@ -3,6 +3,7 @@
 //! missing values (`None`), never zero. Every contract breach is reported with the file,
 //! the line and the column.
 
+use super::channels as chan;
 use crate::numtext::echoed;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -97,7 +98,7 @@ fn header_columns(header: &str, hline: usize, path: &Path) -> Result<Vec<String>
         message,
     };
     let cols: Vec<String> = header.split(',').map(|c| c.trim().to_string()).collect();
-    if cols.first().map(String::as_str) != Some("t_s") {
+    if cols.first().map(String::as_str) != Some(chan::T_S) {
         return Err(at(format!("first column is `{}`: expected `t_s`", cols[0])));
     }
     for (i, c) in cols.iter().enumerate() {

@@ -2,6 +2,7 @@
 //! unit-suffixed column names, one row per sample. Numbers are printed with a fixed
 //! number of decimals so that the same run gives the same bytes.
 
+use super::channels as chan;
 use crate::rig::RigKind;
 use std::io::Write;
 
@@ -27,28 +28,28 @@ pub fn vehicle_columns() -> Vec<Column> {
         }
     }
     vec![
-        c("t_s", 4, |s| s.t_s),
-        c("demand_fwd_pct", 3, |s| s.demand_pct[0]),
-        c("demand_turn_pct", 3, |s| s.demand_pct[1]),
-        c("left_voltage_V", 4, |s| s.sides[0].voltage_v),
-        c("right_voltage_V", 4, |s| s.sides[1].voltage_v),
-        c("x_m", 6, |s| s.pose.x_m),
-        c("y_m", 6, |s| s.pose.y_m),
-        c("heading_rad", 6, |s| s.pose.heading_rad),
-        c("left_motor_speed_rad_s", 4, |s| {
+        c(chan::T_S, 4, |s| s.t_s),
+        c(chan::DEMAND_FWD_PCT, 3, |s| s.demand_pct[0]),
+        c(chan::DEMAND_TURN_PCT, 3, |s| s.demand_pct[1]),
+        c(chan::LEFT_VOLTAGE_V, 4, |s| s.sides[0].voltage_v),
+        c(chan::RIGHT_VOLTAGE_V, 4, |s| s.sides[1].voltage_v),
+        c(chan::X_M, 6, |s| s.pose.x_m),
+        c(chan::Y_M, 6, |s| s.pose.y_m),
+        c(chan::HEADING_RAD, 6, |s| s.pose.heading_rad),
+        c(chan::LEFT_MOTOR_SPEED_RAD_S, 4, |s| {
             s.sides[0].motor_speed_rad_s
         }),
-        c("right_motor_speed_rad_s", 4, |s| {
+        c(chan::RIGHT_MOTOR_SPEED_RAD_S, 4, |s| {
             s.sides[1].motor_speed_rad_s
         }),
-        c("sensor_left_adc", 2, |s| s.sensors_adc[0]),
-        c("sensor_right_adc", 2, |s| s.sensors_adc[1]),
-        c("left_wheel_speed_m_s", 5, |s| s.sides[0].wheel_rim_m_s),
-        c("right_wheel_speed_m_s", 5, |s| s.sides[1].wheel_rim_m_s),
-        c("yaw_rate_rad_s", 5, |s| s.yaw_rate_rad_s),
+        c(chan::SENSOR_LEFT_ADC, 2, |s| s.sensors_adc[0]),
+        c(chan::SENSOR_RIGHT_ADC, 2, |s| s.sensors_adc[1]),
+        c(chan::LEFT_WHEEL_SPEED_M_S, 5, |s| s.sides[0].wheel_rim_m_s),
+        c(chan::RIGHT_WHEEL_SPEED_M_S, 5, |s| s.sides[1].wheel_rim_m_s),
+        c(chan::YAW_RATE_RAD_S, 5, |s| s.yaw_rate_rad_s),
         c("lateral_error_m", 6, |s| s.lateral_error_m),
-        c("left_current_A", 3, |s| s.sides[0].current_a),
-        c("right_current_A", 3, |s| s.sides[1].current_a),
+        c(chan::LEFT_CURRENT_A, 3, |s| s.sides[0].current_a),
+        c(chan::RIGHT_CURRENT_A, 3, |s| s.sides[1].current_a),
         c("left_slip_ratio", 5, |s| s.sides[0].slip_ratio),
         c("right_slip_ratio", 5, |s| s.sides[1].slip_ratio),
         c("left_tyre_force_N", 3, |s| s.sides[0].tyre_force_n[0]),
@@ -57,7 +58,7 @@ pub fn vehicle_columns() -> Vec<Column> {
         c("right_backlash_gap_rad", 5, |s| s.sides[1].backlash_gap_rad),
         c("turn_command_counts", 3, |s| s.command_counts[1]),
         c("castor_drag_N", 3, |s| s.castor_drag_n),
-        c("battery_V", 4, |s| s.battery_v),
+        c(chan::BATTERY_V, 4, |s| s.battery_v),
     ]
 }
 

@@ -3,6 +3,7 @@
 //! recording must share with the fitted one.
 
 use super::{recording_err, ReplayError};
+use crate::record::channels as chan;
 use crate::record::Recording;
 use crate::rig::RigKind;
 use crate::scene::Scene;
@@ -29,11 +30,11 @@ impl Drive {
     /// The recording's input columns this drive reads.
     pub fn columns(self) -> &'static [&'static str] {
         match self {
-            Drive::Voltages => &["left_voltage_V", "right_voltage_V"],
-            Drive::Demands => &["demand_fwd_pct", "demand_turn_pct"],
-            Drive::AxisVoltage => &["voltage_V"],
-            Drive::AxisDemand => &["demand_pct"],
-            Drive::Velocity => &["cmd_linear_m_s", "cmd_angular_rad_s"],
+            Drive::Voltages => &[chan::LEFT_VOLTAGE_V, chan::RIGHT_VOLTAGE_V],
+            Drive::Demands => &[chan::DEMAND_FWD_PCT, chan::DEMAND_TURN_PCT],
+            Drive::AxisVoltage => &[chan::VOLTAGE_V],
+            Drive::AxisDemand => &[chan::DEMAND_PCT],
+            Drive::Velocity => &[chan::CMD_LINEAR_M_S, chan::CMD_ANGULAR_RAD_S],
         }
     }
 
@@ -90,7 +91,7 @@ pub(super) fn choose_drive(rec: &Recording) -> Result<Drive, ReplayError> {
                 .map(|d| d.columns().join(" and "))
                 .collect();
             // Contract inputs the simulator's machine has no way to take: say why.
-            let other: Vec<&str> = ["torque_Nm", "force_N", "command_V", "reference_rad", "reference_m"]
+            let other: Vec<&str> = [chan::TORQUE_NM, chan::FORCE_N, chan::COMMAND_V, chan::REFERENCE_RAD, chan::REFERENCE_M]
                 .into_iter()
                 .filter(|c| rec.column(c).is_some())
                 .collect();

@@ -28,6 +28,7 @@ mod start_pose;
 use std::path::PathBuf;
 
 use crate::ident::evaluate::fit_pct;
+use crate::record::channels as chan;
 use crate::record::Recording;
 use crate::rig::RigKind;
 use crate::scene::Scene;
@@ -280,11 +281,11 @@ fn simulate_rows(
         rec.column(name)
             .and_then(|c| mean_of(&c[rows.start..still]))
     };
-    if let (Some(x), Some(y)) = (start("x_m"), start("y_m")) {
+    if let (Some(x), Some(y)) = (start(chan::X_M), start(chan::Y_M)) {
         scene.start.x_m = x;
         scene.start.y_m = y;
     }
-    if let Some(c) = rec.column("heading_rad") {
+    if let Some(c) = rec.column(chan::HEADING_RAD) {
         if let Some(h) = mean_heading(&c[rows.start..still]) {
             scene.start.heading_rad = h;
         }

@@ -4,6 +4,7 @@
 
 use super::inputs::{choose_drive, Drive};
 use super::ReplayError;
+use crate::record::channels as chan;
 use crate::record::{vehicle_columns, Recording};
 use crate::rig::RigKind;
 use crate::sim::Snapshot;
@@ -26,10 +27,12 @@ pub(super) struct Channel {
 /// rate and a current are read at the instant.
 fn encoder_source(name: &str) -> Option<fn(&Snapshot) -> f64> {
     match name {
-        "motor_speed_rad_s" | "left_motor_speed_rad_s" => Some(|s| s.sides[0].motor_angle_rad),
-        "right_motor_speed_rad_s" => Some(|s| s.sides[1].motor_angle_rad),
-        "left_wheel_speed_m_s" => Some(|s| s.sides[0].wheel_rim_distance_m),
-        "right_wheel_speed_m_s" => Some(|s| s.sides[1].wheel_rim_distance_m),
+        chan::MOTOR_SPEED_RAD_S | chan::LEFT_MOTOR_SPEED_RAD_S => {
+            Some(|s| s.sides[0].motor_angle_rad)
+        }
+        chan::RIGHT_MOTOR_SPEED_RAD_S => Some(|s| s.sides[1].motor_angle_rad),
+        chan::LEFT_WHEEL_SPEED_M_S => Some(|s| s.sides[0].wheel_rim_distance_m),
+        chan::RIGHT_WHEEL_SPEED_M_S => Some(|s| s.sides[1].wheel_rim_distance_m),
         _ => None,
     }
 }
@@ -40,10 +43,10 @@ type Probe = fn(&Snapshot) -> f64;
 /// The drive-axis outputs (the left drive of the lifted simulator).
 fn axis_channels() -> Vec<(&'static str, Probe)> {
     vec![
-        ("motor_speed_rad_s", |s| s.sides[0].motor_speed_rad_s),
-        ("motor_angle_rad", |s| s.sides[0].motor_angle_rad),
-        ("wheel_angle_rad", |s| s.sides[0].wheel_angle_rad),
-        ("current_A", |s| s.sides[0].current_a),
+        (chan::MOTOR_SPEED_RAD_S, |s| s.sides[0].motor_speed_rad_s),
+        (chan::MOTOR_ANGLE_RAD, |s| s.sides[0].motor_angle_rad),
+        (chan::WHEEL_ANGLE_RAD, |s| s.sides[0].wheel_angle_rad),
+        (chan::CURRENT_A, |s| s.sides[0].current_a),
     ]
 }
 
@@ -54,7 +57,7 @@ pub(super) fn channels(rec: &Recording, drive: Drive) -> (Vec<Channel>, Vec<Stri
     } else {
         vehicle_columns()
             .into_iter()
-            .filter(|c| c.name != "t_s")
+            .filter(|c| c.name != chan::T_S)
             .map(|c| (c.name, c.value))
             .collect()
     };

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 
 use super::Replay;
 use crate::plot::{svg, Series, Style};
+use crate::record::channels as chan;
 use crate::record::Recording;
 
 pub use crate::output::write_atomically;
@@ -13,7 +14,7 @@ pub use crate::output::write_atomically;
 /// The simulated recording: the measured file's time, inputs (as held) and compared
 /// outputs, with the replay named in its metadata.
 pub fn simulated_csv(r: &Replay, rec: &Recording, scene_path: &Path) -> String {
-    let mut columns = vec!["t_s"];
+    let mut columns = vec![chan::T_S];
     columns.extend(r.drive.columns().iter().copied());
     columns.extend(r.outputs.iter().map(|o| o.name.as_str()));
     let mut s = crate::record::header(

@@ -2,6 +2,7 @@
 //! recording's, from the pose samples taken while the machine stands still.
 
 use super::outputs::Channel;
+use crate::record::channels as chan;
 use crate::record::Recording;
 
 /// Mean of the measured cells, if any.
@@ -50,13 +51,15 @@ pub(super) fn align_start_pose(
     simulated: &mut [Vec<f64>],
 ) {
     let find = |name: &str| chans.iter().position(|c| c.name == name);
-    let (Some(ix), Some(iy), Some(ih)) = (find("x_m"), find("y_m"), find("heading_rad")) else {
+    let (Some(ix), Some(iy), Some(ih)) =
+        (find(chan::X_M), find(chan::Y_M), find(chan::HEADING_RAD))
+    else {
         return;
     };
     let (Some(mx), Some(my), Some(mh)) = (
-        rec.column("x_m"),
-        rec.column("y_m"),
-        rec.column("heading_rad"),
+        rec.column(chan::X_M),
+        rec.column(chan::Y_M),
+        rec.column(chan::HEADING_RAD),
     ) else {
         return;
     };

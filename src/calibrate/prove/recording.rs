@@ -3,6 +3,7 @@
 //! seeded measurement noise.
 
 use super::*;
+use crate::record::channels as chan;
 
 /// The rows of an excitation: times and one value per input column.
 pub(super) fn excitation_rows(
@@ -22,16 +23,18 @@ pub(super) fn excitation_rows(
         peak * sum / 2.8
     };
     match (kind, excitation) {
-        (Kind::AxisVoltage, Excitation::SysId) => (vec!["voltage_V"], SYSID_DT_S, sysid_voltages()),
+        (Kind::AxisVoltage, Excitation::SysId) => {
+            (vec![chan::VOLTAGE_V], SYSID_DT_S, sysid_voltages())
+        }
         (Kind::AxisVoltage, _) => (
-            vec!["voltage_V"],
+            vec![chan::VOLTAGE_V],
             0.005,
             (0..1600)
                 .map(|k| vec![sines(k as f64 * 0.005, 0, peak_voltage(excitation))])
                 .collect(),
         ),
         (Kind::AxisDemand, _) => (
-            vec!["demand_pct"],
+            vec![chan::DEMAND_PCT],
             0.005,
             (0..1600)
                 .map(|k| {
@@ -63,10 +66,14 @@ pub(super) fn excitation_rows(
                     level.to_vec()
                 })
                 .collect();
-            (vec!["demand_fwd_pct", "demand_turn_pct"], 0.025, rows)
+            (
+                vec![chan::DEMAND_FWD_PCT, chan::DEMAND_TURN_PCT],
+                0.025,
+                rows,
+            )
         }
         (Kind::VehicleVoltage, _) => (
-            vec!["left_voltage_V", "right_voltage_V"],
+            vec![chan::LEFT_VOLTAGE_V, chan::RIGHT_VOLTAGE_V],
             0.005,
             (0..1600)
                 .map(|k| {
@@ -87,7 +94,11 @@ pub(super) fn excitation_rows(
                     vec![v, w]
                 })
                 .collect();
-            (vec!["cmd_linear_m_s", "cmd_angular_rad_s"], 0.01, rows)
+            (
+                vec![chan::CMD_LINEAR_M_S, chan::CMD_ANGULAR_RAD_S],
+                0.01,
+                rows,
+            )
         }
     }
 }
@@ -120,22 +131,22 @@ pub(super) fn sysid_voltages() -> Vec<Vec<f64>> {
 /// The outputs a kind's rig measures.
 pub(super) fn outputs_of(kind: Kind) -> &'static [&'static str] {
     match kind {
-        Kind::AxisVoltage | Kind::AxisDemand => &["motor_speed_rad_s", "current_A"],
-        Kind::PairDemand => &["left_motor_speed_rad_s", "right_motor_speed_rad_s"],
+        Kind::AxisVoltage | Kind::AxisDemand => &[chan::MOTOR_SPEED_RAD_S, chan::CURRENT_A],
+        Kind::PairDemand => &[chan::LEFT_MOTOR_SPEED_RAD_S, chan::RIGHT_MOTOR_SPEED_RAD_S],
         Kind::VehicleVoltage => &[
-            "x_m",
-            "y_m",
-            "heading_rad",
-            "left_motor_speed_rad_s",
-            "right_motor_speed_rad_s",
+            chan::X_M,
+            chan::Y_M,
+            chan::HEADING_RAD,
+            chan::LEFT_MOTOR_SPEED_RAD_S,
+            chan::RIGHT_MOTOR_SPEED_RAD_S,
         ],
         Kind::BaseVelocity | Kind::BaseRig => &[
-            "x_m",
-            "y_m",
-            "heading_rad",
-            "left_wheel_speed_m_s",
-            "right_wheel_speed_m_s",
-            "yaw_rate_rad_s",
+            chan::X_M,
+            chan::Y_M,
+            chan::HEADING_RAD,
+            chan::LEFT_WHEEL_SPEED_M_S,
+            chan::RIGHT_WHEEL_SPEED_M_S,
+            chan::YAW_RATE_RAD_S,
         ],
     }
 }
@@ -165,7 +176,7 @@ pub fn record_text(
     let mut rng = Pcg64::seed_from_u64(seed);
     let (inputs, dt, rows) = excitation_rows(case.kind, case.excitation, &mut rng);
     let outputs = outputs_of(case.kind);
-    let mut columns = vec!["t_s"];
+    let mut columns = vec![chan::T_S];
     columns.extend(&inputs);
     columns.extend(outputs);
     let mut text = crate::record::header(
@@ -197,8 +208,8 @@ pub fn record_text(
     let sd: Vec<f64> = outputs
         .iter()
         .map(|n| match *n {
-            "x_m" | "y_m" => 0.002,
-            "heading_rad" => 0.005,
+            chan::X_M | chan::Y_M => 0.002,
+            chan::HEADING_RAD => 0.005,
             n => {
                 let y = &r.output(n).expect("a produced output").simulated;
                 let m = y.iter().sum::<f64>() / y.len() as f64;

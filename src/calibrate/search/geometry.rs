@@ -3,6 +3,7 @@
 //! configured geometry.
 
 use super::*;
+use crate::record::channels as chan;
 
 /// A tracker's position noise, m, and heading noise, rad, where nothing says otherwise:
 /// what the wheels' odometry is weighed by ([`Problem::geometry_by_odometry`]).
@@ -31,7 +32,7 @@ impl Problem<'_> {
             .data
             .output_names
             .iter()
-            .filter(|n| !["x_m", "y_m", "heading_rad"].contains(&n.as_str()))
+            .filter(|n| ![chan::X_M, chan::Y_M, chan::HEADING_RAD].contains(&n.as_str()))
             .cloned()
             .collect();
         let pose = self.data.without_outputs(&others);
@@ -198,7 +199,7 @@ fn tracker_weights(pose: &Dataset) -> Vec<f64> {
     pose.output_names
         .iter()
         .map(|n| match n.as_str() {
-            "heading_rad" => 1.0 / TRACKER_HEADING_NOISE_RAD,
+            chan::HEADING_RAD => 1.0 / TRACKER_HEADING_NOISE_RAD,
             _ => 1.0 / TRACKER_POSITION_NOISE_M,
         })
         .collect()

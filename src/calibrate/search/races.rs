@@ -3,6 +3,7 @@
 //! effect the scene has weighed against its absence.
 
 use super::*;
+use crate::record::channels as chan;
 
 impl Problem<'_> {
     /// The values of the effect's key a scan tries: a tenth to ten times its start, nine
@@ -42,7 +43,8 @@ impl Problem<'_> {
         let mut k = 0;
         let mut cost = 0.0;
         for (j, col) in self.data.outputs.iter().enumerate() {
-            let pose = ["x_m", "y_m", "heading_rad"].contains(&self.data.output_names[j].as_str());
+            let pose = [chan::X_M, chan::Y_M, chan::HEADING_RAD]
+                .contains(&self.data.output_names[j].as_str());
             for cell in col.iter().flatten() {
                 let _ = cell;
                 if pose {

@@ -2,6 +2,7 @@
 //! on the calibrated scene, and the path.
 
 use crate::calibrate::Calibration;
+use crate::record::channels as chan;
 
 /// `DIR/OUTPUT_calibrated.svg` per fitted output: measured (wide, pale) under the
 /// original scene's and the calibrated scene's replays.
@@ -49,8 +50,8 @@ pub fn figures(c: &Calibration, rec_name: &str) -> Vec<crate::plot::Figure> {
 /// scene and on the calibrated one, where the recording has a pose that was fitted.
 fn path_figure(c: &Calibration, rec_name: &str) -> Option<crate::plot::Figure> {
     use crate::plot::{Figure, Plot, Series, Style};
-    let (bx, by) = (c.before.output("x_m")?, c.before.output("y_m")?);
-    let (ax, ay) = (c.after.output("x_m")?, c.after.output("y_m")?);
+    let (bx, by) = (c.before.output(chan::X_M)?, c.before.output(chan::Y_M)?);
+    let (ax, ay) = (c.after.output(chan::X_M)?, c.after.output(chan::Y_M)?);
     let (mx, my): (Vec<f64>, Vec<f64>) = bx
         .measured
         .iter()

@@ -28,6 +28,7 @@ use crate::ident::fit::{self, Fit, FitSettings};
 use crate::ident::models::rotary_axis::{AxisInput, RotaryAxis, TermCoefficient, TermForm};
 use crate::ident::Structure;
 use crate::model::term::{Drifting, Family};
+use crate::record::channels as chan;
 
 pub(crate) mod screen;
 mod words;
@@ -329,10 +330,10 @@ impl Ceilings {
         ratio: f64,
     ) -> Ceilings {
         let column = |name: &str| data.output_index(name).map(|j| &data.outputs[j]);
-        let speed = column("motor_speed_rad_s")
+        let speed = column(chan::MOTOR_SPEED_RAD_S)
             .map(|c| c.iter().flatten().fold(0.0f64, |x, v| x.max(v.abs())))
             .unwrap_or(0.0);
-        let heat_a2 = column("current_A")
+        let heat_a2 = column(chan::CURRENT_A)
             .map(|c| {
                 let sq: Vec<f64> = c.iter().flatten().map(|i| i * i).collect();
                 sq.iter().sum::<f64>() / sq.len().max(1) as f64

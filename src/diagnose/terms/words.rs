@@ -5,6 +5,7 @@ use crate::ident::data::Dataset;
 use crate::ident::fit::Fit;
 use crate::ident::models::rotary_axis::TermForm;
 use crate::model::term::{amplitude_phase, Family};
+use crate::record::channels as chan;
 
 /// The contract's parameters of a fitted form (the main coefficient first).
 pub(crate) fn contract_params(
@@ -47,7 +48,7 @@ pub(crate) fn contract_params(
 /// The heat state at the record's end (A^2): the measured current squared, low-passed
 /// over the time constant (the predicted current where none is measured).
 fn final_heat_a2(data: &Dataset, stage: &Fit, tau_s: f64) -> f64 {
-    let j = match data.output_index("current_A") {
+    let j = match data.output_index(chan::CURRENT_A) {
         Some(j) => j,
         None => return 0.0,
     };
@@ -125,10 +126,10 @@ pub(crate) fn quantity_series(
     };
     let phase = |per_motor_turn: f64| -> Option<Vec<f64>> {
         let speed = data
-            .output_index("motor_speed_rad_s")
+            .output_index(chan::MOTOR_SPEED_RAD_S)
             .map(|j| data.outputs[j].as_slice());
         let angle: Option<Vec<f64>> = data
-            .output_index("motor_angle_rad")
+            .output_index(chan::MOTOR_ANGLE_RAD)
             .and_then(|j| data.outputs[j].iter().copied().collect());
         let theta = crate::ident::data::measured_angle(&data.t_s, angle.as_deref(), speed)?;
         Some(
@@ -141,7 +142,7 @@ pub(crate) fn quantity_series(
     Some(match form.family {
         Family::SpeedPower => (
             "wheel speed (rad/s)".into(),
-            column("motor_speed_rad_s")?
+            column(chan::MOTOR_SPEED_RAD_S)?
                 .iter()
                 .map(|w| w / ratio)
                 .collect(),
@@ -155,10 +156,10 @@ pub(crate) fn quantity_series(
             phase(form.order / ratio)?,
         ),
         Family::LoadDependentFriction | Family::CurrentPower => {
-            ("current (A)".into(), column("current_A")?)
+            ("current (A)".into(), column(chan::CURRENT_A)?)
         }
         Family::ThermalDrift => {
-            let i = column("current_A")?;
+            let i = column(chan::CURRENT_A)?;
             let mut q = 0.0;
             let mut heat = Vec::with_capacity(i.len());
             for k in 0..i.len() {

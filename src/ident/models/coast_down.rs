@@ -2,6 +2,7 @@
 //! the recording starts at the cut. With the total inertia known (rig), the decay gives the
 //! viscous damping and the Coulomb friction: `J dw/dt = -b w - Tc sign(w)`.
 
+use crate::record::channels as chan;
 use crate::rig::blocks::Instruments;
 use std::path::Path;
 
@@ -133,7 +134,7 @@ impl GreyBox for CoastDown {
     }
 
     fn output_names(&self) -> Vec<String> {
-        vec!["motor_speed_rad_s".into()]
+        vec![chan::MOTOR_SPEED_RAD_S.into()]
     }
 }
 

@@ -12,6 +12,7 @@
 
 use crate::model::motor::MotorParams;
 use crate::model::wheel::WheelParams;
+use crate::record::channels as chan;
 use crate::rig::blocks::Instruments;
 use crate::rig::keys::alias;
 use std::path::Path;
@@ -338,13 +339,13 @@ impl GreyBox for DcmcPair {
     }
 
     fn input_names(&self) -> Vec<String> {
-        vec!["demand_fwd_pct".into(), "demand_turn_pct".into()]
+        vec![chan::DEMAND_FWD_PCT.into(), chan::DEMAND_TURN_PCT.into()]
     }
 
     fn output_names(&self) -> Vec<String> {
         vec![
-            "left_motor_speed_rad_s".into(),
-            "right_motor_speed_rad_s".into(),
+            chan::LEFT_MOTOR_SPEED_RAD_S.into(),
+            chan::RIGHT_MOTOR_SPEED_RAD_S.into(),
         ]
     }
 }

@@ -4,6 +4,7 @@
 //! known weight torque, the coast gives J against the friction, and the open-circuit
 //! terminal voltage gives the back-EMF constant.
 
+use crate::record::channels as chan;
 use crate::rig::blocks::FallingWeight as TestSetup;
 use crate::rig::blocks::Instruments;
 use std::path::Path;
@@ -124,7 +125,7 @@ impl GreyBox for FallingWeight {
     }
 
     fn output_names(&self) -> Vec<String> {
-        vec!["motor_speed_rad_s".into(), "back_emf_V".into()]
+        vec![chan::MOTOR_SPEED_RAD_S.into(), "back_emf_V".into()]
     }
 }
 
@@ -169,7 +170,7 @@ impl Dynamics for FallingWeight {
     }
 
     fn output_kind(&self, name: &str) -> OutputKind {
-        if name == "motor_speed_rad_s" && self.encoder {
+        if name == chan::MOTOR_SPEED_RAD_S && self.encoder {
             OutputKind::IntervalRate(1)
         } else {
             OutputKind::Instant
@@ -178,7 +179,7 @@ impl Dynamics for FallingWeight {
 
     fn output(&self, m: &MotorParams, name: &str, x: &[f64], _u: &[f64], _held: &[f64]) -> f64 {
         match name {
-            "motor_speed_rad_s" => x[0],
+            chan::MOTOR_SPEED_RAD_S => x[0],
             "back_emf_V" => m.back_emf_v(x[0]),
             _ => f64::NAN,
         }

@@ -5,6 +5,7 @@
 //! output to compare with.
 
 use crate::model::Bounded;
+use crate::record::channels as chan;
 use crate::rig::blocks::CurrentAmplifier;
 use crate::rig::blocks::PositionLoop;
 use std::path::Path;
@@ -234,20 +235,20 @@ impl GreyBox for LinearAxis {
 
     fn input_names(&self) -> Vec<String> {
         let mut i = match self.feedback {
-            Loop::Open if self.force_input => vec!["force_N".to_string()],
-            Loop::Open => vec!["command_V".to_string()],
-            Loop::PositionVelocityCascade { .. } => vec!["reference_m".to_string()],
+            Loop::Open if self.force_input => vec![chan::FORCE_N.to_string()],
+            Loop::Open => vec![chan::COMMAND_V.to_string()],
+            Loop::PositionVelocityCascade { .. } => vec![chan::REFERENCE_M.to_string()],
         };
         if self.disturbance_input {
-            i.push("disturbance_force_N".into());
+            i.push(chan::DISTURBANCE_FORCE_N.into());
         }
         i
     }
 
     fn output_names(&self) -> Vec<String> {
-        let mut o = vec!["position_m".to_string(), "speed_m_s".to_string()];
+        let mut o = vec![chan::POSITION_M.to_string(), chan::SPEED_M_S.to_string()];
         if self.feedback != Loop::Open {
-            o.push("command_V".into());
+            o.push(chan::COMMAND_V.into());
         }
         o
     }
@@ -269,7 +270,7 @@ impl Dynamics for LinearAxis {
     }
 
     fn initial_state(&self, _a: &LinearParams, data: &Dataset) -> Vec<f64> {
-        vec![data.first_measured("position_m").unwrap_or(0.0), 0.0]
+        vec![data.first_measured(chan::POSITION_M).unwrap_or(0.0), 0.0]
     }
 
     fn max_step_s(&self, a: &LinearParams) -> f64 {
@@ -316,9 +317,9 @@ impl Dynamics for LinearAxis {
 
     fn output(&self, _a: &LinearParams, name: &str, x: &[f64], _u: &[f64], held: &[f64]) -> f64 {
         match name {
-            "position_m" => x[0],
-            "speed_m_s" => x[1],
-            "command_V" => held[0],
+            chan::POSITION_M => x[0],
+            chan::SPEED_M_S => x[1],
+            chan::COMMAND_V => held[0],
             _ => f64::NAN,
         }
     }

@@ -11,6 +11,7 @@ use super::converter::{
 use super::{clock, streams};
 use super::{Geometry, Ros2Error, TimeSource, TopicMap};
 use crate::import::bag::{Bag, Storage, Topic};
+use crate::record::channels as chan;
 
 /// How one column was made, for the recording's header.
 #[derive(Debug, Clone, PartialEq)]
@@ -143,7 +144,7 @@ fn convert_timed(
     if let Some(t) = topics.imu {
         let placing = table.placing(&t.name);
         table.add(
-            "yaw_rate_rad_s",
+            chan::YAW_RATE_RAD_S,
             table.align(&gyro, 0, &t.name),
             format!("{} ({IMU}) angular_velocity.z, in the IMU's frame taken as level and aligned with the base; {placing}", t.name),
         );
@@ -347,12 +348,12 @@ impl<'r> Table<'r> {
         };
         let rows = self.rows;
         self.add(
-            "cmd_linear_m_s",
+            chan::CMD_LINEAR_M_S,
             held(rows, &cmd.series, 0),
             how("linear.x"),
         );
         self.add(
-            "cmd_angular_rad_s",
+            chan::CMD_ANGULAR_RAD_S,
             held(rows, &cmd.series, 1),
             how("angular.z"),
         );
@@ -429,11 +430,15 @@ impl<'r> Table<'r> {
     fn add_odometry(&mut self, t: &Topic, odometry: &Series, (frame, child): (String, String)) {
         let placing = self.placing(&t.name);
         for (j, col, field) in [
-            (0, "odom_x_m", "pose.position.x"),
-            (1, "odom_y_m", "pose.position.y"),
-            (2, "odom_heading_rad", "yaw of pose.orientation, unwrapped"),
-            (3, "odom_linear_m_s", "twist.linear.x"),
-            (4, "odom_angular_rad_s", "twist.angular.z"),
+            (0, chan::ODOM_X_M, "pose.position.x"),
+            (1, chan::ODOM_Y_M, "pose.position.y"),
+            (
+                2,
+                chan::ODOM_HEADING_RAD,
+                "yaw of pose.orientation, unwrapped",
+            ),
+            (3, chan::ODOM_LINEAR_M_S, "twist.linear.x"),
+            (4, chan::ODOM_ANGULAR_RAD_S, "twist.angular.z"),
         ] {
             self.add(
                 col,
@@ -447,9 +452,9 @@ impl<'r> Table<'r> {
     fn add_pose(&mut self, pose: &Series, frames: &str, topic: &str) {
         let placing = self.placing(topic);
         for (j, col, field) in [
-            (0, "x_m", "x"),
-            (1, "y_m", "y"),
-            (2, "heading_rad", "heading (yaw), unwrapped"),
+            (0, chan::X_M, "x"),
+            (1, chan::Y_M, "y"),
+            (2, chan::HEADING_RAD, "heading (yaw), unwrapped"),
         ] {
             let where_ = if frames.contains(" -> ") {
                 format!("{topic} transform {frames}")
@@ -512,7 +517,7 @@ impl Ros2Recording {
         for c in &self.conversions {
             s.push_str(&format!("# ros2.{}: {}\n", c.column, c.how));
         }
-        s.push_str("t_s");
+        s.push_str(chan::T_S);
         for n in &self.names {
             s.push(',');
             s.push_str(n);

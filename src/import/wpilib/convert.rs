@@ -5,6 +5,7 @@ use crate::model::chassis::ChassisParams;
 use crate::model::gearbox::GearboxParams;
 use crate::model::motor::MotorParams;
 use crate::model::wheel::WheelParams;
+use crate::record::channels as chan;
 use crate::rig::keys::alias;
 use std::fmt::Write as _;
 
@@ -121,21 +122,21 @@ pub(crate) fn convert(
                 ),
             ));
         }
-        let mut header = vec!["t_s"];
+        let mut header = vec![chan::T_S];
         if drive {
             meta.push((
                 "conversion",
                 format!("left_wheel_speed_m_s, right_wheel_speed_m_s = velocity in {how}"),
             ));
             header.extend([
-                "left_voltage_V",
-                "right_voltage_V",
-                "left_wheel_speed_m_s",
-                "right_wheel_speed_m_s",
+                chan::LEFT_VOLTAGE_V,
+                chan::RIGHT_VOLTAGE_V,
+                chan::LEFT_WHEEL_SPEED_M_S,
+                chan::RIGHT_WHEEL_SPEED_M_S,
             ]);
             if gyro {
                 meta.push(("conversion", "yaw_rate_rad_s = the gyro's angular rate, rad/s as SysId's drivetrain logger sends it".into()));
-                header.push("yaw_rate_rad_s");
+                header.push(chan::YAW_RATE_RAD_S);
             }
         } else {
             meta.push((
@@ -144,9 +145,13 @@ pub(crate) fn convert(
                     "motor_speed_rad_s = velocity in {how}; motor_angle_rad likewise from position"
                 ),
             ));
-            header.extend(["voltage_V", "motor_angle_rad", "motor_speed_rad_s"]);
+            header.extend([
+                chan::VOLTAGE_V,
+                chan::MOTOR_ANGLE_RAD,
+                chan::MOTOR_SPEED_RAD_S,
+            ]);
             if current {
-                header.push("current_A");
+                header.push(chan::CURRENT_A);
             }
         }
         let rig = if drive {

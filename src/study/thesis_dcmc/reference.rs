@@ -1,6 +1,7 @@
 //! The thesis's case-1 DCMC result (section 5.2.1) and a reference recording made from
 //! it: what agvsim's machine is matched against. Units and signs: see the parent module.
 
+use crate::record::channels as chan;
 use std::fmt::Write as _;
 
 use rand::{Rng, SeedableRng};
@@ -137,11 +138,11 @@ pub fn reference_recording(spec: &ReferenceSpec) -> String {
             ("seed", format!("{}", spec.seed)),
         ],
         &[
-            "t_s",
-            "demand_fwd_pct",
-            "demand_turn_pct",
-            "left_motor_speed_rad_s",
-            "right_motor_speed_rad_s",
+            chan::T_S,
+            chan::DEMAND_FWD_PCT,
+            chan::DEMAND_TURN_PCT,
+            chan::LEFT_MOTOR_SPEED_RAD_S,
+            chan::RIGHT_MOTOR_SPEED_RAD_S,
         ],
     );
     let phi = m.a_1_s.map(|a| (a * t).exp());

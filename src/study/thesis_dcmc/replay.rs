@@ -7,6 +7,7 @@ use crate::ident::fit::{fit_predictor, Fit, FitSettings};
 use crate::ident::model::{Diverged, ParamSpec, Predictor};
 use crate::model::dcmc::DcmcParams;
 use crate::param::ParamKey;
+use crate::record::channels as chan;
 use crate::scene::Scene;
 use crate::sim::{Actuation, Sim};
 
@@ -153,9 +154,10 @@ impl LiftedDcmcReplay {
     }
 
     /// The recording's inputs.
-    pub const INPUTS: [&'static str; 2] = ["demand_fwd_pct", "demand_turn_pct"];
+    pub const INPUTS: [&'static str; 2] = [chan::DEMAND_FWD_PCT, chan::DEMAND_TURN_PCT];
     /// The recording's outputs.
-    pub const OUTPUTS: [&'static str; 2] = ["left_motor_speed_rad_s", "right_motor_speed_rad_s"];
+    pub const OUTPUTS: [&'static str; 2] =
+        [chan::LEFT_MOTOR_SPEED_RAD_S, chan::RIGHT_MOTOR_SPEED_RAD_S];
 }
 
 impl Predictor for LiftedDcmcReplay {

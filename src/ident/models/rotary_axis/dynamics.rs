@@ -12,6 +12,7 @@ use crate::model::speed_loop::SpeedLoopGains;
 use crate::model::term::{self, TermParams};
 use crate::model::wheel::WheelParams;
 use crate::model::Bounded;
+use crate::record::channels as chan;
 
 use super::{
     play_gearbox, AxisInput, AxisParams, PlayShare, RotaryAxis, TorqueCommand, DEMAND_GAIN,
@@ -179,8 +180,8 @@ impl RotaryAxis {
     /// position loop's reference).
     fn drive_input_names(&self) -> Vec<String> {
         match self.input {
-            AxisInput::Voltage => vec!["voltage_V".into()],
-            AxisInput::Demand => vec!["demand_pct".into()],
+            AxisInput::Voltage => vec![chan::VOLTAGE_V.into()],
+            AxisInput::Demand => vec![chan::DEMAND_PCT.into()],
             AxisInput::Torque(TorqueCommand {
                 feedback: None,
                 column,
@@ -188,7 +189,7 @@ impl RotaryAxis {
             }) => {
                 vec![column.into()]
             }
-            AxisInput::Torque(_) => vec!["reference_rad".into()],
+            AxisInput::Torque(_) => vec![chan::REFERENCE_RAD.into()],
         }
     }
 
@@ -251,7 +252,7 @@ impl GreyBox for RotaryAxis {
         // measurement R and L are not separable from K and J, so they stay fixed.
         let mut free = if matches!(self.input, AxisInput::Torque(_)) {
             vec![ROTOR_INERTIA, VISCOUS]
-        } else if outputs.iter().any(|o| o == "current_A") {
+        } else if outputs.iter().any(|o| o == chan::CURRENT_A) {
             vec![
                 RESISTANCE,
                 INDUCTANCE,
@@ -280,9 +281,13 @@ impl GreyBox for RotaryAxis {
     }
 
     fn output_names(&self) -> Vec<String> {
-        let mut o: Vec<String> = ["motor_speed_rad_s", "motor_angle_rad", "wheel_angle_rad"]
-            .map(String::from)
-            .to_vec();
+        let mut o: Vec<String> = [
+            chan::MOTOR_SPEED_RAD_S,
+            chan::MOTOR_ANGLE_RAD,
+            chan::WHEEL_ANGLE_RAD,
+        ]
+        .map(String::from)
+        .to_vec();
         match self.input {
             // The armature current follows the command, not a law of this model.
             AxisInput::Torque(TorqueCommand {
@@ -291,7 +296,7 @@ impl GreyBox for RotaryAxis {
                 ..
             }) => o.push(column.into()),
             AxisInput::Torque(_) => {}
-            AxisInput::Voltage | AxisInput::Demand => o.insert(1, "current_A".into()),
+            AxisInput::Voltage | AxisInput::Demand => o.insert(1, chan::CURRENT_A.into()),
         }
         o
     }
@@ -339,9 +344,9 @@ impl Dynamics for RotaryAxis {
 
     fn initial_state(&self, _b: &AxisBlocks, data: &Dataset) -> Vec<f64> {
         let angle = data
-            .first_measured("motor_angle_rad")
+            .first_measured(chan::MOTOR_ANGLE_RAD)
             .or_else(|| {
-                data.first_measured("wheel_angle_rad")
+                data.first_measured(chan::WHEEL_ANGLE_RAD)
                     .map(|a| a * self.ratio)
             })
             .unwrap_or(0.0);
@@ -465,7 +470,7 @@ impl Dynamics for RotaryAxis {
     }
 
     fn output_kind(&self, name: &str) -> OutputKind {
-        if name == "motor_speed_rad_s" && self.encoder {
+        if name == chan::MOTOR_SPEED_RAD_S && self.encoder {
             OutputKind::IntervalRate(2)
         } else {
             OutputKind::Instant
@@ -474,11 +479,11 @@ impl Dynamics for RotaryAxis {
 
     fn output(&self, _b: &AxisBlocks, name: &str, x: &[f64], _u: &[f64], held: &[f64]) -> f64 {
         match name {
-            "command_V" => held[0],
-            "motor_speed_rad_s" => x[1],
-            "current_A" => x[0],
-            "motor_angle_rad" => x[2],
-            "wheel_angle_rad" => x[4],
+            chan::COMMAND_V => held[0],
+            chan::MOTOR_SPEED_RAD_S => x[1],
+            chan::CURRENT_A => x[0],
+            chan::MOTOR_ANGLE_RAD => x[2],
+            chan::WHEEL_ANGLE_RAD => x[4],
             _ => f64::NAN,
         }
     }

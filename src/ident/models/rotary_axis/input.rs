@@ -2,6 +2,7 @@
 //! torque amplifier's command (with the position loop that made it, if recorded in closed
 //! loop).
 
+use crate::record::channels as chan;
 use crate::rig::blocks::{CurrentAmplifier, PositionLoop};
 use crate::rig::{Rig, RigError};
 use std::path::Path;
@@ -53,16 +54,16 @@ impl TorqueCommand {
         has: impl Fn(&str) -> bool,
     ) -> Result<Option<TorqueCommand>, RigError> {
         let need = |k: &str, why: &str| rig.require(k, path, why);
-        if has("torque_Nm") {
+        if has(chan::TORQUE_NM) {
             return Ok(Some(TorqueCommand {
                 per_volt_nm_v: 1.0,
                 limit: f64::INFINITY,
-                column: "torque_Nm",
+                column: chan::TORQUE_NM,
                 feedback: None,
             }));
         }
-        let closed = has("reference_rad");
-        if !has("command_V") && !closed {
+        let closed = has(chan::REFERENCE_RAD);
+        if !has(chan::COMMAND_V) && !closed {
             return Ok(None);
         }
         let why = if closed {
@@ -97,7 +98,7 @@ impl TorqueCommand {
             limit: rig
                 .get(CurrentAmplifier::limit_v.key())
                 .unwrap_or(f64::INFINITY),
-            column: "command_V",
+            column: chan::COMMAND_V,
             feedback,
         }))
     }

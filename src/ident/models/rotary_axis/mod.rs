@@ -10,6 +10,7 @@ mod dynamics;
 mod input;
 mod term_form;
 
+use crate::record::channels as chan;
 use crate::rig::blocks::Instruments;
 use crate::rig::keys::alias;
 pub use dynamics::AxisBlocks;
@@ -381,7 +382,7 @@ impl RotaryAxis {
     /// without a current.
     pub fn newly_identifiable(&self, effect: Effect, outputs: &[String]) -> Vec<usize> {
         use crate::ident::model::GreyBox;
-        let has_current = outputs.iter().any(|o| o == "current_A");
+        let has_current = outputs.iter().any(|o| o == chan::CURRENT_A);
         match effect {
             // The wheel's inertia is seen apart from the rotor's once the teeth separate.
             Effect::Backlash if has_current || self.torque_command().is_some() => {

@@ -4,6 +4,7 @@
 use super::{Vehicle, VehicleBlocks, BODY, SIDE, SLIP_SPEED_FLOOR_M_S};
 use crate::ident::data::Dataset;
 use crate::ident::model::{Dynamics, OutputKind};
+use crate::record::channels as chan;
 
 impl Dynamics for Vehicle {
     type Blocks = VehicleBlocks;
@@ -20,9 +21,9 @@ impl Dynamics for Vehicle {
     fn initial_state(&self, _b: &VehicleBlocks, data: &Dataset) -> Vec<f64> {
         // At rest; the pose where the tracker first saw the vehicle.
         let mut x = vec![0.0; self.n_states()];
-        x[BODY + 3] = data.first_measured("x_m").unwrap_or(0.0);
-        x[BODY + 4] = data.first_measured("y_m").unwrap_or(0.0);
-        x[BODY + 5] = data.first_measured("heading_rad").unwrap_or(0.0);
+        x[BODY + 3] = data.first_measured(chan::X_M).unwrap_or(0.0);
+        x[BODY + 4] = data.first_measured(chan::Y_M).unwrap_or(0.0);
+        x[BODY + 5] = data.first_measured(chan::HEADING_RAD).unwrap_or(0.0);
         x
     }
 
@@ -106,10 +107,11 @@ impl Dynamics for Vehicle {
     /// noise. This is the least-squares optimum over three nuisance parameters, at no cost
     /// in simulations.
     fn align_outputs(&self, data: &Dataset, y: &mut [Vec<f64>]) {
-        let (Some(jx), Some(jy)) = (data.output_index("x_m"), data.output_index("y_m")) else {
+        let (Some(jx), Some(jy)) = (data.output_index(chan::X_M), data.output_index(chan::Y_M))
+        else {
             return;
         };
-        let jh = data.output_index("heading_rad");
+        let jh = data.output_index(chan::HEADING_RAD);
         let (wp, wh) = (
             1.0 / (self.tracker_position_noise_m * self.tracker_position_noise_m),
             1.0 / (self.tracker_heading_noise_rad * self.tracker_heading_noise_rad),
@@ -158,8 +160,8 @@ impl Dynamics for Vehicle {
 
     fn output_kind(&self, name: &str) -> OutputKind {
         match name {
-            "left_motor_speed_rad_s" if self.encoder => OutputKind::IntervalRate(2),
-            "right_motor_speed_rad_s" if self.encoder => OutputKind::IntervalRate(SIDE + 2),
+            chan::LEFT_MOTOR_SPEED_RAD_S if self.encoder => OutputKind::IntervalRate(2),
+            chan::RIGHT_MOTOR_SPEED_RAD_S if self.encoder => OutputKind::IntervalRate(SIDE + 2),
             _ => OutputKind::Instant,
         }
     }
@@ -167,16 +169,16 @@ impl Dynamics for Vehicle {
     fn output(&self, b: &VehicleBlocks, name: &str, x: &[f64], _u: &[f64], _held: &[f64]) -> f64 {
         let wheel = |s: usize| self.wheel_speed_rad_s(x, s);
         match name {
-            "x_m" => x[BODY + 3],
-            "y_m" => x[BODY + 4],
-            "heading_rad" => x[BODY + 5],
-            "left_motor_speed_rad_s" => x[1],
-            "right_motor_speed_rad_s" => x[SIDE + 1],
-            "left_wheel_speed_m_s" => wheel(0) * b.drivetrain.wheel.radius_m,
-            "right_wheel_speed_m_s" => wheel(SIDE) * b.drivetrain.wheel.radius_m,
-            "yaw_rate_rad_s" => x[BODY + 2],
-            "left_current_A" => x[0],
-            "right_current_A" => x[SIDE],
+            chan::X_M => x[BODY + 3],
+            chan::Y_M => x[BODY + 4],
+            chan::HEADING_RAD => x[BODY + 5],
+            chan::LEFT_MOTOR_SPEED_RAD_S => x[1],
+            chan::RIGHT_MOTOR_SPEED_RAD_S => x[SIDE + 1],
+            chan::LEFT_WHEEL_SPEED_M_S => wheel(0) * b.drivetrain.wheel.radius_m,
+            chan::RIGHT_WHEEL_SPEED_M_S => wheel(SIDE) * b.drivetrain.wheel.radius_m,
+            chan::YAW_RATE_RAD_S => x[BODY + 2],
+            chan::LEFT_CURRENT_A => x[0],
+            chan::RIGHT_CURRENT_A => x[SIDE],
             _ => f64::NAN,
         }
     }

@@ -24,6 +24,7 @@ use crate::model::gearbox::GearboxParams;
 use crate::model::motor::MotorParams;
 use crate::model::wheel::WheelParams;
 use crate::model::Bounded;
+use crate::record::channels as chan;
 use crate::rig::blocks::Instruments;
 use crate::rig::keys::alias;
 use std::path::Path;
@@ -356,10 +357,10 @@ impl GreyBox for Vehicle {
     fn default_free(&self, outputs: &[String]) -> Vec<usize> {
         let has = |n: &str| outputs.iter().any(|o| o == n);
         let motor_seen = [
-            "left_motor_speed_rad_s",
-            "right_motor_speed_rad_s",
-            "left_current_A",
-            "right_current_A",
+            chan::LEFT_MOTOR_SPEED_RAD_S,
+            chan::RIGHT_MOTOR_SPEED_RAD_S,
+            chan::LEFT_CURRENT_A,
+            chan::RIGHT_CURRENT_A,
         ]
         .iter()
         .any(|n| has(n));
@@ -380,7 +381,7 @@ impl GreyBox for Vehicle {
             if self.belief_is_a_guess(INDUCTANCE) {
                 free.push(INDUCTANCE);
             }
-            if has("yaw_rate_rad_s") || has("heading_rad") {
+            if has(chan::YAW_RATE_RAD_S) || has(chan::HEADING_RAD) {
                 free.extend([YAW_INERTIA, TRACK]);
             }
             return self.indices_of(&free);
@@ -438,21 +439,21 @@ impl GreyBox for Vehicle {
     }
 
     fn input_names(&self) -> Vec<String> {
-        vec!["left_voltage_V".into(), "right_voltage_V".into()]
+        vec![chan::LEFT_VOLTAGE_V.into(), chan::RIGHT_VOLTAGE_V.into()]
     }
 
     fn output_names(&self) -> Vec<String> {
         [
-            "x_m",
-            "y_m",
-            "heading_rad",
-            "left_motor_speed_rad_s",
-            "right_motor_speed_rad_s",
-            "left_wheel_speed_m_s",
-            "right_wheel_speed_m_s",
-            "yaw_rate_rad_s",
-            "left_current_A",
-            "right_current_A",
+            chan::X_M,
+            chan::Y_M,
+            chan::HEADING_RAD,
+            chan::LEFT_MOTOR_SPEED_RAD_S,
+            chan::RIGHT_MOTOR_SPEED_RAD_S,
+            chan::LEFT_WHEEL_SPEED_M_S,
+            chan::RIGHT_WHEEL_SPEED_M_S,
+            chan::YAW_RATE_RAD_S,
+            chan::LEFT_CURRENT_A,
+            chan::RIGHT_CURRENT_A,
         ]
         .map(String::from)
         .to_vec()

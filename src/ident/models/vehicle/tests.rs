@@ -5,6 +5,7 @@ use super::*;
 use crate::ident::model::simulate;
 use crate::model::chassis::ChassisParams;
 use crate::model::GRAVITY_M_S2;
+use crate::record::channels as chan;
 
 fn rig() -> Rig {
     Rig::parse(
@@ -35,11 +36,11 @@ drive_load_fraction = 0.6
 fn run(model: &Vehicle, p: &[f64], v: [f64; 2], duration: f64) -> (Dataset, Vec<Vec<f64>>) {
     let n = (duration / 0.01) as usize + 1;
     let outputs = [
-        "x_m",
-        "y_m",
-        "heading_rad",
-        "left_motor_speed_rad_s",
-        "right_motor_speed_rad_s",
+        chan::X_M,
+        chan::Y_M,
+        chan::HEADING_RAD,
+        chan::LEFT_MOTOR_SPEED_RAD_S,
+        chan::RIGHT_MOTOR_SPEED_RAD_S,
     ];
     let data = Dataset {
         name: "test".into(),

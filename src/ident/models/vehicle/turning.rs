@@ -2,6 +2,7 @@
 //! excursion, which decide whether the yaw it measures can steer a fit.
 
 use crate::ident::data::Dataset;
+use crate::record::channels as chan;
 
 /// Largest RMS of the left and right commands' difference, as a share of the RMS of their
 /// mean, at which a record commands no turn. Two sides' drivers never deliver exactly the
@@ -65,7 +66,7 @@ impl Turning {
             return Vec::new();
         }
         let why = self.why_none();
-        ["yaw_rate_rad_s", "heading_rad"]
+        [chan::YAW_RATE_RAD_S, chan::HEADING_RAD]
             .into_iter()
             .map(|o| (o.to_string(), why.clone()))
             .collect()
@@ -98,7 +99,7 @@ fn heading_excursion(data: &Dataset) -> Option<f64> {
         }
     };
     let segments = data.segments();
-    if let Some(j) = data.output_index("heading_rad") {
+    if let Some(j) = data.output_index(chan::HEADING_RAD) {
         let col = &data.outputs[j];
         return Some(
             segments
@@ -107,7 +108,7 @@ fn heading_excursion(data: &Dataset) -> Option<f64> {
                 .fold(0.0, f64::max),
         );
     }
-    let j = data.output_index("yaw_rate_rad_s")?;
+    let j = data.output_index(chan::YAW_RATE_RAD_S)?;
     let col = &data.outputs[j];
     Some(
         segments
