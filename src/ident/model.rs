@@ -196,10 +196,16 @@ pub trait Dynamics: Sync {
     }
     /// After each integration step: set-valued laws (stiction) act here.
     fn after_step(&self, _b: &Self::Blocks, _x_before: &[f64], _x: &mut [f64]) {}
-    /// How output `name` is formed.
-    fn output_kind(&self, name: &str) -> OutputKind;
-    /// Instantaneous value of output `name`.
-    fn output(&self, b: &Self::Blocks, name: &str, x: &[f64], u: &[f64], held: &[f64]) -> f64;
+    /// An output of the model, resolved from its column name once before the per-sample
+    /// loop ([`Dynamics::output_of`]).
+    type Output: Copy;
+    /// The output a recording's column `name` is (the model's own "none" for a column it
+    /// does not produce, whose value is then NaN).
+    fn output_of(&self, name: &str) -> Self::Output;
+    /// How an output is formed.
+    fn output_kind(&self, o: Self::Output) -> OutputKind;
+    /// Instantaneous value of an output.
+    fn output(&self, b: &Self::Blocks, o: Self::Output, x: &[f64], u: &[f64], held: &[f64]) -> f64;
     /// Adjusts a finished simulation to the recording's frame before it is compared (a
     /// pose tracker's unknown start pose): called once per simulation.
     fn align_outputs(&self, _data: &Dataset, _y: &mut [Vec<f64>]) {}
@@ -379,11 +385,12 @@ fn simulate_one<M: Dynamics + ?Sized>(
 ) -> Result<Vec<Vec<f64>>, Diverged> {
     let n = data.len();
     let nx = model.n_states();
-    let kinds: Vec<OutputKind> = data
+    let outputs: Vec<M::Output> = data
         .output_names
         .iter()
-        .map(|o| model.output_kind(o))
+        .map(|name| model.output_of(name))
         .collect();
+    let kinds: Vec<OutputKind> = outputs.iter().map(|&o| model.output_kind(o)).collect();
     let mut x = model.initial_state(p, data);
     let mut held = vec![0.0; model.n_held()];
     let mut u = vec![0.0; data.inputs.len()];
@@ -401,11 +408,11 @@ fn simulate_one<M: Dynamics + ?Sized>(
             model.hold(p, t, &x, &u, &mut held);
         }
         // Outputs at t_k (the held values are those computed at t_k).
-        for (j, name) in data.output_names.iter().enumerate() {
+        for (j, &o) in outputs.iter().enumerate() {
             y[j][k] = match kinds[j] {
-                OutputKind::Instant => model.output(p, name, &x, &u, &held),
+                OutputKind::Instant => model.output(p, o, &x, &u, &held),
                 // No interval before the first sample: its instantaneous rate.
-                OutputKind::IntervalRate(_) if k == 0 => model.output(p, name, &x, &u, &held),
+                OutputKind::IntervalRate(_) if k == 0 => model.output(p, o, &x, &u, &held),
                 OutputKind::IntervalRate(_) => y[j][k], // set at the end of the interval
             };
         }
@@ -655,10 +662,12 @@ mod tests {
                 Law::Kinked { .. } => 1.0 + 2.0 * (x[0] - 0.3).max(0.0),
             };
         }
-        fn output_kind(&self, _name: &str) -> OutputKind {
+        type Output = ();
+        fn output_of(&self, _name: &str) {}
+        fn output_kind(&self, _o: ()) -> OutputKind {
             OutputKind::Instant
         }
-        fn output(&self, _b: &f64, _name: &str, x: &[f64], _u: &[f64], _h: &[f64]) -> f64 {
+        fn output(&self, _b: &f64, _o: (), x: &[f64], _u: &[f64], _h: &[f64]) -> f64 {
             x[0]
         }
     }

@@ -140,6 +140,8 @@ impl GreyBox for CoastDown {
 
 impl Dynamics for CoastDown {
     type Blocks = CoastParams;
+    /// The one output: the motor's speed, whatever the column's name.
+    type Output = ();
 
     fn blocks(&self, p: &[f64]) -> CoastParams {
         self.binding.apply(&CoastParams::default(), p)
@@ -169,7 +171,9 @@ impl Dynamics for CoastDown {
         }
     }
 
-    fn output_kind(&self, _name: &str) -> OutputKind {
+    fn output_of(&self, _name: &str) {}
+
+    fn output_kind(&self, _o: ()) -> OutputKind {
         if self.encoder {
             OutputKind::IntervalRate(1)
         } else {
@@ -177,7 +181,7 @@ impl Dynamics for CoastDown {
         }
     }
 
-    fn output(&self, _c: &CoastParams, _name: &str, x: &[f64], _u: &[f64], _held: &[f64]) -> f64 {
+    fn output(&self, _c: &CoastParams, _o: (), x: &[f64], _u: &[f64], _held: &[f64]) -> f64 {
         x[0]
     }
 }

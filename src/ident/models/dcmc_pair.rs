@@ -352,6 +352,8 @@ impl GreyBox for DcmcPair {
 
 impl Dynamics for DcmcPair {
     type Blocks = DcmcPairParams;
+    /// The side whose motor speed the column is: 0 left, 1 right.
+    type Output = usize;
 
     fn blocks(&self, p: &[f64]) -> DcmcPairParams {
         self.sides(p)
@@ -397,8 +399,11 @@ impl Dynamics for DcmcPair {
         dx[3] = x[1];
     }
 
-    fn output_kind(&self, name: &str) -> OutputKind {
-        let side = usize::from(name.starts_with("right"));
+    fn output_of(&self, name: &str) -> usize {
+        usize::from(name.starts_with("right"))
+    }
+
+    fn output_kind(&self, side: usize) -> OutputKind {
         if self.encoder {
             OutputKind::IntervalRate(2 + side)
         } else {
@@ -406,7 +411,14 @@ impl Dynamics for DcmcPair {
         }
     }
 
-    fn output(&self, _v: &DcmcPairParams, name: &str, x: &[f64], _u: &[f64], _held: &[f64]) -> f64 {
-        x[usize::from(name.starts_with("right"))]
+    fn output(
+        &self,
+        _v: &DcmcPairParams,
+        side: usize,
+        x: &[f64],
+        _u: &[f64],
+        _held: &[f64],
+    ) -> f64 {
+        x[side]
     }
 }

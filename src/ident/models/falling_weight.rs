@@ -131,6 +131,7 @@ impl GreyBox for FallingWeight {
 
 impl Dynamics for FallingWeight {
     type Blocks = MotorParams;
+    type Output = FallingOutput;
 
     fn blocks(&self, p: &[f64]) -> MotorParams {
         self.binding.apply(&MotorParams::default(), p)
@@ -169,19 +170,45 @@ impl Dynamics for FallingWeight {
         }
     }
 
-    fn output_kind(&self, name: &str) -> OutputKind {
-        if name == chan::MOTOR_SPEED_RAD_S && self.encoder {
+    fn output_of(&self, name: &str) -> FallingOutput {
+        match name {
+            chan::MOTOR_SPEED_RAD_S => FallingOutput::MotorSpeed,
+            "back_emf_V" => FallingOutput::BackEmf,
+            _ => FallingOutput::Other,
+        }
+    }
+
+    fn output_kind(&self, o: FallingOutput) -> OutputKind {
+        if o == FallingOutput::MotorSpeed && self.encoder {
             OutputKind::IntervalRate(1)
         } else {
             OutputKind::Instant
         }
     }
 
-    fn output(&self, m: &MotorParams, name: &str, x: &[f64], _u: &[f64], _held: &[f64]) -> f64 {
-        match name {
-            chan::MOTOR_SPEED_RAD_S => x[0],
-            "back_emf_V" => m.back_emf_v(x[0]),
-            _ => f64::NAN,
+    fn output(
+        &self,
+        m: &MotorParams,
+        o: FallingOutput,
+        x: &[f64],
+        _u: &[f64],
+        _held: &[f64],
+    ) -> f64 {
+        match o {
+            FallingOutput::MotorSpeed => x[0],
+            FallingOutput::BackEmf => m.back_emf_v(x[0]),
+            FallingOutput::Other => f64::NAN,
         }
     }
+}
+
+/// What a falling-weight recording's output column is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FallingOutput {
+    /// `motor_speed_rad_s`.
+    MotorSpeed,
+    /// `back_emf_V`: the motor's back EMF at its speed.
+    BackEmf,
+    /// A column the model does not produce.
+    Other,
 }

@@ -256,6 +256,7 @@ impl GreyBox for LinearAxis {
 
 impl Dynamics for LinearAxis {
     type Blocks = LinearParams;
+    type Output = LinearOutput;
 
     fn blocks(&self, p: &[f64]) -> LinearParams {
         self.declared(p)
@@ -311,16 +312,45 @@ impl Dynamics for LinearAxis {
         dx[1] = force / load.mass_kg;
     }
 
-    fn output_kind(&self, _name: &str) -> OutputKind {
+    fn output_of(&self, name: &str) -> LinearOutput {
+        match name {
+            chan::POSITION_M => LinearOutput::Position,
+            chan::SPEED_M_S => LinearOutput::Speed,
+            chan::COMMAND_V => LinearOutput::Command,
+            _ => LinearOutput::Other,
+        }
+    }
+
+    fn output_kind(&self, _o: LinearOutput) -> OutputKind {
         OutputKind::Instant
     }
 
-    fn output(&self, _a: &LinearParams, name: &str, x: &[f64], _u: &[f64], held: &[f64]) -> f64 {
-        match name {
-            chan::POSITION_M => x[0],
-            chan::SPEED_M_S => x[1],
-            chan::COMMAND_V => held[0],
-            _ => f64::NAN,
+    fn output(
+        &self,
+        _a: &LinearParams,
+        o: LinearOutput,
+        x: &[f64],
+        _u: &[f64],
+        held: &[f64],
+    ) -> f64 {
+        match o {
+            LinearOutput::Position => x[0],
+            LinearOutput::Speed => x[1],
+            LinearOutput::Command => held[0],
+            LinearOutput::Other => f64::NAN,
         }
     }
+}
+
+/// What a linear axis's output column is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LinearOutput {
+    /// `position_m`.
+    Position,
+    /// `speed_m_s`.
+    Speed,
+    /// `command_V`, as the loop held it.
+    Command,
+    /// A column the model does not produce.
+    Other,
 }

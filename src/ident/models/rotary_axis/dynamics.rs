@@ -310,6 +310,7 @@ impl GreyBox for RotaryAxis {
 
 impl Dynamics for RotaryAxis {
     type Blocks = AxisBlocks;
+    type Output = AxisOutput;
 
     #[inline]
     fn blocks(&self, p: &[f64]) -> AxisBlocks {
@@ -469,22 +470,50 @@ impl Dynamics for RotaryAxis {
         dx[2] = w;
     }
 
-    fn output_kind(&self, name: &str) -> OutputKind {
-        if name == chan::MOTOR_SPEED_RAD_S && self.encoder {
+    fn output_of(&self, name: &str) -> AxisOutput {
+        match name {
+            chan::COMMAND_V => AxisOutput::Command,
+            chan::MOTOR_SPEED_RAD_S => AxisOutput::MotorSpeed,
+            chan::CURRENT_A => AxisOutput::Current,
+            chan::MOTOR_ANGLE_RAD => AxisOutput::MotorAngle,
+            chan::WHEEL_ANGLE_RAD => AxisOutput::WheelAngle,
+            _ => AxisOutput::Other,
+        }
+    }
+
+    fn output_kind(&self, o: AxisOutput) -> OutputKind {
+        if o == AxisOutput::MotorSpeed && self.encoder {
             OutputKind::IntervalRate(2)
         } else {
             OutputKind::Instant
         }
     }
 
-    fn output(&self, _b: &AxisBlocks, name: &str, x: &[f64], _u: &[f64], held: &[f64]) -> f64 {
-        match name {
-            chan::COMMAND_V => held[0],
-            chan::MOTOR_SPEED_RAD_S => x[1],
-            chan::CURRENT_A => x[0],
-            chan::MOTOR_ANGLE_RAD => x[2],
-            chan::WHEEL_ANGLE_RAD => x[4],
-            _ => f64::NAN,
+    fn output(&self, _b: &AxisBlocks, o: AxisOutput, x: &[f64], _u: &[f64], held: &[f64]) -> f64 {
+        match o {
+            AxisOutput::Command => held[0],
+            AxisOutput::MotorSpeed => x[1],
+            AxisOutput::Current => x[0],
+            AxisOutput::MotorAngle => x[2],
+            AxisOutput::WheelAngle => x[4],
+            AxisOutput::Other => f64::NAN,
         }
     }
+}
+
+/// What a drive axis's output column is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AxisOutput {
+    /// `command_V`, as the loop held it.
+    Command,
+    /// `motor_speed_rad_s`.
+    MotorSpeed,
+    /// `current_A`.
+    Current,
+    /// `motor_angle_rad`.
+    MotorAngle,
+    /// `wheel_angle_rad`.
+    WheelAngle,
+    /// A column the model does not produce.
+    Other,
 }

@@ -8,6 +8,7 @@ use crate::record::channels as chan;
 
 impl Dynamics for Vehicle {
     type Blocks = VehicleBlocks;
+    type Output = VehicleOutput;
 
     #[inline]
     fn blocks(&self, p: &[f64]) -> VehicleBlocks {
@@ -158,28 +159,80 @@ impl Dynamics for Vehicle {
         }
     }
 
-    fn output_kind(&self, name: &str) -> OutputKind {
+    fn output_of(&self, name: &str) -> VehicleOutput {
+        use VehicleOutput as O;
         match name {
-            chan::LEFT_MOTOR_SPEED_RAD_S if self.encoder => OutputKind::IntervalRate(2),
-            chan::RIGHT_MOTOR_SPEED_RAD_S if self.encoder => OutputKind::IntervalRate(SIDE + 2),
+            chan::X_M => O::X,
+            chan::Y_M => O::Y,
+            chan::HEADING_RAD => O::Heading,
+            chan::LEFT_MOTOR_SPEED_RAD_S => O::LeftMotorSpeed,
+            chan::RIGHT_MOTOR_SPEED_RAD_S => O::RightMotorSpeed,
+            chan::LEFT_WHEEL_SPEED_M_S => O::LeftWheelSpeed,
+            chan::RIGHT_WHEEL_SPEED_M_S => O::RightWheelSpeed,
+            chan::YAW_RATE_RAD_S => O::YawRate,
+            chan::LEFT_CURRENT_A => O::LeftCurrent,
+            chan::RIGHT_CURRENT_A => O::RightCurrent,
+            _ => O::Other,
+        }
+    }
+
+    fn output_kind(&self, o: VehicleOutput) -> OutputKind {
+        match o {
+            VehicleOutput::LeftMotorSpeed if self.encoder => OutputKind::IntervalRate(2),
+            VehicleOutput::RightMotorSpeed if self.encoder => OutputKind::IntervalRate(SIDE + 2),
             _ => OutputKind::Instant,
         }
     }
 
-    fn output(&self, b: &VehicleBlocks, name: &str, x: &[f64], _u: &[f64], _held: &[f64]) -> f64 {
+    fn output(
+        &self,
+        b: &VehicleBlocks,
+        o: VehicleOutput,
+        x: &[f64],
+        _u: &[f64],
+        _held: &[f64],
+    ) -> f64 {
+        use VehicleOutput as O;
         let wheel = |s: usize| self.wheel_speed_rad_s(x, s);
-        match name {
-            chan::X_M => x[BODY + 3],
-            chan::Y_M => x[BODY + 4],
-            chan::HEADING_RAD => x[BODY + 5],
-            chan::LEFT_MOTOR_SPEED_RAD_S => x[1],
-            chan::RIGHT_MOTOR_SPEED_RAD_S => x[SIDE + 1],
-            chan::LEFT_WHEEL_SPEED_M_S => wheel(0) * b.drivetrain.wheel.radius_m,
-            chan::RIGHT_WHEEL_SPEED_M_S => wheel(SIDE) * b.drivetrain.wheel.radius_m,
-            chan::YAW_RATE_RAD_S => x[BODY + 2],
-            chan::LEFT_CURRENT_A => x[0],
-            chan::RIGHT_CURRENT_A => x[SIDE],
-            _ => f64::NAN,
+        match o {
+            O::X => x[BODY + 3],
+            O::Y => x[BODY + 4],
+            O::Heading => x[BODY + 5],
+            O::LeftMotorSpeed => x[1],
+            O::RightMotorSpeed => x[SIDE + 1],
+            O::LeftWheelSpeed => wheel(0) * b.drivetrain.wheel.radius_m,
+            O::RightWheelSpeed => wheel(SIDE) * b.drivetrain.wheel.radius_m,
+            O::YawRate => x[BODY + 2],
+            O::LeftCurrent => x[0],
+            O::RightCurrent => x[SIDE],
+            O::Other => f64::NAN,
         }
     }
+}
+
+/// What a vehicle's output column is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum VehicleOutput {
+    /// `x_m`, at the drive-axle midpoint.
+    X,
+    /// `y_m`.
+    Y,
+    /// `heading_rad`.
+    Heading,
+    /// `left_motor_speed_rad_s`.
+    LeftMotorSpeed,
+    /// `right_motor_speed_rad_s`.
+    RightMotorSpeed,
+    /// `left_wheel_speed_m_s`.
+    LeftWheelSpeed,
+    /// `right_wheel_speed_m_s`.
+    RightWheelSpeed,
+    /// `yaw_rate_rad_s`.
+    YawRate,
+    /// `left_current_A`.
+    LeftCurrent,
+    /// `right_current_A`.
+    RightCurrent,
+    /// A column the model does not produce.
+    Other,
 }
