@@ -2,7 +2,7 @@
 //! [`Importer`] (its request) giving what it [`Made`]: `csv_map`, any CSV whose columns
 //! have other names or units, converted by a map file, and `mat`, a MATLAB file by the same
 //! map ([`MappedImport`]); `wpilib`, a SysId log; `ros2`, a ROS 2 or ROS 1 bag (ROS 1's
-//! bag file and serialisation in `ros1`).
+//! bag file and its messages' marker in `ros1`, both read from a `bag`).
 
 pub mod bag;
 pub mod csv_map;
