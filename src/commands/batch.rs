@@ -5,8 +5,9 @@
 use std::path::PathBuf;
 
 use super::flags::{no_progress, Effects, Jobs};
-use super::{on_workers, stem, CommandError, Say};
+use super::{on_workers, CommandError, Say};
 use crate::batch::{self, find_items, Job};
+use crate::output::file_stem_or;
 use crate::shard::Shard;
 
 /// What `agvsim batch diagnose` or `calibrate` was asked: the flags both take (the rig or
@@ -80,7 +81,7 @@ pub fn run(req: &BatchRequest, say: Say) -> Result<(), CommandError> {
     }
     let items = find_items(&req.recordings, req.rig.as_deref())?;
     let out = req.out.clone().unwrap_or_else(|| {
-        let mut n = format!("batch_{}", stem(&req.recordings, "recordings"));
+        let mut n = format!("batch_{}", file_stem_or(&req.recordings, "recordings"));
         if shard != Shard::WHOLE {
             n.push_str(&format!("_shard_{}_of_{}", shard.index, shard.count));
         }

@@ -228,11 +228,6 @@ pub(crate) fn joined_names(paths: &[PathBuf]) -> String {
         .join(" + ")
 }
 
-/// A file's name without its extension, or `fallback`.
-pub(crate) fn stem(path: &Path, fallback: &str) -> String {
-    crate::output::file_stem_or(path, fallback)
-}
-
 /// Checks, before any work, that each given output path can be written (`true`: a
 /// folder), naming the option at fault.
 pub(crate) fn check_targets(targets: &[(&str, Option<&Path>, bool)]) -> Result<(), CommandError> {

@@ -4,7 +4,8 @@
 
 use std::path::PathBuf;
 
-use super::{io, stem, CommandError, Say};
+use super::{io, CommandError, Say};
+use crate::output::file_stem_or;
 use crate::record::Recording;
 use crate::replay::{self, report};
 use crate::scene::Scene;
@@ -38,7 +39,7 @@ pub fn run(req: &ReplayRequest, say: Say) -> Result<(), CommandError> {
     let bypassed = replay::drive_of(&rec).is_ok_and(|d| d.bypasses_dcmc());
     say(&checked.render_warnings_except(|key| bypassed && key.starts_with("dcmc.")));
     let scene = checked.scene;
-    let name = stem(&req.recording, "recording");
+    let name = file_stem_or(&req.recording, "recording");
     let dir = req
         .out
         .clone()

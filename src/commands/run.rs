@@ -4,7 +4,8 @@
 use std::path::PathBuf;
 
 use super::flags::{positive_seconds, Overrides, RerunFlags};
-use super::{overrides, stem, CommandError, Say};
+use super::{overrides, CommandError, Say};
+use crate::output::file_stem_or;
 use crate::record::channels as chan;
 use crate::run::{render_expectations, render_summary, run_scene, RunOptions, Watcher};
 use crate::scene::Scene;
@@ -140,7 +141,7 @@ pub fn run(req: &RunRequest, say: Say) -> Result<(), CommandError> {
             ));
         }
     }
-    let name = stem(&req.scene, "run");
+    let name = file_stem_or(&req.scene, "run");
     let opts = RunOptions {
         out_dir: req
             .out

@@ -82,7 +82,7 @@ fn options(request: &SweepRequest) -> Result<SweepOptions, CommandError> {
     };
     let set = super::overrides(&req.set, req.duration_s, None);
     let out = req.out.clone().unwrap_or_else(|| {
-        let mut n = format!("sweep_{}", super::stem(&scene, "scene"));
+        let mut n = format!("sweep_{}", crate::output::file_stem_or(&scene, "scene"));
         if shard != Shard::WHOLE {
             n.push_str(&format!("_shard_{}_of_{}", shard.index, shard.count));
         }

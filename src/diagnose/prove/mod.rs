@@ -205,10 +205,7 @@ fn record(
     rng: &mut Pcg64,
 ) -> Result<String, ProveError> {
     let mut sim = Sim::new(scene).map_err(ProveError::from)?;
-    let dt = sim.params().sim.dt_s;
-    let per = ((1.0 / rate_hz) / dt).round().max(1.0) as usize;
-    let interval = per as f64 * dt;
-    let n = (duration_s / interval) as usize;
+    let (per, interval, n) = sampling(&sim, rate_hz, duration_s);
     let mut csv = crate::record::header(
         crate::rig::RigKind::DriveAxis,
         &[
@@ -398,6 +395,15 @@ fn check(
         passed,
         recording: rec_path,
     })
+}
+
+/// The recording's sampling on the simulator's step: steps per row, the row interval (s)
+/// and the number of rows over `duration_s`.
+fn sampling(sim: &Sim, rate_hz: f64, duration_s: f64) -> (usize, f64, usize) {
+    let dt = sim.params().sim.dt_s;
+    let per = ((1.0 / rate_hz) / dt).round().max(1.0) as usize;
+    let interval = per as f64 * dt;
+    (per, interval, (duration_s / interval) as usize)
 }
 
 /// A proof recording's `source`: this agvsim's simulation at the scene's level.

@@ -6,7 +6,7 @@ use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, StandardNormal};
 use rand_pcg::Pcg64;
 
-use super::{current_sense, nominal_rig, simulation_source, ProveError};
+use super::{current_sense, nominal_rig, sampling, simulation_source, ProveError};
 use crate::experiment::EncoderSpeed;
 use crate::ident::effects::Effect;
 use crate::model::chassis::ChassisParams;
@@ -79,10 +79,7 @@ pub(super) fn record_vehicle(
     rng: &mut Pcg64,
 ) -> Result<String, ProveError> {
     let mut sim = Sim::new(scene).map_err(ProveError::from)?;
-    let dt = sim.params().sim.dt_s;
-    let per = ((1.0 / rate_hz) / dt).round().max(1.0) as usize;
-    let interval = per as f64 * dt;
-    let n = (duration_s / interval) as usize;
+    let (per, interval, n) = sampling(&sim, rate_hz, duration_s);
     let mut csv = crate::record::header(
         crate::rig::RigKind::Vehicle,
         &[
