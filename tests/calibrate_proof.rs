@@ -34,10 +34,19 @@ fn prove_kind(kind: Kind) -> Vec<Outcome> {
         }
         let (o, c) = run(&case, seed).unwrap();
         println!("{}\n{}", case.name, agvsim::calibrate::write::render(&c));
-        for (k, truth, v, sd) in &o.keys {
+        for k in &o.keys {
             println!(
-                "   truth {k:<34} {truth:<12.6} fitted {v:<12.6} sd {sd:?} z {:.1}",
-                sd.map_or(f64::NAN, |s| (v - truth) / s)
+                "   truth {:<34} {:<12.6} fitted {:<12.6} sd {:?} z {:.1}{}",
+                k.key,
+                k.truth,
+                k.calibrated,
+                k.std,
+                k.std.map_or(f64::NAN, |s| (k.calibrated - k.truth) / s),
+                if k.conditional {
+                    " (given a held key)"
+                } else {
+                    ""
+                }
             );
         }
         out.push(o);
@@ -67,9 +76,30 @@ fn lifted_axis_on_demands_through_the_dcmc() {
     prove_kind(Kind::AxisDemand);
 }
 
+/// Besides every case passing: the lifted pair's motor speeds alone do not tell the
+/// viscous friction from the torque constant's back-EMF damping (`b + kt^2 / R` is what
+/// sets the speed), so on the clean recording the friction is held at the belief (5-20 %
+/// off) and the torque constant, which leans on it, is said to hold only given it; the
+/// intervals stated without that condition hold the machine's values within 3 standard
+/// deviations.
 #[test]
 fn thesis_lifted_pair_on_random_demands() {
-    prove_kind(Kind::PairDemand);
+    let out = prove_kind(Kind::PairDemand);
+    let clean = out
+        .iter()
+        .find(|o| o.case.effect.is_none() && o.case.truth.is_none())
+        .expect("a clean case");
+    let kt = clean
+        .keys
+        .iter()
+        .find(|k| k.key == "motor.torque_constant_Nm_A")
+        .expect("the torque constant fitted");
+    assert!(kt.conditional, "{:?}", clean.keys);
+    assert!(clean.keys.iter().all(|k| k.key != "motor.viscous_Nm_s_rad"));
+    for k in clean.keys.iter().filter(|k| !k.conditional) {
+        let z = (k.calibrated - k.truth) / k.std.expect("an estimate's deviation");
+        assert!(z.abs() <= 3.0, "{}: z {z:.2}", k.key);
+    }
 }
 
 #[test]

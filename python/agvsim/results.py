@@ -35,6 +35,7 @@ __all__ = [
     "DiagnosisValidation",
     "Diagnosis",
     "CalibratedKey",
+    "HeldShift",
     "Correlation",
     "CalibratedEffect",
     "Switch",
@@ -371,6 +372,16 @@ class Correlation:
 
 
 @dataclass(frozen=True)
+class HeldShift:
+    """How an estimate moves with a key held because the recording could not tell it apart."""
+
+    #: The held key.
+    key: str
+    #: The estimate's change (its unit) when the held key is 10 % above its held value.
+    shift_per_10_pct: float
+
+
+@dataclass(frozen=True)
 class CalibratedKey:
     """A scene key before and after calibration."""
 
@@ -396,6 +407,11 @@ class CalibratedKey:
     estimate: bool = False
     #: An estimate whose 95 % interval reaches further than 10 % of it either side.
     loosely_determined: bool = False
+    #: How the estimate moves with each key held because the recording could not tell it apart.
+    moves_with_held: List[HeldShift] = field(default_factory=list)
+    #: Its interval holds only given a held key's value (10 % of it moves the estimate by
+    #: more than its standard deviation).
+    conditional_on_held: bool = False
 
 
 @dataclass(frozen=True)

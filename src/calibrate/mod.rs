@@ -47,7 +47,7 @@ pub use result::{
     WheelGeometry, TRADE_OFF_CORRELATION,
 };
 pub(crate) use run::JUDGED_BY_THE_SIMULATOR;
-pub use run::{calibrate, calibrate_telling, Request};
+pub use run::{calibrate, calibrate_telling, Request, HELD_STEP_SHARE};
 pub use scene_replay::SceneReplay;
 pub use search::JUDGE_SHARE;
 

@@ -38,6 +38,13 @@ pub struct KeyFit {
     /// estimates, where its size reaches [`TRADE_OFF_CORRELATION`] (the recording shows
     /// their combination far better than either).
     pub trades_with: Vec<(String, f64)>,
+    /// How the estimate moves with each key held because the recording could not tell it
+    /// apart ([`KeyFit::confounded`]): the held key's name and the change of this key's
+    /// fitted value (its unit) when the held key is 10 % above the scene's value and the
+    /// others are refitted. The interval is the recording's given the held value; where
+    /// the shift is larger than the standard deviation ([`KeyFit::conditional`]), it holds
+    /// only as far as the held value is right.
+    pub moves_with_held: Vec<(String, f64)>,
 }
 
 /// The correlation of two fitted keys from which the report says they trade off: at
@@ -58,6 +65,17 @@ impl KeyFit {
     /// value (a mass of 235 +- 294 kg says the recording cannot tell it from nothing).
     pub fn calibrated(&self) -> bool {
         self.at_bound.is_none() && self.std.is_some_and(|s| s < self.fitted.abs())
+    }
+
+    /// Whether the estimate's interval is the recording's only given a held key's value:
+    /// 10 % of a key the recording could not tell apart moves it by more than its standard
+    /// deviation ([`KeyFit::moves_with_held`]).
+    pub fn conditional(&self) -> bool {
+        self.std.is_some_and(|s| {
+            self.moves_with_held
+                .iter()
+                .any(|(_, shift)| shift.abs() > s)
+        })
     }
 
     /// For an estimate the recording determines only loosely ([`LOOSE_RELATIVE_STD`]):

@@ -367,6 +367,18 @@ fn settled(
     rounds: &rounds::Rounds,
 ) -> Result<(Vec<KeyFit>, Scene, Vec<EffectTrial>), CalibrateError> {
     let mut keys = key_fits(scene, &rounds.stage, &rounds.starts);
+    let held: Vec<String> = problem
+        .held
+        .lock()
+        .expect("no fit panics holding it")
+        .clone();
+    for h in &held {
+        for (key, shift) in moves_with_held(problem, &rounds.stage, h)? {
+            if let Some(k) = keys.iter_mut().find(|k| k.key == key) {
+                k.moves_with_held.push((h.clone(), shift));
+            }
+        }
+    }
     // The wheel geometry from the wheels' odometry, where it was accepted and stays.
     if let Some(geometry) = &rounds.geometry {
         let kept = rounds
@@ -378,12 +390,7 @@ fn settled(
         }
     }
     // The keys the recording could not tell apart, held at the scene's values.
-    for key in problem
-        .held
-        .lock()
-        .expect("no fit panics holding it")
-        .iter()
-    {
+    for key in &held {
         keys.push(KeyFit {
             confounded: true,
             ..kept_at_scene(scene, key, None)?
@@ -412,6 +419,34 @@ fn settled(
         }
     }
     Ok((keys, final_scene, trials))
+}
+
+/// Share of a held key's value by which [`moves_with_held`] moves it: a round figure a
+/// reader can scale to what they know of the key.
+pub const HELD_STEP_SHARE: f64 = 0.10;
+
+/// How each fitted key of `stage` moves when `held` (a key the recording could not tell
+/// apart, held at the scene's value) is [`HELD_STEP_SHARE`] above where it is held and the
+/// others are refitted from where they ended: each fitted key with its change. The
+/// recording determines the fitted keys only given the held value; this is how much they
+/// lean on it.
+fn moves_with_held(
+    problem: &Problem,
+    stage: &Stage,
+    held: &str,
+) -> Result<Vec<(String, f64)>, CalibrateError> {
+    let was = keys::get(&stage.reached, held)?;
+    let moved = keys::set(
+        &stage.reached,
+        &[(held.to_string(), was * (1.0 + HELD_STEP_SHARE))],
+    )?;
+    let refit = problem.fit_quick(&moved, &stage.free, vec![])?;
+    Ok(stage
+        .free
+        .iter()
+        .enumerate()
+        .map(|(i, k)| (k.clone(), refit.fit.params[i] - stage.fit.params[i]))
+        .collect())
 }
 
 /// The outputs a recording does not excite, each with why: a vehicle driven on its two
@@ -458,6 +493,7 @@ fn key_fits(scene: &Scene, stage: &Stage, starts: &[(String, f64)]) -> Vec<KeyFi
                 held: stage.fit.weighting.holds(i) && stage.fit.held_by_belief(i),
                 confounded: false,
                 trades_with: trades_with(stage, i),
+                moves_with_held: vec![],
             }
         })
         .collect()
@@ -477,6 +513,7 @@ fn kept_at_scene(scene: &Scene, key: &str, bound: Option<f64>) -> Result<KeyFit,
         held: false,
         confounded: false,
         trades_with: vec![],
+        moves_with_held: vec![],
     })
 }
 

@@ -236,6 +236,16 @@ fn prove_calibration(req: &ProveRequest, say: Say) -> Result<(), CommandError> {
         say(&crate::calibrate::prove::render_coverage(
             &crate::calibrate::prove::coverage_table(&outcomes),
         ));
+        let path = req.out.join("coverage.csv");
+        std::fs::create_dir_all(&req.out)
+            .and_then(|_| {
+                crate::output::write_atomically(
+                    &path,
+                    crate::calibrate::prove::coverage_csv(&outcomes),
+                )
+            })
+            .map_err(super::io(&path))?;
+        say(&format!("each fitted key's error: {}\n", path.display()));
     }
     let failed = outcomes.iter().filter(|o| !o.passed).count();
     if failed > 0 {

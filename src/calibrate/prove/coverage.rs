@@ -12,7 +12,8 @@ pub fn coverage(outcomes: &[Outcome]) -> (f64, usize) {
     let judged: Vec<bool> = outcomes
         .iter()
         .flat_map(|o| o.keys.iter())
-        .filter_map(|(_, truth, value, std)| std.map(|s| (value - truth).abs() <= s))
+        .filter(|k| !k.conditional)
+        .filter_map(|k| k.std.map(|s| (k.calibrated - k.truth).abs() <= s))
         .collect();
     let n = judged.len();
     let covered = judged.iter().filter(|&&c| c).count();
@@ -72,10 +73,10 @@ pub fn coverage_table(outcomes: &[Outcome]) -> Vec<CoverageRow> {
     };
     for o in outcomes {
         let kind = o.case.kind.name();
-        for (key, truth, value, std) in &o.keys {
-            if let Some(s) = std.filter(|s| *s > 0.0) {
-                let z = (value - truth).abs() / s;
-                add(kind, key, z);
+        for k in o.keys.iter().filter(|k| !k.conditional) {
+            if let Some(s) = k.std.filter(|s| *s > 0.0) {
+                let z = (k.calibrated - k.truth).abs() / s;
+                add(kind, &k.key, z);
                 add(kind, ALL_KEYS, z);
             }
         }
@@ -111,10 +112,38 @@ pub fn render_coverage(rows: &[CoverageRow]) -> String {
     s
 }
 
+/// Every fitted key of every round trip, a row each: the case, its seed, the key, the
+/// machine's value, the calibrated value, its standard deviation (empty where the fit gave
+/// none), `z`, the error in standard deviations, and whether the interval was said to hold
+/// only given a held key (the coverage table's input, for a reader who wants to see which
+/// keys miss and by how much).
+pub fn coverage_csv(outcomes: &[Outcome]) -> String {
+    let mut s = String::from("case,seed,key,truth,calibrated,std,z,conditional_on_held\n");
+    for o in outcomes {
+        for k in &o.keys {
+            let z = k.std.filter(|s| *s > 0.0).map_or(String::new(), |s| {
+                format!("{:.4}", (k.calibrated - k.truth) / s)
+            });
+            let _ = writeln!(
+                s,
+                "{},{},{},{:e},{:e},{},{z},{}",
+                o.case.name,
+                o.seed,
+                k.key,
+                k.truth,
+                k.calibrated,
+                k.std.map_or(String::new(), |s| format!("{s:e}")),
+                k.conditional
+            );
+        }
+    }
+    s
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calibrate::prove::{Case, Excitation, Kind};
+    use crate::calibrate::prove::{Case, Excitation, FittedKey, Kind};
 
     fn outcome(kind: Kind, keys: &[(&str, f64, f64, Option<f64>)]) -> Outcome {
         let case = Case {
@@ -128,11 +157,18 @@ mod tests {
         };
         Outcome {
             case,
+            seed: 1,
             accepted: vec![],
             key_error: None,
             keys: keys
                 .iter()
-                .map(|(k, t, v, s)| (k.to_string(), *t, *v, *s))
+                .map(|(k, t, v, s)| FittedKey {
+                    key: k.to_string(),
+                    truth: *t,
+                    calibrated: *v,
+                    std: *s,
+                    conditional: k.starts_with('c'),
+                })
                 .collect(),
             fit_pct: (0.0, 0.0),
             passed: true,
@@ -140,15 +176,21 @@ mod tests {
     }
 
     /// Each key's interval is judged at 1 and at 1.96 of its standard deviation, per kind,
-    /// with the kind's total last; a key without a deviation is not counted; the Monte Carlo
-    /// error is the binomial share's.
+    /// with the kind's total last; a key without a deviation, or whose interval was said to
+    /// hold only given a held key (named `c` here), is not counted; the Monte Carlo error
+    /// is the binomial share's.
     #[test]
     fn coverage_counts_each_interval_by_kind_and_key() {
         let outcomes = [
             // z = 0.5 and z = 1.5
             outcome(
                 Kind::BaseRig,
-                &[("m", 10.0, 10.5, Some(1.0)), ("k", 1.0, 1.15, Some(0.1))],
+                &[
+                    ("m", 10.0, 10.5, Some(1.0)),
+                    ("k", 1.0, 1.15, Some(0.1)),
+                    // Said to hold only given a held key: not counted.
+                    ("c", 1.0, 1.5, Some(0.1)),
+                ],
             ),
             // z = 3, and a key the fit could not give a deviation
             outcome(
@@ -167,6 +209,8 @@ mod tests {
         assert_eq!((m.n, m.within_68, m.within_95), (2, 1, 1));
         let k = find("base_rig", "k");
         assert_eq!((k.n, k.within_68, k.within_95), (1, 0, 1));
+        assert!(rows.iter().all(|r| r.key != "c"));
+        assert_eq!(coverage(&outcomes), (2.0 / 4.0, 4));
         let all = find("base_rig", "all keys");
         assert_eq!((all.n, all.within_68, all.within_95), (3, 1, 2));
         assert_eq!(rows.last().unwrap().key, "all keys");

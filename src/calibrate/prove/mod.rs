@@ -17,7 +17,7 @@ mod coverage;
 mod recording;
 use cases::through_rig;
 pub use cases::{cases, clean_machine};
-pub use coverage::{coverage, coverage_table, render_coverage, CoverageRow};
+pub use coverage::{coverage, coverage_csv, coverage_table, render_coverage, CoverageRow};
 pub use recording::{record, record_text};
 
 use crate::param::ParamKey;
@@ -131,17 +131,35 @@ pub struct Case {
     pub common: Vec<String>,
 }
 
+/// One fitted key of a round trip against the machine's value.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FittedKey {
+    /// The scene key.
+    pub key: String,
+    /// The machine's value.
+    pub truth: f64,
+    /// The calibrated value.
+    pub calibrated: f64,
+    /// Its standard deviation, if the fit gave one.
+    pub std: Option<f64>,
+    /// Said to hold only given a key the recording could not tell apart
+    /// ([`crate::calibrate::KeyFit::conditional`]): its interval is not counted.
+    pub conditional: bool,
+}
+
 /// A case's outcome.
 #[derive(Debug, Clone)]
 pub struct Outcome {
     /// The case.
     pub case: Case,
+    /// The seed it ran with.
+    pub seed: u64,
     /// The effects accepted, in the order of acceptance, with their keys' values.
     pub accepted: Vec<(Effect, f64)>,
     /// The concealed effect's key as calibrated, relative error to the truth.
     pub key_error: Option<f64>,
-    /// Each fitted key: (key, truth, calibrated, standard deviation).
-    pub keys: Vec<(String, f64, f64, Option<f64>)>,
+    /// Each fitted key against the machine's value.
+    pub keys: Vec<FittedKey>,
     /// Mean replay fit before and after, %.
     pub fit_pct: (f64, f64),
     /// Whether the case passed: the concealed effect accepted first with its key within
@@ -229,16 +247,18 @@ pub fn run(case: &Case, seed: u64) -> Result<(Outcome, Calibration), CalibrateEr
         .iter()
         .filter(|k| k.calibrated())
         .filter_map(|k| {
-            Some((
-                k.key.clone(),
-                keys::get(&machine, &k.key).ok()?,
-                k.after,
-                k.std,
-            ))
+            Some(FittedKey {
+                key: k.key.clone(),
+                truth: keys::get(&machine, &k.key).ok()?,
+                calibrated: k.after,
+                std: k.std,
+                conditional: k.conditional(),
+            })
         })
         .collect();
     let outcome = Outcome {
         case: case.clone(),
+        seed,
         accepted,
         key_error,
         keys,
@@ -285,5 +305,16 @@ pub fn render(outcomes: &[Outcome]) -> String {
         "1-sigma coverage: {:.0} % of {n} fitted keys hold the machine's value",
         100.0 * share
     );
+    let conditional = outcomes
+        .iter()
+        .flat_map(|o| &o.keys)
+        .filter(|k| k.conditional)
+        .count();
+    if conditional > 0 {
+        let _ = writeln!(
+            s,
+            "not counted: {conditional} estimates said to hold only given a key the recording could not tell apart (held at the scene's value)"
+        );
+    }
     s
 }

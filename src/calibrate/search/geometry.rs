@@ -104,6 +104,7 @@ impl Problem<'_> {
                 held: false,
                 confounded: false,
                 trades_with: vec![],
+                moves_with_held: vec![],
             })
             .collect();
         Ok(Some((trial, with, fits)))

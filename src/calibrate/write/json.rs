@@ -38,6 +38,8 @@ pub fn json(c: &Calibration, scene: &str, recording: &str) -> serde_json::Value 
                 "held_by_belief": k.held,
                 "trades_with": k.trades_with.iter().map(|(key, r)| serde_json::json!({"key": key, "correlation": r})).collect::<Vec<_>>(),
                 "confounded": k.confounded,
+                "moves_with_held": k.moves_with_held.iter().map(|(key, shift)| serde_json::json!({"key": key, "shift_per_10_pct": shift})).collect::<Vec<_>>(),
+                "conditional_on_held": k.conditional(),
                 "estimate": k.calibrated(),
                 "loosely_determined": k.loose_share().is_some(),
             })

@@ -68,6 +68,7 @@ fn key_table(s: &mut String, c: &Calibration) {
         };
     }
     trade_off_lines(s, c);
+    held_lines(s, c);
     for r in &c.removed {
         let unit = unit_of_key(&r.key);
         let _ = writeln!(
@@ -96,6 +97,26 @@ fn trade_off_lines(s: &mut String, c: &Calibration) {
                 s,
                 "trade-off: {} and {} (correlation {r:+.3}): the recording shows a combination of them far better than either; a model that lacks something moves both along it (hold one with --set, or record a run that tells them apart)",
                 k.key, other
+            );
+        }
+    }
+}
+
+/// A line per estimate whose interval holds only given a key the recording could not tell
+/// apart ([`crate::calibrate::KeyFit::conditional`]): how far 10 % of the held key moves it.
+fn held_lines(s: &mut String, c: &Calibration) {
+    use std::fmt::Write as _;
+    for k in c.keys.iter().filter(|k| k.calibrated() && k.conditional()) {
+        let unit = unit_of_key(&k.key);
+        let std = k.std.unwrap_or(f64::NAN);
+        for (held, shift) in k.moves_with_held.iter().filter(|(_, d)| d.abs() > std) {
+            let _ = writeln!(
+                s,
+                "given {held} (held): {}'s ± is the recording's at the held value only; {:.0} % more of {held} moves it by {} ({:.1} of its standard deviation)",
+                k.key,
+                100.0 * crate::calibrate::HELD_STEP_SHARE,
+                quantity(*shift, 3, unit),
+                shift.abs() / std
             );
         }
     }
@@ -366,6 +387,7 @@ mod tests {
             held: false,
             confounded: false,
             trades_with: vec![],
+            moves_with_held: vec![],
         };
         let (_, note) = key_cells(&k, "kg m^2");
         let note = note.expect("a note");
