@@ -547,6 +547,8 @@ class Calibration:
     wheel_geometry: Optional[WheelGeometry] = None
     #: Solver iterations.
     iterations: Optional[int] = None
+    #: The residual blocks' length, s, whose scores' spread gave the standard deviations.
+    residual_correlation_s: Optional[float] = None
     #: The search of terms outside the vocabulary, if run (the JSON's object).
     terms: Optional[Dict[str, Any]] = None
     #: The calibrated scene (see :attr:`scene`; typed there, as this module is imported

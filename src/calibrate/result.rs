@@ -238,6 +238,13 @@ pub struct Calibration {
     /// Solver iterations in all (the keys' fit, the effects' races and fits, the
     /// settling).
     pub iterations: usize,
+    /// The length of the residual's blocks whose scores' spread gave the standard
+    /// deviations, s: the block length, doubled from one sample up to a twentieth of the
+    /// recording, that gave the widest intervals ([`crate::ident::fit`]'s block sandwich;
+    /// one sample interval where the white residual's were widest).
+    pub residual_correlation_s: f64,
+    /// [`Calibration::residual_correlation_s`] in rows (1: the white residual's intervals were widest).
+    pub residual_correlation_rows: usize,
 }
 
 /// The drive wheels' geometry as calibrated, beside what the odometry is configured with.

@@ -162,6 +162,9 @@ pub fn calibrate_telling(
         scene: final_scene,
         baseline,
         iterations,
+        residual_correlation_s: rounds.stage.fit.correlation_rows as f64
+            * problem.data.median_interval_s(),
+        residual_correlation_rows: rounds.stage.fit.correlation_rows,
     })
 }
 

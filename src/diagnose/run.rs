@@ -244,11 +244,7 @@ fn report_of(
         };
         crate::ident::sysid_terms::of_fit(stage.structure.model(), &stage.fit, unit)
     });
-    let dt = {
-        let mut dts: Vec<f64> = data.t_s.windows(2).map(|w| w[1] - w[0]).collect();
-        dts.sort_by(f64::total_cmp);
-        dts.get(dts.len() / 2).copied().unwrap_or(0.0)
-    };
+    let dt = data.median_interval_s();
     Diagnosis {
         sysid_terms,
         baseline_estimates: crate::ident::param_reports(structure.model(), base_fit),

@@ -165,6 +165,14 @@ impl Dataset {
             .collect()
     }
 
+    /// The median interval between consecutive rows, s (0 with fewer than two rows): the
+    /// record's sample interval, whatever gaps or jitter it has.
+    pub fn median_interval_s(&self) -> f64 {
+        let mut dts: Vec<f64> = self.t_s.windows(2).map(|w| w[1] - w[0]).collect();
+        dts.sort_by(f64::total_cmp);
+        dts.get(dts.len() / 2).copied().unwrap_or(0.0)
+    }
+
     /// Number of rows.
     pub fn len(&self) -> usize {
         self.t_s.len()

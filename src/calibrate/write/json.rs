@@ -96,6 +96,7 @@ pub fn json(c: &Calibration, scene: &str, recording: &str) -> serde_json::Value 
         "mean_fit_pct": {"original": mean_fit(&c.before, &c.outputs), "calibrated": mean_fit(&c.after, &c.outputs)},
         "wheel_geometry": c.wheel_geometry().map(|g| geometry_json(&g)),
         "iterations": c.iterations,
+        "residual_correlation_s": c.residual_correlation_s,
         "terms": c.terms.as_ref().map(|t| serde_json::json!({
             "screened": t.screened,
             "fitted": t.trials.iter().map(|trial| serde_json::json!({

@@ -69,6 +69,13 @@ fn key_table(s: &mut String, c: &Calibration) {
     }
     trade_off_lines(s, c);
     held_lines(s, c);
+    if c.residual_correlation_rows > 1 {
+        let _ = writeln!(
+            s,
+            "standard deviations (± 1 std, a 68 % interval where the model is right): from the spread of the scores of {:.3} s blocks of the residual (the length, up to a twentieth of the recording, that gave the widest intervals), not from a white-noise assumption",
+            c.residual_correlation_s
+        );
+    }
     for r in &c.removed {
         let unit = unit_of_key(&r.key);
         let _ = writeln!(
