@@ -41,7 +41,7 @@ fn prove_kind(kind: Kind) -> Vec<Outcome> {
                 k.truth,
                 k.calibrated,
                 k.std,
-                k.std.map_or(f64::NAN, |s| (k.calibrated - k.truth) / s),
+                k.z().unwrap_or(f64::NAN),
                 if k.conditional {
                     " (given a held key)"
                 } else {
@@ -97,7 +97,7 @@ fn thesis_lifted_pair_on_random_demands() {
     assert!(kt.conditional, "{:?}", clean.keys);
     assert!(clean.keys.iter().all(|k| k.key != "motor.viscous_Nm_s_rad"));
     for k in clean.keys.iter().filter(|k| !k.conditional) {
-        let z = (k.calibrated - k.truth) / k.std.expect("an estimate's deviation");
+        let z = k.z().expect("an estimate's deviation");
         assert!(z.abs() <= 3.0, "{}: z {z:.2}", k.key);
     }
 }

@@ -237,14 +237,7 @@ fn prove_calibration(req: &ProveRequest, say: Say) -> Result<(), CommandError> {
             &crate::calibrate::prove::coverage_table(&outcomes),
         ));
         let path = req.out.join("coverage.csv");
-        std::fs::create_dir_all(&req.out)
-            .and_then(|_| {
-                crate::output::write_atomically(
-                    &path,
-                    crate::calibrate::prove::coverage_csv(&outcomes),
-                )
-            })
-            .map_err(super::io(&path))?;
+        super::write_file(&path, crate::calibrate::prove::coverage_csv(&outcomes))?;
         say(&format!("each fitted key's error: {}\n", path.display()));
     }
     let failed = outcomes.iter().filter(|o| !o.passed).count();

@@ -74,8 +74,7 @@ pub fn coverage_table(outcomes: &[Outcome]) -> Vec<CoverageRow> {
     for o in outcomes {
         let kind = o.case.kind.name();
         for k in o.keys.iter().filter(|k| !k.conditional) {
-            if let Some(s) = k.std.filter(|s| *s > 0.0) {
-                let z = (k.calibrated - k.truth).abs() / s;
+            if let Some(z) = k.z().map(f64::abs) {
                 add(kind, &k.key, z);
                 add(kind, ALL_KEYS, z);
             }
@@ -121,9 +120,7 @@ pub fn coverage_csv(outcomes: &[Outcome]) -> String {
     let mut s = String::from("case,seed,key,truth,calibrated,std,z,conditional_on_held\n");
     for o in outcomes {
         for k in &o.keys {
-            let z = k.std.filter(|s| *s > 0.0).map_or(String::new(), |s| {
-                format!("{:.4}", (k.calibrated - k.truth) / s)
-            });
+            let z = k.z().map_or(String::new(), |z| format!("{z:.4}"));
             let _ = writeln!(
                 s,
                 "{},{},{},{:e},{:e},{},{z},{}",

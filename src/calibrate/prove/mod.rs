@@ -147,6 +147,16 @@ pub struct FittedKey {
     pub conditional: bool,
 }
 
+impl FittedKey {
+    /// The error in standard deviations, `(calibrated - truth) / std`; `None` without a
+    /// positive deviation.
+    pub fn z(&self) -> Option<f64> {
+        self.std
+            .filter(|s| *s > 0.0)
+            .map(|s| (self.calibrated - self.truth) / s)
+    }
+}
+
 /// A case's outcome.
 #[derive(Debug, Clone)]
 pub struct Outcome {
