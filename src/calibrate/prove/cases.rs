@@ -273,6 +273,7 @@ pub fn cases(kinds: &[Kind]) -> Result<Vec<Case>, CalibrateError> {
                 truth: None,
                 machine: vec![],
                 common: vec![],
+                noise: SensorNoise::White,
             });
             let peak_v = peak_command_v(kind, excitation, &clean)?;
             for effect in effects_of(kind) {
@@ -285,6 +286,7 @@ pub fn cases(kinds: &[Kind]) -> Result<Vec<Case>, CalibrateError> {
                     truth: Some((key, value)),
                     machine,
                     common,
+                    noise: SensorNoise::White,
                 });
             }
             if kind == Kind::BaseRig {
@@ -309,5 +311,6 @@ pub(super) fn payload_case(kind: Kind, excitation: Excitation, clean: &Scene, na
         truth: Some((key, mass)),
         machine: vec![format!("{key}={mass}")],
         common: vec![],
+        noise: SensorNoise::White,
     }
 }

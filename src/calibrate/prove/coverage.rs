@@ -23,7 +23,7 @@ pub fn coverage(outcomes: &[Outcome]) -> (f64, usize) {
 /// Realised coverage of the printed intervals over round trips, for one key of one kind
 /// (or `all keys` of it): how many fitted values had a standard deviation, and how many
 /// of those held the machine's value within 1 and within 1.96 of it (the nominal 68.3 %
-/// and 95 % intervals).
+/// and 95 % intervals), in all and per seed.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CoverageRow {
     /// The kind's name.
@@ -36,15 +36,54 @@ pub struct CoverageRow {
     pub within_68: usize,
     /// Of them, within 1.96 standard deviations.
     pub within_95: usize,
+    /// The same counts for each seed's round trips, by seed.
+    pub per_seed: Vec<SeedCounts>,
+}
+
+/// One seed's counts of a [`CoverageRow`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SeedCounts {
+    /// The seed.
+    pub seed: u64,
+    /// Fitted values with a standard deviation.
+    pub n: usize,
+    /// Of them, within one standard deviation.
+    pub within_68: usize,
+    /// Of them, within 1.96 standard deviations.
+    pub within_95: usize,
 }
 
 impl CoverageRow {
-    /// The realised share within `k` of `n`, and its Monte Carlo standard error
-    /// `sqrt(p (1 - p) / n)` (a binomial share's).
-    pub fn share(&self, k: usize) -> (f64, f64) {
+    /// The realised share of the 68.3 % intervals and its Monte Carlo standard error.
+    pub fn share_68(&self) -> (f64, f64) {
+        self.share(self.within_68, |c| c.within_68)
+    }
+
+    /// The realised share of the 95 % intervals and its Monte Carlo standard error.
+    pub fn share_95(&self) -> (f64, f64) {
+        self.share(self.within_95, |c| c.within_95)
+    }
+
+    /// The share `k / n` and its Monte Carlo standard error: the larger of the binomial
+    /// share's, `sqrt(p (1 - p) / n)`, and the one from the spread between seeds,
+    /// `sqrt(G / (G - 1) sum_g (k_g - p n_g)^2) / n` over the `G` seeds. The cases of one
+    /// seed share its inputs, noise and beliefs, so their keys miss together and count as
+    /// fewer than their number; the binomial error alone would understate the error.
+    fn share(&self, k: usize, of: impl Fn(&SeedCounts) -> usize) -> (f64, f64) {
         let n = self.n.max(1) as f64;
         let p = k as f64 / n;
-        (p, (p * (1.0 - p) / n).sqrt())
+        let binomial = (p * (1.0 - p) / n).sqrt();
+        let g = self.per_seed.len();
+        if g < 2 {
+            return (p, binomial);
+        }
+        let spread: f64 = self
+            .per_seed
+            .iter()
+            .map(|c| (of(c) as f64 - p * c.n as f64).powi(2))
+            .sum();
+        let between_seeds = (g as f64 / (g as f64 - 1.0) * spread).sqrt() / n;
+        (p, binomial.max(between_seeds))
     }
 }
 
@@ -52,7 +91,7 @@ impl CoverageRow {
 /// then `all keys` of the kind.
 pub fn coverage_table(outcomes: &[Outcome]) -> Vec<CoverageRow> {
     let mut rows: Vec<CoverageRow> = vec![];
-    let mut add = |kind: &'static str, key: &str, z: f64| {
+    let mut add = |kind: &'static str, key: &str, seed: u64, z: f64| {
         let at = match rows.iter().position(|r| r.kind == kind && r.key == key) {
             Some(i) => i,
             None => {
@@ -62,21 +101,40 @@ pub fn coverage_table(outcomes: &[Outcome]) -> Vec<CoverageRow> {
                     n: 0,
                     within_68: 0,
                     within_95: 0,
+                    per_seed: vec![],
                 });
                 rows.len() - 1
             }
         };
         let r = &mut rows[at];
-        r.n += 1;
-        r.within_68 += usize::from(z <= 1.0);
-        r.within_95 += usize::from(z <= 1.96);
+        let at_seed = match r.per_seed.iter().position(|c| c.seed == seed) {
+            Some(i) => i,
+            None => {
+                r.per_seed.push(SeedCounts {
+                    seed,
+                    n: 0,
+                    within_68: 0,
+                    within_95: 0,
+                });
+                r.per_seed.len() - 1
+            }
+        };
+        let c = &mut r.per_seed[at_seed];
+        for (n, w68, w95) in [
+            (&mut r.n, &mut r.within_68, &mut r.within_95),
+            (&mut c.n, &mut c.within_68, &mut c.within_95),
+        ] {
+            *n += 1;
+            *w68 += usize::from(z <= 1.0);
+            *w95 += usize::from(z <= 1.96);
+        }
     };
     for o in outcomes {
         let kind = o.case.kind.name();
         for k in o.keys.iter().filter(|k| !k.conditional) {
             if let Some(z) = k.z().map(f64::abs) {
-                add(kind, &k.key, z);
-                add(kind, ALL_KEYS, z);
+                add(kind, &k.key, o.seed, z);
+                add(kind, ALL_KEYS, o.seed, z);
             }
         }
     }
@@ -87,25 +145,23 @@ pub fn coverage_table(outcomes: &[Outcome]) -> Vec<CoverageRow> {
 
 const ALL_KEYS: &str = "all keys";
 
-/// [`coverage_table`] as text: nominal and realised coverage with the Monte Carlo error.
+/// [`coverage_table`] as text: nominal and realised coverage with the Monte Carlo error
+/// ([`CoverageRow::share_95`]).
 pub fn render_coverage(rows: &[CoverageRow]) -> String {
     let mut s = format!(
         "{:<16} {:<34} {:>5}  {:>22}  {:>22}\n",
         "kind", "key", "n", "68.3 % nominal: real", "95 % nominal: real"
     );
     for r in rows {
-        let cell = |k: usize| {
-            let (p, e) = r.share(k);
-            format!("{:.1} ± {:.1} %", 100.0 * p, 100.0 * e)
-        };
+        let cell = |(p, e): (f64, f64)| format!("{:.1} ± {:.1} %", 100.0 * p, 100.0 * e);
         let _ = writeln!(
             s,
             "{:<16} {:<34} {:>5}  {:>22}  {:>22}",
             r.kind,
             r.key,
             r.n,
-            cell(r.within_68),
-            cell(r.within_95)
+            cell(r.share_68()),
+            cell(r.share_95())
         );
     }
     s
@@ -143,6 +199,10 @@ mod tests {
     use crate::calibrate::prove::{Case, Excitation, FittedKey, Kind};
 
     fn outcome(kind: Kind, keys: &[(&str, f64, f64, Option<f64>)]) -> Outcome {
+        seeded(kind, 1, keys)
+    }
+
+    fn seeded(kind: Kind, seed: u64, keys: &[(&str, f64, f64, Option<f64>)]) -> Outcome {
         let case = Case {
             name: "x".into(),
             kind,
@@ -151,10 +211,11 @@ mod tests {
             truth: None,
             machine: vec![],
             common: vec![],
+            noise: crate::calibrate::prove::SensorNoise::White,
         };
         Outcome {
             case,
-            seed: 1,
+            seed,
             accepted: vec![],
             key_error: None,
             keys: keys
@@ -211,9 +272,42 @@ mod tests {
         let all = find("base_rig", "all keys");
         assert_eq!((all.n, all.within_68, all.within_95), (3, 1, 2));
         assert_eq!(rows.last().unwrap().key, "all keys");
-        let (p, e) = all.share(all.within_95);
+        // One seed: the binomial error.
+        let (p, e) = all.share_95();
         assert!((p - 2.0 / 3.0).abs() < 1e-12);
         assert!((e - (p * (1.0 - p) / 3.0).sqrt()).abs() < 1e-12);
         assert_eq!(find("axis_voltage", "all keys").within_68, 1);
+    }
+
+    /// Keys that miss together: two seeds, one whose four keys all hold and one whose four
+    /// all miss. The share is a half either way, but eight keys from two seeds are worth
+    /// two draws, not eight: the error from the spread between seeds, sqrt(2 (2^2 + 2^2))
+    /// / 8 = 0.5, exceeds the binomial sqrt(0.25 / 8) = 0.18, and is the one given.
+    #[test]
+    fn keys_of_one_seed_that_miss_together_widen_the_monte_carlo_error() {
+        let hold = [("a", 1.0, 1.0, Some(0.1)); 4];
+        let miss = [("a", 1.0, 2.0, Some(0.1)); 4];
+        let rows = coverage_table(&[
+            seeded(Kind::BaseRig, 1, &hold),
+            seeded(Kind::BaseRig, 2, &miss),
+        ]);
+        let a = rows.iter().find(|r| r.key == "a").unwrap();
+        assert_eq!(a.per_seed.len(), 2);
+        let (p, e) = a.share_68();
+        assert!((p - 0.5).abs() < 1e-12);
+        assert!((e - 0.5).abs() < 1e-12, "{e}");
+        // Misses spread evenly over the seeds: the binomial error stands.
+        let mixed = [
+            ("a", 1.0, 1.0, Some(0.1)),
+            ("a", 1.0, 1.0, Some(0.1)),
+            ("a", 1.0, 2.0, Some(0.1)),
+            ("a", 1.0, 2.0, Some(0.1)),
+        ];
+        let rows = coverage_table(&[
+            seeded(Kind::BaseRig, 1, &mixed),
+            seeded(Kind::BaseRig, 2, &mixed),
+        ]);
+        let (p, e) = rows[0].share_68();
+        assert!((e - (p * (1.0 - p) / 8.0).sqrt()).abs() < 1e-12, "{e}");
     }
 }

@@ -14,10 +14,12 @@
 
 mod cases;
 mod coverage;
+mod noise;
 mod recording;
 use cases::through_rig;
 pub use cases::{cases, clean_machine};
 pub use coverage::{coverage, coverage_csv, coverage_table, render_coverage, CoverageRow};
+pub use noise::SensorNoise;
 pub use recording::{record, record_text};
 
 use crate::param::ParamKey;
@@ -129,6 +131,8 @@ pub struct Case {
     /// `--set` texts the machine and the calibrated scene share (what the scene knows of
     /// the machine the effect's physics acts on: a viscous loss whose asymmetry it lacks).
     pub common: Vec<String>,
+    /// The measurement noise its recording carries.
+    pub noise: SensorNoise,
 }
 
 /// One fitted key of a round trip against the machine's value.

@@ -2,6 +2,7 @@
 //! ramps and steps, random velocity commands) replayed on the machine, the outputs with
 //! seeded measurement noise.
 
+use super::noise::SensorNoise;
 use super::*;
 use crate::record::channels as chan;
 
@@ -160,8 +161,9 @@ pub(super) fn rig_of(kind: Kind) -> RigKind {
 }
 
 /// The machine's recording of the excitation: the inputs replayed on it, each output with
-/// seeded white noise (a tracker's 2 mm and 5 mrad on the pose, 1 % of the output's spread
-/// on the others: a sensor ranged to its signal).
+/// seeded noise of the case's kind ([`SensorNoise`]; white, or coloured as its sensor's) of
+/// a standard deviation of a tracker's 2 mm and 5 mrad on the pose, 1 % of the output's
+/// spread on the others (a sensor ranged to its signal).
 pub fn record(case: &Case, machine: &Scene, seed: u64) -> Result<Recording, CalibrateError> {
     let (text, path) = record_text(case, machine, seed)?;
     Recording::parse(&text, &path).map_err(|e| CalibrateError::Data(e.to_string()))
@@ -217,14 +219,31 @@ pub fn record_text(
             }
         })
         .collect();
+    let measured: Vec<Vec<f64>> = match case.noise {
+        // Drawn sample by sample across the outputs, as the proof always drew them.
+        SensorNoise::White => {
+            let mut m: Vec<Vec<f64>> = vec![Vec::with_capacity(rows.len()); outputs.len()];
+            for k in 0..rows.len() {
+                for ((n, s), col) in outputs.iter().zip(&sd).zip(&mut m) {
+                    let e: f64 = StandardNormal.sample(&mut rng);
+                    col.push(r.output(n).expect("a produced output").simulated[k] + s * e);
+                }
+            }
+            m
+        }
+        noise => outputs
+            .iter()
+            .zip(&sd)
+            .map(|(n, s)| {
+                let y = &r.output(n).expect("a produced output").simulated;
+                super::noise::measured(noise, n, y, *s, dt, &mut rng)
+            })
+            .collect(),
+    };
     for (k, u) in rows.iter().enumerate() {
         let mut cells = vec![format!("{}", k as f64 * dt)];
         cells.extend(u.iter().map(|v| format!("{v}")));
-        for (n, s) in outputs.iter().zip(&sd) {
-            let e: f64 = StandardNormal.sample(&mut rng);
-            let y = r.output(n).expect("a produced output").simulated[k];
-            cells.push(format!("{}", y + s * e));
-        }
+        cells.extend(measured.iter().map(|col| format!("{}", col[k])));
         let _ = writeln!(noisy, "{}", cells.join(","));
     }
     Ok((noisy, path))
