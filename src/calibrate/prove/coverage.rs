@@ -92,42 +92,34 @@ impl CoverageRow {
 pub fn coverage_table(outcomes: &[Outcome]) -> Vec<CoverageRow> {
     let mut rows: Vec<CoverageRow> = vec![];
     let mut add = |kind: &'static str, key: &str, seed: u64, z: f64| {
-        let at = match rows.iter().position(|r| r.kind == kind && r.key == key) {
-            Some(i) => i,
-            None => {
-                rows.push(CoverageRow {
-                    kind,
-                    key: key.to_string(),
-                    n: 0,
-                    within_68: 0,
-                    within_95: 0,
-                    per_seed: vec![],
-                });
-                rows.len() - 1
-            }
-        };
-        let r = &mut rows[at];
-        let at_seed = match r.per_seed.iter().position(|c| c.seed == seed) {
-            Some(i) => i,
-            None => {
-                r.per_seed.push(SeedCounts {
-                    seed,
-                    n: 0,
-                    within_68: 0,
-                    within_95: 0,
-                });
-                r.per_seed.len() - 1
-            }
-        };
-        let c = &mut r.per_seed[at_seed];
-        for (n, w68, w95) in [
-            (&mut r.n, &mut r.within_68, &mut r.within_95),
-            (&mut c.n, &mut c.within_68, &mut c.within_95),
-        ] {
-            *n += 1;
-            *w68 += usize::from(z <= 1.0);
-            *w95 += usize::from(z <= 1.96);
-        }
+        let r = slot(
+            &mut rows,
+            |r| r.kind == kind && r.key == key,
+            || CoverageRow {
+                kind,
+                key: key.to_string(),
+                n: 0,
+                within_68: 0,
+                within_95: 0,
+                per_seed: vec![],
+            },
+        );
+        r.n += 1;
+        r.within_68 += usize::from(z <= 1.0);
+        r.within_95 += usize::from(z <= 1.96);
+        let c = slot(
+            &mut r.per_seed,
+            |c| c.seed == seed,
+            || SeedCounts {
+                seed,
+                n: 0,
+                within_68: 0,
+                within_95: 0,
+            },
+        );
+        c.n += 1;
+        c.within_68 += usize::from(z <= 1.0);
+        c.within_95 += usize::from(z <= 1.96);
     };
     for o in outcomes {
         let kind = o.case.kind.name();
@@ -144,6 +136,18 @@ pub fn coverage_table(outcomes: &[Outcome]) -> Vec<CoverageRow> {
 }
 
 const ALL_KEYS: &str = "all keys";
+
+/// The element of `v` that `is` picks, pushed from `new` where there is none.
+fn slot<T>(v: &mut Vec<T>, is: impl Fn(&T) -> bool, new: impl FnOnce() -> T) -> &mut T {
+    let at = match v.iter().position(is) {
+        Some(i) => i,
+        None => {
+            v.push(new());
+            v.len() - 1
+        }
+    };
+    &mut v[at]
+}
 
 /// [`coverage_table`] as text: nominal and realised coverage with the Monte Carlo error
 /// ([`CoverageRow::share_95`]).

@@ -69,20 +69,18 @@ fn sensor_of(channel: &str) -> Sensor {
     }
 }
 
-/// `truth` as its sensor measures it under `noise`, with marginal standard deviation
-/// `sd_out` (the output's unit), sampled every `dt_s`.
-pub(super) fn measured(
-    noise: SensorNoise,
+/// `truth` as the sensor of `channel` measures it ([`SensorNoise::Sensors`]), with marginal
+/// standard deviation `sd_out` (the output's unit), sampled every `dt_s`.
+pub(super) fn by_its_sensor(
     channel: &str,
     truth: &[f64],
     sd_out: f64,
     dt_s: f64,
     rng: &mut Pcg64,
 ) -> Vec<f64> {
-    match (noise, sensor_of(channel)) {
-        (SensorNoise::White, _) => truth.iter().map(|y| y + sd_out * gauss(rng)).collect(),
-        (SensorNoise::Sensors, Sensor::Encoder) => encoder_speed(truth, sd_out, dt_s, rng),
-        (SensorNoise::Sensors, Sensor::Filtered { tau_s }) => {
+    match sensor_of(channel) {
+        Sensor::Encoder => encoder_speed(truth, sd_out, dt_s, rng),
+        Sensor::Filtered { tau_s } => {
             let n = low_pass_noise(truth.len(), sd_out, dt_s, tau_s, rng);
             truth.iter().zip(n).map(|(y, e)| y + e).collect()
         }

@@ -207,13 +207,22 @@ pub fn record_text(
         )],
         &columns,
     );
+    // Each output's simulated column, found once (not per sample).
+    let truth: Vec<&[f64]> = outputs
+        .iter()
+        .map(|n| {
+            r.output(n).map(|o| o.simulated.as_slice()).ok_or_else(|| {
+                CalibrateError::Data(format!("the machine's replay produced no `{n}`"))
+            })
+        })
+        .collect::<Result<_, _>>()?;
     let sd: Vec<f64> = outputs
         .iter()
-        .map(|n| match *n {
+        .zip(&truth)
+        .map(|(n, y)| match *n {
             chan::X_M | chan::Y_M => 0.002,
             chan::HEADING_RAD => 0.005,
-            n => {
-                let y = &r.output(n).expect("a produced output").simulated;
+            _ => {
                 let m = y.iter().sum::<f64>() / y.len() as f64;
                 0.01 * (y.iter().map(|v| (v - m).powi(2)).sum::<f64>() / y.len() as f64).sqrt()
             }
@@ -224,20 +233,18 @@ pub fn record_text(
         SensorNoise::White => {
             let mut m: Vec<Vec<f64>> = vec![Vec::with_capacity(rows.len()); outputs.len()];
             for k in 0..rows.len() {
-                for ((n, s), col) in outputs.iter().zip(&sd).zip(&mut m) {
+                for ((y, s), col) in truth.iter().zip(&sd).zip(&mut m) {
                     let e: f64 = StandardNormal.sample(&mut rng);
-                    col.push(r.output(n).expect("a produced output").simulated[k] + s * e);
+                    col.push(y[k] + s * e);
                 }
             }
             m
         }
-        noise => outputs
+        SensorNoise::Sensors => outputs
             .iter()
+            .zip(&truth)
             .zip(&sd)
-            .map(|(n, s)| {
-                let y = &r.output(n).expect("a produced output").simulated;
-                super::noise::measured(noise, n, y, *s, dt, &mut rng)
-            })
+            .map(|((n, y), s)| super::noise::by_its_sensor(n, y, *s, dt, &mut rng))
             .collect(),
     };
     for (k, u) in rows.iter().enumerate() {
