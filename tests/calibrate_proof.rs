@@ -193,3 +193,28 @@ fn coloured_sensor_noise_on_a_clean_lifted_axis_names_nothing() {
         assert!(o.passed, "{}", render(&[o]));
     }
 }
+
+/// Issue 57's "honest when the model is wrong": the lifted axis with a Coulomb friction
+/// the calibration is not allowed to name. Its keys then bend to explain the friction and
+/// their intervals miss, so the model check must say the model is wrong (the residual's
+/// level follows the speed's) and that the intervals are not to be trusted; with the
+/// friction offered, the same recording's check passes.
+#[test]
+fn a_model_left_without_its_friction_says_its_intervals_are_not_to_be_trusted() {
+    let case = common::proof_case(Kind::AxisVoltage, "multisine/coulomb_friction");
+    let (o, c) = run(&case, 1).unwrap();
+    assert!(o.passed && !o.model_flagged, "{}", render(&[o]));
+    let left_out = agvsim::calibrate::prove::Case {
+        left_out: true,
+        ..case
+    };
+    let (o, c_wrong) = run(&left_out, 1).unwrap();
+    let text = agvsim::calibrate::write::render(&c_wrong);
+    println!("{text}");
+    assert!(o.model_flagged, "{}", render(&[o]));
+    assert!(
+        text.contains("MODEL CHECK FAILED") && text.contains("not to be trusted"),
+        "{text}"
+    );
+    assert!(!agvsim::calibrate::write::render(&c).contains("MODEL CHECK FAILED"));
+}

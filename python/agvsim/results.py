@@ -549,6 +549,10 @@ class Calibration:
     iterations: Optional[int] = None
     #: The residual blocks' length, s, whose scores' spread gave the standard deviations.
     residual_correlation_s: Optional[float] = None
+    #: The model check (the JSON's object): ``passes`` (False: the residual follows a
+    #: signal the model knows, and the intervals are not to be trusted) and each output's
+    #: strongest ``residual_links`` with their ``strength`` (1 is where the check fails).
+    model_check: Optional[Dict[str, Any]] = None
     #: The search of terms outside the vocabulary, if run (the JSON's object).
     terms: Optional[Dict[str, Any]] = None
     #: The calibrated scene (see :attr:`scene`; typed there, as this module is imported

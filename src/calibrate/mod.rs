@@ -12,6 +12,7 @@
 //! simulator as judge, races, the wheels' odometry), the first stage in `first.rs` and
 //! `faithful.rs`, the output in `write.rs`.
 
+pub mod adequacy;
 pub mod base_limits;
 pub mod defect;
 pub mod diagnosis;

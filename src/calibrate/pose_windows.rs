@@ -90,6 +90,18 @@ impl PoseWindows {
         })
     }
 
+    /// The dataset's output indices of `x_m`, `y_m` and `heading_rad`, compared over the
+    /// windows.
+    pub fn outputs(&self) -> [usize; 3] {
+        self.columns
+    }
+
+    /// The window a row's pose is compared over, by its start row; `None` for a row
+    /// without one.
+    pub fn window_of(&self, row: usize) -> Option<usize> {
+        self.anchors.get(row).copied().flatten()
+    }
+
     /// The same windows for another dataset of the same rows whose outputs include the pose
     /// (in any order).
     pub fn for_dataset(&self, data: &Dataset) -> Option<PoseWindows> {

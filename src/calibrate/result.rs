@@ -245,6 +245,10 @@ pub struct Calibration {
     pub residual_correlation_s: f64,
     /// [`Calibration::residual_correlation_s`] in rows (1: the white residual's intervals were widest).
     pub residual_correlation_rows: usize,
+    /// Each fitted output's strongest link between its residual and a signal the model
+    /// knows, strongest first ([`super::adequacy`]): where one says the model is wrong, the intervals,
+    /// which assume a right model, are not to be trusted.
+    pub residual_links: Vec<super::adequacy::ResidualLink>,
 }
 
 /// The drive wheels' geometry as calibrated, beside what the odometry is configured with.

@@ -165,6 +165,11 @@ pub fn calibrate_telling(
         residual_correlation_s: rounds.stage.fit.correlation_rows as f64
             * problem.data.median_interval_s(),
         residual_correlation_rows: rounds.stage.fit.correlation_rows,
+        residual_links: super::adequacy::residual_links(
+            &problem.data,
+            &rounds.stage.fit.predicted,
+            problem.windows.as_ref(),
+        ),
     })
 }
 

@@ -184,6 +184,12 @@ pub struct ProveRequest {
     /// gyro over 10 ms, a tracker's pose error drifting over 0.5 s).
     #[arg(long, value_enum, default_value_t = crate::calibrate::prove::SensorNoise::White, requires = "calibrate")]
     pub noise: crate::calibrate::prove::SensorNoise,
+    /// With `--calibrate`: leave each case's concealed effect out of what calibrate may try
+    /// (the model wrong on purpose; clean cases are skipped). A case passes when the
+    /// calibration's model check says the model is wrong, or every fitted key's 95 %
+    /// interval still holds the machine's value.
+    #[arg(long, requires = "calibrate")]
+    pub left_out: bool,
 }
 
 /// Proves the diagnosis (or with `calibrate`, the calibration) on agvsim's own recordings
@@ -212,8 +218,10 @@ fn prove_calibration(req: &ProveRequest, say: Say) -> Result<(), CommandError> {
     let chosen: Vec<_> = all
         .into_iter()
         .filter(|c| req.cases.is_empty() || req.cases.iter().any(|n| c.name.contains(n.as_str())))
+        .filter(|c| !req.left_out || c.effect.is_some())
         .map(|c| crate::calibrate::prove::Case {
             noise: req.noise,
+            left_out: req.left_out,
             ..c
         })
         .collect();
@@ -227,7 +235,7 @@ fn prove_calibration(req: &ProveRequest, say: Say) -> Result<(), CommandError> {
     let mut outcomes = vec![];
     for seed in req.seed..req.seed.saturating_add(req.seeds) {
         for case in &chosen {
-            let (o, _) = run(case, seed)?;
+            let (o, c) = run(case, seed)?;
             say(&format!(
                 "{:<44} {}{}\n",
                 case.name,
@@ -238,6 +246,9 @@ fn prove_calibration(req: &ProveRequest, say: Say) -> Result<(), CommandError> {
                     String::new()
                 }
             ));
+            if let Some(l) = c.residual_links.first().filter(|l| l.says_model_wrong()) {
+                say(&format!("    model check failed: {}\n", l.describe()));
+            }
             outcomes.push(o);
         }
     }
@@ -247,12 +258,19 @@ fn prove_calibration(req: &ProveRequest, say: Say) -> Result<(), CommandError> {
             "the intervals' realised coverage, {} measurement noise:\n",
             req.noise.name()
         ));
-        say(&crate::calibrate::prove::render_coverage(
-            &crate::calibrate::prove::coverage_table(&outcomes),
-        ));
+        let table = crate::calibrate::prove::coverage_table(&outcomes);
+        say(&crate::calibrate::prove::render_coverage(&table));
         let path = req.out.join("coverage.csv");
         super::write_file(&path, crate::calibrate::prove::coverage_csv(&outcomes))?;
         say(&format!("each fitted key's error: {}\n", path.display()));
+        let figures = crate::calibrate::prove::coverage_figures(&table);
+        for f in &figures {
+            super::write_file(&req.out.join(&f.file), &f.svg)?;
+        }
+        say(&format!(
+            "the coverage plotted: {}\n",
+            req.out.join(&figures[0].file).display()
+        ));
     }
     let failed = outcomes.iter().filter(|o| !o.passed).count();
     if failed > 0 {

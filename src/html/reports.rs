@@ -45,6 +45,14 @@ pub fn calibration(
     d.recording(recording_names, rec);
     d.heading("Fitted keys");
     key_table(&mut d, c);
+    if let Some(l) = c.residual_links.first() {
+        let (text, class) = if l.says_model_wrong() {
+            (format!("Model check failed: {}. The calibrated model does not reproduce the recording down to its noise; the intervals above assume a right model and are not to be trusted.", l.describe()), "bad")
+        } else {
+            (format!("Model check passed: no output's residual follows a signal the model knows (the strongest, {:.0} % of the way to failing: {}).", 100.0 * l.strength(), l.describe()), "note")
+        };
+        d.paragraph(&text, class);
+    }
     if !c.effects.is_empty() {
         effect_table(&mut d, c);
     }

@@ -52,26 +52,33 @@ pub fn effective_n(data: &Dataset, predicted: &[Vec<f64>]) -> Vec<f64> {
         .enumerate()
         .map(|(j, col)| {
             let e = residual_of(col, &predicted[j]);
-            let n = e.len() as f64;
-            let m = e.iter().sum::<f64>() / n.max(1.0);
-            let var: f64 = e.iter().map(|v| (v - m).powi(2)).sum();
-            if var == 0.0 {
-                return n.max(1.0);
-            }
-            let mut sum = 0.0;
-            for lag in 1..(e.len() / 4).min(500) {
-                let r: f64 = (0..e.len() - lag)
-                    .map(|k| (e[k] - m) * (e[k + lag] - m))
-                    .sum::<f64>()
-                    / var;
-                if r < DECORRELATED {
-                    break;
-                }
-                sum += r;
-            }
-            (n / (1.0 + 2.0 * sum)).max(1.0)
+            (e.len() as f64 / correlation_factor(&e)).max(1.0)
         })
         .collect()
+}
+
+/// How many samples of `e` count as one independent sample: `1 + 2 sum` of its
+/// autocorrelation over lags until it first falls below [`DECORRELATED`] (at most 500
+/// lags, a quarter of the series); 1 for a white or constant series.
+pub fn correlation_factor(e: &[f64]) -> f64 {
+    let n = e.len() as f64;
+    let m = e.iter().sum::<f64>() / n.max(1.0);
+    let var: f64 = e.iter().map(|v| (v - m).powi(2)).sum();
+    if var == 0.0 {
+        return 1.0;
+    }
+    let mut sum = 0.0;
+    for lag in 1..(e.len() / 4).min(500) {
+        let r: f64 = (0..e.len() - lag)
+            .map(|k| (e[k] - m) * (e[k + lag] - m))
+            .sum::<f64>()
+            / var;
+        if r < DECORRELATED {
+            break;
+        }
+        sum += r;
+    }
+    1.0 + 2.0 * sum
 }
 
 /// An output's measurement noise, one standard deviation in its unit, from the record

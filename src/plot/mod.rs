@@ -1,5 +1,6 @@
 //! Plots as SVG, written directly (no plotting dependency), shared by identify, diagnose,
-//! sweep and study: line plots of series against x, and horizontal bar charts.
+//! sweep, study and prove: line plots of series against x, horizontal bar charts, and
+//! dot-and-whisker charts.
 //!
 //! Rules every plot keeps, so it reads at a glance: the legend sits below the data and
 //! wraps rather than being cut; a series of few points gets markers; a series marked out
@@ -11,6 +12,7 @@
 mod axes;
 pub mod bars;
 mod draw;
+pub mod intervals;
 
 use std::fmt::Write;
 
@@ -18,6 +20,7 @@ pub use axes::{fmt_tick, nice_ticks};
 use axes::{legend_layout, on_canvas, range_of};
 pub use bars::{bar_chart, BarGroup};
 use draw::{cross, draw_series, legend_key};
+pub use intervals::{interval_chart, IntervalRow, Reference};
 
 /// Canvas width, px.
 pub const W: f64 = 900.0;

@@ -124,7 +124,7 @@ pub(super) fn peak_command_v(
 }
 
 /// The effects a kind's recording can show (what `--effects all` offers it).
-pub(super) fn effects_of(kind: Kind) -> Vec<Effect> {
+pub fn effects_of(kind: Kind) -> Vec<Effect> {
     use Effect::*;
     match kind {
         Kind::AxisVoltage => vec![
@@ -274,6 +274,7 @@ pub fn cases(kinds: &[Kind]) -> Result<Vec<Case>, CalibrateError> {
                 machine: vec![],
                 common: vec![],
                 noise: SensorNoise::White,
+                left_out: false,
             });
             let peak_v = peak_command_v(kind, excitation, &clean)?;
             for effect in effects_of(kind) {
@@ -287,6 +288,7 @@ pub fn cases(kinds: &[Kind]) -> Result<Vec<Case>, CalibrateError> {
                     machine,
                     common,
                     noise: SensorNoise::White,
+                    left_out: false,
                 });
             }
             if kind == Kind::BaseRig {
@@ -312,5 +314,6 @@ pub(super) fn payload_case(kind: Kind, excitation: Excitation, clean: &Scene, na
         machine: vec![format!("{key}={mass}")],
         common: vec![],
         noise: SensorNoise::White,
+        left_out: false,
     }
 }

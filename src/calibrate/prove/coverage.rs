@@ -171,26 +171,92 @@ pub fn render_coverage(rows: &[CoverageRow]) -> String {
     s
 }
 
+/// [`coverage_table`] as two figures: `coverage.svg`, each kind's keys together, and
+/// `coverage_keys.svg`, every key. A dot per nominal level at its realised share, the
+/// whisker its Monte Carlo error times 1.96, the nominal shares as dashed lines.
+pub fn coverage_figures(rows: &[CoverageRow]) -> Vec<crate::plot::Figure> {
+    let kinds: Vec<&CoverageRow> = rows.iter().filter(|r| r.key == ALL_KEYS).collect();
+    let keys: Vec<&CoverageRow> = rows.iter().filter(|r| r.key != ALL_KEYS).collect();
+    vec![
+        crate::plot::Figure {
+            file: "coverage.svg".into(),
+            svg: coverage_chart(
+                "Realised coverage of the printed intervals, by kind",
+                &kinds,
+                |r| format!("{} (n {})", r.kind, r.n),
+            ),
+        },
+        crate::plot::Figure {
+            file: "coverage_keys.svg".into(),
+            svg: coverage_chart(
+                "Realised coverage of the printed intervals, by key",
+                &keys,
+                |r| format!("{}: {} (n {})", r.kind, r.key, r.n),
+            ),
+        },
+    ]
+}
+
+fn coverage_chart(
+    title: &str,
+    rows: &[&CoverageRow],
+    label: impl Fn(&CoverageRow) -> String,
+) -> String {
+    use crate::plot::{interval_chart, IntervalRow, Reference};
+    const C68: &str = "#1f5fbf";
+    const C95: &str = "#d08000";
+    let dot = |(p, e): (f64, f64)| {
+        let pct = 100.0 * p;
+        Some((
+            pct,
+            (pct - 196.0 * e).max(0.0),
+            (pct + 196.0 * e).min(100.0),
+        ))
+    };
+    let rows: Vec<IntervalRow> = rows
+        .iter()
+        .map(|r| IntervalRow {
+            label: label(r),
+            values: vec![dot(r.share_68()), dot(r.share_95())],
+        })
+        .collect();
+    interval_chart(
+        title,
+        "dot: the share of fitted values within the interval of the machine's value; whisker: 1.96 x its Monte Carlo error",
+        "realised coverage, %",
+        &[("1-std intervals (68.3 % nominal)", C68), ("1.96-std intervals (95 % nominal)", C95)],
+        &rows,
+        &[
+            Reference { x: 68.3, colour: C68, label: "68.3 %" },
+            Reference { x: 95.0, colour: C95, label: "95 %" },
+        ],
+        (0.0, 100.0),
+    )
+}
+
 /// Every fitted key of every round trip, a row each: the case, its seed, the key, the
 /// machine's value, the calibrated value, its standard deviation (empty where the fit gave
 /// none), `z`, the error in standard deviations, and whether the interval was said to hold
-/// only given a held key (the coverage table's input, for a reader who wants to see which
-/// keys miss and by how much).
+/// only given a held key, and whether the round trip's model check failed (the coverage
+/// table's input, for a reader who wants to see which keys miss and by how much).
 pub fn coverage_csv(outcomes: &[Outcome]) -> String {
-    let mut s = String::from("case,seed,key,truth,calibrated,std,z,conditional_on_held\n");
+    let mut s = String::from(
+        "case,seed,key,truth,calibrated,std,z,conditional_on_held,model_check_failed\n",
+    );
     for o in outcomes {
         for k in &o.keys {
             let z = k.z().map_or(String::new(), |z| format!("{z:.4}"));
             let _ = writeln!(
                 s,
-                "{},{},{},{:e},{:e},{},{z},{}",
+                "{},{},{},{:e},{:e},{},{z},{},{}",
                 o.case.name,
                 o.seed,
                 k.key,
                 k.truth,
                 k.calibrated,
                 k.std.map_or(String::new(), |s| format!("{s:e}")),
-                k.conditional
+                k.conditional,
+                o.model_flagged
             );
         }
     }
@@ -216,6 +282,7 @@ mod tests {
             machine: vec![],
             common: vec![],
             noise: crate::calibrate::prove::SensorNoise::White,
+            left_out: false,
         };
         Outcome {
             case,
@@ -233,6 +300,8 @@ mod tests {
                 })
                 .collect(),
             fit_pct: (0.0, 0.0),
+            residual_link: None,
+            model_flagged: false,
             passed: true,
         }
     }

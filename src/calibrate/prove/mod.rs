@@ -18,7 +18,9 @@ mod noise;
 mod recording;
 use cases::through_rig;
 pub use cases::{cases, clean_machine};
-pub use coverage::{coverage, coverage_csv, coverage_table, render_coverage, CoverageRow};
+pub use coverage::{
+    coverage, coverage_csv, coverage_figures, coverage_table, render_coverage, CoverageRow,
+};
 pub use noise::SensorNoise;
 pub use recording::{record, record_text};
 
@@ -133,6 +135,9 @@ pub struct Case {
     pub common: Vec<String>,
     /// The measurement noise its recording carries.
     pub noise: SensorNoise,
+    /// Whether the concealed effect is left out of what calibrate may try (`prove
+    /// --calibrate --left-out`): the model is wrong on purpose.
+    pub left_out: bool,
 }
 
 /// One fitted key of a round trip against the machine's value.
@@ -176,9 +181,17 @@ pub struct Outcome {
     pub keys: Vec<FittedKey>,
     /// Mean replay fit before and after, %.
     pub fit_pct: (f64, f64),
+    /// The strongest link between an output's residual and a signal, over the strength
+    /// that says the model is wrong ([`crate::calibrate::adequacy::ResidualLink::strength`]);
+    /// `None`: no output long enough to judge.
+    pub residual_link: Option<f64>,
+    /// Whether the calibration's model check said the model is wrong.
+    pub model_flagged: bool,
     /// Whether the case passed: the concealed effect accepted first with its key within
     /// [`KEY_TOLERANCE`], or nothing accepted on a clean case (and on a payload case, the
-    /// mass within it).
+    /// mass within it). With the effect left out ([`Case::left_out`]): the model check
+    /// said the model is wrong, or every fitted key's 95 % interval still held the
+    /// machine's value.
     pub passed: bool,
 }
 
@@ -239,9 +252,18 @@ fn setup_through_rig(
 /// the recording can show, and judges the outcome.
 pub fn run(case: &Case, seed: u64) -> Result<(Outcome, Calibration), CalibrateError> {
     let (machine, rec, belief) = setup(case, seed)?;
+    let effects = match case.effect {
+        Some(e) if case.left_out => Choice::Named(
+            cases::effects_of(case.kind)
+                .into_iter()
+                .filter(|&o| o != e)
+                .collect(),
+        ),
+        _ => Choice::All,
+    };
     let request = Request {
         free: vec![],
-        effects: Choice::All,
+        effects,
         validate: None,
     };
     let c = calibrate_telling(&belief, &rec, &request, &|_| {})?;
@@ -251,12 +273,7 @@ pub fn run(case: &Case, seed: u64) -> Result<(Outcome, Calibration), CalibrateEr
         Some((k.after - truth) / truth)
     });
     let key_within = key_error.is_some_and(|x| x.abs() <= KEY_TOLERANCE);
-    let passed = match case.effect {
-        // A clean machine, or one whose only difference is a key's value (a payload).
-        None => accepted.is_empty() && (case.truth.is_none() || key_within),
-        Some(e) => accepted.first().map(|a| a.0) == Some(e) && key_within,
-    };
-    let keys = c
+    let keys: Vec<FittedKey> = c
         .keys
         .iter()
         .filter(|k| k.calibrated())
@@ -270,6 +287,20 @@ pub fn run(case: &Case, seed: u64) -> Result<(Outcome, Calibration), CalibrateEr
             })
         })
         .collect();
+    let model_flagged = c.residual_links.iter().any(|l| l.says_model_wrong());
+    let passed = match case.effect {
+        // Honest when wrong: said so, or its intervals held anyway.
+        Some(_) if case.left_out => {
+            model_flagged
+                || keys
+                    .iter()
+                    .filter_map(FittedKey::z)
+                    .all(|z| z.abs() <= 1.96)
+        }
+        // A clean machine, or one whose only difference is a key's value (a payload).
+        None => accepted.is_empty() && (case.truth.is_none() || key_within),
+        Some(e) => accepted.first().map(|a| a.0) == Some(e) && key_within,
+    };
     let outcome = Outcome {
         case: case.clone(),
         seed,
@@ -280,16 +311,28 @@ pub fn run(case: &Case, seed: u64) -> Result<(Outcome, Calibration), CalibrateEr
             super::write::mean_fit(&c.before, &c.outputs),
             super::write::mean_fit(&c.after, &c.outputs),
         ),
+        residual_link: c.residual_links.first().map(|l| l.strength()),
+        model_flagged,
         passed,
     };
     Ok((outcome, c))
 }
 
+/// The model check of a round trip: the strongest residual link over the strength at
+/// which the check fails, `WRONG` where it did.
+fn model_check_cell(o: &Outcome) -> String {
+    match o.residual_link {
+        Some(m) if o.model_flagged => format!("WRONG {m:.1}x"),
+        Some(m) => format!("ok {m:.1}x"),
+        None => "-".into(),
+    }
+}
+
 /// The table of outcomes: case, what was accepted, the key's error, the fits, pass or fail.
 pub fn render(outcomes: &[Outcome]) -> String {
     let mut s = format!(
-        "{:<44} {:<40} {:>8} {:>16}  result\n",
-        "case", "accepted (in order)", "error", "fit %"
+        "{:<44} {:<40} {:>8} {:>16} {:>12}  result\n",
+        "case", "accepted (in order)", "error", "fit %", "model check"
     );
     for o in outcomes {
         let accepted = if o.accepted.is_empty() {
@@ -303,13 +346,14 @@ pub fn render(outcomes: &[Outcome]) -> String {
         };
         let _ = writeln!(
             s,
-            "{:<44} {:<40} {:>8} {:>6.1} -> {:>6.1}  {}",
+            "{:<44} {:<40} {:>8} {:>6.1} -> {:>6.1} {:>12}  {}",
             o.case.name,
             accepted,
             o.key_error
                 .map_or("-".into(), |e| format!("{:+.1}%", 100.0 * e)),
             o.fit_pct.0,
             o.fit_pct.1,
+            model_check_cell(o),
             if o.passed { "pass" } else { "FAIL" }
         );
     }
@@ -319,6 +363,21 @@ pub fn render(outcomes: &[Outcome]) -> String {
         "1-sigma coverage: {:.0} % of {n} fitted keys hold the machine's value",
         100.0 * share
     );
+    let flagged = outcomes.iter().filter(|o| o.model_flagged).count();
+    if flagged > 0 {
+        let trusted: Vec<Outcome> = outcomes
+            .iter()
+            .filter(|o| !o.model_flagged)
+            .cloned()
+            .collect();
+        let (share, n) = coverage(&trusted);
+        let _ = writeln!(
+            s,
+            "model check failed (intervals said not to be trusted) on {flagged} of {} round trips; of the others, {:.0} % of {n} fitted keys hold the machine's value",
+            outcomes.len(),
+            100.0 * share
+        );
+    }
     let conditional = outcomes
         .iter()
         .flat_map(|o| &o.keys)

@@ -97,6 +97,10 @@ pub fn json(c: &Calibration, scene: &str, recording: &str) -> serde_json::Value 
         "wheel_geometry": c.wheel_geometry().map(|g| geometry_json(&g)),
         "iterations": c.iterations,
         "residual_correlation_s": c.residual_correlation_s,
+        "model_check": {
+            "passes": !c.residual_links.iter().any(|l| l.says_model_wrong()),
+            "residual_links": c.residual_links.iter().map(link_json).collect::<Vec<_>>(),
+        },
         "terms": c.terms.as_ref().map(|t| serde_json::json!({
             "screened": t.screened,
             "fitted": t.trials.iter().map(|trial| serde_json::json!({
@@ -115,5 +119,35 @@ pub fn json(c: &Calibration, scene: &str, recording: &str) -> serde_json::Value 
                 "accepted": trial.accepted,
             })).collect::<Vec<_>>(),
         })),
+    })
+}
+
+/// A residual link ([`crate::calibrate::adequacy`]) as JSON: its output, signal, strength
+/// (above 1: the model is wrong) and numbers.
+fn link_json(l: &crate::calibrate::adequacy::ResidualLink) -> serde_json::Value {
+    use crate::calibrate::adequacy::How;
+    let how = match l.how {
+        How::Lagged {
+            lag_s,
+            correlation,
+            band,
+        } => serde_json::json!({
+            "lagged": {"lag_s": lag_s, "correlation": correlation, "band_99": band}
+        }),
+        How::Binned {
+            from,
+            to,
+            mean,
+            std_error,
+        } => serde_json::json!({
+            "binned": {"from": from, "to": to, "mean": mean, "std_error": std_error}
+        }),
+    };
+    serde_json::json!({
+        "output": l.output,
+        "signal": l.signal,
+        "strength": l.strength(),
+        "says_model_wrong": l.says_model_wrong(),
+        "how": how,
     })
 }

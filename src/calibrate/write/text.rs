@@ -76,6 +76,7 @@ fn key_table(s: &mut String, c: &Calibration) {
             c.residual_correlation_s
         );
     }
+    model_check_line(s, c);
     for r in &c.removed {
         let unit = unit_of_key(&r.key);
         let _ = writeln!(
@@ -107,6 +108,28 @@ fn trade_off_lines(s: &mut String, c: &Calibration) {
             );
         }
     }
+}
+
+/// Whether the calibrated model leaves a residual that follows a signal it knows
+/// ([`crate::calibrate::adequacy`]): the intervals' condition, said with its numbers.
+fn model_check_line(s: &mut String, c: &Calibration) {
+    use std::fmt::Write as _;
+    let Some(l) = c.residual_links.first() else {
+        return;
+    };
+    let link = l.describe();
+    let _ = if l.says_model_wrong() {
+        writeln!(
+            s,
+            "MODEL CHECK FAILED: {link}: the calibrated model does not reproduce the recording down to its noise (physics it lacks, or where its fitting model differs from the machine); the intervals assume a right model and are not to be trusted"
+        )
+    } else {
+        writeln!(
+            s,
+            "model check: no output's residual follows a signal the model knows ({:.0} % of the way to saying the model is wrong at the strongest: {link})",
+            100.0 * l.strength()
+        )
+    };
 }
 
 /// A line per estimate whose interval holds only given a key the recording could not tell
