@@ -1,15 +1,20 @@
 //! Whether the calibrated model is right enough for its intervals: what it leaves of each
-//! output must not follow the recording's inputs (Ljung's cross-correlation test, MATLAB's
-//! `resid`). The intervals assume a right model; a model that lacks some physics leaves a
-//! residual that the inputs drive, while a sensor's noise, white or coloured, does not
-//! depend on them. So unlike a whiteness test, this one does not fire on an encoder's
-//! quantisation or a low-passed current, only on a model that is wrong.
+//! output must not follow a signal the model knows, an input or the model's own predicted
+//! outputs (its state, free of the sensors' noise). The intervals assume a right model; a
+//! model that lacks some physics leaves a residual that those signals drive, while a
+//! sensor's noise, white or coloured, does not depend on them. So unlike a whiteness test,
+//! this one does not fire on an encoder's quantisation or a low-passed current.
 //!
 //! Both series are averaged over blocks of [`BLOCK_S`] first (an input and a residual of
-//! 1 kHz rows vary over the dynamics' time constants, not over a sample), then correlated
-//! at lags up to [`LAG_SPAN_S`] either side. The band comes from
-//! [`crate::ident::resid::independence`]: it accounts for the residual's and the input's
-//! own correlation, so a coloured residual widens it instead of failing it.
+//! 1 kHz rows vary over the dynamics' time constants, not over a sample). Then two looks:
+//!
+//! - **in levels**: the signal's values cut into [`BINS`] bins, the residual's mean in each
+//!   against its standard error (a one-way analysis of variance; [`strongest_bin`]), which
+//!   catches what no linear filter shows (a friction stepping with the speed's sign, a
+//!   supply clipping at high commands);
+//! - **at lags**: the cross-correlation with each input up to [`LAG_SPAN_S`] either side,
+//!   against the 99 % band of [`crate::ident::resid::independence`] (Ljung's test, MATLAB's
+//!   `resid`), which accounts for the residual's and the input's own correlation.
 
 use crate::ident::data::Dataset;
 use crate::ident::resid;
