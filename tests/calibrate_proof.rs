@@ -203,7 +203,7 @@ fn coloured_sensor_noise_on_a_clean_lifted_axis_names_nothing() {
 fn a_model_left_without_its_friction_says_its_intervals_are_not_to_be_trusted() {
     let case = common::proof_case(Kind::AxisVoltage, "multisine/coulomb_friction");
     let (o, c) = run(&case, 1).unwrap();
-    assert!(o.passed && !o.model_flagged, "{}", render(&[o]));
+    assert!(o.passed && !o.model_flagged(), "{}", render(&[o]));
     let left_out = agvsim::calibrate::prove::Case {
         left_out: true,
         ..case
@@ -211,7 +211,7 @@ fn a_model_left_without_its_friction_says_its_intervals_are_not_to_be_trusted() 
     let (o, c_wrong) = run(&left_out, 1).unwrap();
     let text = agvsim::calibrate::write::render(&c_wrong);
     println!("{text}");
-    assert!(o.model_flagged, "{}", render(&[o]));
+    assert!(o.model_flagged(), "{}", render(&[o]));
     assert!(
         text.contains("MODEL CHECK FAILED") && text.contains("not to be trusted"),
         "{text}"

@@ -77,18 +77,30 @@ pub struct ResidualLink {
     pub how: How,
 }
 
-impl ResidualLink {
-    /// The link's score over the score that says the model is wrong
-    /// ([`FLAG_BAND_MULTIPLE`], [`FLAG_BIN_Z`]): above 1, it does.
-    pub fn strength(&self) -> f64 {
-        match self.how {
+impl How {
+    /// The link's score: the correlation in multiples of its band's half-width, or the
+    /// bin's mean in standard errors.
+    pub fn score(&self) -> f64 {
+        match *self {
             How::Lagged {
                 correlation, band, ..
-            } => correlation.abs() / band / FLAG_BAND_MULTIPLE,
+            } => correlation.abs() / band,
             How::Binned {
                 mean, std_error, ..
-            } => mean.abs() / std_error / FLAG_BIN_Z,
+            } => mean.abs() / std_error,
         }
+    }
+}
+
+impl ResidualLink {
+    /// The link's [`How::score`] over the score that says the model is wrong
+    /// ([`FLAG_BAND_MULTIPLE`], [`FLAG_BIN_Z`]): above 1, it does.
+    pub fn strength(&self) -> f64 {
+        let limit = match self.how {
+            How::Lagged { .. } => FLAG_BAND_MULTIPLE,
+            How::Binned { .. } => FLAG_BIN_Z,
+        };
+        self.how.score() / limit
     }
 
     /// Whether the link is strong enough to say the model lacks something.
@@ -99,32 +111,26 @@ impl ResidualLink {
     /// The link in words, with its numbers.
     pub fn describe(&self) -> String {
         let n = crate::numtext::sig;
+        let score = self.how.score();
         match self.how {
             How::Lagged {
-                lag_s,
-                correlation,
-                band,
+                lag_s, correlation, ..
             } => format!(
                 "the residual of {} follows {} (correlation {:+.3} at a lag of {:.2} s, {:.1} times the 99 % band an independent residual stays in)",
                 self.output,
                 self.signal,
                 correlation,
                 lag_s,
-                correlation.abs() / band
+                score
             ),
-            How::Binned {
-                from,
-                to,
-                mean,
-                std_error,
-            } => format!(
+            How::Binned { from, to, mean, .. } => format!(
                 "the residual of {} is {} on average where {} lies in [{}, {}] ({:.1} standard errors off zero)",
                 self.output,
                 n(mean, 3),
                 self.signal,
                 n(from, 3),
                 n(to, 3),
-                mean.abs() / std_error
+                score
             ),
         }
     }
@@ -168,14 +174,11 @@ pub fn residual_links(
         .iter()
         .enumerate()
         .filter_map(|(j, output)| {
-            let measured: Vec<usize> = (0..data.len())
-                .filter(|&k| data.outputs[j][k].is_some())
-                .collect();
-            let e: Vec<f64> = measured
-                .iter()
-                .filter_map(|&k| data.outputs[j][k].map(|y| y - predicted[j][k]))
-                .collect();
+            let (measured, e) = data.measured_residual(j, &predicted[j]);
             let blocks = block_means(&e, rows_per_block);
+            if blocks.len() < 4 * lags {
+                return None;
+            }
             // Each block's pose window, where this output is compared over windows (a
             // block without one is a stretch of its own).
             let stretch: Option<Vec<usize>> =
@@ -187,9 +190,6 @@ pub fn residual_links(
                         })
                         .collect()
                 });
-            if blocks.len() < 4 * lags {
-                return None;
-            }
             let lagged = data.input_names.iter().enumerate().map(|(i, input)| {
                 let u: Vec<f64> = measured.iter().map(|&k| data.inputs[i][k]).collect();
                 let check = resid::independence(&block_means(&u, rows_per_block), &blocks, lags);
@@ -302,7 +302,7 @@ fn strongest_bin(e: &[f64], x: &[f64], stretch: Option<&[usize]>) -> Option<How>
                 std_error: sd * (f / bin.len() as f64).sqrt(),
             }
         })
-        .max_by(|a, b| z_of(a).total_cmp(&z_of(b)))
+        .max_by(|a, b| a.score().total_cmp(&b.score()))
 }
 
 /// Fewest of a slow noise's stretches a bin's samples must come from for its mean to be
@@ -327,15 +327,6 @@ fn whole_residual(e: &[f64]) -> (f64, f64) {
     let m = e.iter().sum::<f64>() / n as f64;
     let sd = (e.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1).max(1) as f64).sqrt();
     (sd, correlation_factor(e))
-}
-
-fn z_of(how: &How) -> f64 {
-    match how {
-        How::Binned {
-            mean, std_error, ..
-        } => mean.abs() / std_error,
-        How::Lagged { .. } => 0.0,
-    }
 }
 
 /// Means of consecutive blocks of `n` values (a last partial block dropped).
@@ -404,7 +395,7 @@ mod tests {
             .map(|(k, v)| v + if k < 250 { 1.5 } else { 0.0 })
             .collect();
         let how = strongest_bin(&once, &x, Some(&stretch)).unwrap();
-        assert!(z_of(&how) < FLAG_BIN_Z, "{how:?}");
+        assert!(how.score() < FLAG_BIN_Z, "{how:?}");
         // An offset wherever the sine is near its top: a level the signal brings back.
         let returning: Vec<f64> = white
             .iter()
@@ -412,7 +403,7 @@ mod tests {
             .map(|(v, s)| v + if *s > 0.9 { 1.5 } else { 0.0 })
             .collect();
         let how = strongest_bin(&returning, &x, Some(&stretch)).unwrap();
-        assert!(z_of(&how) > FLAG_BIN_Z, "{how:?}");
+        assert!(how.score() > FLAG_BIN_Z, "{how:?}");
     }
 
     /// A model with the plant's time constant, against noise white or low-passed over

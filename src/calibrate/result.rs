@@ -301,6 +301,15 @@ pub struct ControllerMultipliers {
 }
 
 impl Calibration {
+    /// The model check's verdict: whether the strongest residual link (the first of
+    /// [`Calibration::residual_links`]) says the model is wrong, so the intervals are not
+    /// to be trusted.
+    pub fn model_check_fails(&self) -> bool {
+        self.residual_links
+            .first()
+            .is_some_and(|l| l.says_model_wrong())
+    }
+
     /// The wheel geometry, where the calibration fitted it (the `wheel_geometry` effect,
     /// or its keys freed).
     pub fn wheel_geometry(&self) -> Option<WheelGeometry> {

@@ -183,6 +183,16 @@ impl Dataset {
         self.t_s.is_empty()
     }
 
+    /// Output `j`'s measured rows and its residual there, `y - predicted`, in row order.
+    pub fn measured_residual(&self, j: usize, predicted: &[f64]) -> (Vec<usize>, Vec<f64>) {
+        self.outputs[j]
+            .iter()
+            .zip(predicted)
+            .enumerate()
+            .filter_map(|(k, (y, p))| y.map(|y| (k, y - p)))
+            .unzip()
+    }
+
     /// Index of an output by column name.
     pub fn output_index(&self, name: &str) -> Option<usize> {
         self.output_names.iter().position(|n| n == name)

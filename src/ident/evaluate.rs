@@ -133,13 +133,7 @@ pub fn evaluate(data: &Dataset, predicted: Vec<Vec<f64>>, max_lag: usize) -> Eva
     let mut checks = Vec::new();
     for (j, name) in data.output_names.iter().enumerate() {
         fit.insert(name.clone(), fit_pct(&data.outputs[j], &predicted[j]));
-        let rows: Vec<usize> = (0..data.len())
-            .filter(|&k| data.outputs[j][k].is_some())
-            .collect();
-        let e: Vec<f64> = rows
-            .iter()
-            .filter_map(|&k| data.outputs[j][k].map(|y| y - predicted[j][k]))
-            .collect();
+        let (rows, e) = data.measured_residual(j, &predicted[j]);
         rms.insert(
             name.clone(),
             (e.iter().map(|v| v * v).sum::<f64>() / e.len().max(1) as f64).sqrt(),

@@ -256,7 +256,7 @@ pub fn coverage_csv(outcomes: &[Outcome]) -> String {
                 k.calibrated,
                 k.std.map_or(String::new(), |s| format!("{s:e}")),
                 k.conditional,
-                o.model_flagged
+                o.model_flagged()
             );
         }
     }
@@ -301,7 +301,6 @@ mod tests {
                 .collect(),
             fit_pct: (0.0, 0.0),
             residual_link: None,
-            model_flagged: false,
             passed: true,
         }
     }

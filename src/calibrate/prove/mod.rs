@@ -185,14 +185,20 @@ pub struct Outcome {
     /// that says the model is wrong ([`crate::calibrate::adequacy::ResidualLink::strength`]);
     /// `None`: no output long enough to judge.
     pub residual_link: Option<f64>,
-    /// Whether the calibration's model check said the model is wrong.
-    pub model_flagged: bool,
     /// Whether the case passed: the concealed effect accepted first with its key within
     /// [`KEY_TOLERANCE`], or nothing accepted on a clean case (and on a payload case, the
     /// mass within it). With the effect left out ([`Case::left_out`]): the model check
     /// said the model is wrong, or every fitted key's 95 % interval still held the
     /// machine's value.
     pub passed: bool,
+}
+
+impl Outcome {
+    /// Whether the calibration's model check said the model is wrong (its strongest link
+    /// past the check's limit).
+    pub fn model_flagged(&self) -> bool {
+        self.residual_link.is_some_and(|s| s > 1.0)
+    }
 }
 
 /// The scene a case is calibrated from: the clean machine with its fitted keys each off by
@@ -287,7 +293,7 @@ pub fn run(case: &Case, seed: u64) -> Result<(Outcome, Calibration), CalibrateEr
             })
         })
         .collect();
-    let model_flagged = c.residual_links.iter().any(|l| l.says_model_wrong());
+    let model_flagged = c.model_check_fails();
     let passed = match case.effect {
         // Honest when wrong: said so, or its intervals held anyway.
         Some(_) if case.left_out => {
@@ -312,7 +318,6 @@ pub fn run(case: &Case, seed: u64) -> Result<(Outcome, Calibration), CalibrateEr
             super::write::mean_fit(&c.after, &c.outputs),
         ),
         residual_link: c.residual_links.first().map(|l| l.strength()),
-        model_flagged,
         passed,
     };
     Ok((outcome, c))
@@ -322,7 +327,7 @@ pub fn run(case: &Case, seed: u64) -> Result<(Outcome, Calibration), CalibrateEr
 /// which the check fails, `WRONG` where it did.
 fn model_check_cell(o: &Outcome) -> String {
     match o.residual_link {
-        Some(m) if o.model_flagged => format!("WRONG {m:.1}x"),
+        Some(m) if o.model_flagged() => format!("WRONG {m:.1}x"),
         Some(m) => format!("ok {m:.1}x"),
         None => "-".into(),
     }
@@ -363,11 +368,11 @@ pub fn render(outcomes: &[Outcome]) -> String {
         "1-sigma coverage: {:.0} % of {n} fitted keys hold the machine's value",
         100.0 * share
     );
-    let flagged = outcomes.iter().filter(|o| o.model_flagged).count();
+    let flagged = outcomes.iter().filter(|o| o.model_flagged()).count();
     if flagged > 0 {
         let trusted: Vec<Outcome> = outcomes
             .iter()
-            .filter(|o| !o.model_flagged)
+            .filter(|o| !o.model_flagged())
             .cloned()
             .collect();
         let (share, n) = coverage(&trusted);

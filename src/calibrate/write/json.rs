@@ -98,7 +98,7 @@ pub fn json(c: &Calibration, scene: &str, recording: &str) -> serde_json::Value 
         "iterations": c.iterations,
         "residual_correlation_s": c.residual_correlation_s,
         "model_check": {
-            "passes": !c.residual_links.iter().any(|l| l.says_model_wrong()),
+            "passes": !c.model_check_fails(),
             "residual_links": c.residual_links.iter().map(link_json).collect::<Vec<_>>(),
         },
         "terms": c.terms.as_ref().map(|t| serde_json::json!({
