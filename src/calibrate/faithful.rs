@@ -30,7 +30,7 @@ pub(super) fn faithful_first_stage(
     }
     progress("the simulator does not see the reduced base's first fit: the keys bent to make up for what it leaves out; fitting through the simulator from here");
     problem.engine = Engine::Simulator;
-    problem.defect = None;
+    problem.forget_defect();
     clear_held(problem);
     problem.first_stage(scene, fitted)
 }
@@ -51,7 +51,7 @@ pub(super) fn judged_first_stage(
         return Ok(stage);
     }
     progress(super::JUDGED_BY_THE_SIMULATOR);
-    if problem.defect.is_none() && problem.correct_at(scene)? {
+    if problem.defect().is_none() && problem.correct_at(scene)? {
         return problem.fit(&stage.reached, &stage.free);
     }
     Ok(stage)

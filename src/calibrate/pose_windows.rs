@@ -240,10 +240,14 @@ fn motion_from(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [c * dx + s * dy, -s * dx + c * dy, b[2] - a[2]]
 }
 
-/// Half the span of samples a window's start pose is estimated from, s: enough samples to
-/// average a tracker's noise, short enough that a quadratic in time follows the motion
-/// (a jerk of 10 m/s^3 leaves well under a millimetre).
-const ANCHOR_HALF_SPAN_S: f64 = 0.1;
+/// Half the span of samples a window's start pose is estimated from, s. A start's error
+/// stays in every motion of its window (a heading off by δ turns them all by δ), so it
+/// must be averaged far below one sample's: over 0.1 s either side, the calibrate proof's
+/// clean base (a tracker of 2 mm and 5 mrad at 100 Hz) came out at 40.32 ± 0.03 kg of 40,
+/// over 0.5 s at 39.95 ± 0.04. The measured and the simulated starts are smoothed alike,
+/// so a quadratic that does not follow the motion over the span is no error in itself (an
+/// exact replay compares as equal); a wider span only makes the start less local.
+const ANCHOR_HALF_SPAN_S: f64 = 0.5;
 
 /// Fewest samples a start pose is estimated from; with fewer (a slow tracker) the
 /// sample itself is the start.
@@ -311,7 +315,9 @@ mod tests {
     /// on the circle.
     #[test]
     fn a_window_sees_the_motion_in_the_vehicles_own_frame() {
-        let t: Vec<f64> = (0..=100).map(|k| k as f64 * 0.1).collect();
+        // Sampled every 0.25 s: too few samples around a start to smooth it, so each
+        // window starts at its first sample and the chord is exact.
+        let t: Vec<f64> = (0..=40).map(|k| k as f64 * 0.25).collect();
         let (x0, y0, a): (f64, f64, f64) = (5.0, -3.0, 0.7);
         let pose: Vec<[f64; 3]> = t
             .iter()
@@ -326,12 +332,12 @@ mod tests {
         assert_eq!(w.window_s, MIN_WINDOW_S);
         let m = w.measured(&d);
         for k in 0..t.len() {
-            // Windows of 2 s: rows 0-19, 20-39, ...; each window's first row has none.
-            if k % 20 == 0 {
+            // Windows of 2 s: rows 0-7, 8-15, ...; each window's first row has none.
+            if k % 8 == 0 {
                 assert_eq!(m.outputs[0][k], None, "{k}");
                 continue;
             }
-            let dt = t[k] - t[k - k % 20];
+            let dt = t[k] - t[k - k % 8];
             // The chord of an arc of dt rad on a unit circle, in the frame at its start.
             let (fwd, left) = (dt.sin(), 1.0 - dt.cos());
             assert!((m.outputs[0][k].unwrap() - fwd).abs() < 1e-9, "{k}");
@@ -343,7 +349,7 @@ mod tests {
             .map(|i| pose.iter().map(|p| p[i] + [1.0, 2.0, 0.0][i]).collect())
             .collect();
         w.simulated(&mut y);
-        for k in (0..t.len()).filter(|k| k % 20 != 0) {
+        for k in (0..t.len()).filter(|k| k % 8 != 0) {
             for i in 0..3 {
                 assert!((y[i][k] - m.outputs[i][k].unwrap()).abs() < 1e-9);
             }
@@ -384,8 +390,8 @@ mod tests {
     /// A replay that reproduces the recording exactly compares as equal, wherever the
     /// path curves within the smoother's span: at 200 Hz, a base that starts to turn and
     /// accelerate at a window's start (a command's step at t = 2 s). Its smoothed start
-    /// differs from the sample there (the quadratic cannot follow the kink: 47 µm along
-    /// and 0.09 mrad of heading after one row here), so a start taken from the simulation's
+    /// differs from the sample there (the quadratic cannot follow the kink: 0.8 mm to the
+    /// left after one row here), so a start taken from the simulation's
     /// own sample would leave a residual at the true keys, the same sign in every window
     /// that starts on a step: on the calibrate proof's clean base, noise-free, the keys
     /// came back 0.2 % off (39.92 kg for 40) instead of exact.
@@ -413,9 +419,11 @@ mod tests {
         let raw_start = pose[400];
         let smoothed = w.motions([&y[0], &y[1], &y[2]])[401].unwrap();
         let from_sample = motion_from(raw_start, pose[401]);
+        let gap = (0..3)
+            .map(|i| (smoothed[i] - from_sample[i]).abs())
+            .fold(0.0, f64::max);
         assert!(
-            (smoothed[0] - from_sample[0]).abs() > 2e-5
-                && (smoothed[2] - from_sample[2]).abs() > 5e-5,
+            gap > 1e-4,
             "the smoother follows the kink: {smoothed:?} against {from_sample:?}"
         );
         w.simulated(&mut y);
@@ -440,7 +448,7 @@ mod tests {
         let d = dataset(&t, &pose);
         let w = PoseWindows::of(&d).unwrap();
         let (windows, part) = w.part(&w.measured(&d), 410);
-        // The window starting at row 400 (t = 2 s) is smoothed over rows up to 420.
+        // The window starting at row 400 (t = 2 s) is smoothed over rows up to 500.
         assert!(part.outputs[0][405].is_none() && part.outputs[0][399].is_some());
         let mut y: Vec<Vec<f64>> = (0..3)
             .map(|i| pose[..410].iter().map(|p| p[i]).collect())

@@ -86,8 +86,9 @@ pub(super) struct Problem<'a> {
     /// ([`Problem::simulator_prediction`]): a round's reference stage is asked for again
     /// by each candidate's evidence, its confirmation and the judge.
     pub simulated: std::sync::Mutex<std::collections::HashMap<String, Option<Outputs>>>,
-    /// The reduced base's defect the fits on it carry ([`Problem::correct_at`]).
-    pub defect: Option<super::defect::Defect>,
+    /// The reduced base's defect the fits on it carry ([`Problem::correct_at`]); retaken
+    /// where a settled fit ends ([`Problem::defect_followed`]).
+    pub defect: std::sync::Mutex<Option<super::defect::Defect>>,
     /// The user's keys the reduced base's first fit drove to a bound of their search, with
     /// the bound: held at the scene's values from then on (no estimates).
     pub bound_held: Vec<(String, f64)>,
@@ -126,6 +127,14 @@ pub(super) fn exploration_rows(rec: &Recording) -> Option<usize> {
     let rows = rec.t_s.iter().take_while(|&&t| t - t0 <= span).count();
     (rows >= crate::diagnose::MIN_SAMPLES).then_some(rows)
 }
+
+/// Refits at most with the defect retaken where the last ended ([`Problem::defect_followed`]):
+/// on the proof's clean base the second refit moved the keys a hundredth as far as the first.
+pub(super) const DEFECT_ITERATIONS: usize = 5;
+
+/// A key's move between two refits, in its standard deviations, below which the defect
+/// has settled ([`Problem::defect_followed`]).
+pub(super) const DEFECT_SETTLED_SD: f64 = 0.1;
 
 /// Restarts of the first stage's fit at most ([`Problem::first_stage`]).
 const MAX_RESTARTS: usize = 3;
@@ -225,7 +234,7 @@ impl Problem<'_> {
             validation: None,
             simulator_judges: std::sync::atomic::AtomicBool::new(self.simulator_judges()),
             simulated: Default::default(),
-            defect: self.defect(),
+            defect: std::sync::Mutex::new(self.defect()),
             bound_held: vec![],
             term_ceilings: None,
         }
@@ -268,13 +277,21 @@ impl Problem<'_> {
 
     /// The reduced base's defect the fits carry, if any.
     pub fn defect(&self) -> Option<super::defect::Defect> {
-        self.defect.clone()
+        self.defect
+            .lock()
+            .expect("no fit panics holding it")
+            .clone()
+    }
+
+    /// Carries no defect from now on.
+    pub fn forget_defect(&self) {
+        *self.defect.lock().expect("no fit panics holding it") = None;
     }
 
     /// Takes the reduced base's defect at `scene`'s keys ([`super::defect`]): from then on
     /// every fit on the reduced base predicts what the simulator replays there. `false`
     /// (and no defect) where either diverged.
-    pub fn correct_at(&mut self, scene: &Scene) -> Result<bool, CalibrateError> {
+    pub fn correct_at(&self, scene: &Scene) -> Result<bool, CalibrateError> {
         let reduced = SceneReplay::with_signed(scene, self.rec, &[], &[])?
             .on(self.engine)
             .windowed(self.windows.clone());
@@ -286,8 +303,9 @@ impl Problem<'_> {
             (Some(s), Some(r)) => Some(super::defect::Defect::between(&s, &r)),
             _ => None,
         };
-        self.defect = defect;
-        Ok(self.defect.is_some())
+        let taken = defect.is_some();
+        *self.defect.lock().expect("no fit panics holding it") = defect;
+        Ok(taken)
     }
 }
 

@@ -29,6 +29,17 @@ impl Coord {
         }
     }
 
+    /// What a finite-difference step in this coordinate is a share of: nothing on a log
+    /// scale (a step there is already a share of the value, whatever its units: scaled by
+    /// `|ln p|`, a 40 kg mass was differenced over 3.7 % where a 0.6 V s/rad gain was over
+    /// 1 %), the coordinate's own size, at least 1, on a linear one.
+    fn step_scale(self, z: f64) -> f64 {
+        match self {
+            Coord::Log => 1.0,
+            Coord::Linear { .. } => z.abs().max(1.0),
+        }
+    }
+
     /// The parameter's value at coordinate `z`.
     fn value(self, z: f64) -> f64 {
         match self {
@@ -152,7 +163,7 @@ impl Problem<'_> {
             .map(|c| {
                 let spec = &self.model.param_specs()[self.free[c]];
                 let step = spec.fd_step.max(COVARIANCE_FD_STEP);
-                let h = step * z[c].abs().max(1.0);
+                let h = step * self.coords[c].step_scale(z[c]);
                 let column = |h: f64| self.central_column(z, r0, c, h);
                 if !spec.rough {
                     return column(h);
@@ -196,5 +207,71 @@ impl Problem<'_> {
             (None, Some(b)) => r0.iter().zip(&b).map(|(a, b)| (a - b) / h).collect(),
             (None, None) => vec![0.0; r0.len()],
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ident::model::Diverged;
+
+    /// A first-order lag's step response, `1 - exp(-t / tau)`, its time constant searched
+    /// on a log scale as the calibration searches a scene's keys (rough, differenced over
+    /// 1 %).
+    struct Lag(Vec<ParamSpec>);
+
+    impl Predictor for Lag {
+        fn param_specs(&self) -> &[ParamSpec] {
+            &self.0
+        }
+        fn predict(&self, p: &[f64], data: &Dataset) -> Result<Vec<Vec<f64>>, Diverged> {
+            Ok(vec![data
+                .t_s
+                .iter()
+                .map(|t| 1.0 - (-t / p[0]).exp())
+                .collect()])
+        }
+    }
+
+    /// The covariance's derivative with respect to a key on a log scale is the same
+    /// whatever the key's units: the lag's response over three time constants, with the
+    /// constant 40 s or 0.4 s (time in the same units), gives the same column. Differenced
+    /// over a share of `|ln tau|` of the key, the 40 s lag was differenced over 3.7 % and
+    /// the 0.4 s one over 1 %; a mass of 40 kg was so differenced, widened to 59 %, and
+    /// printed a deviation 2.6 times narrower than its scatter over seeds.
+    #[test]
+    fn a_log_scaled_keys_derivative_does_not_depend_on_its_units() {
+        let column = |tau: f64| {
+            let model = Lag(vec![ParamSpec {
+                rough: true,
+                ..ParamSpec::positive("tau", tau).with_fd_step(1e-2)
+            }]);
+            let data = Dataset {
+                name: "lag".into(),
+                t_s: (0..300).map(|k| k as f64 * 0.01 * tau).collect(),
+                input_names: vec![],
+                inputs: vec![],
+                output_names: vec!["y".into()],
+                outputs: vec![(0..300)
+                    .map(|k| Some(1.0 - (-(k as f64) * 0.01).exp()))
+                    .collect()],
+                segment_starts: vec![0],
+            };
+            let weighting = Weighting::outputs_only(vec![1.0]);
+            let pb = Problem {
+                model: &model,
+                data: &data,
+                base: vec![tau],
+                free: vec![0],
+                coords: vec![Coord::Log],
+                weighting: &weighting,
+            };
+            let z = pb.to_z(&[tau]);
+            let r0 = pb.residuals(&z).unwrap();
+            pb.jacobian_central(&z, &r0)
+        };
+        let (slow, fast) = (column(40.0), column(0.4));
+        let gap = (&slow - &fast).norm() / fast.norm();
+        assert!(gap < 1e-9, "the columns differ by {gap} of their size");
     }
 }
