@@ -174,7 +174,8 @@ fn the_geometry_calibrated_on_a_square_run_holds_on_every_other_run() {
 /// itself uncertain by the spread over the square root of their number (five), which
 /// widens the difference a run's interval must hold by at most 10 % where the spread is
 /// below the run's deviation (measured at 4c5da24: 18 of 18, the largest difference 1.29
-/// of a run's deviations). The deviations' mean must also reach the spread between runs.
+/// of a run's deviations; with the pose windows' starts smoothed over 0.5 s, 0.82). The
+/// deviations' mean must also reach the spread between runs.
 #[test]
 fn each_square_runs_uncertainty_covers_the_spread_between_runs() {
     let Some(bags) = data() else {
