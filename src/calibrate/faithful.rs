@@ -30,7 +30,7 @@ pub(super) fn faithful_first_stage(
     }
     progress("the simulator does not see the reduced base's first fit: the keys bent to make up for what it leaves out; fitting through the simulator from here");
     problem.engine = Engine::Simulator;
-    problem.forget_defect();
+    problem.carry_defect(None);
     clear_held(problem);
     problem.first_stage(scene, fitted)
 }

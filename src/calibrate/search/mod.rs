@@ -283,9 +283,9 @@ impl Problem<'_> {
             .clone()
     }
 
-    /// Carries no defect from now on.
-    pub fn forget_defect(&self) {
-        *self.defect.lock().expect("no fit panics holding it") = None;
+    /// Carries `defect` (none: `None`) from now on.
+    pub fn carry_defect(&self, defect: Option<super::defect::Defect>) {
+        *self.defect.lock().expect("no fit panics holding it") = defect;
     }
 
     /// Takes the reduced base's defect at `scene`'s keys ([`super::defect`]): from then on
@@ -304,7 +304,7 @@ impl Problem<'_> {
             _ => None,
         };
         let taken = defect.is_some();
-        *self.defect.lock().expect("no fit panics holding it") = defect;
+        self.carry_defect(defect);
         Ok(taken)
     }
 }

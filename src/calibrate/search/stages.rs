@@ -256,8 +256,8 @@ impl Problem<'_> {
     /// The defect changes with the keys (a heavier base lags its castors' swing
     /// differently), and a fit carrying one taken elsewhere is drawn towards where it was
     /// taken: on the calibrate proof's clean base of seed 2, whose defect was taken at the
-    /// scene's 44.8 kg, the mass settled at 40.37 kg, with the defect followed at 40.29,
-    /// and through the simulator from there at 40.18 (from the machine's 40 kg: 40.13).
+    /// scene's 44.8 kg, the mass settled at 40.37 kg and, with the defect followed, at
+    /// 40.29; the simulator's settling from there gives 40.18 ± 0.10.
     pub(super) fn defect_followed(&self, mut stage: Stage) -> Result<Stage, CalibrateError> {
         if !self.engine.is_reduced() {
             return Ok(stage);
@@ -267,7 +267,7 @@ impl Problem<'_> {
                 return Ok(stage);
             };
             if !self.correct_at(&stage.reached)? {
-                *self.defect.lock().expect("no fit panics holding it") = Some(before);
+                self.carry_defect(Some(before));
                 return Ok(stage);
             }
             let again = self.fit(&stage.reached, &stage.free)?;
