@@ -283,6 +283,12 @@ impl Problem<'_> {
             .clone()
     }
 
+    /// Whether the fits run on the reduced base carrying a defect (a defect on the
+    /// simulator would correct nothing: [`SceneReplay`] adds it on the reduced base only).
+    pub fn carries_defect(&self) -> bool {
+        self.engine.is_reduced() && self.defect().is_some()
+    }
+
     /// Carries `defect` (none: `None`) from now on.
     pub fn carry_defect(&self, defect: Option<super::defect::Defect>) {
         *self.defect.lock().expect("no fit panics holding it") = defect;

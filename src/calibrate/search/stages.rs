@@ -214,8 +214,7 @@ impl Problem<'_> {
         // proof's clean base over 12 seeds, the mass settled on the reduced base missed the
         // machine's by 3.6 times its printed deviation (root mean square), settled through
         // the simulator by 1.4 times, from the scene's keys and from the machine's alike.
-        let carries_defect = self.engine.is_reduced() && self.defect().is_some();
-        if !carries_defect && (!self.simulator_judges() || !self.disagrees(&settled)?) {
+        if !self.carries_defect() && (!self.simulator_judges() || !self.disagrees(&settled)?) {
             return self.determined(settled);
         }
         let settled = self.defect_followed(settled)?;
@@ -259,11 +258,8 @@ impl Problem<'_> {
     /// scene's 44.8 kg, the mass settled at 40.37 kg and, with the defect followed, at
     /// 40.29; the simulator's settling from there gives 40.18 ± 0.10.
     pub(super) fn defect_followed(&self, mut stage: Stage) -> Result<Stage, CalibrateError> {
-        if !self.engine.is_reduced() {
-            return Ok(stage);
-        }
         for _ in 0..DEFECT_ITERATIONS {
-            let Some(before) = self.defect() else {
+            let Some(before) = self.defect().filter(|_| self.carries_defect()) else {
                 return Ok(stage);
             };
             if !self.correct_at(&stage.reached)? {
@@ -271,17 +267,7 @@ impl Problem<'_> {
                 return Ok(stage);
             }
             let again = self.fit(&stage.reached, &stage.free)?;
-            let moved = again
-                .fit
-                .params
-                .iter()
-                .zip(&stage.fit.params)
-                .zip(&again.fit.std)
-                .map(|((a, b), sd)| match sd {
-                    Some(sd) if *sd > 0.0 => (a - b).abs() / sd,
-                    _ => 0.0,
-                })
-                .fold(0.0, f64::max);
+            let moved = largest_move_in_deviations(&stage.fit, &again.fit);
             stage = again;
             if moved < DEFECT_SETTLED_SD {
                 break;
@@ -337,4 +323,18 @@ impl Problem<'_> {
         }
         Ok(stage)
     }
+}
+
+/// The largest move of a key from `from` to `to`, in `to`'s standard deviations (a key
+/// without one counts as not moved).
+fn largest_move_in_deviations(from: &Fit, to: &Fit) -> f64 {
+    to.params
+        .iter()
+        .zip(&from.params)
+        .zip(&to.std)
+        .map(|((a, b), sd)| match sd {
+            Some(sd) if *sd > 0.0 => (a - b).abs() / sd,
+            _ => 0.0,
+        })
+        .fold(0.0, f64::max)
 }
