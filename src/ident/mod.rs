@@ -15,6 +15,7 @@ pub mod fit;
 mod identification;
 pub mod model;
 pub mod models;
+mod parameters;
 pub mod plots;
 pub mod report;
 pub mod resid;

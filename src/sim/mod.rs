@@ -11,6 +11,7 @@ mod params;
 pub mod reduced;
 mod snapshot;
 mod step;
+mod summary;
 
 pub use crate::scene::Features;
 pub use params::{SimParams, MAX_SUBSTEPS};
