@@ -294,19 +294,20 @@ fn strongest_bin(e: &[f64], x: &[f64], stretch: Option<&[usize]>) -> Option<How>
     bins.iter()
         .zip(&means)
         .map(|(bin, &mean)| {
-            let (sd, f) = match stretch {
-                Some(st) if visits(bin, st) < MIN_VISITS => {
-                    *plain.get_or_init(|| whole_residual(e))
+            let (sd, f) = match stretch.map(|st| visits(bin, st)) {
+                None => (sd, f),
+                Some(visits) => {
+                    let (sd, f) = if visits < MIN_VISITS {
+                        *plain.get_or_init(|| whole_residual(e))
+                    } else {
+                        (sd, f)
+                    };
+                    // The stretches' slow noise is one draw per stretch, however small
+                    // its correlation at one lag: under `weighting::DECORRELATED` the
+                    // correlation factor stops counting, though a correlation of 0.04
+                    // held over a 2 s window of 200 samples adds 8 to it.
+                    (sd, f.max(design_effect(bin.len(), visits, shared)))
                 }
-                _ => (sd, f),
-            };
-            // The stretches' slow noise is one draw per stretch, however small its
-            // correlation at one lag: under `weighting::DECORRELATED` the correlation
-            // factor stops counting, though a correlation of 0.04 held over a 2 s window
-            // of 200 samples adds 8 to it.
-            let f = match stretch {
-                Some(st) => f.max(design_effect(bin, st, shared)),
-                None => f,
             };
             How::Binned {
                 from: x[bin[0]],
@@ -361,14 +362,9 @@ fn intraclass_correlation(e: &[f64], stretch: &[usize]) -> f64 {
 /// How many times a white residual's variance a bin's mean has where a share `shared` of
 /// the residual's variance is one draw per stretch: `1 + shared (sum n_c^2 / m - 1)` for
 /// the bin's `m` samples, `n_c` of them from stretch `c` (the design effect of a cluster
-/// sample).
-fn design_effect(bin: &[usize], stretch: &[usize], shared: f64) -> f64 {
-    let mut counts = std::collections::BTreeMap::<usize, f64>::new();
-    for &k in bin {
-        *counts.entry(stretch[k]).or_default() += 1.0;
-    }
-    let m = bin.len() as f64;
-    1.0 + shared * (counts.values().map(|c| c * c).sum::<f64>() / m - 1.0)
+/// sample), `sum n_c^2 / m` being `m` over the bin's [`visits`].
+fn design_effect(m: usize, visits: f64, shared: f64) -> f64 {
+    1.0 + shared * (m as f64 / visits - 1.0)
 }
 
 /// The residual's standard deviation and [`correlation_factor`], its mean taken out.
