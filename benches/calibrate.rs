@@ -18,6 +18,7 @@
 //!   simulator and through the reduced base calibrate fits on (goal: 50x cheaper).
 //!
 //! Each prints what it found once, then is timed (criterion's ten samples: minutes each).
+//! `AGVSIM_BENCH_DUMP=DIR` writes the 30 s base's scene and recording to `DIR` as well.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -119,10 +120,25 @@ fn velocity_base_30s() -> (Scene, Recording) {
         noisy.push_str(&row);
         noisy.push('\n');
     }
+    dump_for_hand_timing(&belief, &noisy);
     (
         belief,
         Recording::parse(&noisy, Path::new("base30.csv")).unwrap(),
     )
+}
+
+/// Where `AGVSIM_BENCH_DUMP` names a folder, the 30 s base's believed scene and noisy
+/// recording are written there (`base30.scene.toml`, `base30.csv`), so the command line
+/// can be timed on them (`agvsim calibrate --scene ... --recording ...`, or farm-bench
+/// pairing two binaries).
+fn dump_for_hand_timing(belief: &Scene, recording_csv: &str) {
+    let Some(dir) = std::env::var_os("AGVSIM_BENCH_DUMP") else {
+        return;
+    };
+    let dir = PathBuf::from(dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("base30.scene.toml"), belief.to_toml()).unwrap();
+    std::fs::write(dir.join("base30.csv"), recording_csv).unwrap();
 }
 
 fn time_calibration(c: &mut Criterion, group: &str, name: &str, scene: &Scene, rec: &Recording) {

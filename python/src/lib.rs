@@ -22,10 +22,11 @@ use std::time::Duration;
 use pyo3::create_exception;
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
-use pyo3::types::PyBytes;
 
+mod importers;
 mod live;
 mod machine;
+mod recording;
 mod studies;
 
 use agvsim::commands::flags::Jobs;
@@ -535,203 +536,6 @@ fn batch_merge(py: Python<'_>, shards: Vec<PathBuf>, out: PathBuf) -> PyResult<S
     })
 }
 
-/// `agvsim import ros2 BAG --out OUT ...`.
-#[pyfunction]
-#[pyo3(signature = (bag, out, command, map=None, wheel_radius_m=None, track_m=None, mass_kg=None,
-    controller_yaml=None, battery_v=None, motor_rated_v=None, motor_no_load_rpm=None,
-    motor_stall_current_a=None, motor_stall_torque_nm=None, gear_ratio=None, backlash_rad=None))]
-#[allow(clippy::too_many_arguments)]
-fn import_ros2(
-    py: Python<'_>,
-    bag: PathBuf,
-    out: PathBuf,
-    command: String,
-    map: Option<PathBuf>,
-    wheel_radius_m: Option<f64>,
-    track_m: Option<f64>,
-    mass_kg: Option<f64>,
-    controller_yaml: Option<PathBuf>,
-    battery_v: Option<f64>,
-    motor_rated_v: Option<f64>,
-    motor_no_load_rpm: Option<f64>,
-    motor_stall_current_a: Option<f64>,
-    motor_stall_torque_nm: Option<f64>,
-    gear_ratio: Option<f64>,
-    backlash_rad: Option<f64>,
-) -> PyResult<String> {
-    let args = commands::import::Ros2Args {
-        bag,
-        map,
-        out: Some(out),
-        wheel_radius_m: positive("wheel_radius_m", wheel_radius_m)?,
-        track_m: positive("track_m", track_m)?,
-        mass_kg: positive("mass_kg", mass_kg)?,
-        controller_yaml,
-        drive: drive_of(
-            battery_v,
-            motor_rated_v,
-            motor_no_load_rpm,
-            motor_stall_current_a,
-            motor_stall_torque_nm,
-            gear_ratio,
-            backlash_rad,
-        )?,
-    };
-    let request = args.request(command).map_err(failed)?;
-    job(py, false, move |say| commands::import::ros2(&request, say))
-}
-
-/// `agvsim import wpilib FILE --out OUT ...`.
-#[pyfunction]
-#[pyo3(signature = (file, out, routine=None, motors=vec![], mechanism=None, wheel_radius_m=None,
-    resistance_ohm=None, track_width_m=None, supply_v=None))]
-#[allow(clippy::too_many_arguments)]
-fn import_wpilib(
-    py: Python<'_>,
-    file: PathBuf,
-    out: PathBuf,
-    routine: Option<String>,
-    motors: Vec<String>,
-    mechanism: Option<String>,
-    wheel_radius_m: Option<f64>,
-    resistance_ohm: Option<f64>,
-    track_width_m: Option<f64>,
-    supply_v: Option<f64>,
-) -> PyResult<String> {
-    let mechanism = mechanism
-        .map(|m| {
-            m.parse::<agvsim::import::wpilib::Mechanism>()
-                .map_err(|e| bad_argument("mechanism", &m, &e))
-        })
-        .transpose()?;
-    let request = commands::import::WpilibArgs {
-        file,
-        out: Some(out),
-        routine,
-        motors,
-        mechanism,
-        wheel_radius_m: positive("wheel_radius_m", wheel_radius_m)?,
-        resistance_ohm: positive("resistance_ohm", resistance_ohm)?,
-        track_width_m: positive("track_width_m", track_width_m)?,
-        supply_v: positive("supply_v", supply_v)?,
-    }
-    .request();
-    job(py, false, move |say| {
-        commands::import::wpilib(&request, say)
-    })
-}
-
-/// A recording as the library reads it: its rig, metadata (in the file's order), column
-/// names (without `t_s`), time and columns as little-endian f64 bytes (an empty cell is
-/// NaN), and the rows where each joined segment starts.
-type RecordingParts = (
-    String,
-    Vec<(String, String)>,
-    Vec<String>,
-    Py<PyBytes>,
-    Vec<Py<PyBytes>>,
-    Vec<usize>,
-);
-
-/// Little-endian f64 bytes, for `numpy.frombuffer`.
-fn f64_bytes<'py>(py: Python<'py>, values: impl Iterator<Item = f64>) -> Py<PyBytes> {
-    let bytes: Vec<u8> = values.flat_map(f64::to_le_bytes).collect();
-    PyBytes::new(py, &bytes).unbind()
-}
-
-/// Reads a recording in the exchange format (the contract's reader, every check it makes).
-#[pyfunction]
-fn read_recording(py: Python<'_>, path: PathBuf) -> PyResult<RecordingParts> {
-    let rec = py
-        .allow_threads(|| agvsim::record::Recording::load(&path))
-        .map_err(|e| to_py((e.to_string(), 2)))?;
-    let columns = rec
-        .columns
-        .iter()
-        .map(|c| f64_bytes(py, c.iter().map(|v| v.unwrap_or(f64::NAN))))
-        .collect();
-    Ok((
-        rec.rig.as_str().to_string(),
-        rec.meta
-            .iter()
-            .map(|(k, v)| (k.clone(), v.clone()))
-            .collect(),
-        rec.names.clone(),
-        f64_bytes(py, rec.t_s.iter().copied()),
-        columns,
-        rec.segment_starts.clone(),
-    ))
-}
-
-/// One cell as the exchange format writes it: the shortest decimal that reads back as the
-/// same f64 (no exponent), empty for a value that was not measured (NaN).
-fn cell(v: f64) -> String {
-    if v.is_nan() {
-        String::new()
-    } else {
-        format!("{v}")
-    }
-}
-
-/// Writes a recording in the exchange format; the text is read back by the contract's
-/// reader before it is written (so what is written always loads), and it is written under
-/// a temporary name and renamed (never half-written).
-#[pyfunction]
-fn write_recording(
-    py: Python<'_>,
-    path: PathBuf,
-    rig: String,
-    meta: Vec<(String, String)>,
-    names: Vec<String>,
-    t_s: Vec<f64>,
-    columns: Vec<Vec<f64>>,
-) -> PyResult<()> {
-    use std::fmt::Write as _;
-    if columns.len() != names.len() {
-        return Err(bad_argument(
-            "columns",
-            columns.len(),
-            &format!("one column per name ({} names)", names.len()),
-        ));
-    }
-    if let Some((name, c)) = names
-        .iter()
-        .zip(&columns)
-        .find(|(_, c)| c.len() != t_s.len())
-    {
-        return Err(InputError::new_err(format!(
-            "column {name}: {} values, expected one per time ({})",
-            c.len(),
-            t_s.len()
-        )));
-    }
-    let kind = agvsim::rig::RigKind::from_name(&rig).ok_or_else(|| {
-        bad_argument(
-            "rig",
-            &rig,
-            &format!("one of {}", agvsim::rig::RigKind::names()),
-        )
-    })?;
-    py.allow_threads(|| {
-        let meta: Vec<(&str, String)> = meta.iter().map(|(k, v)| (k.as_str(), v.clone())).collect();
-        let header_names: Vec<&str> = std::iter::once("t_s")
-            .chain(names.iter().map(String::as_str))
-            .collect();
-        let mut text = agvsim::record::header(kind, &meta, &header_names);
-        for (row, t) in t_s.iter().enumerate() {
-            text.push_str(&cell(*t));
-            for c in &columns {
-                let _ = write!(text, ",{}", cell(c[row]));
-            }
-            text.push('\n');
-        }
-        agvsim::record::Recording::parse(&text, &path).map_err(|e| (e.to_string(), 2))?;
-        agvsim::output::write_atomically(&path, text.as_bytes())
-            .map_err(|e| (format!("{}: {e}", path.display()), 1))
-    })
-    .map_err(to_py)
-}
-
 /// The scene reference (`agvsim keys`) as Markdown.
 #[pyfunction]
 fn keys_markdown() -> String {
@@ -755,10 +559,10 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sweep_merge, m)?)?;
     m.add_function(wrap_pyfunction!(batch, m)?)?;
     m.add_function(wrap_pyfunction!(batch_merge, m)?)?;
-    m.add_function(wrap_pyfunction!(import_ros2, m)?)?;
-    m.add_function(wrap_pyfunction!(import_wpilib, m)?)?;
-    m.add_function(wrap_pyfunction!(read_recording, m)?)?;
-    m.add_function(wrap_pyfunction!(write_recording, m)?)?;
+    m.add_function(wrap_pyfunction!(importers::import_ros2, m)?)?;
+    m.add_function(wrap_pyfunction!(importers::import_wpilib, m)?)?;
+    m.add_function(wrap_pyfunction!(recording::read_recording, m)?)?;
+    m.add_function(wrap_pyfunction!(recording::write_recording, m)?)?;
     m.add_function(wrap_pyfunction!(keys_markdown, m)?)?;
     m.add_function(wrap_pyfunction!(machine::linearize, m)?)?;
     m.add_function(wrap_pyfunction!(machine::presets, m)?)?;

@@ -9,7 +9,8 @@ use pyo3::types::PyBytes;
 
 use agvsim::live::{Command, LiveError, LiveFleet, LiveSim, Saved, STATE_NAMES};
 
-use crate::{f64_bytes, to_py, AgvsimError, InputError};
+use crate::recording::f64_bytes;
+use crate::{to_py, AgvsimError, InputError};
 
 /// The error as Python sees it: a command the scene does not take is input to mend.
 fn live_err(e: LiveError) -> PyErr {

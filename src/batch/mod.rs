@@ -7,8 +7,8 @@
 //! A result is kept on a rerun only if its fingerprint (the recording's and the rig's or
 //! scene's bytes, the job's options and agvsim's version) is the same.
 
-pub mod items;
-pub mod manifest;
+mod items;
+mod manifest;
 pub mod summary;
 
 use std::collections::BTreeMap;

@@ -12,23 +12,23 @@
 //! simulator as judge, races, the wheels' odometry), the first stage in `first.rs` and
 //! `faithful.rs`, the output in `write.rs`.
 
-pub mod adequacy;
+mod adequacy;
 pub mod base_limits;
-pub mod defect;
+mod defect;
 pub mod diagnosis;
 pub mod effects;
 mod faithful;
 mod first;
 pub mod keys;
 pub mod odometry;
-pub mod pose_windows;
+mod pose_windows;
 pub mod prove;
 mod result;
 mod rounds;
 mod run;
 mod scene_replay;
 mod search;
-pub mod terms;
+mod terms;
 pub mod validation;
 pub mod write;
 

@@ -19,7 +19,7 @@ pub mod linearize;
 pub mod new;
 pub mod replay;
 pub mod run;
-pub mod run_commands;
+mod run_commands;
 pub mod study;
 pub mod sweep;
 

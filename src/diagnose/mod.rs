@@ -22,7 +22,7 @@ mod candidate;
 pub(crate) mod evidence;
 pub mod plots;
 pub mod prove;
-pub mod regimes;
+mod regimes;
 pub mod report;
 mod result;
 pub(crate) mod round;

@@ -21,7 +21,7 @@ pub mod report;
 pub mod resid;
 mod run;
 mod structure;
-pub mod sysid_law;
+mod sysid_law;
 pub mod sysid_regression;
 pub mod sysid_terms;
 pub mod weighting;

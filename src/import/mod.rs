@@ -4,11 +4,11 @@
 //! map ([`MappedImport`]); `wpilib`, a SysId log; `ros2`, a ROS 2 or ROS 1 bag (ROS 1's
 //! bag file and its messages' marker in `ros1`, both read from a `bag`).
 
-pub mod bag;
+mod bag;
 pub mod csv_map;
 mod importer;
 mod mapped;
-pub mod mat;
+mod mat;
 pub mod ros1;
 pub mod ros2;
 pub mod wpilib;

@@ -12,7 +12,7 @@
 mod axes;
 pub mod bars;
 mod draw;
-pub mod intervals;
+mod intervals;
 
 use std::fmt::Write;
 

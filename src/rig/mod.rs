@@ -24,7 +24,7 @@
 mod base;
 pub mod blocks;
 pub mod keys;
-pub mod kind;
+mod kind;
 mod read;
 mod write;
 

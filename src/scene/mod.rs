@@ -6,7 +6,7 @@ mod expect;
 mod features;
 pub mod inert;
 pub mod keys;
-pub mod origin;
+mod origin;
 pub mod plausibility;
 pub mod presets_table;
 pub mod robot;

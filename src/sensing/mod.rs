@@ -3,7 +3,7 @@
 
 pub mod bumper;
 pub mod coil;
-pub mod response;
+mod response;
 pub mod wire;
 
 /// The thesis's calibration table (`AGVPOS.C`): position index and the two readings.

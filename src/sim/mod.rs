@@ -3,7 +3,7 @@
 //! [`Snapshot`]s; the physics knows nothing of them.
 
 mod command_delay;
-pub mod cycle;
+mod cycle;
 pub mod expectation;
 pub mod linearize;
 pub mod metrics;

@@ -11,7 +11,7 @@
 //!   the scene's DCMC keys fitted to it through the simulator, and the machine's own
 //!   lifted-wheel identification beside the thesis's.
 
-pub mod backlash;
+mod backlash;
 pub mod reversing;
 pub mod thesis;
 pub mod thesis_dcmc;

@@ -7,13 +7,13 @@
 //! I-th of N contiguous slices of that numbering, and [`merge`](merge::merge) joins the
 //! shards' folders back into the unsharded result, byte for byte.
 
-pub mod grid;
-pub mod journal;
+mod grid;
+mod journal;
 pub mod merge;
-pub mod plots;
+mod plots;
 pub mod results;
 pub mod run;
-pub mod runner;
+mod runner;
 
 pub use grid::{
     check_size, parse_shard, parse_vary, Grid, RunPoint, Shard, Vary, DEFAULT_MAX_RUNS,

@@ -13,9 +13,9 @@
 
 mod align;
 pub mod cdr;
-pub mod clock;
+mod clock;
 mod columns;
-pub mod controller;
+mod controller;
 mod converter;
 mod importer;
 mod joints;

@@ -8,11 +8,11 @@
 //! [`WpilibImport`] is the command's request, which makes the files.
 
 pub mod datalog;
-pub mod json;
+mod json;
 pub mod wpilog;
 
 mod convert;
-pub mod fault;
+mod fault;
 mod importer;
 use convert::{convert, feedforward, nominal_rig};
 pub use convert::{gravity, Assumptions, Converted};

@@ -17,7 +17,7 @@ use crate::model::motor::Terminal;
 use crate::scene::{Fidelity, Scene};
 
 mod closed_loop;
-pub mod d2c;
+mod d2c;
 pub mod export;
 mod reach;
 
