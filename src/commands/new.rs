@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use super::flags::{positive_number, yes_no, DriveFlags, Overrides};
 use super::{CommandError, Say};
 use crate::scene::robot::{new_scene, Guidance, RobotSpec};
-use crate::scene::{keys, plausibility::sig, Scene};
+use crate::scene::{plausibility::sig, Scene};
 
 /// `--guidance`: one of [`Guidance`]'s words, listed in the help as clap lists possible
 /// values.
@@ -136,13 +136,12 @@ pub fn run(req: &NewRequest, say: Say) -> Result<(), CommandError> {
     )?;
     let mut report = String::from("derived:\n");
     for d in &new.derived {
-        let unit = keys::table().find(d.key).map_or("", |k| k.unit);
         report.push_str(&format!(
             "  {:<40} {:>10} {:<10} {}\n",
-            d.key,
+            d.key.key(),
             // Derived to 4 significant figures; 6 shows them whatever the size.
             crate::numtext::sig(d.value, 6),
-            unit,
+            d.key.unit(),
             d.how
         ));
     }

@@ -19,7 +19,7 @@ fn r4(v: f64) -> String {
 }
 
 pub(super) fn d(
-    key: &'static str,
+    key: ParamKey,
     value: f64,
     from: &'static [Input],
     how: impl Into<String>,
@@ -51,11 +51,11 @@ pub(super) fn derive(n: &Numbers) -> Vec<Derived> {
 pub(super) fn given_values(n: &Numbers) -> Vec<Derived> {
     use Input::*;
     let mass = if n.mass_given {
-        d(ChassisParams::mass_kg.key(), n.mass_kg, &[Mass], "given")
+        d(ChassisParams::mass_kg, n.mass_kg, &[Mass], "given")
     } else {
         let [l0, w0] = n.base_outline_m;
         d(
-            ChassisParams::mass_kg.key(),
+            ChassisParams::mass_kg,
             n.mass_kg,
             &[Footprint],
             format!(
@@ -71,20 +71,20 @@ pub(super) fn given_values(n: &Numbers) -> Vec<Derived> {
     vec![
         mass,
         d(
-            ChassisParams::track_width_m.key(),
+            ChassisParams::track_width_m,
             n.track_m,
             &[Track],
             "given",
         ),
         d(
-            WheelParams::radius_m.key(),
+            WheelParams::radius_m,
             n.wheel_radius_m,
             &[Wheel],
             "given",
         ),
-        d(GearboxParams::ratio.key(), n.ratio, &[Ratio], ratio_how(n)),
+        d(GearboxParams::ratio, n.ratio, &[Ratio], ratio_how(n)),
         d(
-            GearboxParams::backlash_rad.key(),
+            GearboxParams::backlash_rad,
             n.backlash_rad,
             &[Backlash, Ratio],
             if n.backlash_rad > 0.0 {
@@ -95,7 +95,7 @@ pub(super) fn given_values(n: &Numbers) -> Vec<Derived> {
             },
         ),
         d(
-            BatteryParams::open_circuit_v.key(),
+            BatteryParams::open_circuit_v,
             n.battery_v,
             &[Battery],
             "given",
@@ -107,17 +107,17 @@ pub(super) fn body(n: &Numbers) -> Vec<Derived> {
     use Input::*;
     let (l, w) = (n.length_m, n.width_m);
     vec![
-        d(ChassisParams::front_m.key(), thesis::FRONT_SHARE * l, &[Footprint],
+        d(ChassisParams::front_m, thesis::FRONT_SHARE * l, &[Footprint],
           format!("{:.0} % of the body length {} m ahead of the axle, as the thesis machine", 100.0 * thesis::FRONT_SHARE, r4(l))),
-        d(ChassisParams::rear_m.key(), (1.0 - thesis::FRONT_SHARE) * l, &[Footprint], "the rest of the body length behind the axle"),
-        d(ChassisParams::width_m.key(), w, &[Footprint, Track], format!("body width (given, or the track plus {} m as the thesis machine)", thesis::WIDTH_OVER_TRACK_M)),
-        d(ChassisParams::yaw_inertia_kg_m2.key(), slab_yaw_inertia_kg_m2(n.mass_kg, l, w), &[Mass, Footprint],
+        d(ChassisParams::rear_m, (1.0 - thesis::FRONT_SHARE) * l, &[Footprint], "the rest of the body length behind the axle"),
+        d(ChassisParams::width_m, w, &[Footprint, Track], format!("body width (given, or the track plus {} m as the thesis machine)", thesis::WIDTH_OVER_TRACK_M)),
+        d(ChassisParams::yaw_inertia_kg_m2, slab_yaw_inertia_kg_m2(n.mass_kg, l, w), &[Mass, Footprint],
           format!("a uniform slab of the footprint: mass (L^2 + W^2) / 12 with L = {}, W = {} m; measure or calibrate it for a real body", r4(l), r4(w))),
-        d(ChassisParams::cg_x_m.key(), if n.castors { thesis::CG_X_SHARE * l } else { 0.0 }, &[Footprint, Castors],
+        d(ChassisParams::cg_x_m, if n.castors { thesis::CG_X_SHARE * l } else { 0.0 }, &[Footprint, Castors],
           if n.castors { "5 % of the length ahead of the axle, as the thesis machine" } else { "over the drive axle: no castors carry any load" }),
-        d(ChassisParams::drive_load_fraction.key(), if n.castors { 0.6 } else { 1.0 }, &[Castors],
+        d(ChassisParams::drive_load_fraction, if n.castors { 0.6 } else { 1.0 }, &[Castors],
           if n.castors { "60 % on the drive wheels, as the thesis machine" } else { "every load on the drive wheels: no castors" }),
-        d(SensorParams::x_m.key(), (thesis::FRONT_SHARE - thesis::SENSOR_BEHIND_FRONT_SHARE) * l, &[Footprint],
+        d(SensorParams::x_m, (thesis::FRONT_SHARE - thesis::SENSOR_BEHIND_FRONT_SHARE) * l, &[Footprint],
           "the coil pair 10 % of the body length inside its front edge, as the thesis machine"),
     ]
 }
@@ -128,49 +128,49 @@ pub(super) fn castors(n: &Numbers) -> Vec<Derived> {
     let scaled = "scaled from the thesis machine's";
     vec![
         d(
-            CastorParams::front_x_m.key(),
+            CastorParams::front_x_m,
             thesis::CASTOR_FRONT_SHARE * l,
             &[Footprint],
             "40 % of the body length ahead of the axle, as the thesis machine",
         ),
         d(
-            CastorParams::rear_x_m.key(),
+            CastorParams::rear_x_m,
             thesis::CASTOR_REAR_SHARE * l,
             &[Footprint],
             "35 % of the body length behind the axle, as the thesis machine",
         ),
         d(
-            CastorParams::half_spacing_m.key(),
+            CastorParams::half_spacing_m,
             thesis::CASTOR_HALF_SPACING_SHARE * w,
             &[Footprint, Track],
             "39 % of the body width each side, as the thesis machine",
         ),
         d(
-            CastorParams::trail_m.key(),
+            CastorParams::trail_m,
             thesis::TRAIL_SHARE * l,
             &[Footprint],
             "4 % of the body length, as the thesis machine",
         ),
         d(
-            CastorParams::mass_kg.key(),
+            CastorParams::mass_kg,
             thesis::CASTOR_MASS_SHARE * m,
             &[Mass],
             "1 % of the vehicle's mass, as the thesis machine",
         ),
         d(
-            CastorParams::swivel_friction_nm.key(),
+            CastorParams::swivel_friction_nm,
             thesis::SWIVEL_NM_PER_KG_M * m * l,
             &[Mass, Footprint],
             format!("{scaled} 0.3 N m with load and size"),
         ),
         d(
-            CastorParams::lumped_linear_drag_n_s_m.key(),
+            CastorParams::lumped_linear_drag_n_s_m,
             thesis::LINEAR_DRAG_PER_KG * m,
             &[Mass],
             format!("{scaled} 10 N s/m with mass"),
         ),
         d(
-            CastorParams::lumped_angular_drag_nm_s_rad.key(),
+            CastorParams::lumped_angular_drag_nm_s_rad,
             thesis::ANGULAR_DRAG_PER_KG_M2 * m * l * l,
             &[Mass, Footprint],
             format!("{scaled} 2 N m s/rad with mass and length squared"),
@@ -226,10 +226,10 @@ pub(super) fn motor(n: &Numbers) -> Vec<Derived> {
     let stall_nm = datasheet.stall_torque_nm(n.rated_v);
     let emf_damping = datasheet.electrical_damping_nm_s_rad();
     vec![
-        d(MotorParams::torque_constant_nm_a.key(), k, &[Motor], k_how),
-        d(MotorParams::resistance_ohm.key(), r, &[Motor], r_how),
+        d(MotorParams::torque_constant_nm_a, k, &[Motor], k_how),
+        d(MotorParams::resistance_ohm, r, &[Motor], r_how),
         d(
-            MotorParams::inductance_h.key(),
+            MotorParams::inductance_h,
             r * thesis::ELECTRICAL_TAU_S,
             &[Motor],
             format!(
@@ -238,7 +238,7 @@ pub(super) fn motor(n: &Numbers) -> Vec<Derived> {
             ),
         ),
         d(
-            MotorParams::rotor_inertia_kg_m2.key(),
+            MotorParams::rotor_inertia_kg_m2,
             thesis::MECHANICAL_TAU_S * emf_damping,
             &[Motor],
             format!(
@@ -247,7 +247,7 @@ pub(super) fn motor(n: &Numbers) -> Vec<Derived> {
             ),
         ),
         d(
-            MotorParams::coulomb_nm.key(),
+            MotorParams::coulomb_nm,
             thesis::COULOMB_SHARE_OF_STALL * stall_nm,
             &[Motor],
             format!(
@@ -257,7 +257,7 @@ pub(super) fn motor(n: &Numbers) -> Vec<Derived> {
             ),
         ),
         d(
-            MotorParams::viscous_nm_s_rad.key(),
+            MotorParams::viscous_nm_s_rad,
             thesis::VISCOUS_SHARE_OF_EMF_DAMPING * emf_damping,
             &[Motor],
             format!(
@@ -287,10 +287,10 @@ pub(super) fn drivetrain(n: &Numbers) -> Vec<Derived> {
         thesis::TOOTH_DAMPING / (2.0 * (thesis::TOOTH_STIFFNESS * thesis_reflected_kg_m2()).sqrt());
     let k_mesh = reflected * omega2;
     vec![
-        d(WheelParams::inertia_kg_m2.key(), wheel_kg_m2, &[Mass, Wheel], "scaled from the thesis machine's 0.02 kg m^2 with mass and radius squared"),
-        d(GearboxParams::tooth_stiffness_nm_rad.key(), k_mesh, &[Mass, Wheel, Motor, Ratio],
+        d(WheelParams::inertia_kg_m2, wheel_kg_m2, &[Mass, Wheel], "scaled from the thesis machine's 0.02 kg m^2 with mass and radius squared"),
+        d(GearboxParams::tooth_stiffness_nm_rad, k_mesh, &[Mass, Wheel, Motor, Ratio],
           format!("the thesis machine's mesh resonance ({:.1} Hz) against the reflected inertia wheel + rotor x ratio^2 = {} kg m^2", omega2.sqrt() / std::f64::consts::TAU, r4(reflected))),
-        d(GearboxParams::tooth_damping_nm_s_rad.key(), 2.0 * zeta * (k_mesh * reflected).sqrt(), &[Mass, Wheel, Motor, Ratio],
+        d(GearboxParams::tooth_damping_nm_s_rad, 2.0 * zeta * (k_mesh * reflected).sqrt(), &[Mass, Wheel, Motor, Ratio],
           format!("the thesis machine's mesh damping ratio {zeta:.3}")),
     ]
 }
@@ -303,19 +303,19 @@ pub(super) fn supply_and_drive(n: &Numbers) -> Vec<Derived> {
     let limit_a = round4(thesis::CURRENT_LIMIT_SHARE * stall_a);
     let forward = round4(drive_v / 100.0);
     vec![
-        d(BatteryParams::drive_limit_v.key(), drive_v, &[Battery], "the bridges deliver 23.5 of 24 V on the thesis machine (97.9 %)"),
-        d(BatteryParams::low_voltage_fault_v.key(), thesis::FAULT_SHARE * n.battery_v, &[Battery], "faults at 22 of 24 V on the thesis machine (91.7 %)"),
-        d(BatteryParams::internal_resistance_ohm.key(), thesis::SAG_SHARE * n.battery_v / (2.0 * limit_a), &[Battery, Motor],
+        d(BatteryParams::drive_limit_v, drive_v, &[Battery], "the bridges deliver 23.5 of 24 V on the thesis machine (97.9 %)"),
+        d(BatteryParams::low_voltage_fault_v, thesis::FAULT_SHARE * n.battery_v, &[Battery], "faults at 22 of 24 V on the thesis machine (91.7 %)"),
+        d(BatteryParams::internal_resistance_ohm, thesis::SAG_SHARE * n.battery_v / (2.0 * limit_a), &[Battery, Motor],
           format!("assumed: both motors at the current limit sag the battery by {:.1} % (the thesis machine's share), above the fault threshold", 100.0 * thesis::SAG_SHARE)),
-        d(DcmcParams::current_limit_a.key(), limit_a, &[Motor], format!("{:.0} % of the stall current {} A, the thesis machine's share", 100.0 * thesis::CURRENT_LIMIT_SHARE, r4(stall_a))),
-        d(DcmcParams::forward_gain_v_pct.key(), forward, &[Battery], "full forward demand (100 %) asks the drive limit"),
-        d(DcmcParams::turn_gain_v_pct.key(), thesis::TURN_OVER_FORWARD * forward, &[Battery], "the thesis unit's identified turn/forward ratio 0.628"),
-        d(DcmcParams::speed_per_pct_rad_s.key(), thesis::SPEED_SHARE_OF_NO_LOAD * drive_v / k / 100.0, &[Battery, Motor],
+        d(DcmcParams::current_limit_a, limit_a, &[Motor], format!("{:.0} % of the stall current {} A, the thesis machine's share", 100.0 * thesis::CURRENT_LIMIT_SHARE, r4(stall_a))),
+        d(DcmcParams::forward_gain_v_pct, forward, &[Battery], "full forward demand (100 %) asks the drive limit"),
+        d(DcmcParams::turn_gain_v_pct, thesis::TURN_OVER_FORWARD * forward, &[Battery], "the thesis unit's identified turn/forward ratio 0.628"),
+        d(DcmcParams::speed_per_pct_rad_s, thesis::SPEED_SHARE_OF_NO_LOAD * drive_v / k / 100.0, &[Battery, Motor],
           format!("speed loops (dcmc.kind p, pi): full demand asks {:.1} % of the no-load speed at the drive limit, as the thesis machine", 100.0 * thesis::SPEED_SHARE_OF_NO_LOAD)),
-        d(DcmcParams::kp_v_s_rad.key(), thesis::KP_PER_K * k, &[Motor], "speed loops: the thesis machine's gain in proportion to the torque constant"),
-        d(DcmcParams::ki_v_rad.key(), thesis::KI_PER_K * k, &[Motor], "speed loops: the thesis machine's gain in proportion to the torque constant"),
-        d(DcmcParams::brake_gain_v_s_rad.key(), thesis::BRAKE_PER_K * k, &[Motor], "the thesis machine's braking gain in proportion to the torque constant"),
-        d(BaseParams::speed_kp_v_s_rad.key(), thesis::KP_PER_K * k, &[Motor], "velocity-commanded drivers' speed loops: the thesis unit's gain in proportion to the torque constant"),
-        d(BaseParams::speed_ki_v_rad.key(), thesis::KI_PER_K * k, &[Motor], "velocity-commanded drivers' speed loops: the thesis unit's gain in proportion to the torque constant"),
+        d(DcmcParams::kp_v_s_rad, thesis::KP_PER_K * k, &[Motor], "speed loops: the thesis machine's gain in proportion to the torque constant"),
+        d(DcmcParams::ki_v_rad, thesis::KI_PER_K * k, &[Motor], "speed loops: the thesis machine's gain in proportion to the torque constant"),
+        d(DcmcParams::brake_gain_v_s_rad, thesis::BRAKE_PER_K * k, &[Motor], "the thesis machine's braking gain in proportion to the torque constant"),
+        d(BaseParams::speed_kp_v_s_rad, thesis::KP_PER_K * k, &[Motor], "velocity-commanded drivers' speed loops: the thesis unit's gain in proportion to the torque constant"),
+        d(BaseParams::speed_ki_v_rad, thesis::KI_PER_K * k, &[Motor], "velocity-commanded drivers' speed loops: the thesis unit's gain in proportion to the torque constant"),
     ]
 }

@@ -16,6 +16,7 @@ use crate::model::gearbox::GearboxParams;
 use crate::model::manoeuvre::ManoeuvreParams;
 use crate::model::motor::electrical_damping_nm_s_rad;
 use crate::model::tyre::TyreChoice;
+use crate::param::ParamKey;
 use crate::model::wheel::WheelParams;
 use crate::scene::schema::SimSettings;
 use crate::sensing::coil::SensorParams;
@@ -219,8 +220,8 @@ pub const THESIS_DIFFERENCES: &[(&str, &str)] = &[
 /// A value `agvsim new` worked out, with how.
 #[derive(Debug, Clone)]
 pub struct Derived {
-    /// The dotted key.
-    pub key: &'static str,
+    /// The key (its handle: the dotted text is `key.key()`).
+    pub key: ParamKey,
     /// Its value (rounded to 4 significant figures).
     pub value: f64,
     /// How it was found.

@@ -34,7 +34,7 @@ pub fn new_scene(
         .collect();
     let mut scene = base.clone();
     for dv in &derived {
-        keys::set_number(&mut scene, dv.key, dv.value);
+        keys::set_number(&mut scene, dv.key.key(), dv.value);
     }
     if let Some(t) = &spec.tyre {
         scene.tyre.compound = t.clone();
@@ -182,7 +182,7 @@ pub(super) fn checked(
             value,
             expected,
             ..
-        } => match derived.iter().find(|d| d.key == key) {
+        } => match derived.iter().find(|d| d.key.key() == key) {
             Some(d) => RobotError::Derived {
                 options: spec.options_behind(d.from).join(" "),
                 key: key.clone(),
@@ -250,7 +250,7 @@ pub(super) fn render(
         let value = k.key.split('.').try_fold(&tree, |v, part| v.get(part));
         let comment = derived
             .iter()
-            .find(|d| d.key == k.key)
+            .find(|d| d.key.key() == k.key)
             .map(|d| d.how.clone())
             .or_else(|| {
                 notes_by_key
