@@ -163,7 +163,7 @@ pub fn home(effect: Effect, scene: &Scene, driven: Driven) -> Result<Home, Calib
         ..
     } = driven;
     let current = |key: &str| keys::get(scene, key).unwrap_or(0.0);
-    let key = effect.scene_key();
+    let key = effect.scene_key().key();
     // The scene's value where it switches the effect on, else a start of `off`.
     let home_or = |on: bool, scene_value: f64, start_off: f64| Home {
         effect,
@@ -302,7 +302,7 @@ fn geometry_home(scene: &Scene, driven: Driven) -> Result<Home, CalibrateError> 
         || differs(track, configured_track);
     Ok(Home {
         effect,
-        key: effect.scene_key(),
+        key: effect.scene_key().key(),
         switches: vec![],
         start: track,
         in_scene,

@@ -188,7 +188,7 @@ pub(super) fn concealed(
     peak_v: f64,
     clean: &Scene,
 ) -> (&'static str, f64, Vec<String>, Vec<String>) {
-    let key = effect.scene_key();
+    let key = effect.scene_key().key();
     let stall = stall_nm(clean);
     let mut common = vec![];
     let (value, mut extra) = match effect {

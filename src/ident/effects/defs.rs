@@ -14,6 +14,7 @@ use crate::model::gearbox::GearboxParams;
 use crate::model::motor::MotorParams;
 use crate::model::tyre::TyreChoice;
 use crate::numtext::quantity;
+use crate::param::ParamKey;
 
 /// One effect, declared.
 #[derive(Debug)]
@@ -31,8 +32,9 @@ pub struct EffectDef {
     /// effect block otherwise. (The fitting models' own blocks are named by text here, as
     /// the vocabulary sits below the models; a test holds each to its handle.)
     pub key: ByAxis,
-    /// The scene key that sets the strength in the simulator (where a calibration fits it).
-    pub scene_key: &'static str,
+    /// The scene key that sets the strength in the simulator (where a calibration fits it),
+    /// by its handle.
+    pub scene_key: ParamKey,
     /// Where the diagnosis scans the strength before its local search.
     pub grid: Grid,
     /// Which end of the search is the physics vanishing: a fit ending near it did not
@@ -208,7 +210,7 @@ static BACKLASH: EffectDef = EffectDef {
     param: ByAxis::both("backlash_rad"),
     unit: ByAxis::both("rad"),
     key: ByAxis::both(GearboxParams::backlash_rad.key()),
-    scene_key: GearboxParams::backlash_rad.key(),
+    scene_key: GearboxParams::backlash_rad,
     // Play has narrow basins (a wrong play shifts every engagement): a fine scan.
     grid: log(n(0.002), n(0.4), 48, n(1e-4), n(1.0)),
     null_bound: NullBound::Lower,
@@ -236,7 +238,7 @@ static COULOMB_FRICTION: EffectDef = EffectDef {
         rotary: MotorParams::coulomb_nm.key(),
         linear: "effect.coulomb_force_N",
     },
-    scene_key: MotorParams::coulomb_nm.key(),
+    scene_key: MotorParams::coulomb_nm,
     grid: log(
         x(1e-3, Scale::Effort),
         x(0.2, Scale::Effort),
@@ -267,7 +269,7 @@ static FRICTION_ASYMMETRY: EffectDef = EffectDef {
         rotary: MotorParams::viscous_ratio.key(),
         linear: "effect.viscous_ratio",
     },
-    scene_key: MotorParams::viscous_ratio.key(),
+    scene_key: MotorParams::viscous_ratio,
     grid: log(n(0.4), n(2.5), 13, n(0.1), n(10.0)),
     null_bound: NullBound::Neither,
     off: Off::At(1.0),
@@ -289,7 +291,7 @@ static OFFSET: EffectDef = EffectDef {
         rotary: MotorParams::offset_nm.key(),
         linear: "effect.offset_N",
     },
-    scene_key: MotorParams::offset_nm.key(),
+    scene_key: MotorParams::offset_nm,
     grid: lin(
         x(-0.05, Scale::Effort),
         x(0.05, Scale::Effort),
@@ -317,7 +319,7 @@ static WHEEL_SLIP: EffectDef = EffectDef {
     param: ByAxis::both("peak_mu"),
     unit: ByAxis::both(""),
     key: ByAxis::both(TyreChoice::peak_mu.key()),
-    scene_key: TyreChoice::peak_mu.key(),
+    scene_key: TyreChoice::peak_mu,
     grid: log(n(0.15), n(2.0), 14, n(0.05), n(4.0)),
     null_bound: NullBound::Upper,
     off: Off::Never,
@@ -334,7 +336,7 @@ static VOLTAGE_SATURATION: EffectDef = EffectDef {
     param: ByAxis::both("limit_V"),
     unit: ByAxis::both("V"),
     key: ByAxis::both(BatteryParams::drive_limit_v.key()),
-    scene_key: BatteryParams::drive_limit_v.key(),
+    scene_key: BatteryParams::drive_limit_v,
     grid: lin(
         x(0.4, Scale::SupplyV),
         x(1.0, Scale::SupplyV),
@@ -353,7 +355,7 @@ static BATTERY_SAG: EffectDef = EffectDef {
     param: ByAxis::both("internal_resistance_ohm"),
     unit: ByAxis::both("ohm"),
     key: ByAxis::both(BatteryParams::internal_resistance_ohm.key()),
-    scene_key: BatteryParams::internal_resistance_ohm.key(),
+    scene_key: BatteryParams::internal_resistance_ohm,
     grid: log(n(0.003), n(2.0), 14, n(1e-5), n(5.0)),
     null_bound: NullBound::Lower,
     off: Off::At(0.0),
@@ -374,7 +376,7 @@ static TRANSPORT_DELAY: EffectDef = EffectDef {
         rotary: DcmcParams::command_delay_s.key(),
         linear: "effect.delay_s",
     },
-    scene_key: DcmcParams::command_delay_s.key(),
+    scene_key: DcmcParams::command_delay_s,
     grid: log(
         x(0.1, Scale::SampleS),
         x(30.0, Scale::SampleAtLeastMsS),
@@ -398,7 +400,7 @@ static SPEED_FEEDBACK: EffectDef = EffectDef {
     param: ByAxis::both("integral_gain"),
     unit: ByAxis::both("V/rad"),
     key: ByAxis::both(DcmcParams::ki_v_rad.key()),
-    scene_key: DcmcParams::ki_v_rad.key(),
+    scene_key: DcmcParams::ki_v_rad,
     grid: log(
         x(1e-5, Scale::SpeedLoopGain),
         x(0.3, Scale::SpeedLoopGain),
@@ -420,7 +422,7 @@ static CASTOR_DRAG: EffectDef = EffectDef {
     unit: ByAxis::both("N"),
     key: ByAxis::both("castor_drag.drag_N"),
     // The scene sets castor drag as the castors' rolling resistance.
-    scene_key: CastorParams::rolling_resistance.key(),
+    scene_key: CastorParams::rolling_resistance,
     grid: log(
         x(1e-3, Scale::WeightN),
         x(0.1, Scale::WeightN),
@@ -441,7 +443,7 @@ static WHEEL_GEOMETRY: EffectDef = EffectDef {
     param: ByAxis::both("track_m"),
     unit: ByAxis::both("m"),
     key: ByAxis::both(ChassisParams::track_width_m.key()),
-    scene_key: ChassisParams::track_width_m.key(),
+    scene_key: ChassisParams::track_width_m,
     // Not a fitting model's effect (no model lists it as applicable): its keys are the
     // vehicle's nominal wheel radius and track; the calibration tries it.
     grid: lin(n(0.9), n(1.1), 11, n(0.5), n(2.0)),
@@ -461,7 +463,7 @@ static BASE_LIMITS: EffectDef = EffectDef {
     param: ByAxis::both("max_angular_rad_s"),
     unit: ByAxis::both("rad/s"),
     key: ByAxis::both(BaseParams::max_angular_rad_s.key()),
-    scene_key: BaseParams::max_angular_rad_s.key(),
+    scene_key: BaseParams::max_angular_rad_s,
     // Not a fitting model's effect either: the calibration reads the base controller's
     // limits off a velocity-commanded recording and fits them.
     grid: log(n(0.1), n(10.0), 11, n(1e-3), n(100.0)),

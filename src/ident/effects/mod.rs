@@ -90,7 +90,7 @@ impl Effect {
     /// The scene key that sets the effect's strength in the simulator (where a
     /// calibration fits it): the fitting model's key ([`Effect::key`]), but for castor
     /// drag, which the scene sets as the castors' rolling resistance.
-    pub fn scene_key(self) -> &'static str {
+    pub fn scene_key(self) -> crate::param::ParamKey {
         self.def().scene_key
     }
 
@@ -296,6 +296,6 @@ mod tests {
         assert_eq!(Effect::CastorDrag.key(false), CastorDrag::drag_n.key());
         // The fitting vehicle's tyre and the scene's share the key.
         assert_eq!(Effect::WheelSlip.key(false), CreepTyre::peak_mu.key());
-        assert_eq!(Effect::WheelSlip.scene_key(), TyreChoice::peak_mu.key());
+        assert_eq!(Effect::WheelSlip.scene_key(), TyreChoice::peak_mu);
     }
 }
