@@ -109,6 +109,77 @@ pub(super) fn largest_move(a: &[f64], b: &[f64]) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// Damped steps an iteration may try before it gives up (each damping whose system has
+/// no solution counts as one).
+const TRIES_PER_ITERATION: usize = 12;
+
+/// A damped step to try: the point it reaches and the damping it was solved with.
+pub(super) struct Trial {
+    z: Vec<f64>,
+    lambda: f64,
+}
+
+/// A trial point simulated: its residuals, outputs and cost (`None`: it does not simulate).
+type Simulated = Option<(Vec<f64>, Vec<Vec<f64>>, f64)>;
+
+/// The next step to try from damping `lambda`, with `tries` left: a damping whose system
+/// has no solution is raised tenfold, using a try. `None`: no tries left.
+fn next_trial(
+    pb: &Problem,
+    (h, g): (&DMatrix<f64>, &DVector<f64>),
+    z: &[f64],
+    (zlo, zhi): (&[f64], &[f64]),
+    lambda: &mut f64,
+    tries: &mut usize,
+) -> Option<Trial> {
+    while *tries > 0 {
+        *tries -= 1;
+        let Some(step) = bounded_step(&damped(h, *lambda), g, z, zlo, zhi) else {
+            *lambda *= 10.0;
+            continue;
+        };
+        let z_new: Vec<f64> = z.iter().zip(step.iter()).map(|(a, b)| a - b).collect();
+        // Keep z inside the bounds so the clamp does not hide a wasted step.
+        return Some(Trial {
+            z: pb.to_z(&pb.to_p(&z_new)),
+            lambda: *lambda,
+        });
+    }
+    None
+}
+
+/// `first` simulated, and `second` beside it where a worker is free (else after it, and
+/// only where `first` does not lower `cost`: the search then tries `second` next). The
+/// search is the same as one trial after another; a second trial simulated while the first
+/// succeeds is thrown away. `None` for a second not simulated.
+fn simulate_pair(
+    pb: &Problem,
+    first: &Trial,
+    second: Option<&Trial>,
+    cost: f64,
+) -> (Simulated, Option<Simulated>) {
+    let simulate = |t: &Trial| {
+        pb.simulated(&t.z).map(|(r, y)| {
+            let c = sum_sq(&r);
+            (r, y, c)
+        })
+    };
+    let first_lowers = std::sync::atomic::AtomicBool::new(false);
+    rayon::join(
+        || {
+            let out = simulate(first);
+            if out.as_ref().is_some_and(|o| o.2 < cost) {
+                first_lowers.store(true, std::sync::atomic::Ordering::Release);
+            }
+            out
+        },
+        || {
+            let second = second?;
+            (!first_lowers.load(std::sync::atomic::Ordering::Acquire)).then(|| simulate(second))
+        },
+    )
+}
+
 /// Levenberg-Marquardt from the problem's start: damped Gauss-Newton steps kept inside
 /// the bounds, at most `max_iterations` of them, then the free parameters' covariance when
 /// `uncertainty` is asked.
@@ -138,27 +209,40 @@ pub(super) fn run_lm(
         let h = jac.transpose() * &jac;
         let g = jac.transpose() * DVector::from_vec(r.clone());
         let mut improved = false;
-        for _ in 0..12 {
-            let a = damped(&h, lambda);
-            let step = bounded_step(&a, &g, &z, &zlo, &zhi);
-            let Some(step) = step else {
-                lambda *= 10.0;
-                continue;
-            };
-            let z_new: Vec<f64> = z.iter().zip(step.iter()).map(|(a, b)| a - b).collect();
-            // Keep z inside the bounds so the clamp does not hide a wasted step.
-            let z_new = pb.to_z(&pb.to_p(&z_new));
-            evaluations += 1;
-            if let Some((r_new, y_new)) = pb.simulated(&z_new) {
-                let c_new = sum_sq(&r_new);
-                if c_new < cost {
+        let mut tries = TRIES_PER_ITERATION;
+        'trials: while let Some(first) =
+            next_trial(pb, (&h, &g), &z, (&zlo, &zhi), &mut lambda, &mut tries)
+        {
+            // The trial that follows should this one fail, solved now and simulated
+            // beside it on a worker that would otherwise wait.
+            let (mut lambda_after, mut tries_after) = (first.lambda * 8.0, tries);
+            let second = (lambda_after <= 1e12)
+                .then(|| {
+                    next_trial(
+                        pb,
+                        (&h, &g),
+                        &z,
+                        (&zlo, &zhi),
+                        &mut lambda_after,
+                        &mut tries_after,
+                    )
+                })
+                .flatten();
+            let (first_outcome, second_outcome) = simulate_pair(pb, &first, second.as_ref(), cost);
+            let pairs = [(Some(first), Some(first_outcome)), (second, second_outcome)];
+            for (trial, outcome) in pairs {
+                let (Some(trial), Some(outcome)) = (trial, outcome) else {
+                    break 'trials;
+                };
+                evaluations += 1;
+                if let Some((r_new, y_new, c_new)) = outcome.filter(|o| o.2 < cost) {
                     let rel = (cost - c_new) / cost.max(1e-300);
-                    let moved = largest_move(&z_new, &z);
-                    z = z_new;
+                    let moved = largest_move(&trial.z, &z);
+                    z = trial.z;
                     r = r_new;
                     predicted = y_new;
                     cost = c_new;
-                    lambda = (lambda * 0.2).max(1e-12);
+                    lambda = (trial.lambda * 0.2).max(1e-12);
                     improved = true;
                     // Improvements far below any statistical meaning, two in a row, end
                     // the search as surely as a zero step does: a relative gain of 1e-4 is
@@ -171,13 +255,15 @@ pub(super) fn run_lm(
                     if rel < 1e-10 || moved < 1e-9 || small_steps >= 2 {
                         converged = true;
                     }
-                    break;
+                    break 'trials;
+                }
+                lambda = trial.lambda * 8.0;
+                if lambda > 1e12 {
+                    break 'trials;
                 }
             }
-            lambda *= 8.0;
-            if lambda > 1e12 {
-                break;
-            }
+            // Both failed: the search goes on from the second's damping (raised above).
+            tries = tries_after;
         }
         if !improved {
             // No step lowers the cost: a (local) minimum to the solver's precision.

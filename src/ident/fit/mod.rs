@@ -378,17 +378,25 @@ fn best_of_starts(
 }
 
 /// The solver run from each start for `iterations`: every fit that could be made (with its
-/// start's index), or the first start's error when none could.
+/// start's index), or the first start's error when none could. The starts run at once
+/// (each fit depends on its start alone, so the result is the same as one after another):
+/// a fit's Jacobian keeps the workers busy only while it has columns left, and its trial
+/// steps are one evaluation at a time.
 fn each_start<'a>(
     starts: &[Vec<f64>],
-    problem: &dyn Fn(&[f64]) -> Problem<'a>,
+    problem: &(dyn Fn(&[f64]) -> Problem<'a> + Sync),
     iterations: usize,
     uncertainty: bool,
 ) -> Result<Vec<Fit>, FitError> {
+    use rayon::prelude::*;
     let mut fits = Vec::new();
     let mut first_error = None;
-    for (si, start) in starts.iter().enumerate() {
-        match run_lm(&problem(start), iterations, uncertainty) {
+    let outcomes: Vec<Result<Fit, FitError>> = starts
+        .par_iter()
+        .map(|start| run_lm(&problem(start), iterations, uncertainty))
+        .collect();
+    for (si, outcome) in outcomes.into_iter().enumerate() {
+        match outcome {
             Ok(mut f) => {
                 f.start_index = si;
                 fits.push(f);

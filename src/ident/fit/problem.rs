@@ -201,7 +201,9 @@ impl Problem<'_> {
             zc[c] += dz;
             self.residuals(&zc)
         };
-        match (at(h), at(-h)) {
+        // The two sides at once: a covariance's columns are fewer than the workers' slots
+        // would take (five keys on two cores leave one idle for a column's time).
+        match rayon::join(|| at(h), || at(-h)) {
             (Some(a), Some(b)) => a.iter().zip(&b).map(|(a, b)| (a - b) / (2.0 * h)).collect(),
             (Some(a), None) => a.iter().zip(r0).map(|(a, b)| (a - b) / h).collect(),
             (None, Some(b)) => r0.iter().zip(&b).map(|(a, b)| (a - b) / h).collect(),

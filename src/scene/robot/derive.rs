@@ -70,18 +70,8 @@ pub(super) fn given_values(n: &Numbers) -> Vec<Derived> {
     };
     vec![
         mass,
-        d(
-            ChassisParams::track_width_m,
-            n.track_m,
-            &[Track],
-            "given",
-        ),
-        d(
-            WheelParams::radius_m,
-            n.wheel_radius_m,
-            &[Wheel],
-            "given",
-        ),
+        d(ChassisParams::track_width_m, n.track_m, &[Track], "given"),
+        d(WheelParams::radius_m, n.wheel_radius_m, &[Wheel], "given"),
         d(GearboxParams::ratio, n.ratio, &[Ratio], ratio_how(n)),
         d(
             GearboxParams::backlash_rad,
