@@ -180,6 +180,66 @@ fn simulate_pair(
     )
 }
 
+/// A damped step that lowered the cost: where it reached, its residuals, outputs and cost.
+struct Accepted {
+    z: Vec<f64>,
+    residuals: Vec<f64>,
+    predicted: Vec<Vec<f64>>,
+    cost: f64,
+}
+
+/// One iteration's damped steps from `z` (the normal matrix and gradient `h`, `g`), the
+/// damping raised eightfold after each that does not lower `cost`, at most
+/// [`TRIES_PER_ITERATION`] of them: the first that lowers it (`lambda` then lowered
+/// fivefold from its damping), and the evaluations the search one trial after another
+/// would have made.
+fn damped_steps(
+    pb: &Problem,
+    normal: (&DMatrix<f64>, &DVector<f64>),
+    z: &[f64],
+    bounds: (&[f64], &[f64]),
+    lambda: &mut f64,
+    cost: f64,
+) -> (Option<Accepted>, usize) {
+    let mut tries = TRIES_PER_ITERATION;
+    let mut evaluations = 0;
+    while let Some(first) = next_trial(pb, normal, z, bounds, lambda, &mut tries) {
+        // The trial that follows should this one fail, solved now and simulated beside it
+        // on a worker that would otherwise wait.
+        let (mut lambda_after, mut tries_after) = (first.lambda * 8.0, tries);
+        let second = (lambda_after <= 1e12)
+            .then(|| next_trial(pb, normal, z, bounds, &mut lambda_after, &mut tries_after))
+            .flatten();
+        let (first_outcome, second_outcome) = simulate_pair(pb, &first, second.as_ref(), cost);
+        for (trial, outcome) in [(Some(first), Some(first_outcome)), (second, second_outcome)] {
+            let (Some(trial), Some(outcome)) = (trial, outcome) else {
+                return (None, evaluations);
+            };
+            evaluations += 1;
+            if let Some((residuals, predicted, c)) = outcome.filter(|o| o.2 < cost) {
+                *lambda = (trial.lambda * 0.2).max(1e-12);
+                let z = trial.z;
+                return (
+                    Some(Accepted {
+                        z,
+                        residuals,
+                        predicted,
+                        cost: c,
+                    }),
+                    evaluations,
+                );
+            }
+            *lambda = trial.lambda * 8.0;
+            if *lambda > 1e12 {
+                return (None, evaluations);
+            }
+        }
+        // Both failed: the search goes on from the second's damping (raised above).
+        tries = tries_after;
+    }
+    (None, evaluations)
+}
+
 /// Levenberg-Marquardt from the problem's start: damped Gauss-Newton steps kept inside
 /// the bounds, at most `max_iterations` of them, then the free parameters' covariance when
 /// `uncertainty` is asked.
@@ -208,62 +268,23 @@ pub(super) fn run_lm(
         evaluations += n;
         let h = jac.transpose() * &jac;
         let g = jac.transpose() * DVector::from_vec(r.clone());
-        let mut improved = false;
-        let mut tries = TRIES_PER_ITERATION;
-        'trials: while let Some(first) =
-            next_trial(pb, (&h, &g), &z, (&zlo, &zhi), &mut lambda, &mut tries)
-        {
-            // The trial that follows should this one fail, solved now and simulated
-            // beside it on a worker that would otherwise wait.
-            let (mut lambda_after, mut tries_after) = (first.lambda * 8.0, tries);
-            let second = (lambda_after <= 1e12)
-                .then(|| {
-                    next_trial(
-                        pb,
-                        (&h, &g),
-                        &z,
-                        (&zlo, &zhi),
-                        &mut lambda_after,
-                        &mut tries_after,
-                    )
-                })
-                .flatten();
-            let (first_outcome, second_outcome) = simulate_pair(pb, &first, second.as_ref(), cost);
-            let pairs = [(Some(first), Some(first_outcome)), (second, second_outcome)];
-            for (trial, outcome) in pairs {
-                let (Some(trial), Some(outcome)) = (trial, outcome) else {
-                    break 'trials;
-                };
-                evaluations += 1;
-                if let Some((r_new, y_new, c_new)) = outcome.filter(|o| o.2 < cost) {
-                    let rel = (cost - c_new) / cost.max(1e-300);
-                    let moved = largest_move(&trial.z, &z);
-                    z = trial.z;
-                    r = r_new;
-                    predicted = y_new;
-                    cost = c_new;
-                    lambda = (trial.lambda * 0.2).max(1e-12);
-                    improved = true;
-                    // Improvements far below any statistical meaning, two in a row, end
-                    // the search as surely as a zero step does: a relative gain of 1e-4 is
-                    // worth n_eff x 1e-4 in AIC, under 1 for the few thousand independent
-                    // residuals of a record, a tenth of the evidence diagnosis asks of an
-                    // effect. Going on only crawls along a valley the data do not
-                    // determine, and into its bounds (a vehicle's mass and rotor inertia
-                    // took 99 iterations to reach theirs).
-                    small_steps = if rel < SMALL_GAIN { small_steps + 1 } else { 0 };
-                    if rel < 1e-10 || moved < 1e-9 || small_steps >= 2 {
-                        converged = true;
-                    }
-                    break 'trials;
-                }
-                lambda = trial.lambda * 8.0;
-                if lambda > 1e12 {
-                    break 'trials;
-                }
+        let (accepted, tried) = damped_steps(pb, (&h, &g), &z, (&zlo, &zhi), &mut lambda, cost);
+        evaluations += tried;
+        let improved = accepted.is_some();
+        if let Some(a) = accepted {
+            let rel = (cost - a.cost) / cost.max(1e-300);
+            let moved = largest_move(&a.z, &z);
+            (z, r, predicted, cost) = (a.z, a.residuals, a.predicted, a.cost);
+            // Improvements far below any statistical meaning, two in a row, end the
+            // search as surely as a zero step does: a relative gain of 1e-4 is worth
+            // n_eff x 1e-4 in AIC, under 1 for the few thousand independent residuals of
+            // a record, a tenth of the evidence diagnosis asks of an effect. Going on
+            // only crawls along a valley the data do not determine, and into its bounds
+            // (a vehicle's mass and rotor inertia took 99 iterations to reach theirs).
+            small_steps = if rel < SMALL_GAIN { small_steps + 1 } else { 0 };
+            if rel < 1e-10 || moved < 1e-9 || small_steps >= 2 {
+                converged = true;
             }
-            // Both failed: the search goes on from the second's damping (raised above).
-            tries = tries_after;
         }
         if !improved {
             // No step lowers the cost: a (local) minimum to the solver's precision.
