@@ -114,7 +114,7 @@ pub(super) fn largest_move(a: &[f64], b: &[f64]) -> f64 {
 const TRIES_PER_ITERATION: usize = 12;
 
 /// A damped step to try: the point it reaches and the damping it was solved with.
-pub(super) struct Trial {
+struct Trial {
     z: Vec<f64>,
     lambda: f64,
 }
